@@ -1,0 +1,185 @@
+/*
+ * pdla.h - public API of libpdla, an engine for huge off-lattice
+ * diffusion-limited aggregation (DLA) clusters in 2D and 3D.
+ *
+ * Usage: fill a pdla_params with pdla_params_default(), change what you need,
+ * pdla_engine_create(), pdla_engine_grow() to the target, read the results
+ * (pdla_engine_stats, pdla_engine_visit, pdla_engine_rg_series) or write them
+ * with pdla_output_write(), then pdla_engine_destroy().
+ *
+ * Units. Positions are integers in "units"; one particle diameter is
+ * params.resolution units (a power of two). The seed particle sits at the
+ * origin. Every public length is in units unless its name ends in _diam.
+ *
+ * Errors. Functions that can fail return 0 on success or a negative
+ * PDLA_E* code, and write a one-line reason into err[errlen] when err is not
+ * NULL. The library never prints and never exits.
+ */
+#ifndef PDLA_PDLA_H
+#define PDLA_PDLA_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if defined(__GNUC__)
+#define PDLA_API __attribute__((visibility("default")))
+#else
+#define PDLA_API
+#endif
+
+/* Error codes (negative return values). */
+enum {
+    PDLA_OK = 0,
+    PDLA_EINVAL = -1,  /* a parameter is out of its documented range      */
+    PDLA_ENOMEM = -2,  /* an allocation failed                            */
+    PDLA_ERANGE = -3,  /* the cluster reached the coordinate limit        */
+    PDLA_EIO = -4,     /* a file could not be written or read             */
+    PDLA_EEXIST = -5,  /* the output exists and overwriting was not asked */
+    PDLA_ESTOPPED = -6 /* growth stopped by the caller's stop flag        */
+};
+
+/* What happens to a walker that leaves the birth circle (sphere). */
+typedef enum {
+    /* Exact: put it straight back on the birth circle with the exterior
+     * harmonic measure (2D: wrapped Cauchy; 3D: return with probability
+     * R/r, else a fresh walker). No walker is ever killed. */
+    PDLA_RETURN_EXACT = 0,
+    /* The seed paper's scheme: outside the birth radius jump by
+     * |p| - R_ext, kill and restart the walker past R_death. */
+    PDLA_RETURN_KILL = 1
+} pdla_return_mode;
+
+/* Largest |coordinate| (units) a particle may have: squared distances of
+ * walkers within 3 birth radii then stay below 2^63 in 64-bit integers. */
+#define PDLA_MAX_CLUSTER_RADIUS_UNITS (INT64_C(1) << 28)
+/* Allowed resolutions (units per diameter); powers of two only. */
+#define PDLA_MIN_RESOLUTION 4
+#define PDLA_MAX_RESOLUTION 128
+
+/* Run parameters. Every field is documented with its default, which
+ * pdla_params_default() sets. */
+typedef struct pdla_params {
+    int dim;                 /* 2 or 3. Default 2. */
+    uint64_t target;         /* particles in the final cluster, >= 1. Default 1000000. */
+    uint64_t seed;           /* random seed. Default 1. */
+    int resolution;          /* D: units per particle diameter, power of two in
+                                [4,128]. Default 32 (a leaf is 256/D = 8 diameters). */
+    int eps;                 /* sticking shell in units: a walker sticks when its
+                                centre is closer than D + eps to a particle centre;
+                                2 <= eps <= D/2 (rounding to the unit grid needs one unit of slack). Default 2. */
+    double birth_margin;     /* R_birth = R_ext + birth_margin diameters, >= 1. Default 2. */
+    pdla_return_mode return_mode; /* Default PDLA_RETURN_EXACT. */
+    double kill_ratio;       /* R_death / R_birth in PDLA_RETURN_KILL mode, > 1. Default 100. */
+    int exact_search;        /* 1: exact nearest-distance search only (no far
+                                approximation), for comparison. Default 0. */
+    double far_factor;       /* a non-empty tree node whose box is farther than
+                                far_factor x its side from the walker is not opened;
+                                its box distance serves as a lower bound.
+                                In [0.5, 64]. Default 2. */
+    uint64_t max_jumps;      /* jumps after which a walk is restarted on the birth
+                                circle (counted in stats.restarts). Default 10^8. */
+    int snap_contact;        /* 1: a walker that stops inside the sticking shell is
+                                moved along the line to its nearest particle onto
+                                contact (distance D, to the grid point nearest it
+                                that overlaps nothing); 0: it sticks where it
+                                stopped (mean contact distance D + eps/2, which
+                                stretches the cluster by ~eps/(2D)). Default 1. */
+    int rg_per_decade;       /* R_g(N) samples per decade of N, log-spaced; 0 turns
+                                sampling off. Default 100 (1000 samples at 1e10). */
+} pdla_params;
+
+PDLA_API void pdla_params_default(pdla_params *p);
+/* 0 if every field is in range, else PDLA_EINVAL and the first bad field in err. */
+PDLA_API int pdla_params_validate(const pdla_params *p, char *err, size_t errlen);
+
+/* Counters of a growth run. */
+typedef struct pdla_stats {
+    uint64_t particles;      /* particles in the cluster */
+    uint64_t walkers;        /* walkers launched (one per particle plus restarts) */
+    uint64_t jumps;          /* walk-on-spheres jumps of all walkers */
+    uint64_t returns;        /* walkers put back on the birth circle (exact mode) */
+    uint64_t lost;           /* 3D walkers that escaped to infinity (exact mode) */
+    uint64_t killed;         /* walkers killed beyond R_death (kill mode) */
+    uint64_t restarts;       /* walks cut by max_jumps and restarted */
+    uint64_t node_visits;    /* tree nodes touched by distance queries */
+    uint64_t particle_checks;/* exact particle distances computed */
+    int64_t r_ext;           /* max |x| of the particle centres, units (rounded up) */
+    double rg_diam;          /* radius of gyration now, diameters */
+    size_t tree_bytes;       /* memory held by the tree pools */
+    uint64_t inner_nodes, leaves, chunks;
+    int root_level;          /* root box side = 256 * 2^root_level units */
+    double grow_seconds;     /* wall time spent in pdla_engine_grow */
+} pdla_stats;
+
+/* One fit of ln R_g = ln C + ln N / D_f. */
+typedef struct pdla_fit {
+    double df;               /* fractal dimension D_f */
+    double df_err;           /* standard error of D_f from the least-squares slope */
+    double prefactor_diam;   /* C, in diameters */
+    uint64_t n_lo, n_hi;     /* the fit range of N, inclusive */
+    int points;              /* samples used; 0 when there were too few to fit */
+} pdla_fit;
+
+typedef struct pdla_engine pdla_engine;
+
+/* Progress callback: called from inside pdla_engine_grow about every
+ * `every` particles; returning non-zero stops growth (PDLA_ESTOPPED). */
+typedef int (*pdla_progress_fn)(const pdla_engine *e, void *user);
+
+PDLA_API int pdla_engine_create(pdla_engine **out, const pdla_params *p,
+                                char *err, size_t errlen);
+PDLA_API void pdla_engine_destroy(pdla_engine *e);
+
+/* Grow the cluster until it holds min(n_until, target) particles. */
+PDLA_API int pdla_engine_grow(pdla_engine *e, uint64_t n_until,
+                              pdla_progress_fn progress, uint64_t every,
+                              void *user, char *err, size_t errlen);
+
+PDLA_API const pdla_params *pdla_engine_params(const pdla_engine *e);
+PDLA_API uint64_t pdla_engine_count(const pdla_engine *e);
+PDLA_API void pdla_engine_stats(const pdla_engine *e, pdla_stats *out);
+
+/* Visit every particle centre, in tree order (not arrival order), in
+ * batches: xyz holds n * dim int32 coordinates in units. A non-zero return
+ * from the visitor stops the walk and is returned. */
+typedef int (*pdla_visit_fn)(const int32_t *xyz, size_t n, void *user);
+PDLA_API int pdla_engine_visit(const pdla_engine *e, pdla_visit_fn fn, void *user);
+
+/* R_g(N) samples so far: *n gets their number; the arrays stay valid until
+ * the next grow call. N is the particle count, rg_diam the radius of gyration
+ * in diameters. */
+PDLA_API void pdla_engine_rg_series(const pdla_engine *e, const uint64_t **n,
+                                    const double **rg_diam, size_t *count);
+/* Fit D_f on the R_g series over the default range (see README). */
+PDLA_API pdla_fit pdla_engine_fit(const pdla_engine *e);
+
+/* Exact lower-bound-free distance (units) from a point to the nearest particle
+ * centre, by the engine's own tree search in exact mode; for tests and tools. */
+PDLA_API double pdla_engine_nearest(const pdla_engine *e, const int64_t *p);
+
+/* Library version string, e.g. "0.1.0". */
+PDLA_API const char *pdla_version(void);
+
+/* ---- output ---------------------------------------------------------- */
+
+/* Facts about the run that the engine does not know, for provenance. */
+typedef struct pdla_run_info {
+    const char *command_line;  /* the command as typed, or NULL */
+    double wall_seconds;       /* wall time of the whole run */
+    uint64_t peak_rss_bytes;   /* peak resident memory, 0 if unknown */
+} pdla_run_info;
+
+/* Write the run into one HDF5 file at `path` (see README for the layout).
+ * Refuses (PDLA_EEXIST) if the file exists. Writes to a temporary name and
+ * renames, so a failed write leaves nothing half-made. */
+PDLA_API int pdla_output_write(const pdla_engine *e, const pdla_run_info *info,
+                               const char *path, char *err, size_t errlen);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* PDLA_PDLA_H */

@@ -1,0 +1,312 @@
+/*
+ * engine.c - the serial DLA engine: parameters, lifecycle, the growth loop,
+ * exact radius of gyration and its log-spaced samples, and read access to
+ * the cluster for output and tests.
+ */
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+
+#include "engine.h"
+#include "fit.h"
+#include "pdla_config.h"
+
+const char *pdla_version(void) { return PDLA_VERSION; }
+
+static int fail(int code, char *err, size_t errlen, const char *fmt, ...)
+{
+    if (err && errlen) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, errlen, fmt, ap);
+        va_end(ap);
+    }
+    return code;
+}
+
+void pdla_params_default(pdla_params *p)
+{
+    p->dim = 2;
+    p->target = 1000000;
+    p->seed = 1;
+    p->resolution = 32;
+    p->eps = 2;
+    p->birth_margin = 2.0;
+    p->return_mode = PDLA_RETURN_EXACT;
+    p->kill_ratio = 100.0;
+    p->exact_search = 0;
+    p->far_factor = 2.0;
+    p->max_jumps = 100000000;
+    p->rg_per_decade = 100;
+    p->snap_contact = 1;
+}
+
+int pdla_params_validate(const pdla_params *p, char *err, size_t errlen)
+{
+    if (p->dim != 2 && p->dim != 3)
+        return fail(PDLA_EINVAL, err, errlen, "dim must be 2 or 3, got %d", p->dim);
+    if (p->target < 1)
+        return fail(PDLA_EINVAL, err, errlen, "target must be at least 1 particle");
+    if (p->target > UINT64_C(1) << 40)
+        return fail(PDLA_EINVAL, err, errlen, "target %llu exceeds the limit 2^40",
+                    (unsigned long long)p->target);
+    const int D = p->resolution;
+    if (D < PDLA_MIN_RESOLUTION || D > PDLA_MAX_RESOLUTION || (D & (D - 1)))
+        return fail(PDLA_EINVAL, err, errlen,
+                    "resolution must be a power of two in [%d, %d] units per diameter, got %d",
+                    PDLA_MIN_RESOLUTION, PDLA_MAX_RESOLUTION, D);
+    if (p->eps < 2 || p->eps > D / 2)
+        return fail(PDLA_EINVAL, err, errlen,
+                    "eps must be in [2, resolution/2 = %d] units, got %d", D / 2, p->eps);
+    if (!(p->birth_margin >= 1.0 && p->birth_margin <= 1e6))
+        return fail(PDLA_EINVAL, err, errlen, "birth margin must be in [1, 1e6] diameters, got %g",
+                    p->birth_margin);
+    if (p->return_mode != PDLA_RETURN_EXACT && p->return_mode != PDLA_RETURN_KILL)
+        return fail(PDLA_EINVAL, err, errlen, "unknown return mode %d", (int)p->return_mode);
+    if (!(p->kill_ratio > 1.0 && p->kill_ratio <= 1e6))
+        return fail(PDLA_EINVAL, err, errlen, "kill ratio must be in (1, 1e6], got %g",
+                    p->kill_ratio);
+    if (p->exact_search != 0 && p->exact_search != 1)
+        return fail(PDLA_EINVAL, err, errlen, "exact_search must be 0 or 1");
+    if (!(p->far_factor >= 0.5 && p->far_factor <= 64))
+        return fail(PDLA_EINVAL, err, errlen, "far factor must be in [0.5, 64], got %g",
+                    p->far_factor);
+    if (p->snap_contact != 0 && p->snap_contact != 1)
+        return fail(PDLA_EINVAL, err, errlen, "snap_contact must be 0 or 1");
+    if (p->max_jumps < 1)
+        return fail(PDLA_EINVAL, err, errlen, "max jumps must be at least 1");
+    if (p->rg_per_decade < 0 || p->rg_per_decade > 10000)
+        return fail(PDLA_EINVAL, err, errlen, "rg samples per decade must be in [0, 10000], got %d",
+                    p->rg_per_decade);
+    return PDLA_OK;
+}
+
+/* N of grid point k: round(10^(k / per_decade)), forced strictly increasing. */
+static uint64_t rg_grid_n(uint64_t k, int per_decade, uint64_t prev)
+{
+    const double x = pow(10.0, (double)k / per_decade);
+    uint64_t n = x >= 0x1p63 ? UINT64_MAX : (uint64_t)llround(x);
+    return n > prev ? n : prev + 1;
+}
+
+static void rg_advance(pdla_engine *e)
+{
+    e->rg_next_k++;
+    e->rg_next_n = rg_grid_n(e->rg_next_k, e->params.rg_per_decade, e->rg_next_n);
+}
+
+int pdla_engine_create(pdla_engine **out, const pdla_params *p, char *err, size_t errlen)
+{
+    *out = NULL;
+    const int rc = pdla_params_validate(p, err, errlen);
+    if (rc) return rc;
+    pdla_engine *e = calloc(1, sizeof *e);
+    if (!e) return fail(PDLA_ENOMEM, err, errlen, "out of memory creating the engine");
+    e->params = *p;
+    if (tree_init(&e->tree, p->dim)) {
+        free(e);
+        return fail(PDLA_ENOMEM, err, errlen, "out of memory creating the tree");
+    }
+    search_config_init(&e->search, p->exact_search ? 0.0 : p->far_factor, p->resolution, p->eps);
+    rng_seed(&e->walker.rng, p->seed);
+    e->rg_next_k = 0;
+    e->rg_next_n = 1;
+    *out = e;
+    return PDLA_OK;
+}
+
+void pdla_engine_destroy(pdla_engine *e)
+{
+    if (!e) return;
+    tree_free(&e->tree);
+    free(e->rg_n);
+    free(e->rg_diam);
+    free(e);
+}
+
+double gyration_rg2_units(const gyration_sums *g, int dim)
+{
+    if (g->n == 0) return 0.0;
+    const long double n = (long double)g->n;
+    long double mean2 = 0;
+    for (int a = 0; a < dim; a++) {
+        const long double m = (long double)g->s1[a] / n;
+        mean2 += m * m;
+    }
+    const long double rg2 = (long double)g->s2 / n - mean2;
+    return rg2 > 0 ? (double)rg2 : 0.0;
+}
+
+static int record_rg_sample(pdla_engine *e)
+{
+    if (e->rg_count == e->rg_cap) {
+        const size_t cap = e->rg_cap ? 2 * e->rg_cap : 256;
+        uint64_t *n = realloc(e->rg_n, cap * sizeof *n);
+        if (!n) return PDLA_ENOMEM;
+        e->rg_n = n;
+        double *r = realloc(e->rg_diam, cap * sizeof *r);
+        if (!r) return PDLA_ENOMEM;
+        e->rg_diam = r;
+        e->rg_cap = cap;
+    }
+    e->rg_n[e->rg_count] = e->gyr.n;
+    e->rg_diam[e->rg_count] = sqrt(gyration_rg2_units(&e->gyr, e->params.dim)) / e->params.resolution;
+    e->rg_count++;
+    return PDLA_OK;
+}
+
+/* Add a particle to the tree, the gyration sums, R_ext and the samples. */
+static int add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
+{
+    const int dim = e->params.dim;
+    uint64_t r2 = 0;
+    for (int a = 0; a < dim; a++) {
+        if (p[a] <= -PDLA_MAX_CLUSTER_RADIUS_UNITS || p[a] >= PDLA_MAX_CLUSTER_RADIUS_UNITS)
+            return fail(PDLA_ERANGE, err, errlen,
+                        "cluster reached the coordinate limit |x| < 2^28 units at %llu particles",
+                        (unsigned long long)e->tree.count);
+        r2 += (uint64_t)(p[a] * p[a]);
+    }
+    const int rc = tree_insert(&e->tree, p);
+    if (rc) return fail(PDLA_ENOMEM, err, errlen, "out of memory (or 2^32 tree records) at %llu particles",
+                        (unsigned long long)e->tree.count);
+    for (int a = 0; a < dim; a++) e->gyr.s1[a] += p[a];
+    e->gyr.s2 += r2;
+    e->gyr.n++;
+    if (r2 > e->r_ext2) {
+        e->r_ext2 = r2;
+        int64_t r = (int64_t)sqrt((double)r2);
+        while ((uint64_t)(r * r) < r2) r++;
+        e->r_ext = r;
+    }
+    if (e->params.rg_per_decade > 0 && e->gyr.n >= e->rg_next_n) {
+        if (record_rg_sample(e)) return fail(PDLA_ENOMEM, err, errlen, "out of memory for R_g samples");
+        while (e->rg_next_n <= e->gyr.n) rg_advance(e);
+    }
+    return PDLA_OK;
+}
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, uint64_t every,
+                     void *user, char *err, size_t errlen)
+{
+    if (n_until > e->params.target) n_until = e->params.target;
+    const double t0 = now_seconds();
+    int rc = PDLA_OK;
+    if (e->tree.count == 0 && n_until > 0) {
+        const int64_t origin[3] = {0, 0, 0};
+        rc = add_particle(e, origin, err, errlen);
+    }
+    if (every == 0) every = 1000;
+    while (rc == PDLA_OK && e->tree.count < n_until) {
+        int64_t p[3];
+        rc = walker_run(e, p);
+        if (rc) {
+            rc = fail(rc, err, errlen, "internal error: walker stuck closer than one diameter");
+            break;
+        }
+        rc = add_particle(e, p, err, errlen);
+        if (rc == PDLA_OK && progress && e->tree.count % every == 0) {
+            e->grow_seconds += now_seconds() - t0;
+            const int stop = progress(e, user);
+            e->grow_seconds -= now_seconds() - t0;
+            if (stop) rc = fail(PDLA_ESTOPPED, err, errlen, "stopped at %llu particles",
+                                (unsigned long long)e->tree.count);
+        }
+    }
+    e->grow_seconds += now_seconds() - t0;
+    return rc;
+}
+
+const pdla_params *pdla_engine_params(const pdla_engine *e) { return &e->params; }
+uint64_t pdla_engine_count(const pdla_engine *e) { return e->tree.count; }
+
+void pdla_engine_stats(const pdla_engine *e, pdla_stats *s)
+{
+    const walker_ctx *w = &e->walker;
+    memset(s, 0, sizeof *s);
+    s->particles = e->tree.count;
+    s->walkers = w->walkers;
+    s->jumps = w->jumps;
+    s->returns = w->returns;
+    s->lost = w->lost;
+    s->killed = w->killed;
+    s->restarts = w->restarts;
+    s->node_visits = w->ss.node_visits;
+    s->particle_checks = w->ss.particle_checks;
+    s->r_ext = e->r_ext;
+    s->rg_diam = sqrt(gyration_rg2_units(&e->gyr, e->params.dim)) / e->params.resolution;
+    s->tree_bytes = tree_bytes(&e->tree);
+    s->inner_nodes = e->tree.inner.count - 1;
+    s->leaves = e->tree.leaves.count - 1;
+    s->chunks = e->tree.chunks.count - 1;
+    s->root_level = e->tree.root_level;
+    s->grow_seconds = e->grow_seconds;
+}
+
+/* Batches positions as int32 for the visitor. */
+typedef struct visit_batch {
+    int32_t xyz[4096 * 3];
+    size_t n;
+    int dim;
+    pdla_visit_fn fn;
+    void *user;
+} visit_batch;
+
+static int batch_add(const int64_t *p, void *user)
+{
+    visit_batch *b = user;
+    for (int a = 0; a < b->dim; a++) b->xyz[b->n * (size_t)b->dim + (size_t)a] = (int32_t)p[a];
+    if (++b->n == 4096) {
+        b->n = 0;
+        return b->fn(b->xyz, 4096, b->user);
+    }
+    return 0;
+}
+
+int pdla_engine_visit(const pdla_engine *e, pdla_visit_fn fn, void *user)
+{
+    visit_batch *b = malloc(sizeof *b);
+    if (!b) return PDLA_ENOMEM;
+    b->n = 0;
+    b->dim = e->params.dim;
+    b->fn = fn;
+    b->user = user;
+    int rc = tree_visit(&e->tree, batch_add, b);
+    if (rc == 0 && b->n) rc = fn(b->xyz, b->n, user);
+    free(b);
+    return rc;
+}
+
+void pdla_engine_rg_series(const pdla_engine *e, const uint64_t **n, const double **rg_diam,
+                           size_t *count)
+{
+    *n = e->rg_n;
+    *rg_diam = e->rg_diam;
+    *count = e->rg_count;
+}
+
+pdla_fit pdla_engine_fit(const pdla_engine *e)
+{
+    uint64_t lo, hi;
+    fit_default_range(e->tree.count, &lo, &hi);
+    return fit_powerlaw(e->rg_n, e->rg_diam, e->rg_count, lo, hi);
+}
+
+double pdla_engine_nearest(const pdla_engine *e, const int64_t *p)
+{
+    search_config exact;
+    search_state k;
+    search_state_reset(&k);
+    search_config_init(&exact, 0.0, e->params.resolution, e->params.eps);
+    const uint64_t d2 = search_lower_bound2(&e->tree, &exact, p, UINT64_MAX, &k);
+    return d2 == UINT64_MAX ? INFINITY : sqrt((double)d2);
+}

@@ -1,0 +1,382 @@
+/*
+ * search.c - variable-precision distance search (VPDIST, Listing 1 of
+ * Sosa-Herrera & Rodriguez-Romo) on the bucket quadtree/octree.
+ *
+ * One descent along the query's own path, then a climb that searches the
+ * siblings of each node on the path (branch and bound, nearest child first,
+ * explicit stack) until the ball of the current bound fits inside a node. For each non-empty node the squared distance from the
+ * query point to the node's box is a lower bound for every particle inside:
+ *  - boxes no nearer than the best bound so far are pruned;
+ *  - boxes farther than far2[level] are not opened: their box distance is
+ *    accepted as the bound (the "approximate" answer of VPDIST, off by at
+ *    most one box diagonal, i.e. relative error <= sqrt(dim)/far_factor);
+ *  - leaves near the query are scanned exactly.
+ * So the result never exceeds the true distance, and it is exact whenever it
+ * is below the smallest far threshold. All arithmetic is on 64-bit integers;
+ * the coordinate limits (pdla.h) keep every squared sum below 2^64.
+ * The per-dimension code is one always-inlined body instantiated for dim 2
+ * and 3, so a 2D run pays nothing for 3D.
+ */
+#include "tree.h"
+
+#include <math.h>
+
+void search_config_init(search_config *c, double far_factor, int resolution, int eps)
+{
+    const double floor_dist = 2.0 * (resolution + eps);
+    for (int level = 0; level < TREE_MAX_LEVEL + 2; level++) {
+        if (far_factor <= 0) {
+            c->far2[level] = UINT64_MAX;
+            continue;
+        }
+        double d = far_factor * (double)((int64_t)TREE_LEAF_SIDE << level);
+        if (d < floor_dist) d = floor_dist;
+        const double d2 = d * d;
+        c->far2[level] = d2 >= 0x1p63 ? UINT64_MAX : (uint64_t)d2;
+    }
+}
+
+/* Squared distance from p to the integer box [lo, lo + side - 1]. */
+static inline __attribute__((always_inline)) uint64_t box_dist2(const int64_t *p, const int64_t *lo,
+                                                                int64_t side, int dim)
+{
+    uint64_t d2 = 0;
+    for (int a = 0; a < dim; a++) {
+        int64_t d = lo[a] - p[a];
+        if (d < 0) {
+            d = p[a] - (lo[a] + side - 1);
+            if (d < 0) d = 0;
+        }
+        d2 += (uint64_t)d * (uint64_t)d;
+    }
+    return d2;
+}
+
+/* Exact scan of one leaf. q = p - leaf corner. The common near case runs in
+ * 32-bit arithmetic (|q| < 2^14 keeps dim * (q + 255)^2 < 2^31). */
+static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, uint32_t leaf_idx,
+                                                                const int64_t *q, uint64_t best2,
+                                                                int dim, search_state *k)
+{
+    const tree_leaf *leaf = tree_leaf_at(t, leaf_idx);
+    const uint32_t n = leaf->count;
+    uint32_t c = leaf->head;
+    k->particle_checks += n;
+    int small = 1;
+    for (int a = 0; a < dim; a++)
+        if (q[a] < -(1 << 14) || q[a] > (1 << 14)) small = 0;
+    for (uint32_t i = 0; i < n; i += TREE_CHUNK_CAP) {
+        const uint8_t *chunk = tree_chunk_at(t, c);
+        const uint32_t m = n - i < TREE_CHUNK_CAP ? n - i : TREE_CHUNK_CAP;
+        if (small) {
+            int32_t qa[3];
+            for (int a = 0; a < dim; a++) qa[a] = (int32_t)q[a];
+            uint32_t local = UINT32_MAX;
+            for (uint32_t j = 0; j < m; j++) {
+                uint32_t d2 = 0;
+                for (int a = 0; a < dim; a++) {
+                    const int32_t d = qa[a] - (int32_t)chunk[j * (uint32_t)dim + (uint32_t)a];
+                    d2 += (uint32_t)(d * d);
+                }
+                local = d2 < local ? d2 : local;
+            }
+            if (local < best2) best2 = local;
+        } else {
+            for (uint32_t j = 0; j < m; j++) {
+                uint64_t d2 = 0;
+                for (int a = 0; a < dim; a++) {
+                    const int64_t d = q[a] - (int64_t)chunk[j * (uint32_t)dim + (uint32_t)a];
+                    d2 += (uint64_t)d * (uint64_t)d;
+                }
+                if (d2 < best2) best2 = d2;
+            }
+        }
+        c = tree_chunk_next(t, chunk);
+    }
+    return best2;
+}
+
+/* Children pushed farthest first so the nearest is popped first: order by
+ * the number of axes on which child k differs from the query's own octant. */
+static const uint8_t push_order2[4] = {3, 1, 2, 0};
+static const uint8_t push_order3[8] = {7, 6, 5, 3, 4, 2, 1, 0};
+
+typedef struct stack_entry {
+    int64_t lo[3];
+    uint64_t d2;
+    uint32_t node;
+    int32_t level;
+} stack_entry;
+
+#define SEARCH_STACK (TREE_MAX_LEVEL * 8 + 16)
+
+/* Squared distance from coordinate x to the integer interval [lo, lo + len - 1]. */
+static inline __attribute__((always_inline)) uint64_t axis_dist2(int64_t x, int64_t lo, int64_t len)
+{
+    int64_t d = lo - x;
+    const int64_t above = x - (lo + len - 1);
+    if (above > d) d = above;
+    if (d < 0) d = 0;
+    return (uint64_t)d * (uint64_t)d;
+}
+
+/* Top-down branch and bound inside the subtree of one node, seeded with the
+ * best bound found so far. A child's squared box distance is the sum over
+ * axes of the distance to its lower or upper half, computed once per axis. */
+static inline __attribute__((always_inline)) uint64_t
+subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t node, int level,
+              const int64_t *lo, uint64_t d2, uint64_t best2, uint64_t *visits, search_state *k,
+              const int dim)
+{
+    const int nchild = 1 << dim;
+    const uint8_t *order = dim == 2 ? push_order2 : push_order3;
+    stack_entry stack[SEARCH_STACK];
+    stack[0].node = node;
+    stack[0].level = level;
+    for (int a = 0; a < dim; a++) stack[0].lo[a] = lo[a];
+    stack[0].d2 = d2;
+    int top = 1;
+    while (top > 0) {
+        const stack_entry e = stack[--top];
+        if (e.d2 >= best2) continue;
+        (*visits)++;
+        if (e.level == 0) {
+            int64_t q[3];
+            for (int a = 0; a < dim; a++) q[a] = p[a] - e.lo[a];
+            best2 = scan_leaf(t, e.node, q, best2, dim, k);
+            continue;
+        }
+        if (e.d2 > c->far2[e.level]) {
+            best2 = e.d2; /* not opened: the box bound stands for the node */
+            continue;
+        }
+        const int64_t half = (int64_t)TREE_LEAF_SIDE << (e.level - 1);
+        uint32_t own = 0;
+        uint64_t half_d2[3][2];
+        for (int a = 0; a < dim; a++) {
+            const int64_t mid = e.lo[a] + half;
+            if (p[a] >= mid) own |= 1u << a;
+            half_d2[a][0] = axis_dist2(p[a], e.lo[a], half);
+            half_d2[a][1] = axis_dist2(p[a], mid, half);
+        }
+        const uint32_t *ch = tree_children(t, e.node);
+        for (int i = 0; i < nchild; i++) {
+            const uint32_t kidx = own ^ order[i];
+            const uint32_t child = ch[kidx];
+            if (!child) continue;
+            uint64_t cd2 = 0;
+            for (int a = 0; a < dim; a++) cd2 += half_d2[a][(kidx >> a) & 1];
+            if (cd2 >= best2) continue;
+            stack_entry *s = &stack[top++];
+            for (int a = 0; a < dim; a++) s->lo[a] = e.lo[a] + (int64_t)((kidx >> a) & 1) * half;
+            s->d2 = cd2;
+            s->node = child;
+            s->level = e.level - 1;
+        }
+    }
+    return best2;
+}
+
+/* Squared distance from p (inside the box [lo, lo + side - 1]) to the
+ * nearest integer point outside the box: every particle outside is at least
+ * this far away. */
+static inline __attribute__((always_inline)) uint64_t inside_margin2(const int64_t *p,
+                                                                     const int64_t *lo,
+                                                                     int64_t side, int dim)
+{
+    int64_t m = INT64_MAX;
+    for (int a = 0; a < dim; a++) {
+        const int64_t below = p[a] - lo[a] + 1, above = lo[a] + side - p[a];
+        if (below < m) m = below;
+        if (above < m) m = above;
+    }
+    return (uint64_t)m * (uint64_t)m;
+}
+
+/* Bottom-up search: descend once along the query's own path to the deepest
+ * existing node, search there, then climb, searching the siblings of each
+ * node on the path, until the ball of the current bound lies inside the
+ * node reached. Successive walker positions are close to the cluster, so
+ * the climb usually stops a level or two above the leaf and the upper levels
+ * cost one child lookup each. */
+static inline __attribute__((always_inline)) uint64_t
+lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_t cap2,
+                search_state *k, const int dim)
+{
+    if (t->count == 0) return UINT64_MAX;
+    const int nchild = 1 << dim;
+    const int64_t root_half = tree_root_half(t);
+    uint64_t visits = 0;
+    int64_t lo[3];
+    for (int a = 0; a < dim; a++) lo[a] = -root_half;
+    const uint64_t root_d2 = box_dist2(p, lo, 2 * root_half, dim);
+    if (root_d2 > 0) {
+        /* Outside the root box: plain top-down search. */
+        const uint64_t best2 = subtree_bound(t, c, p, t->root, t->root_level, lo, root_d2, cap2,
+                                             &visits, k, dim);
+        k->node_visits += visits;
+        return best2;
+    }
+
+    /* Descend along p's own path, remembering each node and its corner,
+     * from the lowest node of the previous query's path that contains p. */
+    uint32_t *path_node = k->node, *path_own = k->own;
+    int64_t(*path_lo)[3] = k->lo;
+    uint64_t best2 = cap2;
+    int level = t->root_level;
+    if (k->root == t->root && k->root_level == t->root_level) {
+        for (level = k->depth; level < t->root_level; level++) {
+            const int64_t side = (int64_t)TREE_LEAF_SIDE << level;
+            int inside = 1;
+            for (int a = 0; a < dim; a++)
+                inside &= (p[a] >= path_lo[level][a]) & (p[a] < path_lo[level][a] + side);
+            if (inside) break;
+        }
+    }
+    k->root = t->root;
+    k->root_level = t->root_level;
+    uint32_t node = level == t->root_level ? t->root : path_node[level];
+    if (level != t->root_level)
+        for (int a = 0; a < dim; a++) lo[a] = path_lo[level][a];
+    for (;;) {
+        const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
+        uint32_t own = 0;
+        for (int a = 0; a < dim; a++)
+            if (p[a] >= lo[a] + half) own |= 1u << a;
+        path_node[level] = node;
+        path_own[level] = own;
+        for (int a = 0; a < dim; a++) path_lo[level][a] = lo[a];
+        const uint32_t child = tree_children(t, node)[own];
+        visits++;
+        if (!child) break;
+        for (int a = 0; a < dim; a++) lo[a] += (int64_t)((own >> a) & 1) * half;
+        if (level == 1) {
+            int64_t q[3];
+            for (int a = 0; a < dim; a++) q[a] = p[a] - lo[a];
+            best2 = scan_leaf(t, child, q, best2, dim, k);
+            visits++;
+            break;
+        }
+        node = child;
+        level--;
+    }
+    k->depth = level;
+
+    /* Climb: stop as soon as the ball of the bound lies inside the own child's
+     * box, else search that child's siblings and go one level up. */
+    for (;; level++) {
+        const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
+        int64_t own_lo[3];
+        for (int a = 0; a < dim; a++)
+            own_lo[a] = path_lo[level][a] + (int64_t)((path_own[level] >> a) & 1) * half;
+        if (inside_margin2(p, own_lo, half, dim) >= best2) break;
+        /* p lies in the own half on every axis: a sibling's distance comes
+         * only from the axes where it lies in the other half. */
+        uint64_t other_d2[3];
+        for (int a = 0; a < dim; a++) {
+            const int64_t other_lo = path_lo[level][a] + (((path_own[level] >> a) & 1) ? 0 : half);
+            other_d2[a] = axis_dist2(p[a], other_lo, half);
+        }
+        const uint32_t *ch = tree_children(t, path_node[level]);
+        for (int kidx = 0; kidx < nchild; kidx++) {
+            if ((uint32_t)kidx == path_own[level] || !ch[kidx]) continue;
+            const uint32_t differ = (uint32_t)kidx ^ path_own[level];
+            uint64_t d2 = 0;
+            for (int a = 0; a < dim; a++)
+                if ((differ >> a) & 1) d2 += other_d2[a];
+            if (d2 >= best2) continue;
+            int64_t clo[3];
+            for (int a = 0; a < dim; a++)
+                clo[a] = path_lo[level][a] + (int64_t)((kidx >> a) & 1) * half;
+            best2 = subtree_bound(t, c, p, ch[kidx], level - 1, clo, d2, best2, &visits, k, dim);
+        }
+        if (level == t->root_level) break;
+    }
+    k->node_visits += visits;
+    return best2;
+}
+
+uint64_t search_lower_bound2(const tree *t, const search_config *c, const int64_t *p,
+                             uint64_t cap2, search_state *k)
+{
+    return t->dim == 2 ? lower_bound_dim(t, c, p, cap2, k, 2)
+                       : lower_bound_dim(t, c, p, cap2, k, 3);
+}
+
+int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
+                         uint64_t *d2_out)
+{
+    const int dim = t->dim;
+    int64_t r = 0;
+    while ((uint64_t)(r * r) < radius2) r++;
+    /* The ball spans at most two leaves per axis (r < 256). */
+    int64_t first[3], span[3];
+    for (int a = 0; a < dim; a++) {
+        first[a] = (p[a] - r) & ~(int64_t)(TREE_LEAF_SIDE - 1);
+        span[a] = ((p[a] + r) & ~(int64_t)(TREE_LEAF_SIDE - 1)) > first[a] ? 2 : 1;
+    }
+    uint64_t best2 = radius2;
+    int found = 0;
+    const int ncorner = 1 << dim;
+    for (int c = 0; c < ncorner; c++) {
+        int64_t corner[3];
+        int skip = 0;
+        for (int a = 0; a < dim; a++) {
+            const int64_t step = (c >> a) & 1;
+            if (step >= span[a]) skip = 1;
+            corner[a] = first[a] + step * TREE_LEAF_SIDE;
+        }
+        if (skip) continue;
+        int64_t lo[3];
+        const uint32_t leaf_idx = tree_find_leaf(t, corner, lo);
+        if (!leaf_idx) continue;
+        const tree_leaf *leaf = tree_leaf_at(t, leaf_idx);
+        uint32_t ci = leaf->head;
+        for (uint32_t i = 0; i < leaf->count; i += TREE_CHUNK_CAP) {
+            const uint8_t *chunk = tree_chunk_at(t, ci);
+            const uint32_t m = leaf->count - i < TREE_CHUNK_CAP ? leaf->count - i : TREE_CHUNK_CAP;
+            for (uint32_t j = 0; j < m; j++) {
+                uint64_t d2 = 0;
+                int64_t x[3];
+                for (int a = 0; a < dim; a++) {
+                    x[a] = lo[a] + chunk[j * (uint32_t)dim + (uint32_t)a];
+                    const int64_t d = p[a] - x[a];
+                    d2 += (uint64_t)(d * d);
+                }
+                if (d2 < best2) {
+                    best2 = d2;
+                    found = 1;
+                    for (int a = 0; a < dim; a++) q[a] = x[a];
+                }
+            }
+            ci = tree_chunk_next(t, chunk);
+        }
+    }
+    if (found) *d2_out = best2;
+    return found;
+}
+
+typedef struct brute_ctx {
+    const int64_t *p;
+    int dim;
+    uint64_t best2;
+} brute_ctx;
+
+static int brute_visit(const int64_t *q, void *user)
+{
+    brute_ctx *b = user;
+    uint64_t d2 = 0;
+    for (int a = 0; a < b->dim; a++) {
+        const int64_t d = b->p[a] - q[a];
+        d2 += (uint64_t)d * (uint64_t)d;
+    }
+    if (d2 < b->best2) b->best2 = d2;
+    return 0;
+}
+
+uint64_t search_brute2(const tree *t, const int64_t *p)
+{
+    brute_ctx b = {p, t->dim, UINT64_MAX};
+    tree_visit(t, brute_visit, &b);
+    return b.best2;
+}

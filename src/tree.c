@@ -1,0 +1,250 @@
+/*
+ * tree.c - construction of the bucket quadtree/octree: segmented pools,
+ * insertion with root growth, traversal. The distance search lives in
+ * search.c; the layout is described in tree.h.
+ */
+#include "tree.h"
+
+#include <stdlib.h>
+
+static int pool_init(tree_pool *p, uint32_t elem)
+{
+    p->seg = calloc(POOL_MAX_SEGS, sizeof *p->seg);
+    if (!p->seg) return -1;
+    p->elem = elem;
+    p->nseg = 0;
+    p->count = 1; /* record 0 is the null index */
+    p->seg[0] = calloc(POOL_SEG_SIZE, elem);
+    if (!p->seg[0]) return -1;
+    p->nseg = 1;
+    return 0;
+}
+
+static void pool_free(tree_pool *p)
+{
+    if (p->seg)
+        for (uint32_t s = 0; s < p->nseg; s++) free(p->seg[s]);
+    free(p->seg);
+    p->seg = NULL;
+}
+
+/* A new zeroed record; 0 when the 32-bit index space or memory is exhausted. */
+static uint32_t pool_new(tree_pool *p)
+{
+    const uint32_t i = p->count;
+    if (i == UINT32_MAX) return 0;
+    const uint32_t s = i >> POOL_SEG_BITS;
+    if (s >= p->nseg) {
+        p->seg[s] = calloc(POOL_SEG_SIZE, p->elem);
+        if (!p->seg[s]) return 0;
+        p->nseg = s + 1;
+    }
+    p->count = i + 1;
+    return i;
+}
+
+int tree_init(tree *t, int dim)
+{
+    memset(t, 0, sizeof *t);
+    t->dim = dim;
+    t->nchild = 1 << dim;
+    /* 10 particles of dim bytes, padded so the 32-bit next index is aligned. */
+    t->chunk_bytes = (uint32_t)((TREE_CHUNK_CAP * dim + 3) / 4 * 4 + 4);
+    if (pool_init(&t->inner, (uint32_t)(sizeof(uint32_t) * (size_t)t->nchild)) ||
+        pool_init(&t->leaves, sizeof(tree_leaf)) || pool_init(&t->chunks, t->chunk_bytes)) {
+        tree_free(t);
+        return -1;
+    }
+    t->root_level = 1;
+    t->root = pool_new(&t->inner);
+    if (!t->root) {
+        tree_free(t);
+        return -1;
+    }
+    return 0;
+}
+
+void tree_free(tree *t)
+{
+    pool_free(&t->inner);
+    pool_free(&t->leaves);
+    pool_free(&t->chunks);
+}
+
+size_t tree_bytes(const tree *t)
+{
+    const tree_pool *pools[3] = {&t->inner, &t->leaves, &t->chunks};
+    size_t bytes = 0;
+    for (int i = 0; i < 3; i++)
+        bytes += (size_t)pools[i]->nseg * POOL_SEG_SIZE * pools[i]->elem +
+                 POOL_MAX_SEGS * sizeof(uint8_t *);
+    return bytes;
+}
+
+static uint32_t *children_mut(tree *t, uint32_t node)
+{
+    return (uint32_t *)pool_at(&t->inner, node);
+}
+
+/* Double the root's side: each old quadrant/octant q moves into a new
+ * intermediate node at q, where it is the child nearest the origin
+ * (index q with every bit flipped). */
+static int tree_grow_root(tree *t)
+{
+    if (t->root_level >= TREE_MAX_LEVEL) return -2;
+    const uint32_t new_root = pool_new(&t->inner);
+    if (!new_root) return -1;
+    const uint32_t mask = (uint32_t)t->nchild - 1;
+    for (uint32_t q = 0; q <= mask; q++) {
+        const uint32_t old_child = children_mut(t, t->root)[q];
+        if (!old_child) continue;
+        const uint32_t mid = pool_new(&t->inner);
+        if (!mid) return -1;
+        children_mut(t, mid)[q ^ mask] = old_child;
+        children_mut(t, new_root)[q] = mid;
+    }
+    /* The old root record stays allocated but unreferenced: one record per
+     * growth, at most TREE_MAX_LEVEL in a run. */
+    t->root = new_root;
+    t->root_level++;
+    return 0;
+}
+
+static int inside_root(const tree *t, const int64_t *p)
+{
+    const int64_t h = tree_root_half(t);
+    for (int a = 0; a < t->dim; a++)
+        if (p[a] < -h || p[a] >= h) return 0;
+    return 1;
+}
+
+/* Append a particle to a leaf, relative to the leaf's low corner. */
+static int leaf_append(tree *t, uint32_t leaf_idx, const uint8_t *rel)
+{
+    tree_leaf *leaf = (tree_leaf *)pool_at(&t->leaves, leaf_idx);
+    const uint32_t slot = leaf->count % TREE_CHUNK_CAP;
+    uint8_t *chunk;
+    if (slot == 0) {
+        const uint32_t c = pool_new(&t->chunks);
+        if (!c) return -1;
+        leaf = (tree_leaf *)pool_at(&t->leaves, leaf_idx);
+        if (leaf->count == 0) {
+            leaf->head = c;
+        } else {
+            /* Walk to the last (full) chunk; lists are short and inserts rare. */
+            uint32_t last = leaf->head;
+            for (uint32_t k = TREE_CHUNK_CAP; k < leaf->count; k += TREE_CHUNK_CAP)
+                last = tree_chunk_next(t, tree_chunk_at(t, last));
+            uint8_t *last_chunk = (uint8_t *)pool_at(&t->chunks, last);
+            memcpy(last_chunk + t->chunk_bytes - 4, &c, sizeof c);
+        }
+        chunk = (uint8_t *)pool_at(&t->chunks, c);
+    } else {
+        uint32_t c = leaf->head;
+        for (uint32_t k = TREE_CHUNK_CAP; k <= leaf->count; k += TREE_CHUNK_CAP)
+            c = tree_chunk_next(t, tree_chunk_at(t, c));
+        chunk = (uint8_t *)pool_at(&t->chunks, c);
+    }
+    memcpy(chunk + (size_t)slot * (size_t)t->dim, rel, (size_t)t->dim);
+    leaf->count++;
+    return 0;
+}
+
+int tree_insert(tree *t, const int64_t *p)
+{
+    while (!inside_root(t, p)) {
+        const int rc = tree_grow_root(t);
+        if (rc) return rc;
+    }
+    const int dim = t->dim;
+    int64_t lo[3];
+    for (int a = 0; a < dim; a++) lo[a] = -tree_root_half(t);
+    uint32_t node = t->root;
+    for (int level = t->root_level; level >= 1; level--) {
+        const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
+        uint32_t k = 0;
+        for (int a = 0; a < dim; a++)
+            if (p[a] >= lo[a] + half) {
+                k |= 1u << a;
+                lo[a] += half;
+            }
+        uint32_t child = tree_children(t, node)[k];
+        if (!child) {
+            child = (level == 1) ? pool_new(&t->leaves) : pool_new(&t->inner);
+            if (!child) return -1;
+            children_mut(t, node)[k] = child;
+        }
+        if (level == 1) {
+            uint8_t rel[3];
+            for (int a = 0; a < dim; a++) rel[a] = (uint8_t)(p[a] - lo[a]);
+            if (leaf_append(t, child, rel)) return -1;
+            t->count++;
+            return 0;
+        }
+        node = child;
+    }
+    return -1; /* unreachable: root_level >= 1 */
+}
+
+uint32_t tree_find_leaf(const tree *t, const int64_t *p, int64_t *leaf_lo)
+{
+    if (!inside_root(t, p)) return 0;
+    int64_t lo[3];
+    for (int a = 0; a < t->dim; a++) lo[a] = -tree_root_half(t);
+    uint32_t node = t->root;
+    for (int level = t->root_level; level >= 1; level--) {
+        const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
+        uint32_t k = 0;
+        for (int a = 0; a < t->dim; a++)
+            if (p[a] >= lo[a] + half) {
+                k |= 1u << a;
+                lo[a] += half;
+            }
+        node = tree_children(t, node)[k];
+        if (!node) return 0;
+    }
+    for (int a = 0; a < t->dim; a++) leaf_lo[a] = lo[a];
+    return node;
+}
+
+static int visit_leaf(const tree *t, uint32_t leaf_idx, const int64_t *lo, tree_visit_fn fn,
+                      void *user)
+{
+    const tree_leaf *leaf = tree_leaf_at(t, leaf_idx);
+    uint32_t c = leaf->head;
+    int64_t p[3] = {0, 0, 0};
+    for (uint32_t i = 0; i < leaf->count; i += TREE_CHUNK_CAP) {
+        const uint8_t *chunk = tree_chunk_at(t, c);
+        const uint32_t m = leaf->count - i < TREE_CHUNK_CAP ? leaf->count - i : TREE_CHUNK_CAP;
+        for (uint32_t j = 0; j < m; j++) {
+            for (int a = 0; a < t->dim; a++) p[a] = lo[a] + chunk[j * (uint32_t)t->dim + (uint32_t)a];
+            const int rc = fn(p, user);
+            if (rc) return rc;
+        }
+        c = tree_chunk_next(t, chunk);
+    }
+    return 0;
+}
+
+static int visit_node(const tree *t, uint32_t node, int level, const int64_t *lo,
+                      tree_visit_fn fn, void *user)
+{
+    const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
+    for (int k = 0; k < t->nchild; k++) {
+        const uint32_t child = tree_children(t, node)[k];
+        if (!child) continue;
+        int64_t clo[3];
+        for (int a = 0; a < t->dim; a++) clo[a] = lo[a] + ((k >> a) & 1) * half;
+        const int rc = level == 1 ? visit_leaf(t, child, clo, fn, user)
+                                  : visit_node(t, child, level - 1, clo, fn, user);
+        if (rc) return rc;
+    }
+    return 0;
+}
+
+int tree_visit(const tree *t, tree_visit_fn fn, void *user)
+{
+    int64_t lo[3];
+    for (int a = 0; a < t->dim; a++) lo[a] = -tree_root_half(t);
+    return visit_node(t, t->root, t->root_level, lo, fn, user);
+}

@@ -1,0 +1,165 @@
+/*
+ * tree.h - the memory-compact bucket quadtree (2D) / octree (3D) that holds
+ * the cluster.
+ *
+ * Geometry. Positions are integers (units). Leaves are aligned boxes of
+ * 256 units per side, so a particle inside a leaf is stored as one byte per
+ * coordinate relative to the leaf's low corner. A node at level L is an
+ * aligned box of side 256 << L; leaves are level 0. The root, at level
+ * root_level >= 1, is the box [-S/2, S/2)^dim with S = 256 << root_level,
+ * centred on the seed; it grows by one level (doubling S) whenever a
+ * particle lands outside it. Child k of a node holds the half-boxes with
+ * bit a of k set where coordinate a is in the upper half.
+ *
+ * Memory. Three pools of fixed-size records linked by 32-bit indices
+ * (0 is null): inner nodes (2^dim child indices), leaves (head chunk index
+ * and particle count) and chunks (10 particles of dim bytes plus the next
+ * chunk's index: 24 bytes in 2D, 36 in 3D). A leaf's chunks are all full
+ * except the last one. Pools grow by whole segments that never move, so a
+ * record's address is stable for the life of the tree (lock-free readers
+ * need that) and growth never copies.
+ */
+#ifndef PDLA_SRC_TREE_H
+#define PDLA_SRC_TREE_H
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#define TREE_LEAF_BITS 8
+#define TREE_LEAF_SIDE (1 << TREE_LEAF_BITS)
+#define TREE_CHUNK_CAP 10
+/* The root never grows past this level: side 2^31 covers every coordinate
+ * allowed by PDLA_MAX_CLUSTER_RADIUS_UNITS with room to spare. */
+#define TREE_MAX_LEVEL 23
+
+#define POOL_SEG_BITS 16
+#define POOL_SEG_SIZE (1u << POOL_SEG_BITS)
+#define POOL_MAX_SEGS (1u << (32 - POOL_SEG_BITS))
+
+/* A growable array of fixed-size records addressed by 32-bit index. */
+typedef struct tree_pool {
+    uint8_t **seg;     /* POOL_MAX_SEGS segment pointers, NULL until used */
+    uint32_t count;    /* records in use, including the null record 0 */
+    uint32_t elem;     /* bytes per record */
+    uint32_t nseg;     /* segments allocated */
+} tree_pool;
+
+static inline void *pool_at(const tree_pool *p, uint32_t i)
+{
+    return p->seg[i >> POOL_SEG_BITS] + (size_t)(i & (POOL_SEG_SIZE - 1)) * p->elem;
+}
+
+typedef struct tree_leaf {
+    uint32_t head;  /* first chunk */
+    uint32_t count; /* particles in this leaf */
+} tree_leaf;
+
+typedef struct tree {
+    int dim;
+    int nchild;          /* 2^dim */
+    int root_level;      /* root side = 256 << root_level */
+    uint32_t root;       /* index in inner */
+    uint32_t chunk_bytes;/* 24 (2D) or 36 (3D) */
+    uint64_t count;      /* particles stored */
+    tree_pool inner;     /* uint32_t child[nchild] */
+    tree_pool leaves;    /* tree_leaf */
+    tree_pool chunks;    /* uint8_t rel[10][dim], pad, uint32_t next */
+} tree;
+
+int tree_init(tree *t, int dim);
+void tree_free(tree *t);
+
+/* Insert a particle centre; grows the root as needed. Returns 0, or
+ * -1 (out of memory / index space) or -2 (coordinate beyond the root limit). */
+int tree_insert(tree *t, const int64_t *p);
+
+/* Bytes held by the pools (allocated segments and the segment tables). */
+size_t tree_bytes(const tree *t);
+
+static inline const uint32_t *tree_children(const tree *t, uint32_t node)
+{
+    return (const uint32_t *)pool_at(&t->inner, node);
+}
+static inline const tree_leaf *tree_leaf_at(const tree *t, uint32_t leaf)
+{
+    return (const tree_leaf *)pool_at(&t->leaves, leaf);
+}
+static inline const uint8_t *tree_chunk_at(const tree *t, uint32_t chunk)
+{
+    return (const uint8_t *)pool_at(&t->chunks, chunk);
+}
+static inline uint32_t tree_chunk_next(const tree *t, const uint8_t *chunk)
+{
+    uint32_t next;
+    memcpy(&next, chunk + t->chunk_bytes - 4, sizeof next);
+    return next;
+}
+
+/* Half side of the root box: the root is [-h, h)^dim. */
+static inline int64_t tree_root_half(const tree *t)
+{
+    return (int64_t)TREE_LEAF_SIDE << (t->root_level - 1);
+}
+
+/* Visit every stored particle; fn gets the absolute coordinates. Stops and
+ * returns fn's value when it is non-zero. */
+typedef int (*tree_visit_fn)(const int64_t *p, void *user);
+int tree_visit(const tree *t, tree_visit_fn fn, void *user);
+
+/* ---- distance search (search.c) -------------------------------------- */
+
+/* Per-walker state of the search: counters, and the path of the previous
+ * query (successive queries of one walker are close, so the next descent
+ * starts from the lowest cached node that still contains the point instead
+ * of the root). Reset it with search_state_reset before first use; it stays
+ * valid while the tree only grows, and is dropped when the root changes. */
+typedef struct search_state {
+    uint64_t node_visits;
+    uint64_t particle_checks;
+    uint32_t root;               /* root the cache was made under; 0 = empty */
+    int root_level;
+    int depth;                   /* lowest cached level */
+    uint32_t node[TREE_MAX_LEVEL + 1];
+    uint32_t own[TREE_MAX_LEVEL + 1];
+    int64_t lo[TREE_MAX_LEVEL + 1][3];
+} search_state;
+
+static inline void search_state_reset(search_state *s)
+{
+    s->node_visits = 0;
+    s->particle_checks = 0;
+    s->root = 0;
+}
+
+/* Per-level squared far thresholds: a non-empty node at level L whose box is
+ * at squared distance > far2[L] from the query is not opened; its box
+ * distance is used as the lower bound. UINT64_MAX disables it (exact). */
+typedef struct search_config {
+    uint64_t far2[TREE_MAX_LEVEL + 2];
+} search_config;
+
+/* far_factor <= 0 gives exact search. The thresholds never fall below
+ * (2 (D + eps))^2, so any result below (D + eps)^2 is an exact distance. */
+void search_config_init(search_config *c, double far_factor, int resolution, int eps);
+
+/* Squared lower bound on the distance from p to the nearest particle centre
+ * (UINT64_MAX if the tree is empty). Exact whenever it is below the
+ * smallest far threshold; never above the true squared distance.
+ * `cap2`: the caller needs no answer larger than this (pass UINT64_MAX for
+ * none); the search may return any value >= cap2 once it knows the true
+ * distance is at least that large. */
+uint64_t search_lower_bound2(const tree *t, const search_config *c, const int64_t *p,
+                             uint64_t cap2, search_state *k);
+
+/* Exact squared distance by brute force over every particle: the reference
+ * the optimised search is tested against. */
+uint64_t search_brute2(const tree *t, const int64_t *p);
+#endif
+
+/* The leaf whose box contains p (0 if none), and its low corner. */
+uint32_t tree_find_leaf(const tree *t, const int64_t *p, int64_t *leaf_lo);
+
+/* Exact nearest particle centre within sqrt(radius2) of p, radius2 < 256^2:
+ * returns 1 and writes it to q (and its squared distance), or 0 if none. */
+int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
+                         uint64_t *d2);

@@ -1,0 +1,178 @@
+/*
+ * walker.c - one Brownian walker from the birth circle (sphere) to contact,
+ * by walk-on-spheres: from a point whose distance to every particle centre is
+ * at least d, Brownian motion first leaves the ball of radius d - D (D = one
+ * diameter) at a uniform point of its surface, and no particle can be touched
+ * on the way. The walker sticks once the exact distance is below D + eps.
+ *
+ * Positions are integers: a jump is rounded to the unit grid, which moves the
+ * walker by at most sqrt(dim)/2 < 1 unit, so jumps are shortened by one unit
+ * and the walker never comes closer than D to a centre.
+ *
+ * Leaving the birth circle R_b: by default the walker is put straight back on
+ * it with the exterior harmonic measure (sample.h), which is exact; with
+ * PDLA_RETURN_KILL it jumps by |p| - R_ext outside R_b and dies past
+ * kill_ratio * R_b (the seed paper's scheme). The code is one always-inlined
+ * body instantiated for dim 2 and 3.
+ */
+#include <math.h>
+
+#include "engine.h"
+#include "sample.h"
+
+static inline __attribute__((always_inline)) void random_dir(pdla_rng *rng, double *v,
+                                                             const int dim)
+{
+    if (dim == 2)
+        sample_dir2(rng, v);
+    else
+        sample_dir3(rng, v);
+}
+
+/* Uniform point on the birth circle/sphere, rounded to the grid. */
+static inline __attribute__((always_inline)) void launch(walker_ctx *w, double Rb, int64_t *p,
+                                                         const int dim)
+{
+    double v[3];
+    random_dir(&w->rng, v, dim);
+    for (int a = 0; a < dim; a++) p[a] = (int64_t)lrint(Rb * v[a]);
+    w->walkers++;
+}
+
+/* Put a walker at radius r > Rb back on the birth circle/sphere (exact
+ * harmonic measure). Returns 0 when the walker escaped to infinity (3D) and
+ * a fresh one must start. */
+static inline __attribute__((always_inline)) int return_to_birth(walker_ctx *w, int64_t *p,
+                                                                 double r, double Rb,
+                                                                 const int dim)
+{
+    double out[3];
+    if (dim == 2) {
+        const double theta = sample_return_angle2(&w->rng, r, Rb);
+        sample_rotate_to2((double)p[0], (double)p[1], theta, Rb, out);
+    } else {
+        double cos_theta;
+        if (!sample_return3(&w->rng, r, Rb, &cos_theta)) return 0;
+        const double u[3] = {(double)p[0] / r, (double)p[1] / r, (double)p[2] / r};
+        sample_cone_point3(&w->rng, u, Rb, cos_theta, out);
+    }
+    for (int a = 0; a < dim; a++) p[a] = (int64_t)lrint(out[a]);
+    w->returns++;
+    return 1;
+}
+
+static inline __attribute__((always_inline)) void jump(walker_ctx *w, int64_t *p, double s,
+                                                       const int dim)
+{
+    double v[3];
+    random_dir(&w->rng, v, dim);
+    for (int a = 0; a < dim; a++) p[a] += (int64_t)lrint(s * v[a]);
+    w->jumps++;
+}
+
+/* Move a walker that stopped inside the sticking shell onto contact with its
+ * nearest particle q, along the line from q (the usual off-lattice closure:
+ * without it the mean contact distance is D + eps/2, a systematic
+ * stretch of the cluster by eps/(2D)). Of the grid points around the exact
+ * contact point, take the one nearest to contact that keeps every particle
+ * at least D away; if none does, stay put. */
+static void snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2, const int dim)
+{
+    int64_t q[3];
+    uint64_t d2;
+    if (!search_nearest_point(t, p, reach2, q, &d2) || d2 == 0) return;
+    const double scale = (double)D / sqrt((double)d2);
+    double x[3];
+    int64_t base[3];
+    for (int a = 0; a < dim; a++) {
+        x[a] = (double)q[a] + (double)(p[a] - q[a]) * scale;
+        base[a] = (int64_t)floor(x[a]);
+    }
+    const uint64_t D2 = (uint64_t)(D * D);
+    int64_t cand[8][3];
+    uint64_t cand_d2[8];
+    int n = 0;
+    for (int c = 0; c < (1 << dim); c++) {
+        uint64_t e2 = 0;
+        for (int a = 0; a < dim; a++) {
+            cand[n][a] = base[a] + ((c >> a) & 1);
+            const int64_t d = cand[n][a] - q[a];
+            e2 += (uint64_t)(d * d);
+        }
+        if (e2 < D2) continue;
+        cand_d2[n++] = e2;
+    }
+    for (int tries = 0; tries < n; tries++) {
+        int best = 0;
+        for (int i = 1; i < n; i++)
+            if (cand_d2[i] < cand_d2[best]) best = i;
+        int64_t other[3];
+        uint64_t od2;
+        if (!search_nearest_point(t, cand[best], D2, other, &od2)) {
+            for (int a = 0; a < dim; a++) p[a] = cand[best][a];
+            return;
+        }
+        cand_d2[best] = UINT64_MAX;
+    }
+}
+
+static inline __attribute__((always_inline)) int walk_dim(pdla_engine *e, int64_t *stuck_at,
+                                                          const int dim)
+{
+    const pdla_params *P = &e->params;
+    walker_ctx *w = &e->walker;
+    const tree *t = &e->tree;
+    const double D = (double)P->resolution;
+    const uint64_t stick2 = (uint64_t)(P->resolution + P->eps) * (uint64_t)(P->resolution + P->eps);
+    const double r_ext = (double)e->r_ext;
+    const double Rb = r_ext + P->birth_margin * D;
+    /* One unit of hysteresis: a walker just put on the circle (rounded to the
+     * grid) is not sent straight back. */
+    const double Rout2 = (Rb + 1.0) * (Rb + 1.0);
+    const double Rdeath = P->kill_ratio * Rb;
+    const int kill = P->return_mode == PDLA_RETURN_KILL;
+
+    int64_t p[3];
+    launch(w, Rb, p, dim);
+    uint64_t jumps = 0;
+    for (;;) {
+        if (jumps >= P->max_jumps) {
+            w->restarts++;
+            launch(w, Rb, p, dim);
+            jumps = 0;
+        }
+        double r2 = 0;
+        for (int a = 0; a < dim; a++) r2 += (double)p[a] * (double)p[a];
+        if (r2 > Rout2) {
+            const double r = sqrt(r2);
+            if (kill) {
+                if (r > Rdeath) {
+                    w->killed++;
+                    launch(w, Rb, p, dim);
+                    continue;
+                }
+                jump(w, p, r - r_ext - D - 1.0, dim);
+                jumps++;
+            } else if (!return_to_birth(w, p, r, Rb, dim)) {
+                w->lost++;
+                launch(w, Rb, p, dim);
+            }
+            continue;
+        }
+        const uint64_t d2 = search_lower_bound2(t, &e->search, p, UINT64_MAX, &w->ss);
+        if (d2 < stick2) {
+            if (P->snap_contact) snap_to_contact(t, p, P->resolution, stick2, dim);
+            for (int a = 0; a < dim; a++) stuck_at[a] = p[a];
+            /* Never closer than one diameter: guaranteed by the shortened
+             * jumps; a violation is an engine bug, not a physics event. */
+            return d2 >= (uint64_t)P->resolution * (uint64_t)P->resolution ? 0 : PDLA_EINVAL;
+        }
+        jump(w, p, sqrt((double)d2) - D - 1.0, dim);
+        jumps++;
+    }
+}
+
+int walker_run(pdla_engine *e, int64_t *stuck_at)
+{
+    return e->params.dim == 2 ? walk_dim(e, stuck_at, 2) : walk_dim(e, stuck_at, 3);
+}

@@ -1,0 +1,185 @@
+/*
+ * test_tree.c - the bucket quadtree/octree and its distance search against
+ * brute-force references on random point sets, 2D and 3D:
+ *  - every inserted point comes back exactly once (multiset equality),
+ *    including points on leaf and node boundaries and far from the origin;
+ *  - exact search equals the brute-force nearest distance;
+ *  - variable-precision search never exceeds the true distance, is exact
+ *    whenever its answer is below the near threshold, and when it is
+ *    approximate the true distance is within the stated factor
+ *    (1 + sqrt(dim) / far_factor) of it.
+ * Fixed seeds; any failure prints the seed, point and both values.
+ */
+#include <math.h>
+#include <stdlib.h>
+
+#include "check.h"
+#include "rng.h"
+#include "tree.h"
+
+typedef struct pt {
+    int64_t x[3];
+} pt;
+
+static int dim_g; /* for qsort's comparator only */
+
+static int cmp_pt(const void *a, const void *b)
+{
+    const pt *p = a, *q = b;
+    for (int k = 0; k < dim_g; k++)
+        if (p->x[k] != q->x[k]) return p->x[k] < q->x[k] ? -1 : 1;
+    return 0;
+}
+
+typedef struct collect {
+    pt *pts;
+    size_t n, cap;
+    int dim;
+} collect;
+
+static int collect_visit(const int64_t *p, void *user)
+{
+    collect *c = user;
+    if (c->n == c->cap) return 1;
+    for (int a = 0; a < c->dim; a++) c->pts[c->n].x[a] = p[a];
+    c->n++;
+    return 0;
+}
+
+static int64_t rand_range(pdla_rng *r, int64_t lo, int64_t hi)
+{
+    return lo + (int64_t)(rng_next(r) % (uint64_t)(hi - lo + 1));
+}
+
+/* Points of one of several kinds: a dense blob, a sparse cloud far out,
+ * exactly on leaf/node boundaries (multiples of 2^k, +-1). */
+static void random_point(pdla_rng *r, int dim, int kind, int64_t *p)
+{
+    for (int a = 0; a < dim; a++) {
+        switch (kind) {
+        case 0: p[a] = rand_range(r, -2000, 2000); break;
+        case 1: p[a] = rand_range(r, -(INT64_C(1) << 27), (INT64_C(1) << 27) - 1); break;
+        case 2: {
+            const int k = 8 + (int)(rng_next(r) % 12);
+            const int64_t m = rand_range(r, -4, 4) * (INT64_C(1) << k);
+            p[a] = m + rand_range(r, -1, 0);
+            break;
+        }
+        default: p[a] = rand_range(r, 100000, 100600) * (a == 0 ? -1 : 1); break;
+        }
+    }
+}
+
+static uint64_t brute_list(const pt *pts, size_t n, int dim, const int64_t *q)
+{
+    uint64_t best = UINT64_MAX;
+    for (size_t i = 0; i < n; i++) {
+        uint64_t d2 = 0;
+        for (int a = 0; a < dim; a++) {
+            const int64_t d = q[a] - pts[i].x[a];
+            d2 += (uint64_t)(d * d);
+        }
+        if (d2 < best) best = d2;
+    }
+    return best;
+}
+
+static void test_set(int dim, int kind, size_t n, uint64_t seed)
+{
+    pdla_rng r;
+    rng_seed(&r, seed);
+    tree t;
+    CHECK(tree_init(&t, dim) == 0, "tree_init");
+    pt *in = malloc(n * sizeof *in);
+    for (size_t i = 0; i < n; i++) {
+        random_point(&r, dim, kind, in[i].x);
+        CHECK(tree_insert(&t, in[i].x) == 0, "insert seed %llu i %zu", (unsigned long long)seed, i);
+    }
+    CHECK(t.count == n, "count %llu != %zu", (unsigned long long)t.count, n);
+
+    collect c = {malloc(n * sizeof(pt)), 0, n, dim};
+    CHECK(tree_visit(&t, collect_visit, &c) == 0, "visit overflowed: more points than inserted");
+    CHECK(c.n == n, "visited %zu of %zu", c.n, n);
+    dim_g = dim;
+    qsort(in, n, sizeof *in, cmp_pt);
+    qsort(c.pts, c.n, sizeof *c.pts, cmp_pt);
+    int same = c.n == n;
+    for (size_t i = 0; same && i < n; i++) same = cmp_pt(&in[i], &c.pts[i]) == 0;
+    CHECK(same, "dim %d kind %d seed %llu: stored multiset differs from inserted",
+          dim, kind, (unsigned long long)seed);
+
+    search_config exact, vp;
+    search_config_init(&exact, 0.0, 32, 2);
+    const double far_factor = 4.0;
+    search_config_init(&vp, far_factor, 32, 2);
+    search_state k;
+    search_state_reset(&k);
+    int bad_exact = 0, bad_bound = 0, bad_near = 0, bad_ratio = 0, approx = 0;
+    double worst = 0;
+    for (int q = 0; q < 400; q++) {
+        int64_t p[3];
+        if (q % 2 == 0) {
+            /* next to a stored point */
+            const pt *s = &in[rng_next(&r) % n];
+            for (int a = 0; a < dim; a++) p[a] = s->x[a] + rand_range(&r, -300, 300);
+        } else {
+            random_point(&r, dim, kind, p);
+            for (int a = 0; a < dim; a++) p[a] += rand_range(&r, -5000, 5000);
+        }
+        const uint64_t truth = brute_list(in, n, dim, p);
+        const uint64_t ex = search_lower_bound2(&t, &exact, p, UINT64_MAX, &k);
+        const uint64_t lb = search_lower_bound2(&t, &vp, p, UINT64_MAX, &k);
+        if (ex != truth) bad_exact++;
+        if (lb > truth) bad_bound++;
+        if (lb < vp.far2[0] && lb != truth) bad_near++;
+        if (lb != truth) {
+            approx++;
+            const double ratio = sqrt((double)truth) / sqrt((double)lb);
+            if (ratio > worst) worst = ratio;
+            if (ratio > 1.0 + sqrt((double)dim) / far_factor + 1e-9) bad_ratio++;
+        }
+    }
+    CHECK(search_brute2(&t, in[0].x) == 0, "brute search misses a stored point");
+    CHECK(bad_exact == 0, "dim %d kind %d: exact search wrong in %d of 400", dim, kind, bad_exact);
+    CHECK(bad_bound == 0, "dim %d kind %d: bound above truth in %d of 400", dim, kind, bad_bound);
+    CHECK(bad_near == 0, "dim %d kind %d: near answer not exact in %d", dim, kind, bad_near);
+    CHECK(bad_ratio == 0, "dim %d kind %d: %d answers off by more than 1+sqrt(d)/F (worst %.3f)",
+          dim, kind, bad_ratio, worst);
+    fprintf(stderr, "dim %d kind %d n %zu: %d of 400 approximate, worst true/bound %.3f\n", dim,
+            kind, n, approx, worst);
+    free(in);
+    free(c.pts);
+    tree_free(&t);
+}
+
+static void test_empty_and_single(int dim)
+{
+    tree t;
+    CHECK(tree_init(&t, dim) == 0, "init");
+    search_config c;
+    search_config_init(&c, 2.0, 32, 2);
+    search_state k;
+    search_state_reset(&k);
+    const int64_t o[3] = {0, 0, 0}, far[3] = {1 << 27, -(1 << 27), 5};
+    CHECK(search_lower_bound2(&t, &c, o, UINT64_MAX, &k) == UINT64_MAX, "empty tree");
+    CHECK(tree_insert(&t, o) == 0, "insert origin");
+    CHECK(search_lower_bound2(&t, &c, o, UINT64_MAX, &k) == 0, "distance to itself");
+    CHECK(tree_insert(&t, far) == 0, "insert far point grows the root");
+    CHECK(t.root_level >= 20, "root level %d after a point at 2^27", t.root_level);
+    CHECK(search_brute2(&t, far) == 0, "far point stored");
+    const int64_t beyond[3] = {INT64_C(1) << 40, 0, 0};
+    CHECK(tree_insert(&t, beyond) == -2, "a point beyond the root limit is refused");
+    CHECK(t.count == 2, "refused point not counted");
+    tree_free(&t);
+}
+
+int main(void)
+{
+    for (int dim = 2; dim <= 3; dim++) {
+        test_empty_and_single(dim);
+        for (int kind = 0; kind < 4; kind++)
+            for (uint64_t seed = 1; seed <= 3; seed++)
+                test_set(dim, kind, kind == 0 ? 3000 : 800, seed * 7919 + (uint64_t)(dim * 10 + kind));
+    }
+    return check_finish();
+}

@@ -246,8 +246,8 @@ void pdla_engine_stats(const pdla_engine *e, pdla_stats *s)
     s->rg_diam = sqrt(gyration_rg2_units(&e->gyr, e->params.dim)) / e->params.resolution;
     s->tree_bytes = tree_bytes(&e->tree);
     s->inner_nodes = e->tree.inner.count - 1;
-    s->leaves = e->tree.leaves.count - 1;
-    s->chunks = e->tree.chunks.count - 1;
+    s->leaves = e->tree.leaves;
+    s->chunks = e->tree.chunks.count - (TREE_CHUNK_CAP + 1);
     s->root_level = e->tree.root_level;
     s->grow_seconds = e->grow_seconds;
 }

@@ -54,20 +54,18 @@ static inline __attribute__((always_inline)) uint64_t box_dist2(const int64_t *p
 
 /* Exact scan of one leaf. q = p - leaf corner. The common near case runs in
  * 32-bit arithmetic (|q| < 2^14 keeps dim * (q + 255)^2 < 2^31). */
-static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, uint32_t leaf_idx,
+static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, uint32_t head,
                                                                 const int64_t *q, uint64_t best2,
                                                                 int dim, search_state *k)
 {
-    const tree_leaf *leaf = tree_leaf_at(t, leaf_idx);
-    const uint32_t n = leaf->count;
-    uint32_t c = leaf->head;
-    k->particle_checks += n;
     int small = 1;
     for (int a = 0; a < dim; a++)
         if (q[a] < -(1 << 14) || q[a] > (1 << 14)) small = 0;
-    for (uint32_t i = 0; i < n; i += TREE_CHUNK_CAP) {
+    for (uint32_t c = head;;) {
         const uint8_t *chunk = tree_chunk_at(t, c);
-        const uint32_t m = n - i < TREE_CHUNK_CAP ? n - i : TREE_CHUNK_CAP;
+        const uint32_t link = tree_chunk_link(t, chunk);
+        const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+        k->particle_checks += m;
         if (small) {
             int32_t qa[3];
             for (int a = 0; a < dim; a++) qa[a] = (int32_t)q[a];
@@ -91,7 +89,8 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
                 if (d2 < best2) best2 = d2;
             }
         }
-        c = tree_chunk_next(t, chunk);
+        if (link <= TREE_CHUNK_CAP) break;
+        c = link;
     }
     return best2;
 }
@@ -330,11 +329,10 @@ int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int6
         int64_t lo[3];
         const uint32_t leaf_idx = tree_find_leaf(t, corner, lo);
         if (!leaf_idx) continue;
-        const tree_leaf *leaf = tree_leaf_at(t, leaf_idx);
-        uint32_t ci = leaf->head;
-        for (uint32_t i = 0; i < leaf->count; i += TREE_CHUNK_CAP) {
+        for (uint32_t ci = leaf_idx;;) {
             const uint8_t *chunk = tree_chunk_at(t, ci);
-            const uint32_t m = leaf->count - i < TREE_CHUNK_CAP ? leaf->count - i : TREE_CHUNK_CAP;
+            const uint32_t link = tree_chunk_link(t, chunk);
+            const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
             for (uint32_t j = 0; j < m; j++) {
                 uint64_t d2 = 0;
                 int64_t x[3];
@@ -349,7 +347,8 @@ int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int6
                     for (int a = 0; a < dim; a++) q[a] = x[a];
                 }
             }
-            ci = tree_chunk_next(t, chunk);
+            if (link <= TREE_CHUNK_CAP) break;
+            ci = link;
         }
     }
     if (found) *d2_out = best2;

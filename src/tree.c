@@ -51,10 +51,11 @@ int tree_init(tree *t, int dim)
     /* 10 particles of dim bytes, padded so the 32-bit next index is aligned. */
     t->chunk_bytes = (uint32_t)((TREE_CHUNK_CAP * dim + 3) / 4 * 4 + 4);
     if (pool_init(&t->inner, (uint32_t)(sizeof(uint32_t) * (size_t)t->nchild)) ||
-        pool_init(&t->leaves, sizeof(tree_leaf)) || pool_init(&t->chunks, t->chunk_bytes)) {
+        pool_init(&t->chunks, t->chunk_bytes)) {
         tree_free(t);
         return -1;
     }
+    t->chunks.count = TREE_CHUNK_CAP + 1; /* indices 1..10 would read as counts */
     t->root_level = 1;
     t->root = pool_new(&t->inner);
     if (!t->root) {
@@ -67,15 +68,14 @@ int tree_init(tree *t, int dim)
 void tree_free(tree *t)
 {
     pool_free(&t->inner);
-    pool_free(&t->leaves);
     pool_free(&t->chunks);
 }
 
 size_t tree_bytes(const tree *t)
 {
-    const tree_pool *pools[3] = {&t->inner, &t->leaves, &t->chunks};
+    const tree_pool *pools[2] = {&t->inner, &t->chunks};
     size_t bytes = 0;
-    for (int i = 0; i < 3; i++)
+    for (int i = 0; i < 2; i++)
         bytes += (size_t)pools[i]->nseg * POOL_SEG_SIZE * pools[i]->elem +
                  POOL_MAX_SEGS * sizeof(uint8_t *);
     return bytes;
@@ -118,35 +118,35 @@ static int inside_root(const tree *t, const int64_t *p)
     return 1;
 }
 
-/* Append a particle to a leaf, relative to the leaf's low corner. */
-static int leaf_append(tree *t, uint32_t leaf_idx, const uint8_t *rel)
+static void chunk_set_link(tree *t, uint32_t chunk, uint32_t link)
 {
-    tree_leaf *leaf = (tree_leaf *)pool_at(&t->leaves, leaf_idx);
-    const uint32_t slot = leaf->count % TREE_CHUNK_CAP;
-    uint8_t *chunk;
-    if (slot == 0) {
-        const uint32_t c = pool_new(&t->chunks);
-        if (!c) return -1;
-        leaf = (tree_leaf *)pool_at(&t->leaves, leaf_idx);
-        if (leaf->count == 0) {
-            leaf->head = c;
-        } else {
-            /* Walk to the last (full) chunk; lists are short and inserts rare. */
-            uint32_t last = leaf->head;
-            for (uint32_t k = TREE_CHUNK_CAP; k < leaf->count; k += TREE_CHUNK_CAP)
-                last = tree_chunk_next(t, tree_chunk_at(t, last));
-            uint8_t *last_chunk = (uint8_t *)pool_at(&t->chunks, last);
-            memcpy(last_chunk + t->chunk_bytes - 4, &c, sizeof c);
-        }
-        chunk = (uint8_t *)pool_at(&t->chunks, c);
-    } else {
-        uint32_t c = leaf->head;
-        for (uint32_t k = TREE_CHUNK_CAP; k <= leaf->count; k += TREE_CHUNK_CAP)
-            c = tree_chunk_next(t, tree_chunk_at(t, c));
-        chunk = (uint8_t *)pool_at(&t->chunks, c);
+    memcpy((uint8_t *)pool_at(&t->chunks, chunk) + t->chunk_bytes - 4, &link, sizeof link);
+}
+
+/* A new chunk holding one particle; 0 when out of memory. */
+static uint32_t chunk_new(tree *t, const uint8_t *rel)
+{
+    const uint32_t c = pool_new(&t->chunks);
+    if (!c) return 0;
+    memcpy(pool_at(&t->chunks, c), rel, (size_t)t->dim);
+    chunk_set_link(t, c, 1);
+    return c;
+}
+
+/* Append a particle (relative to the leaf's low corner) to a leaf's chunks. */
+static int leaf_append(tree *t, uint32_t head, const uint8_t *rel)
+{
+    uint32_t last = head, link;
+    while ((link = tree_chunk_link(t, tree_chunk_at(t, last))) > TREE_CHUNK_CAP) last = link;
+    if (link < TREE_CHUNK_CAP) {
+        memcpy((uint8_t *)pool_at(&t->chunks, last) + (size_t)link * (size_t)t->dim, rel,
+               (size_t)t->dim);
+        chunk_set_link(t, last, link + 1);
+        return 0;
     }
-    memcpy(chunk + (size_t)slot * (size_t)t->dim, rel, (size_t)t->dim);
-    leaf->count++;
+    const uint32_t c = chunk_new(t, rel);
+    if (!c) return -1;
+    chunk_set_link(t, last, c);
     return 0;
 }
 
@@ -169,17 +169,24 @@ int tree_insert(tree *t, const int64_t *p)
                 lo[a] += half;
             }
         uint32_t child = tree_children(t, node)[k];
-        if (!child) {
-            child = (level == 1) ? pool_new(&t->leaves) : pool_new(&t->inner);
-            if (!child) return -1;
-            children_mut(t, node)[k] = child;
-        }
         if (level == 1) {
             uint8_t rel[3];
             for (int a = 0; a < dim; a++) rel[a] = (uint8_t)(p[a] - lo[a]);
-            if (leaf_append(t, child, rel)) return -1;
+            if (child) {
+                if (leaf_append(t, child, rel)) return -1;
+            } else {
+                child = chunk_new(t, rel);
+                if (!child) return -1;
+                children_mut(t, node)[k] = child;
+                t->leaves++;
+            }
             t->count++;
             return 0;
+        }
+        if (!child) {
+            child = pool_new(&t->inner);
+            if (!child) return -1;
+            children_mut(t, node)[k] = child;
         }
         node = child;
     }
@@ -207,23 +214,22 @@ uint32_t tree_find_leaf(const tree *t, const int64_t *p, int64_t *leaf_lo)
     return node;
 }
 
-static int visit_leaf(const tree *t, uint32_t leaf_idx, const int64_t *lo, tree_visit_fn fn,
+static int visit_leaf(const tree *t, uint32_t head, const int64_t *lo, tree_visit_fn fn,
                       void *user)
 {
-    const tree_leaf *leaf = tree_leaf_at(t, leaf_idx);
-    uint32_t c = leaf->head;
     int64_t p[3] = {0, 0, 0};
-    for (uint32_t i = 0; i < leaf->count; i += TREE_CHUNK_CAP) {
+    for (uint32_t c = head;;) {
         const uint8_t *chunk = tree_chunk_at(t, c);
-        const uint32_t m = leaf->count - i < TREE_CHUNK_CAP ? leaf->count - i : TREE_CHUNK_CAP;
+        const uint32_t link = tree_chunk_link(t, chunk);
+        const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
         for (uint32_t j = 0; j < m; j++) {
             for (int a = 0; a < t->dim; a++) p[a] = lo[a] + chunk[j * (uint32_t)t->dim + (uint32_t)a];
             const int rc = fn(p, user);
             if (rc) return rc;
         }
-        c = tree_chunk_next(t, chunk);
+        if (link <= TREE_CHUNK_CAP) return 0;
+        c = link;
     }
-    return 0;
 }
 
 static int visit_node(const tree *t, uint32_t node, int level, const int64_t *lo,

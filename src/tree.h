@@ -11,13 +11,16 @@
  * particle lands outside it. Child k of a node holds the half-boxes with
  * bit a of k set where coordinate a is in the upper half.
  *
- * Memory. Three pools of fixed-size records linked by 32-bit indices
- * (0 is null): inner nodes (2^dim child indices), leaves (head chunk index
- * and particle count) and chunks (10 particles of dim bytes plus the next
- * chunk's index: 24 bytes in 2D, 36 in 3D). A leaf's chunks are all full
- * except the last one. Pools grow by whole segments that never move, so a
- * record's address is stable for the life of the tree (lock-free readers
- * need that) and growth never copies.
+ * Memory. Two pools of fixed-size records linked by 32-bit indices
+ * (0 is null): inner nodes (2^dim child indices) and chunks (10 particles of
+ * dim bytes plus one 32-bit link: 24 bytes in 2D, 36 in 3D). A leaf is just
+ * its list of chunks: a level-1 node's child index is the leaf's first chunk.
+ * Every chunk but the last is full; the last one's link, having no next chunk
+ * to name, holds its own particle count (1..10), and chunk indices 1..10 are
+ * never handed out so the two cannot be confused. No leaf record, no count
+ * field: a 2D particle costs 2.4 bytes in a full chunk. Pools grow by whole
+ * segments that never move, so a record's address is stable for the life of
+ * the tree (lock-free readers need that) and growth never copies.
  */
 #ifndef PDLA_SRC_TREE_H
 #define PDLA_SRC_TREE_H
@@ -49,11 +52,6 @@ static inline void *pool_at(const tree_pool *p, uint32_t i)
     return p->seg[i >> POOL_SEG_BITS] + (size_t)(i & (POOL_SEG_SIZE - 1)) * p->elem;
 }
 
-typedef struct tree_leaf {
-    uint32_t head;  /* first chunk */
-    uint32_t count; /* particles in this leaf */
-} tree_leaf;
-
 typedef struct tree {
     int dim;
     int nchild;          /* 2^dim */
@@ -61,9 +59,9 @@ typedef struct tree {
     uint32_t root;       /* index in inner */
     uint32_t chunk_bytes;/* 24 (2D) or 36 (3D) */
     uint64_t count;      /* particles stored */
+    uint64_t leaves;     /* leaves created */
     tree_pool inner;     /* uint32_t child[nchild] */
-    tree_pool leaves;    /* tree_leaf */
-    tree_pool chunks;    /* uint8_t rel[10][dim], pad, uint32_t next */
+    tree_pool chunks;    /* uint8_t rel[10][dim], pad, uint32_t link */
 } tree;
 
 int tree_init(tree *t, int dim);
@@ -80,19 +78,17 @@ static inline const uint32_t *tree_children(const tree *t, uint32_t node)
 {
     return (const uint32_t *)pool_at(&t->inner, node);
 }
-static inline const tree_leaf *tree_leaf_at(const tree *t, uint32_t leaf)
-{
-    return (const tree_leaf *)pool_at(&t->leaves, leaf);
-}
 static inline const uint8_t *tree_chunk_at(const tree *t, uint32_t chunk)
 {
     return (const uint8_t *)pool_at(&t->chunks, chunk);
 }
-static inline uint32_t tree_chunk_next(const tree *t, const uint8_t *chunk)
+/* A chunk's link: the next chunk's index, or (<= TREE_CHUNK_CAP) the
+ * particle count of this last chunk. */
+static inline uint32_t tree_chunk_link(const tree *t, const uint8_t *chunk)
 {
-    uint32_t next;
-    memcpy(&next, chunk + t->chunk_bytes - 4, sizeof next);
-    return next;
+    uint32_t link;
+    memcpy(&link, chunk + t->chunk_bytes - 4, sizeof link);
+    return link;
 }
 
 /* Half side of the root box: the root is [-h, h)^dim. */
@@ -156,7 +152,7 @@ uint64_t search_lower_bound2(const tree *t, const search_config *c, const int64_
 uint64_t search_brute2(const tree *t, const int64_t *p);
 #endif
 
-/* The leaf whose box contains p (0 if none), and its low corner. */
+/* The leaf (its first chunk) whose box contains p (0 if none), and its low corner. */
 uint32_t tree_find_leaf(const tree *t, const int64_t *p, int64_t *leaf_lo);
 
 /* Exact nearest particle centre within sqrt(radius2) of p, radius2 < 256^2:

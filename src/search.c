@@ -52,8 +52,86 @@ static inline __attribute__((always_inline)) uint64_t box_dist2(const int64_t *p
     return d2;
 }
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+
+/* Ten slots of one coordinate as 16-bit lanes: lo = slots 0..7, hi = 8..9.
+ * The chunk record is laid out so the 16-byte load at `at` stays inside it. */
+static inline __attribute__((always_inline)) void load_coord(const uint8_t *chunk, int at,
+                                                             int shift, __m128i *lo, __m128i *hi)
+{
+    __m128i v = _mm_loadu_si128((const __m128i *)(const void *)(chunk + at));
+    if (shift == 2) v = _mm_srli_si128(v, 2);
+    if (shift == 4) v = _mm_srli_si128(v, 4);
+    const __m128i zero = _mm_setzero_si128();
+    *lo = _mm_unpacklo_epi8(v, zero);
+    *hi = _mm_unpackhi_epi8(v, zero);
+}
+
+static inline __attribute__((always_inline)) __m128i min_epi32(__m128i a, __m128i b)
+{
+    const __m128i a_gt_b = _mm_cmpgt_epi32(a, b);
+    return _mm_or_si128(_mm_and_si128(a_gt_b, b), _mm_andnot_si128(a_gt_b, a));
+}
+#endif
+
+/* Smallest squared distance from q (leaf-relative, |q| <= 2^14) to the
+ * first m particles of a chunk. SSE2 (baseline on x86-64): coordinates as
+ * 16-bit differences, squares summed by pmaddwd into 32 bits. */
+static inline __attribute__((always_inline)) uint32_t chunk_min_d2(const uint8_t *chunk,
+                                                                   const int64_t *q, uint32_t m,
+                                                                   const int dim)
+{
+#if defined(__SSE2__)
+    __m128i xl, xh, yl, yh, zl = _mm_setzero_si128(), zh = _mm_setzero_si128();
+    /* 2D record: x[10] y[10] link; 3D: x[10] y[10] z[10] pad[2] link. */
+    load_coord(chunk, 0, 0, &xl, &xh);
+    load_coord(chunk, dim == 2 ? 8 : 10, dim == 2 ? 2 : 0, &yl, &yh);
+    if (dim == 3) load_coord(chunk, 16, 4, &zl, &zh);
+    const __m128i qx = _mm_set1_epi16((int16_t)q[0]), qy = _mm_set1_epi16((int16_t)q[1]);
+    const __m128i dxl = _mm_sub_epi16(qx, xl), dxh = _mm_sub_epi16(qx, xh);
+    const __m128i dyl = _mm_sub_epi16(qy, yl), dyh = _mm_sub_epi16(qy, yh);
+    const __m128i p0 = _mm_unpacklo_epi16(dxl, dyl), p1 = _mm_unpackhi_epi16(dxl, dyl);
+    const __m128i p2 = _mm_unpacklo_epi16(dxh, dyh);
+    __m128i d0 = _mm_madd_epi16(p0, p0), d1 = _mm_madd_epi16(p1, p1), d2 = _mm_madd_epi16(p2, p2);
+    if (dim == 3) {
+        const __m128i qz = _mm_set1_epi16((int16_t)q[2]), zero = _mm_setzero_si128();
+        const __m128i dzl = _mm_sub_epi16(qz, zl), dzh = _mm_sub_epi16(qz, zh);
+        const __m128i z0 = _mm_unpacklo_epi16(dzl, zero), z1 = _mm_unpackhi_epi16(dzl, zero);
+        const __m128i z2 = _mm_unpacklo_epi16(dzh, zero);
+        d0 = _mm_add_epi32(d0, _mm_madd_epi16(z0, z0));
+        d1 = _mm_add_epi32(d1, _mm_madd_epi16(z1, z1));
+        d2 = _mm_add_epi32(d2, _mm_madd_epi16(z2, z2));
+    }
+    /* Mask slots >= m to INT32_MAX. */
+    const __m128i mm = _mm_set1_epi32((int32_t)m), big = _mm_set1_epi32(INT32_MAX);
+    const __m128i i0 = _mm_setr_epi32(0, 1, 2, 3), i1 = _mm_setr_epi32(4, 5, 6, 7),
+                  i2 = _mm_setr_epi32(8, 9, 10, 11);
+    __m128i k0 = _mm_cmpgt_epi32(mm, i0), k1 = _mm_cmpgt_epi32(mm, i1), k2 = _mm_cmpgt_epi32(mm, i2);
+    d0 = _mm_or_si128(_mm_and_si128(k0, d0), _mm_andnot_si128(k0, big));
+    d1 = _mm_or_si128(_mm_and_si128(k1, d1), _mm_andnot_si128(k1, big));
+    d2 = _mm_or_si128(_mm_and_si128(k2, d2), _mm_andnot_si128(k2, big));
+    __m128i mn = min_epi32(min_epi32(d0, d1), d2);
+    mn = min_epi32(mn, _mm_shuffle_epi32(mn, _MM_SHUFFLE(1, 0, 3, 2)));
+    mn = min_epi32(mn, _mm_shuffle_epi32(mn, _MM_SHUFFLE(2, 3, 0, 1)));
+    return (uint32_t)_mm_cvtsi128_si32(mn);
+#else
+    uint32_t local = UINT32_MAX;
+    for (uint32_t j = 0; j < m; j++) {
+        uint32_t d2 = 0;
+        for (int a = 0; a < dim; a++) {
+            const int32_t d = (int32_t)q[a] - (int32_t)chunk[a * TREE_CHUNK_CAP + (int)j];
+            d2 += (uint32_t)(d * d);
+        }
+        local = d2 < local ? d2 : local;
+    }
+    return local;
+#endif
+}
+
 /* Exact scan of one leaf. q = p - leaf corner. The common near case runs in
- * 32-bit arithmetic (|q| < 2^14 keeps dim * (q + 255)^2 < 2^31). */
+ * 16/32-bit arithmetic: |q| <= 2^14 keeps q - x in int16 and
+ * dim * (2^14 + 255)^2 < 2^31. */
 static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, uint32_t head,
                                                                 const int64_t *q, uint64_t best2,
                                                                 int dim, search_state *k)
@@ -67,23 +145,13 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
         const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
         k->particle_checks += m;
         if (small) {
-            int32_t qa[3];
-            for (int a = 0; a < dim; a++) qa[a] = (int32_t)q[a];
-            uint32_t local = UINT32_MAX;
-            for (uint32_t j = 0; j < m; j++) {
-                uint32_t d2 = 0;
-                for (int a = 0; a < dim; a++) {
-                    const int32_t d = qa[a] - (int32_t)chunk[j * (uint32_t)dim + (uint32_t)a];
-                    d2 += (uint32_t)(d * d);
-                }
-                local = d2 < local ? d2 : local;
-            }
+            const uint32_t local = chunk_min_d2(chunk, q, m, dim);
             if (local < best2) best2 = local;
         } else {
             for (uint32_t j = 0; j < m; j++) {
                 uint64_t d2 = 0;
                 for (int a = 0; a < dim; a++) {
-                    const int64_t d = q[a] - (int64_t)chunk[j * (uint32_t)dim + (uint32_t)a];
+                    const int64_t d = q[a] - (int64_t)chunk[a * TREE_CHUNK_CAP + (int)j];
                     d2 += (uint64_t)d * (uint64_t)d;
                 }
                 if (d2 < best2) best2 = d2;
@@ -337,7 +405,7 @@ int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int6
                 uint64_t d2 = 0;
                 int64_t x[3];
                 for (int a = 0; a < dim; a++) {
-                    x[a] = lo[a] + chunk[j * (uint32_t)dim + (uint32_t)a];
+                    x[a] = lo[a] + chunk[a * TREE_CHUNK_CAP + (int)j];
                     const int64_t d = p[a] - x[a];
                     d2 += (uint64_t)(d * d);
                 }

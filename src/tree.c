@@ -128,7 +128,8 @@ static uint32_t chunk_new(tree *t, const uint8_t *rel)
 {
     const uint32_t c = pool_new(&t->chunks);
     if (!c) return 0;
-    memcpy(pool_at(&t->chunks, c), rel, (size_t)t->dim);
+    uint8_t *chunk = (uint8_t *)pool_at(&t->chunks, c);
+    for (int a = 0; a < t->dim; a++) chunk[a * TREE_CHUNK_CAP] = rel[a];
     chunk_set_link(t, c, 1);
     return c;
 }
@@ -139,8 +140,8 @@ static int leaf_append(tree *t, uint32_t head, const uint8_t *rel)
     uint32_t last = head, link;
     while ((link = tree_chunk_link(t, tree_chunk_at(t, last))) > TREE_CHUNK_CAP) last = link;
     if (link < TREE_CHUNK_CAP) {
-        memcpy((uint8_t *)pool_at(&t->chunks, last) + (size_t)link * (size_t)t->dim, rel,
-               (size_t)t->dim);
+        uint8_t *chunk = (uint8_t *)pool_at(&t->chunks, last);
+        for (int a = 0; a < t->dim; a++) chunk[a * TREE_CHUNK_CAP + (int)link] = rel[a];
         chunk_set_link(t, last, link + 1);
         return 0;
     }
@@ -223,7 +224,7 @@ static int visit_leaf(const tree *t, uint32_t head, const int64_t *lo, tree_visi
         const uint32_t link = tree_chunk_link(t, chunk);
         const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
         for (uint32_t j = 0; j < m; j++) {
-            for (int a = 0; a < t->dim; a++) p[a] = lo[a] + chunk[j * (uint32_t)t->dim + (uint32_t)a];
+            for (int a = 0; a < t->dim; a++) p[a] = lo[a] + chunk[a * TREE_CHUNK_CAP + (int)j];
             const int rc = fn(p, user);
             if (rc) return rc;
         }

@@ -13,7 +13,8 @@
  *
  * Memory. Two pools of fixed-size records linked by 32-bit indices
  * (0 is null): inner nodes (2^dim child indices) and chunks (10 particles of
- * dim bytes plus one 32-bit link: 24 bytes in 2D, 36 in 3D). A leaf is just
+ * dim bytes, stored as x[10] y[10] (z[10]) so a leaf scan vectorises, plus
+ * one 32-bit link: 24 bytes in 2D, 36 in 3D). A leaf is just
  * its list of chunks: a level-1 node's child index is the leaf's first chunk.
  * Every chunk but the last is full; the last one's link, having no next chunk
  * to name, holds its own particle count (1..10), and chunk indices 1..10 are
@@ -61,7 +62,7 @@ typedef struct tree {
     uint64_t count;      /* particles stored */
     uint64_t leaves;     /* leaves created */
     tree_pool inner;     /* uint32_t child[nchild] */
-    tree_pool chunks;    /* uint8_t rel[10][dim], pad, uint32_t link */
+    tree_pool chunks;    /* uint8_t rel[dim][10], pad, uint32_t link */
 } tree;
 
 int tree_init(tree *t, int dim);

@@ -68,11 +68,13 @@ static inline __attribute__((always_inline)) void load_coord(const uint8_t *chun
     *hi = _mm_unpackhi_epi8(v, zero);
 }
 
+/* Signed 32-bit minimum in SSE2 (pminsd is SSE4.1). */
 static inline __attribute__((always_inline)) __m128i min_epi32(__m128i a, __m128i b)
 {
     const __m128i a_gt_b = _mm_cmpgt_epi32(a, b);
     return _mm_or_si128(_mm_and_si128(a_gt_b, b), _mm_andnot_si128(a_gt_b, a));
 }
+
 #endif
 
 /* Smallest squared distance from q (leaf-relative, |q| <= 2^14) to the
@@ -103,11 +105,11 @@ static inline __attribute__((always_inline)) uint32_t chunk_min_d2(const uint8_t
         d1 = _mm_add_epi32(d1, _mm_madd_epi16(z1, z1));
         d2 = _mm_add_epi32(d2, _mm_madd_epi16(z2, z2));
     }
-    /* Mask slots >= m to INT32_MAX. */
+    /* Slots past the fill count become INT32_MAX, then a vector minimum. */
     const __m128i mm = _mm_set1_epi32((int32_t)m), big = _mm_set1_epi32(INT32_MAX);
-    const __m128i i0 = _mm_setr_epi32(0, 1, 2, 3), i1 = _mm_setr_epi32(4, 5, 6, 7),
-                  i2 = _mm_setr_epi32(8, 9, 10, 11);
-    __m128i k0 = _mm_cmpgt_epi32(mm, i0), k1 = _mm_cmpgt_epi32(mm, i1), k2 = _mm_cmpgt_epi32(mm, i2);
+    const __m128i k0 = _mm_cmpgt_epi32(mm, _mm_setr_epi32(0, 1, 2, 3));
+    const __m128i k1 = _mm_cmpgt_epi32(mm, _mm_setr_epi32(4, 5, 6, 7));
+    const __m128i k2 = _mm_cmpgt_epi32(mm, _mm_setr_epi32(8, 9, 10, 11));
     d0 = _mm_or_si128(_mm_and_si128(k0, d0), _mm_andnot_si128(k0, big));
     d1 = _mm_or_si128(_mm_and_si128(k1, d1), _mm_andnot_si128(k1, big));
     d2 = _mm_or_si128(_mm_and_si128(k2, d2), _mm_andnot_si128(k2, big));
@@ -168,9 +170,10 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
 static const uint8_t push_order2[4] = {3, 1, 2, 0};
 static const uint8_t push_order3[8] = {7, 6, 5, 3, 4, 2, 1, 0};
 
+/* Node corners fit in 32 bits: the root box is at most [-2^30, 2^30). */
 typedef struct stack_entry {
-    int64_t lo[3];
     uint64_t d2;
+    int32_t lo[3];
     uint32_t node;
     int32_t level;
 } stack_entry;
@@ -200,7 +203,7 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
     stack_entry stack[SEARCH_STACK];
     stack[0].node = node;
     stack[0].level = level;
-    for (int a = 0; a < dim; a++) stack[0].lo[a] = lo[a];
+    for (int a = 0; a < dim; a++) stack[0].lo[a] = (int32_t)lo[a];
     stack[0].d2 = d2;
     int top = 1;
     while (top > 0) {
@@ -218,6 +221,7 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
             continue;
         }
         const int64_t half = (int64_t)TREE_LEAF_SIDE << (e.level - 1);
+        const uint64_t child_far2 = e.level > 1 ? c->far2[e.level - 1] : UINT64_MAX;
         uint32_t own = 0;
         uint64_t half_d2[3][2];
         for (int a = 0; a < dim; a++) {
@@ -234,8 +238,12 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
             uint64_t cd2 = 0;
             for (int a = 0; a < dim; a++) cd2 += half_d2[a][(kidx >> a) & 1];
             if (cd2 >= best2) continue;
+            if (cd2 > child_far2) {
+                best2 = cd2; /* a far child stands for itself without a push */
+                continue;
+            }
             stack_entry *s = &stack[top++];
-            for (int a = 0; a < dim; a++) s->lo[a] = e.lo[a] + (int64_t)((kidx >> a) & 1) * half;
+            for (int a = 0; a < dim; a++) s->lo[a] = (int32_t)(e.lo[a] + ((kidx >> a) & 1) * half);
             s->d2 = cd2;
             s->node = child;
             s->level = e.level - 1;
@@ -374,7 +382,7 @@ int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int6
                          uint64_t *d2_out)
 {
     const int dim = t->dim;
-    int64_t r = 0;
+    int64_t r = (int64_t)sqrt((double)radius2);
     while ((uint64_t)(r * r) < radius2) r++;
     /* The ball spans at most two leaves per axis (r < 256). */
     int64_t first[3], span[3];

@@ -1,1 +1,141 @@
-/* placeholder until written */
+/*
+ * sample.c - the walker's random geometry (see sample.h for the laws).
+ *
+ * sample_dir2/3 run once per walker jump, so they use rejection from the
+ * square and no libm call but one sqrt in 3D. The return samplers run only
+ * when a walker leaves the birth circle/sphere; there the concern is
+ * precision, not speed: r/R may be 1 + 1e-12 (a walker just outside) or
+ * 1e300, so every formula below is arranged to avoid cancellation and
+ * overflow, and results are clamped to their exact ranges.
+ */
+#include "sample.h"
+
+#include <math.h>
+
+/* Uniform in [-1, 1) on the grid of 2^-52: k * 2^-52 is exact for k < 2^53
+ * and subtracting 1 is exact for every such value, so no bias creeps in. */
+static inline double uniform_pm1(pdla_rng *rng)
+{
+    return (double)(rng_next(rng) >> 11) * 0x1.0p-52 - 1.0;
+}
+
+void sample_dir2(pdla_rng *rng, double v[2])
+{
+    for (;;) {
+        const double x = uniform_pm1(rng);
+        const double y = uniform_pm1(rng);
+        const double s = x * x + y * y;
+        /* s < 1e-300 is only s == 0 on this grid; it would give 0/0. */
+        if (s >= 1.0 || s < 1e-300) continue;
+        /* (x, y) has a uniform angle phi; the double angle 2 phi is uniform
+         * too, and (cos 2phi, sin 2phi) needs no square root. */
+        const double inv_s = 1.0 / s;
+        v[0] = (x * x - y * y) * inv_s;
+        v[1] = 2.0 * x * y * inv_s;
+        return;
+    }
+}
+
+void sample_dir3(pdla_rng *rng, double v[3])
+{
+    /* Marsaglia (1972): with (x, y) uniform in the unit disk and s = x^2 + y^2,
+     * 1 - 2s is uniform on [-1, 1] (Archimedes) and the azimuth is that of
+     * (x, y); the factor 2 sqrt(1 - s) puts the point on the unit sphere. */
+    for (;;) {
+        const double x = uniform_pm1(rng);
+        const double y = uniform_pm1(rng);
+        const double s = x * x + y * y;
+        if (s >= 1.0) continue;
+        const double scale = 2.0 * sqrt(1.0 - s);
+        v[0] = x * scale;
+        v[1] = y * scale;
+        v[2] = 1.0 - 2.0 * s;
+        return;
+    }
+}
+
+double sample_return_angle2(pdla_rng *rng, double r, double R)
+{
+    /* k = (r - R) / (r + R). r - R is exact when r and R are close (Sterbenz),
+     * which is where k matters most; halving both terms keeps r + R finite
+     * for r near DBL_MAX. k rounds to 1 for r/R > ~1e16, where the law is
+     * uniform to double precision anyway. A walker at or inside R (which the
+     * caller should not send) returns where it is. */
+    const double gap = r - R;
+    if (!(gap > 0.0)) return 0.0;
+    double k = (0.5 * gap) / (0.5 * r + 0.5 * R);
+    if (k > 1.0) k = 1.0;
+    /* u is open, so pi (u - 1/2) stays inside (-pi/2, pi/2) and tan is finite
+     * (at most ~1.6e16); the atan of the product is then within (-pi/2, pi/2). */
+    const double u = rng_uniform_open(rng);
+    double theta = 2.0 * atan(k * tan(M_PI * (u - 0.5)));
+    if (theta > M_PI) theta = M_PI;
+    if (theta <= -M_PI) theta = M_PI;
+    return theta;
+}
+
+int sample_return3(pdla_rng *rng, double r, double R, double *cos_theta)
+{
+    /* Return with probability R/r: the test u < R/r, with u in [0, 1), is
+     * always true for r <= R and never true when R/r underflows. */
+    if (!(rng_uniform(rng) < R / r)) return 0;
+
+    const double a = r - R; /* near distance; exact when r ~ R */
+    if (!(a > 0.0)) {
+        *cos_theta = 1.0;
+        return 1;
+    }
+    /* With w = 1/rho = 1/(r+R) + u (1/(r-R) - 1/(r+R)), the law cos(theta) =
+     * (r^2 + R^2 - rho^2) / (2 r R) rearranges, with no subtraction of nearly
+     * equal terms, into
+     *     1 - cos(theta) = 2 (1 - u) (1 + u R/r) t^2,   t = a / (a + 2 u R),
+     * where a = r - R. Each factor lies in [0, 2] and is computed to a few
+     * ulps for any r/R: as r -> R+, t -> 0 and cos -> 1; as r/R -> inf,
+     * t -> 1 and cos -> 2u - 1, uniform. u = 0 is rho = r + R, the far pole.
+     * Writing t as 1 / (1 + 2u (R/a)) keeps it finite for r near DBL_MAX;
+     * R/a is at most ~2^53 since a is at least one ulp of R. */
+    const double u = rng_uniform_open(rng);
+    const double t = 1.0 / (1.0 + 2.0 * u * (R / a));
+    const double one_minus_cos = 2.0 * (1.0 - u) * (1.0 + u * (R / r)) * t * t;
+    double c = 1.0 - one_minus_cos;
+    if (c < -1.0) c = -1.0;
+    if (c > 1.0) c = 1.0;
+    *cos_theta = c;
+    return 1;
+}
+
+void sample_cone_point3(pdla_rng *rng, const double u[3], double R, double cos_theta,
+                        double out[3])
+{
+    /* Orthonormal e1, e2 perpendicular to the unit vector u, accurate for
+     * every direction, including u = (0, 0, -1) where Frisvad's original
+     * divides by zero: Duff et al., "Building an orthonormal basis,
+     * revisited", JCGT 6(1), 2017. */
+    const double sign = copysign(1.0, u[2]);
+    const double a = -1.0 / (sign + u[2]);
+    const double b = u[0] * u[1] * a;
+    const double e1[3] = {1.0 + sign * u[0] * u[0] * a, sign * b, -sign * u[0]};
+    const double e2[3] = {b, sign + u[1] * u[1] * a, -u[1]};
+
+    double c = cos_theta;
+    if (c > 1.0) c = 1.0;
+    if (c < -1.0) c = -1.0;
+    /* (1 - c)(1 + c) rather than 1 - c^2: keeps the relative precision of a
+     * small sine when the caller's c is close to +-1. */
+    const double sin_theta = sqrt((1.0 - c) * (1.0 + c));
+    double az[2];
+    sample_dir2(rng, az);
+    const double s1 = sin_theta * az[0];
+    const double s2 = sin_theta * az[1];
+    for (int i = 0; i < 3; i++) out[i] = R * (c * u[i] + s1 * e1[i] + s2 * e2[i]);
+}
+
+void sample_rotate_to2(double x, double y, double theta, double R, double out[2])
+{
+    /* hypot avoids overflow and underflow of x^2 + y^2 for any finite point. */
+    const double scale = R / hypot(x, y);
+    const double c = cos(theta);
+    const double s = sin(theta);
+    out[0] = scale * (c * x - s * y);
+    out[1] = scale * (s * x + c * y);
+}

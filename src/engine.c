@@ -166,12 +166,12 @@ static int add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errl
         if (p[a] <= -PDLA_MAX_CLUSTER_RADIUS_UNITS || p[a] >= PDLA_MAX_CLUSTER_RADIUS_UNITS)
             return fail(PDLA_ERANGE, err, errlen,
                         "cluster reached the coordinate limit |x| < 2^28 units at %llu particles",
-                        (unsigned long long)e->tree.count);
+                        (unsigned long long)tree_count(&e->tree));
         r2 += (uint64_t)(p[a] * p[a]);
     }
     const int rc = tree_insert(&e->tree, p);
     if (rc) return fail(PDLA_ENOMEM, err, errlen, "out of memory (or 2^32 tree records) at %llu particles",
-                        (unsigned long long)e->tree.count);
+                        (unsigned long long)tree_count(&e->tree));
     for (int a = 0; a < dim; a++) e->gyr.s1[a] += p[a];
     e->gyr.s2 += r2;
     e->gyr.n++;
@@ -201,12 +201,12 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
     if (n_until > e->params.target) n_until = e->params.target;
     const double t0 = now_seconds();
     int rc = PDLA_OK;
-    if (e->tree.count == 0 && n_until > 0) {
+    if (tree_count(&e->tree) == 0 && n_until > 0) {
         const int64_t origin[3] = {0, 0, 0};
         rc = add_particle(e, origin, err, errlen);
     }
     if (every == 0) every = 1000;
-    while (rc == PDLA_OK && e->tree.count < n_until) {
+    while (rc == PDLA_OK && tree_count(&e->tree) < n_until) {
         int64_t p[3];
         rc = walker_run(e, p);
         if (rc) {
@@ -214,12 +214,12 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
             break;
         }
         rc = add_particle(e, p, err, errlen);
-        if (rc == PDLA_OK && progress && e->tree.count % every == 0) {
+        if (rc == PDLA_OK && progress && tree_count(&e->tree) % every == 0) {
             e->grow_seconds += now_seconds() - t0;
             const int stop = progress(e, user);
             e->grow_seconds -= now_seconds() - t0;
             if (stop) rc = fail(PDLA_ESTOPPED, err, errlen, "stopped at %llu particles",
-                                (unsigned long long)e->tree.count);
+                                (unsigned long long)tree_count(&e->tree));
         }
     }
     e->grow_seconds += now_seconds() - t0;
@@ -227,13 +227,13 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
 }
 
 const pdla_params *pdla_engine_params(const pdla_engine *e) { return &e->params; }
-uint64_t pdla_engine_count(const pdla_engine *e) { return e->tree.count; }
+uint64_t pdla_engine_count(const pdla_engine *e) { return tree_count(&e->tree); }
 
 void pdla_engine_stats(const pdla_engine *e, pdla_stats *s)
 {
     const walker_ctx *w = &e->walker;
     memset(s, 0, sizeof *s);
-    s->particles = e->tree.count;
+    s->particles = tree_count(&e->tree);
     s->walkers = w->walkers;
     s->jumps = w->jumps;
     s->returns = w->returns;
@@ -248,7 +248,7 @@ void pdla_engine_stats(const pdla_engine *e, pdla_stats *s)
     s->inner_nodes = e->tree.inner.count - 1;
     s->leaves = e->tree.leaves;
     s->chunks = e->tree.chunks.count - (TREE_CHUNK_CAP + 1);
-    s->root_level = e->tree.root_level;
+    s->root_level = tree_root_get(&e->tree).level;
     s->grow_seconds = e->grow_seconds;
 }
 
@@ -297,7 +297,7 @@ void pdla_engine_rg_series(const pdla_engine *e, const uint64_t **n, const doubl
 pdla_fit pdla_engine_fit(const pdla_engine *e)
 {
     uint64_t lo, hi;
-    fit_default_range(e->tree.count, &lo, &hi);
+    fit_default_range(tree_count(&e->tree), &lo, &hi);
     return fit_powerlaw(e->rg_n, e->rg_diam, e->rg_count, lo, hi);
 }
 

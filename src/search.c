@@ -230,10 +230,10 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
             half_d2[a][0] = axis_dist2(p[a], e.lo[a], half);
             half_d2[a][1] = axis_dist2(p[a], mid, half);
         }
-        const uint32_t *ch = tree_children(t, e.node);
+        const _Atomic uint32_t *ch = tree_children(t, e.node);
         for (int i = 0; i < nchild; i++) {
             const uint32_t kidx = own ^ order[i];
-            const uint32_t child = ch[kidx];
+            const uint32_t child = tree_child(ch, kidx);
             if (!child) continue;
             uint64_t cd2 = 0;
             for (int a = 0; a < dim; a++) cd2 += half_d2[a][(kidx >> a) & 1];
@@ -278,16 +278,17 @@ static inline __attribute__((always_inline)) uint64_t
 lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_t cap2,
                 search_state *k, const int dim)
 {
-    if (t->count == 0) return UINT64_MAX;
+    if (tree_count(t) == 0) return UINT64_MAX;
+    const tree_root root = tree_root_get(t);
     const int nchild = 1 << dim;
-    const int64_t root_half = tree_root_half(t);
+    const int64_t root_half = tree_root_half(root.level);
     uint64_t visits = 0;
     int64_t lo[3];
     for (int a = 0; a < dim; a++) lo[a] = -root_half;
     const uint64_t root_d2 = box_dist2(p, lo, 2 * root_half, dim);
     if (root_d2 > 0) {
         /* Outside the root box: plain top-down search. */
-        const uint64_t best2 = subtree_bound(t, c, p, t->root, t->root_level, lo, root_d2, cap2,
+        const uint64_t best2 = subtree_bound(t, c, p, root.node, root.level, lo, root_d2, cap2,
                                              &visits, k, dim);
         k->node_visits += visits;
         return best2;
@@ -298,9 +299,9 @@ lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_
     uint32_t *path_node = k->node, *path_own = k->own;
     int64_t(*path_lo)[3] = k->lo;
     uint64_t best2 = cap2;
-    int level = t->root_level;
-    if (k->root == t->root && k->root_level == t->root_level) {
-        for (level = k->depth; level < t->root_level; level++) {
+    int level = root.level;
+    if (k->root == root.node && k->root_level == root.level) {
+        for (level = k->depth; level < root.level; level++) {
             const int64_t side = (int64_t)TREE_LEAF_SIDE << level;
             int inside = 1;
             for (int a = 0; a < dim; a++)
@@ -308,10 +309,10 @@ lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_
             if (inside) break;
         }
     }
-    k->root = t->root;
-    k->root_level = t->root_level;
-    uint32_t node = level == t->root_level ? t->root : path_node[level];
-    if (level != t->root_level)
+    k->root = root.node;
+    k->root_level = root.level;
+    uint32_t node = level == root.level ? root.node : path_node[level];
+    if (level != root.level)
         for (int a = 0; a < dim; a++) lo[a] = path_lo[level][a];
     for (;;) {
         const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
@@ -321,7 +322,7 @@ lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_
         path_node[level] = node;
         path_own[level] = own;
         for (int a = 0; a < dim; a++) path_lo[level][a] = lo[a];
-        const uint32_t child = tree_children(t, node)[own];
+        const uint32_t child = tree_child(tree_children(t, node), own);
         visits++;
         if (!child) break;
         for (int a = 0; a < dim; a++) lo[a] += (int64_t)((own >> a) & 1) * half;
@@ -352,9 +353,11 @@ lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_
             const int64_t other_lo = path_lo[level][a] + (((path_own[level] >> a) & 1) ? 0 : half);
             other_d2[a] = axis_dist2(p[a], other_lo, half);
         }
-        const uint32_t *ch = tree_children(t, path_node[level]);
+        const _Atomic uint32_t *ch = tree_children(t, path_node[level]);
         for (int kidx = 0; kidx < nchild; kidx++) {
-            if ((uint32_t)kidx == path_own[level] || !ch[kidx]) continue;
+            if ((uint32_t)kidx == path_own[level]) continue;
+            const uint32_t child = tree_child(ch, (uint32_t)kidx);
+            if (!child) continue;
             const uint32_t differ = (uint32_t)kidx ^ path_own[level];
             uint64_t d2 = 0;
             for (int a = 0; a < dim; a++)
@@ -363,9 +366,9 @@ lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_
             int64_t clo[3];
             for (int a = 0; a < dim; a++)
                 clo[a] = path_lo[level][a] + (int64_t)((kidx >> a) & 1) * half;
-            best2 = subtree_bound(t, c, p, ch[kidx], level - 1, clo, d2, best2, &visits, k, dim);
+            best2 = subtree_bound(t, c, p, child, level - 1, clo, d2, best2, &visits, k, dim);
         }
-        if (level == t->root_level) break;
+        if (level == root.level) break;
     }
     k->node_visits += visits;
     return best2;

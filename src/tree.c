@@ -56,12 +56,13 @@ int tree_init(tree *t, int dim)
         return -1;
     }
     t->chunks.count = TREE_CHUNK_CAP + 1; /* indices 1..10 would read as counts */
-    t->root_level = 1;
-    t->root = pool_new(&t->inner);
-    if (!t->root) {
+    const uint32_t root = pool_new(&t->inner);
+    if (!root) {
         tree_free(t);
         return -1;
     }
+    atomic_init(&t->root_word, (uint64_t)1 << 32 | root);
+    atomic_init(&t->count, 0);
     return 0;
 }
 
@@ -81,38 +82,46 @@ size_t tree_bytes(const tree *t)
     return bytes;
 }
 
-static uint32_t *children_mut(tree *t, uint32_t node)
+static _Atomic uint32_t *children_mut(tree *t, uint32_t node)
 {
-    return (uint32_t *)pool_at(&t->inner, node);
+    return (_Atomic uint32_t *)pool_at(&t->inner, node);
+}
+
+/* Publish a child index: the record it names is complete before this. */
+static void set_child(tree *t, uint32_t node, uint32_t k, uint32_t child)
+{
+    atomic_store_explicit(&children_mut(t, node)[k], child, memory_order_release);
 }
 
 /* Double the root's side: each old quadrant/octant q moves into a new
  * intermediate node at q, where it is the child nearest the origin
- * (index q with every bit flipped). */
+ * (index q with every bit flipped). Readers see either the old root or the
+ * complete new one. */
 static int tree_grow_root(tree *t)
 {
-    if (t->root_level >= TREE_MAX_LEVEL) return -2;
+    const tree_root old = tree_root_get(t);
+    if (old.level >= TREE_MAX_LEVEL) return -2;
     const uint32_t new_root = pool_new(&t->inner);
     if (!new_root) return -1;
     const uint32_t mask = (uint32_t)t->nchild - 1;
     for (uint32_t q = 0; q <= mask; q++) {
-        const uint32_t old_child = children_mut(t, t->root)[q];
+        const uint32_t old_child = tree_child(tree_children(t, old.node), q);
         if (!old_child) continue;
         const uint32_t mid = pool_new(&t->inner);
         if (!mid) return -1;
-        children_mut(t, mid)[q ^ mask] = old_child;
-        children_mut(t, new_root)[q] = mid;
+        set_child(t, mid, q ^ mask, old_child);
+        set_child(t, new_root, q, mid);
     }
     /* The old root record stays allocated but unreferenced: one record per
      * growth, at most TREE_MAX_LEVEL in a run. */
-    t->root = new_root;
-    t->root_level++;
+    atomic_store_explicit(&t->root_word, (uint64_t)(old.level + 1) << 32 | new_root,
+                          memory_order_release);
     return 0;
 }
 
-static int inside_root(const tree *t, const int64_t *p)
+static int inside_root(const tree *t, int root_level, const int64_t *p)
 {
-    const int64_t h = tree_root_half(t);
+    const int64_t h = tree_root_half(root_level);
     for (int a = 0; a < t->dim; a++)
         if (p[a] < -h || p[a] >= h) return 0;
     return 1;
@@ -120,10 +129,13 @@ static int inside_root(const tree *t, const int64_t *p)
 
 static void chunk_set_link(tree *t, uint32_t chunk, uint32_t link)
 {
-    memcpy((uint8_t *)pool_at(&t->chunks, chunk) + t->chunk_bytes - 4, &link, sizeof link);
+    _Atomic uint32_t *at =
+        (_Atomic uint32_t *)(void *)((uint8_t *)pool_at(&t->chunks, chunk) + t->chunk_bytes - 4);
+    atomic_store_explicit(at, link, memory_order_release);
 }
 
-/* A new chunk holding one particle; 0 when out of memory. */
+/* A new chunk holding one particle; 0 when out of memory. Not yet reachable,
+ * so its fill count needs no ordering until the index is published. */
 static uint32_t chunk_new(tree *t, const uint8_t *rel)
 {
     const uint32_t c = pool_new(&t->chunks);
@@ -134,7 +146,8 @@ static uint32_t chunk_new(tree *t, const uint8_t *rel)
     return c;
 }
 
-/* Append a particle (relative to the leaf's low corner) to a leaf's chunks. */
+/* Append a particle (relative to the leaf's low corner) to a leaf's chunks:
+ * write the free slot, then publish the new count (or the new chunk). */
 static int leaf_append(tree *t, uint32_t head, const uint8_t *rel)
 {
     uint32_t last = head, link;
@@ -151,17 +164,19 @@ static int leaf_append(tree *t, uint32_t head, const uint8_t *rel)
     return 0;
 }
 
-int tree_insert(tree *t, const int64_t *p)
+int tree_make_path(tree *t, const int64_t *p, tree_slot *slot)
 {
-    while (!inside_root(t, p)) {
+    tree_root root = tree_root_get(t);
+    while (!inside_root(t, root.level, p)) {
         const int rc = tree_grow_root(t);
         if (rc) return rc;
+        root = tree_root_get(t);
     }
     const int dim = t->dim;
     int64_t lo[3];
-    for (int a = 0; a < dim; a++) lo[a] = -tree_root_half(t);
-    uint32_t node = t->root;
-    for (int level = t->root_level; level >= 1; level--) {
+    for (int a = 0; a < dim; a++) lo[a] = -tree_root_half(root.level);
+    uint32_t node = root.node;
+    for (int level = root.level;; level--) {
         const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
         uint32_t k = 0;
         for (int a = 0; a < dim; a++)
@@ -169,38 +184,55 @@ int tree_insert(tree *t, const int64_t *p)
                 k |= 1u << a;
                 lo[a] += half;
             }
-        uint32_t child = tree_children(t, node)[k];
         if (level == 1) {
-            uint8_t rel[3];
-            for (int a = 0; a < dim; a++) rel[a] = (uint8_t)(p[a] - lo[a]);
-            if (child) {
-                if (leaf_append(t, child, rel)) return -1;
-            } else {
-                child = chunk_new(t, rel);
-                if (!child) return -1;
-                children_mut(t, node)[k] = child;
-                t->leaves++;
-            }
-            t->count++;
+            slot->node = node;
+            slot->k = k;
+            for (int a = 0; a < dim; a++) slot->leaf_lo[a] = lo[a];
             return 0;
         }
+        uint32_t child = tree_child(tree_children(t, node), k);
         if (!child) {
             child = pool_new(&t->inner);
             if (!child) return -1;
-            children_mut(t, node)[k] = child;
+            set_child(t, node, k, child);
         }
         node = child;
     }
-    return -1; /* unreachable: root_level >= 1 */
+}
+
+int tree_append(tree *t, const tree_slot *slot, const int64_t *p)
+{
+    uint8_t rel[3];
+    for (int a = 0; a < t->dim; a++) rel[a] = (uint8_t)(p[a] - slot->leaf_lo[a]);
+    const uint32_t head = tree_child(tree_children(t, slot->node), slot->k);
+    if (head) {
+        if (leaf_append(t, head, rel)) return -1;
+    } else {
+        const uint32_t c = chunk_new(t, rel);
+        if (!c) return -1;
+        set_child(t, slot->node, slot->k, c);
+        t->leaves++;
+    }
+    atomic_store_explicit(&t->count, atomic_load_explicit(&t->count, memory_order_relaxed) + 1,
+                          memory_order_release);
+    return 0;
+}
+
+int tree_insert(tree *t, const int64_t *p)
+{
+    tree_slot slot;
+    const int rc = tree_make_path(t, p, &slot);
+    return rc ? rc : tree_append(t, &slot, p);
 }
 
 uint32_t tree_find_leaf(const tree *t, const int64_t *p, int64_t *leaf_lo)
 {
-    if (!inside_root(t, p)) return 0;
+    const tree_root root = tree_root_get(t);
+    if (!inside_root(t, root.level, p)) return 0;
     int64_t lo[3];
-    for (int a = 0; a < t->dim; a++) lo[a] = -tree_root_half(t);
-    uint32_t node = t->root;
-    for (int level = t->root_level; level >= 1; level--) {
+    for (int a = 0; a < t->dim; a++) lo[a] = -tree_root_half(root.level);
+    uint32_t node = root.node;
+    for (int level = root.level; level >= 1; level--) {
         const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
         uint32_t k = 0;
         for (int a = 0; a < t->dim; a++)
@@ -208,7 +240,7 @@ uint32_t tree_find_leaf(const tree *t, const int64_t *p, int64_t *leaf_lo)
                 k |= 1u << a;
                 lo[a] += half;
             }
-        node = tree_children(t, node)[k];
+        node = tree_child(tree_children(t, node), k);
         if (!node) return 0;
     }
     for (int a = 0; a < t->dim; a++) leaf_lo[a] = lo[a];
@@ -238,7 +270,7 @@ static int visit_node(const tree *t, uint32_t node, int level, const int64_t *lo
 {
     const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
     for (int k = 0; k < t->nchild; k++) {
-        const uint32_t child = tree_children(t, node)[k];
+        const uint32_t child = tree_child(tree_children(t, node), (uint32_t)k);
         if (!child) continue;
         int64_t clo[3];
         for (int a = 0; a < t->dim; a++) clo[a] = lo[a] + ((k >> a) & 1) * half;
@@ -251,7 +283,8 @@ static int visit_node(const tree *t, uint32_t node, int level, const int64_t *lo
 
 int tree_visit(const tree *t, tree_visit_fn fn, void *user)
 {
+    const tree_root root = tree_root_get(t);
     int64_t lo[3];
-    for (int a = 0; a < t->dim; a++) lo[a] = -tree_root_half(t);
-    return visit_node(t, t->root, t->root_level, lo, fn, user);
+    for (int a = 0; a < t->dim; a++) lo[a] = -tree_root_half(root.level);
+    return visit_node(t, root.node, root.level, lo, fn, user);
 }

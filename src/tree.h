@@ -22,9 +22,18 @@
  * field: a 2D particle costs 2.4 bytes in a full chunk. Pools grow by whole
  * segments that never move, so a record's address is stable for the life of
  * the tree (lock-free readers need that) and growth never copies.
+ *
+ * Concurrency (PDLA). Readers never lock. Everything a writer publishes is a
+ * C11 atomic stored with release and loaded with acquire: child indices,
+ * chunk links (and with them the fill counts), the root (index and level in
+ * one word) and the particle count. A record is fully written before the
+ * index that makes it reachable is published, and a reader only reads the
+ * particle slots below the count it acquired, so no byte is ever read while
+ * it is written. Writers serialise among themselves (engine.c's mutexes).
  */
 #ifndef PDLA_SRC_TREE_H
 #define PDLA_SRC_TREE_H
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <string.h>
@@ -56,10 +65,9 @@ static inline void *pool_at(const tree_pool *p, uint32_t i)
 typedef struct tree {
     int dim;
     int nchild;          /* 2^dim */
-    int root_level;      /* root side = 256 << root_level */
-    uint32_t root;       /* index in inner */
+    _Atomic uint64_t root_word; /* root level << 32 | root index in inner */
     uint32_t chunk_bytes;/* 24 (2D) or 36 (3D) */
-    uint64_t count;      /* particles stored */
+    _Atomic uint64_t count;     /* particles stored */
     uint64_t leaves;     /* leaves created */
     tree_pool inner;     /* uint32_t child[nchild] */
     tree_pool chunks;    /* uint8_t rel[dim][10], pad, uint32_t link */
@@ -69,15 +77,54 @@ int tree_init(tree *t, int dim);
 void tree_free(tree *t);
 
 /* Insert a particle centre; grows the root as needed. Returns 0, or
- * -1 (out of memory / index space) or -2 (coordinate beyond the root limit). */
+ * -1 (out of memory / index space) or -2 (coordinate beyond the root limit).
+ * Single writer: equivalent to tree_make_path then tree_append. */
 int tree_insert(tree *t, const int64_t *p);
+
+/* Where a particle at p goes: the level-1 node and the child slot of its leaf. */
+typedef struct tree_slot {
+    uint32_t node;
+    uint32_t k;
+    int64_t leaf_lo[3];
+} tree_slot;
+
+/* Create (and publish) the inner nodes from the root down to the level-1
+ * node whose leaf will hold p, growing the root if p lies outside it.
+ * Touches only the inner pool: the engine's node mutex guards it. */
+int tree_make_path(tree *t, const int64_t *p, tree_slot *slot);
+
+/* Append p to the leaf in `slot` (creating the leaf if it is new) and count
+ * it. Touches only the chunk pool: the engine's bucket mutex guards it. */
+int tree_append(tree *t, const tree_slot *slot, const int64_t *p);
 
 /* Bytes held by the pools (allocated segments and the segment tables). */
 size_t tree_bytes(const tree *t);
 
-static inline const uint32_t *tree_children(const tree *t, uint32_t node)
+typedef struct tree_root {
+    uint32_t node;
+    int level; /* root side = 256 << level */
+} tree_root;
+
+static inline tree_root tree_root_get(const tree *t)
 {
-    return (const uint32_t *)pool_at(&t->inner, node);
+    const uint64_t w = atomic_load_explicit(&t->root_word, memory_order_acquire);
+    const tree_root r = {(uint32_t)w, (int)(w >> 32)};
+    return r;
+}
+
+static inline uint64_t tree_count(const tree *t)
+{
+    return atomic_load_explicit(&t->count, memory_order_acquire);
+}
+
+static inline const _Atomic uint32_t *tree_children(const tree *t, uint32_t node)
+{
+    return (const _Atomic uint32_t *)pool_at(&t->inner, node);
+}
+
+static inline uint32_t tree_child(const _Atomic uint32_t *children, uint32_t k)
+{
+    return atomic_load_explicit(&children[k], memory_order_acquire);
 }
 static inline const uint8_t *tree_chunk_at(const tree *t, uint32_t chunk)
 {
@@ -87,15 +134,14 @@ static inline const uint8_t *tree_chunk_at(const tree *t, uint32_t chunk)
  * particle count of this last chunk. */
 static inline uint32_t tree_chunk_link(const tree *t, const uint8_t *chunk)
 {
-    uint32_t link;
-    memcpy(&link, chunk + t->chunk_bytes - 4, sizeof link);
-    return link;
+    return atomic_load_explicit((const _Atomic uint32_t *)(const void *)(chunk + t->chunk_bytes - 4),
+                                memory_order_acquire);
 }
 
-/* Half side of the root box: the root is [-h, h)^dim. */
-static inline int64_t tree_root_half(const tree *t)
+/* Half side of a root box of this level: the root is [-h, h)^dim. */
+static inline int64_t tree_root_half(int root_level)
 {
-    return (int64_t)TREE_LEAF_SIDE << (t->root_level - 1);
+    return (int64_t)TREE_LEAF_SIDE << (root_level - 1);
 }
 
 /* Visit every stored particle; fn gets the absolute coordinates. Stops and

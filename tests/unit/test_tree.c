@@ -97,7 +97,7 @@ static void test_set(int dim, int kind, size_t n, uint64_t seed, double far_fact
         random_point(&r, dim, kind, in[i].x);
         CHECK(tree_insert(&t, in[i].x) == 0, "insert seed %llu i %zu", (unsigned long long)seed, i);
     }
-    CHECK(t.count == n, "count %llu != %zu", (unsigned long long)t.count, n);
+    CHECK(tree_count(&t) == n, "count %llu != %zu", (unsigned long long)tree_count(&t), n);
 
     collect c = {malloc(n * sizeof(pt)), 0, n, dim};
     CHECK(tree_visit(&t, collect_visit, &c) == 0, "visit overflowed: more points than inserted");
@@ -169,11 +169,11 @@ static void test_empty_and_single(int dim)
     CHECK(tree_insert(&t, o) == 0, "insert origin");
     CHECK(search_lower_bound2(&t, &c, o, UINT64_MAX, &k) == 0, "distance to itself");
     CHECK(tree_insert(&t, far) == 0, "insert far point grows the root");
-    CHECK(t.root_level >= 20, "root level %d after a point at 2^27", t.root_level);
+    CHECK(tree_root_get(&t).level >= 20, "root level %d after a point at 2^27", tree_root_get(&t).level);
     CHECK(search_brute2(&t, far) == 0, "far point stored");
     const int64_t beyond[3] = {INT64_C(1) << 40, 0, 0};
     CHECK(tree_insert(&t, beyond) == -2, "a point beyond the root limit is refused");
-    CHECK(t.count == 2, "refused point not counted");
+    CHECK(tree_count(&t) == 2, "refused point not counted");
     tree_free(&t);
 }
 

@@ -41,6 +41,10 @@ void pdla_params_default(pdla_params *p)
     p->max_jumps = 100000000;
     p->rg_per_decade = 100;
     p->snap_contact = 1;
+    p->threads = 1;
+    p->serial_until = 10000000;
+    p->recheck = PDLA_RECHECK_CONTINUE;
+    p->bind = PDLA_BIND_NONE;
 }
 
 int pdla_params_validate(const pdla_params *p, char *err, size_t errlen)
@@ -77,6 +81,13 @@ int pdla_params_validate(const pdla_params *p, char *err, size_t errlen)
         return fail(PDLA_EINVAL, err, errlen, "snap_contact must be 0 or 1");
     if (p->max_jumps < 1)
         return fail(PDLA_EINVAL, err, errlen, "max jumps must be at least 1");
+    if (p->threads < 0 || p->threads > 1024)
+        return fail(PDLA_EINVAL, err, errlen, "threads must be in [0, 1024] (0 = one per core), got %d",
+                    p->threads);
+    if (p->recheck != PDLA_RECHECK_CONTINUE && p->recheck != PDLA_RECHECK_DISCARD)
+        return fail(PDLA_EINVAL, err, errlen, "unknown re-check mode %d", (int)p->recheck);
+    if (p->bind != PDLA_BIND_NONE && p->bind != PDLA_BIND_CORE)
+        return fail(PDLA_EINVAL, err, errlen, "unknown binding %d", (int)p->bind);
     if (p->rg_per_decade < 0 || p->rg_per_decade > 10000)
         return fail(PDLA_EINVAL, err, errlen, "rg samples per decade must be in [0, 10000], got %d",
                     p->rg_per_decade);
@@ -111,6 +122,16 @@ int pdla_engine_create(pdla_engine **out, const pdla_params *p, char *err, size_
     }
     search_config_init(&e->search, p->exact_search ? 0.0 : p->far_factor, p->resolution, p->eps);
     rng_seed(&e->walker.rng, p->seed);
+    search_state_reset(&e->walker.ss);
+    atomic_init(&e->r_ext, 0);
+    atomic_init(&e->stop, 0);
+    if (pthread_mutex_init(&e->node_mu, NULL) || pthread_mutex_init(&e->bucket_mu, NULL) ||
+        pthread_mutex_init(&e->gyration_mu, NULL)) {
+        tree_free(&e->tree);
+        free(e);
+        return fail(PDLA_ENOMEM, err, errlen, "cannot create the engine's mutexes");
+    }
+    snprintf(e->binding, sizeof e->binding, "none");
     e->rg_next_k = 0;
     e->rg_next_n = 1;
     *out = e;
@@ -120,6 +141,10 @@ int pdla_engine_create(pdla_engine **out, const pdla_params *p, char *err, size_
 void pdla_engine_destroy(pdla_engine *e)
 {
     if (!e) return;
+    pthread_mutex_destroy(&e->node_mu);
+    pthread_mutex_destroy(&e->bucket_mu);
+    pthread_mutex_destroy(&e->gyration_mu);
+    free(e->workers);
     tree_free(&e->tree);
     free(e->rg_n);
     free(e->rg_diam);
@@ -157,35 +182,49 @@ static int record_rg_sample(pdla_engine *e)
     return PDLA_OK;
 }
 
-/* Add a particle to the tree, the gyration sums, R_ext and the samples. */
-static int add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
+int engine_check_range(const pdla_engine *e, const int64_t *p, char *err, size_t errlen)
 {
-    const int dim = e->params.dim;
-    uint64_t r2 = 0;
-    for (int a = 0; a < dim; a++) {
+    for (int a = 0; a < e->params.dim; a++)
         if (p[a] <= -PDLA_MAX_CLUSTER_RADIUS_UNITS || p[a] >= PDLA_MAX_CLUSTER_RADIUS_UNITS)
             return fail(PDLA_ERANGE, err, errlen,
                         "cluster reached the coordinate limit |x| < 2^28 units at %llu particles",
                         (unsigned long long)tree_count(&e->tree));
+    return PDLA_OK;
+}
+
+int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
+{
+    const int dim = e->params.dim;
+    uint64_t r2 = 0;
+    for (int a = 0; a < dim; a++) {
         r2 += (uint64_t)(p[a] * p[a]);
+        e->gyr.s1[a] += p[a];
     }
-    const int rc = tree_insert(&e->tree, p);
-    if (rc) return fail(PDLA_ENOMEM, err, errlen, "out of memory (or 2^32 tree records) at %llu particles",
-                        (unsigned long long)tree_count(&e->tree));
-    for (int a = 0; a < dim; a++) e->gyr.s1[a] += p[a];
     e->gyr.s2 += r2;
     e->gyr.n++;
     if (r2 > e->r_ext2) {
         e->r_ext2 = r2;
         int64_t r = (int64_t)sqrt((double)r2);
         while ((uint64_t)(r * r) < r2) r++;
-        e->r_ext = r;
+        atomic_store_explicit(&e->r_ext, r, memory_order_relaxed);
     }
     if (e->params.rg_per_decade > 0 && e->gyr.n >= e->rg_next_n) {
         if (record_rg_sample(e)) return fail(PDLA_ENOMEM, err, errlen, "out of memory for R_g samples");
         while (e->rg_next_n <= e->gyr.n) rg_advance(e);
     }
     return PDLA_OK;
+}
+
+/* Serial phase: add a particle to the tree, the gyration sums, R_ext and the
+ * samples; no other thread runs. */
+static int add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
+{
+    int rc = engine_check_range(e, p, err, errlen);
+    if (rc) return rc;
+    rc = tree_insert(&e->tree, p);
+    if (rc) return fail(PDLA_ENOMEM, err, errlen, "out of memory (or 2^32 tree records) at %llu particles",
+                        (unsigned long long)tree_count(&e->tree));
+    return engine_gyration_add(e, p, err, errlen);
 }
 
 static double now_seconds(void)
@@ -206,13 +245,19 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
         rc = add_particle(e, origin, err, errlen);
     }
     if (every == 0) every = 1000;
-    while (rc == PDLA_OK && tree_count(&e->tree) < n_until) {
+    const uint64_t serial_end = e->params.threads == 1 || n_until < e->params.serial_until
+                                    ? n_until
+                                    : e->params.serial_until;
+    const int64_t D = e->params.resolution;
+    const uint64_t stick2 = (uint64_t)(D + e->params.eps) * (uint64_t)(D + e->params.eps);
+    while (rc == PDLA_OK && tree_count(&e->tree) < serial_end) {
         int64_t p[3];
-        rc = walker_run(e, p);
-        if (rc) {
-            rc = fail(rc, err, errlen, "internal error: walker stuck closer than one diameter");
+        if (walker_run(e, &e->walker, p) != WALK_CONTACT) {
+            rc = fail(PDLA_EINVAL, err, errlen,
+                      "internal error: a serial walker stopped closer than one diameter");
             break;
         }
+        if (e->params.snap_contact) walker_snap_to_contact(&e->tree, p, D, stick2);
         rc = add_particle(e, p, err, errlen);
         if (rc == PDLA_OK && progress && tree_count(&e->tree) % every == 0) {
             e->grow_seconds += now_seconds() - t0;
@@ -222,6 +267,11 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
                                 (unsigned long long)tree_count(&e->tree));
         }
     }
+    if (rc == PDLA_OK && tree_count(&e->tree) < n_until) {
+        const double tp = now_seconds();
+        rc = parallel_grow(e, n_until, progress, user, err, errlen);
+        e->parallel_seconds += now_seconds() - tp;
+    }
     e->grow_seconds += now_seconds() - t0;
     return rc;
 }
@@ -229,25 +279,46 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
 const pdla_params *pdla_engine_params(const pdla_engine *e) { return &e->params; }
 uint64_t pdla_engine_count(const pdla_engine *e) { return tree_count(&e->tree); }
 
+static void add_walker_counts(pdla_stats *s, const walker_ctx *w)
+{
+    s->walkers += w->walkers;
+    s->jumps += w->jumps;
+    s->returns += w->returns;
+    s->lost += w->lost;
+    s->killed += w->killed;
+    s->restarts += w->restarts;
+    s->node_visits += w->ss.node_visits;
+    s->particle_checks += w->ss.particle_checks;
+    s->recheck_overlaps += w->recheck_overlaps;
+    s->recheck_continued += w->recheck_continued;
+    s->recheck_discarded += w->recheck_discarded;
+}
+
+/* Safe while workers run (the progress callback calls it): worker counters
+ * are folded in only after they have stopped, and the pools and sums are
+ * read under the mutexes that guard them. */
 void pdla_engine_stats(const pdla_engine *e, pdla_stats *s)
 {
-    const walker_ctx *w = &e->walker;
+    pdla_engine *m = (pdla_engine *)e; /* the mutexes are the only thing touched */
     memset(s, 0, sizeof *s);
     s->particles = tree_count(&e->tree);
-    s->walkers = w->walkers;
-    s->jumps = w->jumps;
-    s->returns = w->returns;
-    s->lost = w->lost;
-    s->killed = w->killed;
-    s->restarts = w->restarts;
-    s->node_visits = w->ss.node_visits;
-    s->particle_checks = w->ss.particle_checks;
-    s->r_ext = e->r_ext;
+    add_walker_counts(s, &e->walker);
+    for (int i = 0; i < e->nworkers; i++) add_walker_counts(s, &e->workers[i]);
+    s->threads = e->nworkers;
+    s->parallel_seconds = e->parallel_seconds;
+    snprintf(s->binding, sizeof s->binding, "%s", e->binding);
+    s->r_ext = atomic_load_explicit(&e->r_ext, memory_order_relaxed);
+    pthread_mutex_lock(&m->gyration_mu);
     s->rg_diam = sqrt(gyration_rg2_units(&e->gyr, e->params.dim)) / e->params.resolution;
+    pthread_mutex_unlock(&m->gyration_mu);
+    pthread_mutex_lock(&m->node_mu);
+    pthread_mutex_lock(&m->bucket_mu);
     s->tree_bytes = tree_bytes(&e->tree);
     s->inner_nodes = e->tree.inner.count - 1;
     s->leaves = e->tree.leaves;
     s->chunks = e->tree.chunks.count - (TREE_CHUNK_CAP + 1);
+    pthread_mutex_unlock(&m->bucket_mu);
+    pthread_mutex_unlock(&m->node_mu);
     s->root_level = tree_root_get(&e->tree).level;
     s->grow_seconds = e->grow_seconds;
 }

@@ -5,6 +5,9 @@
  */
 #ifndef PDLA_SRC_ENGINE_H
 #define PDLA_SRC_ENGINE_H
+#include <pthread.h>
+#include <stdatomic.h>
+
 #include "pdla/pdla.h"
 #include "rng.h"
 #include "tree.h"
@@ -17,11 +20,13 @@ typedef struct gyration_sums {
     uint64_t n;
 } gyration_sums;
 
-/* What one walker needs besides the tree: its random stream and counters. */
+/* What one walker needs besides the tree: its random stream, its search
+ * cache and counters. One per thread; the serial phase uses the engine's. */
 typedef struct walker_ctx {
     pdla_rng rng;
     search_state ss;
     uint64_t walkers, jumps, returns, lost, killed, restarts;
+    uint64_t recheck_overlaps, recheck_continued, recheck_discarded;
 } walker_ctx;
 
 struct pdla_engine {
@@ -31,7 +36,7 @@ struct pdla_engine {
     walker_ctx walker;
     gyration_sums gyr;
     uint64_t r_ext2;          /* max |x|^2 of particle centres, units^2 */
-    int64_t r_ext;            /* ceil(sqrt(r_ext2)) */
+    _Atomic int64_t r_ext;    /* ceil(sqrt(r_ext2)); read by walkers without a lock */
     /* R_g(N) samples on a fixed log grid: N_k = round(10^(k / rg_per_decade)). */
     uint64_t *rg_n;
     double *rg_diam;
@@ -39,11 +44,46 @@ struct pdla_engine {
     uint64_t rg_next_k;       /* index k of the next grid point */
     uint64_t rg_next_n;       /* its N */
     double grow_seconds;
+    double parallel_seconds;
+    /* PDLA: the three mutexes of the seed's flow diagram. node: creating tree
+     * nodes (inner pool, root growth); bucket: appending to a leaf's chunks
+     * (chunk pool, count, the exact re-check and the target); gyration: the
+     * R_g sums, R_ext and the samples. Taken in that order, never nested the
+     * other way. */
+    pthread_mutex_t node_mu, bucket_mu, gyration_mu;
+    _Atomic int stop;          /* set to make the workers return */
+    walker_ctx *workers;       /* per-thread walkers of the last parallel phase */
+    int nworkers;
+    int workers_error;         /* first PDLA_E* a worker hit, under bucket_mu */
+    char binding[256];
 };
 
-/* Walk one walker from birth until it sticks; writes the contact position.
- * Returns 0, or a PDLA_E* code. */
-int walker_run(pdla_engine *e, int64_t *stuck_at);
+/* Outcomes of a walk. */
+enum {
+    WALK_CONTACT = 0, /* inside the sticking shell: D <= distance < D + eps */
+    WALK_OVERLAP = 1  /* closer than D: a particle appeared during the last jump */
+};
+
+/* Walk one walker from birth until it sticks; writes where it stopped.
+ * Returns WALK_CONTACT or WALK_OVERLAP. Reads the tree only (any number of
+ * threads at once). */
+int walker_run(const pdla_engine *e, walker_ctx *w, int64_t *stuck_at);
+
+/* Move p onto contact (distance D) with its nearest particle within `reach2`,
+ * at the grid point nearest to contact that overlaps nothing. Returns 1 if
+ * it moved p, 0 if no such point exists (p unchanged). */
+int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2);
 
 double gyration_rg2_units(const gyration_sums *g, int dim);
+
+/* PDLA_ERANGE if p lies beyond the coordinate limit. */
+int engine_check_range(const pdla_engine *e, const int64_t *p, char *err, size_t errlen);
+
+/* Add p to the gyration sums, R_ext and the R_g samples (caller holds
+ * gyration_mu when workers run). */
+int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errlen);
+
+/* The parallel phase (parallel.c): workers grow the cluster to n_until. */
+int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, void *user,
+                  char *err, size_t errlen);
 #endif

@@ -79,7 +79,9 @@ static inline __attribute__((always_inline)) __m128i min_epi32(__m128i a, __m128
 
 /* Smallest squared distance from q (leaf-relative, |q| <= 2^14) to the
  * first m particles of a chunk. SSE2 (baseline on x86-64): coordinates as
- * 16-bit differences, squares summed by pmaddwd into 32 bits. */
+ * 16-bit differences, squares summed by pmaddwd into 32 bits. The vector
+ * loads also read the unused slots, so this runs only while no other thread
+ * can be writing them (the serial phase); workers take the scalar path. */
 static inline __attribute__((always_inline)) uint32_t chunk_min_d2(const uint8_t *chunk,
                                                                    const int64_t *q, uint32_t m,
                                                                    const int dim)
@@ -136,7 +138,8 @@ static inline __attribute__((always_inline)) uint32_t chunk_min_d2(const uint8_t
  * dim * (2^14 + 255)^2 < 2^31. */
 static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, uint32_t head,
                                                                 const int64_t *q, uint64_t best2,
-                                                                int dim, search_state *k)
+                                                                int dim, int concurrent,
+                                                                search_state *k)
 {
     int small = 1;
     for (int a = 0; a < dim; a++)
@@ -146,7 +149,7 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
         const uint32_t link = tree_chunk_link(t, chunk);
         const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
         k->particle_checks += m;
-        if (small) {
+        if (small && !concurrent) {
             const uint32_t local = chunk_min_d2(chunk, q, m, dim);
             if (local < best2) best2 = local;
         } else {
@@ -213,7 +216,7 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
         if (e.level == 0) {
             int64_t q[3];
             for (int a = 0; a < dim; a++) q[a] = p[a] - e.lo[a];
-            best2 = scan_leaf(t, e.node, q, best2, dim, k);
+            best2 = scan_leaf(t, e.node, q, best2, dim, c->concurrent, k);
             continue;
         }
         if (e.d2 > c->far2[e.level]) {
@@ -329,7 +332,7 @@ lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_
         if (level == 1) {
             int64_t q[3];
             for (int a = 0; a < dim; a++) q[a] = p[a] - lo[a];
-            best2 = scan_leaf(t, child, q, best2, dim, k);
+            best2 = scan_leaf(t, child, q, best2, dim, c->concurrent, k);
             visits++;
             break;
         }

@@ -179,6 +179,7 @@ static inline void search_state_reset(search_state *s)
  * distance is used as the lower bound. UINT64_MAX disables it (exact). */
 typedef struct search_config {
     uint64_t far2[TREE_MAX_LEVEL + 2];
+    int concurrent; /* 1 while other threads may append: scalar leaf scans only */
 } search_config;
 
 /* far_factor <= 0 gives exact search. The thresholds never fall below

@@ -76,11 +76,12 @@ static inline __attribute__((always_inline)) void jump(walker_ctx *w, int64_t *p
  * stretch of the cluster by eps/(2D)). Of the grid points around the exact
  * contact point, take the one nearest to contact that keeps every particle
  * at least D away; if none does, stay put. */
-static void snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2, const int dim)
+int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2)
 {
+    const int dim = t->dim;
     int64_t q[3];
     uint64_t d2;
-    if (!search_nearest_point(t, p, reach2, q, &d2) || d2 == 0) return;
+    if (!search_nearest_point(t, p, reach2, q, &d2) || d2 == 0) return 0;
     const double scale = (double)D / sqrt((double)d2);
     double x[3];
     int64_t base[3];
@@ -110,32 +111,44 @@ static void snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach
         uint64_t od2;
         if (!search_nearest_point(t, cand[best], D2, other, &od2)) {
             for (int a = 0; a < dim; a++) p[a] = cand[best][a];
-            return;
+            return 1;
         }
         cand_d2[best] = UINT64_MAX;
     }
+    return 0;
 }
 
-static inline __attribute__((always_inline)) int walk_dim(pdla_engine *e, int64_t *stuck_at,
-                                                          const int dim)
+static inline __attribute__((always_inline)) int walk_dim(const pdla_engine *e, walker_ctx *w,
+                                                          int64_t *stuck_at, const int dim)
 {
     const pdla_params *P = &e->params;
-    walker_ctx *w = &e->walker;
     const tree *t = &e->tree;
     const double D = (double)P->resolution;
     const uint64_t stick2 = (uint64_t)(P->resolution + P->eps) * (uint64_t)(P->resolution + P->eps);
-    const double r_ext = (double)e->r_ext;
-    const double Rb = r_ext + P->birth_margin * D;
+    const int kill = P->return_mode == PDLA_RETURN_KILL;
+    /* R_ext only grows; with worker threads it may grow during this walk, so
+     * the birth circle follows it (re-read when it changes: one relaxed load
+     * per jump). In the serial phase it is constant over a walk. */
+    int64_t r_ext_units = atomic_load_explicit(&e->r_ext, memory_order_relaxed);
+    double r_ext = (double)r_ext_units;
+    double Rb = r_ext + P->birth_margin * D;
     /* One unit of hysteresis: a walker just put on the circle (rounded to the
      * grid) is not sent straight back. */
-    const double Rout2 = (Rb + 1.0) * (Rb + 1.0);
-    const double Rdeath = P->kill_ratio * Rb;
-    const int kill = P->return_mode == PDLA_RETURN_KILL;
+    double Rout2 = (Rb + 1.0) * (Rb + 1.0);
+    double Rdeath = P->kill_ratio * Rb;
 
     int64_t p[3];
     launch(w, Rb, p, dim);
     uint64_t jumps = 0;
     for (;;) {
+        const int64_t now = atomic_load_explicit(&e->r_ext, memory_order_relaxed);
+        if (now != r_ext_units) {
+            r_ext_units = now;
+            r_ext = (double)now;
+            Rb = r_ext + P->birth_margin * D;
+            Rout2 = (Rb + 1.0) * (Rb + 1.0);
+            Rdeath = P->kill_ratio * Rb;
+        }
         if (jumps >= P->max_jumps) {
             w->restarts++;
             launch(w, Rb, p, dim);
@@ -161,18 +174,18 @@ static inline __attribute__((always_inline)) int walk_dim(pdla_engine *e, int64_
         }
         const uint64_t d2 = search_lower_bound2(t, &e->search, p, UINT64_MAX, &w->ss);
         if (d2 < stick2) {
-            if (P->snap_contact) snap_to_contact(t, p, P->resolution, stick2, dim);
             for (int a = 0; a < dim; a++) stuck_at[a] = p[a];
-            /* Never closer than one diameter: guaranteed by the shortened
-             * jumps; a violation is an engine bug, not a physics event. */
-            return d2 >= (uint64_t)P->resolution * (uint64_t)P->resolution ? 0 : PDLA_EINVAL;
+            /* Closer than one diameter can only mean another thread's particle
+             * appeared inside this walker's last jump. */
+            return d2 < (uint64_t)P->resolution * (uint64_t)P->resolution ? WALK_OVERLAP
+                                                                           : WALK_CONTACT;
         }
         jump(w, p, sqrt((double)d2) - D - 1.0, dim);
         jumps++;
     }
 }
 
-int walker_run(pdla_engine *e, int64_t *stuck_at)
+int walker_run(const pdla_engine *e, walker_ctx *w, int64_t *stuck_at)
 {
-    return e->params.dim == 2 ? walk_dim(e, stuck_at, 2) : walk_dim(e, stuck_at, 3);
+    return e->params.dim == 2 ? walk_dim(e, w, stuck_at, 2) : walk_dim(e, w, stuck_at, 3);
 }

@@ -53,6 +53,23 @@ typedef enum {
     PDLA_RETURN_KILL = 1
 } pdla_return_mode;
 
+/* What a PDLA worker does when the exact re-check under the lock finds that
+ * another walker stuck where it was about to (closer than one diameter). */
+typedef enum {
+    /* Continue: the walker touches the particle that took its place; it is
+     * moved onto contact with it (as in snap_contact) and inserted there if
+     * that spot is free, else it restarts on the birth circle. */
+    PDLA_RECHECK_CONTINUE = 0,
+    /* The seed paper's choice: discard the walker, launch a new one. */
+    PDLA_RECHECK_DISCARD = 1
+} pdla_recheck_mode;
+
+/* Placement of worker threads (hwloc). */
+typedef enum {
+    PDLA_BIND_NONE = 0, /* let the OS schedule */
+    PDLA_BIND_CORE = 1  /* one worker per physical core, round robin */
+} pdla_bind_mode;
+
 /* Largest |coordinate| (units) a particle may have: squared distances of
  * walkers within 3 birth radii then stay below 2^63 in 64-bit integers. */
 #define PDLA_MAX_CLUSTER_RADIUS_UNITS (INT64_C(1) << 28)
@@ -90,6 +107,14 @@ typedef struct pdla_params {
                                 stretches the cluster by ~eps/(2D)). Default 1. */
     int rg_per_decade;       /* R_g(N) samples per decade of N, log-spaced; 0 turns
                                 sampling off. Default 100 (1000 samples at 1e10). */
+    int threads;             /* worker threads after the serial phase; 1 = serial
+                                DLA throughout (no thread is started); 0 = one per
+                                physical core (hwloc). In [0, 1024]. Default 1. */
+    uint64_t serial_until;   /* grow serially (one walker, deterministic) up to this
+                                many particles, then start the workers (PDLA).
+                                Default 10^7, the seed paper's value. */
+    pdla_recheck_mode recheck; /* Default PDLA_RECHECK_CONTINUE. */
+    pdla_bind_mode bind;     /* Default PDLA_BIND_NONE. */
 } pdla_params;
 
 PDLA_API void pdla_params_default(pdla_params *p);
@@ -113,6 +138,12 @@ typedef struct pdla_stats {
     uint64_t inner_nodes, leaves, chunks;
     int root_level;          /* root box side = 256 * 2^root_level units */
     double grow_seconds;     /* wall time spent in pdla_engine_grow */
+    double parallel_seconds; /* of which with worker threads */
+    int threads;             /* workers used in the parallel phase (0 if none ran) */
+    uint64_t recheck_overlaps;  /* PDLA: walkers that found their spot taken */
+    uint64_t recheck_continued; /* ... and were inserted in contact with the newcomer */
+    uint64_t recheck_discarded; /* ... and were discarded / restarted */
+    char binding[256];       /* how workers were placed, e.g. "none" or "core: 0 1 2 3" */
 } pdla_stats;
 
 /* One fit of ln R_g = ln C + ln N / D_f. */

@@ -9,7 +9,10 @@
  *    recomputed from the positions;
  *  - the same seed and parameters give the identical cluster, a different
  *    seed a different one.
- * Both return modes, 2D and 3D, a few resolutions, tiny targets (1, 2, 3).
+ * Both return modes, 2D and 3D, a few resolutions, tiny targets (1, 2, 3),
+ * and PDLA with worker threads: 2, 8 and 32 workers (more than cores), more
+ * workers than particles left to add, both re-check modes; the cluster must
+ * end with exactly `target` particles. Run under ThreadSanitizer too.
  */
 #include <math.h>
 #include <stdlib.h>
@@ -206,8 +209,46 @@ static void test_determinism(int dim)
     CHECK(h[0] != h[2], "dim %d: different seeds gave the same cluster", dim);
 }
 
+static void test_threads(int dim, int threads, uint64_t serial_until, uint64_t target,
+                         pdla_recheck_mode recheck)
+{
+    pdla_params p;
+    pdla_params_default(&p);
+    p.dim = dim;
+    p.threads = threads;
+    p.serial_until = serial_until;
+    p.target = target;
+    p.recheck = recheck;
+    p.seed = 777 + (uint64_t)threads;
+    pdla_engine *e = grown(p);
+    if (!e) return;
+    pdla_stats st;
+    pdla_engine_stats(e, &st);
+    char label[160];
+    snprintf(label, sizeof label, "dim %d threads %d serial %llu target %llu %s", dim, threads,
+             (unsigned long long)serial_until, (unsigned long long)target,
+             recheck == PDLA_RECHECK_DISCARD ? "discard" : "continue");
+    CHECK(st.threads == threads, "%s: %d workers ran", label, st.threads);
+    CHECK(st.recheck_continued + st.recheck_discarded <= st.recheck_overlaps,
+          "%s: re-check counts inconsistent", label);
+    if (recheck == PDLA_RECHECK_DISCARD)
+        CHECK(st.recheck_continued == 0, "%s: continued in discard mode", label);
+    fprintf(stderr, "%s: overlaps %llu continued %llu discarded %llu\n", label,
+            (unsigned long long)st.recheck_overlaps, (unsigned long long)st.recheck_continued,
+            (unsigned long long)st.recheck_discarded);
+    check_cluster(e, label);
+    pdla_engine_destroy(e);
+}
+
 int main(void)
 {
+    test_threads(2, 2, 2000, 20000, PDLA_RECHECK_CONTINUE);
+    test_threads(2, 8, 2000, 20000, PDLA_RECHECK_CONTINUE);
+    test_threads(2, 8, 500, 8000, PDLA_RECHECK_DISCARD);
+    test_threads(2, 32, 300, 5000, PDLA_RECHECK_CONTINUE);
+    test_threads(2, 16, 100, 105, PDLA_RECHECK_CONTINUE);
+    test_threads(3, 4, 500, 5000, PDLA_RECHECK_CONTINUE);
+    test_threads(3, 8, 3, 40, PDLA_RECHECK_CONTINUE);
     for (int dim = 2; dim <= 3; dim++) {
         for (uint64_t n = 1; n <= 3; n++) test_invariants(dim, 32, PDLA_RETURN_EXACT, n);
         test_invariants(dim, 4, PDLA_RETURN_EXACT, 2000);

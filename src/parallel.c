@@ -1,0 +1,245 @@
+/*
+ * parallel.c - the PDLA phase: N worker threads, each with its own walker
+ * and random stream, grow the one shared, live tree, following the flow
+ * diagram of Sosa-Herrera & Rodriguez-Romo (Fig. 6):
+ *
+ *   walk (lock-free reads of the tree)
+ *   -> [node mutex]     create the tree nodes down to the particle's leaf
+ *   -> [bucket mutex]   exact re-check of the spot, target check, append
+ *   -> [gyration mutex] R_g sums, R_ext, R_g samples
+ *
+ * The re-check matters because another walker may have stuck in the spot
+ * after this walker's last distance query. The seed discards such a walker;
+ * by default we let it touch the particle that took its place (it is moved
+ * onto contact with it and re-checked), which wastes no walk. Both events are
+ * counted. The target is exact: the count is checked and raised under the
+ * bucket mutex.
+ *
+ * hwloc finds the physical cores (for threads = 0) and, when asked, binds
+ * worker i to core i mod cores.
+ */
+#include <hwloc.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "engine.h"
+
+typedef struct worker {
+    pdla_engine *e;
+    walker_ctx *w;
+    uint64_t n_until;
+    hwloc_topology_t topo;   /* NULL unless binding */
+    hwloc_obj_t core;        /* core to bind to, or NULL */
+    pthread_t thread;
+    int rc;
+    char err[256];
+} worker;
+
+enum { INSERTED = 0, TARGET_REACHED = 1, DISCARDED = 2 };
+
+static int worker_fail(worker *k, int rc, const char *what)
+{
+    snprintf(k->err, sizeof k->err, "%s", what);
+    k->rc = rc;
+    atomic_store_explicit(&k->e->stop, 1, memory_order_relaxed);
+    return rc;
+}
+
+/* Insert the particle where walker w stopped; see the file comment. */
+static int insert_concurrent(worker *k, int64_t *p, int status)
+{
+    pdla_engine *e = k->e;
+    walker_ctx *w = k->w;
+    tree *t = &e->tree;
+    const pdla_params *P = &e->params;
+    const int64_t D = P->resolution;
+    const uint64_t D2 = (uint64_t)(D * D);
+    const uint64_t stick2 = (uint64_t)(D + P->eps) * (uint64_t)(D + P->eps);
+    int retried = 0;
+    for (;;) {
+        if (status == WALK_OVERLAP) {
+            w->recheck_overlaps++;
+            if (P->recheck == PDLA_RECHECK_DISCARD || retried ||
+                !walker_snap_to_contact(t, p, D, stick2)) {
+                w->recheck_discarded++;
+                return DISCARDED;
+            }
+            retried = 1;
+        } else if (P->snap_contact) {
+            walker_snap_to_contact(t, p, D, stick2);
+        }
+        char err[256];
+        if (engine_check_range(e, p, err, sizeof err)) return worker_fail(k, PDLA_ERANGE, err);
+
+        tree_slot slot;
+        pthread_mutex_lock(&e->node_mu);
+        int rc = tree_make_path(t, p, &slot);
+        pthread_mutex_unlock(&e->node_mu);
+        if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory (or tree index space) creating nodes");
+
+        pthread_mutex_lock(&e->bucket_mu);
+        if (tree_count(t) >= k->n_until) {
+            pthread_mutex_unlock(&e->bucket_mu);
+            return TARGET_REACHED;
+        }
+        int64_t q[3];
+        uint64_t d2;
+        if (search_nearest_point(t, p, D2, q, &d2)) {
+            pthread_mutex_unlock(&e->bucket_mu);
+            status = WALK_OVERLAP; /* someone stuck here meanwhile */
+            continue;
+        }
+        rc = tree_append(t, &slot, p);
+        pthread_mutex_unlock(&e->bucket_mu);
+        if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory appending a particle");
+        if (retried) w->recheck_continued++;
+
+        pthread_mutex_lock(&e->gyration_mu);
+        rc = engine_gyration_add(e, p, err, sizeof err);
+        pthread_mutex_unlock(&e->gyration_mu);
+        if (rc) return worker_fail(k, rc, err);
+        return INSERTED;
+    }
+}
+
+static void *worker_main(void *arg)
+{
+    worker *k = arg;
+    pdla_engine *e = k->e;
+    if (k->topo && k->core) {
+        /* Binding is a placement hint: a refusal (containers, cgroups) is
+         * reported in the binding string by the caller, not fatal. */
+        hwloc_set_cpubind(k->topo, k->core->cpuset, HWLOC_CPUBIND_THREAD);
+    }
+    while (!atomic_load_explicit(&e->stop, memory_order_relaxed) &&
+           tree_count(&e->tree) < k->n_until) {
+        int64_t p[3];
+        const int status = walker_run(e, k->w, p);
+        const int r = insert_concurrent(k, p, status);
+        if (r == TARGET_REACHED || r < 0) break;
+    }
+    return NULL;
+}
+
+static void sleep_ms(long ms)
+{
+    struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
+    nanosleep(&ts, NULL);
+}
+
+/* Load the topology when it is needed (threads = 0 or binding); returns the
+ * number of physical cores, or 0 on failure. */
+static int load_topology(hwloc_topology_t *topo)
+{
+    if (hwloc_topology_init(topo)) return 0;
+    if (hwloc_topology_load(*topo)) {
+        hwloc_topology_destroy(*topo);
+        *topo = NULL;
+        return 0;
+    }
+    const int cores = hwloc_get_nbobjs_by_type(*topo, HWLOC_OBJ_CORE);
+    return cores > 0 ? cores : hwloc_get_nbobjs_by_type(*topo, HWLOC_OBJ_PU);
+}
+
+int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, void *user,
+                  char *err, size_t errlen)
+{
+    const pdla_params *P = &e->params;
+    hwloc_topology_t topo = NULL;
+    int cores = 0;
+    if (P->threads == 0 || P->bind == PDLA_BIND_CORE) {
+        cores = load_topology(&topo);
+        if (cores <= 0) {
+            snprintf(err, errlen, "hwloc could not read the machine topology");
+            return PDLA_EINVAL;
+        }
+    }
+    const int n = P->threads > 0 ? P->threads : cores;
+
+    walker_ctx *ws = calloc((size_t)n, sizeof *ws);
+    worker *ks = calloc((size_t)n, sizeof *ks);
+    if (!ws || !ks) {
+        free(ws);
+        free(ks);
+        if (topo) hwloc_topology_destroy(topo);
+        snprintf(err, errlen, "out of memory for %d workers", n);
+        return PDLA_ENOMEM;
+    }
+    /* Independent streams: worker i starts 2^128 (i + 1) draws after the
+     * serial stream's current state. */
+    pdla_rng stream = e->walker.rng;
+    size_t used = (size_t)snprintf(e->binding, sizeof e->binding, "%s",
+                                   P->bind == PDLA_BIND_CORE ? "core:" : "none");
+    for (int i = 0; i < n; i++) {
+        rng_jump(&stream);
+        ws[i].rng = stream;
+        search_state_reset(&ws[i].ss);
+        ks[i].e = e;
+        ks[i].w = &ws[i];
+        ks[i].n_until = n_until;
+        if (P->bind == PDLA_BIND_CORE) {
+            ks[i].topo = topo;
+            ks[i].core = hwloc_get_obj_by_type(topo, HWLOC_OBJ_CORE, (unsigned)(i % cores));
+            if (!ks[i].core) ks[i].core = hwloc_get_obj_by_type(topo, HWLOC_OBJ_PU, (unsigned)(i % cores));
+            if (used < sizeof e->binding)
+                used += (size_t)snprintf(e->binding + used, sizeof e->binding - used, " %u",
+                                         ks[i].core ? ks[i].core->logical_index : 0u);
+        }
+    }
+    /* Counters of an earlier parallel phase are folded into the serial
+     * walker so stats stay cumulative. */
+    for (int i = 0; i < e->nworkers; i++) {
+        walker_ctx *o = &e->workers[i], *s = &e->walker;
+        s->walkers += o->walkers;
+        s->jumps += o->jumps;
+        s->returns += o->returns;
+        s->lost += o->lost;
+        s->killed += o->killed;
+        s->restarts += o->restarts;
+        s->ss.node_visits += o->ss.node_visits;
+        s->ss.particle_checks += o->ss.particle_checks;
+        s->recheck_overlaps += o->recheck_overlaps;
+        s->recheck_continued += o->recheck_continued;
+        s->recheck_discarded += o->recheck_discarded;
+    }
+    free(e->workers);
+    e->workers = NULL;
+    e->nworkers = 0;
+    e->walker.rng = stream; /* the serial stream resumes past every worker's */
+    atomic_store_explicit(&e->stop, 0, memory_order_relaxed);
+    e->search.concurrent = 1;
+
+    int started = 0, rc = PDLA_OK;
+    for (; started < n; started++)
+        if (pthread_create(&ks[started].thread, NULL, worker_main, &ks[started])) {
+            atomic_store_explicit(&e->stop, 1, memory_order_relaxed);
+            snprintf(err, errlen, "cannot start worker thread %d of %d", started + 1, n);
+            rc = PDLA_ENOMEM;
+            break;
+        }
+    /* The calling thread reports progress and relays a stop request. */
+    while (rc == PDLA_OK && !atomic_load_explicit(&e->stop, memory_order_relaxed) &&
+           tree_count(&e->tree) < n_until) {
+        sleep_ms(20);
+        if (progress && progress(e, user)) {
+            atomic_store_explicit(&e->stop, 1, memory_order_relaxed);
+            snprintf(err, errlen, "stopped at %llu particles",
+                     (unsigned long long)tree_count(&e->tree));
+            rc = PDLA_ESTOPPED;
+        }
+    }
+    for (int i = 0; i < started; i++) pthread_join(ks[i].thread, NULL);
+    e->search.concurrent = 0;
+    for (int i = 0; i < started; i++)
+        if (ks[i].rc && rc == PDLA_OK) {
+            snprintf(err, errlen, "worker %d: %s", i, ks[i].err);
+            rc = ks[i].rc;
+        }
+    e->workers = ws;
+    e->nworkers = n;
+    free(ks);
+    if (topo) hwloc_topology_destroy(topo);
+    return rc;
+}

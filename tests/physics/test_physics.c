@@ -9,6 +9,13 @@
  *       off-lattice code, see the README).
  *   test_physics 3 M N   3D ensemble: D_f in [2.40, 2.60] over [1e3, N].
  *
+ *   test_physics 2 M N THREADS SERIAL_UNTIL   PDLA against DLA: the same
+ *       ensemble grown serially and with THREADS workers after SERIAL_UNTIL
+ *       particles; the PDLA ensemble-mean R_g(n) stays within 2% of the
+ *       serial one at every sampled n in [10 SERIAL_UNTIL, N] and its D_f is in
+ *       [1.66, 1.76]. (A live shared tree with P walkers is DLA while P/N is
+ *       small; a frozen snapshot per batch would drift by percents.)
+ *
  * The ensemble mean is over clusters at identical sample points (the R_g
  * grid is fixed per decade), seeds 1000 + i.
  */
@@ -20,31 +27,35 @@
 #include "fit.h"
 #include "pdla/pdla.h"
 
-int main(int argc, char **argv)
+typedef struct ensemble {
+    size_t count;
+    uint64_t *grid_n;
+    double *mean_rg;
+    double *se_log_rg; /* standard error of the mean of ln R_g */
+    double df_mean, df_sd;
+} ensemble;
+
+static ensemble grow_ensemble(int dim, int clusters, uint64_t n, int threads, uint64_t serial_until)
 {
-    if (argc != 4) {
-        fprintf(stderr, "usage: test_physics DIM CLUSTERS N\n");
-        return 2;
-    }
-    const int dim = atoi(argv[1]);
-    const int clusters = atoi(argv[2]);
-    const uint64_t n = (uint64_t)atof(argv[3]);
+    ensemble out = {0, NULL, NULL, NULL, 0, 0};
     size_t count = 0;
     uint64_t *grid_n = NULL;
-    double *sum_log_rg = NULL;
+    double *sum_log_rg = NULL, *sum_log_rg2 = NULL;
     double df_sum = 0, df_sum2 = 0;
     for (int i = 0; i < clusters; i++) {
         pdla_params p;
         pdla_params_default(&p);
         p.dim = dim;
         p.target = n;
+        p.threads = threads;
+        p.serial_until = serial_until;
         p.seed = 1000 + (uint64_t)i;
         pdla_engine *e;
         char err[256];
         if (pdla_engine_create(&e, &p, err, sizeof err) ||
             pdla_engine_grow(e, n, NULL, 0, NULL, err, sizeof err)) {
             CHECK(0, "growth failed: %s", err);
-            return check_finish();
+            return out;
         }
         const uint64_t *sn;
         const double *srg;
@@ -54,12 +65,14 @@ int main(int argc, char **argv)
             count = sc;
             grid_n = malloc(sc * sizeof *grid_n);
             sum_log_rg = calloc(sc, sizeof *sum_log_rg);
+            sum_log_rg2 = calloc(sc, sizeof *sum_log_rg2);
             memcpy(grid_n, sn, sc * sizeof *grid_n);
         }
         CHECK(sc == count, "cluster %d has %zu samples, cluster 0 has %zu", i, sc, count);
         for (size_t k = 0; k < count && k < sc; k++) {
             CHECK(sn[k] == grid_n[k], "sample grids differ");
             sum_log_rg[k] += log(srg[k]);
+            sum_log_rg2[k] += log(srg[k]) * log(srg[k]);
         }
         const pdla_fit f = pdla_engine_fit(e);
         df_sum += f.df;
@@ -67,10 +80,79 @@ int main(int argc, char **argv)
         pdla_engine_destroy(e);
     }
     double *mean_rg = malloc(count * sizeof *mean_rg);
-    for (size_t k = 0; k < count; k++) mean_rg[k] = exp(sum_log_rg[k] / clusters);
+    double *se = malloc(count * sizeof *se);
+    for (size_t k = 0; k < count; k++) {
+        const double m = sum_log_rg[k] / clusters;
+        mean_rg[k] = exp(m);
+        se[k] = clusters > 1 ? sqrt(fmax(0, sum_log_rg2[k] / clusters - m * m) / (clusters - 1)) : 0;
+    }
+    free(sum_log_rg);
+    free(sum_log_rg2);
+    out.se_log_rg = se;
+    out.count = count;
+    out.grid_n = grid_n;
+    out.mean_rg = mean_rg;
+    out.df_mean = df_sum / clusters;
+    out.df_sd = sqrt(fmax(0, df_sum2 / clusters - out.df_mean * out.df_mean));
+    return out;
+}
+
+static int compare_pdla(int clusters, uint64_t n, int threads, uint64_t serial_until)
+{
+    const ensemble dla = grow_ensemble(2, clusters, n, 1, serial_until);
+    const ensemble pdla = grow_ensemble(2, clusters, n, threads, serial_until);
+    CHECK(dla.count == pdla.count && dla.count > 0, "sample grids differ");
+    if (dla.count != pdla.count || !dla.count) return check_finish();
+    /* Compared at 10x the serial size and at N: within 2%, or within three
+     * standard errors of the difference where the ensembles are too small
+     * to resolve 2% (the fast CI run; the slow one resolves it). */
+    double worst = 0;
+    for (size_t k = 0; k < dla.count; k++) {
+        const uint64_t at = dla.grid_n[k];
+        const int last = k + 1 == dla.count;
+        if (!last && !(at >= 10 * serial_until && (k == 0 || dla.grid_n[k - 1] < 10 * serial_until)))
+            continue;
+        const double rel = pdla.mean_rg[k] / dla.mean_rg[k] - 1;
+        const double se = sqrt(dla.se_log_rg[k] * dla.se_log_rg[k] + pdla.se_log_rg[k] * pdla.se_log_rg[k]);
+        const double tol = fmax(0.02, 3 * se);
+        if (fabs(rel) > fabs(worst)) worst = rel;
+        fprintf(stderr, "N = %llu: PDLA/DLA R_g - 1 = %+.2f%% (standard error %.2f%%, tolerance %.2f%%)\n",
+                (unsigned long long)at, 100 * rel, 100 * se, 100 * tol);
+        CHECK(fabs(rel) <= tol, "PDLA R_g differs from DLA by %.2f%% at N = %llu (tolerance %.2f%%)",
+              100 * rel, (unsigned long long)at, 100 * tol);
+    }
+    const pdla_fit f = fit_powerlaw(pdla.grid_n, pdla.mean_rg, pdla.count, 1000, n);
+    fprintf(stderr, "%d clusters of %llu, %d threads after %llu: largest R_g deviation from DLA "
+                    "%+.2f%%; PDLA D_f = %.4f\n",
+            clusters, (unsigned long long)n, threads, (unsigned long long)serial_until, 100 * worst,
+            f.df);
+    CHECK(f.df >= 1.66 && f.df <= 1.76, "PDLA D_f %.4f outside [1.66, 1.76]", f.df);
+    free(dla.grid_n);
+    free(dla.mean_rg);
+    free(dla.se_log_rg);
+    free(pdla.grid_n);
+    free(pdla.mean_rg);
+    free(pdla.se_log_rg);
+    return check_finish();
+}
+
+int main(int argc, char **argv)
+{
+    if (argc != 4 && argc != 6) {
+        fprintf(stderr, "usage: test_physics DIM CLUSTERS N [THREADS SERIAL_UNTIL]\n");
+        return 2;
+    }
+    const int dim = atoi(argv[1]);
+    const int clusters = atoi(argv[2]);
+    const uint64_t n = (uint64_t)atof(argv[3]);
+    if (argc == 6) return compare_pdla(clusters, n, atoi(argv[4]), (uint64_t)atof(argv[5]));
+    const ensemble ens = grow_ensemble(dim, clusters, n, 1, UINT64_MAX);
+    const size_t count = ens.count;
+    const uint64_t *grid_n = ens.grid_n;
+    double *mean_rg = ens.mean_rg;
+    if (!count) return check_finish();
     const pdla_fit f = fit_powerlaw(grid_n, mean_rg, count, 1000, n);
-    const double df_mean = df_sum / clusters;
-    const double df_sd = sqrt(fmax(0, df_sum2 / clusters - df_mean * df_mean));
+    const double df_mean = ens.df_mean, df_sd = ens.df_sd;
     fprintf(stderr, "dim %d, %d clusters of %llu: D_f(ensemble R_g) = %.4f +- %.4f, "
                     "mean of per-cluster D_f = %.4f (sd %.4f)\n",
             dim, clusters, (unsigned long long)n, f.df, f.df_err, df_mean, df_sd);
@@ -88,8 +170,8 @@ int main(int argc, char **argv)
     } else {
         CHECK(f.df >= 2.40 && f.df <= 2.60, "3D D_f %.4f outside [2.40, 2.60]", f.df);
     }
-    free(grid_n);
-    free(sum_log_rg);
+    free(ens.grid_n);
+    free(ens.se_log_rg);
     free(mean_rg);
     return check_finish();
 }

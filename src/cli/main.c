@@ -1,0 +1,593 @@
+/*
+ * main.c - `pdla`, the command-line client of libpdla: parse the options
+ * (parse.c), make the run directory, grow the cluster with progress on
+ * stderr (progress.c), write RUN_DIR/cluster.h5 and RUN_DIR/summary.txt and
+ * print the summary on stdout.
+ *
+ * Exit status: 0 done; 1 runtime failure (growth or a write failed; what was
+ * grown is still written when it can be); 2 bad usage or input, including a
+ * run directory that exists or cannot be made, detected before any growth.
+ * SIGINT/SIGTERM stop the growth at the next progress callback; the partial
+ * cluster is written, then pdla ends by the same signal so that shells and
+ * loops see an interrupted command (status 130/143).
+ */
+#include <errno.h>
+#include <inttypes.h>
+#include <math.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "parse.h"
+#include "pdla/pdla.h"
+#include "pdla_config.h"
+#include "progress.h"
+
+enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
+
+/* The one piece of global state: the signal that asked us to stop. */
+static volatile sig_atomic_t stop_signal;
+
+static void on_signal(int sig) { stop_signal = sig; }
+
+/* Catch SIGINT/SIGTERM once (SA_RESETHAND: a second one ends pdla at once).
+ * A signal that was ignored when we started (nohup, a background job of a
+ * non-interactive shell) stays ignored, as callers of such jobs expect. */
+static int install_signals(void)
+{
+    static const int sigs[] = {SIGINT, SIGTERM};
+    for (size_t i = 0; i < sizeof sigs / sizeof sigs[0]; i++) {
+        struct sigaction old;
+        if (sigaction(sigs[i], NULL, &old)) return -1;
+        if (old.sa_handler == SIG_IGN) continue;
+        struct sigaction sa;
+        memset(&sa, 0, sizeof sa);
+        sa.sa_handler = on_signal;
+        sigemptyset(&sa.sa_mask);
+        /* SA_RESTART: the HDF5 writer need not cope with EINTR. */
+        sa.sa_flags = SA_RESETHAND | SA_RESTART;
+        if (sigaction(sigs[i], &sa, NULL)) return -1;
+    }
+    return 0;
+}
+
+static double wall_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static uint64_t peak_rss_bytes(void)
+{
+    struct rusage ru;
+    if (getrusage(RUSAGE_SELF, &ru)) return 0;
+    return (uint64_t)ru.ru_maxrss * 1024; /* Linux reports KiB */
+}
+
+/* ---- the command line as typed, for provenance ------------------------- */
+
+static int shell_safe(const char *s)
+{
+    if (!*s) return 0;
+    for (; *s; s++)
+        if (!((*s >= 'a' && *s <= 'z') || (*s >= 'A' && *s <= 'Z') || (*s >= '0' && *s <= '9') ||
+              strchr("%+,-./:=@_^", *s)))
+            return 0;
+    return 1;
+}
+
+/* argv joined with POSIX shell quoting, so it can be pasted back. Must be
+ * called before getopt permutes argv. NULL when out of memory. */
+static char *command_line(int argc, char **argv)
+{
+    size_t len = 1;
+    for (int i = 0; i < argc; i++) len += 4 * strlen(argv[i]) + 3;
+    char *s = malloc(len), *p = s;
+    if (!s) return NULL;
+    for (int i = 0; i < argc; i++) {
+        if (i) *p++ = ' ';
+        if (shell_safe(argv[i])) {
+            const size_t n = strlen(argv[i]);
+            memcpy(p, argv[i], n);
+            p += n;
+            continue;
+        }
+        *p++ = '\'';
+        for (const char *c = argv[i]; *c; c++) {
+            if (*c == '\'') {
+                memcpy(p, "'\\''", 4);
+                p += 4;
+            } else {
+                *p++ = *c;
+            }
+        }
+        *p++ = '\'';
+    }
+    *p = '\0';
+    return s;
+}
+
+/* ---- the run directory ------------------------------------------------- */
+
+/* mkdir -p: make every missing directory of path. 0 or an errno. */
+static int mkdir_p(const char *path)
+{
+    char *buf = strdup(path);
+    if (!buf) return ENOMEM;
+    int rc = 0;
+    for (char *p = buf + 1;; p++) {
+        if (*p != '/' && *p != '\0') continue;
+        const char save = *p;
+        *p = '\0';
+        /* An existing directory may answer EEXIST, EACCES or EROFS: what
+         * counts is whether a directory is there afterwards. */
+        const int made = mkdir(buf, 0777) == 0;
+        const int e = errno;
+        struct stat st;
+        if (!made && stat(buf, &st)) {
+            rc = e;
+            break;
+        }
+        if (!made && !S_ISDIR(st.st_mode)) {
+            rc = ENOTDIR;
+            break;
+        }
+        *p = save;
+        if (!save) break;
+    }
+    free(buf);
+    return rc;
+}
+
+/* Make the run directory (path filled in dir) before any work, so that a bad
+ * or taken name fails at once. *created says whether we made it (and may
+ * remove it again while it is empty). 0, or EXIT_USAGE with a message. */
+static int make_run_dir(const cli_options *o, char *dir, size_t dirlen, int *created)
+{
+    *created = 0;
+    if (!o->out_dir) {
+        /* runs/run-YYYYmmdd-HHMMSS-<dim>d-<target>; a run started in the
+         * same second with the same size gets -2, -3, ... */
+        int e = mkdir_p("runs");
+        if (e) {
+            fprintf(stderr, "pdla: cannot create directory 'runs': %s\n", strerror(e));
+            return EXIT_USAGE;
+        }
+        const time_t t = time(NULL);
+        struct tm tm;
+        char stamp[32];
+        if (!localtime_r(&t, &tm) || !strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &tm))
+            snprintf(stamp, sizeof stamp, "%lld", (long long)t);
+        for (int k = 1; k <= 100; k++) {
+            const int n = k == 1 ? snprintf(dir, dirlen, "runs/run-%s-%dd-%" PRIu64, stamp,
+                                             o->params.dim, o->params.target)
+                                 : snprintf(dir, dirlen, "runs/run-%s-%dd-%" PRIu64 "-%d", stamp,
+                                            o->params.dim, o->params.target, k);
+            if (n < 0 || (size_t)n >= dirlen) break;
+            if (mkdir(dir, 0777) == 0) {
+                *created = 1;
+                return 0;
+            }
+            if (errno != EEXIST) {
+                fprintf(stderr, "pdla: cannot create run directory '%s': %s\n", dir, strerror(errno));
+                return EXIT_USAGE;
+            }
+        }
+        fprintf(stderr, "pdla: cannot find a free run directory name under runs/\n");
+        return EXIT_USAGE;
+    }
+
+    const int n = snprintf(dir, dirlen, "%s", o->out_dir);
+    if (n < 0 || (size_t)n >= dirlen) {
+        fprintf(stderr, "pdla: run directory name is too long\n");
+        return EXIT_USAGE;
+    }
+    /* "DIR/" names DIR: drop trailing slashes so file paths read DIR/x. */
+    for (size_t len = (size_t)n; len > 1 && dir[len - 1] == '/';) dir[--len] = '\0';
+    /* The parents: everything before the last component. */
+    char parent[4096];
+    snprintf(parent, sizeof parent, "%s", dir);
+    char *slash = strrchr(parent, '/');
+    if (slash && slash != parent) {
+        *slash = '\0';
+        const int e = mkdir_p(parent);
+        if (e) {
+            fprintf(stderr, "pdla: cannot create run directory '%s': %s (making '%s')\n", dir,
+                    strerror(e), parent);
+            return EXIT_USAGE;
+        }
+    }
+    if (mkdir(dir, 0777) == 0) {
+        *created = 1;
+        return 0;
+    }
+    const int e = errno;
+    if (e != EEXIST) {
+        fprintf(stderr, "pdla: cannot create run directory '%s': %s\n", dir, strerror(e));
+        return EXIT_USAGE;
+    }
+    if (!o->force) {
+        fprintf(stderr, "pdla: run directory '%s' already exists (use --force to write into it)\n",
+                dir);
+        return EXIT_USAGE;
+    }
+    struct stat st;
+    if (stat(dir, &st) || !S_ISDIR(st.st_mode)) {
+        fprintf(stderr, "pdla: '%s' exists and is not a directory\n", dir);
+        return EXIT_USAGE;
+    }
+    if (access(dir, W_OK | X_OK)) {
+        fprintf(stderr, "pdla: run directory '%s' is not writable: %s\n", dir, strerror(errno));
+        return EXIT_USAGE;
+    }
+    return 0;
+}
+
+/* ---- growth ------------------------------------------------------------ */
+
+static int on_progress(const pdla_engine *e, void *user)
+{
+    if (stop_signal) return 1;
+    progress_tick(user, e);
+    return 0;
+}
+
+/* Everything the reports need, gathered once after growth. */
+typedef struct report {
+    const char *command;
+    pdla_stats st;
+    pdla_fit fit;
+    const pdla_params *P;
+    double wall_seconds;
+    uint64_t peak_rss;
+    const char *h5_path; /* NULL: no file written */
+} report;
+
+static void fmt_bytes(char *buf, size_t n, double b)
+{
+    static const char *const unit[] = {"B", "KiB", "MiB", "GiB", "TiB"};
+    int k = 0;
+    while (b >= 1024 && k < 4) {
+        b /= 1024;
+        k++;
+    }
+    snprintf(buf, n, k ? "%.1f %s" : "%.0f %s", b, unit[k]);
+}
+
+static const char *return_word(pdla_return_mode m) { return m == PDLA_RETURN_KILL ? "kill" : "exact"; }
+
+/* The human summary; summary.txt adds the command line. */
+static void print_summary(FILE *f, const report *r, int with_command)
+{
+    const pdla_stats *s = &r->st;
+    const pdla_params *P = r->P;
+    const double n = (double)s->particles;
+    char b1[32], b2[32];
+    fprintf(f, "pdla %s: %dD %s\n", pdla_version(), P->dim, s->threads ? "PDLA" : "DLA");
+    if (with_command) fprintf(f, "command          %s\n", r->command ? r->command : "?");
+    fprintf(f, "particles        %" PRIu64 " of %" PRIu64 "%s\n", s->particles, P->target,
+            s->particles < P->target ? " (stopped early)" : "");
+    fprintf(f, "resolution       D = %d units per diameter, eps = %d units, seed %" PRIu64 "\n",
+            P->resolution, P->eps, P->seed);
+    fprintf(f, "return           %s, birth margin %g diameters\n", return_word(P->return_mode),
+            P->birth_margin);
+    if (s->threads)
+        fprintf(f, "threads          %d after %" PRIu64 " serial particles (%.3f s parallel, binding %s)\n",
+                s->threads, P->serial_until, s->parallel_seconds, s->binding);
+    if (s->threads)
+        fprintf(f, "re-checks        %" PRIu64 " spots taken: %" PRIu64 " continued, %" PRIu64 " discarded\n",
+                s->recheck_overlaps, s->recheck_continued, s->recheck_discarded);
+    fprintf(f, "wall time        %.3f s (growth %.3f s)\n", r->wall_seconds, s->grow_seconds);
+    fprintf(f, "rate             %.0f particles/s\n", s->grow_seconds > 0 ? n / s->grow_seconds : 0.0);
+    fprintf(f, "jumps/particle   %.2f\n", n > 0 ? (double)s->jumps / n : 0.0);
+    fprintf(f, "ns/jump          %.1f\n", s->jumps ? 1e9 * s->grow_seconds / (double)s->jumps : 0.0);
+    fprintf(f, "walkers          %" PRIu64 " (%" PRIu64 " restarts, %" PRIu64 " lost, %" PRIu64 " killed)\n",
+            s->walkers, s->restarts, s->lost, s->killed);
+    fprintf(f, "R_g              %.3f diameters\n", s->rg_diam);
+    fprintf(f, "R_ext            %.3f diameters\n", (double)s->r_ext / P->resolution);
+    if (r->fit.points > 0)
+        fprintf(f, "D_f              %.4f +/- %.4f (N from %" PRIu64 " to %" PRIu64 ", %d samples)\n",
+                r->fit.df, r->fit.df_err, r->fit.n_lo, r->fit.n_hi, r->fit.points);
+    else
+        fprintf(f, "D_f              n/a (too few R_g samples to fit)\n");
+    fmt_bytes(b1, sizeof b1, (double)s->tree_bytes);
+    fprintf(f, "tree memory      %.2f bytes/particle (%s)\n", n > 0 ? (double)s->tree_bytes / n : 0.0, b1);
+    fmt_bytes(b2, sizeof b2, (double)r->peak_rss);
+    fprintf(f, "peak RSS         %s\n", b2);
+    fprintf(f, "output           %s\n", r->h5_path ? r->h5_path : "none");
+}
+
+/* ---- JSON -------------------------------------------------------------- */
+
+static void json_string(FILE *f, const char *s)
+{
+    if (!s) {
+        fputs("null", f);
+        return;
+    }
+    fputc('"', f);
+    for (; *s; s++) {
+        const unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\') fprintf(f, "\\%c", c);
+        else if (c < 0x20) fprintf(f, "\\u%04x", c);
+        else fputc(c, f);
+    }
+    fputc('"', f);
+}
+
+static void json_real(FILE *f, double x)
+{
+    if (isfinite(x)) fprintf(f, "%.17g", x);
+    else fputs("null", f);
+}
+
+static void write_json(FILE *f, const report *r, const char *status)
+{
+    const pdla_stats *s = &r->st;
+    const pdla_params *P = r->P;
+    fprintf(f, "{\n  \"version\": ");
+    json_string(f, pdla_version());
+    fprintf(f, ",\n  \"command\": ");
+    json_string(f, r->command);
+    fprintf(f, ",\n  \"status\": ");
+    json_string(f, status);
+    fprintf(f, ",\n  \"params\": {\"dim\": %d, \"target\": %" PRIu64 ", \"seed\": %" PRIu64
+               ", \"resolution\": %d, \"eps\": %d, \"birth_margin\": ",
+            P->dim, P->target, P->seed, P->resolution, P->eps);
+    json_real(f, P->birth_margin);
+    fprintf(f, ", \"return\": \"%s\", \"kill_ratio\": ", return_word(P->return_mode));
+    json_real(f, P->kill_ratio);
+    fprintf(f, ", \"exact_search\": %d, \"far_factor\": ", P->exact_search);
+    json_real(f, P->far_factor);
+    fprintf(f, ", \"max_jumps\": %" PRIu64 ", \"snap_contact\": %d, \"rg_per_decade\": %d"
+               ", \"threads\": %d, \"serial_until\": %" PRIu64 ", \"recheck\": \"%s\", \"bind\": \"%s\"},\n",
+            P->max_jumps, P->snap_contact, P->rg_per_decade, P->threads, P->serial_until,
+            P->recheck == PDLA_RECHECK_DISCARD ? "discard" : "continue",
+            P->bind == PDLA_BIND_CORE ? "core" : "none");
+    fprintf(f, "  \"particles\": %" PRIu64 ",\n  \"walkers\": %" PRIu64 ",\n  \"jumps\": %" PRIu64
+               ",\n  \"returns\": %" PRIu64 ",\n  \"lost\": %" PRIu64 ",\n  \"killed\": %" PRIu64
+               ",\n  \"restarts\": %" PRIu64 ",\n  \"node_visits\": %" PRIu64
+               ",\n  \"particle_checks\": %" PRIu64 ",\n  \"r_ext_units\": %" PRId64 ",\n",
+            s->particles, s->walkers, s->jumps, s->returns, s->lost, s->killed, s->restarts,
+            s->node_visits, s->particle_checks, s->r_ext);
+    fprintf(f, "  \"r_ext_diam\": ");
+    json_real(f, (double)s->r_ext / P->resolution);
+    fprintf(f, ",\n  \"rg_diam\": ");
+    json_real(f, s->rg_diam);
+    fprintf(f, ",\n  \"tree_bytes\": %zu,\n  \"inner_nodes\": %" PRIu64 ",\n  \"leaves\": %" PRIu64
+               ",\n  \"chunks\": %" PRIu64 ",\n  \"root_level\": %d,\n  \"grow_seconds\": ",
+            s->tree_bytes, s->inner_nodes, s->leaves, s->chunks, s->root_level);
+    json_real(f, s->grow_seconds);
+    fprintf(f, ",\n  \"parallel_seconds\": ");
+    json_real(f, s->parallel_seconds);
+    fprintf(f, ",\n  \"threads\": %d,\n  \"recheck_overlaps\": %" PRIu64
+               ",\n  \"recheck_continued\": %" PRIu64 ",\n  \"recheck_discarded\": %" PRIu64
+               ",\n  \"binding\": ",
+            s->threads, s->recheck_overlaps, s->recheck_continued, s->recheck_discarded);
+    json_string(f, s->binding);
+    fprintf(f, ",\n  \"fit\": {\"df\": ");
+    json_real(f, r->fit.points ? r->fit.df : NAN);
+    fprintf(f, ", \"df_err\": ");
+    json_real(f, r->fit.points ? r->fit.df_err : NAN);
+    fprintf(f, ", \"prefactor_diam\": ");
+    json_real(f, r->fit.points ? r->fit.prefactor_diam : NAN);
+    fprintf(f, ", \"n_lo\": %" PRIu64 ", \"n_hi\": %" PRIu64 ", \"points\": %d},\n", r->fit.n_lo,
+            r->fit.n_hi, r->fit.points);
+    fprintf(f, "  \"wall_seconds\": ");
+    json_real(f, r->wall_seconds);
+    fprintf(f, ",\n  \"peak_rss_bytes\": %" PRIu64 ",\n  \"output\": ", r->peak_rss);
+    json_string(f, r->h5_path);
+    fprintf(f, "\n}\n");
+}
+
+/* Close f and say whether everything written to it arrived. */
+static int close_checked(FILE *f, const char *path, char *why, size_t whylen)
+{
+    errno = 0;
+    const int bad = ferror(f) || fflush(f); /* fflush retries, so errno names the cause */
+    const int e = errno;
+    const int cbad = fclose(f);
+    if (!bad && !cbad) return 0;
+    snprintf(why, whylen, "cannot write %s: %s", path, strerror(bad ? (e ? e : EIO) : errno));
+    return -1;
+}
+
+/* Write cluster.h5 into dir. With --force an existing one is replaced by
+ * writing beside it and renaming, so a failed write keeps the old file. */
+static int write_cluster(const pdla_engine *e, const pdla_run_info *info, const char *h5,
+                         const char *dir, char *why, size_t whylen)
+{
+    char err[512];
+    char tmp[4200];
+    const int exists = access(h5, F_OK) == 0;
+    const char *target = h5;
+    if (exists) {
+        snprintf(tmp, sizeof tmp, "%s/.cluster.h5.new", dir);
+        if (unlink(tmp) && errno != ENOENT) {
+            snprintf(why, whylen, "cannot remove %s: %s", tmp, strerror(errno));
+            return -1;
+        }
+        target = tmp;
+    }
+    if (pdla_output_write(e, info, target, err, sizeof err) != PDLA_OK) {
+        snprintf(why, whylen, "cannot write %s: %s", h5, err);
+        return -1;
+    }
+    if (exists && rename(tmp, h5)) {
+        snprintf(why, whylen, "cannot replace %s: %s", h5, strerror(errno));
+        unlink(tmp);
+        return -1;
+    }
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    const double t0 = wall_now();
+    char *cmd = command_line(argc, argv); /* before getopt reorders argv */
+    if (!cmd) {
+        fprintf(stderr, "pdla: out of memory\n");
+        return EXIT_RUNTIME;
+    }
+
+    cli_options o;
+    char err[1024];
+    const int prc = cli_parse(argc, argv, &o, err, sizeof err);
+    if (prc == CLI_PARSE_ERROR) {
+        fprintf(stderr, "pdla: %s\n", err);
+        free(cmd);
+        return EXIT_USAGE;
+    }
+    if (prc == CLI_PARSE_EXIT) {
+        free(cmd);
+        if (o.action == CLI_HELP) {
+            pdla_params d;
+            pdla_params_default(&d);
+            const size_t n = cli_help_text(NULL, 0, &d) + 1;
+            char *help = malloc(n);
+            if (!help) {
+                fprintf(stderr, "pdla: out of memory\n");
+                return EXIT_RUNTIME;
+            }
+            cli_help_text(help, n, &d);
+            fputs(help, stdout);
+            free(help);
+        } else {
+            printf("pdla %s\ncompiler %s\nbuild %s\n", pdla_version(), PDLA_COMPILER, PDLA_BUILD_FLAGS);
+        }
+        if (fflush(stdout) || ferror(stdout)) {
+            fprintf(stderr, "pdla: cannot write to stdout: %s\n", strerror(errno));
+            return EXIT_RUNTIME;
+        }
+        return 0;
+    }
+
+    if (install_signals()) {
+        fprintf(stderr, "pdla: cannot install signal handlers: %s\n", strerror(errno));
+        free(cmd);
+        return EXIT_RUNTIME;
+    }
+
+    pdla_engine *eng = NULL;
+    int rc = pdla_engine_create(&eng, &o.params, err, sizeof err);
+    if (rc != PDLA_OK) {
+        fprintf(stderr, "pdla: %s\n", err);
+        free(cmd);
+        return rc == PDLA_EINVAL ? EXIT_USAGE : EXIT_RUNTIME;
+    }
+
+    /* Everything that can fail on a bad name fails here, before growth. */
+    char dir[4096] = "";
+    int created = 0;
+    if (!o.no_output) {
+        const int drc = make_run_dir(&o, dir, sizeof dir, &created);
+        if (drc) {
+            pdla_engine_destroy(eng);
+            free(cmd);
+            return drc;
+        }
+    }
+    FILE *json = NULL;
+    if (o.stats_json) {
+        json = fopen(o.stats_json, "w");
+        if (!json) {
+            fprintf(stderr, "pdla: cannot create %s: %s\n", o.stats_json, strerror(errno));
+            if (created) rmdir(dir); /* still empty: leave no trace */
+            pdla_engine_destroy(eng);
+            free(cmd);
+            return EXIT_USAGE;
+        }
+    }
+
+    progress prog;
+    const int tty = isatty(STDERR_FILENO);
+    progress_init(&prog, stderr, o.progress == 1 || (o.progress == -1 && !o.quiet && tty), tty);
+    char gerr[512] = "";
+    const int grc = pdla_engine_grow(eng, o.params.target, on_progress, 1000, &prog, gerr, sizeof gerr);
+    progress_finish(&prog, eng);
+
+    /* Write what was grown, whether growth finished or not. */
+    report r;
+    memset(&r, 0, sizeof r);
+    r.command = cmd;
+    r.P = pdla_engine_params(eng);
+    char h5[4200], txt[4200], why[5000] = "";
+    int write_failed = 0;
+    if (!o.no_output) {
+        snprintf(h5, sizeof h5, "%s/cluster.h5", dir);
+        snprintf(txt, sizeof txt, "%s/summary.txt", dir);
+        const pdla_run_info info = {cmd, wall_now() - t0, peak_rss_bytes()};
+        if (write_cluster(eng, &info, h5, dir, why, sizeof why)) write_failed = 1;
+        else r.h5_path = h5;
+    }
+    pdla_engine_stats(eng, &r.st);
+    r.fit = pdla_engine_fit(eng);
+    r.wall_seconds = wall_now() - t0;
+    r.peak_rss = peak_rss_bytes();
+
+    if (!o.no_output && !write_failed) {
+        FILE *f = fopen(txt, "w");
+        if (!f) {
+            snprintf(why, sizeof why, "cannot write %s: %s", txt, strerror(errno));
+            write_failed = 1;
+        } else {
+            print_summary(f, &r, 1);
+            if (close_checked(f, txt, why, sizeof why)) write_failed = 1;
+        }
+    }
+    const char *status = grc == PDLA_OK ? "done" : stop_signal ? "stopped by signal" : "failed";
+    if (json) {
+        write_json(json, &r, status);
+        char jwhy[5000];
+        if (close_checked(json, o.stats_json, jwhy, sizeof jwhy) && !write_failed) {
+            memcpy(why, jwhy, sizeof why);
+            write_failed = 1;
+        }
+    }
+    if (!o.quiet) {
+        print_summary(stdout, &r, 0);
+        if (fflush(stdout) || ferror(stdout)) {
+            if (!write_failed)
+                snprintf(why, sizeof why, "cannot write the summary to stdout: %s", strerror(errno));
+            write_failed = 1;
+        }
+    }
+
+    /* One line on stderr for whatever went wrong. */
+    const uint64_t n = r.st.particles;
+    char where[5200];
+    if (o.no_output) snprintf(where, sizeof where, "nothing written (--no-output)");
+    else if (write_failed) snprintf(where, sizeof where, "%s", why);
+    else snprintf(where, sizeof where, "partial cluster written to %s", h5);
+    int code = 0;
+    if (grc == PDLA_ESTOPPED && stop_signal) {
+        fprintf(stderr, "pdla: stopped by signal after %" PRIu64 " particles; %s\n", n, where);
+        code = EXIT_RUNTIME;
+    } else if (grc != PDLA_OK) {
+        fprintf(stderr, "pdla: growth failed after %" PRIu64 " particles: %s; %s\n", n, gerr, where);
+        code = EXIT_RUNTIME;
+    } else if (write_failed) {
+        fprintf(stderr, "pdla: %s\n", why);
+        code = EXIT_RUNTIME;
+    } else if (stop_signal) {
+        fprintf(stderr, "pdla: signal received after growth had finished; output complete\n");
+    }
+    pdla_engine_destroy(eng);
+    free(cmd);
+
+    /* Interrupted: end by the same signal (the handler was reset on
+     * delivery), so a calling shell sees it and stops its loop too. */
+    const int sig = stop_signal;
+    if (sig) {
+        fflush(NULL);
+        signal(sig, SIG_DFL);
+        raise(sig);
+    }
+    return code;
+}

@@ -1,0 +1,60 @@
+/*
+ * parse.h - the `pdla` command line: strict number parsing and the option
+ * table. No I/O and no state of its own (getopt's globals are reset on each
+ * call), so unit tests and a fuzzer can call it directly; main.c prints.
+ *
+ * Counts (--target, --seed, --max-jumps, ...) are unsigned 64-bit integers
+ * written as 1000000, 1e6, 1.5e6 or with a suffix k, M, G, T (10^3, 10^6,
+ * 10^9, 10^12; case-sensitive, so "10m" is refused rather than guessed at).
+ * Whatever the spelling, the value must be a whole number: "1.5k" is 1500,
+ * "2.5" and "1e-3" are errors. Signs, blanks, hexadecimal, inf and nan are
+ * refused. Reals (--birth-margin, --kill-ratio, --far-factor) are decimal
+ * numbers read with strtod; the whole string must be used and the value
+ * finite. Ranges are checked by pdla_params_validate, the library's single
+ * source of truth, except that a value must fit the field's C type.
+ */
+#ifndef PDLA_CLI_PARSE_H
+#define PDLA_CLI_PARSE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "pdla/pdla.h"
+
+typedef enum cli_action {
+    CLI_RUN = 0,  /* grow a cluster */
+    CLI_HELP,     /* -h/--help: print cli_help_text() on stdout, exit 0 */
+    CLI_VERSION   /* -V/--version: print the version on stdout, exit 0 */
+} cli_action;
+
+typedef struct cli_options {
+    pdla_params params;      /* pdla_params_default() plus what was given */
+    cli_action action;
+    const char *out_dir;     /* --out DIR (points into argv), NULL: default name */
+    const char *stats_json;  /* --stats-json FILE (into argv), NULL: none */
+    int force;               /* --force: the run directory may exist */
+    int no_output;           /* --no-output: no run directory, no files */
+    int quiet;               /* -q: no progress, no summary; errors only */
+    int progress;            /* 1 --progress, 0 --no-progress, -1 not given */
+} cli_options;
+
+/* Return values of cli_parse. */
+enum { CLI_PARSE_OK = 0, CLI_PARSE_EXIT = 1, CLI_PARSE_ERROR = 2 };
+
+/* Parse argv into *out (filled with the defaults first). Returns
+ * CLI_PARSE_OK to run, CLI_PARSE_EXIT when --help or --version was asked
+ * (out->action says which; the caller prints), or CLI_PARSE_ERROR with a
+ * one-line reason in err (no "pdla: " prefix, no newline). On success the
+ * parameters have passed pdla_params_validate. getopt_long may permute argv. */
+int cli_parse(int argc, char **argv, cli_options *out, char *err, size_t errlen);
+
+/* Strict parsers for one value. Return NULL on success, else a short static
+ * reason such as "trailing characters after the number" (*out untouched). */
+const char *cli_parse_count(const char *s, uint64_t *out);
+const char *cli_parse_real(const char *s, double *out);
+
+/* The --help text for the given defaults, like snprintf: writes at most len
+ * bytes (NUL-terminated when len > 0) and returns the full length. */
+size_t cli_help_text(char *buf, size_t len, const pdla_params *defaults);
+
+#endif /* PDLA_CLI_PARSE_H */

@@ -74,12 +74,7 @@ void tree_free(tree *t)
 
 size_t tree_bytes(const tree *t)
 {
-    const tree_pool *pools[2] = {&t->inner, &t->chunks};
-    size_t bytes = 0;
-    for (int i = 0; i < 2; i++)
-        bytes += (size_t)pools[i]->nseg * POOL_SEG_SIZE * pools[i]->elem +
-                 POOL_MAX_SEGS * sizeof(uint8_t *);
-    return bytes;
+    return (size_t)t->inner.count * t->inner.elem + (size_t)t->chunks.count * t->chunks.elem;
 }
 
 static _Atomic uint32_t *children_mut(tree *t, uint32_t node)

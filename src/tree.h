@@ -97,7 +97,8 @@ int tree_make_path(tree *t, const int64_t *p, tree_slot *slot);
  * it. Touches only the chunk pool: the engine's bucket mutex guards it. */
 int tree_append(tree *t, const tree_slot *slot, const int64_t *p);
 
-/* Bytes held by the pools (allocated segments and the segment tables). */
+/* Bytes of the records in use (segments are allocated 2^16 records at a
+ * time and touched as they fill, so resident memory follows this closely). */
 size_t tree_bytes(const tree *t);
 
 typedef struct tree_root {

@@ -134,7 +134,7 @@ typedef struct pdla_stats {
     uint64_t particle_checks;/* exact particle distances computed */
     int64_t r_ext;           /* max |x| of the particle centres, units (rounded up) */
     double rg_diam;          /* radius of gyration now, diameters */
-    size_t tree_bytes;       /* memory held by the tree pools */
+    size_t tree_bytes;       /* bytes of tree records (nodes and chunks) in use */
     uint64_t inner_nodes, leaves, chunks;
     int root_level;          /* root box side = 256 * 2^root_level units */
     double grow_seconds;     /* wall time spent in pdla_engine_grow */

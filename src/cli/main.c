@@ -416,7 +416,7 @@ static int write_cluster(const pdla_engine *e, const pdla_run_info *info, const 
         target = tmp;
     }
     if (pdla_output_write(e, info, target, err, sizeof err) != PDLA_OK) {
-        snprintf(why, whylen, "cannot write %s: %s", h5, err);
+        snprintf(why, whylen, "%s", err); /* already names the file */
         return -1;
     }
     if (exists && rename(tmp, h5)) {

@@ -111,10 +111,27 @@ static void draw(progress *p, const pdla_engine *e, double now, int final)
     fmt_bytes(mem, sizeof mem, (double)s.tree_bytes);
     const double pct = P->target ? 100.0 * (double)s.particles / (double)P->target : 0;
 
-    char line[160];
-    const int len = snprintf(line, sizeof line, "%s/%s (%.1f%%)  %s p/s  %s %s  R_ext %.0f d  tree %s",
-                             n, tgt, pct, rate, final ? "time" : "ETA", eta,
-                             (double)s.r_ext / P->resolution, mem);
+    /* Which phase: the serial phase says until when, so a PDLA run's
+     * early rate is not mistaken for its parallel one. */
+    char phase[48] = "";
+    if (P->threads != 1 && P->target > P->serial_until) {
+        char until[16];
+        fmt_count(until, sizeof until, (double)P->serial_until);
+        if (s.threads > 0)
+            snprintf(phase, sizeof phase, "  %d threads", s.threads);
+        else if (s.particles >= P->serial_until && P->threads > 0)
+            snprintf(phase, sizeof phase, "  %d threads", P->threads);
+        else if (s.particles >= P->serial_until)
+            snprintf(phase, sizeof phase, "  one thread per core");
+        else
+            snprintf(phase, sizeof phase, "  serial until %s", until);
+    }
+
+    char line[200];
+    const int len = snprintf(line, sizeof line,
+                             "%s/%s (%.1f%%)  %s p/s  %s %s  R_ext %.0f d  tree %s%s", n, tgt, pct,
+                             rate, final ? "time" : "ETA", eta, (double)s.r_ext / P->resolution,
+                             mem, phase);
     if (p->tty) {
         /* Blank what a longer previous line left behind. */
         const int pad = p->width > len ? p->width - len : 0;

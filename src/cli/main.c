@@ -263,17 +263,6 @@ typedef struct report {
     const char *h5_path; /* NULL: no file written */
 } report;
 
-static void fmt_bytes(char *buf, size_t n, double b)
-{
-    static const char *const unit[] = {"B", "KiB", "MiB", "GiB", "TiB"};
-    int k = 0;
-    while (b >= 1024 && k < 4) {
-        b /= 1024;
-        k++;
-    }
-    snprintf(buf, n, k ? "%.1f %s" : "%.0f %s", b, unit[k]);
-}
-
 static const char *return_word(pdla_return_mode m) { return m == PDLA_RETURN_KILL ? "kill" : "exact"; }
 
 /* The human summary; summary.txt adds the command line. */
@@ -310,9 +299,9 @@ static void print_summary(FILE *f, const report *r, int with_command)
                 r->fit.df, r->fit.df_err, r->fit.n_lo, r->fit.n_hi, r->fit.points);
     else
         fprintf(f, "D_f              n/a (too few R_g samples to fit)\n");
-    fmt_bytes(b1, sizeof b1, (double)s->tree_bytes);
+    progress_fmt_bytes(b1, sizeof b1, (double)s->tree_bytes);
     fprintf(f, "tree memory      %.2f bytes/particle (%s)\n", n > 0 ? (double)s->tree_bytes / n : 0.0, b1);
-    fmt_bytes(b2, sizeof b2, (double)r->peak_rss);
+    progress_fmt_bytes(b2, sizeof b2, (double)r->peak_rss);
     fprintf(f, "peak RSS         %s\n", b2);
     fprintf(f, "output           %s\n", r->h5_path ? r->h5_path : "none");
 }

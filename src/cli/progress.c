@@ -50,7 +50,7 @@ static void fmt_count(char *buf, size_t n, double v)
     snprintf(buf, n, "%.*f%c", v < 9.995 ? 2 : v < 99.95 ? 1 : 0, v, sfx[k]);
 }
 
-static void fmt_bytes(char *buf, size_t n, double b)
+void progress_fmt_bytes(char *buf, size_t n, double b)
 {
     static const char *const unit[] = {"B", "KiB", "MiB", "GiB", "TiB"};
     int k = 0;
@@ -108,7 +108,7 @@ static void draw(progress *p, const pdla_engine *e, double now, int final)
         fmt_eta(eta, sizeof eta, now - p->t_start); /* the final line shows the time taken */
     else
         fmt_eta(eta, sizeof eta, p->rate > 0 ? left / p->rate : -1);
-    fmt_bytes(mem, sizeof mem, (double)s.tree_bytes);
+    progress_fmt_bytes(mem, sizeof mem, (double)s.tree_bytes);
     const double pct = P->target ? 100.0 * (double)s.particles / (double)P->target : 0;
 
     /* Which phase: the serial phase says until when, so a PDLA run's

@@ -34,6 +34,9 @@ typedef struct progress {
 /* Monotonic seconds. */
 double progress_now(void);
 
+/* A byte count for people: "812 B", "3.4 MiB". */
+void progress_fmt_bytes(char *buf, size_t n, double b);
+
 /* Start timing; enabled = 0 makes every other call a no-op. */
 void progress_init(progress *p, FILE *out, int enabled, int tty);
 

@@ -5,7 +5,8 @@
  * particle nearest the viewer in a pixel sets its brightness). Colour is
  * the inferno map (a 33-entry table, linearly interpolated) of
  *   density  log(1 + particles per pixel), normalised to the densest pixel;
- *   radius   distance from the seed / R_ext, averaged over the pixel;
+ *   radius   distance from the seed / (R_ext / zoom), averaged over the
+ *            pixel in 2D, of the particle nearest the viewer in 3D;
  *   arrival  arrival index / N (files written with `pdla --arrival`);
  *   depth    (3D) distance towards the viewer.
  * Particles smaller than a pixel are deposited bilinearly (anti-aliased
@@ -38,11 +39,13 @@ static const char render_help[] =
     "  -o, --output PNG      the picture to write (required; refused if it exists)\n"
     "  --size N              width = height in pixels, 16..8192 (default 1024)\n"
     "  --color MODE          density: log of particles per pixel (default);\n"
-    "                        radius: distance from the seed (0 .. R_ext/zoom);\n"
-    "                        arrival: arrival\n"
-    "                        order (files grown with --arrival); depth: 3D only\n"
+    "                        radius: distance from the seed (up to R_ext, or the\n"
+    "                        picture's corner when zoomed); arrival: arrival\n"
+    "                        order (files grown with --arrival); depth: 3D,\n"
+    "                        distance towards the viewer\n"
     "  --axis x|y|z          3D: the axis looked along (default z)\n"
-    "  --zoom F              magnify the centre by F >= 1 (default 1: whole cluster)\n"
+    "  --zoom F              F > 1: magnify F times around the seed (default 1:\n"
+    "                        the whole cluster)\n"
     "  --force               replace an existing PNG\n"
     "  --slab-rows N         rows read at once, 1..65536 (default 65536)\n"
     "  -h, --help            print this help and exit\n"
@@ -80,7 +83,7 @@ typedef struct canvas {
     double lo[3], hi[3], rmax2;
     /* mapping */
     double cu, cv, scale;   /* image centre (units), pixels per unit */
-    double zoom;
+    double rnorm;           /* radius that maps to the top of the colour map */
     double rp;              /* particle radius in pixels */
     double dlo, dspan;      /* depth range, units */
     float *w, *v, *z;       /* coverage, coverage x value, front depth (3D) */
@@ -108,16 +111,22 @@ static inline void deposit(canvas *c, int x, int y, float cov, float val, float 
     if (x < 0 || y < 0 || x >= c->size || y >= c->size || cov <= 0) return;
     const size_t k = (size_t)y * (size_t)c->size + (size_t)x;
     c->w[k] += cov;
-    if (c->v) c->v[k] += cov * val;
-    if (c->z && depth > c->z[k]) c->z[k] = depth;
+    if (c->z) {
+        /* 3D: the particle nearest the viewer gives the pixel its value. */
+        if (depth > c->z[k]) {
+            c->z[k] = depth;
+            if (c->v) c->v[k] = val;
+        }
+    } else if (c->v) {
+        c->v[k] += cov * val;
+    }
 }
 
 static int splat_pass(const int32_t *xyz, size_t rows, uint64_t first, void *user)
 {
     canvas *const c = user;
     const double half = 0.5 * c->size;
-    /* Radius colours span what the picture shows: R_ext / zoom. */
-    const double rmax = sqrt(c->rmax2) > 0 ? sqrt(c->rmax2) / c->zoom : 1;
+    const double rmax = c->rnorm > 0 ? c->rnorm : 1;
     for (size_t i = 0; i < rows; i++) {
         const int32_t *const p = xyz + i * (size_t)c->dim;
         const double px = (p[c->iu] - c->cu) * c->scale + half;
@@ -200,14 +209,14 @@ static int write_png(FILE *fp, const canvas *c, char *err, size_t errlen)
                 colormap(log1p(w) * lnorm, rgb);
             } else {
                 /* Hue from the mean value; coverage fades it into the background. */
-                const double q = w > 0 ? c->v[k] / w : 0;
+                const double q = c->z ? c->v[k] : w > 0 ? c->v[k] / w : 0;
                 const double alpha = w >= 1 ? 1 : w;
                 double bg[3];
                 colormap(0, bg);
-                colormap(0.12 + 0.88 * q, rgb);
+                colormap(0.2 + 0.8 * q, rgb);
                 for (int j = 0; j < 3; j++) rgb[j] = bg[j] + alpha * (rgb[j] - bg[j]);
             }
-            if (c->z && w > 0) {
+            if (c->z && c->z[k] >= 0) {
                 const double shade = 0.3 + 0.7 * c->z[k];
                 for (int j = 0; j < 3; j++) rgb[j] *= shade;
             }
@@ -346,19 +355,27 @@ int tool_render(int argc, char **argv)
         cv.dlo = cv.lo[cv.id];
         cv.dspan = cv.hi[cv.id] - cv.lo[cv.id];
     }
+    /* The whole cluster, centred on its bounding box; zoomed, centred on
+     * the seed, and radius colours then span what the picture shows. */
     const double D = f.diameter_units;
-    cv.cu = 0.5 * (cv.lo[cv.iu] + cv.hi[cv.iu]);
-    cv.cv = 0.5 * (cv.lo[cv.iv] + cv.hi[cv.iv]);
     double halfw = 0.5 * fmax(cv.hi[cv.iu] - cv.lo[cv.iu], cv.hi[cv.iv] - cv.lo[cv.iv]) + D;
-    halfw /= zoom;
-    cv.zoom = zoom;
+    cv.rnorm = sqrt(cv.rmax2);
+    if (zoom > 1) {
+        halfw /= zoom;
+        cv.cu = cv.cv = 0;
+        cv.rnorm = fmin(cv.rnorm, halfw * sqrt(2.0));
+    } else {
+        cv.cu = 0.5 * (cv.lo[cv.iu] + cv.hi[cv.iu]);
+        cv.cv = 0.5 * (cv.lo[cv.iv] + cv.hi[cv.iv]);
+    }
     cv.scale = 0.5 * cv.size / halfw;
     cv.rp = 0.5 * D * cv.scale;
 
     const size_t npix = (size_t)cv.size * (size_t)cv.size;
     cv.w = calloc(npix, sizeof *cv.w);
     if (mode != COL_DENSITY) cv.v = calloc(npix, sizeof *cv.v);
-    if (f.dim == 3) cv.z = calloc(npix, sizeof *cv.z);
+    if (f.dim == 3 && (cv.z = malloc(npix * sizeof *cv.z)))
+        for (size_t k = 0; k < npix; k++) cv.z[k] = -1; /* below every depth */
     if (!cv.w || (mode != COL_DENSITY && !cv.v) || (f.dim == 3 && !cv.z)) {
         snprintf(err, sizeof err, "out of memory for a %dx%d image", cv.size, cv.size);
         goto out;

@@ -109,6 +109,14 @@ json_ok info2a.json
 checks=$((checks + 1))
 grep -q '"order": "arrival"' info2a.json || fail "--arrival file not in arrival order"
 grep -q '"record_arrival": 1' info2a.json || fail "--arrival not in /parameters"
+checks=$((checks + 1))
+"$FIX" same c2a/cluster.h5 c2/cluster.h5 || fail "--arrival: not the same cluster, or not seed first"
+# Arrival order from worker threads too (recorded under the gyration mutex).
+"$PDLA" -q --dim 2 --target 5000 --seed 9 --threads 2 --serial-until 1000 --arrival --out t2a ||
+    fail "grow t2a"
+good "info threaded arrival" info t2a/cluster.h5
+grep -q "^particles    5000 in 2D, positions in arrival order" out || fail "t2a: $(head -3 out)"
+good "render threaded arrival" render t2a/cluster.h5 -o t2a.png --size 64 --color arrival
 good "info synthetic" info --json disc.h5
 cp out infod.json
 json_ok infod.json

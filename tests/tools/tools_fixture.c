@@ -12,6 +12,8 @@
  *   tools_fixture mr FILE.h5 CSV      brute force: every position in memory,
  *       M(r) = #{|x| < r} at each r_units of analyze's mass_radius.csv, which
  *       must agree exactly.
+ *   tools_fixture same ARRIVAL.h5 TREE.h5   the first row of ARRIVAL.h5 is
+ *       the seed (origin) and both files hold the same set of positions.
  */
 #include <math.h>
 #include <png.h>
@@ -190,18 +192,56 @@ static int png_check(const char *path, unsigned w, unsigned h)
     return lit > 0 ? 0 : 1;
 }
 
-static int mr_check(const char *h5, const char *csv)
+/* All of /cluster/positions in memory; NULL on failure. */
+static int32_t *read_all(const char *h5, hsize_t dims[2])
 {
     hid_t f = H5Fopen(h5, H5F_ACC_RDONLY, H5P_DEFAULT);
     hid_t d = H5Dopen2(f, "/cluster/positions", H5P_DEFAULT);
     hid_t sp = H5Dget_space(d);
-    hsize_t dims[2];
     H5Sget_simple_extent_dims(sp, dims, NULL);
-    int32_t *p = malloc(dims[0] * dims[1] * sizeof *p);
-    if (!p || H5Dread(d, H5T_NATIVE_INT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, p) < 0) return 1;
+    int32_t *p = malloc(dims[0] * dims[1] * sizeof *p + 1);
+    if (p && H5Dread(d, H5T_NATIVE_INT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, p) < 0) {
+        free(p);
+        p = NULL;
+    }
     H5Sclose(sp);
     H5Dclose(d);
     H5Fclose(f);
+    return p;
+}
+
+static int cmp_dim;
+static int cmp_rows(const void *a, const void *b)
+{
+    return memcmp(a, b, (size_t)cmp_dim * sizeof(int32_t)) < 0 ? -1 : memcmp(a, b, (size_t)cmp_dim * sizeof(int32_t)) > 0;
+}
+
+static int same_check(const char *arr, const char *tree)
+{
+    hsize_t da[2], dt[2];
+    int32_t *a = read_all(arr, da), *t = read_all(tree, dt);
+    int rc = 1;
+    if (!a || !t || da[0] != dt[0] || da[1] != dt[1] || da[0] == 0) {
+        fprintf(stderr, "shapes differ or unreadable\n");
+    } else if (a[0] != 0 || a[1] != 0 || (da[1] == 3 && a[2] != 0)) {
+        fprintf(stderr, "the first arrival is not the seed\n");
+    } else {
+        cmp_dim = (int)da[1];
+        qsort(a, da[0], da[1] * sizeof *a, cmp_rows);
+        qsort(t, dt[0], dt[1] * sizeof *t, cmp_rows);
+        rc = memcmp(a, t, da[0] * da[1] * sizeof *a) != 0;
+        if (rc) fprintf(stderr, "the positions differ\n");
+    }
+    free(a);
+    free(t);
+    return rc;
+}
+
+static int mr_check(const char *h5, const char *csv)
+{
+    hsize_t dims[2];
+    int32_t *p = read_all(h5, dims);
+    if (!p) return 1;
     double *r = malloc(dims[0] * sizeof *r);
     for (hsize_t i = 0; i < dims[0]; i++) {
         double r2 = 0;
@@ -238,6 +278,7 @@ int main(int argc, char **argv)
     if (argc == 4 && !strcmp(argv[1], "synth")) return synth(argv[2], argv[3]);
     if (argc == 5 && !strcmp(argv[1], "png")) return png_check(argv[2], (unsigned)atoi(argv[3]), (unsigned)atoi(argv[4]));
     if (argc == 4 && !strcmp(argv[1], "mr")) return mr_check(argv[2], argv[3]);
+    if (argc == 4 && !strcmp(argv[1], "same")) return same_check(argv[2], argv[3]);
     fprintf(stderr, "usage: tools_fixture synth KIND OUT | png FILE W H | mr H5 CSV\n");
     return 2;
 }

@@ -120,8 +120,15 @@ static void print_text(FILE *o, const h5r_file *f, size_t k, const h5r_attrs *pa
                 gs, h5r_attr_num(res, "parallel_seconds"), h5r_attr_num(res, "threads"), ws,
                 h5r_attr_num(res, "jumps_per_particle"), h5r_attr_num(res, "ns_per_jump"),
                 h5r_attr_num(res, "peak_rss_bytes") / 1048576.0);
-    fprintf(o, "seed         %.0f, target %.0f, threads %.0f\n", h5r_attr_num(par, "seed"),
-            h5r_attr_num(par, "target"), h5r_attr_num(par, "threads"));
+    const h5r_attr *const seed = h5r_attr_find(par, "seed");
+    const h5r_attr *const target = h5r_attr_find(par, "target");
+    if (seed && target) {
+        fprintf(o, "seed         ");
+        text_attr(o, seed); /* exact: a 64-bit seed does not fit a double */
+        fprintf(o, ", target ");
+        text_attr(o, target);
+        fprintf(o, ", threads %.0f\n", h5r_attr_num(par, "threads"));
+    }
     fprintf(o, "provenance   pdla %s (git %s), %s, HDF5 %s, hwloc %s\n",
             str_or(code, "version", "?"), str_or(code, "git_revision", "?"),
             str_or(code, "compiler", "?"), str_or(code, "hdf5_version", "?"),

@@ -213,6 +213,26 @@ good "analyze csv --force" analyze disc.h5 --csv csv_disc --force
 bad "analyze csv on a file" analyze disc.h5 --csv text.h5
 bad "analyze bad centre" analyze disc.h5 --centre middle
 bad "analyze bad fit-max" analyze disc.h5 --fit-max 2
+# Damaged files: a truncated one cannot be opened (2); a flipped chunk fails
+# its Fletcher32 checksum while streaming (1); one line, no picture.
+head -c 200000 big2/cluster.h5 >trunc.h5
+for t in info analyze render; do
+    o=
+    [ $t = render ] && o="-o dmg.png"
+    bad "$t truncated" $t trunc.h5 $o
+done
+cp big2/cluster.h5 corrupt.h5
+printf 'UUUUUUUU' | dd of=corrupt.h5 bs=1 seek=300000 conv=notrunc 2>/dev/null
+for t in analyze render; do
+    o=
+    [ $t = render ] && o="-o dmg.png"
+    run $t corrupt.h5 $o
+    [ "$rc" -eq 1 ] || fail "$t corrupt: exit status $rc, want 1"
+    [ "$(wc -l <err)" -eq 1 ] || fail "$t corrupt: $(cat err)"
+    grep -q "cannot read rows" err || fail "$t corrupt: $(cat err)"
+done
+checks=$((checks + 1))
+[ -e dmg.png ] && fail "a failed render left dmg.png"
 # Nothing of the HDF5 error stack reaches the terminal (bad() counts lines),
 # and the messages say what is wrong.
 run info foreign.h5

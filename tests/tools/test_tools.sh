@@ -9,6 +9,7 @@
 # cluster of 1e5 in [1.60, 1.80], its M(r) equal to a brute-force count, and
 # the same for any slab size; render's PNG read back with libpng (size, not
 # empty), byte-identical on a repeat and for a slab smaller than the file;
+# 10^7 rows render and analyze under ulimit -v 40 MB (not under ASan);
 # --arrival keeps the cluster and stores arrival order; every bad input
 # exits 2 with one line on stderr and leaves existing outputs alone.
 set -u
@@ -176,6 +177,23 @@ good "render zoomed discs" render c2/cluster.h5 -o rz.png --size 400 --zoom 4
 "$FIX" png rz.png 400 400 >/dev/null || fail "rz.png"
 good "render --force" render c2/cluster.h5 -o r1.png --size 64 --force
 "$FIX" png r1.png 64 64 >/dev/null || fail "--force did not replace r1.png"
+
+# Bounded memory: 10^7 rows (80 MB of positions) render and analyze within
+# 40 MB of address space (ulimit -v; 30 MB is what a tiny file needs).
+# Skipped under AddressSanitizer, which reserves terabytes of address space.
+if ldd "$PDLA" 2>/dev/null | grep -q libasan; then
+    echo "skipping the ulimit -v check under AddressSanitizer"
+else
+    "$FIX" synth huge huge.h5 || fail "synth huge"
+    checks=$((checks + 1))
+    (ulimit -v 40000 && exec "$PDLA" render huge.h5 -o huge.png --size 256) 2>err ||
+        fail "render of 10^7 rows in 40 MB: $(cat err)"
+    "$FIX" png huge.png 256 256 >/dev/null || fail "huge.png"
+    checks=$((checks + 1))
+    (ulimit -v 40000 && exec "$PDLA" analyze huge.h5 >out) 2>err ||
+        fail "analyze of 10^7 rows in 40 MB: $(cat err)"
+    rm -f huge.h5
+fi
 
 # ---- bad input ----------------------------------------------------------
 for t in info render analyze; do

@@ -3,7 +3,7 @@
  *   tools_fixture synth KIND OUT.h5   write a file in the pdla-cluster layout
  *       with known geometry: disc (2D, filled, D_f = 2), line (2D, D_f = 1),
  *       ball (3D, filled, D_f = 3), big (2D, 150000 rows: more than the
- *       largest slab), or a broken one: foreign (HDF5 without the format
+ *       largest slab), huge (2D, 10^7 rows, 80 MB), or a broken one: foreign (HDF5 without the format
  *       attribute), otherformat, wrongdims ([N][4]), mismatch ([N][2] with
  *       /parameters dim = 3), rank1 (positions of rank 1).
  *   tools_fixture png FILE W H        read FILE back with libpng: 8-bit RGB of
@@ -106,8 +106,51 @@ static int write_file(const char *out, const pts *s, int cols, int rank, const c
     return rc;
 }
 
+/* 10^7 rows (80 MB) written slab by slab, so neither this program nor a
+ * reader that streams needs memory for the whole dataset. */
+static int synth_huge(const char *out)
+{
+    const hsize_t n = 10000000, slab = 65536;
+    hid_t f = H5Fcreate(out, H5F_ACC_EXCL, H5P_DEFAULT, H5P_DEFAULT);
+    if (f < 0) return 1;
+    attr_str(f, "format", "pdla-cluster");
+    attr_int(f, "format_version", 1);
+    hid_t g = H5Gcreate2(f, "cluster", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    const hsize_t dims[2] = {n, 2}, chunk[2] = {slab, 2};
+    hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    H5Pset_chunk(dcpl, 2, chunk);
+    H5Pset_fletcher32(dcpl);
+    hid_t sp = H5Screate_simple(2, dims, NULL);
+    hid_t d = H5Dcreate2(g, "positions", H5T_STD_I32LE, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+    int32_t *buf = malloc(slab * 2 * sizeof *buf);
+    int rc = d < 0 || !buf;
+    for (hsize_t first = 0; first < n && !rc; first += slab) {
+        const hsize_t rows = n - first < slab ? n - first : slab;
+        for (hsize_t i = 0; i < rows; i++) {
+            const double k = (double)(first + i), t = 0.01 * k;
+            buf[2 * i] = (int32_t)(sqrt(k) * 8 * cos(t));
+            buf[2 * i + 1] = (int32_t)(sqrt(k) * 8 * sin(t));
+        }
+        const hsize_t start[2] = {first, 0}, count[2] = {rows, 2};
+        hid_t ms = H5Screate_simple(2, count, NULL);
+        rc = H5Sselect_hyperslab(sp, H5S_SELECT_SET, start, NULL, count, NULL) < 0 ||
+             H5Dwrite(d, H5T_NATIVE_INT32, ms, sp, H5P_DEFAULT, buf) < 0;
+        H5Sclose(ms);
+    }
+    free(buf);
+    attr_int(d, "diameter_units", DU);
+    attr_str(d, "order", "tree (not arrival)");
+    H5Dclose(d);
+    H5Sclose(sp);
+    H5Pclose(dcpl);
+    H5Gclose(g);
+    if (H5Fclose(f) < 0) rc = 1;
+    return rc;
+}
+
 static int synth(const char *kind, const char *out)
 {
+    if (!strcmp(kind, "huge")) return synth_huge(out);
     pts s = {NULL, 0, 0, 2};
     int cols = 2, rank = 2, pdim = 2;
     const char *format = "pdla-cluster";

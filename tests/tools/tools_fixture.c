@@ -3,9 +3,10 @@
  *   tools_fixture synth KIND OUT.h5   write a file in the pdla-cluster layout
  *       with known geometry: disc (2D, filled, D_f = 2), line (2D, D_f = 1),
  *       ball (3D, filled, D_f = 3), big (2D, 150000 rows: more than the
- *       largest slab), huge (2D, 10^7 rows, 80 MB), or a broken one: foreign (HDF5 without the format
- *       attribute), otherformat, wrongdims ([N][4]), mismatch ([N][2] with
- *       /parameters dim = 3), rank1 (positions of rank 1).
+ *       largest slab), huge (2D, 10^7 rows, 80 MB), or a broken one:
+ *       foreign (HDF5 without the format attribute), otherformat, wrongdims
+ *       ([N][4]), mismatch ([N][2] with /parameters dim = 3), rank1
+ *       (positions of rank 1).
  *   tools_fixture png FILE W H        read FILE back with libpng: 8-bit RGB of
  *       W x H with at least one pixel unlike the corner's; prints
  *       the number of such pixels.

@@ -1,6 +1,6 @@
 #!/bin/sh
 # test_tools.sh - `pdla info`, `pdla render`, `pdla analyze` as a user meets
-# them. Usage: test_tools.sh PDLA TOOLS_FIXTURE
+# them. Usage: test_tools.sh PDLA TOOLS_FIXTURE [PLOT_CLUSTER]
 #
 # Clusters are grown with fixed seeds (2D 3000, 3D 2000, 2D 1e5 particles);
 # synthetic files of known dimension come from tools_fixture. Checks:
@@ -10,13 +10,16 @@
 # the same for any slab size; render's PNG read back with libpng (size, not
 # empty), byte-identical on a repeat and for a slab smaller than the file;
 # 10^7 rows render and analyze under ulimit -v 40 MB (not under ASan);
-# --arrival keeps the cluster and stores arrival order; every bad input
+# --arrival keeps the cluster and stores arrival order; scripts/plot-cluster
+# writes its two PNGs (skipped without h5py/matplotlib); every bad input
 # exits 2 with one line on stderr and leaves existing outputs alone.
 set -u
 PDLA=${1:?usage: test_tools.sh PDLA FIXTURE}
 FIX=${2:?usage: test_tools.sh PDLA FIXTURE}
 case $PDLA in /*) ;; *) PDLA=$(pwd)/$PDLA ;; esac
 case $FIX in /*) ;; *) FIX=$(pwd)/$FIX ;; esac
+PLOT=${3:-}
+case $PLOT in /* | '') ;; *) PLOT=$(pwd)/$PLOT ;; esac
 PY=python3
 [ -x /usr/bin/python3 ] && PY=/usr/bin/python3
 
@@ -193,6 +196,21 @@ else
     (ulimit -v 40000 && exec "$PDLA" analyze huge.h5 >out) 2>err ||
         fail "analyze of 10^7 rows in 40 MB: $(cat err)"
     rm -f huge.h5
+fi
+
+# ---- scripts/plot-cluster -----------------------------------------------
+if [ -z "$PLOT" ] || ! /usr/bin/python3 -c "import h5py, matplotlib, numpy" 2>/dev/null; then
+    echo "skipping plot-cluster (no script given, or no h5py/matplotlib/numpy)"
+else
+    checks=$((checks + 1))
+    /usr/bin/python3 "$PLOT" c2/cluster.h5 -o plots --pdla "$PDLA" >/dev/null 2>err ||
+        fail "plot-cluster: $(cat err)"
+    for p in rg mass_radius; do
+        head -c 8 plots/$p.png 2>/dev/null | grep -q PNG || fail "plot-cluster wrote no plots/$p.png"
+    done
+    checks=$((checks + 1))
+    /usr/bin/python3 "$PLOT" c2/cluster.h5 -o plots --pdla "$PDLA" >/dev/null 2>err &&
+        fail "plot-cluster overwrote its plots without --force"
 fi
 
 # ---- bad input ----------------------------------------------------------

@@ -45,6 +45,7 @@ void pdla_params_default(pdla_params *p)
     p->serial_until = 10000000;
     p->recheck = PDLA_RECHECK_CONTINUE;
     p->bind = PDLA_BIND_NONE;
+    p->record_arrival = 0;
 }
 
 int pdla_params_validate(const pdla_params *p, char *err, size_t errlen)
@@ -88,6 +89,8 @@ int pdla_params_validate(const pdla_params *p, char *err, size_t errlen)
         return fail(PDLA_EINVAL, err, errlen, "unknown re-check mode %d", (int)p->recheck);
     if (p->bind != PDLA_BIND_NONE && p->bind != PDLA_BIND_CORE)
         return fail(PDLA_EINVAL, err, errlen, "unknown binding %d", (int)p->bind);
+    if (p->record_arrival != 0 && p->record_arrival != 1)
+        return fail(PDLA_EINVAL, err, errlen, "record_arrival must be 0 or 1");
     if (p->rg_per_decade < 0 || p->rg_per_decade > 10000)
         return fail(PDLA_EINVAL, err, errlen, "rg samples per decade must be in [0, 10000], got %d",
                     p->rg_per_decade);
@@ -148,6 +151,7 @@ void pdla_engine_destroy(pdla_engine *e)
     tree_free(&e->tree);
     free(e->rg_n);
     free(e->rg_diam);
+    free(e->arrival);
     free(e);
 }
 
@@ -192,10 +196,30 @@ int engine_check_range(const pdla_engine *e, const int64_t *p, char *err, size_t
     return PDLA_OK;
 }
 
+/* record_arrival: append p; called where the gyration sums grow, so in the
+ * parallel phase under gyration_mu, in the order particles were added. */
+static int record_arrival(pdla_engine *e, const int64_t *p)
+{
+    const size_t dim = (size_t)e->params.dim;
+    if (e->gyr.n == e->arrival_cap) {
+        const uint64_t cap = e->arrival_cap ? 2 * e->arrival_cap : 4096;
+        if (cap > SIZE_MAX / (dim * sizeof *e->arrival)) return PDLA_ENOMEM;
+        int32_t *a = realloc(e->arrival, (size_t)cap * dim * sizeof *a);
+        if (!a) return PDLA_ENOMEM;
+        e->arrival = a;
+        e->arrival_cap = cap;
+    }
+    for (size_t a = 0; a < dim; a++) e->arrival[(size_t)e->gyr.n * dim + a] = (int32_t)p[a];
+    return PDLA_OK;
+}
+
 int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
 {
     const int dim = e->params.dim;
     uint64_t r2 = 0;
+    if (e->params.record_arrival && record_arrival(e, p))
+        return fail(PDLA_ENOMEM, err, errlen, "out of memory for the arrival order at %llu particles",
+                    (unsigned long long)e->gyr.n);
     for (int a = 0; a < dim; a++) {
         r2 += (uint64_t)(p[a] * p[a]);
         e->gyr.s1[a] += p[a];
@@ -363,6 +387,12 @@ void pdla_engine_rg_series(const pdla_engine *e, const uint64_t **n, const doubl
     *n = e->rg_n;
     *rg_diam = e->rg_diam;
     *count = e->rg_count;
+}
+
+const int32_t *pdla_engine_arrival(const pdla_engine *e, uint64_t *n)
+{
+    *n = e->params.record_arrival ? e->gyr.n : 0;
+    return e->params.record_arrival ? e->arrival : NULL;
 }
 
 pdla_fit pdla_engine_fit(const pdla_engine *e)

@@ -43,6 +43,8 @@ struct pdla_engine {
     size_t rg_count, rg_cap;
     uint64_t rg_next_k;       /* index k of the next grid point */
     uint64_t rg_next_n;       /* its N */
+    int32_t *arrival;         /* record_arrival: positions in arrival order */
+    uint64_t arrival_cap;     /* particles it has room for */
     double grow_seconds;
     double parallel_seconds;
     /* PDLA: the three mutexes of the seed's flow diagram. node: creating tree

@@ -8,7 +8,9 @@
  *   /                    format = "pdla-cluster", format_version = 1 (i32),
  *                        units (text)
  *   /cluster/positions   i32 [N][dim], particle centres in lattice units, in
- *                        tree order; attrs units, diameter_units (i32), order
+ *                        tree order, or in arrival order when the run had
+ *                        record_arrival; attrs units, diameter_units (i32),
+ *                        order ("tree (not arrival)" or "arrival")
  *   /gyration/N          u64 [k], particle counts of the R_g samples
  *   /gyration/rg_diam    f64 [k], R_g at those counts, in diameters
  *   /parameters          one attribute per pdla_params field
@@ -323,6 +325,8 @@ static int write_positions(const writer *w, hid_t file, const pdla_engine *e, ui
 {
     const pdla_params *const p = pdla_engine_params(e);
     pos_sink s = {w, H5I_INVALID_HID, H5I_INVALID_HID, p->dim, n, 0, NULL, 0, 0, 0};
+    uint64_t n_arrival = 0;
+    const int32_t *const arrival = pdla_engine_arrival(e, &n_arrival);
     hid_t g = H5I_INVALID_HID;
     int rc = -1;
     if ((g = make_group(w, file, "cluster")) < 0) goto fail;
@@ -331,15 +335,22 @@ static int write_positions(const writer *w, hid_t file, const pdla_engine *e, ui
     if (s.dset < 0) goto fail;
     if (attr_str(w, s.dset, "units", "lattice units") < 0 ||
         attr_int(w, s.dset, "diameter_units", p->resolution) < 0 ||
-        attr_str(w, s.dset, "order", "tree (not arrival)") < 0)
+        attr_str(w, s.dset, "order", arrival ? "arrival" : "tree (not arrival)") < 0)
         goto fail;
+    if (arrival && n_arrival != n) {
+        fail_msg(w, "the engine recorded %llu arrivals but counts %llu particles",
+                 (unsigned long long)n_arrival, (unsigned long long)n);
+        goto fail;
+    }
     if (n > 0) {
         s.cap_rows = n < POS_CHUNK_ROWS ? (size_t)n : POS_CHUNK_ROWS;
         if (!(s.buf = malloc(s.cap_rows * (size_t)p->dim * sizeof *s.buf))) {
             fail_msg(w, "out of memory for a chunk of positions");
             goto fail;
         }
-        const int vrc = pdla_engine_visit(e, pos_visit, &s);
+        /* Arrival order: the same chunked writer, fed from the record. */
+        const int vrc = arrival ? pos_visit(arrival, (size_t)n, &s)
+                                : pdla_engine_visit(e, pos_visit, &s);
         if (s.failed) goto fail;
         if (vrc != 0) {
             fail_msg(w, "the engine could not list the particles (code %d)", vrc);
@@ -435,7 +446,8 @@ static int write_parameters(const writer *w, hid_t file, const pdla_params *p)
         attr_int(w, g, "threads", p->threads) < 0 ||
         attr_u64(w, g, "serial_until", p->serial_until) < 0 ||
         attr_str(w, g, "recheck", recheck_name(p->recheck)) < 0 ||
-        attr_str(w, g, "bind", bind_name(p->bind)) < 0)
+        attr_str(w, g, "bind", bind_name(p->bind)) < 0 ||
+        attr_int(w, g, "record_arrival", p->record_arrival) < 0)
         goto fail;
     rc = 0;
 fail:

@@ -115,6 +115,12 @@ typedef struct pdla_params {
                                 Default 10^7, the seed paper's value. */
     pdla_recheck_mode recheck; /* Default PDLA_RECHECK_CONTINUE. */
     pdla_bind_mode bind;     /* Default PDLA_BIND_NONE. */
+    int record_arrival;      /* 1: also keep every particle's position in arrival
+                                order (dim int32 per particle, 8 or 12 bytes), so
+                                pdla_output_write stores /cluster/positions in
+                                arrival order (attribute order = "arrival");
+                                0: nothing is kept, positions are written in tree
+                                order. Default 0. */
 } pdla_params;
 
 PDLA_API void pdla_params_default(pdla_params *p);
@@ -185,6 +191,11 @@ PDLA_API int pdla_engine_visit(const pdla_engine *e, pdla_visit_fn fn, void *use
  * in diameters. */
 PDLA_API void pdla_engine_rg_series(const pdla_engine *e, const uint64_t **n,
                                     const double **rg_diam, size_t *count);
+/* Positions in arrival order (n * dim int32, units) when the engine was
+ * created with record_arrival = 1, else NULL (and *n = 0). Valid until the
+ * next grow call. */
+PDLA_API const int32_t *pdla_engine_arrival(const pdla_engine *e, uint64_t *n);
+
 /* Fit D_f on the R_g series over the default range (see README). */
 PDLA_API pdla_fit pdla_engine_fit(const pdla_engine *e);
 

@@ -27,6 +27,7 @@
 #include "pdla/pdla.h"
 #include "pdla_config.h"
 #include "progress.h"
+#include "tools.h"
 
 enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 
@@ -432,6 +433,11 @@ static int write_cluster(const pdla_engine *e, const pdla_run_info *info, const 
 
 int main(int argc, char **argv)
 {
+    /* Subcommands that read a cluster file (tools.h). */
+    if (argc > 1 && strcmp(argv[1], "info") == 0) return tool_info(argc - 1, argv + 1);
+    if (argc > 1 && strcmp(argv[1], "render") == 0) return tool_render(argc - 1, argv + 1);
+    if (argc > 1 && strcmp(argv[1], "analyze") == 0) return tool_analyze(argc - 1, argv + 1);
+
     const double t0 = wall_now();
     char *cmd = command_line(argc, argv); /* before getopt reorders argv */
     if (!cmd) {

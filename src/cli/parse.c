@@ -140,7 +140,8 @@ enum opt_id {
     OPT_NO_OUTPUT,
     OPT_STATS_JSON,
     OPT_PROGRESS,
-    OPT_NO_PROGRESS
+    OPT_NO_PROGRESS,
+    OPT_ARRIVAL
 };
 
 typedef enum arg_kind {
@@ -202,6 +203,9 @@ static const opt_desc options[] = {
     {NULL, 0, 0, ARG_NONE, NULL, "Output:"},
     {"rg-per-decade", 0, OPT_RG_PER_DECADE, ARG_INT, "K",
      "R_g(N) samples per decade of N, 0 = none"},
+    {"arrival", 0, OPT_ARRIVAL, ARG_NONE, NULL,
+     "store positions in arrival order (costs 4 bytes per coordinate while growing; "
+     "lets `pdla render --color arrival` colour by it)"},
     {"out", 0, OPT_OUT, ARG_STRING, "DIR",
      "run directory; it must not exist, its parents are made "
      "(default runs/run-YYYYmmdd-HHMMSS-<dim>d-<target>)"},
@@ -343,6 +347,7 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
     case OPT_RECHECK: p->recheck = (pdla_recheck_mode)n; break;
     case OPT_BIND: p->bind = (pdla_bind_mode)n; break;
     case OPT_RG_PER_DECADE: p->rg_per_decade = (int)n; break;
+    case OPT_ARRIVAL: p->record_arrival = 1; break;
     case OPT_OUT: o->out_dir = arg; break;
     case OPT_FORCE: o->force = 1; break;
     case OPT_NO_OUTPUT: o->no_output = 1; break;
@@ -501,8 +506,11 @@ size_t cli_help_text(char *buf, size_t len, const pdla_params *defaults)
     if (buf && len) buf[0] = '\0';
     put(&t,
         "Usage: pdla [OPTION]...\n"
+        "       pdla info|render|analyze FILE [OPTION]...   (pdla COMMAND --help)\n"
         "Grow an off-lattice diffusion-limited aggregation (DLA) cluster and write it\n"
         "to RUN_DIR/cluster.h5 (HDF5), with a summary in RUN_DIR/summary.txt.\n"
+        "Look at a cluster file: `info` (what it holds), `render` (a PNG picture),\n"
+        "`analyze` (fractal dimension from R_g(N) and from the mass-radius relation).\n"
         "Lengths are in units (D units = one particle diameter) or in diameters.\n");
     for (size_t i = 0; i < N_OPTIONS; i++) {
         const opt_desc *d = &options[i];

@@ -1,0 +1,84 @@
+/*
+ * h5read.h - reading a pdla cluster file (the layout of src/output_h5.c)
+ * for the tools: checks that it is one, streams /cluster/positions in
+ * hyperslabs of bounded size, reads the R_g series and the attributes of
+ * /parameters, /results and /Code. HDF5's own error printing is turned off
+ * by h5r_open; every failure comes back as one line in err.
+ */
+#ifndef PDLA_CLI_H5READ_H
+#define PDLA_CLI_H5READ_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include <hdf5.h>
+
+/* Largest rows read at once; also the chunk size the writer uses. */
+#define H5R_MAX_SLAB_ROWS 65536u
+
+typedef struct h5r_file {
+    hid_t file, dset, fspace;
+    const char *path;
+    int format_version;
+    int dim;            /* 2 or 3 */
+    uint64_t n;         /* particles (rows of /cluster/positions) */
+    int diameter_units; /* D: units per particle diameter */
+    int arrival;        /* 1 when the rows are in arrival order */
+    char order[64];     /* the order attribute as written */
+} h5r_file;
+
+/* One scalar attribute. kind: 'i' signed integer, 'u' unsigned, 'f' real,
+ * 's' string (s is malloc'ed). */
+typedef struct h5r_attr {
+    char name[64];
+    char kind;
+    int64_t i;
+    uint64_t u;
+    double f;
+    char *s;
+} h5r_attr;
+
+typedef struct h5r_attrs {
+    h5r_attr *a;
+    size_t n, cap;
+} h5r_attrs;
+
+/* Opens and checks path. 0, or -1 with err: missing or unreadable file, not
+ * HDF5, no format = "pdla-cluster", positions of the wrong type or shape. */
+int h5r_open(h5r_file *f, const char *path, char *err, size_t errlen);
+void h5r_close(h5r_file *f);
+
+/* Calls fn on rows [0, n) in order, slab_rows (1..H5R_MAX_SLAB_ROWS) at a
+ * time from one buffer of slab_rows * dim int32; `first` is the index of the
+ * slab's first row. A non-zero return of fn stops and is returned; a read
+ * failure returns -1 with err. */
+typedef int (*h5r_rows_fn)(const int32_t *xyz, size_t rows, uint64_t first, void *user);
+int h5r_stream(h5r_file *f, size_t slab_rows, h5r_rows_fn fn, void *user, char *err,
+               size_t errlen);
+
+/* The R_g series (/gyration/N, /gyration/rg_diam): malloc'ed arrays, k rows
+ * (0 and NULLs when the file has none). 0 or -1 with err. */
+int h5r_read_series(h5r_file *f, uint64_t **n, double **rg_diam, size_t *k, char *err,
+                    size_t errlen);
+
+/* Scalar attributes of the object at `where` ("/", "/parameters", ...), in
+ * name order. A missing object gives an empty list. 0 or -1 with err. */
+int h5r_read_attrs(h5r_file *f, const char *where, h5r_attrs *out, char *err, size_t errlen);
+void h5r_attrs_free(h5r_attrs *a);
+const h5r_attr *h5r_attr_find(const h5r_attrs *a, const char *name);
+/* An attribute as a number (NaN when missing or a string). */
+double h5r_attr_num(const h5r_attrs *a, const char *name);
+
+/* Tools' output files: refuse an existing path unless force; write to a
+ * temporary name beside it and move it into place (replacing only with
+ * force). tools_out_check runs before any work, so a bad -o fails early. */
+int tools_out_check(const char *path, int force, char *err, size_t errlen);
+/* Returns a FILE* on path.tmp.<pid>; tools_out_commit closes, syncs and
+ * renames it (removing it on failure). */
+#include <stdio.h>
+FILE *tools_out_open(const char *path, char *tmp, size_t tmplen, char *err, size_t errlen);
+int tools_out_commit(FILE *fp, const char *tmp, const char *path, int force, char *err,
+                     size_t errlen);
+void tools_out_abort(FILE *fp, const char *tmp);
+
+#endif

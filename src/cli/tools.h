@@ -1,0 +1,19 @@
+/*
+ * tools.h - `pdla info`, `pdla render`, `pdla analyze`: subcommands that read
+ * a cluster file written by pdla_output_write. Each takes argv with the
+ * subcommand's name in argv[0], prints, and returns the exit status:
+ * 0 done; 1 runtime failure (a read or write failed midway);
+ * 2 bad usage or input (unknown option, missing, foreign or malformed file,
+ * an output that exists without --force). Errors are one line on stderr,
+ * "pdla COMMAND: ...".
+ */
+#ifndef PDLA_CLI_TOOLS_H
+#define PDLA_CLI_TOOLS_H
+
+enum { TOOL_OK = 0, TOOL_RUNTIME = 1, TOOL_USAGE = 2 };
+
+int tool_info(int argc, char **argv);
+int tool_render(int argc, char **argv);
+int tool_analyze(int argc, char **argv);
+
+#endif

@@ -1,0 +1,284 @@
+#!/bin/sh
+# test_tools.sh - `pdla info`, `pdla render`, `pdla analyze` as a user meets
+# them. Usage: test_tools.sh PDLA TOOLS_FIXTURE [PLOT_CLUSTER]
+#
+# Clusters are grown with fixed seeds (2D 3000, 3D 2000, 2D 1e5 particles);
+# synthetic files of known dimension come from tools_fixture. Checks:
+# info text and JSON (python3 -m json.tool); analyze's mass-radius D_f on a
+# filled disc (2), a line (1), a filled ball (3) within 0.005..0.03, on one 2D
+# cluster of 1e5 in [1.60, 1.80], its M(r) equal to a brute-force count, and
+# the same for any slab size; render's PNG read back with libpng (size, not
+# empty), byte-identical on a repeat and for a slab smaller than the file;
+# 10^7 rows render and analyze under ulimit -v 40 MB (not under ASan);
+# --arrival keeps the cluster and stores arrival order; scripts/plot-cluster
+# writes its two PNGs (skipped without h5py/matplotlib); every bad input
+# exits 2 with one line on stderr and leaves existing outputs alone.
+set -u
+PDLA=${1:?usage: test_tools.sh PDLA FIXTURE}
+FIX=${2:?usage: test_tools.sh PDLA FIXTURE}
+case $PDLA in /*) ;; *) PDLA=$(pwd)/$PDLA ;; esac
+case $FIX in /*) ;; *) FIX=$(pwd)/$FIX ;; esac
+PLOT=${3:-}
+case $PLOT in /* | '') ;; *) PLOT=$(pwd)/$PLOT ;; esac
+PY=python3
+[ -x /usr/bin/python3 ] && PY=/usr/bin/python3
+
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/pdla-tools.XXXXXX") || exit 1
+trap 'rm -rf "$tmp"' EXIT
+cd "$tmp" || exit 1
+checks=0
+fails=0
+
+fail() {
+    echo "FAIL: $*" >&2
+    fails=$((fails + 1))
+}
+
+# run ARGS...: status in $rc, output in out, err.
+run() {
+    checks=$((checks + 1))
+    "$PDLA" "$@" >out 2>err </dev/null
+    rc=$?
+}
+
+good() {
+    name=$1
+    shift
+    run "$@"
+    [ "$rc" -eq 0 ] || fail "$name: exit status $rc: $(cat err)"
+}
+
+# bad NAME ARGS...: exit 2, nothing on stdout, one "pdla CMD: " line on stderr.
+bad() {
+    name=$1
+    shift
+    run "$@"
+    [ "$rc" -eq 2 ] || fail "$name: exit status $rc, want 2 ($(cat err))"
+    [ -s out ] && fail "$name: wrote to stdout"
+    lines=$(wc -l <err)
+    [ "$lines" -eq 1 ] || fail "$name: $lines lines on stderr, want 1: $(cat err)"
+    case $(cat err) in
+    "pdla $1: "*) ;;
+    *) fail "$name: stderr does not start with 'pdla $1: ': $(cat err)" ;;
+    esac
+}
+
+# json_in FILE KEY LO HI: FILE's JSON number KEY lies in [LO, HI].
+json_in() {
+    checks=$((checks + 1))
+    $PY -c "import json,sys; v=json.load(open('$1'))['$2']; sys.exit(0 if v is not None and $3 <= v <= $4 else 1)" ||
+        fail "$1: $2 = $($PY -c "import json; print(json.load(open('$1'))['$2'])") not in [$3, $4]"
+}
+
+json_ok() {
+    checks=$((checks + 1))
+    $PY -m json.tool "$1" >/dev/null || fail "$1 is not valid JSON"
+}
+
+grow() {
+    "$PDLA" -q --seed "$2" --out "$1" "$@" >/dev/null 2>err || fail "growing $1: $(cat err)"
+}
+
+# ---- fixtures -----------------------------------------------------------
+"$PDLA" -q --dim 2 --target 3000 --seed 5 --out c2 || fail "grow c2"
+"$PDLA" -q --dim 2 --target 3000 --seed 5 --arrival --out c2a || fail "grow c2a"
+"$PDLA" -q --dim 3 --target 2000 --seed 7 --out c3 || fail "grow c3"
+"$PDLA" -q --dim 2 --target 1e5 --seed 1 --out big2 || fail "grow big2"
+for k in disc line ball big foreign otherformat wrongdims mismatch rank1; do
+    "$FIX" synth $k $k.h5 || fail "synth $k"
+done
+echo "not an HDF5 file" >text.h5
+
+# ---- help ---------------------------------------------------------------
+for t in info render analyze; do
+    good "$t --help" $t --help
+    grep -q "Usage: pdla $t" out || fail "$t --help has no usage line"
+done
+good "pdla --help" --help
+grep -q "info|render|analyze" out || fail "pdla --help does not mention the subcommands"
+
+# ---- info ---------------------------------------------------------------
+good "info 2D" info c2/cluster.h5
+grep -q "^particles    3000 in 2D, positions in tree order" out || fail "info: $(head -3 out)"
+grep -q "^D_f " out || fail "info: no D_f line"
+grep -q "^provenance   pdla" out || fail "info: no provenance"
+good "info json" info --json c3/cluster.h5
+cp out info3.json
+json_ok info3.json
+json_in info3.json particles 2000 2000
+json_in info3.json dim 3 3
+good "info arrival" info --json c2a/cluster.h5
+cp out info2a.json
+json_ok info2a.json
+checks=$((checks + 1))
+grep -q '"order": "arrival"' info2a.json || fail "--arrival file not in arrival order"
+grep -q '"record_arrival": 1' info2a.json || fail "--arrival not in /parameters"
+checks=$((checks + 1))
+"$FIX" same c2a/cluster.h5 c2/cluster.h5 || fail "--arrival: not the same cluster, or not seed first"
+# Arrival order from worker threads too (recorded under the gyration mutex).
+"$PDLA" -q --dim 2 --target 5000 --seed 9 --threads 2 --serial-until 1000 --arrival --out t2a ||
+    fail "grow t2a"
+good "info threaded arrival" info t2a/cluster.h5
+grep -q "^particles    5000 in 2D, positions in arrival order" out || fail "t2a: $(head -3 out)"
+good "render threaded arrival" render t2a/cluster.h5 -o t2a.png --size 64 --color arrival
+good "info synthetic" info --json disc.h5
+cp out infod.json
+json_ok infod.json
+
+# ---- analyze ------------------------------------------------------------
+good "analyze text" analyze c2/cluster.h5
+grep -q "^D_f (R_g) " out && grep -q "^D_f (M(r)) " out || fail "analyze: $(cat out)"
+good "analyze json" analyze --json big2/cluster.h5 --csv csv_big
+cp out big.json
+json_ok big.json
+json_in big.json mr_D_f 1.60 1.80
+json_in big.json rg_D_f 1.60 1.85
+json_in big.json mr_fit_points 10 1000
+checks=$((checks + 1))
+"$FIX" mr big2/cluster.h5 csv_big/mass_radius.csv >/dev/null || fail "M(r) of big2 differs from brute force"
+head -1 csv_big/rg.csv | grep -q '^N,rg_diam,in_fit$' || fail "rg.csv header"
+good "analyze slab" analyze --json --slab-rows 1000 big2/cluster.h5 --csv csv_slab
+checks=$((checks + 1))
+cmp -s csv_big/mass_radius.csv csv_slab/mass_radius.csv || fail "M(r) depends on the slab size"
+# The same cluster in tree and in arrival order has the same M(r).
+good "analyze c2" analyze c2/cluster.h5 --csv m_tree
+good "analyze c2a" analyze c2a/cluster.h5 --csv m_arr
+checks=$((checks + 1))
+cmp -s m_tree/mass_radius.csv m_arr/mass_radius.csv || fail "--arrival changed the cluster"
+for k in disc:1.99:2.01 line:0.995:1.005 ball:2.97:3.03; do
+    shape=${k%%:*}
+    rest=${k#*:}
+    good "analyze $shape" analyze --json $shape.h5 --csv csv_$shape
+    cp out $shape.json
+    json_in $shape.json mr_D_f "${rest%:*}" "${rest#*:}"
+done
+checks=$((checks + 1))
+"$FIX" mr disc.h5 csv_disc/mass_radius.csv >/dev/null || fail "M(r) of the disc differs from brute force"
+good "analyze centre mass" analyze --centre mass --json disc.h5
+cp out discm.json
+json_in discm.json mr_D_f 1.99 2.01
+
+# ---- render -------------------------------------------------------------
+good "render 2D" render c2/cluster.h5 -o r1.png --size 300
+checks=$((checks + 1))
+"$FIX" png r1.png 300 300 >/dev/null || fail "r1.png is not a 300x300 picture with content"
+good "render again" render c2/cluster.h5 -o r2.png --size 300
+checks=$((checks + 1))
+cmp -s r1.png r2.png || fail "render is not deterministic"
+good "render big slab" render big.h5 -o b1.png --size 256 --color radius
+good "render big small slab" render big.h5 -o b2.png --size 256 --color radius --slab-rows 1000
+checks=$((checks + 1))
+cmp -s b1.png b2.png || fail "render depends on the slab size"
+"$FIX" png b2.png 256 256 >/dev/null || fail "b2.png"
+good "render 3D" render c3/cluster.h5 -o r3.png --size 200 --axis x
+"$FIX" png r3.png 200 200 >/dev/null || fail "r3.png"
+good "render 3D depth" render c3/cluster.h5 -o r3d.png --size 200 --color depth
+"$FIX" png r3d.png 200 200 >/dev/null || fail "r3d.png"
+good "render arrival" render c2a/cluster.h5 -o ra.png --size 128 --color arrival
+"$FIX" png ra.png 128 128 >/dev/null || fail "ra.png"
+good "render zoomed discs" render c2/cluster.h5 -o rz.png --size 400 --zoom 4
+"$FIX" png rz.png 400 400 >/dev/null || fail "rz.png"
+good "render --force" render c2/cluster.h5 -o r1.png --size 64 --force
+"$FIX" png r1.png 64 64 >/dev/null || fail "--force did not replace r1.png"
+
+# Bounded memory: 10^7 rows (80 MB of positions) render and analyze within
+# 40 MB of address space (ulimit -v; 30 MB is what a tiny file needs).
+# Skipped under AddressSanitizer, which reserves terabytes of address space.
+if ldd "$PDLA" 2>/dev/null | grep -q libasan; then
+    echo "skipping the ulimit -v check under AddressSanitizer"
+else
+    "$FIX" synth huge huge.h5 || fail "synth huge"
+    checks=$((checks + 1))
+    (ulimit -v 40000 && exec "$PDLA" render huge.h5 -o huge.png --size 256) 2>err ||
+        fail "render of 10^7 rows in 40 MB: $(cat err)"
+    "$FIX" png huge.png 256 256 >/dev/null || fail "huge.png"
+    checks=$((checks + 1))
+    (ulimit -v 40000 && exec "$PDLA" analyze huge.h5 >out) 2>err ||
+        fail "analyze of 10^7 rows in 40 MB: $(cat err)"
+    rm -f huge.h5
+fi
+
+# ---- scripts/plot-cluster -----------------------------------------------
+if [ -z "$PLOT" ] || ! /usr/bin/python3 -c "import h5py, matplotlib, numpy" 2>/dev/null; then
+    echo "skipping plot-cluster (no script given, or no h5py/matplotlib/numpy)"
+else
+    checks=$((checks + 1))
+    /usr/bin/python3 "$PLOT" c2/cluster.h5 -o plots --pdla "$PDLA" >/dev/null 2>err ||
+        fail "plot-cluster: $(cat err)"
+    for p in rg mass_radius; do
+        head -c 8 plots/$p.png 2>/dev/null | grep -q PNG || fail "plot-cluster wrote no plots/$p.png"
+    done
+    checks=$((checks + 1))
+    /usr/bin/python3 "$PLOT" c2/cluster.h5 -o plots --pdla "$PDLA" >/dev/null 2>err &&
+        fail "plot-cluster overwrote its plots without --force"
+fi
+
+# ---- bad input ----------------------------------------------------------
+for t in info render analyze; do
+    o=
+    [ $t = render ] && o="-o new.png"
+    bad "$t missing file" $t missing.h5 $o
+    bad "$t text file" $t text.h5 $o
+    bad "$t directory" $t c2 $o
+    for k in foreign otherformat wrongdims mismatch rank1; do
+        bad "$t $k" $t $k.h5 $o
+    done
+    bad "$t unknown flag" $t --bogus c2/cluster.h5 $o
+    bad "$t no file" $t $o
+    bad "$t two files" $t c2/cluster.h5 c3/cluster.h5 $o
+done
+checks=$((checks + 1))
+[ -e new.png ] && fail "a failed render left new.png"
+cp r2.png keep.png
+bad "render existing" render c2/cluster.h5 -o r2.png --size 64
+checks=$((checks + 1))
+cmp -s r2.png keep.png || fail "render overwrote r2.png without --force"
+bad "render unwritable" render c2/cluster.h5 -o /nonexistent-dir/x.png
+bad "render no -o" render c2/cluster.h5
+bad "render bad size" render c2/cluster.h5 -o x.png --size 5
+bad "render bad color" render c2/cluster.h5 -o x.png --color plaid
+bad "render arrival on tree order" render c2/cluster.h5 -o x.png --color arrival
+bad "render depth in 2D" render c2/cluster.h5 -o x.png --color depth
+checks=$((checks + 1))
+[ -e x.png ] && fail "a refused render left x.png"
+cp csv_disc/mass_radius.csv keep.csv
+bad "analyze existing csv" analyze disc.h5 --csv csv_disc
+checks=$((checks + 1))
+cmp -s csv_disc/mass_radius.csv keep.csv || fail "analyze overwrote its CSV without --force"
+good "analyze csv --force" analyze disc.h5 --csv csv_disc --force
+bad "analyze csv on a file" analyze disc.h5 --csv text.h5
+bad "analyze bad centre" analyze disc.h5 --centre middle
+bad "analyze bad fit-max" analyze disc.h5 --fit-max 2
+# Damaged files: a truncated one cannot be opened (2); a flipped chunk fails
+# its Fletcher32 checksum while streaming (1); one line, no picture.
+head -c 200000 big2/cluster.h5 >trunc.h5
+for t in info analyze render; do
+    o=
+    [ $t = render ] && o="-o dmg.png"
+    bad "$t truncated" $t trunc.h5 $o
+done
+cp big2/cluster.h5 corrupt.h5
+printf 'UUUUUUUU' | dd of=corrupt.h5 bs=1 seek=300000 conv=notrunc 2>/dev/null
+for t in analyze render; do
+    o=
+    [ $t = render ] && o="-o dmg.png"
+    run $t corrupt.h5 $o
+    [ "$rc" -eq 1 ] || fail "$t corrupt: exit status $rc, want 1"
+    [ "$(wc -l <err)" -eq 1 ] || fail "$t corrupt: $(cat err)"
+    grep -q "cannot read rows" err || fail "$t corrupt: $(cat err)"
+done
+checks=$((checks + 1))
+[ -e dmg.png ] && fail "a failed render left dmg.png"
+# Nothing of the HDF5 error stack reaches the terminal (bad() counts lines),
+# and the messages say what is wrong.
+run info foreign.h5
+grep -q 'not a pdla cluster file (no format = "pdla-cluster" attribute)' err || fail "foreign: $(cat err)"
+run info text.h5
+grep -q 'is not an HDF5 file' err || fail "text: $(cat err)"
+run info wrongdims.h5
+grep -q 'has 4 columns' err || fail "wrongdims: $(cat err)"
+run info missing.h5
+grep -q 'No such file' err || fail "missing: $(cat err)"
+
+echo "$checks checks, $fails failed"
+[ "$fails" -eq 0 ]

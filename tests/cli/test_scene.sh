@@ -60,6 +60,16 @@ grep -q '"particles": 200,' "$tmp/work/b.json" || fail "override: --target did n
 grep -q '"seed": 9,' "$tmp/work/b.json" || fail "override: --seed did not win"
 [ -e "$tmp/work/a.json.2" ] && fail "override: odd file"
 
+# What a scene leaves out: no R_g samples, so no fit (and it says why);
+# one thread for --threads 1.
+printf 'target = 2000\nrg-per-decade = 0\nno-output = yes\nstats-json = c.json\nthreads = 1\n' \
+    >"$tmp/work/c.scene"
+run --scene c.scene
+[ "$rc" -eq 0 ] || fail "rg off: status $rc: $(cat "$tmp/err")"
+grep -q '^D_f  *n/a (R_g sampling off' "$tmp/out" || fail "rg off: summary says $(grep D_f "$tmp/out")"
+grep -q '"fit": {"df": null' "$tmp/work/c.json" || fail "rg off: JSON fit not null"
+grep -q '"threads": 0,' "$tmp/work/c.json" || fail "threads 1: workers ran"
+
 # The worked examples, shrunk to 500 particles (threads: serial to 200).
 for s in "$SCENES"/*.scene; do
     run --scene "$s" --target 500 --serial-until 200 --no-output -q --stats-json ex.json

@@ -10,8 +10,9 @@
  *  - more worker threads than particles (PDLA from the first particle);
  *  - the parameter limits themselves: each boundary value accepted, one
  *    past it refused with a message naming the field; eps = 1 is refused
- *    (the walker's jumps are shortened by one unit for grid rounding, so a
- *    walker with d < D + 2 could not move on: eps >= 2 is the contract);
+ *    (jumps are shortened by one unit for grid rounding, so with eps = 1 a
+ *    walker at D + 1 <= d < D + 1.5 would make jumps of under half a unit,
+ *    which round to no move, until max_jumps: eps >= 2 is the contract);
  *  - what a run leaves out: no thread is started for threads = 1, nor for
  *    threads > 1 while target <= serial_until (counted in /proc/self/task
  *    from the progress callback; a run with workers is the positive control);

@@ -7,9 +7,10 @@
  *    (|x| = 2^28 - 1) and beyond, up to its own root limit (|x| < 2^30), and
  *    refuses 2^30 with -2 rather than wrapping;
  *  - the distance search at those particles, for query points up to the
- *    farthest a walker is ever searched from (R_ext + the largest birth
- *    margin, 1e6 diameters of 128 units, on every axis): exact search equals a
- *    128-bit brute force, VPDIST is never above it and exact near particles;
+ *    farthest a walker is ever searched from: the largest birth radius,
+ *    sqrt(dim) 2^28 (R_ext) + 1e6 diameters of 128 units (the largest birth
+ *    margin) + 1, and every coordinate at 2^28 + 1.28e8: exact search equals
+ *    a 128-bit brute force, VPDIST is never above it and exact near particles;
  *  - gyration sums of particles at |x| = 2^28 - 1: R_g and R_ext exact;
  *  - a real growth that reaches the limit (2D): a particle placed 2
  *    diameters inside it; walkers stick to it until the next one would cross,
@@ -17,8 +18,8 @@
  *    particle inside the limit. (Not in 3D: there a walker launched on a
  *    sphere of radius 2^28 almost surely escapes, so a lone particle at the
  *    limit is practically never hit);
- *  - the return samplers on the birth circle at R = 2^28 + 1.28e8 units
- *    (the largest birth radius) and at R = 66, for r/R from 1 + 1e-12 to
+ *  - the return samplers on the birth circle at R = sqrt(3) 2^28 + 1.28e8
+ *    units (the largest birth radius) and at R = 66, for r/R from 1 + 1e-12 to
  *    1e12: finite output, on the circle/sphere to 1e-12 relative (so the
  *    rounded grid point is within one unit of it), theta in range.
  *    (test_extreme.c checks the laws themselves at those ratios.)
@@ -132,11 +133,22 @@ static void test_tree_at_limits(int dim)
     /* The farthest point a walker is searched from: |p| <= R_birth + 1 with
      * R_birth <= R_ext + 1e6 * 128; take every coordinate that large. */
     const int64_t QMAX = LIM + 128000000 + 1;
+    /* R_ext is a Euclidean norm, up to sqrt(dim) 2^28 with every coordinate
+     * inside the limit: the largest birth radius (+ 1 unit of hysteresis). */
+    const double RBMAX = sqrt((double)dim) * (double)LIM + 128000000.0 + 1.0;
     int bad_ex = 0, bad_vp = 0, bad_near = 0, bad_brute = 0;
-    for (int q = 0; q < 4000; q++) {
+    for (int q = 0; q < 5000; q++) {
         int64_t p[3] = {0, 0, 0};
-        const int kind = q % 4;
-        for (int a = 0; a < dim; a++) {
+        const int kind = q % 5;
+        if (kind == 4) { /* on the largest birth circle/sphere */
+            double v[3], n2 = 0;
+            for (int a = 0; a < dim; a++) {
+                v[a] = (double)(int64_t)(rng_next(&r) % 2000001) - 1000000.0;
+                n2 += v[a] * v[a];
+            }
+            for (int a = 0; a < dim; a++) p[a] = (int64_t)(RBMAX * v[a] / sqrt(n2));
+        }
+        for (int a = 0; a < dim && kind < 4; a++) {
             const int64_t u = (int64_t)(rng_next(&r) % 2001) - 1000;
             if (kind == 0) p[a] = s[q % n][a] + u; /* near a particle */
             else if (kind == 1) p[a] = (rng_next(&r) & 1 ? QMAX : -QMAX) - u / 10; /* far corners */
@@ -152,7 +164,7 @@ static void test_tree_at_limits(int dim)
         if (lb < vp.far2[0] && (i128)lb != truth) bad_near++;
         if ((i128)search_brute2(&t, p) != truth) bad_brute++;
     }
-    CHECK(bad_ex == 0, "dim %d: exact search wrong at %d of 4000 far points", dim, bad_ex);
+    CHECK(bad_ex == 0, "dim %d: exact search wrong at %d of 5000 far points", dim, bad_ex);
     CHECK(bad_vp == 0, "dim %d: VPDIST above the truth at %d", dim, bad_vp);
     CHECK(bad_near == 0, "dim %d: VPDIST not exact near particles at %d", dim, bad_near);
     CHECK(bad_brute == 0, "dim %d: search_brute2 differs from 128-bit brute force at %d", dim, bad_brute);
@@ -200,7 +212,7 @@ static void test_grow_into_limit(int dim)
 
 static void test_samplers_on_circle(void)
 {
-    static const double Rs[2] = {66.0, (double)LIM + 128000000.0};
+    const double Rs[2] = {66.0, sqrt(3.0) * (double)LIM + 128000000.0}; /* the largest birth radius */
     pdla_rng rng;
     rng_seed(&rng, 9);
     int bad = 0, total = 0;

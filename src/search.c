@@ -390,20 +390,21 @@ int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int6
     const int dim = t->dim;
     int64_t r = (int64_t)sqrt((double)radius2);
     while ((uint64_t)(r * r) < radius2) r++;
-    /* The ball spans at most two leaves per axis (r < 256). */
+    /* The ball [p - r, p + r] spans up to three leaves per axis (r < 256;
+     * three once 2r >= 256, e.g. the sticking reach D + eps at D = 128). */
     int64_t first[3], span[3];
     for (int a = 0; a < dim; a++) {
         first[a] = (p[a] - r) & ~(int64_t)(TREE_LEAF_SIDE - 1);
-        span[a] = ((p[a] + r) & ~(int64_t)(TREE_LEAF_SIDE - 1)) > first[a] ? 2 : 1;
+        span[a] = (((p[a] + r) & ~(int64_t)(TREE_LEAF_SIDE - 1)) - first[a]) / TREE_LEAF_SIDE + 1;
     }
     uint64_t best2 = radius2;
     int found = 0;
-    const int ncorner = 1 << dim;
+    const int ncorner = dim == 2 ? 9 : 27;
     for (int c = 0; c < ncorner; c++) {
         int64_t corner[3];
         int skip = 0;
-        for (int a = 0; a < dim; a++) {
-            const int64_t step = (c >> a) & 1;
+        for (int a = 0, cc = c; a < dim; a++, cc /= 3) {
+            const int64_t step = cc % 3;
             if (step >= span[a]) skip = 1;
             corner[a] = first[a] + step * TREE_LEAF_SIDE;
         }

@@ -298,6 +298,8 @@ static void print_summary(FILE *f, const report *r, int with_command)
     if (r->fit.points > 0)
         fprintf(f, "D_f              %.4f +/- %.4f (N from %" PRIu64 " to %" PRIu64 ", %d samples)\n",
                 r->fit.df, r->fit.df_err, r->fit.n_lo, r->fit.n_hi, r->fit.points);
+    else if (P->rg_per_decade == 0)
+        fprintf(f, "D_f              n/a (R_g sampling off: --rg-per-decade 0)\n");
     else
         fprintf(f, "D_f              n/a (too few R_g samples to fit)\n");
     progress_fmt_bytes(b1, sizeof b1, (double)s->tree_bytes);

@@ -4,6 +4,7 @@
  * so that main.c decides how to report them and tests can compare them.
  */
 #include "parse.h"
+#include "scene.h"
 
 #include <errno.h>
 #include <getopt.h>
@@ -141,7 +142,8 @@ enum opt_id {
     OPT_STATS_JSON,
     OPT_PROGRESS,
     OPT_NO_PROGRESS,
-    OPT_ARRIVAL
+    OPT_ARRIVAL,
+    OPT_SCENE
 };
 
 typedef enum arg_kind {
@@ -219,6 +221,9 @@ static const opt_desc options[] = {
     {"progress", 0, OPT_PROGRESS, ARG_NONE, NULL,
      "progress on stderr (default: only when stderr is a terminal)"},
     {"no-progress", 0, OPT_NO_PROGRESS, ARG_NONE, NULL, "no progress"},
+    {"scene", 0, OPT_SCENE, ARG_STRING, "FILE",
+     "read settings from a scene file: KEY = VALUE lines, the keys being these "
+     "options' long names; options given here override the scene's keys"},
     {"help", 'h', 'h', ARG_NONE, NULL, "print this help and exit"},
     {"version", 'V', 'V', ARG_NONE, NULL, "print the version and exit"},
 };
@@ -352,6 +357,10 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
     case OPT_FORCE: o->force = 1; break;
     case OPT_NO_OUTPUT: o->no_output = 1; break;
     case OPT_STATS_JSON: o->stats_json = arg; break;
+    case OPT_SCENE:
+        if (o->scene) return fail(err, errlen, "--scene given twice");
+        o->scene = arg;
+        break;
     case 'q': o->quiet = 1; break;
     case OPT_PROGRESS: o->progress = 1; break;
     case OPT_NO_PROGRESS: o->progress = 0; break;
@@ -362,14 +371,27 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
     return CLI_PARSE_OK;
 }
 
-int cli_parse(int argc, char **argv, cli_options *out, char *err, size_t errlen)
+int cli_set_option(cli_options *o, const char *name, const char *value, char *err, size_t errlen)
 {
-    memset(out, 0, sizeof *out);
-    pdla_params_default(&out->params);
-    out->action = CLI_RUN;
-    out->progress = -1;
-    if (err && errlen) err[0] = '\0';
+    const opt_desc *d = NULL;
+    for (size_t i = 0; i < N_OPTIONS && !d; i++)
+        if (options[i].name && !strcmp(options[i].name, name)) d = &options[i];
+    char v[64];
+    if (!d || d->id == 'h' || d->id == 'V' || d->id == OPT_SCENE)
+        return fail(err, errlen, "unknown key '%s' (keys are the long options of pdla --help "
+                    "without '--', except scene, help and version)", shown(v, name));
+    if (d->kind != ARG_NONE) return set_value(o, d, value, err, errlen);
+    static const char *const yes[] = {"yes", "true", "1"}, *const no[] = {"no", "false", "0"};
+    for (int i = 0; i < 3; i++) {
+        if (!strcmp(value, yes[i])) return set_value(o, d, NULL, err, errlen);
+        if (!strcmp(value, no[i])) return CLI_PARSE_OK;
+    }
+    return fail(err, errlen, "invalid value '%s' for %s: should be yes or no", shown(v, value), name);
+}
 
+/* One pass of getopt over argv into *out (not reset). */
+static int parse_args(int argc, char **argv, cli_options *out, char *err, size_t errlen)
+{
     struct option longopts[N_OPTIONS + 1];
     char shortopts[2 * N_OPTIONS + 2];
     size_t nl = 0, ns = 0;
@@ -420,6 +442,31 @@ int cli_parse(int argc, char **argv, cli_options *out, char *err, size_t errlen)
     if (optind < argc)
         return fail(err, errlen, "unexpected argument '%s' (options only; see --help)",
                     shown(v, argv[optind]));
+    return CLI_PARSE_OK;
+}
+
+int cli_parse(int argc, char **argv, cli_options *out, char *err, size_t errlen)
+{
+    memset(out, 0, sizeof *out);
+    pdla_params_default(&out->params);
+    out->action = CLI_RUN;
+    out->progress = -1;
+    if (err && errlen) err[0] = '\0';
+
+    /* Pass 1 finds --help, --version and --scene (and any syntax error);
+     * with a scene, pass 2 applies the command line over it. */
+    cli_options *first = malloc(sizeof *first);
+    if (!first) return fail(err, errlen, "out of memory");
+    *first = *out;
+    int rc = parse_args(argc, argv, first, err, errlen);
+    if (rc == CLI_PARSE_OK && first->scene && first->action == CLI_RUN) {
+        rc = scene_apply(first->scene, out, err, errlen);
+        if (rc == CLI_PARSE_OK) rc = parse_args(argc, argv, out, err, errlen);
+    } else {
+        *out = *first;
+    }
+    free(first);
+    if (rc != CLI_PARSE_OK) return rc;
     if (out->action != CLI_RUN) return CLI_PARSE_EXIT;
 
     if (out->no_output && out->out_dir)

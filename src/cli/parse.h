@@ -36,17 +36,29 @@ typedef struct cli_options {
     int no_output;           /* --no-output: no run directory, no files */
     int quiet;               /* -q: no progress, no summary; errors only */
     int progress;            /* 1 --progress, 0 --no-progress, -1 not given */
+    const char *scene;       /* --scene FILE (into argv), NULL: none */
+    char scene_out[4096];    /* a scene's `out` and `stats-json` values live */
+    char scene_stats[4096];  /* here (out_dir/stats_json point to them) */
 } cli_options;
 
 /* Return values of cli_parse. */
 enum { CLI_PARSE_OK = 0, CLI_PARSE_EXIT = 1, CLI_PARSE_ERROR = 2 };
 
-/* Parse argv into *out (filled with the defaults first). Returns
+/* Parse argv into *out (filled with the defaults first, then the scene of
+ * --scene FILE if one is given, then the other options, which override the
+ * scene's keys). Returns
  * CLI_PARSE_OK to run, CLI_PARSE_EXIT when --help or --version was asked
  * (out->action says which; the caller prints), or CLI_PARSE_ERROR with a
  * one-line reason in err (no "pdla: " prefix, no newline). On success the
  * parameters have passed pdla_params_validate. getopt_long may permute argv. */
 int cli_parse(int argc, char **argv, cli_options *out, char *err, size_t errlen);
+
+/* Set one option by its long name (no "--"; as in a scene file) to a value,
+ * exactly as if "--NAME VALUE" had been given; a flag (an option without a
+ * value) takes yes|no|true|false|1|0, "no" leaving it as it is. `scene`,
+ * `help` and `version` are refused. CLI_PARSE_OK or CLI_PARSE_ERROR with the
+ * reason in err. Used by scene.c. */
+int cli_set_option(cli_options *o, const char *name, const char *value, char *err, size_t errlen);
 
 /* Strict parsers for one value. Return NULL on success, else a short static
  * reason such as "trailing characters after the number" (*out untouched). */

@@ -9,6 +9,7 @@
 #include <stdatomic.h>
 
 #include "pdla/pdla.h"
+#include "distmap.h"
 #include "rng.h"
 #include "tree.h"
 
@@ -33,6 +34,7 @@ struct pdla_engine {
     pdla_params params;
     tree tree;
     search_config search;
+    distmap dmap;             /* far-query accelerator, derived from the tree */
     walker_ctx walker;
     gyration_sums gyr;
     uint64_t r_ext2;          /* max |x|^2 of particle centres, units^2 */

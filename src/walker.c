@@ -172,6 +172,14 @@ static inline __attribute__((always_inline)) int walk_dim(const pdla_engine *e, 
             }
             continue;
         }
+        /* Far from the cluster one look-up in the distance map bounds the
+         * distance (at least one map cell, far above the sticking shell). */
+        const int64_t far = distmap_bound(&e->dmap, p, dim);
+        if (far > 0) {
+            jump(w, p, (double)far - D - 1.0, dim);
+            jumps++;
+            continue;
+        }
         const uint64_t d2 = search_lower_bound2(t, &e->search, p, UINT64_MAX, &w->ss);
         if (d2 < stick2) {
             for (int a = 0; a < dim; a++) stuck_at[a] = p[a];

@@ -23,6 +23,7 @@ int distmap_init(distmap *m, int dim, int bits, int64_t margin_units)
     m->margin = margin_units;
     m->disabled = 0;
     atomic_init(&m->grid, NULL);
+    atomic_init(&m->leaves, 0);
     m->old = NULL;
     m->queue = NULL;
     m->qcap = 0;
@@ -244,6 +245,9 @@ static int mark(distmap *m, distmap_level *L, const int64_t *c)
     const size_t i0 = cell_index(L, c[0], c[1], cz);
     if (cell_get(L, i0) == 0) return 0;
     cell_set(L, i0, 0);
+    if (L->nibble)
+        atomic_store_explicit(&m->leaves, atomic_load_explicit(&m->leaves, memory_order_relaxed) + 1,
+                              memory_order_release);
     size_t head = 0, len = 0;
     if (queue_push(m, &head, &len, pack(c[0], c[1], cz))) return -1;
     while (len) {
@@ -342,6 +346,9 @@ int distmap_rebuild(distmap *m, const tree *t)
     }
     b.g = g;
     tree_visit(t, zero_cells, &b);
+    /* Cached views of the old map (search_block2) must look again. */
+    atomic_store_explicit(&m->leaves, atomic_load_explicit(&m->leaves, memory_order_relaxed) + 1,
+                          memory_order_release);
     for (int l = 0; l < 2; l++) transform(&g->lv[l], m->dim);
     publish(m, g, 0);
     return 0;

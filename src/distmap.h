@@ -46,9 +46,9 @@
 #define DISTMAP_COARSE_CAP 255u
 #define DISTMAP_COARSE_SHIFT 2
 
-/* Fine cell side 2^bits units for a dimension (tuned: runs/perf-notes.md). */
-#define DISTMAP_BITS_2D 8
-#define DISTMAP_BITS_3D 8
+/* Fine cell side 2^bits units: one leaf, so the fine cells are the leaves
+ * (search_block2 relies on it), and more than D + eps (<= 192 units). */
+#define DISTMAP_BITS TREE_LEAF_BITS
 
 typedef struct distmap_level {
     _Atomic uint8_t *cell;        /* width^dim cells, x fastest; fine: two per byte */
@@ -70,6 +70,7 @@ typedef struct distmap {
     int64_t margin;               /* units the grid keeps beyond every particle */
     int disabled;                 /* set for good when a grid cannot be made */
     _Atomic(distmap_grid *) grid; /* NULL: no map (readers use the tree) */
+    _Atomic uint64_t leaves;      /* fine cells marked occupied so far (= leaves) */
     distmap_grid *old;            /* retired grids, freed at quiesce */
     uint64_t *queue;              /* ring buffer of the breadth-first pass */
     size_t qcap;
@@ -94,6 +95,18 @@ void distmap_quiesce(distmap *m);
  * checkpoint): the cells hold the same values as the incrementally built
  * map wherever both grids reach. Returns 0 (or the map is disabled). */
 int distmap_rebuild(distmap *m, const tree *t);
+
+/* Squared lower bound on the distance from p to the cluster from the leaves
+ * of the 3^dim block around p's leaf that the map's fine level marks
+ * occupied (the fine cells are the leaves), scanned exactly: exact whenever
+ * the nearest particle is nearer than the outside of the block (so always
+ * near contact), else the distance to the outside of the block. Returns
+ * UINT64_MAX when the map cannot answer (none, or p near the grid's edge):
+ * then search_lower_bound2 does. The leaves' first chunks are cached in k
+ * (a leaf once seen never moves; one not seen yet is looked up again when
+ * the map marks its cell). Implemented in search.c. */
+uint64_t search_block2(const tree *t, const search_config *c, const distmap *m, const int64_t *p,
+                       search_state *k);
 
 /* The value of cell (c) of a level, and the distance bound it gives. */
 static inline __attribute__((always_inline)) unsigned distmap_level_value(const distmap_level *L,

@@ -125,7 +125,7 @@ int pdla_engine_create(pdla_engine **out, const pdla_params *p, char *err, size_
         /* The map covers the birth circle: its margin beyond the farthest
          * particle is the birth margin plus two coarse cells (capped;
          * queries beyond the grid use the tree). */
-        const int bits = p->dim == 2 ? DISTMAP_BITS_2D : DISTMAP_BITS_3D;
+        const int bits = DISTMAP_BITS;
         double margin = p->birth_margin * p->resolution + 2.0 * (double)(8 << bits);
         if (margin > (double)(256 << bits)) margin = (double)(256 << bits);
         distmap_init(&e->dmap, p->dim, bits, (int64_t)margin);

@@ -21,6 +21,8 @@
 
 #include <math.h>
 
+#include "distmap.h"
+
 void search_config_init(search_config *c, double far_factor, int resolution, int eps)
 {
     const double floor_dist = 2.0 * (resolution + eps);
@@ -382,6 +384,159 @@ uint64_t search_lower_bound2(const tree *t, const search_config *c, const int64_
 {
     return t->dim == 2 ? lower_bound_dim(t, c, p, cap2, k, 2)
                        : lower_bound_dim(t, c, p, cap2, k, 3);
+}
+
+/* Offsets of the 3^dim block, own leaf first (it usually holds the nearest
+ * particle, so the rest is pruned by box distance), then faces, edges,
+ * corners. Offset o is coded as its index sum (o_a + 1) 3^a. */
+static const uint8_t block_order2[9] = {4, 1, 3, 5, 7, 0, 2, 6, 8};
+static const uint8_t block_order3[27] = {13, 4,  10, 12, 14, 16, 22, 1,  3,  5,  7,  9,  11, 15,
+                                         17, 19, 21, 23, 25, 0,  2,  6,  8,  18, 20, 24, 26};
+
+/* tree_find_leaf, but descending from the lowest node of the cached path
+ * (search_state) that contains p, and leaving p's path in the cache as
+ * lower_bound_dim expects it. */
+static inline __attribute__((always_inline)) uint32_t find_leaf_cached(const tree *t,
+                                                                       const int64_t *p,
+                                                                       search_state *k,
+                                                                       const int dim)
+{
+    const tree_root root = tree_root_get(t);
+    const int64_t root_half = tree_root_half(root.level);
+    for (int a = 0; a < dim; a++)
+        if (p[a] < -root_half || p[a] >= root_half) return 0;
+    int level = root.level;
+    if (k->root == root.node && k->root_level == root.level) {
+        for (level = k->depth; level < root.level; level++) {
+            const int64_t side = (int64_t)TREE_LEAF_SIDE << level;
+            int inside = 1;
+            for (int a = 0; a < dim; a++)
+                inside &= (p[a] >= k->lo[level][a]) & (p[a] < k->lo[level][a] + side);
+            if (inside) break;
+        }
+    }
+    k->root = root.node;
+    k->root_level = root.level;
+    uint32_t node = level == root.level ? root.node : k->node[level];
+    int64_t lo[3];
+    for (int a = 0; a < dim; a++) lo[a] = level == root.level ? -root_half : k->lo[level][a];
+    for (;;) {
+        const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
+        uint32_t own = 0;
+        for (int a = 0; a < dim; a++)
+            if (p[a] >= lo[a] + half) own |= 1u << a;
+        k->node[level] = node;
+        k->own[level] = own;
+        for (int a = 0; a < dim; a++) k->lo[level][a] = lo[a];
+        const uint32_t child = tree_child(tree_children(t, node), own);
+        if (!child || level == 1) {
+            k->depth = level;
+            return child;
+        }
+        for (int a = 0; a < dim; a++) lo[a] += (int64_t)((own >> a) & 1) * half;
+        node = child;
+        level--;
+    }
+}
+
+/* Cached heads that are not chunk indices (1..10 never are). */
+#define BLK_UNKNOWN 0u
+#define BLK_EMPTY 1u
+
+static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
+                                                                const search_config *c,
+                                                                const distmap *m, const int64_t *p,
+                                                                search_state *k, const int dim)
+{
+    const distmap_grid *g = atomic_load_explicit(&m->grid, memory_order_acquire);
+    if (!g) return UINT64_MAX;
+    const distmap_level *L = &g->lv[0];
+    const int64_t w = L->width;
+    int64_t cc[3];
+    for (int a = 0; a < dim; a++) {
+        cc[a] = (p[a] + g->half) >> TREE_LEAF_BITS;
+        if (p[a] + g->half < 0 || cc[a] < 1 || cc[a] >= w - 1) return UINT64_MAX;
+    }
+    /* Re-centre the cache: keep what is known of the leaves both blocks
+     * share. A head is a leaf's first chunk, BLK_UNKNOWN or BLK_EMPTY. */
+    const int n = dim == 2 ? 9 : 27;
+    int same = k->blk_valid;
+    for (int a = 0; a < dim; a++) same &= k->blk_c[a] == cc[a];
+    if (!same) {
+        uint32_t nh[27];
+        for (int o = 0; o < n; o++) nh[o] = BLK_UNKNOWN;
+        if (k->blk_valid) {
+            int64_t d[3];
+            int near = 1;
+            for (int a = 0; a < dim; a++) {
+                d[a] = cc[a] - k->blk_c[a];
+                near &= d[a] >= -2 && d[a] <= 2;
+            }
+            if (near)
+                for (int o = 0; o < n; o++) {
+                    int src = 0, ok = 1, mul = 1;
+                    for (int a = 0, r = o; a < dim; a++, r /= 3) {
+                        const int64_t so = r % 3 - 1 + d[a];
+                        ok &= so >= -1 && so <= 1;
+                        src += (int)(so + 1) * mul;
+                        mul *= 3;
+                    }
+                    if (ok) nh[o] = k->blk_head[src];
+                }
+        }
+        for (int o = 0; o < n; o++) k->blk_head[o] = nh[o];
+        for (int a = 0; a < dim; a++) k->blk_c[a] = cc[a];
+        k->blk_valid = 1;
+    }
+    /* A leaf made since (by an earlier walker's particle) may be one seen
+     * empty: look at those again. */
+    const uint64_t leaves = atomic_load_explicit(&m->leaves, memory_order_acquire);
+    if (leaves != k->blk_leaves) {
+        for (int o = 0; o < n; o++)
+            if (k->blk_head[o] == BLK_EMPTY) k->blk_head[o] = BLK_UNKNOWN;
+        k->blk_leaves = leaves;
+    }
+    int64_t lo[3];
+    for (int a = 0; a < dim; a++) lo[a] = (cc[a] << TREE_LEAF_BITS) - g->half;
+    const uint8_t *order = dim == 2 ? block_order2 : block_order3;
+    uint64_t best2 = UINT64_MAX;
+    for (int i = 0; i < n; i++) {
+        const int o = order[i];
+        uint32_t head = k->blk_head[o];
+        /* While other threads insert, a leaf seen empty may have filled. */
+        if (head == BLK_EMPTY && !c->concurrent) continue;
+        int64_t nlo[3];
+        for (int a = 0, r = o; a < dim; a++, r /= 3)
+            nlo[a] = lo[a] + (int64_t)(r % 3 - 1) * TREE_LEAF_SIDE;
+        if (box_dist2(p, nlo, TREE_LEAF_SIDE, dim) >= best2) continue;
+        if (head <= BLK_EMPTY) {
+            int64_t nc[3];
+            for (int a = 0, r = o; a < dim; a++, r /= 3) nc[a] = cc[a] + r % 3 - 1;
+            if (distmap_level_value(L, nc, dim) != 0) {
+                k->blk_head[o] = BLK_EMPTY;
+                continue;
+            }
+            head = find_leaf_cached(t, nlo, k, dim);
+            k->blk_head[o] = head ? head : BLK_EMPTY;
+            if (!head) continue;
+        }
+        int64_t q[3];
+        for (int a = 0; a < dim; a++) q[a] = p[a] - nlo[a];
+        best2 = scan_leaf(t, head, q, best2, dim, c->concurrent, k);
+        k->node_visits++;
+    }
+    /* Every other particle is outside the block. */
+    const uint64_t out2 = inside_margin2(p, (const int64_t[3]){lo[0] - TREE_LEAF_SIDE,
+                                                              lo[1] - TREE_LEAF_SIDE,
+                                                              lo[2] - TREE_LEAF_SIDE},
+                                         3 * TREE_LEAF_SIDE, dim);
+    return best2 < out2 ? best2 : out2;
+}
+
+uint64_t search_block2(const tree *t, const search_config *c, const distmap *m, const int64_t *p,
+                       search_state *k)
+{
+    return t->dim == 2 ? block_dim(t, c, m, p, k, 2) : block_dim(t, c, m, p, k, 3);
 }
 
 int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,

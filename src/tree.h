@@ -166,6 +166,12 @@ typedef struct search_state {
     uint32_t node[TREE_MAX_LEVEL + 1];
     uint32_t own[TREE_MAX_LEVEL + 1];
     int64_t lo[TREE_MAX_LEVEL + 1][3];
+    /* The leaves around the walker's own leaf (search_block2): their first
+     * chunks, 0 = none seen yet, for the block centred on leaf blk_c. */
+    int blk_valid;
+    uint64_t blk_leaves;         /* the map's leaf count when they were cached */
+    int64_t blk_c[3];
+    uint32_t blk_head[27];
 } search_state;
 
 static inline void search_state_reset(search_state *s)
@@ -173,6 +179,7 @@ static inline void search_state_reset(search_state *s)
     s->node_visits = 0;
     s->particle_checks = 0;
     s->root = 0;
+    s->blk_valid = 0;
 }
 
 /* Per-level squared far thresholds: a non-empty node at level L whose box is

@@ -5,6 +5,9 @@
  *    and a non-zero bound is at least one fine cell (above D + eps);
  *  - every cell of both levels holds exactly the capped chessboard distance
  *    to the nearest occupied cell (brute force over the occupied cells);
+ *  - search_block2 (the leaves around a walker, cached from query to query
+ *    while the cluster grows) is never above the true distance and exact
+ *    below one leaf;
  *  - distmap_rebuild from the tree gives the same cells as the map built one
  *    particle at a time, and the same bounds.
  * Fixed seeds; a failure prints the seed, point and both values.
@@ -94,7 +97,14 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells)
     distmap_init(&m, dim, 8, 2 * 32 + 8 * 256);
     int64_t(*pts)[3] = calloc(n, sizeof *pts);
     int64_t cur[3] = {0, 0, 0};
-    int bad_bound = 0, bad_min = 0, useful = 0;
+    int bad_bound = 0, bad_min = 0, useful = 0, bad_block = 0, block_used = 0;
+    search_config cfg;
+    search_config_init(&cfg, 2.0, 32, 2);
+    search_config exact;
+    search_config_init(&exact, 0.0, 32, 2);
+    search_state ss;
+    search_state_reset(&ss);
+    int64_t walker[3] = {0, 0, 0};
     for (size_t i = 0; i < n; i++) {
         if (i % 97 == 0) /* jump to an earlier particle: branches */
             for (int a = 0; a < dim; a++) cur[a] = pts[rng_next(&r) % (i ? i : 1)][a];
@@ -103,6 +113,25 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells)
         for (int a = 0; a < dim; a++) pts[i][a] = cur[a];
         distmap_add(&m, cur, 0);
         CHECK(tree_insert(&t, cur) == 0, "insert");
+        /* The block search from a walker-like cursor: never above the true
+         * distance, exact whenever that is below one leaf (so always where
+         * sticking is decided). */
+        for (int q = 0; q < 4; q++) {
+            for (int a = 0; a < dim; a++) walker[a] += rand_range(&r, -150, 150);
+            if (q == 0)
+                for (int a = 0; a < dim; a++) walker[a] = cur[a] + rand_range(&r, -700, 700);
+            const uint64_t b2 = search_block2(&t, &cfg, &m, walker, &ss);
+            const uint64_t truth = brute(pts, i + 1, dim, walker);
+            /* The tree search shares the walker's path cache. */
+            if (search_lower_bound2(&t, &exact, walker, UINT64_MAX, &ss) != truth && bad_block++ < 5)
+                fprintf(stderr, "dim %d seed %llu n %zu: exact tree search wrong after block\n",
+                        dim, (unsigned long long)seed, i + 1);
+            if (b2 == UINT64_MAX) continue;
+            block_used++;
+            if ((b2 > truth || (truth < 256 * 256 && b2 != truth)) && bad_block++ < 5)
+                fprintf(stderr, "dim %d seed %llu n %zu: block %.1f, true %.1f\n", dim,
+                        (unsigned long long)seed, i + 1, sqrt((double)b2), sqrt((double)truth));
+        }
         if (i % 50 != 49) continue;
         for (int q = 0; q < 40; q++) {
             int64_t p[3];
@@ -120,6 +149,9 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells)
         }
     }
     CHECK(m.disabled == 0, "map disabled");
+    CHECK(bad_block == 0, "dim %d seed %llu: %d block searches wrong", dim,
+          (unsigned long long)seed, bad_block);
+    CHECK(block_used > 1000, "dim %d: only %d block searches", dim, block_used);
     CHECK(bad_bound == 0, "dim %d seed %llu: %d bounds above the true distance", dim,
           (unsigned long long)seed, bad_bound);
     CHECK(bad_min == 0, "dim %d: %d non-zero bounds not above one fine cell", dim, bad_min);

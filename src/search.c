@@ -392,6 +392,12 @@ uint64_t search_lower_bound2(const tree *t, const search_config *c, const int64_
 static const uint8_t block_order2[9] = {4, 1, 3, 5, 7, 0, 2, 6, 8};
 static const uint8_t block_order3[27] = {13, 4,  10, 12, 14, 16, 22, 1,  3,  5,  7,  9,  11, 15,
                                          17, 19, 21, 23, 25, 0,  2,  6,  8,  18, 20, 24, 26};
+/* Offset o's component on axis a: (o / 3^a) % 3 - 1. */
+static const int8_t block_off[27][3] = {
+    {-1, -1, -1}, {0, -1, -1}, {1, -1, -1}, {-1, 0, -1}, {0, 0, -1}, {1, 0, -1}, {-1, 1, -1},
+    {0, 1, -1},   {1, 1, -1},  {-1, -1, 0}, {0, -1, 0},  {1, -1, 0}, {-1, 0, 0}, {0, 0, 0},
+    {1, 0, 0},    {-1, 1, 0},  {0, 1, 0},   {1, 1, 0},   {-1, -1, 1}, {0, -1, 1}, {1, -1, 1},
+    {-1, 0, 1},   {0, 0, 1},   {1, 0, 1},   {-1, 1, 1},  {0, 1, 1},  {1, 1, 1}};
 
 /* tree_find_leaf, but descending from the lowest node of the cached path
  * (search_state) that contains p, and leaving p's path in the cache as
@@ -506,12 +512,11 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
         /* While other threads insert, a leaf seen empty may have filled. */
         if (head == BLK_EMPTY && !c->concurrent) continue;
         int64_t nlo[3];
-        for (int a = 0, r = o; a < dim; a++, r /= 3)
-            nlo[a] = lo[a] + (int64_t)(r % 3 - 1) * TREE_LEAF_SIDE;
+        for (int a = 0; a < dim; a++) nlo[a] = lo[a] + (int64_t)block_off[o][a] * TREE_LEAF_SIDE;
         if (box_dist2(p, nlo, TREE_LEAF_SIDE, dim) >= best2) continue;
         if (head <= BLK_EMPTY) {
             int64_t nc[3];
-            for (int a = 0, r = o; a < dim; a++, r /= 3) nc[a] = cc[a] + r % 3 - 1;
+            for (int a = 0; a < dim; a++) nc[a] = cc[a] + block_off[o][a];
             if (distmap_level_value(L, nc, dim) != 0) {
                 k->blk_head[o] = BLK_EMPTY;
                 continue;

@@ -16,6 +16,9 @@
  * body instantiated for dim 2 and 3.
  */
 #include <math.h>
+#if defined(__SSE2__) && defined(__x86_64__)
+#include <emmintrin.h>
+#endif
 
 #include "engine.h"
 #include "sample.h"
@@ -61,12 +64,23 @@ static inline __attribute__((always_inline)) int return_to_birth(walker_ctx *w, 
     return 1;
 }
 
+/* lrint without the libm call (it is one per jump unless math errno is
+ * off): cvtsd2si rounds by the current mode exactly as lrint does. */
+static inline __attribute__((always_inline)) int64_t round_i64(double x)
+{
+#if defined(__SSE2__) && defined(__x86_64__)
+    return _mm_cvtsd_si64(_mm_set_sd(x));
+#else
+    return (int64_t)lrint(x);
+#endif
+}
+
 static inline __attribute__((always_inline)) void jump(walker_ctx *w, int64_t *p, double s,
                                                        const int dim)
 {
     double v[3];
     random_dir(&w->rng, v, dim);
-    for (int a = 0; a < dim; a++) p[a] += (int64_t)lrint(s * v[a]);
+    for (int a = 0; a < dim; a++) p[a] += round_i64(s * v[a]);
     w->jumps++;
 }
 

@@ -457,17 +457,22 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
     const distmap_grid *g = atomic_load_explicit(&m->grid, memory_order_acquire);
     if (!g) return UINT64_MAX;
     const distmap_level *L = &g->lv[0];
+    if (L->bits != TREE_LEAF_BITS) return UINT64_MAX; /* coarsened: not the leaves */
     const int64_t w = L->width;
     int64_t cc[3];
     for (int a = 0; a < dim; a++) {
         cc[a] = (p[a] + g->half) >> TREE_LEAF_BITS;
         if (p[a] + g->half < 0 || cc[a] < 1 || cc[a] >= w - 1) return UINT64_MAX;
     }
+    /* The cache is keyed by the own leaf's absolute corner, not by grid
+     * cells: the grid's origin moves when it grows. */
+    int64_t lo[3];
+    for (int a = 0; a < dim; a++) lo[a] = p[a] & ~(int64_t)(TREE_LEAF_SIDE - 1);
     /* Re-centre the cache: keep what is known of the leaves both blocks
      * share. A head is a leaf's first chunk, BLK_UNKNOWN or BLK_EMPTY. */
     const int n = dim == 2 ? 9 : 27;
     int same = k->blk_valid;
-    for (int a = 0; a < dim; a++) same &= k->blk_c[a] == cc[a];
+    for (int a = 0; a < dim; a++) same &= k->blk_c[a] == lo[a];
     if (!same) {
         uint32_t nh[27];
         for (int o = 0; o < n; o++) nh[o] = BLK_UNKNOWN;
@@ -475,7 +480,7 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
             int64_t d[3];
             int near = 1;
             for (int a = 0; a < dim; a++) {
-                d[a] = cc[a] - k->blk_c[a];
+                d[a] = (lo[a] - k->blk_c[a]) / TREE_LEAF_SIDE;
                 near &= d[a] >= -2 && d[a] <= 2;
             }
             if (near)
@@ -491,7 +496,7 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
                 }
         }
         for (int o = 0; o < n; o++) k->blk_head[o] = nh[o];
-        for (int a = 0; a < dim; a++) k->blk_c[a] = cc[a];
+        for (int a = 0; a < dim; a++) k->blk_c[a] = lo[a];
         k->blk_valid = 1;
     }
     /* A leaf made since (by an earlier walker's particle) may be one seen
@@ -502,8 +507,6 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
             if (k->blk_head[o] == BLK_EMPTY) k->blk_head[o] = BLK_UNKNOWN;
         k->blk_leaves = leaves;
     }
-    int64_t lo[3];
-    for (int a = 0; a < dim; a++) lo[a] = (cc[a] << TREE_LEAF_BITS) - g->half;
     const uint8_t *order = dim == 2 ? block_order2 : block_order3;
     uint64_t best2 = UINT64_MAX;
     for (int i = 0; i < n; i++) {

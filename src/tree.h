@@ -167,7 +167,8 @@ typedef struct search_state {
     uint32_t own[TREE_MAX_LEVEL + 1];
     int64_t lo[TREE_MAX_LEVEL + 1][3];
     /* The leaves around the walker's own leaf (search_block2): their first
-     * chunks, 0 = none seen yet, for the block centred on leaf blk_c. */
+     * chunks (or not seen yet, or empty), for the block centred on the leaf
+     * whose low corner is blk_c. */
     int blk_valid;
     uint64_t blk_leaves;         /* the map's leaf count when they were cached */
     int64_t blk_c[3];

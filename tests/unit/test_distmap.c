@@ -8,6 +8,7 @@
  *  - search_block2 (the leaves around a walker, cached from query to query
  *    while the cluster grows) is never above the true distance and exact
  *    below one leaf;
+ *  - a walker's cached block stays right while the grid grows under it;
  *  - distmap_rebuild from the tree gives the same cells as the map built one
  *    particle at a time, and the same bounds.
  * Fixed seeds; a failure prints the seed, point and both values.
@@ -203,8 +204,72 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells)
     free(pts);
 }
 
+/* A walker's cached block must survive the grid growing under it (its
+ * origin moves): query, grow the grid by far particles, query again in the
+ * same and nearby leaves. */
+static void test_growth_cache(int dim, uint64_t seed)
+{
+    pdla_rng r;
+    rng_seed(&r, seed);
+    tree t;
+    CHECK(tree_init(&t, dim) == 0, "tree_init");
+    distmap m;
+    distmap_init(&m, dim, 8, 2 * 32 + 8 * 256);
+    search_config cfg;
+    search_config_init(&cfg, 2.0, 32, 2);
+    search_state ss;
+    search_state_reset(&ss);
+    enum { NMAX = 4000 };
+    int64_t(*pts)[3] = calloc(NMAX, sizeof *pts);
+    size_t n = 0;
+    int bad = 0, used = 0;
+    for (int round = 0; round < 12; round++) {
+        /* a blob near the origin, then one particle ever farther out */
+        for (int i = 0; i < 100 && n < NMAX - 1; i++, n++) {
+            for (int a = 0; a < dim; a++) pts[n][a] = rand_range(&r, -3000, 3000);
+            distmap_add(&m, pts[n], 0);
+            tree_insert(&t, pts[n]);
+        }
+        for (int q = 0; q < 300; q++) {
+            int64_t p[3];
+            for (int a = 0; a < dim; a++) p[a] = rand_range(&r, -3200, 3200);
+            const uint64_t b2 = search_block2(&t, &cfg, &m, p, &ss);
+            if (b2 == UINT64_MAX) continue;
+            used++;
+            const uint64_t truth = brute(pts, n, dim, p);
+            if ((b2 > truth || (truth < 256 * 256 && b2 != truth)) && bad++ < 5)
+                fprintf(stderr, "dim %d round %d: block %.1f, true %.1f\n", dim, round,
+                        sqrt((double)b2), sqrt((double)truth));
+        }
+        /* Fill the cache at p, grow the grid, then query where the old grid
+         * cell of p now lies (the same cell index in the new grid). */
+        int64_t p[3];
+        for (int a = 0; a < dim; a++) p[a] = rand_range(&r, -1500, 1500);
+        search_block2(&t, &cfg, &m, p, &ss);
+        const int64_t half0 = atomic_load(&m.grid)->half;
+        for (int a = 0; a < dim; a++) pts[n][a] = (a == 0 ? 1 : -1) * (int64_t)(6000 + 1200 * round);
+        distmap_add(&m, pts[n], 0);
+        tree_insert(&t, pts[n]);
+        n++;
+        const int64_t shift = atomic_load(&m.grid)->half - half0;
+        for (int a = 0; a < dim; a++) p[a] -= shift;
+        const uint64_t b2 = search_block2(&t, &cfg, &m, p, &ss);
+        const uint64_t truth = brute(pts, n, dim, p);
+        if (b2 != UINT64_MAX && (b2 > truth || (truth < 256 * 256 && b2 != truth)) && bad++ < 5)
+            fprintf(stderr, "dim %d round %d (grid shift %lld): block %.1f, true %.1f\n", dim,
+                    round, (long long)shift, sqrt((double)b2), sqrt((double)truth));
+    }
+    CHECK(bad == 0, "dim %d: %d block searches wrong after the grid grew", dim, bad);
+    CHECK(used > 500, "dim %d: only %d block searches", dim, used);
+    distmap_free(&m);
+    tree_free(&t);
+    free(pts);
+}
+
 int main(void)
 {
+    test_growth_cache(2, 7);
+    test_growth_cache(3, 8);
     test_cluster(2, 2000, 1, 1);
     test_cluster(2, 10000, 2, 0);
     test_cluster(3, 1000, 3, 1);

@@ -22,6 +22,9 @@ int distmap_init(distmap *m, int dim, int bits, int64_t margin_units)
     m->bits = bits;
     m->margin = margin_units;
     m->disabled = 0;
+    m->particles = 0;
+    m->budget_min = DISTMAP_BUDGET_MIN;
+    m->budget_per_particle = DISTMAP_BUDGET_PER_PARTICLE;
     atomic_init(&m->grid, NULL);
     atomic_init(&m->leaves, 0);
     m->old = NULL;
@@ -156,12 +159,32 @@ static int level_alloc(distmap_level *L, int dim, int bits, int nibble, unsigned
     return 0;
 }
 
-/* A new grid of half side `half` (whole coarse cells), filled from the old
- * one (or with the caps) and completed by the transform. */
-static distmap_grid *grid_make(const distmap *m, const distmap_grid *old, int64_t half)
+static uint64_t fine_bytes(int dim, int64_t half, int bits)
+{
+    const uint64_t w = (uint64_t)((half << 1) >> bits);
+    return (dim == 3 ? w * w * w : w * w) / 2;
+}
+
+/* A new grid that covers [-h, h)^dim (h rounded up to whole coarse cells),
+ * filled from the old one (or with the caps) and completed by the
+ * transform. The fine cells are the finest (>= m->bits, never finer than
+ * the old grid's) whose level fits the memory budget; when they coarsen,
+ * the new levels are made from the old fine level's occupied cells. */
+static distmap_grid *grid_make(const distmap *m, const distmap_grid *old, int64_t h)
 {
     const int dim = m->dim;
-    const int64_t w = (half << 1) >> m->bits;
+    int fb = m->bits;
+    if (old && old->lv[0].bits > fb) fb = old->lv[0].bits;
+    double budget = m->budget_per_particle * (double)m->particles;
+    if (budget < (double)m->budget_min) budget = (double)m->budget_min;
+    int64_t half;
+    for (;;) {
+        const int64_t side = (int64_t)1 << (fb + DISTMAP_COARSE_SHIFT);
+        half = (h + side - 1) / side * side;
+        if ((double)fine_bytes(dim, half, fb) <= budget || fb >= 24) break;
+        fb++;
+    }
+    const int64_t w = (half << 1) >> fb;
     if (w <= 0 || w >= (1 << 21)) return NULL;
     uint64_t n = (uint64_t)w * (uint64_t)w;
     if (dim == 3) n *= (uint64_t)w;
@@ -169,12 +192,13 @@ static distmap_grid *grid_make(const distmap *m, const distmap_grid *old, int64_
     distmap_grid *g = calloc(1, sizeof *g);
     if (!g) return NULL;
     g->half = half;
-    if (level_alloc(&g->lv[0], dim, m->bits, 1, DISTMAP_FINE_CAP, half) ||
-        level_alloc(&g->lv[1], dim, m->bits + DISTMAP_COARSE_SHIFT, 0, DISTMAP_COARSE_CAP, half)) {
+    if (level_alloc(&g->lv[0], dim, fb, 1, DISTMAP_FINE_CAP, half) ||
+        level_alloc(&g->lv[1], dim, fb + DISTMAP_COARSE_SHIFT, 0, DISTMAP_COARSE_CAP, half)) {
         grid_free(g);
         return NULL;
     }
-    if (old) {
+    if (!old) return g;
+    if (old->lv[0].bits == fb) {
         for (int l = 0; l < 2; l++) {
             distmap_level *L = &g->lv[l];
             const distmap_level *O = &old->lv[l];
@@ -185,14 +209,29 @@ static distmap_grid *grid_make(const distmap *m, const distmap_grid *old, int64_
                     for (int64_t x = 0; x < ow; x++)
                         cell_set(L, cell_index(L, x + off, y + off, dim == 3 ? z + off : 0),
                                  cell_get(O, cell_index(O, x, y, z)));
-            transform(L, dim);
         }
+    } else {
+        const distmap_level *O = &old->lv[0];
+        const int64_t ow = O->width;
+        for (int64_t z = 0; z < (dim == 3 ? ow : 1); z++)
+            for (int64_t y = 0; y < ow; y++)
+                for (int64_t x = 0; x < ow; x++) {
+                    if (cell_get(O, cell_index(O, x, y, z)) != 0) continue;
+                    const int64_t oc[3] = {x, y, z};
+                    for (int l = 0; l < 2; l++) {
+                        distmap_level *L = &g->lv[l];
+                        int64_t c[3] = {0, 0, 0};
+                        for (int a = 0; a < dim; a++)
+                            c[a] = ((oc[a] << O->bits) - old->half + half) >> L->bits;
+                        cell_set(L, cell_index(L, c[0], c[1], c[2]), 0);
+                    }
+                }
     }
+    for (int l = 0; l < 2; l++) transform(&g->lv[l], dim);
     return g;
 }
 
-/* Half side that holds p with the margin, with room to grow, in whole
- * coarse cells. */
+/* Half side that holds p with the margin, with room to grow. */
 static int64_t wanted_half(const distmap *m, const int64_t *p, int64_t at_least)
 {
     int64_t r = 0;
@@ -201,9 +240,7 @@ static int64_t wanted_half(const distmap *m, const int64_t *p, int64_t at_least)
         if (x > r) r = x;
     }
     int64_t h = (r + m->margin) + (r + m->margin) / 8 + 1;
-    if (h < at_least) h = at_least;
-    const int64_t side = (int64_t)1 << (m->bits + DISTMAP_COARSE_SHIFT);
-    return (h + side - 1) / side * side;
+    return h < at_least ? at_least : h;
 }
 
 static int covers(const distmap *m, const distmap_grid *g, const int64_t *p)
@@ -277,6 +314,7 @@ static int mark(distmap *m, distmap_level *L, const int64_t *c)
 
 int distmap_add(distmap *m, const int64_t *p, int concurrent)
 {
+    m->particles++;
     if (m->disabled) return 0;
     distmap_grid *g = atomic_load_explicit(&m->grid, memory_order_relaxed);
     if (!g || !covers(m, g, p)) {
@@ -335,7 +373,8 @@ int distmap_rebuild(distmap *m, const tree *t)
     distmap_quiesce(m);
     m->disabled = 0;
     m->bytes = 0;
-    if (tree_count(t) == 0) return 0;
+    m->particles = tree_count(t);
+    if (m->particles == 0) return 0;
     rebuild_ctx b = {m, NULL, 0};
     tree_visit(t, max_coord, &b);
     const int64_t p[3] = {b.r, b.r, b.r};

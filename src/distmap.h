@@ -47,8 +47,16 @@
 #define DISTMAP_COARSE_SHIFT 2
 
 /* Fine cell side 2^bits units: one leaf, so the fine cells are the leaves
- * (search_block2 relies on it), and more than D + eps (<= 192 units). */
+ * (search_block2 relies on it), and more than D + eps (<= 192 units). When
+ * the fine level would outgrow its memory budget, max(1 MiB, 0.04 bytes per
+ * particle), the grid's fine cells coarsen (2, 4, ... leaves; search_block2
+ * then defers to the tree). A 2D cluster passes 1 MiB at leaf cells near
+ * 2.6e6 particles and at 2-leaf cells near 8.6e6; the budget keeps the map
+ * (twice that while a grid grows) within the 4 bytes/particle target at
+ * 1e7, where the tree alone takes 3.9 (runs/perf-notes.md). */
 #define DISTMAP_BITS TREE_LEAF_BITS
+#define DISTMAP_BUDGET_MIN ((size_t)1 << 20)
+#define DISTMAP_BUDGET_PER_PARTICLE 0.04
 
 typedef struct distmap_level {
     _Atomic uint8_t *cell;        /* width^dim cells, x fastest; fine: two per byte */
@@ -69,6 +77,9 @@ typedef struct distmap {
     int bits;                     /* fine cell side 2^bits units, >= TREE_LEAF_BITS */
     int64_t margin;               /* units the grid keeps beyond every particle */
     int disabled;                 /* set for good when a grid cannot be made */
+    uint64_t particles;           /* particles added (sizes the memory budget) */
+    size_t budget_min;            /* the fine level may use max(budget_min, */
+    double budget_per_particle;   /*   budget_per_particle x particles) bytes */
     _Atomic(distmap_grid *) grid; /* NULL: no map (readers use the tree) */
     _Atomic uint64_t leaves;      /* fine cells marked occupied so far (= leaves) */
     distmap_grid *old;            /* retired grids, freed at quiesce */

@@ -9,6 +9,8 @@
  *    while the cluster grows) is never above the true distance and exact
  *    below one leaf;
  *  - a walker's cached block stays right while the grid grows under it;
+ *  - the same with a small memory budget, where the fine cells coarsen
+ *    while the grid grows;
  *  - distmap_rebuild from the tree gives the same cells as the map built one
  *    particle at a time, and the same bounds.
  * Fixed seeds; a failure prints the seed, point and both values.
@@ -88,7 +90,7 @@ static int check_cells(const distmap_grid *g, int l, int dim, const int64_t (*pt
 
 /* A random cluster: a few random walks with steps of about one diameter
  * (D = 32), reaching out several hundred diameters so the grid grows. */
-static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells)
+static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size_t budget)
 {
     pdla_rng r;
     rng_seed(&r, seed);
@@ -96,6 +98,10 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells)
     CHECK(tree_init(&t, dim) == 0, "tree_init");
     distmap m;
     distmap_init(&m, dim, 8, 2 * 32 + 8 * 256);
+    if (budget) { /* a small budget: the fine cells coarsen as the grid grows */
+        m.budget_min = budget;
+        m.budget_per_particle = 0.0;
+    }
     int64_t(*pts)[3] = calloc(n, sizeof *pts);
     int64_t cur[3] = {0, 0, 0};
     int bad_bound = 0, bad_min = 0, useful = 0, bad_block = 0, block_used = 0;
@@ -152,7 +158,9 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells)
     CHECK(m.disabled == 0, "map disabled");
     CHECK(bad_block == 0, "dim %d seed %llu: %d block searches wrong", dim,
           (unsigned long long)seed, bad_block);
-    CHECK(block_used > 1000, "dim %d: only %d block searches", dim, block_used);
+    if (!budget) CHECK(block_used > 1000, "dim %d: only %d block searches", dim, block_used);
+    const distmap_grid *gf = atomic_load(&m.grid);
+    if (budget) CHECK(gf && gf->lv[0].bits > 8, "dim %d: the fine cells did not coarsen", dim);
     CHECK(bad_bound == 0, "dim %d seed %llu: %d bounds above the true distance", dim,
           (unsigned long long)seed, bad_bound);
     CHECK(bad_min == 0, "dim %d: %d non-zero bounds not above one fine cell", dim, bad_min);
@@ -169,12 +177,15 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells)
     /* Rebuild from the tree: same cells where both grids reach. */
     distmap m2;
     distmap_init(&m2, dim, 8, 2 * 32 + 8 * 256);
+    m2.budget_min = m.budget_min;
+    m2.budget_per_particle = m.budget_per_particle;
     distmap_rebuild(&m2, &t);
     const distmap_grid *g2 = atomic_load(&m2.grid);
     CHECK(g2 != NULL, "rebuild made no grid");
     int differ = 0;
     if (g && g2)
         for (int l = 0; l < 2; l++) {
+            if (g->lv[l].bits != g2->lv[l].bits) continue; /* budgets chose differently */
             const int64_t h = g->half < g2->half ? g->half : g2->half;
             const int64_t cells = (2 * h) >> g->lv[l].bits;
             for (int64_t z = 0; z < (dim == 3 ? cells : 1); z++)
@@ -270,9 +281,11 @@ int main(void)
 {
     test_growth_cache(2, 7);
     test_growth_cache(3, 8);
-    test_cluster(2, 2000, 1, 1);
-    test_cluster(2, 10000, 2, 0);
-    test_cluster(3, 1000, 3, 1);
-    test_cluster(3, 5000, 4, 0);
+    test_cluster(2, 2000, 1, 1, 0);
+    test_cluster(2, 10000, 2, 0, 0);
+    test_cluster(3, 1000, 3, 1, 0);
+    test_cluster(3, 5000, 4, 0, 0);
+    test_cluster(2, 4000, 5, 1, 2048);
+    test_cluster(3, 2000, 6, 1, 4096);
     return check_finish();
 }

@@ -5,14 +5,30 @@
 #include "distmap.h"
 
 #include <stdlib.h>
+#include <sys/mman.h>
 
 /* Grids beyond this many fine cells are not made: the map disables itself. */
 #define DISTMAP_MAX_CELLS (UINT64_C(1) << 33)
 
+/* Cell arrays come straight from mmap: freeing a large malloc block raises
+ * glibc's mmap threshold, after which the tree's pool segments would come
+ * from the heap and be zeroed (made resident) whole by calloc. */
+static void *cells_alloc(size_t bytes)
+{
+    void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    return p == MAP_FAILED ? NULL : p;
+}
+
+static void level_free(distmap_level *L)
+{
+    if (L->cell) munmap((void *)L->cell, L->bytes);
+    L->cell = NULL;
+}
+
 static void grid_free(distmap_grid *g)
 {
     if (!g) return;
-    for (int l = 0; l < 2; l++) free((void *)g->lv[l].cell);
+    for (int l = 0; l < 2; l++) level_free(&g->lv[l]);
     free(g);
 }
 
@@ -152,7 +168,8 @@ static int level_alloc(distmap_level *L, int dim, int bits, int nibble, unsigned
     L->width = (uint32_t)((half << 1) >> bits);
     const uint64_t n = level_cells(L, dim);
     const size_t bytes = (size_t)(nibble ? (n + 1) / 2 : n);
-    L->cell = malloc(bytes);
+    L->bytes = bytes;
+    L->cell = cells_alloc(bytes);
     if (!L->cell) return -1;
     const uint8_t fill = (uint8_t)(nibble ? cap | cap << 4 : cap);
     for (size_t i = 0; i < bytes; i++) atomic_init(&L->cell[i], fill);

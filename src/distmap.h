@@ -48,14 +48,15 @@
 
 /* Fine cell side 2^bits units: one leaf, so the fine cells are the leaves
  * (search_block2 relies on it), and more than D + eps (<= 192 units). When
- * the fine level would outgrow its memory budget, max(1 MiB, 0.04 bytes per
- * particle), the grid's fine cells coarsen (2, 4, ... leaves; search_block2
- * then defers to the tree). A 2D cluster passes 1 MiB at leaf cells near
- * 2.6e6 particles and at 2-leaf cells near 8.6e6; the budget keeps the map
- * (twice that while a grid grows) within the 4 bytes/particle target at
- * 1e7, where the tree alone takes 3.9 (runs/perf-notes.md). */
+ * the fine level would outgrow its memory budget, max(512 KiB, 0.04 bytes
+ * per particle), the grid's fine cells coarsen (2, 4, ... leaves;
+ * search_block2 then defers to the tree). A 2D cluster passes 512 KiB at
+ * leaf cells near 1.5e6 particles and at 2-leaf cells near 5e6; the budget
+ * keeps the map (about twice that while a grid grows) within the 4
+ * bytes/particle target at 1e7, where the tree alone takes 3.9
+ * (runs/perf-notes.md). */
 #define DISTMAP_BITS TREE_LEAF_BITS
-#define DISTMAP_BUDGET_MIN ((size_t)1 << 20)
+#define DISTMAP_BUDGET_MIN ((size_t)1 << 19)
 #define DISTMAP_BUDGET_PER_PARTICLE 0.04
 
 typedef struct distmap_level {
@@ -64,6 +65,7 @@ typedef struct distmap_level {
     int bits;                     /* cell side 2^bits units */
     int nibble;                   /* 4-bit cells (the fine level) */
     unsigned cap;
+    size_t bytes;                 /* of the cell array */
 } distmap_level;
 
 typedef struct distmap_grid {
@@ -140,8 +142,8 @@ static inline __attribute__((always_inline)) int64_t distmap_block_bound(int64_t
 {
     int64_t best = INT64_MAX;
     for (int a = 0; a < dim; a++) {
-        const int64_t lo = ((c[a] - (v - 1)) << bits) - half;
-        const int64_t hi = ((c[a] + v) << bits) - half;
+        const int64_t lo = (c[a] - (v - 1)) * ((int64_t)1 << bits) - half; /* may be < 0 */
+        const int64_t hi = (c[a] + v) * ((int64_t)1 << bits) - half;
         const int64_t below = p[a] - lo + 1, above = hi - p[a];
         if (below < best) best = below;
         if (above < best) best = above;

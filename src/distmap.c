@@ -40,7 +40,7 @@ int distmap_init(distmap *m, int dim, int bits, int64_t margin_units)
     m->disabled = 0;
     m->particles = 0;
     m->budget_min = DISTMAP_BUDGET_MIN;
-    m->budget_per_particle = DISTMAP_BUDGET_PER_PARTICLE;
+    m->budget_per_particle = dim == 3 ? DISTMAP_BUDGET_PER_PARTICLE_3D : DISTMAP_BUDGET_PER_PARTICLE;
     atomic_init(&m->grid, NULL);
     atomic_init(&m->leaves, 0);
     m->old = NULL;

@@ -268,7 +268,7 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
                       "internal error: a serial walker stopped closer than one diameter");
             break;
         }
-        if (e->params.snap_contact) walker_snap_to_contact(&e->tree, p, D, stick2);
+        if (e->params.snap_contact) walker_snap_to_contact(&e->tree, p, D, stick2, &e->walker.ss);
         rc = add_particle(e, p, err, errlen);
         if (rc == PDLA_OK && progress && tree_count(&e->tree) % every == 0) {
             e->grow_seconds += now_seconds() - t0;

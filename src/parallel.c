@@ -62,13 +62,13 @@ static int insert_concurrent(worker *k, int64_t *p, int status)
         if (status == WALK_OVERLAP) {
             w->recheck_overlaps++;
             if (P->recheck == PDLA_RECHECK_DISCARD || retried ||
-                !walker_snap_to_contact(t, p, D, stick2)) {
+                !walker_snap_to_contact(t, p, D, stick2, &w->ss)) {
                 w->recheck_discarded++;
                 return DISCARDED;
             }
             retried = 1;
         } else if (P->snap_contact) {
-            walker_snap_to_contact(t, p, D, stick2);
+            walker_snap_to_contact(t, p, D, stick2, &w->ss);
         }
         char err[256];
         if (engine_check_range(e, p, err, sizeof err)) return worker_fail(k, PDLA_ERANGE, err);

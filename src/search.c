@@ -547,8 +547,9 @@ uint64_t search_block2(const tree *t, const search_config *c, const distmap *m, 
     return t->dim == 2 ? block_dim(t, c, m, p, k, 2) : block_dim(t, c, m, p, k, 3);
 }
 
-int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
-                         uint64_t *d2_out)
+static inline __attribute__((always_inline)) int nearest_point(const tree *t, const int64_t *p,
+                                                             uint64_t radius2, int64_t *q,
+                                                             uint64_t *d2_out, search_state *k)
 {
     const int dim = t->dim;
     int64_t r = (int64_t)sqrt((double)radius2);
@@ -563,7 +564,7 @@ int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int6
     int found = 0;
     const int ncorner = 1 << dim;
     for (int c = 0; c < ncorner; c++) {
-        int64_t corner[3];
+        int64_t corner[3] = {0, 0, 0};
         int skip = 0;
         for (int a = 0; a < dim; a++) {
             const int64_t step = (c >> a) & 1;
@@ -572,7 +573,13 @@ int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int6
         }
         if (skip) continue;
         int64_t lo[3];
-        const uint32_t leaf_idx = tree_find_leaf(t, corner, lo);
+        uint32_t leaf_idx;
+        if (k) { /* from the walker's cached path: the leaves are its neighbours */
+            leaf_idx = dim == 2 ? find_leaf_cached(t, corner, k, 2) : find_leaf_cached(t, corner, k, 3);
+            for (int a = 0; a < dim; a++) lo[a] = corner[a];
+        } else {
+            leaf_idx = tree_find_leaf(t, corner, lo);
+        }
         if (!leaf_idx) continue;
         for (uint32_t ci = leaf_idx;;) {
             const uint8_t *chunk = tree_chunk_at(t, ci);
@@ -598,6 +605,18 @@ int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int6
     }
     if (found) *d2_out = best2;
     return found;
+}
+
+int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
+                         uint64_t *d2_out)
+{
+    return nearest_point(t, p, radius2, q, d2_out, NULL);
+}
+
+int search_nearest_point_cached(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
+                                uint64_t *d2_out, search_state *k)
+{
+    return nearest_point(t, p, radius2, q, d2_out, k);
 }
 
 typedef struct brute_ctx {

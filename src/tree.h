@@ -216,3 +216,6 @@ uint32_t tree_find_leaf(const tree *t, const int64_t *p, int64_t *leaf_lo);
  * returns 1 and writes it to q (and its squared distance), or 0 if none. */
 int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
                          uint64_t *d2);
+/* The same, finding the leaves from (and updating) a walker's cached path. */
+int search_nearest_point_cached(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
+                                uint64_t *d2, search_state *k);

@@ -90,12 +90,12 @@ static inline __attribute__((always_inline)) void jump(walker_ctx *w, int64_t *p
  * stretch of the cluster by eps/(2D)). Of the grid points around the exact
  * contact point, take the one nearest to contact that keeps every particle
  * at least D away; if none does, stay put. */
-int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2)
+int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2, search_state *k)
 {
     const int dim = t->dim;
     int64_t q[3];
     uint64_t d2;
-    if (!search_nearest_point(t, p, reach2, q, &d2) || d2 == 0) return 0;
+    if (!search_nearest_point_cached(t, p, reach2, q, &d2, k) || d2 == 0) return 0;
     const double scale = (double)D / sqrt((double)d2);
     double x[3];
     int64_t base[3];
@@ -123,7 +123,7 @@ int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2
             if (cand_d2[i] < cand_d2[best]) best = i;
         int64_t other[3];
         uint64_t od2;
-        if (!search_nearest_point(t, cand[best], D2, other, &od2)) {
+        if (!search_nearest_point_cached(t, cand[best], D2, other, &od2, k)) {
             for (int a = 0; a < dim; a++) p[a] = cand[best][a];
             return 1;
         }

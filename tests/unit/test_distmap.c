@@ -8,6 +8,9 @@
  *  - search_block2 (the leaves around a walker, cached from query to query
  *    while the cluster grows) is never above the true distance and exact
  *    below one leaf;
+ *  - search_nearest_point_cached (leaves from the walker's cached path)
+ *    gives what search_nearest_point gives, and finds the true nearest
+ *    within the reach (up to 128 units);
  *  - a walker's cached block stays right while the grid grows under it;
  *  - the same with a small memory budget, where the fine cells coarsen
  *    while the grid grows;
@@ -101,6 +104,8 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
     if (budget) { /* a small budget: the fine cells coarsen as the grid grows */
         m.budget_min = budget;
         m.budget_per_particle = 0.0;
+    } else { /* leaf cells throughout, whatever the random cluster's extent */
+        m.budget_min = (size_t)1 << 30;
     }
     int64_t(*pts)[3] = calloc(n, sizeof *pts);
     int64_t cur[3] = {0, 0, 0};
@@ -133,6 +138,24 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
             if (search_lower_bound2(&t, &exact, walker, UINT64_MAX, &ss) != truth && bad_block++ < 5)
                 fprintf(stderr, "dim %d seed %llu n %zu: exact tree search wrong after block\n",
                         dim, (unsigned long long)seed, i + 1);
+            /* The nearest point within a contact reach, from the cached path
+             * and from the root: the same answer. */
+            {
+                int64_t q1[3] = {0, 0, 0}, q2[3] = {0, 0, 0};
+                uint64_t e1 = 0, e2 = 0;
+                const uint64_t reach2 = (uint64_t)(rand_range(&r, 1, 128) * rand_range(&r, 1, 128));
+                const int f1 = search_nearest_point_cached(&t, walker, reach2, q1, &e1, &ss);
+                const int f2 = search_nearest_point(&t, walker, reach2, q2, &e2);
+                int same = f1 == f2 && (!f1 || e1 == e2);
+                for (int a = 0; f1 && a < dim; a++) same &= q1[a] == q2[a];
+                if (!same && bad_block++ < 5)
+                    fprintf(stderr, "dim %d: cached nearest point differs\n", dim);
+                if (f2 && (e2 > truth || e2 >= reach2) && bad_block++ < 5)
+                    fprintf(stderr, "dim %d: nearest point %llu vs true %llu\n", dim,
+                            (unsigned long long)e2, (unsigned long long)truth);
+                if (!f2 && truth < reach2 && bad_block++ < 5)
+                    fprintf(stderr, "dim %d: nearest point missed\n", dim);
+            }
             if (b2 == UINT64_MAX) continue;
             block_used++;
             if ((b2 > truth || (truth < 256 * 256 && b2 != truth)) && bad_block++ < 5)

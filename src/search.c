@@ -554,24 +554,27 @@ static inline __attribute__((always_inline)) int nearest_point(const tree *t, co
     const int dim = t->dim;
     int64_t r = (int64_t)sqrt((double)radius2);
     while ((uint64_t)(r * r) < radius2) r++;
-    /* The ball spans at most two leaves per axis (r < 256). */
+    /* The ball spans up to three leaves per axis (r < 256; two when
+     * r <= 128). The leaves of the first two columns come first, in the
+     * order that decides ties between equally near particles. */
     int64_t first[3], span[3];
     for (int a = 0; a < dim; a++) {
         first[a] = (p[a] - r) & ~(int64_t)(TREE_LEAF_SIDE - 1);
-        span[a] = ((p[a] + r) & ~(int64_t)(TREE_LEAF_SIDE - 1)) > first[a] ? 2 : 1;
+        span[a] = (((p[a] + r) & ~(int64_t)(TREE_LEAF_SIDE - 1)) - first[a]) / TREE_LEAF_SIDE + 1;
     }
     uint64_t best2 = radius2;
     int found = 0;
-    const int ncorner = 1 << dim;
-    for (int c = 0; c < ncorner; c++) {
+    const int ncorner = 1 << dim, nall = dim == 2 ? 9 : 27;
+    for (int i = 0; i < ncorner + nall; i++) {
         int64_t corner[3] = {0, 0, 0};
-        int skip = 0;
-        for (int a = 0; a < dim; a++) {
-            const int64_t step = (c >> a) & 1;
+        int skip = 0, has2 = 0;
+        for (int a = 0, c3 = i - ncorner; a < dim; a++, c3 /= 3) {
+            const int64_t step = i < ncorner ? (i >> a) & 1 : c3 % 3;
+            has2 |= step == 2;
             if (step >= span[a]) skip = 1;
             corner[a] = first[a] + step * TREE_LEAF_SIDE;
         }
-        if (skip) continue;
+        if (skip || (i >= ncorner && !has2)) continue;
         int64_t lo[3];
         uint32_t leaf_idx;
         if (k) { /* from the walker's cached path: the leaves are its neighbours */

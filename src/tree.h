@@ -212,7 +212,8 @@ uint64_t search_brute2(const tree *t, const int64_t *p);
 /* The leaf (its first chunk) whose box contains p (0 if none), and its low corner. */
 uint32_t tree_find_leaf(const tree *t, const int64_t *p, int64_t *leaf_lo);
 
-/* Exact nearest particle centre within sqrt(radius2) of p, radius2 < 256^2:
+/* Exact nearest particle centre within sqrt(radius2) of p, radius2 < 256^2
+ * (so up to three leaves per axis: D + eps reaches 192 units at D = 128):
  * returns 1 and writes it to q (and its squared distance), or 0 if none. */
 int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
                          uint64_t *d2);

@@ -10,7 +10,7 @@
  *    below one leaf;
  *  - search_nearest_point_cached (leaves from the walker's cached path)
  *    gives what search_nearest_point gives, and finds the true nearest
- *    within the reach (up to 128 units);
+ *    within the reach;
  *  - a walker's cached block stays right while the grid grows under it;
  *  - the same with a small memory budget, where the fine cells coarsen
  *    while the grid grows;
@@ -143,7 +143,7 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
             {
                 int64_t q1[3] = {0, 0, 0}, q2[3] = {0, 0, 0};
                 uint64_t e1 = 0, e2 = 0;
-                const uint64_t reach2 = (uint64_t)(rand_range(&r, 1, 128) * rand_range(&r, 1, 128));
+                const uint64_t reach2 = (uint64_t)(rand_range(&r, 1, 255) * rand_range(&r, 1, 255));
                 const int f1 = search_nearest_point_cached(&t, walker, reach2, q1, &e1, &ss);
                 const int f2 = search_nearest_point(&t, walker, reach2, q2, &e2);
                 int same = f1 == f2 && (!f1 || e1 == e2);

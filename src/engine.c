@@ -124,6 +124,15 @@ int pdla_engine_create(pdla_engine **out, const pdla_params *p, char *err, size_
         return fail(PDLA_ENOMEM, err, errlen, "out of memory creating the tree");
     }
     search_config_init(&e->search, p->exact_search ? 0.0 : p->far_factor, p->resolution, p->eps);
+    {
+        /* The map covers the birth circle: its margin beyond the farthest
+         * particle is the birth margin plus two coarse cells (capped;
+         * queries beyond the grid use the tree). */
+        const int bits = DISTMAP_BITS;
+        double margin = p->birth_margin * p->resolution + 2.0 * (double)(8 << bits);
+        if (margin > (double)(256 << bits)) margin = (double)(256 << bits);
+        distmap_init(&e->dmap, p->dim, bits, (int64_t)margin);
+    }
     rng_seed(&e->walker.rng, p->seed);
     search_state_reset(&e->walker.ss);
     atomic_init(&e->r_ext, 0);
@@ -148,6 +157,7 @@ void pdla_engine_destroy(pdla_engine *e)
     pthread_mutex_destroy(&e->bucket_mu);
     pthread_mutex_destroy(&e->gyration_mu);
     free(e->workers);
+    distmap_free(&e->dmap);
     tree_free(&e->tree);
     free(e->rg_n);
     free(e->rg_diam);
@@ -245,6 +255,7 @@ static int add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errl
 {
     int rc = engine_check_range(e, p, err, errlen);
     if (rc) return rc;
+    distmap_add(&e->dmap, p, 0);
     rc = tree_insert(&e->tree, p);
     if (rc) return fail(PDLA_ENOMEM, err, errlen, "out of memory (or 2^32 tree records) at %llu particles",
                         (unsigned long long)tree_count(&e->tree));
@@ -281,7 +292,7 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
                       "internal error: a serial walker stopped closer than one diameter");
             break;
         }
-        if (e->params.snap_contact) walker_snap_to_contact(&e->tree, p, D, stick2);
+        if (e->params.snap_contact) walker_snap_to_contact(&e->tree, p, D, stick2, &e->walker.ss);
         rc = add_particle(e, p, err, errlen);
         if (rc == PDLA_OK && progress && tree_count(&e->tree) % every == 0) {
             e->grow_seconds += now_seconds() - t0;

@@ -9,6 +9,7 @@
 #include <stdatomic.h>
 
 #include "pdla/pdla.h"
+#include "distmap.h"
 #include "rng.h"
 #include "tree.h"
 
@@ -33,6 +34,7 @@ struct pdla_engine {
     pdla_params params;
     tree tree;
     search_config search;
+    distmap dmap;             /* far-query accelerator, derived from the tree */
     walker_ctx walker;
     gyration_sums gyr;
     uint64_t r_ext2;          /* max |x|^2 of particle centres, units^2 */
@@ -73,8 +75,9 @@ int walker_run(const pdla_engine *e, walker_ctx *w, int64_t *stuck_at);
 
 /* Move p onto contact (distance D) with its nearest particle within `reach2`,
  * at the grid point nearest to contact that overlaps nothing. Returns 1 if
- * it moved p, 0 if no such point exists (p unchanged). */
-int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2);
+ * it moved p, 0 if no such point exists (p unchanged). k: the walker's
+ * search state (its cached tree path finds the leaves). */
+int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2, search_state *k);
 
 double gyration_rg2_units(const gyration_sums *g, int dim);
 

@@ -62,13 +62,13 @@ static int insert_concurrent(worker *k, int64_t *p, int status)
         if (status == WALK_OVERLAP) {
             w->recheck_overlaps++;
             if (P->recheck == PDLA_RECHECK_DISCARD || retried ||
-                !walker_snap_to_contact(t, p, D, stick2)) {
+                !walker_snap_to_contact(t, p, D, stick2, &w->ss)) {
                 w->recheck_discarded++;
                 return DISCARDED;
             }
             retried = 1;
         } else if (P->snap_contact) {
-            walker_snap_to_contact(t, p, D, stick2);
+            walker_snap_to_contact(t, p, D, stick2, &w->ss);
         }
         char err[256];
         if (engine_check_range(e, p, err, sizeof err)) return worker_fail(k, PDLA_ERANGE, err);
@@ -91,6 +91,9 @@ static int insert_concurrent(worker *k, int64_t *p, int status)
             status = WALK_OVERLAP; /* someone stuck here meanwhile */
             continue;
         }
+        /* The map first: a reader that sees the particle's cell lowered
+         * before the particle itself only gets a smaller bound. */
+        distmap_add(&e->dmap, p, 1);
         rc = tree_append(t, &slot, p);
         pthread_mutex_unlock(&e->bucket_mu);
         if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory appending a particle");
@@ -231,6 +234,7 @@ int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, v
         }
     }
     for (int i = 0; i < started; i++) pthread_join(ks[i].thread, NULL);
+    distmap_quiesce(&e->dmap);
     e->search.concurrent = 0;
     for (int i = 0; i < started; i++)
         if (ks[i].rc && rc == PDLA_OK) {

@@ -20,13 +20,55 @@
  */
 #ifndef PDLA_SRC_SAMPLE_H
 #define PDLA_SRC_SAMPLE_H
+#include <math.h>
+
 #include "rng.h"
 
+/* Uniform in [-1, 1) on the grid of 2^-52: k * 2^-52 is exact for k < 2^53
+ * and subtracting 1 is exact for every such value, so no bias creeps in. */
+static inline double sample_uniform_pm1(pdla_rng *rng)
+{
+    return (double)(rng_next(rng) >> 11) * 0x1.0p-52 - 1.0;
+}
+
 /* Uniform unit vector, by rejection from the square (no trig, and in 3D one
- * sqrt): the walker's hot path, once per jump. Coordinates carry 52 random
- * bits. */
-void sample_dir2(pdla_rng *r, double v[2]);
-void sample_dir3(pdla_rng *r, double v[3]);
+ * sqrt): the walker's hot path, once per jump, so inline. Coordinates carry
+ * 52 random bits. */
+static inline void sample_dir2(pdla_rng *rng, double v[2])
+{
+    for (;;) {
+        const double x = sample_uniform_pm1(rng);
+        const double y = sample_uniform_pm1(rng);
+        const double s = x * x + y * y;
+        /* s < 1e-300 is only s == 0 on this grid; it would give 0/0. */
+        if (s >= 1.0 || s < 1e-300) continue;
+        /* (x, y) has a uniform angle phi; the double angle 2 phi is uniform
+         * too, and (cos 2phi, sin 2phi) needs no square root. */
+        const double inv_s = 1.0 / s;
+        v[0] = (x * x - y * y) * inv_s;
+        v[1] = 2.0 * x * y * inv_s;
+        return;
+    }
+}
+
+static inline void sample_dir3(pdla_rng *rng, double v[3])
+{
+    /* Marsaglia (1972): with (x, y) uniform in the unit disk and s = x^2 + y^2,
+     * 1 - 2s is uniform on [-1, 1] (Archimedes) and the azimuth is that of
+     * (x, y); the factor 2 sqrt(1 - s) puts the point on the unit sphere. */
+    for (;;) {
+        const double x = sample_uniform_pm1(rng);
+        const double y = sample_uniform_pm1(rng);
+        const double s = x * x + y * y;
+        if (s >= 1.0) continue;
+        const double scale = 2.0 * sqrt(1.0 - s);
+        v[0] = x * scale;
+        v[1] = y * scale;
+        v[2] = 1.0 - 2.0 * s;
+        return;
+    }
+}
+
 
 /* 2D: signed return angle theta in (-pi, pi] for a walker at radius r. */
 double sample_return_angle2(pdla_rng *rng, double r, double R);

@@ -21,6 +21,8 @@
 
 #include <math.h>
 
+#include "distmap.h"
+
 void search_config_init(search_config *c, double far_factor, int resolution, int eps)
 {
     const double floor_dist = 2.0 * (resolution + eps);
@@ -384,14 +386,177 @@ uint64_t search_lower_bound2(const tree *t, const search_config *c, const int64_
                        : lower_bound_dim(t, c, p, cap2, k, 3);
 }
 
-int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
-                         uint64_t *d2_out)
+/* Offsets of the 3^dim block, own leaf first (it usually holds the nearest
+ * particle, so the rest is pruned by box distance), then faces, edges,
+ * corners. Offset o is coded as its index sum (o_a + 1) 3^a. */
+static const uint8_t block_order2[9] = {4, 1, 3, 5, 7, 0, 2, 6, 8};
+static const uint8_t block_order3[27] = {13, 4,  10, 12, 14, 16, 22, 1,  3,  5,  7,  9,  11, 15,
+                                         17, 19, 21, 23, 25, 0,  2,  6,  8,  18, 20, 24, 26};
+/* Offset o's component on axis a: (o / 3^a) % 3 - 1. */
+static const int8_t block_off[27][3] = {
+    {-1, -1, -1}, {0, -1, -1}, {1, -1, -1}, {-1, 0, -1}, {0, 0, -1}, {1, 0, -1}, {-1, 1, -1},
+    {0, 1, -1},   {1, 1, -1},  {-1, -1, 0}, {0, -1, 0},  {1, -1, 0}, {-1, 0, 0}, {0, 0, 0},
+    {1, 0, 0},    {-1, 1, 0},  {0, 1, 0},   {1, 1, 0},   {-1, -1, 1}, {0, -1, 1}, {1, -1, 1},
+    {-1, 0, 1},   {0, 0, 1},   {1, 0, 1},   {-1, 1, 1},  {0, 1, 1},  {1, 1, 1}};
+
+/* tree_find_leaf, but descending from the lowest node of the cached path
+ * (search_state) that contains p, and leaving p's path in the cache as
+ * lower_bound_dim expects it. */
+static inline __attribute__((always_inline)) uint32_t find_leaf_cached(const tree *t,
+                                                                       const int64_t *p,
+                                                                       search_state *k,
+                                                                       const int dim)
+{
+    const tree_root root = tree_root_get(t);
+    const int64_t root_half = tree_root_half(root.level);
+    for (int a = 0; a < dim; a++)
+        if (p[a] < -root_half || p[a] >= root_half) return 0;
+    int level = root.level;
+    if (k->root == root.node && k->root_level == root.level) {
+        for (level = k->depth; level < root.level; level++) {
+            const int64_t side = (int64_t)TREE_LEAF_SIDE << level;
+            int inside = 1;
+            for (int a = 0; a < dim; a++)
+                inside &= (p[a] >= k->lo[level][a]) & (p[a] < k->lo[level][a] + side);
+            if (inside) break;
+        }
+    }
+    k->root = root.node;
+    k->root_level = root.level;
+    uint32_t node = level == root.level ? root.node : k->node[level];
+    int64_t lo[3];
+    for (int a = 0; a < dim; a++) lo[a] = level == root.level ? -root_half : k->lo[level][a];
+    for (;;) {
+        const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
+        uint32_t own = 0;
+        for (int a = 0; a < dim; a++)
+            if (p[a] >= lo[a] + half) own |= 1u << a;
+        k->node[level] = node;
+        k->own[level] = own;
+        for (int a = 0; a < dim; a++) k->lo[level][a] = lo[a];
+        const uint32_t child = tree_child(tree_children(t, node), own);
+        if (!child || level == 1) {
+            k->depth = level;
+            return child;
+        }
+        for (int a = 0; a < dim; a++) lo[a] += (int64_t)((own >> a) & 1) * half;
+        node = child;
+        level--;
+    }
+}
+
+/* Cached heads that are not chunk indices (1..10 never are). */
+#define BLK_UNKNOWN 0u
+#define BLK_EMPTY 1u
+
+static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
+                                                                const search_config *c,
+                                                                const distmap *m, const int64_t *p,
+                                                                search_state *k, const int dim)
+{
+    const distmap_grid *g = atomic_load_explicit(&m->grid, memory_order_acquire);
+    if (!g) return UINT64_MAX;
+    const distmap_level *L = &g->lv[0];
+    if (L->bits != TREE_LEAF_BITS) return UINT64_MAX; /* coarsened: not the leaves */
+    const int64_t w = L->width;
+    int64_t cc[3];
+    for (int a = 0; a < dim; a++) {
+        cc[a] = (p[a] + g->half) >> TREE_LEAF_BITS;
+        if (p[a] + g->half < 0 || cc[a] < 1 || cc[a] >= w - 1) return UINT64_MAX;
+    }
+    /* The cache is keyed by the own leaf's absolute corner, not by grid
+     * cells: the grid's origin moves when it grows. */
+    int64_t lo[3];
+    for (int a = 0; a < dim; a++) lo[a] = p[a] & ~(int64_t)(TREE_LEAF_SIDE - 1);
+    /* Re-centre the cache: keep what is known of the leaves both blocks
+     * share. A head is a leaf's first chunk, BLK_UNKNOWN or BLK_EMPTY. */
+    const int n = dim == 2 ? 9 : 27;
+    int same = k->blk_valid;
+    for (int a = 0; a < dim; a++) same &= k->blk_c[a] == lo[a];
+    if (!same) {
+        uint32_t nh[27];
+        for (int o = 0; o < n; o++) nh[o] = BLK_UNKNOWN;
+        if (k->blk_valid) {
+            int64_t d[3];
+            int near = 1;
+            for (int a = 0; a < dim; a++) {
+                d[a] = (lo[a] - k->blk_c[a]) / TREE_LEAF_SIDE;
+                near &= d[a] >= -2 && d[a] <= 2;
+            }
+            if (near)
+                for (int o = 0; o < n; o++) {
+                    int src = 0, ok = 1, mul = 1;
+                    for (int a = 0, r = o; a < dim; a++, r /= 3) {
+                        const int64_t so = r % 3 - 1 + d[a];
+                        ok &= so >= -1 && so <= 1;
+                        src += (int)(so + 1) * mul;
+                        mul *= 3;
+                    }
+                    if (ok) nh[o] = k->blk_head[src];
+                }
+        }
+        for (int o = 0; o < n; o++) k->blk_head[o] = nh[o];
+        for (int a = 0; a < dim; a++) k->blk_c[a] = lo[a];
+        k->blk_valid = 1;
+    }
+    /* A leaf made since (by an earlier walker's particle) may be one seen
+     * empty: look at those again. */
+    const uint64_t leaves = atomic_load_explicit(&m->leaves, memory_order_acquire);
+    if (leaves != k->blk_leaves) {
+        for (int o = 0; o < n; o++)
+            if (k->blk_head[o] == BLK_EMPTY) k->blk_head[o] = BLK_UNKNOWN;
+        k->blk_leaves = leaves;
+    }
+    const uint8_t *order = dim == 2 ? block_order2 : block_order3;
+    uint64_t best2 = UINT64_MAX;
+    for (int i = 0; i < n; i++) {
+        const int o = order[i];
+        uint32_t head = k->blk_head[o];
+        /* While other threads insert, a leaf seen empty may have filled. */
+        if (head == BLK_EMPTY && !c->concurrent) continue;
+        int64_t nlo[3];
+        for (int a = 0; a < dim; a++) nlo[a] = lo[a] + (int64_t)block_off[o][a] * TREE_LEAF_SIDE;
+        if (box_dist2(p, nlo, TREE_LEAF_SIDE, dim) >= best2) continue;
+        if (head <= BLK_EMPTY) {
+            int64_t nc[3];
+            for (int a = 0; a < dim; a++) nc[a] = cc[a] + block_off[o][a];
+            if (distmap_level_value(L, nc, dim) != 0) {
+                k->blk_head[o] = BLK_EMPTY;
+                continue;
+            }
+            head = find_leaf_cached(t, nlo, k, dim);
+            k->blk_head[o] = head ? head : BLK_EMPTY;
+            if (!head) continue;
+        }
+        int64_t q[3];
+        for (int a = 0; a < dim; a++) q[a] = p[a] - nlo[a];
+        best2 = scan_leaf(t, head, q, best2, dim, c->concurrent, k);
+        k->node_visits++;
+    }
+    /* Every other particle is outside the block. */
+    const uint64_t out2 = inside_margin2(p, (const int64_t[3]){lo[0] - TREE_LEAF_SIDE,
+                                                              lo[1] - TREE_LEAF_SIDE,
+                                                              lo[2] - TREE_LEAF_SIDE},
+                                         3 * TREE_LEAF_SIDE, dim);
+    return best2 < out2 ? best2 : out2;
+}
+
+uint64_t search_block2(const tree *t, const search_config *c, const distmap *m, const int64_t *p,
+                       search_state *k)
+{
+    return t->dim == 2 ? block_dim(t, c, m, p, k, 2) : block_dim(t, c, m, p, k, 3);
+}
+
+static inline __attribute__((always_inline)) int nearest_point(const tree *t, const int64_t *p,
+                                                             uint64_t radius2, int64_t *q,
+                                                             uint64_t *d2_out, search_state *k)
 {
     const int dim = t->dim;
     int64_t r = (int64_t)sqrt((double)radius2);
     while ((uint64_t)(r * r) < radius2) r++;
-    /* The ball [p - r, p + r] spans up to three leaves per axis (r < 256;
-     * three once 2r >= 256, e.g. the sticking reach D + eps at D = 128). */
+    /* The ball spans up to three leaves per axis (r < 256; two when
+     * r <= 128). The leaves of the first two columns come first, in the
+     * order that decides ties between equally near particles. */
     int64_t first[3], span[3];
     for (int a = 0; a < dim; a++) {
         first[a] = (p[a] - r) & ~(int64_t)(TREE_LEAF_SIDE - 1);
@@ -399,18 +564,25 @@ int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int6
     }
     uint64_t best2 = radius2;
     int found = 0;
-    const int ncorner = dim == 2 ? 9 : 27;
-    for (int c = 0; c < ncorner; c++) {
-        int64_t corner[3];
-        int skip = 0;
-        for (int a = 0, cc = c; a < dim; a++, cc /= 3) {
-            const int64_t step = cc % 3;
+    const int ncorner = 1 << dim, nall = dim == 2 ? 9 : 27;
+    for (int i = 0; i < ncorner + nall; i++) {
+        int64_t corner[3] = {0, 0, 0};
+        int skip = 0, has2 = 0;
+        for (int a = 0, c3 = i - ncorner; a < dim; a++, c3 /= 3) {
+            const int64_t step = i < ncorner ? (i >> a) & 1 : c3 % 3;
+            has2 |= step == 2;
             if (step >= span[a]) skip = 1;
             corner[a] = first[a] + step * TREE_LEAF_SIDE;
         }
-        if (skip) continue;
+        if (skip || (i >= ncorner && !has2)) continue;
         int64_t lo[3];
-        const uint32_t leaf_idx = tree_find_leaf(t, corner, lo);
+        uint32_t leaf_idx;
+        if (k) { /* from the walker's cached path: the leaves are its neighbours */
+            leaf_idx = dim == 2 ? find_leaf_cached(t, corner, k, 2) : find_leaf_cached(t, corner, k, 3);
+            for (int a = 0; a < dim; a++) lo[a] = corner[a];
+        } else {
+            leaf_idx = tree_find_leaf(t, corner, lo);
+        }
         if (!leaf_idx) continue;
         for (uint32_t ci = leaf_idx;;) {
             const uint8_t *chunk = tree_chunk_at(t, ci);
@@ -436,6 +608,18 @@ int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int6
     }
     if (found) *d2_out = best2;
     return found;
+}
+
+int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
+                         uint64_t *d2_out)
+{
+    return nearest_point(t, p, radius2, q, d2_out, NULL);
+}
+
+int search_nearest_point_cached(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
+                                uint64_t *d2_out, search_state *k)
+{
+    return nearest_point(t, p, radius2, q, d2_out, k);
 }
 
 typedef struct brute_ctx {

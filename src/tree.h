@@ -166,6 +166,13 @@ typedef struct search_state {
     uint32_t node[TREE_MAX_LEVEL + 1];
     uint32_t own[TREE_MAX_LEVEL + 1];
     int64_t lo[TREE_MAX_LEVEL + 1][3];
+    /* The leaves around the walker's own leaf (search_block2): their first
+     * chunks (or not seen yet, or empty), for the block centred on the leaf
+     * whose low corner is blk_c. */
+    int blk_valid;
+    uint64_t blk_leaves;         /* the map's leaf count when they were cached */
+    int64_t blk_c[3];
+    uint32_t blk_head[27];
 } search_state;
 
 static inline void search_state_reset(search_state *s)
@@ -173,6 +180,7 @@ static inline void search_state_reset(search_state *s)
     s->node_visits = 0;
     s->particle_checks = 0;
     s->root = 0;
+    s->blk_valid = 0;
 }
 
 /* Per-level squared far thresholds: a non-empty node at level L whose box is
@@ -204,7 +212,11 @@ uint64_t search_brute2(const tree *t, const int64_t *p);
 /* The leaf (its first chunk) whose box contains p (0 if none), and its low corner. */
 uint32_t tree_find_leaf(const tree *t, const int64_t *p, int64_t *leaf_lo);
 
-/* Exact nearest particle centre within sqrt(radius2) of p, radius2 < 256^2:
+/* Exact nearest particle centre within sqrt(radius2) of p, radius2 < 256^2
+ * (so up to three leaves per axis: D + eps reaches 192 units at D = 128):
  * returns 1 and writes it to q (and its squared distance), or 0 if none. */
 int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
                          uint64_t *d2);
+/* The same, finding the leaves from (and updating) a walker's cached path. */
+int search_nearest_point_cached(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
+                                uint64_t *d2, search_state *k);

@@ -16,6 +16,9 @@
  * body instantiated for dim 2 and 3.
  */
 #include <math.h>
+#if defined(__SSE2__) && defined(__x86_64__)
+#include <emmintrin.h>
+#endif
 
 #include "engine.h"
 #include "sample.h"
@@ -61,12 +64,23 @@ static inline __attribute__((always_inline)) int return_to_birth(walker_ctx *w, 
     return 1;
 }
 
+/* lrint without the libm call (it is one per jump unless math errno is
+ * off): cvtsd2si rounds by the current mode exactly as lrint does. */
+static inline __attribute__((always_inline)) int64_t round_i64(double x)
+{
+#if defined(__SSE2__) && defined(__x86_64__)
+    return _mm_cvtsd_si64(_mm_set_sd(x));
+#else
+    return (int64_t)lrint(x);
+#endif
+}
+
 static inline __attribute__((always_inline)) void jump(walker_ctx *w, int64_t *p, double s,
                                                        const int dim)
 {
     double v[3];
     random_dir(&w->rng, v, dim);
-    for (int a = 0; a < dim; a++) p[a] += (int64_t)lrint(s * v[a]);
+    for (int a = 0; a < dim; a++) p[a] += round_i64(s * v[a]);
     w->jumps++;
 }
 
@@ -76,12 +90,12 @@ static inline __attribute__((always_inline)) void jump(walker_ctx *w, int64_t *p
  * stretch of the cluster by eps/(2D)). Of the grid points around the exact
  * contact point, take the one nearest to contact that keeps every particle
  * at least D away; if none does, stay put. */
-int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2)
+int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2, search_state *k)
 {
     const int dim = t->dim;
     int64_t q[3];
     uint64_t d2;
-    if (!search_nearest_point(t, p, reach2, q, &d2) || d2 == 0) return 0;
+    if (!search_nearest_point_cached(t, p, reach2, q, &d2, k) || d2 == 0) return 0;
     const double scale = (double)D / sqrt((double)d2);
     double x[3];
     int64_t base[3];
@@ -109,7 +123,7 @@ int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2
             if (cand_d2[i] < cand_d2[best]) best = i;
         int64_t other[3];
         uint64_t od2;
-        if (!search_nearest_point(t, cand[best], D2, other, &od2)) {
+        if (!search_nearest_point_cached(t, cand[best], D2, other, &od2, k)) {
             for (int a = 0; a < dim; a++) p[a] = cand[best][a];
             return 1;
         }
@@ -172,7 +186,19 @@ static inline __attribute__((always_inline)) int walk_dim(const pdla_engine *e, 
             }
             continue;
         }
-        const uint64_t d2 = search_lower_bound2(t, &e->search, p, UINT64_MAX, &w->ss);
+        /* Far from the cluster one look-up in the distance map bounds the
+         * distance (at least one map cell, far above the sticking shell). */
+        const int64_t far = distmap_bound(&e->dmap, p, dim);
+        if (far > 0) {
+            jump(w, p, (double)far - D - 1.0, dim);
+            jumps++;
+            continue;
+        }
+        /* Near the cluster in 2D: the 3 x 3 leaves around the walker, whose
+         * chunks stay cached while it moves among them. (In 3D the cut at
+         * the block's edge costs more jumps than it saves: the tree.) */
+        uint64_t d2 = dim == 2 ? search_block2(t, &e->search, &e->dmap, p, &w->ss) : UINT64_MAX;
+        if (d2 == UINT64_MAX) d2 = search_lower_bound2(t, &e->search, p, UINT64_MAX, &w->ss);
         if (d2 < stick2) {
             for (int a = 0; a < dim; a++) stuck_at[a] = p[a];
             /* Closer than one diameter can only mean another thread's particle

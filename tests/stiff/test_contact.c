@@ -33,6 +33,15 @@ typedef struct pt {
     int64_t x[3];
 } pt;
 
+
+/* walker_snap_to_contact with a fresh search cache, as a walker just born. */
+static int snap(const tree *t, int64_t *p, int64_t D, uint64_t reach2)
+{
+    search_state k;
+    search_state_reset(&k);
+    return walker_snap_to_contact(t, p, D, reach2, &k);
+}
+
 static uint64_t brute(const pt *s, size_t n, int dim, const int64_t *p)
 {
     uint64_t best = UINT64_MAX;
@@ -126,7 +135,7 @@ static void test_tangent(int dim, int D, int eps)
                 /* inside the shell: snap onto contact */
                 int64_t q[3];
                 memcpy(q, p, sizeof q);
-                const int moved = walker_snap_to_contact(&t, q, D, stick2);
+                const int moved = snap(&t, q, D, stick2);
                 snaps++;
                 const uint64_t after = brute(s, n, dim, q);
                 /* distance to the particle it snapped to (the nearest one) */
@@ -177,13 +186,13 @@ static void test_two_and_crowded(int dim, int D)
     pt s[3] = {{{256 - D, 5, 0}}, {{256 + D, 5, 0}}, {{0}}};
     for (int i = 0; i < 2; i++) CHECK(tree_insert(&t, s[i].x) == 0, "insert");
     int64_t p[3] = {256, 5, 0};
-    CHECK(walker_snap_to_contact(&t, p, D, stick2) == 1 && p[0] == 256 && p[1] == 5,
+    CHECK(snap(&t, p, D, stick2) == 1 && p[0] == 256 && p[1] == 5,
           "dim %d D %d: double tangent moved to (%lld %lld)", dim, D, (long long)p[0], (long long)p[1]);
     /* Just off the midpoint: snapping to one must not overlap the other. */
     for (int64_t dy = 1; dy <= eps + 1; dy++) {
         int64_t q[3] = {256, 5 + dy, 0};
         const uint64_t before = brute(s, 2, dim, q);
-        const int moved = walker_snap_to_contact(&t, q, D, stick2);
+        const int moved = snap(&t, q, D, stick2);
         CHECK(brute(s, 2, dim, q) >= D2, "dim %d D %d: snap next to two overlaps", dim, D);
         CHECK(moved || before >= stick2 || !memcmp(q, (int64_t[3]){256, 5 + dy, 0}, sizeof q),
               "dim %d D %d: not moved but changed", dim, D);
@@ -199,7 +208,7 @@ static void test_two_and_crowded(int dim, int D)
     const uint64_t dA = brute(c, 1, dim, w), dB = brute(c + 1, 1, dim, w);
     int64_t w0[3];
     memcpy(w0, w, sizeof w);
-    const int moved = walker_snap_to_contact(&u, w, D, stick2);
+    const int moved = snap(&u, w, D, stick2);
     const uint64_t after = brute(c, 2, dim, w);
     CHECK(after >= D2, "dim %d D %d: crowded snap overlaps (moved %d)", dim, D, moved);
     CHECK(moved || !memcmp(w, w0, sizeof w), "dim %d D %d: crowded: changed without moving", dim, D);

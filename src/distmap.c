@@ -1,0 +1,411 @@
+/*
+ * distmap.c - the two-level chessboard distance map (see distmap.h): grid
+ * growth, incremental breadth-first updates, rebuild from a tree.
+ */
+#include "distmap.h"
+
+#include <stdlib.h>
+#include <sys/mman.h>
+
+/* Grids beyond this many fine cells are not made: the map disables itself. */
+#define DISTMAP_MAX_CELLS (UINT64_C(1) << 33)
+
+/* Cell arrays come straight from mmap: freeing a large malloc block raises
+ * glibc's mmap threshold, after which the tree's pool segments would come
+ * from the heap and be zeroed (made resident) whole by calloc. */
+static void *cells_alloc(size_t bytes)
+{
+    void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    return p == MAP_FAILED ? NULL : p;
+}
+
+static void level_free(distmap_level *L)
+{
+    if (L->cell) munmap((void *)L->cell, L->bytes);
+    L->cell = NULL;
+}
+
+static void grid_free(distmap_grid *g)
+{
+    if (!g) return;
+    for (int l = 0; l < 2; l++) level_free(&g->lv[l]);
+    free(g);
+}
+
+int distmap_init(distmap *m, int dim, int bits, int64_t margin_units)
+{
+    m->dim = dim;
+    m->bits = bits;
+    m->margin = margin_units;
+    m->disabled = 0;
+    m->particles = 0;
+    m->budget_min = DISTMAP_BUDGET_MIN;
+    m->budget_per_particle = dim == 3 ? DISTMAP_BUDGET_PER_PARTICLE_3D : DISTMAP_BUDGET_PER_PARTICLE;
+    atomic_init(&m->grid, NULL);
+    atomic_init(&m->leaves, 0);
+    m->old = NULL;
+    m->queue = NULL;
+    m->qcap = 0;
+    m->bytes = 0;
+    return 0;
+}
+
+void distmap_quiesce(distmap *m)
+{
+    while (m->old) {
+        distmap_grid *next = m->old->retired;
+        grid_free(m->old);
+        m->old = next;
+    }
+}
+
+void distmap_free(distmap *m)
+{
+    distmap_quiesce(m);
+    grid_free(atomic_load_explicit(&m->grid, memory_order_relaxed));
+    atomic_store_explicit(&m->grid, NULL, memory_order_relaxed);
+    free(m->queue);
+    m->queue = NULL;
+    m->qcap = 0;
+    m->bytes = 0;
+}
+
+/* ---- one level's cells ---------------------------------------------- */
+
+static inline size_t cell_index(const distmap_level *L, int64_t x, int64_t y, int64_t z)
+{
+    return ((size_t)z * L->width + (size_t)y) * L->width + (size_t)x;
+}
+
+static inline unsigned cell_get(const distmap_level *L, size_t i)
+{
+    if (!L->nibble) return atomic_load_explicit(&L->cell[i], memory_order_relaxed);
+    return (atomic_load_explicit(&L->cell[i >> 1], memory_order_relaxed) >> ((i & 1) * 4)) & 15u;
+}
+
+/* Only the single writer stores, so a nibble's read-modify-write of its
+ * byte cannot lose the other nibble; readers see either byte, both valid. */
+static inline void cell_set(distmap_level *L, size_t i, unsigned v)
+{
+    if (!L->nibble) {
+        atomic_store_explicit(&L->cell[i], (uint8_t)v, memory_order_release);
+        return;
+    }
+    const unsigned sh = (unsigned)(i & 1) * 4;
+    const unsigned b = atomic_load_explicit(&L->cell[i >> 1], memory_order_relaxed);
+    atomic_store_explicit(&L->cell[i >> 1], (uint8_t)((b & ~(15u << sh)) | v << sh),
+                          memory_order_release);
+}
+
+static uint64_t level_cells(const distmap_level *L, int dim)
+{
+    uint64_t n = (uint64_t)L->width * L->width;
+    return dim == 3 ? n * L->width : n;
+}
+
+/* Replace the current grid by g (or by none); the old one is freed at once
+ * when no reader can hold it, else kept until quiesce. */
+static void publish(distmap *m, distmap_grid *g, int concurrent)
+{
+    distmap_grid *old = atomic_load_explicit(&m->grid, memory_order_relaxed);
+    atomic_store_explicit(&m->grid, g, memory_order_release);
+    m->bytes = g ? (size_t)((level_cells(&g->lv[0], m->dim) + 1) / 2 + level_cells(&g->lv[1], m->dim))
+                 : 0;
+    if (!old) return;
+    if (concurrent) {
+        old->retired = m->old;
+        m->old = old;
+    } else {
+        grid_free(old);
+    }
+}
+
+static void disable(distmap *m, int concurrent)
+{
+    m->disabled = 1;
+    publish(m, NULL, concurrent);
+}
+
+/* Two-pass chessboard distance transform in place: afterwards every cell is
+ * min(its value, 1 + each neighbour's value, cap), the exact chessboard
+ * distance to the zero cells when every value started as an upper bound. */
+static void transform(distmap_level *L, int dim)
+{
+    const int64_t w = L->width;
+    const int64_t nz = dim == 3 ? w : 1;
+    for (int pass = 0; pass < 2; pass++) {
+        const int64_t step = pass == 0 ? 1 : -1;
+        for (int64_t z = pass == 0 ? 0 : nz - 1; z >= 0 && z < nz; z += step)
+            for (int64_t y = pass == 0 ? 0 : w - 1; y >= 0 && y < w; y += step)
+                for (int64_t x = pass == 0 ? 0 : w - 1; x >= 0 && x < w; x += step) {
+                    const size_t i = cell_index(L, x, y, z);
+                    unsigned v = cell_get(L, i);
+                    if (v == 0) continue;
+                    const unsigned v0 = v;
+                    /* The neighbours already visited in this pass: those
+                     * before (after) this cell in raster order. */
+                    for (int64_t dz = dim == 3 ? -1 : 0; dz <= (dim == 3 ? 1 : 0); dz++)
+                        for (int64_t dy = -1; dy <= 1; dy++)
+                            for (int64_t dx = -1; dx <= 1; dx++) {
+                                const int64_t off = (dz * w + dy) * w + dx;
+                                if (off * step >= 0) continue;
+                                const int64_t X = x + dx, Y = y + dy, Z = z + dz;
+                                if (X < 0 || X >= w || Y < 0 || Y >= w || Z < 0 || Z >= nz)
+                                    continue;
+                                const unsigned u = cell_get(L, cell_index(L, X, Y, Z)) + 1u;
+                                if (u < v) v = u;
+                            }
+                    if (v != v0) cell_set(L, i, v);
+                }
+    }
+}
+
+static int level_alloc(distmap_level *L, int dim, int bits, int nibble, unsigned cap, int64_t half)
+{
+    L->bits = bits;
+    L->nibble = nibble;
+    L->cap = cap;
+    L->width = (uint32_t)((half << 1) >> bits);
+    const uint64_t n = level_cells(L, dim);
+    const size_t bytes = (size_t)(nibble ? (n + 1) / 2 : n);
+    L->bytes = bytes;
+    L->cell = cells_alloc(bytes);
+    if (!L->cell) return -1;
+    const uint8_t fill = (uint8_t)(nibble ? cap | cap << 4 : cap);
+    for (size_t i = 0; i < bytes; i++) atomic_init(&L->cell[i], fill);
+    return 0;
+}
+
+static uint64_t fine_bytes(int dim, int64_t half, int bits)
+{
+    const uint64_t w = (uint64_t)((half << 1) >> bits);
+    return (dim == 3 ? w * w * w : w * w) / 2;
+}
+
+/* A new grid that covers [-h, h)^dim (h rounded up to whole coarse cells),
+ * filled from the old one (or with the caps) and completed by the
+ * transform. The fine cells are the finest (>= m->bits, never finer than
+ * the old grid's) whose level fits the memory budget; when they coarsen,
+ * the new levels are made from the old fine level's occupied cells. */
+static distmap_grid *grid_make(const distmap *m, const distmap_grid *old, int64_t h)
+{
+    const int dim = m->dim;
+    int fb = m->bits;
+    if (old && old->lv[0].bits > fb) fb = old->lv[0].bits;
+    double budget = m->budget_per_particle * (double)m->particles;
+    if (budget < (double)m->budget_min) budget = (double)m->budget_min;
+    int64_t half;
+    for (;;) {
+        const int64_t side = (int64_t)1 << (fb + DISTMAP_COARSE_SHIFT);
+        half = (h + side - 1) / side * side;
+        if ((double)fine_bytes(dim, half, fb) <= budget || fb >= 24) break;
+        fb++;
+    }
+    const int64_t w = (half << 1) >> fb;
+    if (w <= 0 || w >= (1 << 21)) return NULL;
+    uint64_t n = (uint64_t)w * (uint64_t)w;
+    if (dim == 3) n *= (uint64_t)w;
+    if (n > DISTMAP_MAX_CELLS) return NULL;
+    distmap_grid *g = calloc(1, sizeof *g);
+    if (!g) return NULL;
+    g->half = half;
+    if (level_alloc(&g->lv[0], dim, fb, 1, DISTMAP_FINE_CAP, half) ||
+        level_alloc(&g->lv[1], dim, fb + DISTMAP_COARSE_SHIFT, 0, DISTMAP_COARSE_CAP, half)) {
+        grid_free(g);
+        return NULL;
+    }
+    if (!old) return g;
+    if (old->lv[0].bits == fb) {
+        for (int l = 0; l < 2; l++) {
+            distmap_level *L = &g->lv[l];
+            const distmap_level *O = &old->lv[l];
+            const int64_t off = (half - old->half) >> L->bits;
+            const int64_t ow = O->width;
+            for (int64_t z = 0; z < (dim == 3 ? ow : 1); z++)
+                for (int64_t y = 0; y < ow; y++)
+                    for (int64_t x = 0; x < ow; x++)
+                        cell_set(L, cell_index(L, x + off, y + off, dim == 3 ? z + off : 0),
+                                 cell_get(O, cell_index(O, x, y, z)));
+        }
+    } else {
+        const distmap_level *O = &old->lv[0];
+        const int64_t ow = O->width;
+        for (int64_t z = 0; z < (dim == 3 ? ow : 1); z++)
+            for (int64_t y = 0; y < ow; y++)
+                for (int64_t x = 0; x < ow; x++) {
+                    if (cell_get(O, cell_index(O, x, y, z)) != 0) continue;
+                    const int64_t oc[3] = {x, y, z};
+                    for (int l = 0; l < 2; l++) {
+                        distmap_level *L = &g->lv[l];
+                        int64_t c[3] = {0, 0, 0};
+                        for (int a = 0; a < dim; a++)
+                            c[a] = ((oc[a] << O->bits) - old->half + half) >> L->bits;
+                        cell_set(L, cell_index(L, c[0], c[1], c[2]), 0);
+                    }
+                }
+    }
+    for (int l = 0; l < 2; l++) transform(&g->lv[l], dim);
+    return g;
+}
+
+/* Half side that holds p with the margin, with room to grow. */
+static int64_t wanted_half(const distmap *m, const int64_t *p, int64_t at_least)
+{
+    int64_t r = 0;
+    for (int a = 0; a < m->dim; a++) {
+        const int64_t x = p[a] < 0 ? -p[a] : p[a];
+        if (x > r) r = x;
+    }
+    int64_t h = (r + m->margin) + (r + m->margin) / 8 + 1;
+    return h < at_least ? at_least : h;
+}
+
+static int covers(const distmap *m, const distmap_grid *g, const int64_t *p)
+{
+    for (int a = 0; a < m->dim; a++)
+        if (p[a] - m->margin < -g->half || p[a] + m->margin >= g->half) return 0;
+    return 1;
+}
+
+static int queue_push(distmap *m, size_t *head, size_t *len, uint64_t v)
+{
+    if (*len == m->qcap) {
+        const size_t cap = m->qcap ? 2 * m->qcap : 1024;
+        uint64_t *q = malloc(cap * sizeof *q);
+        if (!q) return -1;
+        for (size_t i = 0; i < *len; i++) q[i] = m->queue[(*head + i) & (m->qcap - 1)];
+        free(m->queue);
+        m->queue = q;
+        m->qcap = cap;
+        *head = 0;
+    }
+    m->queue[(*head + *len) & (m->qcap - 1)] = v;
+    (*len)++;
+    return 0;
+}
+
+static inline uint64_t pack(int64_t x, int64_t y, int64_t z)
+{
+    return (uint64_t)x | (uint64_t)y << 21 | (uint64_t)z << 42;
+}
+
+/* Mark the cell at level coordinates c occupied and lower the cells around
+ * it, breadth first, as far as their distance drops. */
+static int mark(distmap *m, distmap_level *L, const int64_t *c)
+{
+    const int dim = m->dim;
+    const int64_t w = L->width, nz = dim == 3 ? w : 1;
+    const int64_t cz = dim == 3 ? c[2] : 0;
+    const size_t i0 = cell_index(L, c[0], c[1], cz);
+    if (cell_get(L, i0) == 0) return 0;
+    cell_set(L, i0, 0);
+    if (L->nibble)
+        atomic_store_explicit(&m->leaves, atomic_load_explicit(&m->leaves, memory_order_relaxed) + 1,
+                              memory_order_release);
+    size_t head = 0, len = 0;
+    if (queue_push(m, &head, &len, pack(c[0], c[1], cz))) return -1;
+    while (len) {
+        const uint64_t e = m->queue[head];
+        head = (head + 1) & (m->qcap - 1);
+        len--;
+        const int64_t x = (int64_t)(e & 0x1FFFFF), y = (int64_t)(e >> 21 & 0x1FFFFF),
+                      z = (int64_t)(e >> 42 & 0x1FFFFF);
+        const unsigned nv = cell_get(L, cell_index(L, x, y, z)) + 1u;
+        if (nv >= L->cap) continue;
+        for (int64_t Z = z - (dim == 3); Z <= z + (dim == 3); Z++) {
+            if (Z < 0 || Z >= nz) continue;
+            for (int64_t Y = y - 1; Y <= y + 1; Y++) {
+                if (Y < 0 || Y >= w) continue;
+                for (int64_t X = x - 1; X <= x + 1; X++) {
+                    if (X < 0 || X >= w) continue;
+                    const size_t i = cell_index(L, X, Y, Z);
+                    if (cell_get(L, i) <= nv) continue;
+                    cell_set(L, i, nv);
+                    if (queue_push(m, &head, &len, pack(X, Y, Z))) return -1;
+                }
+            }
+        }
+    }
+    return 0;
+}
+
+int distmap_add(distmap *m, const int64_t *p, int concurrent)
+{
+    m->particles++;
+    if (m->disabled) return 0;
+    distmap_grid *g = atomic_load_explicit(&m->grid, memory_order_relaxed);
+    if (!g || !covers(m, g, p)) {
+        distmap_grid *ng = grid_make(m, g, wanted_half(m, p, g ? g->half : 0));
+        if (!ng) {
+            disable(m, concurrent);
+            return 0;
+        }
+        publish(m, ng, concurrent);
+        g = ng;
+    }
+    for (int l = 0; l < 2; l++) {
+        int64_t c[3] = {0, 0, 0};
+        for (int a = 0; a < m->dim; a++) c[a] = (p[a] + g->half) >> g->lv[l].bits;
+        if (mark(m, &g->lv[l], c)) {
+            disable(m, concurrent);
+            return 0;
+        }
+    }
+    return 0;
+}
+
+typedef struct rebuild_ctx {
+    distmap *m;
+    distmap_grid *g;
+    int64_t r;
+} rebuild_ctx;
+
+static int max_coord(const int64_t *p, void *user)
+{
+    rebuild_ctx *b = user;
+    for (int a = 0; a < b->m->dim; a++) {
+        const int64_t x = p[a] < 0 ? -p[a] : p[a];
+        if (x > b->r) b->r = x;
+    }
+    return 0;
+}
+
+static int zero_cells(const int64_t *p, void *user)
+{
+    rebuild_ctx *b = user;
+    for (int l = 0; l < 2; l++) {
+        distmap_level *L = &b->g->lv[l];
+        int64_t c[3] = {0, 0, 0};
+        for (int a = 0; a < b->m->dim; a++) c[a] = (p[a] + b->g->half) >> L->bits;
+        cell_set(L, cell_index(L, c[0], c[1], c[2]), 0);
+    }
+    return 0;
+}
+
+int distmap_rebuild(distmap *m, const tree *t)
+{
+    distmap_grid *old = atomic_load_explicit(&m->grid, memory_order_relaxed);
+    atomic_store_explicit(&m->grid, NULL, memory_order_relaxed);
+    grid_free(old);
+    distmap_quiesce(m);
+    m->disabled = 0;
+    m->bytes = 0;
+    m->particles = tree_count(t);
+    if (m->particles == 0) return 0;
+    rebuild_ctx b = {m, NULL, 0};
+    tree_visit(t, max_coord, &b);
+    const int64_t p[3] = {b.r, b.r, b.r};
+    distmap_grid *g = grid_make(m, NULL, wanted_half(m, p, 0));
+    if (!g) {
+        m->disabled = 1;
+        return 0;
+    }
+    b.g = g;
+    tree_visit(t, zero_cells, &b);
+    /* Cached views of the old map (search_block2) must look again. */
+    atomic_store_explicit(&m->leaves, atomic_load_explicit(&m->leaves, memory_order_relaxed) + 1,
+                          memory_order_release);
+    for (int l = 0; l < 2; l++) transform(&g->lv[l], m->dim);
+    publish(m, g, 0);
+    return 0;
+}

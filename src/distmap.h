@@ -1,0 +1,186 @@
+/*
+ * distmap.h - a coarse distance map of the cluster for far distance queries.
+ *
+ * Dense grids of cubic cells over the box [-half, half)^dim, which holds
+ * every particle with a margin. Each cell keeps v = the chessboard
+ * (Chebyshev) distance, in cells, from it to the nearest cell holding a
+ * particle centre, capped (v = cap means "at least cap"). So every particle
+ * lies outside the block of cells within v - 1 of the query's cell, and the
+ * distance from the query point to the outside of that block is a lower
+ * bound on its distance to the cluster: a load or two and a few compares
+ * instead of a tree search. Two levels (below): fine cells of at least one
+ * leaf, 4-bit values; coarse cells 4 times larger, byte values. A bound is
+ * used only where v >= 2, so it is never below one fine cell (> D + eps),
+ * and near the cluster the tree search decides.
+ *
+ * Updates: a particle in a cell that was not yet occupied sets it to 0 and a
+ * breadth-first pass lowers the cells whose distance drops (each cell only
+ * ever decreases). A particle that lands too near the grid's edge makes a
+ * larger grid (old values copied, new cells filled by a two-pass chessboard
+ * transform). Everything is derived from the particle positions alone:
+ * distmap_rebuild makes it from a tree (after a checkpoint load), with the
+ * same cell values as the incrementally built map wherever both reach.
+ *
+ * Concurrency (PDLA). Readers never lock: the grid pointer and the cells are
+ * C11 atomics (release stores, acquire loads). The writer (serialised by the
+ * engine's bucket mutex) updates the map BEFORE the particle is published in
+ * the tree, so a reader that already sees a lowered cell gets a smaller
+ * (conservative) bound, and one that sees a stale cell answers for the
+ * cluster as it was a moment before, exactly like a tree search that misses
+ * a particle appended meanwhile (the WALK_OVERLAP re-check path). A grid
+ * replaced while workers run is kept (retired) until distmap_free or
+ * distmap_quiesce, as a reader may still hold it.
+ */
+#ifndef PDLA_SRC_DISTMAP_H
+#define PDLA_SRC_DISTMAP_H
+#include <stdatomic.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "tree.h"
+
+/* Two levels: fine cells of 2^bits units hold 4-bit values (capped at 15),
+ * coarse cells of 2^(bits + 2) units hold bytes (capped at 255), so far
+ * walkers get long jumps and the fine level costs half a byte a cell. */
+#define DISTMAP_FINE_CAP 15u
+#define DISTMAP_COARSE_CAP 255u
+#define DISTMAP_COARSE_SHIFT 2
+
+/* Fine cell side 2^bits units: one leaf, so the fine cells are the leaves
+ * (search_block2 relies on it), and more than D + eps (<= 192 units). When
+ * the fine level would outgrow its memory budget, max(512 KiB, 0.04 bytes
+ * per particle), the grid's fine cells coarsen (2, 4, ... leaves;
+ * search_block2 then defers to the tree). A 2D cluster passes 512 KiB at
+ * leaf cells near 1.5e6 particles and at 2-leaf cells near 5e6; the budget
+ * keeps the map (about twice that while a grid grows) within the 4
+ * bytes/particle target at 1e7, where the tree alone takes 3.9
+ * (runs/perf-notes.md). */
+#define DISTMAP_BITS TREE_LEAF_BITS
+#define DISTMAP_BUDGET_MIN ((size_t)1 << 19)
+#define DISTMAP_BUDGET_PER_PARTICLE 0.04
+/* 3D: the target is 6 bytes/particle at 1e6 and the tree takes ~4.1, and a
+ * 3D cluster needs far fewer cells per particle: leaf cells to 1e6. */
+#define DISTMAP_BUDGET_PER_PARTICLE_3D 2.0
+
+typedef struct distmap_level {
+    _Atomic uint8_t *cell;        /* width^dim cells, x fastest; fine: two per byte */
+    uint32_t width;               /* cells per axis */
+    int bits;                     /* cell side 2^bits units */
+    int nibble;                   /* 4-bit cells (the fine level) */
+    unsigned cap;
+    size_t bytes;                 /* of the cell array */
+} distmap_level;
+
+typedef struct distmap_grid {
+    int64_t half;                 /* covers [-half, half)^dim units, whole coarse cells */
+    distmap_level lv[2];          /* 0 fine, 1 coarse */
+    struct distmap_grid *retired; /* older grids a reader may still hold */
+} distmap_grid;
+
+typedef struct distmap {
+    int dim;
+    int bits;                     /* fine cell side 2^bits units, >= TREE_LEAF_BITS */
+    int64_t margin;               /* units the grid keeps beyond every particle */
+    int disabled;                 /* set for good when a grid cannot be made */
+    uint64_t particles;           /* particles added (sizes the memory budget) */
+    size_t budget_min;            /* the fine level may use max(budget_min, */
+    double budget_per_particle;   /*   budget_per_particle x particles) bytes */
+    _Atomic(distmap_grid *) grid; /* NULL: no map (readers use the tree) */
+    _Atomic uint64_t leaves;      /* fine cells marked occupied so far (= leaves) */
+    distmap_grid *old;            /* retired grids, freed at quiesce */
+    uint64_t *queue;              /* ring buffer of the breadth-first pass */
+    size_t qcap;
+    size_t bytes;                 /* bytes of the current grid */
+} distmap;
+
+/* margin_units: how far beyond the farthest particle queries are expected
+ * (the birth circle); points beyond the grid fall back to the tree. */
+int distmap_init(distmap *m, int dim, int bits, int64_t margin_units);
+void distmap_free(distmap *m);
+
+/* Account a particle centre at p (call before publishing it in the tree).
+ * `concurrent`: other threads may read the map now (old grids are kept).
+ * Returns 0; on allocation failure the map disables itself (readers fall
+ * back to the tree), which is not an error. */
+int distmap_add(distmap *m, const int64_t *p, int concurrent);
+
+/* Free grids retired while workers ran; only when no reader runs. */
+void distmap_quiesce(distmap *m);
+
+/* Rebuild the whole map from the particles of a tree (e.g. after loading a
+ * checkpoint): the cells hold the same values as the incrementally built
+ * map wherever both grids reach. Returns 0 (or the map is disabled). */
+int distmap_rebuild(distmap *m, const tree *t);
+
+/* Squared lower bound on the distance from p to the cluster from the leaves
+ * of the 3^dim block around p's leaf that the map's fine level marks
+ * occupied (the fine cells are the leaves), scanned exactly: exact whenever
+ * the nearest particle is nearer than the outside of the block (so always
+ * near contact), else the distance to the outside of the block. Returns
+ * UINT64_MAX when the map cannot answer (none, or p near the grid's edge):
+ * then search_lower_bound2 does. The leaves' first chunks are cached in k
+ * (a leaf once seen never moves; one not seen yet is looked up again when
+ * the map marks its cell). Implemented in search.c. */
+uint64_t search_block2(const tree *t, const search_config *c, const distmap *m, const int64_t *p,
+                       search_state *k);
+
+/* The value of cell (c) of a level, and the distance bound it gives. */
+static inline __attribute__((always_inline)) unsigned distmap_level_value(const distmap_level *L,
+                                                                          const int64_t *c,
+                                                                          const int dim)
+{
+    size_t idx = 0;
+    for (int a = dim - 1; a >= 0; a--) idx = idx * L->width + (size_t)c[a];
+    if (!L->nibble) return atomic_load_explicit(&L->cell[idx], memory_order_acquire);
+    const unsigned b = atomic_load_explicit(&L->cell[idx >> 1], memory_order_acquire);
+    return (b >> ((idx & 1) * 4)) & 15u;
+}
+
+/* Every particle is outside the cells within v - 1 of c: the distance from p
+ * to the outside of that block. */
+static inline __attribute__((always_inline)) int64_t distmap_block_bound(int64_t half, int bits,
+                                                                         const int64_t *c,
+                                                                         const int64_t *p,
+                                                                         int64_t v, const int dim)
+{
+    int64_t best = INT64_MAX;
+    for (int a = 0; a < dim; a++) {
+        const int64_t lo = (c[a] - (v - 1)) * ((int64_t)1 << bits) - half; /* may be < 0 */
+        const int64_t hi = (c[a] + v) * ((int64_t)1 << bits) - half;
+        const int64_t below = p[a] - lo + 1, above = hi - p[a];
+        if (below < best) best = below;
+        if (above < best) best = above;
+    }
+    return best;
+}
+
+/* Lower bound (units) on the distance from p to every particle, or 0 when
+ * the map has nothing useful (p outside the grid, or within one fine cell of
+ * an occupied cell): then the caller searches the tree. A non-zero bound is
+ * at least one fine cell. */
+static inline __attribute__((always_inline)) int64_t distmap_bound(const distmap *m,
+                                                                   const int64_t *p,
+                                                                   const int dim)
+{
+    const distmap_grid *g = atomic_load_explicit(&m->grid, memory_order_acquire);
+    if (!g) return 0;
+    const uint64_t span = (uint64_t)g->half << 1;
+    int64_t u[3], c[3];
+    for (int a = 0; a < dim; a++) {
+        u[a] = p[a] + g->half;
+        if ((uint64_t)u[a] >= span) return 0;
+        c[a] = u[a] >> g->lv[1].bits;
+    }
+    const int64_t vc = distmap_level_value(&g->lv[1], c, dim);
+    int64_t coarse = 0;
+    if (vc >= 2) {
+        coarse = distmap_block_bound(g->half, g->lv[1].bits, c, p, vc, dim);
+        if (vc >= 5) return coarse; /* beyond anything the fine level can say */
+    }
+    for (int a = 0; a < dim; a++) c[a] = u[a] >> g->lv[0].bits;
+    const int64_t vf = distmap_level_value(&g->lv[0], c, dim);
+    if (vf < 2) return coarse;
+    const int64_t fine = distmap_block_bound(g->half, g->lv[0].bits, c, p, vf, dim);
+    return fine > coarse ? fine : coarse;
+}
+#endif

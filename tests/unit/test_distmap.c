@@ -1,0 +1,314 @@
+/*
+ * test_distmap.c - the coarse distance map against brute-force references,
+ * 2D and 3D, on random clusters that make the grid grow several times:
+ *  - its bound is never above the true distance to the nearest particle,
+ *    and a non-zero bound is at least one fine cell (above D + eps);
+ *  - every cell of both levels holds exactly the capped chessboard distance
+ *    to the nearest occupied cell (brute force over the occupied cells);
+ *  - search_block2 (the leaves around a walker, cached from query to query
+ *    while the cluster grows) is never above the true distance and exact
+ *    below one leaf;
+ *  - search_nearest_point_cached (leaves from the walker's cached path)
+ *    gives what search_nearest_point gives, and finds the true nearest
+ *    within the reach;
+ *  - a walker's cached block stays right while the grid grows under it;
+ *  - the same with a small memory budget, where the fine cells coarsen
+ *    while the grid grows;
+ *  - distmap_rebuild from the tree gives the same cells as the map built one
+ *    particle at a time, and the same bounds.
+ * Fixed seeds; a failure prints the seed, point and both values.
+ */
+#include <math.h>
+#include <stdlib.h>
+
+#include "check.h"
+#include "distmap.h"
+#include "rng.h"
+#include "tree.h"
+
+static int64_t rand_range(pdla_rng *r, int64_t lo, int64_t hi)
+{
+    return lo + (int64_t)(rng_next(r) % (uint64_t)(hi - lo + 1));
+}
+
+static uint64_t brute(const int64_t (*pts)[3], size_t n, int dim, const int64_t *q)
+{
+    uint64_t best = UINT64_MAX;
+    for (size_t i = 0; i < n; i++) {
+        uint64_t d2 = 0;
+        for (int a = 0; a < dim; a++) {
+            const int64_t d = q[a] - pts[i][a];
+            d2 += (uint64_t)(d * d);
+        }
+        if (d2 < best) best = d2;
+    }
+    return best;
+}
+
+static unsigned level_at(const distmap_level *L, int dim, const int64_t *c)
+{
+    return distmap_level_value(L, c, dim);
+}
+
+/* Every cell of level l against the brute-force capped chessboard distance. */
+static int check_cells(const distmap_grid *g, int l, int dim, const int64_t (*pts)[3], size_t n)
+{
+    const distmap_level *L = &g->lv[l];
+    const int64_t w = L->width;
+    int64_t *occ = malloc(n * 3 * sizeof *occ);
+    size_t nocc = 0;
+    for (size_t i = 0; i < n; i++) {
+        int64_t c[3] = {0, 0, 0};
+        for (int a = 0; a < dim; a++) c[a] = (pts[i][a] + g->half) >> L->bits;
+        size_t j = 0; /* the walks revisit cells: keep each once */
+        while (j < nocc && (occ[j * 3] != c[0] || occ[j * 3 + 1] != c[1] || occ[j * 3 + 2] != c[2]))
+            j++;
+        if (j < nocc) continue;
+        for (int a = 0; a < 3; a++) occ[nocc * 3 + a] = c[a];
+        nocc++;
+    }
+    n = nocc;
+    int bad = 0;
+    for (int64_t z = 0; z < (dim == 3 ? w : 1); z++)
+        for (int64_t y = 0; y < w; y++)
+            for (int64_t x = 0; x < w; x++) {
+                const int64_t c[3] = {x, y, z};
+                int64_t best = L->cap;
+                for (size_t i = 0; i < n; i++) {
+                    int64_t d = 0;
+                    for (int a = 0; a < dim; a++) {
+                        const int64_t e = llabs(c[a] - occ[i * 3 + a]);
+                        if (e > d) d = e;
+                    }
+                    if (d < best) best = d;
+                }
+                if ((int64_t)level_at(L, dim, c) != best && bad++ < 5)
+                    fprintf(stderr, "level %d cell %lld %lld %lld: %u, want %lld\n", l,
+                            (long long)x, (long long)y, (long long)z, level_at(L, dim, c),
+                            (long long)best);
+            }
+    free(occ);
+    return bad;
+}
+
+/* A random cluster: a few random walks with steps of about one diameter
+ * (D = 32), reaching out several hundred diameters so the grid grows. */
+static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size_t budget)
+{
+    pdla_rng r;
+    rng_seed(&r, seed);
+    tree t;
+    CHECK(tree_init(&t, dim) == 0, "tree_init");
+    distmap m;
+    distmap_init(&m, dim, 8, 2 * 32 + 8 * 256);
+    if (budget) { /* a small budget: the fine cells coarsen as the grid grows */
+        m.budget_min = budget;
+        m.budget_per_particle = 0.0;
+    } else { /* leaf cells throughout, whatever the random cluster's extent */
+        m.budget_min = (size_t)1 << 30;
+    }
+    int64_t(*pts)[3] = calloc(n, sizeof *pts);
+    int64_t cur[3] = {0, 0, 0};
+    int bad_bound = 0, bad_min = 0, useful = 0, bad_block = 0, block_used = 0;
+    search_config cfg;
+    search_config_init(&cfg, 2.0, 32, 2);
+    search_config exact;
+    search_config_init(&exact, 0.0, 32, 2);
+    search_state ss;
+    search_state_reset(&ss);
+    int64_t walker[3] = {0, 0, 0};
+    for (size_t i = 0; i < n; i++) {
+        if (i % 97 == 0) /* jump to an earlier particle: branches */
+            for (int a = 0; a < dim; a++) cur[a] = pts[rng_next(&r) % (i ? i : 1)][a];
+        const int64_t step = (i % 500 < 20) ? 3000 : 40;
+        for (int a = 0; a < dim; a++) cur[a] += rand_range(&r, -step, step);
+        for (int a = 0; a < dim; a++) pts[i][a] = cur[a];
+        distmap_add(&m, cur, 0);
+        CHECK(tree_insert(&t, cur) == 0, "insert");
+        /* The block search from a walker-like cursor: never above the true
+         * distance, exact whenever that is below one leaf (so always where
+         * sticking is decided). */
+        for (int q = 0; q < 4; q++) {
+            for (int a = 0; a < dim; a++) walker[a] += rand_range(&r, -150, 150);
+            if (q == 0)
+                for (int a = 0; a < dim; a++) walker[a] = cur[a] + rand_range(&r, -700, 700);
+            const uint64_t b2 = search_block2(&t, &cfg, &m, walker, &ss);
+            const uint64_t truth = brute(pts, i + 1, dim, walker);
+            /* The tree search shares the walker's path cache. */
+            if (search_lower_bound2(&t, &exact, walker, UINT64_MAX, &ss) != truth && bad_block++ < 5)
+                fprintf(stderr, "dim %d seed %llu n %zu: exact tree search wrong after block\n",
+                        dim, (unsigned long long)seed, i + 1);
+            /* The nearest point within a contact reach, from the cached path
+             * and from the root: the same answer. */
+            {
+                int64_t q1[3] = {0, 0, 0}, q2[3] = {0, 0, 0};
+                uint64_t e1 = 0, e2 = 0;
+                const uint64_t reach2 = (uint64_t)(rand_range(&r, 1, 255) * rand_range(&r, 1, 255));
+                const int f1 = search_nearest_point_cached(&t, walker, reach2, q1, &e1, &ss);
+                const int f2 = search_nearest_point(&t, walker, reach2, q2, &e2);
+                int same = f1 == f2 && (!f1 || e1 == e2);
+                for (int a = 0; f1 && a < dim; a++) same &= q1[a] == q2[a];
+                if (!same && bad_block++ < 5)
+                    fprintf(stderr, "dim %d: cached nearest point differs\n", dim);
+                if (f2 && (e2 > truth || e2 >= reach2) && bad_block++ < 5)
+                    fprintf(stderr, "dim %d: nearest point %llu vs true %llu\n", dim,
+                            (unsigned long long)e2, (unsigned long long)truth);
+                if (!f2 && truth < reach2 && bad_block++ < 5)
+                    fprintf(stderr, "dim %d: nearest point missed\n", dim);
+            }
+            if (b2 == UINT64_MAX) continue;
+            block_used++;
+            if ((b2 > truth || (truth < 256 * 256 && b2 != truth)) && bad_block++ < 5)
+                fprintf(stderr, "dim %d seed %llu n %zu: block %.1f, true %.1f\n", dim,
+                        (unsigned long long)seed, i + 1, sqrt((double)b2), sqrt((double)truth));
+        }
+        if (i % 50 != 49) continue;
+        for (int q = 0; q < 40; q++) {
+            int64_t p[3];
+            const int64_t *s = pts[rng_next(&r) % (i + 1)];
+            const int64_t spread = q % 2 ? 2000 : 40000;
+            for (int a = 0; a < dim; a++) p[a] = s[a] + rand_range(&r, -spread, spread);
+            const int64_t b = distmap_bound(&m, p, dim);
+            if (b == 0) continue;
+            useful++;
+            const uint64_t truth = brute(pts, i + 1, dim, p);
+            if ((uint64_t)b * (uint64_t)b > truth && bad_bound++ < 5)
+                fprintf(stderr, "dim %d seed %llu n %zu: bound %lld above true %.1f\n", dim,
+                        (unsigned long long)seed, i + 1, (long long)b, sqrt((double)truth));
+            if (b <= 256) bad_min++;
+        }
+    }
+    CHECK(m.disabled == 0, "map disabled");
+    CHECK(bad_block == 0, "dim %d seed %llu: %d block searches wrong", dim,
+          (unsigned long long)seed, bad_block);
+    if (!budget) CHECK(block_used > 1000, "dim %d: only %d block searches", dim, block_used);
+    const distmap_grid *gf = atomic_load(&m.grid);
+    if (budget) CHECK(gf && gf->lv[0].bits > 8, "dim %d: the fine cells did not coarsen", dim);
+    CHECK(bad_bound == 0, "dim %d seed %llu: %d bounds above the true distance", dim,
+          (unsigned long long)seed, bad_bound);
+    CHECK(bad_min == 0, "dim %d: %d non-zero bounds not above one fine cell", dim, bad_min);
+    CHECK(useful > 100, "dim %d: only %d queries answered by the map", dim, useful);
+
+    const distmap_grid *g = atomic_load(&m.grid);
+    CHECK(g != NULL, "no grid");
+    if (g && exact_cells)
+        for (int l = 0; l < 2; l++)
+            CHECK(check_cells(g, l, dim, (const int64_t(*)[3])pts, n) == 0,
+                  "dim %d seed %llu: level %d cells differ from brute force", dim,
+                  (unsigned long long)seed, l);
+
+    /* Rebuild from the tree: same cells where both grids reach. */
+    distmap m2;
+    distmap_init(&m2, dim, 8, 2 * 32 + 8 * 256);
+    m2.budget_min = m.budget_min;
+    m2.budget_per_particle = m.budget_per_particle;
+    distmap_rebuild(&m2, &t);
+    const distmap_grid *g2 = atomic_load(&m2.grid);
+    CHECK(g2 != NULL, "rebuild made no grid");
+    int differ = 0;
+    if (g && g2)
+        for (int l = 0; l < 2; l++) {
+            if (g->lv[l].bits != g2->lv[l].bits) continue; /* budgets chose differently */
+            const int64_t h = g->half < g2->half ? g->half : g2->half;
+            const int64_t cells = (2 * h) >> g->lv[l].bits;
+            for (int64_t z = 0; z < (dim == 3 ? cells : 1); z++)
+                for (int64_t y = 0; y < cells; y++)
+                    for (int64_t x = 0; x < cells; x++) {
+                        int64_t c1[3] = {x, y, z}, c2[3] = {x, y, z};
+                        for (int a = 0; a < dim; a++) {
+                            c1[a] += (g->half - h) >> g->lv[l].bits;
+                            c2[a] += (g2->half - h) >> g->lv[l].bits;
+                        }
+                        if (level_at(&g->lv[l], dim, c1) != level_at(&g2->lv[l], dim, c2)) differ++;
+                    }
+        }
+    CHECK(differ == 0, "dim %d seed %llu: rebuilt map differs in %d cells", dim,
+          (unsigned long long)seed, differ);
+    for (int q = 0; q < 2000; q++) {
+        int64_t p[3];
+        const int64_t *s = pts[rng_next(&r) % n];
+        for (int a = 0; a < dim; a++) p[a] = s[a] + rand_range(&r, -30000, 30000);
+        const int64_t b2 = distmap_bound(&m2, p, dim);
+        if (b2 && (uint64_t)b2 * (uint64_t)b2 > brute(pts, n, dim, p)) bad_bound++;
+    }
+    CHECK(bad_bound == 0, "dim %d: rebuilt map bound above the true distance", dim);
+    distmap_free(&m2);
+    distmap_free(&m);
+    tree_free(&t);
+    free(pts);
+}
+
+/* A walker's cached block must survive the grid growing under it (its
+ * origin moves): query, grow the grid by far particles, query again in the
+ * same and nearby leaves. */
+static void test_growth_cache(int dim, uint64_t seed)
+{
+    pdla_rng r;
+    rng_seed(&r, seed);
+    tree t;
+    CHECK(tree_init(&t, dim) == 0, "tree_init");
+    distmap m;
+    distmap_init(&m, dim, 8, 2 * 32 + 8 * 256);
+    search_config cfg;
+    search_config_init(&cfg, 2.0, 32, 2);
+    search_state ss;
+    search_state_reset(&ss);
+    enum { NMAX = 4000 };
+    int64_t(*pts)[3] = calloc(NMAX, sizeof *pts);
+    size_t n = 0;
+    int bad = 0, used = 0;
+    for (int round = 0; round < 12; round++) {
+        /* a blob near the origin, then one particle ever farther out */
+        for (int i = 0; i < 100 && n < NMAX - 1; i++, n++) {
+            for (int a = 0; a < dim; a++) pts[n][a] = rand_range(&r, -3000, 3000);
+            distmap_add(&m, pts[n], 0);
+            tree_insert(&t, pts[n]);
+        }
+        for (int q = 0; q < 300; q++) {
+            int64_t p[3];
+            for (int a = 0; a < dim; a++) p[a] = rand_range(&r, -3200, 3200);
+            const uint64_t b2 = search_block2(&t, &cfg, &m, p, &ss);
+            if (b2 == UINT64_MAX) continue;
+            used++;
+            const uint64_t truth = brute(pts, n, dim, p);
+            if ((b2 > truth || (truth < 256 * 256 && b2 != truth)) && bad++ < 5)
+                fprintf(stderr, "dim %d round %d: block %.1f, true %.1f\n", dim, round,
+                        sqrt((double)b2), sqrt((double)truth));
+        }
+        /* Fill the cache at p, grow the grid, then query where the old grid
+         * cell of p now lies (the same cell index in the new grid). */
+        int64_t p[3];
+        for (int a = 0; a < dim; a++) p[a] = rand_range(&r, -1500, 1500);
+        search_block2(&t, &cfg, &m, p, &ss);
+        const int64_t half0 = atomic_load(&m.grid)->half;
+        for (int a = 0; a < dim; a++) pts[n][a] = (a == 0 ? 1 : -1) * (int64_t)(6000 + 1200 * round);
+        distmap_add(&m, pts[n], 0);
+        tree_insert(&t, pts[n]);
+        n++;
+        const int64_t shift = atomic_load(&m.grid)->half - half0;
+        for (int a = 0; a < dim; a++) p[a] -= shift;
+        const uint64_t b2 = search_block2(&t, &cfg, &m, p, &ss);
+        const uint64_t truth = brute(pts, n, dim, p);
+        if (b2 != UINT64_MAX && (b2 > truth || (truth < 256 * 256 && b2 != truth)) && bad++ < 5)
+            fprintf(stderr, "dim %d round %d (grid shift %lld): block %.1f, true %.1f\n", dim,
+                    round, (long long)shift, sqrt((double)b2), sqrt((double)truth));
+    }
+    CHECK(bad == 0, "dim %d: %d block searches wrong after the grid grew", dim, bad);
+    CHECK(used > 500, "dim %d: only %d block searches", dim, used);
+    distmap_free(&m);
+    tree_free(&t);
+    free(pts);
+}
+
+int main(void)
+{
+    test_growth_cache(2, 7);
+    test_growth_cache(3, 8);
+    test_cluster(2, 2000, 1, 1, 0);
+    test_cluster(2, 10000, 2, 0, 0);
+    test_cluster(3, 1000, 3, 1, 0);
+    test_cluster(3, 5000, 4, 0, 0);
+    test_cluster(2, 4000, 5, 1, 2048);
+    test_cluster(3, 2000, 6, 1, 4096);
+    return check_finish();
+}

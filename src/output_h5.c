@@ -43,6 +43,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h> /* memfd_create */
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
@@ -277,6 +278,11 @@ static int check_space(const h5u_writer *w, const pdla_engine *e, const char *di
     struct statvfs fs;
     if (statvfs(dir, &fs) != 0 || fs.f_blocks == 0) return 0; /* open() will say what is wrong */
     const uint64_t need = size_estimate(e);
+    /* A file size limit (ulimit -f) would also stop HDF5 half-way. */
+    struct rlimit fl;
+    if (getrlimit(RLIMIT_FSIZE, &fl) == 0 && fl.rlim_cur != RLIM_INFINITY && fl.rlim_cur < need)
+        return h5u_fail_msg(w, "the file size limit (ulimit -f) is %llu bytes, about %llu needed",
+                            (unsigned long long)fl.rlim_cur, (unsigned long long)need);
     const uint64_t avail = (uint64_t)fs.f_bavail * (uint64_t)fs.f_frsize;
     if (avail >= need) return 0;
     return h5u_fail_msg(w, "%s: about %llu bytes needed, %llu free in %s", strerror(ENOSPC),

@@ -474,7 +474,7 @@ int cli_parse(int argc, char **argv, cli_options *out, char *err, size_t errlen)
                 char l[64];
                 return fail(err, errlen, "option %s does not take a value", opt_label(l, d));
             }
-            if (optopt > 0 && optopt < 256)
+            if (optopt > 0x20 && optopt < 0x7f) /* printable: control bytes would break the line */
                 return fail(err, errlen, "unknown option '-%c' (see --help)", optopt);
             return fail(err, errlen, "unknown or ambiguous option '%s' (see --help)", shown(v, cur));
         }

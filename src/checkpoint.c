@@ -15,8 +15,11 @@
  *   /tree           dim, chunk_bytes, root_level, root_node, count, leaves,
  *                   inner_records, chunk_records (attributes)
  *   /tree/inner     u32 [inner_records][2^dim]: the inner node pool, raw
- *   /tree/chunks    u8 [chunk_records][chunk_bytes]: the chunk pool, raw
- *                   (records 0..10 are the unused null/count indices)
+ *   /tree/chunks_packed  u8 [chunks_packed_bytes]: the chunk pool, packed:
+ *                   per record from 11 on (0..10 are the unused null/count
+ *                   indices) its link, u32 little-endian, then axis by axis
+ *                   the `fill` relative coordinates it holds (fill = link
+ *                   when link <= 10, else 10)
  *   /state          counters, R_ext, R_g grid position, timings (attributes)
  *   /state/gyration u64 [4][2]: the exact 128-bit sums of x, y, z (two's
  *                   complement) and |x|^2, as (low, high) words
@@ -60,6 +63,12 @@
 #define FORMAT_VERSION 1
 #define TMP_PREFIX ".checkpoint.h5.tmp."
 #define SERIES_ROWS 65536u
+/* Rows per HDF5 chunk of /tree/inner (HDF5 stores the last, partial chunk
+ * at full size, so this bounds the waste), and bytes per HDF5 chunk and per
+ * write of the packed chunk stream. */
+#define POOL_CHUNK_ROWS 4096u
+#define PACK_CHUNK_BYTES (UINT64_C(1) << 18)
+#define PACK_BUF_BYTES ((size_t)1 << 22)
 
 static double now_s(void)
 {
@@ -83,7 +92,7 @@ static int write_pool(const h5u_writer *w, hid_t g, const char *name, const tree
 {
     hid_t space = H5I_INVALID_HID, d = H5I_INVALID_HID, ms = H5I_INVALID_HID;
     int rc = -1;
-    if ((d = h5u_dataset_z(w, g, name, ftype, 2, p->count, cols, POOL_SEG_SIZE, gzip, &space)) < 0)
+    if ((d = h5u_dataset_z(w, g, name, ftype, 2, p->count, cols, POOL_CHUNK_ROWS, gzip, &space)) < 0)
         goto fail;
     for (uint32_t s = 0; (uint64_t)s * POOL_SEG_SIZE < p->count; s++) {
         const hsize_t start[2] = {(hsize_t)s * POOL_SEG_SIZE, 0};
@@ -121,6 +130,79 @@ fail:
     return h5u_close(w, rc, d, H5Dclose, name);
 }
 
+/* Bytes of the packed chunk stream: per chunk record from index 11 on, its
+ * link (u32 little-endian: the next chunk, or for a leaf's last chunk its
+ * fill 1..10) and then, axis by axis, the relative coordinates of the
+ * particles it holds (fill bytes each). The unused slots of partly filled
+ * chunks are not stored (they are zero in memory), which makes a 2D
+ * particle cost ~2 bytes instead of the pool's ~3. */
+static uint64_t packed_bytes(const tree *t)
+{
+    uint64_t n = 0;
+    for (uint32_t i = TREE_CHUNK_CAP + 1; i < t->chunks.count; i++) {
+        const uint32_t link = tree_chunk_link(t, tree_chunk_at(t, i));
+        n += 4 + (uint64_t)(link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP) * (uint64_t)t->dim;
+    }
+    return n;
+}
+
+static int flush_packed(const h5u_writer *w, hid_t d, hid_t space, const uint8_t *buf, size_t fill,
+                        uint64_t *written)
+{
+    if (fill == 0) return 0;
+    const hsize_t start = *written, count = fill;
+    const hid_t ms = H5Screate_simple(1, &count, NULL);
+    const int ok = ms >= 0 && H5Sselect_hyperslab(space, H5S_SELECT_SET, &start, NULL, &count, NULL) >= 0 &&
+                   H5Dwrite(d, H5T_NATIVE_UINT8, ms, space, H5P_DEFAULT, buf) >= 0;
+    if (ms >= 0) H5Sclose(ms);
+    if (!ok) return h5u_fail(w, "write /tree/chunks_packed");
+    *written += fill;
+    return 0;
+}
+
+static int write_chunks(const h5u_writer *w, hid_t g, const tree *t, int gzip)
+{
+    const uint64_t total = packed_bytes(t);
+    hid_t space = H5I_INVALID_HID, d = H5I_INVALID_HID;
+    uint8_t *buf = NULL;
+    int rc = -1;
+    if (h5u_attr_u64(w, g, "chunks_packed_bytes", total) < 0) return -1;
+    if ((d = h5u_dataset_z(w, g, "chunks_packed", H5T_STD_U8LE, 1, total, 1, PACK_CHUNK_BYTES, gzip,
+                           &space)) < 0)
+        goto fail;
+    if (!(buf = malloc(PACK_BUF_BYTES))) {
+        h5u_fail_msg(w, "out of memory");
+        goto fail;
+    }
+    size_t fill = 0;
+    uint64_t written = 0;
+    for (uint32_t i = TREE_CHUNK_CAP + 1; i < t->chunks.count; i++) {
+        const uint8_t *rec = tree_chunk_at(t, i);
+        const uint32_t link = tree_chunk_link(t, rec);
+        const size_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+        if (fill + 4 + TREE_CHUNK_CAP * 3 > PACK_BUF_BYTES) {
+            if (flush_packed(w, d, space, buf, fill, &written) < 0) goto fail;
+            fill = 0;
+        }
+        for (int b = 0; b < 4; b++) buf[fill++] = (uint8_t)(link >> (8 * b));
+        for (int a = 0; a < t->dim; a++) {
+            memcpy(buf + fill, rec + a * TREE_CHUNK_CAP, m);
+            fill += m;
+        }
+    }
+    if (flush_packed(w, d, space, buf, fill, &written) < 0) goto fail;
+    if (written != total) {
+        h5u_fail_msg(w, "internal error: packed %llu of %llu chunk bytes", (unsigned long long)written,
+                     (unsigned long long)total);
+        goto fail;
+    }
+    rc = 0;
+fail:
+    free(buf);
+    rc = h5u_close(w, rc, space, H5Sclose, "the packed chunks' dataspace");
+    return h5u_close(w, rc, d, H5Dclose, "/tree/chunks_packed");
+}
+
 static int write_tree(const h5u_writer *w, hid_t file, const tree *t, int gzip)
 {
     hid_t g = H5I_INVALID_HID;
@@ -136,8 +218,7 @@ static int write_tree(const h5u_writer *w, hid_t file, const tree *t, int gzip)
         h5u_attr_u64(w, g, "chunk_records", t->chunks.count) < 0 ||
         write_pool(w, g, "inner", &t->inner, H5T_STD_U32LE, H5T_NATIVE_UINT32,
                    (hsize_t)t->nchild, gzip) < 0 ||
-        write_pool(w, g, "chunks", &t->chunks, H5T_STD_U8LE, H5T_NATIVE_UINT8, t->chunk_bytes,
-                   gzip) < 0)
+        write_chunks(w, g, t, gzip) < 0)
         goto fail;
     rc = 0;
 fail:
@@ -684,6 +765,70 @@ static int read_pool(const reader *r, hid_t g, const char *name, tree_pool *p, u
     return rc;
 }
 
+/* Unpacks /tree/chunks_packed (see packed_bytes) into chunk records
+ * 11..nc-1, reading it a block at a time. */
+static int read_chunks(const reader *r, hid_t g, tree *t, uint64_t nc)
+{
+    uint64_t total = 0;
+    if (read_attr(g, "chunks_packed_bytes", H5T_NATIVE_UINT64, &total) < 0)
+        return damaged(r, "/tree chunks_packed_bytes");
+    if (total < (nc - TREE_CHUNK_CAP - 1) * 5 || total > (nc - TREE_CHUNK_CAP - 1) * (4 + 3 * TREE_CHUNK_CAP))
+        return damaged(r, "/tree chunks_packed_bytes out of range");
+    int rc;
+    const hid_t d = open_dset(r, g, "chunks_packed", H5T_NATIVE_UINT8, 1, total, 1, &rc);
+    if (d < 0) return rc;
+    tree_pool *p = &t->chunks;
+    const uint32_t nseg = (uint32_t)((nc + POOL_SEG_SIZE - 1) / POOL_SEG_SIZE);
+    uint8_t *buf = malloc(PACK_BUF_BYTES);
+    rc = buf ? PDLA_OK : PDLA_ENOMEM;
+    for (uint32_t s = p->nseg; rc == PDLA_OK && s < nseg; s++) {
+        if (!(p->seg[s] = calloc(POOL_SEG_SIZE, p->elem))) rc = PDLA_ENOMEM;
+        else p->nseg = s + 1;
+    }
+    uint64_t pos = 0; /* stream bytes read */
+    size_t have = 0, at = 0;
+    uint32_t i = TREE_CHUNK_CAP + 1;
+    while (rc == PDLA_OK && i < nc) {
+        if (have - at < 4 + 3 * TREE_CHUNK_CAP && pos < total) {
+            memmove(buf, buf + at, have - at);
+            have -= at;
+            at = 0;
+            const uint64_t want = total - pos < PACK_BUF_BYTES - have ? total - pos : PACK_BUF_BYTES - have;
+            rc = read_rows(r, d, "/tree/chunks_packed", H5T_NATIVE_UINT8, pos, want, 1, 1, buf + have);
+            if (rc) break;
+            pos += want;
+            have += (size_t)want;
+        }
+        if (have - at < 4) {
+            rc = damaged(r, "the packed chunks end early");
+            break;
+        }
+        const uint32_t link = (uint32_t)buf[at] | (uint32_t)buf[at + 1] << 8 |
+                              (uint32_t)buf[at + 2] << 16 | (uint32_t)buf[at + 3] << 24;
+        const size_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+        if (link == 0 || have - at < 4 + m * (size_t)t->dim) {
+            rc = damaged(r, link == 0 ? "an empty chunk" : "the packed chunks end early");
+            break;
+        }
+        at += 4;
+        p->count = i + 1; /* pool_at needs nothing more; count is set for good below */
+        uint8_t *rec = pool_at(p, i);
+        for (int a = 0; a < t->dim; a++) {
+            memcpy(rec + a * TREE_CHUNK_CAP, buf + at, m);
+            at += m;
+        }
+        memcpy(rec + t->chunk_bytes - 4, &link, 4);
+        i++;
+    }
+    if (rc == PDLA_OK && (at != have || pos != total)) rc = damaged(r, "bytes after the last packed chunk");
+    free(buf);
+    H5Dclose(d);
+    if (rc == PDLA_ENOMEM && r->err && r->errlen)
+        snprintf(r->err, r->errlen, "%s: out of memory for the tree", r->path);
+    if (rc == PDLA_OK) p->count = (uint32_t)nc;
+    return rc;
+}
+
 /* What a walk of the loaded tree finds. */
 typedef struct tree_check {
     const tree *t;
@@ -801,8 +946,7 @@ static int load_tree(const reader *r, hid_t file, pdla_engine *e)
         rc = damaged(r, "/tree sizes out of range");
     if (rc == PDLA_OK)
         rc = read_pool(r, g, "inner", &t->inner, ni, H5T_NATIVE_UINT32, (hsize_t)t->nchild);
-    if (rc == PDLA_OK)
-        rc = read_pool(r, g, "chunks", &t->chunks, nc, H5T_NATIVE_UINT8, t->chunk_bytes);
+    if (rc == PDLA_OK) rc = read_chunks(r, g, t, nc);
     H5Gclose(g);
     if (rc) return rc;
     if (!all_zero(pool_at(&t->inner, 0), t->inner.elem) ||

@@ -1141,8 +1141,17 @@ static int load_file(const char *path, const pdla_params *asked, uint32_t fields
     char fmt[64];
     int32_t ver = 0;
     uint64_t generation = 0, particles = 0;
-    if (read_attr_str(file, "format", fmt, sizeof fmt) < 0) {
+    const htri_t has_format = H5Aexists(file, "format");
+    if (has_format < 0) { /* the root group's header does not read back */
+        rc = damaged(r, "the root group cannot be read");
+        goto out;
+    }
+    if (has_format == 0) {
         rc = rfail(r, "an HDF5 file but not a pdla checkpoint (no format attribute)");
+        goto out;
+    }
+    if (read_attr_str(file, "format", fmt, sizeof fmt) < 0) {
+        rc = damaged(r, "the format attribute cannot be read");
         goto out;
     }
     if (strcmp(fmt, FORMAT_NAME) != 0) {
@@ -1301,4 +1310,9 @@ int pdla_checkpoint_remove_stale(const char *dir)
         }
     closedir(d);
     return n;
+}
+
+int pdla_hdf5_quiet(void)
+{
+    return H5Eset_auto2(H5E_DEFAULT, NULL, NULL) < 0 ? PDLA_EIO : PDLA_OK;
 }

@@ -290,6 +290,12 @@ PDLA_API void pdla_rundir_unlock(int fd);
 /* Remove the temporary files an interrupted checkpoint write left in dir
  * (hold the lock). Returns how many were removed, or -1. */
 PDLA_API int pdla_checkpoint_remove_stale(const char *dir);
+/* Turn HDF5's automatic error printing off in the calling thread for good.
+ * The library silences HDF5 around each call and restores the caller's
+ * setting; but HDF5 1.10 keeps internals of some corrupt files it failed to
+ * read and then prints a complaint at exit unless printing is off. A program
+ * that must print nothing but its own messages (the CLI) calls this first. */
+PDLA_API int pdla_hdf5_quiet(void);
 
 #ifdef __cplusplus
 }

@@ -568,6 +568,7 @@ int main(int argc, char **argv)
         return EXIT_RUNTIME;
     }
 
+    pdla_hdf5_quiet(); /* HDF5 never prints; our messages say what failed */
     pdla_engine *eng = NULL;
     char dir[4096] = "";
     int created = 0, lock = -1;

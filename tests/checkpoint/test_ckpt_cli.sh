@@ -108,6 +108,13 @@ bad "second writer" 2 "run directory 'sig' is in use by another pdla process" --
 kill -TERM $pid
 wait $pid
 
+# ---- option errors ----------------------------------------------------------------
+bad "duration unit" 2 "invalid value '10x' for --checkpoint-every: unknown unit (use s, m or h)" --checkpoint-every 10x --out o1
+bad "duration zero" 2 "must be above 0" --checkpoint-every 0s --out o2
+bad "particles zero" 2 "must be at least 1" --checkpoint-particles 0 --out o3
+bad "no output" 2 "--no-output excludes them" --no-output --checkpoint
+[ -e o1 ] || [ -e o2 ] || [ -e o3 ] && fail "a refused command made a run directory"
+
 # ---- refusals change nothing ---------------------------------------------------
 before=$(listing sig)
 bad "changed eps" 2 "eps is 2 in the checkpoint, 3 asked" --resume sig --eps 3

@@ -507,6 +507,13 @@ static void kill_test(const char *self, int rounds)
 
 /* ---- threads ----------------------------------------------------------------- */
 
+static int stop_now(const pdla_engine *e, void *user)
+{
+    (void)e;
+    ++*(int *)user;
+    return 1; /* every call (20 ms): pause the workers */
+}
+
 static void threads_test(void)
 {
     char dir[300], err[1024];
@@ -518,13 +525,24 @@ static void threads_test(void)
     pdla_params asked;
     pdla_params_default(&asked);
     asked.threads = 4;
-    asked.target = 6000;
+    asked.target = 20000;
     CHECK(pdla_checkpoint_load(&e, dir, &asked, PDLA_PARAM_THREADS | PDLA_PARAM_TARGET, NULL, err,
                                sizeof err) == PDLA_OK,
           "%s", err);
     if (!e) return;
-    CHECK(pdla_engine_grow(e, 6000, NULL, 1000, NULL, err, sizeof err) == PDLA_OK, "%s", err);
-    CHECK(pdla_engine_count(e) == 6000, "count %llu", (unsigned long long)pdla_engine_count(e));
+    /* Pause (workers joined), checkpoint, restart: as the CLI's triggers do. */
+    int calls = 0, pauses = 0;
+    for (;;) {
+        const int rc = pdla_engine_grow(e, 20000, stop_now, 100, &calls, err, sizeof err);
+        if (rc != PDLA_ESTOPPED) {
+            CHECK(rc == PDLA_OK, "%s", err);
+            break;
+        }
+        pauses++;
+        CHECK(pdla_checkpoint_write(e, dir, NULL, NULL, err, sizeof err) == PDLA_OK, "%s", err);
+    }
+    fprintf(stderr, "threads: %d pauses with a checkpoint each\n", pauses);
+    CHECK(pdla_engine_count(e) == 20000, "count %llu", (unsigned long long)pdla_engine_count(e));
     pdla_stats s;
     pdla_engine_stats(e, &s);
     CHECK(s.threads == 4, "threads %d", s.threads);

@@ -255,7 +255,7 @@ static const opt_desc options[] = {
     {"checkpoint-particles", 0, OPT_CHECKPOINT_PARTICLES, ARG_COUNT, "N",
      "also every N particles"},
     {"checkpoint-compress", 0, OPT_CHECKPOINT_COMPRESS, ARG_NONE, NULL,
-     "shuffle + deflate the checkpoint (smaller, about 20x slower to write)"},
+     "shuffle + deflate the checkpoint (about 20% smaller, several times slower to write)"},
     {"resume", 0, OPT_RESUME, ARG_STRING, "PATH",
      "continue the run in a run directory (its newest valid checkpoint) or from a "
      "checkpoint file; --target may be raised, --threads, --serial-until and --bind "

@@ -60,6 +60,8 @@ struct pdla_engine {
     int nworkers;
     int workers_error;         /* first PDLA_E* a worker hit, under bucket_mu */
     char binding[256];
+    uint64_t ckpt_generation;  /* checkpoints written (or loaded) so far */
+    double ckpt_write_seconds; /* time of the last checkpoint write */
 };
 
 /* Outcomes of a walk. */

@@ -221,6 +221,94 @@ typedef struct pdla_run_info {
 PDLA_API int pdla_output_write(const pdla_engine *e, const pdla_run_info *info,
                                const char *path, char *err, size_t errlen);
 
+/* ---- checkpoints and resume (checkpoint.c; README "Checkpoints and resume") */
+
+/* Bits naming pdla_params fields, for pdla_checkpoint_load's `asked`. */
+enum {
+    PDLA_PARAM_DIM = 1u << 0,
+    PDLA_PARAM_TARGET = 1u << 1,
+    PDLA_PARAM_SEED = 1u << 2,
+    PDLA_PARAM_RESOLUTION = 1u << 3,
+    PDLA_PARAM_EPS = 1u << 4,
+    PDLA_PARAM_BIRTH_MARGIN = 1u << 5,
+    PDLA_PARAM_RETURN_MODE = 1u << 6,
+    PDLA_PARAM_KILL_RATIO = 1u << 7,
+    PDLA_PARAM_EXACT_SEARCH = 1u << 8,
+    PDLA_PARAM_FAR_FACTOR = 1u << 9,
+    PDLA_PARAM_MAX_JUMPS = 1u << 10,
+    PDLA_PARAM_SNAP_CONTACT = 1u << 11,
+    PDLA_PARAM_RG_PER_DECADE = 1u << 12,
+    PDLA_PARAM_THREADS = 1u << 13,
+    PDLA_PARAM_SERIAL_UNTIL = 1u << 14,
+    PDLA_PARAM_RECHECK = 1u << 15,
+    PDLA_PARAM_BIND = 1u << 16,
+    PDLA_PARAM_RECORD_ARRIVAL = 1u << 17
+};
+/* The fields a resume may change; any other asked field must equal the
+ * checkpoint's value. The target may be raised (not below the particles held). */
+#define PDLA_PARAM_RESUMABLE \
+    (PDLA_PARAM_TARGET | PDLA_PARAM_THREADS | PDLA_PARAM_SERIAL_UNTIL | PDLA_PARAM_BIND)
+
+/* File names inside a run directory: the newest checkpoint, then the two
+ * generations before it. */
+#define PDLA_CHECKPOINT_NAME "checkpoint.h5"
+#define PDLA_CHECKPOINT_GENERATIONS 3
+
+typedef struct pdla_checkpoint_opts {
+    int compress;             /* 1: shuffle + deflate 1 on the pools (slower). Default 0. */
+    const char *command_line; /* for provenance, or NULL */
+    double pause_seconds;     /* time the caller took to stop the workers; recorded */
+} pdla_checkpoint_opts;
+
+typedef struct pdla_checkpoint_info {
+    char path[4200];          /* the file written or loaded */
+    uint64_t generation;      /* 1 for a run's first checkpoint */
+    uint64_t particles;
+    uint64_t bytes;           /* size of the file */
+    double seconds;           /* write or load time */
+    char note[1024];          /* on load: why newer generations were skipped, or "" */
+} pdla_checkpoint_info;
+
+/* Write a checkpoint of e into directory dir: DIR/.checkpoint.h5.tmp.<pid>
+ * is written, closed, fsync'ed, the older generations shift
+ * (checkpoint.1.h5 -> checkpoint.2.h5, checkpoint.h5 -> checkpoint.1.h5),
+ * the new file is renamed to DIR/checkpoint.h5 and dir is fsync'ed. At every
+ * moment each of those names is a complete checkpoint. Growth must not be
+ * running (call it between pdla_engine_grow calls). info may be NULL. */
+PDLA_API int pdla_checkpoint_write(pdla_engine *e, const char *dir,
+                                   const pdla_checkpoint_opts *opts,
+                                   pdla_checkpoint_info *info, char *err, size_t errlen);
+
+/* Make an engine from a checkpoint file, or from the newest valid generation
+ * in a run directory (a damaged newer one is skipped; info->note says so).
+ * Everything is verified first: signature, format and version, parameters,
+ * record counts, checksums, the tree's structure and that its particles
+ * reproduce the stored exact gyration sums, R_ext and count, the R_g series
+ * and the RNG state. `asked` (may be NULL when asked_fields is 0) holds the
+ * caller's parameters, of which those named by asked_fields are applied:
+ * PDLA_PARAM_RESUMABLE ones replace the checkpoint's, any other must be
+ * equal. Returns PDLA_EIO (unreadable, foreign or damaged: err names the
+ * file and the reason), PDLA_EINVAL (a parameter may not change),
+ * PDLA_ENOMEM. Reads only. */
+PDLA_API int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params *asked,
+                                  uint32_t asked_fields, pdla_checkpoint_info *info,
+                                  char *err, size_t errlen);
+
+/* Lock a run directory against a second writer (flock on the directory
+ * itself, so nothing is created). *fd gets the lock to pass to
+ * pdla_rundir_unlock. PDLA_EEXIST when another process holds it. */
+PDLA_API int pdla_rundir_lock(const char *dir, int *fd, char *err, size_t errlen);
+PDLA_API void pdla_rundir_unlock(int fd);
+/* Remove the temporary files an interrupted checkpoint write left in dir
+ * (hold the lock). Returns how many were removed, or -1. */
+PDLA_API int pdla_checkpoint_remove_stale(const char *dir);
+/* Turn HDF5's automatic error printing off in the calling thread for good.
+ * The library silences HDF5 around each call and restores the caller's
+ * setting; but HDF5 1.10 keeps internals of some corrupt files it failed to
+ * read and then prints a complaint at exit unless printing is off. A program
+ * that must print nothing but its own messages (the CLI) calls this first. */
+PDLA_API int pdla_hdf5_quiet(void);
+
 #ifdef __cplusplus
 }
 #endif

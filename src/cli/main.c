@@ -246,10 +246,92 @@ static int make_run_dir(const cli_options *o, char *dir, size_t dirlen, int *cre
 
 /* ---- growth ------------------------------------------------------------ */
 
+/* Why the progress callback asked growth to stop. */
+enum { STOP_NONE = 0, STOP_SIGNAL, STOP_FILE, STOP_CHECKPOINT };
+
+/* The state of the growth loop: progress and the checkpoint triggers. */
+typedef struct grow_ctx {
+    progress *prog;
+    const cli_options *o;
+    const char *dir;          /* run directory */
+    const char *command;
+    char stop_path[4200];     /* RUN_DIR/STOP */
+    int reason;               /* STOP_* of the last stop request */
+    double t_stop;            /* when it was made */
+    double next_time;         /* monotonic time of the next time trigger; 0: none */
+    uint64_t next_particles;  /* count of the next particle trigger; 0: none */
+    double last_stop_check;   /* when RUN_DIR/STOP was last looked for */
+    /* For the summary. */
+    int written, failures;
+    uint64_t generation, bytes;
+    double write_seconds, pause_seconds, max_pause;
+    char last_path[4200];
+    const pdla_checkpoint_info *resumed; /* NULL: a new run */
+} grow_ctx;
+
 static int on_progress(const pdla_engine *e, void *user)
 {
-    if (stop_signal) return 1;
-    progress_tick(user, e);
+    grow_ctx *c = user;
+    if (stop_signal) {
+        c->reason = STOP_SIGNAL;
+        c->t_stop = wall_now();
+        return 1;
+    }
+    if (c->o->checkpoint) {
+        const double t = wall_now();
+        const uint64_t n = pdla_engine_count(e);
+        if (n < pdla_engine_params(e)->target &&
+            ((c->next_time > 0 && t >= c->next_time) ||
+             (c->next_particles > 0 && n >= c->next_particles))) {
+            c->reason = STOP_CHECKPOINT;
+            c->t_stop = t;
+            return 1;
+        }
+        if (t - c->last_stop_check >= 1.0) { /* a stat() a second, not per particle */
+            c->last_stop_check = t;
+            struct stat st;
+            if (stat(c->stop_path, &st) == 0) {
+                c->reason = STOP_FILE;
+                c->t_stop = t;
+                return 1;
+            }
+        }
+    }
+    progress_tick(c->prog, e);
+    return 0;
+}
+
+static void schedule_checkpoints(grow_ctx *c, const pdla_engine *e)
+{
+    if (c->o->checkpoint_every > 0) c->next_time = wall_now() + c->o->checkpoint_every;
+    const uint64_t P = c->o->checkpoint_particles;
+    if (P) c->next_particles = (pdla_engine_count(e) / P + 1) * P;
+}
+
+/* Write a checkpoint (growth is stopped); pause = time the stop took. */
+static int do_checkpoint(pdla_engine *e, grow_ctx *c, double pause, char *why, size_t whylen)
+{
+    const pdla_checkpoint_opts co = {c->o->checkpoint_compress, c->command, pause};
+    pdla_checkpoint_info info;
+    char err[1200];
+    const int rc = pdla_checkpoint_write(e, c->dir, &co, &info, err, sizeof err);
+    schedule_checkpoints(c, e);
+    if (rc != PDLA_OK) {
+        snprintf(why, whylen, "checkpoint failed: %s", err);
+        c->failures++;
+        return -1;
+    }
+    c->written++;
+    c->generation = info.generation;
+    c->bytes = info.bytes;
+    c->write_seconds += info.seconds;
+    c->pause_seconds += pause;
+    if (pause > c->max_pause) c->max_pause = pause;
+    snprintf(c->last_path, sizeof c->last_path, "%s", info.path);
+    if (c->prog->enabled)
+        fprintf(c->prog->out, "%scheckpoint %" PRIu64 ": %" PRIu64 " particles, %.1f MB in %.3f s (pause %.3f s)\n",
+                c->prog->tty ? "\r\033[K" : "", info.generation, info.particles, info.bytes / 1e6,
+                info.seconds, pause);
     return 0;
 }
 
@@ -262,6 +344,7 @@ typedef struct report {
     double wall_seconds;
     uint64_t peak_rss;
     const char *h5_path; /* NULL: no file written */
+    const grow_ctx *ck;  /* checkpoints, or NULL */
 } report;
 
 static const char *return_word(pdla_return_mode m) { return m == PDLA_RETURN_KILL ? "kill" : "exact"; }
@@ -307,6 +390,17 @@ static void print_summary(FILE *f, const report *r, int with_command)
     progress_fmt_bytes(b2, sizeof b2, (double)r->peak_rss);
     fprintf(f, "peak RSS         %s\n", b2);
     fprintf(f, "output           %s\n", r->h5_path ? r->h5_path : "none");
+    const grow_ctx *c = r->ck;
+    if (c && c->resumed)
+        fprintf(f, "resumed from     %s (generation %" PRIu64 ", %" PRIu64 " particles, loaded in %.3f s)\n",
+                c->resumed->path, c->resumed->generation, c->resumed->particles, c->resumed->seconds);
+    if (c && c->written)
+        fprintf(f, "checkpoints      %d written (%d failed), last %s (generation %" PRIu64 ", %.1f MB); "
+                   "write %.3f s, pause %.3f s in total (longest pause %.3f s)\n",
+                c->written, c->failures, c->last_path, c->generation, c->bytes / 1e6, c->write_seconds,
+                c->pause_seconds, c->max_pause);
+    else if (c && c->o->checkpoint)
+        fprintf(f, "checkpoints      none written (%d failed)\n", c->failures);
 }
 
 /* ---- JSON -------------------------------------------------------------- */
@@ -485,23 +579,68 @@ int main(int argc, char **argv)
         return EXIT_RUNTIME;
     }
 
+    pdla_hdf5_quiet(); /* HDF5 never prints; our messages say what failed */
     pdla_engine *eng = NULL;
-    int rc = pdla_engine_create(&eng, &o.params, err, sizeof err);
-    if (rc != PDLA_OK) {
-        fprintf(stderr, "pdla: %s\n", err);
-        free(cmd);
-        return rc == PDLA_EINVAL ? EXIT_USAGE : EXIT_RUNTIME;
-    }
-
-    /* Everything that can fail on a bad name fails here, before growth. */
     char dir[4096] = "";
-    int created = 0;
-    if (!o.no_output) {
-        const int drc = make_run_dir(&o, dir, sizeof dir, &created);
-        if (drc) {
-            pdla_engine_destroy(eng);
+    int created = 0, lock = -1;
+    pdla_checkpoint_info loaded;
+    memset(&loaded, 0, sizeof loaded);
+    if (o.resume) {
+        /* The run directory is the one given, or the checkpoint file's. */
+        struct stat st;
+        if (stat(o.resume, &st) != 0) {
+            fprintf(stderr, "pdla: cannot resume from '%s': %s\n", o.resume, strerror(errno));
             free(cmd);
-            return drc;
+            return EXIT_USAGE;
+        }
+        snprintf(dir, sizeof dir, "%s", o.resume);
+        if (!S_ISDIR(st.st_mode)) {
+            char *slash = strrchr(dir, '/');
+            if (!slash) snprintf(dir, sizeof dir, ".");
+            else slash[slash == dir ? 1 : 0] = '\0';
+        }
+        for (size_t len = strlen(dir); len > 1 && dir[len - 1] == '/';) dir[--len] = '\0';
+        /* Lock first, so no other pdla writes while we read; the lock
+         * creates nothing, so a refused resume leaves the disk as it was. */
+        if (pdla_rundir_lock(dir, &lock, err, sizeof err) != PDLA_OK) {
+            fprintf(stderr, "pdla: %s\n", err);
+            free(cmd);
+            return EXIT_USAGE;
+        }
+        const int lrc = pdla_checkpoint_load(&eng, o.resume, &o.params, o.given, &loaded, err, sizeof err);
+        if (lrc != PDLA_OK) {
+            fprintf(stderr, "pdla: cannot resume: %s\n", err);
+            pdla_rundir_unlock(lock);
+            free(cmd);
+            return lrc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
+        }
+        if (loaded.note[0])
+            fprintf(stderr, "pdla: note: %s; resuming from %s (generation %" PRIu64 ")\n", loaded.note,
+                    loaded.path, loaded.generation);
+        pdla_checkpoint_remove_stale(dir);
+    } else {
+        int rc = pdla_engine_create(&eng, &o.params, err, sizeof err);
+        if (rc != PDLA_OK) {
+            fprintf(stderr, "pdla: %s\n", err);
+            free(cmd);
+            return rc == PDLA_EINVAL ? EXIT_USAGE : EXIT_RUNTIME;
+        }
+        /* Everything that can fail on a bad name fails here, before growth. */
+        if (!o.no_output) {
+            const int drc = make_run_dir(&o, dir, sizeof dir, &created);
+            if (drc) {
+                pdla_engine_destroy(eng);
+                free(cmd);
+                return drc;
+            }
+            if (pdla_rundir_lock(dir, &lock, err, sizeof err) != PDLA_OK) {
+                fprintf(stderr, "pdla: %s\n", err);
+                if (created) rmdir(dir);
+                pdla_engine_destroy(eng);
+                free(cmd);
+                return EXIT_USAGE;
+            }
+            if (o.checkpoint) pdla_checkpoint_remove_stale(dir);
         }
     }
     FILE *json = NULL;
@@ -520,14 +659,44 @@ int main(int argc, char **argv)
     const int tty = isatty(STDERR_FILENO);
     progress_init(&prog, stderr, o.progress == 1 || (o.progress == -1 && !o.quiet && tty), tty);
     char gerr[512] = "";
-    const int grc = pdla_engine_grow(eng, o.params.target, on_progress, 1000, &prog, gerr, sizeof gerr);
+    grow_ctx gc;
+    memset(&gc, 0, sizeof gc);
+    gc.prog = &prog;
+    gc.o = &o;
+    gc.dir = dir;
+    gc.command = cmd;
+    gc.resumed = o.resume ? &loaded : NULL;
+    snprintf(gc.stop_path, sizeof gc.stop_path, "%s/STOP", dir);
+    gc.last_stop_check = wall_now();
+    schedule_checkpoints(&gc, eng);
+    char ckwhy[1400] = "";
+    int grc;
+    for (;;) {
+        gc.reason = STOP_NONE;
+        grc = pdla_engine_grow(eng, pdla_engine_params(eng)->target, on_progress, 1000, &gc, gerr,
+                               sizeof gerr);
+        if (grc != PDLA_ESTOPPED || gc.reason != STOP_CHECKPOINT) break;
+        /* A trigger: the workers have stopped (joined); write, go on. */
+        if (do_checkpoint(eng, &gc, wall_now() - gc.t_stop, ckwhy, sizeof ckwhy) && gc.failures == 1)
+            fprintf(stderr, "pdla: warning: %s; growth goes on\n", ckwhy);
+    }
     progress_finish(&prog, eng);
+    /* The final checkpoint: at the end, on a signal or RUN_DIR/STOP. */
+    const int asked_stop = grc == PDLA_ESTOPPED && (gc.reason == STOP_SIGNAL || gc.reason == STOP_FILE);
+    int ckpt_failed = 0;
+    if (o.checkpoint && (grc == PDLA_OK || asked_stop)) {
+        if (do_checkpoint(eng, &gc, asked_stop ? wall_now() - gc.t_stop : 0.0, ckwhy, sizeof ckwhy))
+            ckpt_failed = 1;
+        else if (gc.reason == STOP_FILE)
+            unlink(gc.stop_path); /* honoured: a resume must not stop at once */
+    }
 
     /* Write what was grown, whether growth finished or not. */
     report r;
     memset(&r, 0, sizeof r);
     r.command = cmd;
     r.P = pdla_engine_params(eng);
+    r.ck = &gc;
     char h5[4200], txt[4200], why[5000] = "";
     int write_failed = 0;
     if (!o.no_output) {
@@ -552,7 +721,10 @@ int main(int argc, char **argv)
             if (close_checked(f, txt, why, sizeof why)) write_failed = 1;
         }
     }
-    const char *status = grc == PDLA_OK ? "done" : stop_signal ? "stopped by signal" : "failed";
+    const char *status = grc == PDLA_OK                                       ? "done"
+                         : stop_signal                                        ? "stopped by signal"
+                         : grc == PDLA_ESTOPPED && gc.reason == STOP_FILE ? "stopped by STOP file"
+                                                                              : "failed";
     if (json) {
         write_json(json, &r, status);
         char jwhy[5000];
@@ -577,7 +749,22 @@ int main(int argc, char **argv)
     else if (write_failed) snprintf(where, sizeof where, "%s", why);
     else snprintf(where, sizeof where, "partial cluster written to %s", h5);
     int code = 0;
-    if (grc == PDLA_ESTOPPED && stop_signal) {
+    if (o.checkpoint && asked_stop) {
+        const char *by = gc.reason == STOP_FILE ? gc.stop_path : "signal";
+        if (ckpt_failed) {
+            fprintf(stderr, "pdla: stopped by %s after %" PRIu64 " particles; %s; %s\n", by, n, ckwhy, where);
+            code = EXIT_RUNTIME;
+        } else {
+            fprintf(stderr, "pdla: stopped by %s after %" PRIu64 " particles; checkpoint %s (resume with "
+                            "pdla --resume %s); %s\n",
+                    by, n, gc.last_path, dir, where);
+            code = write_failed ? EXIT_RUNTIME : 0;
+        }
+        stop_signal = 0; /* handled: exit normally */
+    } else if (ckpt_failed) {
+        fprintf(stderr, "pdla: %s\n", ckwhy);
+        code = EXIT_RUNTIME;
+    } else if (grc == PDLA_ESTOPPED && stop_signal) {
         fprintf(stderr, "pdla: stopped by signal after %" PRIu64 " particles; %s\n", n, where);
         code = EXIT_RUNTIME;
     } else if (grc != PDLA_OK) {
@@ -590,6 +777,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "pdla: signal received after growth had finished; output complete\n");
     }
     pdla_engine_destroy(eng);
+    pdla_rundir_unlock(lock);
     free(cmd);
 
     /* Interrupted: end by the same signal (the handler was reset on

@@ -116,6 +116,31 @@ const char *cli_parse_real(const char *s, double *out)
     return NULL;
 }
 
+const char *cli_parse_duration(const char *s, double *out)
+{
+    if (!s || !*s) return "empty value";
+    char buf[64];
+    const size_t n = strlen(s);
+    if (n >= sizeof buf) return "too long";
+    memcpy(buf, s, n + 1);
+    double unit = 1;
+    const char last = buf[n - 1];
+    if (last == 's' || last == 'm' || last == 'h') {
+        unit = last == 'h' ? 3600 : last == 'm' ? 60 : 1;
+        buf[n - 1] = '\0';
+    } else if (!is_digit(last) && last != '.') {
+        return "unknown unit (use s, m or h)";
+    }
+    if (!buf[0] || buf[strspn(buf, "0123456789.")]) return "not a duration (e.g. 90s, 30m, 1.5h)";
+    double v;
+    const char *why = cli_parse_real(buf, &v);
+    if (why) return why;
+    v *= unit;
+    if (!(v > 0) || v > 1e9) return "must be above 0 and at most 1e9 seconds";
+    *out = v;
+    return NULL;
+}
+
 /* ---- the option table -------------------------------------------------- */
 
 enum opt_id {
@@ -143,7 +168,12 @@ enum opt_id {
     OPT_PROGRESS,
     OPT_NO_PROGRESS,
     OPT_ARRIVAL,
-    OPT_SCENE
+    OPT_SCENE,
+    OPT_CHECKPOINT,
+    OPT_CHECKPOINT_EVERY,
+    OPT_CHECKPOINT_PARTICLES,
+    OPT_CHECKPOINT_COMPRESS,
+    OPT_RESUME
 };
 
 typedef enum arg_kind {
@@ -152,7 +182,8 @@ typedef enum arg_kind {
     ARG_COUNT,  /* an unsigned 64-bit count */
     ARG_REAL,   /* a finite double */
     ARG_CHOICE, /* one word of a fixed list */
-    ARG_STRING  /* a path */
+    ARG_STRING, /* a path */
+    ARG_DURATION /* seconds, with s/m/h */
 } arg_kind;
 
 typedef struct opt_desc {
@@ -224,6 +255,20 @@ static const opt_desc options[] = {
     {"scene", 0, OPT_SCENE, ARG_STRING, "FILE",
      "read settings from a scene file: KEY = VALUE lines, the keys being these "
      "options' long names; options given here override the scene's keys"},
+    {NULL, 0, 0, ARG_NONE, NULL, "Checkpoints and resume:"},
+    {"checkpoint", 0, OPT_CHECKPOINT, ARG_NONE, NULL,
+     "write RUN_DIR/checkpoint.h5 at the end, on SIGINT/SIGTERM and when a file "
+     "RUN_DIR/STOP appears (then stop and exit 0); implied by the options below"},
+    {"checkpoint-every", 0, OPT_CHECKPOINT_EVERY, ARG_DURATION, "T",
+     "also every T of wall time: seconds, or with s, m, h (30m)"},
+    {"checkpoint-particles", 0, OPT_CHECKPOINT_PARTICLES, ARG_COUNT, "N",
+     "also every N particles"},
+    {"checkpoint-compress", 0, OPT_CHECKPOINT_COMPRESS, ARG_NONE, NULL,
+     "shuffle + deflate the checkpoint (about 20% smaller, several times slower to write)"},
+    {"resume", 0, OPT_RESUME, ARG_STRING, "PATH",
+     "continue the run in a run directory (its newest valid checkpoint) or from a "
+     "checkpoint file; --target may be raised, --threads, --serial-until and --bind "
+     "changed, other parameters must match"},
     {"help", 'h', 'h', ARG_NONE, NULL, "print this help and exit"},
     {"version", 'V', 'V', ARG_NONE, NULL, "print the version and exit"},
 };
@@ -315,6 +360,7 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
         break;
     case ARG_COUNT: why = cli_parse_count(arg, &n); break;
     case ARG_REAL: why = cli_parse_real(arg, &x); break;
+    case ARG_DURATION: why = cli_parse_duration(arg, &x); break;
     case ARG_STRING:
         if (!*arg) why = "empty name";
         else if (*arg == '-') why = "a name starting with '-' looks like an option (write ./NAME)";
@@ -334,6 +380,21 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
     if (why) return fail(err, errlen, "invalid value '%s' for %s: %s", shown(v, arg), opt_label(l, d), why);
 
     pdla_params *p = &o->params;
+    static const uint32_t field_of[] = {
+        [OPT_DIM - OPT_DIM] = PDLA_PARAM_DIM, [OPT_TARGET - OPT_DIM] = PDLA_PARAM_TARGET,
+        [OPT_SEED - OPT_DIM] = PDLA_PARAM_SEED, [OPT_RESOLUTION - OPT_DIM] = PDLA_PARAM_RESOLUTION,
+        [OPT_EPS - OPT_DIM] = PDLA_PARAM_EPS, [OPT_NO_SNAP - OPT_DIM] = PDLA_PARAM_SNAP_CONTACT,
+        [OPT_BIRTH_MARGIN - OPT_DIM] = PDLA_PARAM_BIRTH_MARGIN,
+        [OPT_RETURN - OPT_DIM] = PDLA_PARAM_RETURN_MODE,
+        [OPT_KILL_RATIO - OPT_DIM] = PDLA_PARAM_KILL_RATIO,
+        [OPT_MAX_JUMPS - OPT_DIM] = PDLA_PARAM_MAX_JUMPS,
+        [OPT_EXACT_SEARCH - OPT_DIM] = PDLA_PARAM_EXACT_SEARCH,
+        [OPT_FAR_FACTOR - OPT_DIM] = PDLA_PARAM_FAR_FACTOR,
+        [OPT_THREADS - OPT_DIM] = PDLA_PARAM_THREADS,
+        [OPT_SERIAL_UNTIL - OPT_DIM] = PDLA_PARAM_SERIAL_UNTIL,
+        [OPT_RECHECK - OPT_DIM] = PDLA_PARAM_RECHECK, [OPT_BIND - OPT_DIM] = PDLA_PARAM_BIND,
+        [OPT_RG_PER_DECADE - OPT_DIM] = PDLA_PARAM_RG_PER_DECADE};
+    if (d->id >= OPT_DIM && d->id <= OPT_RG_PER_DECADE) o->given |= field_of[d->id - OPT_DIM];
     switch (d->id) {
     case OPT_DIM: p->dim = (int)n; break;
     case OPT_TARGET: p->target = n; break;
@@ -352,7 +413,10 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
     case OPT_RECHECK: p->recheck = (pdla_recheck_mode)n; break;
     case OPT_BIND: p->bind = (pdla_bind_mode)n; break;
     case OPT_RG_PER_DECADE: p->rg_per_decade = (int)n; break;
-    case OPT_ARRIVAL: p->record_arrival = 1; break;
+    case OPT_ARRIVAL:
+        p->record_arrival = 1;
+        o->given |= PDLA_PARAM_RECORD_ARRIVAL;
+        break;
     case OPT_OUT: o->out_dir = arg; break;
     case OPT_FORCE: o->force = 1; break;
     case OPT_NO_OUTPUT: o->no_output = 1; break;
@@ -364,6 +428,16 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
     case 'q': o->quiet = 1; break;
     case OPT_PROGRESS: o->progress = 1; break;
     case OPT_NO_PROGRESS: o->progress = 0; break;
+    case OPT_CHECKPOINT: o->checkpoint = 1; break;
+    case OPT_CHECKPOINT_EVERY: o->checkpoint = 1; o->checkpoint_every = x; break;
+    case OPT_CHECKPOINT_PARTICLES:
+        if (n == 0) return fail(err, errlen, "invalid value '%s' for --checkpoint-particles: must be at least 1",
+                                shown(v, arg));
+        o->checkpoint = 1;
+        o->checkpoint_particles = n;
+        break;
+    case OPT_CHECKPOINT_COMPRESS: o->checkpoint = 1; o->checkpoint_compress = 1; break;
+    case OPT_RESUME: o->checkpoint = 1; o->resume = arg; break;
     case 'h': o->action = CLI_HELP; break;
     case 'V': o->action = CLI_VERSION; break;
     default: return fail(err, errlen, "internal error: option %d has no handler", d->id);
@@ -430,7 +504,7 @@ static int parse_args(int argc, char **argv, cli_options *out, char *err, size_t
                 char l[64];
                 return fail(err, errlen, "option %s does not take a value", opt_label(l, d));
             }
-            if (optopt > 0 && optopt < 256)
+            if (optopt > 0x20 && optopt < 0x7f) /* printable: control bytes would break the line */
                 return fail(err, errlen, "unknown option '-%c' (see --help)", optopt);
             return fail(err, errlen, "unknown or ambiguous option '%s' (see --help)", shown(v, cur));
         }
@@ -473,6 +547,11 @@ int cli_parse(int argc, char **argv, cli_options *out, char *err, size_t errlen)
         return fail(err, errlen, "--no-output and --out exclude each other");
     if (out->no_output && out->force)
         return fail(err, errlen, "--no-output and --force exclude each other");
+    if (out->no_output && out->checkpoint)
+        return fail(err, errlen, "checkpoints need a run directory: --no-output excludes them");
+    if (out->resume && (out->out_dir || out->force))
+        return fail(err, errlen, "--resume continues in the checkpoint's run directory: "
+                                 "--out and --force do not apply");
     if (pdla_params_validate(&out->params, err, errlen) != PDLA_OK) return CLI_PARSE_ERROR;
     return CLI_PARSE_OK;
 }
@@ -595,6 +674,8 @@ size_t cli_help_text(char *buf, size_t len, const pdla_params *defaults)
         "Exit status: 0 done; 1 runtime failure (growth or writing failed; what was\n"
         "grown is still written when possible); 2 bad usage, input or run directory.\n"
         "On SIGINT or SIGTERM, pdla writes the partial cluster and then ends by that\n"
-        "signal (shell status 130 or 143); a second signal ends it at once.\n");
+        "signal (shell status 130 or 143); a second signal ends it at once. With\n"
+        "checkpoints on, it writes a checkpoint too and exits 0: resume it with\n"
+        "pdla --resume RUN_DIR.\n");
     return t.pos;
 }

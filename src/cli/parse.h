@@ -39,6 +39,13 @@ typedef struct cli_options {
     const char *scene;       /* --scene FILE (into argv), NULL: none */
     char scene_out[4096];    /* a scene's `out` and `stats-json` values live */
     char scene_stats[4096];  /* here (out_dir/stats_json point to them) */
+    /* Checkpoints (README "Checkpoints and resume"). */
+    int checkpoint;          /* 1: write checkpoints (any --checkpoint* option or --resume) */
+    double checkpoint_every; /* --checkpoint-every, seconds; 0: no time trigger */
+    uint64_t checkpoint_particles; /* --checkpoint-particles; 0: no particle trigger */
+    int checkpoint_compress; /* --checkpoint-compress */
+    const char *resume;      /* --resume DIR|FILE (into argv), NULL: a new run */
+    uint32_t given;          /* PDLA_PARAM_* bits of the parameters given explicitly */
 } cli_options;
 
 /* Return values of cli_parse. */
@@ -64,6 +71,9 @@ int cli_set_option(cli_options *o, const char *name, const char *value, char *er
  * reason such as "trailing characters after the number" (*out untouched). */
 const char *cli_parse_count(const char *s, uint64_t *out);
 const char *cli_parse_real(const char *s, double *out);
+/* A positive duration: a decimal number of seconds with an optional suffix
+ * s, m or h ("90", "30m", "1.5h"). */
+const char *cli_parse_duration(const char *s, double *out);
 
 /* The --help text for the given defaults, like snprintf: writes at most len
  * bytes (NUL-terminated when len > 0) and returns the full length. */

@@ -58,9 +58,10 @@
 #define DISTMAP_BITS TREE_LEAF_BITS
 #define DISTMAP_BUDGET_MIN ((size_t)1 << 19)
 #define DISTMAP_BUDGET_PER_PARTICLE 0.04
-/* 3D: the target is 6 bytes/particle at 1e6 and the tree takes ~4.1, and a
- * 3D cluster needs far fewer cells per particle: leaf cells to 1e6. */
-#define DISTMAP_BUDGET_PER_PARTICLE_3D 2.0
+/* 3D: the target is 6 bytes/particle at 1e6 and the tree takes ~4.8 in
+ * peak RSS. Measured at 3D 1e6 (VmHWM difference to 1e4, seed 1): budget
+ * 2.0 -> 6.18 B/p, 22.4 s; 1.5 -> 5.83 B/p, 22.9 s; 1.0 -> 4.69 B/p, 26.1 s. */
+#define DISTMAP_BUDGET_PER_PARTICLE_3D 1.5
 
 typedef struct distmap_level {
     _Atomic uint8_t *cell;        /* width^dim cells, x fastest; fine: two per byte */

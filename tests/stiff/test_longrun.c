@@ -19,8 +19,11 @@
  * cluster's D_f over three decades scatters by ~0.03, its R_g at fixed N by
  * ~2% (runs/error-report). With fewer clusters or a smaller N (two decades
  * of fit: D_f scatters by ~0.04 per cluster) they are not meant to hold.
- * Seeds 1..CLUSTERS, so a failure replays. 10^7 is not run: ~2.5 min per
- * cluster on this project's 2-core machine, too long for an ensemble here.
+ * Seeds 1..CLUSTERS, so a failure replays. The slow suite also grows one
+ * cluster of 10^7 (seed 1, ~70 s): a single cluster, so its tolerances are
+ * the per-cluster ones above plus the ensemble's, which seed 1 meets with
+ * some margin (C = 0.495 .. 0.513, drift +3.6%, D_f 1.704); it guards against drift from
+ * precision loss at large radius rather than measuring the ensemble.
  */
 #include <math.h>
 #include <stdlib.h>
@@ -41,9 +44,10 @@ int main(int argc, char **argv)
     const int clusters = argc > 1 ? atoi(argv[1]) : 8;
     const uint64_t N = argc > 2 ? (uint64_t)atof(argv[2]) : 1000000;
     const double inv = 1.0 / 1.71;
-    uint64_t checkpoints[3] = {10000, 100000, 1000000};
-    double sum_ratio[3] = {0}, sum_local = 0, sum_df = 0;
-    int used[3] = {0};
+    enum { NCHECK = 4 };
+    const uint64_t checkpoints[NCHECK] = {10000, 100000, 1000000, 10000000};
+    double sum_ratio[NCHECK] = {0}, sum_local = 0, sum_df = 0;
+    int used[NCHECK] = {0};
     for (int c = 0; c < clusters; c++) {
         pdla_params P;
         pdla_params_default(&P);
@@ -64,7 +68,7 @@ int main(int argc, char **argv)
         pdla_engine_stats(e, &st);
         fprintf(stderr, "cluster %d (seed %llu): N %llu in %.1f s, R_g %.2f diam, D_f %.4f +/- %.4f;", c,
                 (unsigned long long)P.seed, (unsigned long long)N, st.grow_seconds, st.rg_diam, f.df, f.df_err);
-        for (int k = 0; k < 3; k++) {
+        for (int k = 0; k < NCHECK; k++) {
             if (checkpoints[k] > N) continue;
             const double r = rg_at(n, rg, count, checkpoints[k]) / pow((double)checkpoints[k], inv);
             fprintf(stderr, " C(%g) %.4f", (double)checkpoints[k], r);
@@ -81,7 +85,7 @@ int main(int argc, char **argv)
         pdla_engine_destroy(e);
     }
     int last = -1;
-    for (int k = 0; k < 3; k++) {
+    for (int k = 0; k < NCHECK; k++) {
         if (!used[k]) continue;
         const double m = sum_ratio[k] / used[k];
         fprintf(stderr, "ensemble of %d: R_g/N^(1/1.71) at %g = %.4f\n", clusters, (double)checkpoints[k], m);

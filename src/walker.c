@@ -187,8 +187,10 @@ static inline __attribute__((always_inline)) int walk_dim(const pdla_engine *e, 
             continue;
         }
         /* Far from the cluster one look-up in the distance map bounds the
-         * distance (at least one map cell, far above the sticking shell). */
-        const int64_t far = distmap_bound(&e->dmap, p, dim);
+         * distance (at least one map cell, far above the sticking shell).
+         * --exact-search (the reference setting) skips the map and the
+         * block cut: every jump is by the exact distance from the tree. */
+        const int64_t far = P->exact_search ? 0 : distmap_bound(&e->dmap, p, dim);
         if (far > 0) {
             jump(w, p, (double)far - D - 1.0, dim);
             jumps++;
@@ -197,7 +199,9 @@ static inline __attribute__((always_inline)) int walk_dim(const pdla_engine *e, 
         /* Near the cluster in 2D: the 3 x 3 leaves around the walker, whose
          * chunks stay cached while it moves among them. (In 3D the cut at
          * the block's edge costs more jumps than it saves: the tree.) */
-        uint64_t d2 = dim == 2 ? search_block2(t, &e->search, &e->dmap, p, &w->ss) : UINT64_MAX;
+        uint64_t d2 = dim == 2 && !P->exact_search
+                          ? search_block2(t, &e->search, &e->dmap, p, &w->ss)
+                          : UINT64_MAX;
         if (d2 == UINT64_MAX) d2 = search_lower_bound2(t, &e->search, p, UINT64_MAX, &w->ss);
         if (d2 < stick2) {
             for (int a = 0; a < dim; a++) stuck_at[a] = p[a];

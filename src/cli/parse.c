@@ -521,7 +521,20 @@ static int parse_args(int argc, char **argv, cli_options *out, char *err, size_t
     return CLI_PARSE_OK;
 }
 
+static int parse_all(int argc, char **argv, cli_options *out, char *err, size_t errlen);
+
+/* Errors are one line: a file name or argument quoted in the message may
+ * hold a newline or another control byte, so those are shown as '?'. */
 int cli_parse(int argc, char **argv, cli_options *out, char *err, size_t errlen)
+{
+    const int rc = parse_all(argc, argv, out, err, errlen);
+    if (rc == CLI_PARSE_ERROR && err)
+        for (char *c = err; *c; c++)
+            if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
+    return rc;
+}
+
+static int parse_all(int argc, char **argv, cli_options *out, char *err, size_t errlen)
 {
     memset(out, 0, sizeof *out);
     pdla_params_default(&out->params);

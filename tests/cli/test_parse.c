@@ -122,6 +122,9 @@ typedef struct bad_case {
 
 static const bad_case bad[] = {
     {{"--bogus", NULL}, "unknown"},
+    /* A newline in a quoted name must not split the one-line error (the
+     * fuzzer's find: --sc "//\xce\nF"); the test also rejects '\n'. */
+    {{"--sc", "//\xce\nF", NULL}, "scene //\xce?F"},
     {{"-x", NULL}, "unknown option '-x'"},
     {{"--target", NULL}, "needs a value"},
     {{"--target", "12x", NULL}, "invalid value '12x' for --target: trailing characters"},

@@ -229,20 +229,7 @@ fail:
 static void sum_counters(const pdla_engine *e, walker_ctx *s)
 {
     *s = e->walker;
-    for (int i = 0; i < e->nworkers; i++) {
-        const walker_ctx *o = &e->workers[i];
-        s->walkers += o->walkers;
-        s->jumps += o->jumps;
-        s->returns += o->returns;
-        s->lost += o->lost;
-        s->killed += o->killed;
-        s->restarts += o->restarts;
-        s->ss.node_visits += o->ss.node_visits;
-        s->ss.particle_checks += o->ss.particle_checks;
-        s->recheck_overlaps += o->recheck_overlaps;
-        s->recheck_continued += o->recheck_continued;
-        s->recheck_discarded += o->recheck_discarded;
-    }
+    for (int i = 0; i < e->nworkers; i++) walker_ctx_add_counts(s, &e->workers[i]);
 }
 
 static void split128(unsigned __int128 v, uint64_t *out)
@@ -345,22 +332,12 @@ static int reserve_early(const h5u_writer *w, hid_t file, uint64_t bytes)
 static int write_ckpt_file(const h5u_writer *w, const char *tmp, const pdla_engine *e,
                            const pdla_checkpoint_opts *o, uint64_t generation)
 {
-    hid_t fapl = H5I_INVALID_HID, fcpl = H5I_INVALID_HID, file = H5I_INVALID_HID;
+    hid_t file = H5I_INVALID_HID;
     int rc = -1;
     pdla_provenance pv;
     (void)prov_collect(&pv);
     const int gzip = o && o->compress ? 1 : 0;
-    if ((fapl = H5Pcreate(H5P_FILE_ACCESS)) < 0 || H5Pset_fapl_sec2(fapl) < 0 ||
-        H5Pset_libver_bounds(fapl, H5F_LIBVER_V110, H5F_LIBVER_V110) < 0 ||
-        H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) < 0 ||
-        (fcpl = H5Pcreate(H5P_FILE_CREATE)) < 0 || H5Pset_obj_track_times(fcpl, 0) < 0) {
-        h5u_fail(w, "make the file properties");
-        goto fail;
-    }
-    if ((file = H5Fcreate(tmp, H5F_ACC_TRUNC, fcpl, fapl)) < 0) {
-        h5u_fail(w, "create %s", tmp);
-        goto fail;
-    }
+    if ((file = h5u_create_file(w, tmp)) < 0) goto fail;
     if (reserve_early(w, file, size_bound(e)) < 0) goto fail;
     if (h5u_attr_str(w, file, "format", FORMAT_NAME) < 0 ||
         h5u_attr_int(w, file, "format_version", FORMAT_VERSION) < 0 ||
@@ -378,9 +355,7 @@ static int write_ckpt_file(const h5u_writer *w, const char *tmp, const pdla_engi
     rc = 0;
 fail:
     if (rc < 0 && file >= 0) h5u_divert_writes(file);
-    rc = h5u_close(w, rc, file, H5Fclose, tmp);
-    rc = h5u_close(w, rc, fcpl, H5Pclose, "file creation properties");
-    return h5u_close(w, rc, fapl, H5Pclose, "file access properties");
+    return h5u_close(w, rc, file, H5Fclose, tmp);
 }
 
 int pdla_checkpoint_write(pdla_engine *e, const char *dir, const pdla_checkpoint_opts *opts,

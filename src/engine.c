@@ -314,6 +314,21 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
 const pdla_params *pdla_engine_params(const pdla_engine *e) { return &e->params; }
 uint64_t pdla_engine_count(const pdla_engine *e) { return tree_count(&e->tree); }
 
+void walker_ctx_add_counts(walker_ctx *s, const walker_ctx *o)
+{
+    s->walkers += o->walkers;
+    s->jumps += o->jumps;
+    s->returns += o->returns;
+    s->lost += o->lost;
+    s->killed += o->killed;
+    s->restarts += o->restarts;
+    s->ss.node_visits += o->ss.node_visits;
+    s->ss.particle_checks += o->ss.particle_checks;
+    s->recheck_overlaps += o->recheck_overlaps;
+    s->recheck_continued += o->recheck_continued;
+    s->recheck_discarded += o->recheck_discarded;
+}
+
 static void add_walker_counts(pdla_stats *s, const walker_ctx *w)
 {
     s->walkers += w->walkers;

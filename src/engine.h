@@ -81,6 +81,9 @@ int walker_run(const pdla_engine *e, walker_ctx *w, int64_t *stuck_at);
  * search state (its cached tree path finds the leaves). */
 int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2, search_state *k);
 
+/* Add o's counters (walkers, jumps, ..., re-checks) to into's. */
+void walker_ctx_add_counts(walker_ctx *into, const walker_ctx *o);
+
 double gyration_rg2_units(const gyration_sums *g, int dim);
 
 /* PDLA_ERANGE if p lies beyond the coordinate limit. */

@@ -157,6 +157,28 @@ fail:
 
 /* ---- groups and datasets ------------------------------------------------ */
 
+hid_t h5u_create_file(const h5u_writer *w, const char *path)
+{
+    hid_t fapl = H5I_INVALID_HID, fcpl = H5I_INVALID_HID, file = H5I_INVALID_HID;
+    /* The file creation properties carry the root group's, hence no time
+     * stamps on / either. */
+    if ((fapl = H5Pcreate(H5P_FILE_ACCESS)) < 0 || H5Pset_fapl_sec2(fapl) < 0 ||
+        H5Pset_libver_bounds(fapl, H5F_LIBVER_V110, H5F_LIBVER_V110) < 0 ||
+        H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) < 0 ||
+        (fcpl = H5Pcreate(H5P_FILE_CREATE)) < 0 || H5Pset_obj_track_times(fcpl, 0) < 0)
+        h5u_fail(w, "make the file properties");
+    else if ((file = H5Fcreate(path, H5F_ACC_TRUNC, fcpl, fapl)) < 0)
+        h5u_fail(w, "create %s", path);
+    int rc = file < 0 ? -1 : 0;
+    rc = h5u_close(w, rc, fcpl, H5Pclose, "file creation properties");
+    rc = h5u_close(w, rc, fapl, H5Pclose, "file access properties");
+    if (rc < 0 && file >= 0) {
+        H5Fclose(file);
+        return H5I_INVALID_HID;
+    }
+    return file;
+}
+
 hid_t h5u_group(const h5u_writer *w, hid_t loc, const char *name)
 {
     hid_t gcpl = H5I_INVALID_HID, g = H5I_INVALID_HID;

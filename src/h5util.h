@@ -41,6 +41,12 @@ int h5u_attr_f64(const h5u_writer *w, hid_t obj, const char *name, double v);
 int h5u_attr_str(const h5u_writer *w, hid_t obj, const char *name, const char *s);
 
 /* A group without time stamps. */
+/* Create (truncate) path in the 1.10 format, without object time stamps
+ * and with H5F_CLOSE_STRONG (H5Fclose also closes anything an unwind left
+ * open, so a failed write never keeps the file half-open). Returns the file
+ * or a negative id with the reason in w. */
+hid_t h5u_create_file(const h5u_writer *w, const char *path);
+
 hid_t h5u_group(const h5u_writer *w, hid_t loc, const char *name);
 /* A dataset of rank 1 or 2 whose first dimension is `rows`: chunked by
  * chunk_rows with Fletcher32 when it has rows, contiguous and empty if not.

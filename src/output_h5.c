@@ -304,24 +304,11 @@ static int check_space(const h5u_writer *w, const pdla_engine *e, const char *di
 static int write_file(const h5u_writer *w, const char *tmp, const pdla_engine *e,
                       const pdla_run_info *info, const pdla_provenance *pv)
 {
-    hid_t fapl = H5I_INVALID_HID, fcpl = H5I_INVALID_HID, file = H5I_INVALID_HID;
+    hid_t file = H5I_INVALID_HID;
     pdla_stats s;
     int rc = -1;
     pdla_engine_stats(e, &s);
-    /* STRONG: H5Fclose also closes anything an unwind left open, so a failed
-     * write never keeps the file half-open. The file creation properties
-     * carry the root group's, hence no time stamps on / either. */
-    if ((fapl = H5Pcreate(H5P_FILE_ACCESS)) < 0 || H5Pset_fapl_sec2(fapl) < 0 ||
-        H5Pset_libver_bounds(fapl, H5F_LIBVER_V110, H5F_LIBVER_V110) < 0 ||
-        H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) < 0 ||
-        (fcpl = H5Pcreate(H5P_FILE_CREATE)) < 0 || H5Pset_obj_track_times(fcpl, 0) < 0) {
-        h5u_fail(w, "make the file properties");
-        goto fail;
-    }
-    if ((file = H5Fcreate(tmp, H5F_ACC_TRUNC, fcpl, fapl)) < 0) {
-        h5u_fail(w, "create %s", tmp);
-        goto fail;
-    }
+    if ((file = h5u_create_file(w, tmp)) < 0) goto fail;
     if (h5u_attr_str(w, file, "format", "pdla-cluster") < 0 ||
         h5u_attr_int(w, file, "format_version", 1) < 0 || h5u_attr_str(w, file, "units", units_text) < 0 ||
         h5u_write_parameters(w, file, pdla_engine_params(e)) < 0 ||
@@ -332,9 +319,7 @@ static int write_file(const h5u_writer *w, const char *tmp, const pdla_engine *e
     rc = 0;
 fail:
     if (rc < 0 && file >= 0) h5u_divert_writes(file);
-    rc = h5u_close(w, rc, file, H5Fclose, tmp);
-    rc = h5u_close(w, rc, fcpl, H5Pclose, "file creation properties");
-    return h5u_close(w, rc, fapl, H5Pclose, "file access properties");
+    return h5u_close(w, rc, file, H5Fclose, tmp);
 }
 
 int pdla_output_write(const pdla_engine *e, const pdla_run_info *info, const char *path,

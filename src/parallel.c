@@ -193,20 +193,7 @@ int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, v
     }
     /* Counters of an earlier parallel phase are folded into the serial
      * walker so stats stay cumulative. */
-    for (int i = 0; i < e->nworkers; i++) {
-        walker_ctx *o = &e->workers[i], *s = &e->walker;
-        s->walkers += o->walkers;
-        s->jumps += o->jumps;
-        s->returns += o->returns;
-        s->lost += o->lost;
-        s->killed += o->killed;
-        s->restarts += o->restarts;
-        s->ss.node_visits += o->ss.node_visits;
-        s->ss.particle_checks += o->ss.particle_checks;
-        s->recheck_overlaps += o->recheck_overlaps;
-        s->recheck_continued += o->recheck_continued;
-        s->recheck_discarded += o->recheck_discarded;
-    }
+    for (int i = 0; i < e->nworkers; i++) walker_ctx_add_counts(&e->walker, &e->workers[i]);
     free(e->workers);
     e->workers = NULL;
     e->nworkers = 0;

@@ -29,6 +29,7 @@
 
 #include "fit.h"
 #include "h5read.h"
+#include "parse.h"
 #include "tools.h"
 
 static const char analyze_help[] =
@@ -124,26 +125,9 @@ typedef struct analyze_opts {
     size_t slab_rows;
 } analyze_opts;
 
-static int parse_real(const char *s, double *out)
-{
-    char *end;
-    errno = 0;
-    const double v = strtod(s, &end);
-    if (errno || end == s || *end || !isfinite(v)) return -1;
-    *out = v;
-    return 0;
-}
+/* The option values use the main command line's strict parsers. */
+static int parse_real(const char *s, double *out) { return cli_parse_real(s, out) ? -1 : 0; }
 
-static int parse_uint(const char *s, long lo, long hi, long *out)
-{
-    char *end;
-    errno = 0;
-    if (*s < '0' || *s > '9') return -1;
-    const long v = strtol(s, &end, 10);
-    if (errno || *end || v < lo || v > hi) return -1;
-    *out = v;
-    return 0;
-}
 
 static int write_csvs(const analyze_opts *o, const uint64_t *sn, const double *srg, size_t k,
                       const pdla_fit *frg, const double *edges_diam, const uint64_t *mass,
@@ -210,14 +194,14 @@ int tool_analyze(int argc, char **argv)
             if (parse_real(optarg, &o.fit_max_frac) || !(o.fit_max_frac > 0 && o.fit_max_frac <= 1)) bad = "--fit-max: want a fraction in (0, 1]";
             break;
         case O_PERDEC:
-            if (parse_uint(optarg, 2, 1000, &v)) bad = "--per-decade: want a whole number in [2, 1000]";
+            if (cli_parse_long_in(optarg, 2, 1000, &v)) bad = "--per-decade: want a whole number in [2, 1000]";
             else o.per_decade = (int)v;
             break;
         case O_CSV: o.csv_dir = optarg; break;
         case O_FORCE: o.force = 1; break;
         case O_JSON: o.json = 1; break;
         case O_SLAB:
-            if (parse_uint(optarg, 1, H5R_MAX_SLAB_ROWS, &v)) bad = "--slab-rows: want a whole number in [1, 65536]";
+            if (cli_parse_long_in(optarg, 1, H5R_MAX_SLAB_ROWS, &v)) bad = "--slab-rows: want a whole number in [1, 65536]";
             else o.slab_rows = (size_t)v;
             break;
         case 'h': fputs(analyze_help, stdout); return fflush(stdout) ? TOOL_RUNTIME : TOOL_OK;

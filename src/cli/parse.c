@@ -521,6 +521,14 @@ static int parse_args(int argc, char **argv, cli_options *out, char *err, size_t
     return CLI_PARSE_OK;
 }
 
+int cli_parse_long_in(const char *s, long lo, long hi, long *out)
+{
+    uint64_t v;
+    if (lo < 0 || cli_parse_count(s, &v) || v < (uint64_t)lo || v > (uint64_t)hi) return -1;
+    *out = (long)v;
+    return 0;
+}
+
 static int parse_all(int argc, char **argv, cli_options *out, char *err, size_t errlen);
 
 /* Errors are one line: a file name or argument quoted in the message may

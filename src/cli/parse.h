@@ -71,6 +71,10 @@ int cli_set_option(cli_options *o, const char *name, const char *value, char *er
  * reason such as "trailing characters after the number" (*out untouched). */
 const char *cli_parse_count(const char *s, uint64_t *out);
 const char *cli_parse_real(const char *s, double *out);
+
+/* A count (as cli_parse_count) within [lo, hi]: 0, else -1 (subcommands'
+ * whole-number options). */
+int cli_parse_long_in(const char *s, long lo, long hi, long *out);
 /* A positive duration: a decimal number of seconds with an optional suffix
  * s, m or h ("90", "30m", "1.5h"). */
 const char *cli_parse_duration(const char *s, double *out);

@@ -28,6 +28,7 @@
 #include <string.h>
 
 #include "h5read.h"
+#include "parse.h"
 #include "tools.h"
 
 static const char render_help[] =
@@ -230,17 +231,6 @@ static int write_png(FILE *fp, const canvas *c, char *err, size_t errlen)
     return 0;
 }
 
-static int parse_long(const char *s, long lo, long hi, long *out)
-{
-    char *end;
-    errno = 0;
-    if (*s < '0' || *s > '9') return -1;
-    const long v = strtol(s, &end, 10);
-    if (errno || *end || v < lo || v > hi) return -1;
-    *out = v;
-    return 0;
-}
-
 int tool_render(int argc, char **argv)
 {
     enum { O_SIZE = 256, O_COLOR, O_AXIS, O_ZOOM, O_FORCE, O_SLAB };
@@ -261,7 +251,7 @@ int tool_render(int argc, char **argv)
         switch (c) {
         case 'o': out = optarg; break;
         case O_SIZE:
-            if (parse_long(optarg, 16, 8192, &size)) bad = "--size: want a whole number in [16, 8192]";
+            if (cli_parse_long_in(optarg, 16, 8192, &size)) bad = "--size: want a whole number in [16, 8192]";
             break;
         case O_COLOR:
             if (strcmp(optarg, "density") == 0) mode = COL_DENSITY;
@@ -274,17 +264,13 @@ int tool_render(int argc, char **argv)
             if (strlen(optarg) == 1 && optarg[0] >= 'x' && optarg[0] <= 'z') axis = optarg[0] - 'x';
             else bad = "--axis: want x, y or z";
             break;
-        case O_ZOOM: {
-            char *end;
-            errno = 0;
-            zoom = strtod(optarg, &end);
-            if (errno || end == optarg || *end || !(zoom >= 1 && zoom <= 1e6))
+        case O_ZOOM:
+            if (cli_parse_real(optarg, &zoom) || !(zoom >= 1 && zoom <= 1e6))
                 bad = "--zoom: want a number in [1, 1e6]";
             break;
-        }
         case O_FORCE: force = 1; break;
         case O_SLAB:
-            if (parse_long(optarg, 1, H5R_MAX_SLAB_ROWS, &slab)) bad = "--slab-rows: want a whole number in [1, 65536]";
+            if (cli_parse_long_in(optarg, 1, H5R_MAX_SLAB_ROWS, &slab)) bad = "--slab-rows: want a whole number in [1, 65536]";
             break;
         case 'h': fputs(render_help, stdout); return fflush(stdout) ? TOOL_RUNTIME : TOOL_OK;
         default:

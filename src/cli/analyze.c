@@ -128,7 +128,6 @@ typedef struct analyze_opts {
 /* The option values use the main command line's strict parsers. */
 static int parse_real(const char *s, double *out) { return cli_parse_real(s, out) ? -1 : 0; }
 
-
 static int write_csvs(const analyze_opts *o, const uint64_t *sn, const double *srg, size_t k,
                       const pdla_fit *frg, const double *edges_diam, const uint64_t *mass,
                       size_t nedges, double fit_lo, double fit_hi, int D, char *err, size_t errlen)

@@ -79,6 +79,14 @@ typedef struct distmap_grid {
 } distmap_grid;
 
 typedef struct distmap {
+    /* Read by walkers on every jump near the cluster; each group on its own
+     * cache line (PDLA_CACHE_PAD), as the writer's fields change with every
+     * particle and `leaves` with every new leaf. */
+    _Atomic(distmap_grid *) grid; /* NULL: no map (readers use the tree) */
+    PDLA_CACHE_PAD(pad_grid_);
+    _Atomic uint64_t leaves;      /* fine cells marked occupied so far (= leaves) */
+    PDLA_CACHE_PAD(pad_leaves_);
+    /* The writer's (under the engine's bucket mutex while workers run). */
     int dim;
     int bits;                     /* fine cell side 2^bits units, >= TREE_LEAF_BITS */
     int64_t margin;               /* units the grid keeps beyond every particle */
@@ -86,12 +94,11 @@ typedef struct distmap {
     uint64_t particles;           /* particles added (sizes the memory budget) */
     size_t budget_min;            /* the fine level may use max(budget_min, */
     double budget_per_particle;   /*   budget_per_particle x particles) bytes */
-    _Atomic(distmap_grid *) grid; /* NULL: no map (readers use the tree) */
-    _Atomic uint64_t leaves;      /* fine cells marked occupied so far (= leaves) */
     distmap_grid *old;            /* retired grids, freed at quiesce */
     uint64_t *queue;              /* ring buffer of the breadth-first pass */
     size_t qcap;
     size_t bytes;                 /* bytes of the current grid */
+    PDLA_CACHE_PAD(pad_end_);
 } distmap;
 
 /* margin_units: how far beyond the farthest particle queries are expected

@@ -28,17 +28,35 @@ typedef struct walker_ctx {
     search_state ss;
     uint64_t walkers, jumps, returns, lost, killed, restarts;
     uint64_t recheck_overlaps, recheck_continued, recheck_discarded;
+    PDLA_CACHE_PAD(pad_); /* workers' contexts sit side by side in one array */
 } walker_ctx;
 
 struct pdla_engine {
+    /* Read by every walker step; written once (or, r_ext and stop, rarely).
+     * The groups below are kept a cache line apart (PDLA_CACHE_PAD) so that
+     * what inserting threads write does not evict what walkers read. */
     pdla_params params;
-    tree tree;
     search_config search;
+    _Atomic int64_t r_ext;    /* ceil(sqrt(r_ext2)); read by walkers without a lock */
+    _Atomic int stop;         /* set to make the workers return */
+    PDLA_CACHE_PAD(pad_read_);
+    tree tree;                /* padded inside: query fields / insertion counts */
     distmap dmap;             /* far-query accelerator, derived from the tree */
-    walker_ctx walker;
+    /* PDLA: the three mutexes of the seed's flow diagram, each on its own
+     * line. node: creating tree nodes (inner pool, root growth); bucket:
+     * appending to a leaf's chunks (chunk pool, count, the exact re-check,
+     * the target, the distance map and the recent-insertion ring); gyration:
+     * the R_g sums, R_ext and the samples. Taken one at a time, in that
+     * order. */
+    pthread_mutex_t node_mu;
+    PDLA_CACHE_PAD(pad_node_);
+    pthread_mutex_t bucket_mu;
+    PDLA_CACHE_PAD(pad_bucket_);
+    pthread_mutex_t gyration_mu;
+    PDLA_CACHE_PAD(pad_gyration_);
+    /* Written under the gyration mutex (or by the one serial thread). */
     gyration_sums gyr;
     uint64_t r_ext2;          /* max |x|^2 of particle centres, units^2 */
-    _Atomic int64_t r_ext;    /* ceil(sqrt(r_ext2)); read by walkers without a lock */
     /* R_g(N) samples on a fixed log grid: N_k = round(10^(k / rg_per_decade)). */
     uint64_t *rg_n;
     double *rg_diam;
@@ -47,18 +65,12 @@ struct pdla_engine {
     uint64_t rg_next_n;       /* its N */
     int32_t *arrival;         /* record_arrival: positions in arrival order */
     uint64_t arrival_cap;     /* particles it has room for */
+    /* The caller's thread only. */
+    walker_ctx walker;        /* the serial phase's walker */
     double grow_seconds;
     double parallel_seconds;
-    /* PDLA: the three mutexes of the seed's flow diagram. node: creating tree
-     * nodes (inner pool, root growth); bucket: appending to a leaf's chunks
-     * (chunk pool, count, the exact re-check and the target); gyration: the
-     * R_g sums, R_ext and the samples. Taken in that order, never nested the
-     * other way. */
-    pthread_mutex_t node_mu, bucket_mu, gyration_mu;
-    _Atomic int stop;          /* set to make the workers return */
     walker_ctx *workers;       /* per-thread walkers of the last parallel phase */
     int nworkers;
-    int workers_error;         /* first PDLA_E* a worker hit, under bucket_mu */
     char binding[256];
     uint64_t ckpt_generation;  /* checkpoints written (or loaded) so far */
     double ckpt_write_seconds; /* time of the last checkpoint write */

@@ -4,8 +4,11 @@
  * diagram of Sosa-Herrera & Rodriguez-Romo (Fig. 6):
  *
  *   walk (lock-free reads of the tree)
+ *   -> exact check of the spot against the live tree, lock-free
  *   -> [node mutex]     create the tree nodes down to the particle's leaf
- *   -> [bucket mutex]   exact re-check of the spot, target check, append
+ *                       (skipped when they exist, as for most particles)
+ *   -> [bucket mutex]   re-check against the particles appended since,
+ *                       target check, distance map, append
  *   -> [gyration mutex] R_g sums, R_ext, R_g samples
  *
  * The re-check matters because another walker may have stuck in the spot
@@ -26,9 +29,22 @@
 
 #include "engine.h"
 
+/* The positions of the last RECENT_CAP particles, by insertion index
+ * (particle i at slot i mod RECENT_CAP); written and read under the bucket
+ * mutex. A worker checks its spot against the live tree without a lock, then
+ * under the lock only against the particles appended since: a few entries
+ * instead of a tree search inside the one critical section every insertion
+ * passes through. */
+#define RECENT_CAP 4096u
+
+typedef struct recent_ring {
+    int32_t pos[RECENT_CAP][3];
+} recent_ring;
+
 typedef struct worker {
     pdla_engine *e;
     walker_ctx *w;
+    recent_ring *recent;     /* shared by all workers */
     uint64_t n_until;
     hwloc_topology_t topo;   /* NULL unless binding */
     hwloc_obj_t core;        /* core to bind to, or NULL */
@@ -47,7 +63,36 @@ static int worker_fail(worker *k, int rc, const char *what)
     return rc;
 }
 
-/* Insert the particle where walker w stopped; see the file comment. */
+/* 1 if a particle appended since the first `seen` ones lies closer than
+ * sqrt(D2) to p; caller holds the bucket mutex. Falls back to the tree when
+ * the ring no longer holds them all. */
+static int recent_overlap(const pdla_engine *e, const recent_ring *r, uint64_t seen,
+                          const int64_t *p, uint64_t D2)
+{
+    const tree *t = &e->tree;
+    const uint64_t now = atomic_load_explicit(&t->count, memory_order_relaxed);
+    if (now - seen > RECENT_CAP) {
+        int64_t q[3];
+        uint64_t d2;
+        return search_nearest_point(t, p, D2, q, &d2);
+    }
+    for (uint64_t i = seen; i < now; i++) {
+        const int32_t *x = r->pos[i % RECENT_CAP];
+        uint64_t d2 = 0;
+        for (int a = 0; a < t->dim; a++) {
+            const int64_t d = p[a] - x[a];
+            d2 += (uint64_t)(d * d);
+        }
+        if (d2 < D2) return 1;
+    }
+    return 0;
+}
+
+/* Insert the particle where walker w stopped; see the file comment. The exact
+ * re-check is split in two: against the live tree as of `seen` particles
+ * without a lock, then against those appended since under the bucket mutex.
+ * Together they cover every particle present when the particle is appended,
+ * exactly as one check under the lock would. */
 static int insert_concurrent(worker *k, int64_t *p, int status)
 {
     pdla_engine *e = k->e;
@@ -73,36 +118,48 @@ static int insert_concurrent(worker *k, int64_t *p, int status)
         char err[256];
         if (engine_check_range(e, p, err, sizeof err)) return worker_fail(k, PDLA_ERANGE, err);
 
+        /* Every particle below `seen` is visible to the search that follows
+         * (acquire on the count the bucket mutex's holder released). */
+        const uint64_t seen = tree_count(t);
+        int64_t q[3];
+        uint64_t d2;
+        if (search_nearest_point_cached(t, p, D2, q, &d2, &w->ss)) {
+            status = WALK_OVERLAP; /* someone stuck here since the last query */
+            continue;
+        }
         tree_slot slot;
-        pthread_mutex_lock(&e->node_mu);
-        int rc = tree_make_path(t, p, &slot);
-        pthread_mutex_unlock(&e->node_mu);
-        if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory (or tree index space) creating nodes");
+        if (!tree_find_slot(t, p, &slot)) {
+            pthread_mutex_lock(&e->node_mu);
+            const int rc = tree_make_path(t, p, &slot);
+            pthread_mutex_unlock(&e->node_mu);
+            if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory (or tree index space) creating nodes");
+        }
 
         pthread_mutex_lock(&e->bucket_mu);
-        if (tree_count(t) >= k->n_until) {
+        const uint64_t count = atomic_load_explicit(&t->count, memory_order_relaxed);
+        if (count >= k->n_until) {
             pthread_mutex_unlock(&e->bucket_mu);
             return TARGET_REACHED;
         }
-        int64_t q[3];
-        uint64_t d2;
-        if (search_nearest_point(t, p, D2, q, &d2)) {
+        if (recent_overlap(e, k->recent, seen, p, D2)) {
             pthread_mutex_unlock(&e->bucket_mu);
-            status = WALK_OVERLAP; /* someone stuck here meanwhile */
+            status = WALK_OVERLAP;
             continue;
         }
         /* The map first: a reader that sees the particle's cell lowered
          * before the particle itself only gets a smaller bound. */
         distmap_add(&e->dmap, p, 1);
-        rc = tree_append(t, &slot, p);
+        const int rc = tree_append(t, &slot, p);
+        if (rc == 0)
+            for (int a = 0; a < t->dim; a++) k->recent->pos[count % RECENT_CAP][a] = (int32_t)p[a];
         pthread_mutex_unlock(&e->bucket_mu);
         if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory appending a particle");
         if (retried) w->recheck_continued++;
 
         pthread_mutex_lock(&e->gyration_mu);
-        rc = engine_gyration_add(e, p, err, sizeof err);
+        const int grc = engine_gyration_add(e, p, err, sizeof err);
         pthread_mutex_unlock(&e->gyration_mu);
-        if (rc) return worker_fail(k, rc, err);
+        if (grc) return worker_fail(k, grc, err);
         return INSERTED;
     }
 }
@@ -163,9 +220,11 @@ int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, v
 
     walker_ctx *ws = calloc((size_t)n, sizeof *ws);
     worker *ks = calloc((size_t)n, sizeof *ks);
-    if (!ws || !ks) {
+    recent_ring *recent = malloc(sizeof *recent);
+    if (!ws || !ks || !recent) {
         free(ws);
         free(ks);
+        free(recent);
         if (topo) hwloc_topology_destroy(topo);
         snprintf(err, errlen, "out of memory for %d workers", n);
         return PDLA_ENOMEM;
@@ -182,6 +241,7 @@ int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, v
         ks[i].e = e;
         ks[i].w = &ws[i];
         ks[i].n_until = n_until;
+        ks[i].recent = recent;
         if (P->bind == PDLA_BIND_CORE) {
             ks[i].topo = topo;
             ks[i].core = hwloc_get_obj_by_type(topo, HWLOC_OBJ_CORE, (unsigned)(i % cores));
@@ -231,6 +291,7 @@ int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, v
     e->workers = ws;
     e->nworkers = n;
     free(ks);
+    free(recent);
     if (topo) hwloc_topology_destroy(topo);
     return rc;
 }

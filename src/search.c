@@ -82,8 +82,8 @@ static inline __attribute__((always_inline)) __m128i min_epi32(__m128i a, __m128
 /* Smallest squared distance from q (leaf-relative, |q| <= 2^14) to the
  * first m particles of a chunk. SSE2 (baseline on x86-64): coordinates as
  * 16-bit differences, squares summed by pmaddwd into 32 bits. The vector
- * loads also read the unused slots, so this runs only while no other thread
- * can be writing them (the serial phase); workers take the scalar path. */
+ * loads also read the unused slots and the link, so while workers append it
+ * runs only on full chunks that link to a next one (scan_leaf). */
 static inline __attribute__((always_inline)) uint32_t chunk_min_d2(const uint8_t *chunk,
                                                                    const int64_t *q, uint32_t m,
                                                                    const int dim)
@@ -151,9 +151,22 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
         const uint32_t link = tree_chunk_link(t, chunk);
         const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
         k->particle_checks += m;
-        if (small && !concurrent) {
+        /* A chunk that links to a next one is full and never written again,
+         * so the vector loads (which read all ten slots and the link) are
+         * safe even while workers append; only the last chunk of a leaf may
+         * be filling, and then only its first m slots may be read. */
+        if (small && (!concurrent || link > TREE_CHUNK_CAP)) {
             const uint32_t local = chunk_min_d2(chunk, q, m, dim);
             if (local < best2) best2 = local;
+        } else if (small) {
+            for (uint32_t j = 0; j < m; j++) {
+                uint32_t d2 = 0;
+                for (int a = 0; a < dim; a++) {
+                    const int32_t d = (int32_t)q[a] - (int32_t)chunk[a * TREE_CHUNK_CAP + (int)j];
+                    d2 += (uint32_t)(d * d);
+                }
+                if (d2 < best2) best2 = d2;
+            }
         } else {
             for (uint32_t j = 0; j < m; j++) {
                 uint64_t d2 = 0;
@@ -512,8 +525,7 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
     for (int i = 0; i < n; i++) {
         const int o = order[i];
         uint32_t head = k->blk_head[o];
-        /* While other threads insert, a leaf seen empty may have filled. */
-        if (head == BLK_EMPTY && !c->concurrent) continue;
+        if (head == BLK_EMPTY) continue;
         int64_t nlo[3];
         for (int a = 0; a < dim; a++) nlo[a] = lo[a] + (int64_t)block_off[o][a] * TREE_LEAF_SIDE;
         if (box_dist2(p, nlo, TREE_LEAF_SIDE, dim) >= best2) continue;
@@ -525,7 +537,11 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
                 continue;
             }
             head = find_leaf_cached(t, nlo, k, dim);
-            k->blk_head[o] = head ? head : BLK_EMPTY;
+            /* Marked in the map but not yet in the tree: a worker is between
+             * the two (the map goes first). Look again next time; the
+             * particle counts as not there yet, as for any query that
+             * precedes an insertion. */
+            k->blk_head[o] = head ? head : BLK_UNKNOWN;
             if (!head) continue;
         }
         int64_t q[3];

@@ -195,6 +195,33 @@ int tree_make_path(tree *t, const int64_t *p, tree_slot *slot)
     }
 }
 
+int tree_find_slot(const tree *t, const int64_t *p, tree_slot *slot)
+{
+    const tree_root root = tree_root_get(t);
+    if (!inside_root(t, root.level, p)) return 0;
+    const int dim = t->dim;
+    int64_t lo[3];
+    for (int a = 0; a < dim; a++) lo[a] = -tree_root_half(root.level);
+    uint32_t node = root.node;
+    for (int level = root.level;; level--) {
+        const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
+        uint32_t k = 0;
+        for (int a = 0; a < dim; a++)
+            if (p[a] >= lo[a] + half) {
+                k |= 1u << a;
+                lo[a] += half;
+            }
+        if (level == 1) {
+            slot->node = node;
+            slot->k = k;
+            for (int a = 0; a < dim; a++) slot->leaf_lo[a] = lo[a];
+            return 1;
+        }
+        node = tree_child(tree_children(t, node), k);
+        if (!node) return 0;
+    }
+}
+
 int tree_append(tree *t, const tree_slot *slot, const int64_t *p)
 {
     uint8_t rel[3];

@@ -45,16 +45,28 @@
  * allowed by PDLA_MAX_CLUSTER_RADIUS_UNITS with room to spare. */
 #define TREE_MAX_LEVEL 23
 
+/* Padding that keeps fields written by inserting threads off the cache lines
+ * walkers read on every query: with P workers, each insertion would
+ * otherwise cost every other worker a cache miss per look-up (false sharing
+ * grows with P). 64 bytes apart guarantees different lines without asking
+ * the allocator for alignment (the engine comes from calloc). */
+#define PDLA_CACHE_LINE 64
+#define PDLA_CACHE_PAD(name) char name[PDLA_CACHE_LINE]
+
 #define POOL_SEG_BITS 16
 #define POOL_SEG_SIZE (1u << POOL_SEG_BITS)
 #define POOL_MAX_SEGS (1u << (32 - POOL_SEG_BITS))
 
-/* A growable array of fixed-size records addressed by 32-bit index. */
+/* A growable array of fixed-size records addressed by 32-bit index. The
+ * fields every look-up reads come first; the fill counts, written as records
+ * are added, sit a cache line away. */
 typedef struct tree_pool {
     uint8_t **seg;     /* POOL_MAX_SEGS segment pointers, NULL until used */
-    uint32_t count;    /* records in use, including the null record 0 */
     uint32_t elem;     /* bytes per record */
+    PDLA_CACHE_PAD(pad_);
+    uint32_t count;    /* records in use, including the null record 0 */
     uint32_t nseg;     /* segments allocated */
+    PDLA_CACHE_PAD(pad_end_);
 } tree_pool;
 
 static inline void *pool_at(const tree_pool *p, uint32_t i)
@@ -63,14 +75,18 @@ static inline void *pool_at(const tree_pool *p, uint32_t i)
 }
 
 typedef struct tree {
+    /* Read on every query; root_word changes only when the root grows. */
     int dim;
     int nchild;          /* 2^dim */
     _Atomic uint64_t root_word; /* root level << 32 | root index in inner */
     uint32_t chunk_bytes;/* 24 (2D) or 36 (3D) */
-    _Atomic uint64_t count;     /* particles stored */
-    uint64_t leaves;     /* leaves created */
     tree_pool inner;     /* uint32_t child[nchild] */
     tree_pool chunks;    /* uint8_t rel[dim][10], pad, uint32_t link */
+    PDLA_CACHE_PAD(pad_);
+    /* Written by every insertion. */
+    _Atomic uint64_t count;     /* particles stored */
+    uint64_t leaves;     /* leaves created */
+    PDLA_CACHE_PAD(pad_end_);
 } tree;
 
 int tree_init(tree *t, int dim);
@@ -92,6 +108,13 @@ typedef struct tree_slot {
  * node whose leaf will hold p, growing the root if p lies outside it.
  * Touches only the inner pool: the engine's node mutex guards it. */
 int tree_make_path(tree *t, const int64_t *p, tree_slot *slot);
+
+/* The same slot without creating anything: 1 if the nodes down to p's
+ * level-1 node exist (then `slot` is what tree_make_path would give), else 0.
+ * Reads only, so it needs no lock: most insertions land where the path
+ * exists and skip the node mutex. A slot found under an older root stays
+ * valid, as the root only grows by adding levels above it. */
+int tree_find_slot(const tree *t, const int64_t *p, tree_slot *slot);
 
 /* Append p to the leaf in `slot` (creating the leaf if it is new) and count
  * it. Touches only the chunk pool: the engine's bucket mutex guards it. */

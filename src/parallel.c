@@ -28,18 +28,11 @@
 #include <time.h>
 
 #include "engine.h"
+#include "recent.h"
 
-/* The positions of the last RECENT_CAP particles, by insertion index
- * (particle i at slot i mod RECENT_CAP); written and read under the bucket
- * mutex. A worker checks its spot against the live tree without a lock, then
- * under the lock only against the particles appended since: a few entries
- * instead of a tree search inside the one critical section every insertion
- * passes through. */
+/* Particles appended between a worker's lock-free check and its bucket
+ * mutex: about the number of workers, rarely more. */
 #define RECENT_CAP 4096u
-
-typedef struct recent_ring {
-    int32_t pos[RECENT_CAP][3];
-} recent_ring;
 
 typedef struct worker {
     pdla_engine *e;
@@ -61,31 +54,6 @@ static int worker_fail(worker *k, int rc, const char *what)
     k->rc = rc;
     atomic_store_explicit(&k->e->stop, 1, memory_order_relaxed);
     return rc;
-}
-
-/* 1 if a particle appended since the first `seen` ones lies closer than
- * sqrt(D2) to p; caller holds the bucket mutex. Falls back to the tree when
- * the ring no longer holds them all. */
-static int recent_overlap(const pdla_engine *e, const recent_ring *r, uint64_t seen,
-                          const int64_t *p, uint64_t D2)
-{
-    const tree *t = &e->tree;
-    const uint64_t now = atomic_load_explicit(&t->count, memory_order_relaxed);
-    if (now - seen > RECENT_CAP) {
-        int64_t q[3];
-        uint64_t d2;
-        return search_nearest_point(t, p, D2, q, &d2);
-    }
-    for (uint64_t i = seen; i < now; i++) {
-        const int32_t *x = r->pos[i % RECENT_CAP];
-        uint64_t d2 = 0;
-        for (int a = 0; a < t->dim; a++) {
-            const int64_t d = p[a] - x[a];
-            d2 += (uint64_t)(d * d);
-        }
-        if (d2 < D2) return 1;
-    }
-    return 0;
 }
 
 /* Insert the particle where walker w stopped; see the file comment. The exact
@@ -141,7 +109,7 @@ static int insert_concurrent(worker *k, int64_t *p, int status)
             pthread_mutex_unlock(&e->bucket_mu);
             return TARGET_REACHED;
         }
-        if (recent_overlap(e, k->recent, seen, p, D2)) {
+        if (recent_overlap(k->recent, t, seen, p, D2)) {
             pthread_mutex_unlock(&e->bucket_mu);
             status = WALK_OVERLAP;
             continue;
@@ -150,8 +118,7 @@ static int insert_concurrent(worker *k, int64_t *p, int status)
          * before the particle itself only gets a smaller bound. */
         distmap_add(&e->dmap, p, 1);
         const int rc = tree_append(t, &slot, p);
-        if (rc == 0)
-            for (int a = 0; a < t->dim; a++) k->recent->pos[count % RECENT_CAP][a] = (int32_t)p[a];
+        if (rc == 0) recent_put(k->recent, count, p, t->dim);
         pthread_mutex_unlock(&e->bucket_mu);
         if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory appending a particle");
         if (retried) w->recheck_continued++;
@@ -220,11 +187,12 @@ int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, v
 
     walker_ctx *ws = calloc((size_t)n, sizeof *ws);
     worker *ks = calloc((size_t)n, sizeof *ks);
-    recent_ring *recent = malloc(sizeof *recent);
-    if (!ws || !ks || !recent) {
+    recent_ring recent;
+    const int ring_rc = recent_init(&recent, RECENT_CAP);
+    if (!ws || !ks || ring_rc) {
         free(ws);
         free(ks);
-        free(recent);
+        recent_free(&recent);
         if (topo) hwloc_topology_destroy(topo);
         snprintf(err, errlen, "out of memory for %d workers", n);
         return PDLA_ENOMEM;
@@ -241,7 +209,7 @@ int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, v
         ks[i].e = e;
         ks[i].w = &ws[i];
         ks[i].n_until = n_until;
-        ks[i].recent = recent;
+        ks[i].recent = &recent;
         if (P->bind == PDLA_BIND_CORE) {
             ks[i].topo = topo;
             ks[i].core = hwloc_get_obj_by_type(topo, HWLOC_OBJ_CORE, (unsigned)(i % cores));
@@ -291,7 +259,7 @@ int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, v
     e->workers = ws;
     e->nworkers = n;
     free(ks);
-    free(recent);
+    recent_free(&recent);
     if (topo) hwloc_topology_destroy(topo);
     return rc;
 }

@@ -7,7 +7,9 @@
  *  - variable-precision search never exceeds the true distance, is exact
  *    whenever its answer is below the near threshold, and when it is
  *    approximate the true distance is within the stated factor
- *    (1 + sqrt(dim) / far_factor) of it.
+ *    (1 + sqrt(dim) / far_factor) of it;
+ *  - the lock-free tree_find_slot finds a slot exactly when tree_make_path
+ *    would create nothing, and then the same slot.
  * Fixed seeds; any failure prints the seed, point and both values.
  */
 #include <math.h>
@@ -177,8 +179,45 @@ static void test_empty_and_single(int dim)
     tree_free(&t);
 }
 
+static void test_find_slot(int dim, int kind, uint64_t seed)
+{
+    pdla_rng r;
+    rng_seed(&r, seed);
+    tree t;
+    CHECK(tree_init(&t, dim) == 0, "tree_init");
+    int64_t p[3] = {0, 0, 0};
+    for (int i = 0; i < 400; i++) {
+        random_point(&r, dim, kind, p);
+        tree_insert(&t, p);
+    }
+    int found_count = 0;
+    for (int i = 0; i < 2000; i++) {
+        random_point(&r, dim, kind, p);
+        tree_slot s1 = {0, 0, {0, 0, 0}}, s2 = {0, 0, {0, 0, 0}};
+        const int found = tree_find_slot(&t, p, &s1);
+        const uint32_t nodes = t.inner.count;
+        const uint64_t root = atomic_load(&t.root_word);
+        CHECK(tree_make_path(&t, p, &s2) == 0, "make_path");
+        const int created = t.inner.count != nodes || atomic_load(&t.root_word) != root;
+        CHECK(found == !created, "dim %d kind %d seed %llu i %d: find_slot %d but make_path created %d",
+              dim, kind, (unsigned long long)seed, i, found, created);
+        if (found) {
+            found_count++;
+            int same = s1.node == s2.node && s1.k == s2.k;
+            for (int a = 0; a < dim; a++) same &= s1.leaf_lo[a] == s2.leaf_lo[a];
+            CHECK(same, "dim %d kind %d i %d: slots differ (node %u/%u, k %u/%u)", dim, kind, i,
+                  s1.node, s2.node, s1.k, s2.k);
+        }
+    }
+    /* Both outcomes occur for the clustered point kinds. */
+    if (kind == 0 || kind == 3) CHECK(found_count > 0, "dim %d kind %d: never found", dim, kind);
+    tree_free(&t);
+}
+
 int main(void)
 {
+    for (int dim = 2; dim <= 3; dim++)
+        for (int kind = 0; kind < 4; kind++) test_find_slot(dim, kind, 4242 + (uint64_t)kind);
     for (int dim = 2; dim <= 3; dim++) {
         test_empty_and_single(dim);
         for (int kind = 0; kind < 4; kind++)

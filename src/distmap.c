@@ -329,12 +329,15 @@ static int mark(distmap *m, distmap_level *L, const int64_t *c)
     return 0;
 }
 
-int distmap_add(distmap *m, const int64_t *p, int concurrent)
+int distmap_add(distmap *m, const int64_t *p, uint64_t particles, int concurrent)
 {
-    m->particles++;
     if (m->disabled) return 0;
     distmap_grid *g = atomic_load_explicit(&m->grid, memory_order_relaxed);
     if (!g || !covers(m, g, p)) {
+        /* Stored only here, where it sizes the new grid's budget: a write
+         * per particle would move this cache line between inserting
+         * threads. */
+        m->particles = particles;
         distmap_grid *ng = grid_make(m, g, wanted_half(m, p, g ? g->half : 0));
         if (!ng) {
             disable(m, concurrent);

@@ -91,7 +91,7 @@ typedef struct distmap {
     int bits;                     /* fine cell side 2^bits units, >= TREE_LEAF_BITS */
     int64_t margin;               /* units the grid keeps beyond every particle */
     int disabled;                 /* set for good when a grid cannot be made */
-    uint64_t particles;           /* particles added (sizes the memory budget) */
+    uint64_t particles;           /* cluster size at the last grid change (budget) */
     size_t budget_min;            /* the fine level may use max(budget_min, */
     double budget_per_particle;   /*   budget_per_particle x particles) bytes */
     distmap_grid *old;            /* retired grids, freed at quiesce */
@@ -107,10 +107,11 @@ int distmap_init(distmap *m, int dim, int bits, int64_t margin_units);
 void distmap_free(distmap *m);
 
 /* Account a particle centre at p (call before publishing it in the tree).
+ * `particles`: the cluster's size counting p (sizes the memory budget).
  * `concurrent`: other threads may read the map now (old grids are kept).
  * Returns 0; on allocation failure the map disables itself (readers fall
  * back to the tree), which is not an error. */
-int distmap_add(distmap *m, const int64_t *p, int concurrent);
+int distmap_add(distmap *m, const int64_t *p, uint64_t particles, int concurrent);
 
 /* Free grids retired while workers ran; only when no reader runs. */
 void distmap_quiesce(distmap *m);

@@ -268,7 +268,7 @@ static int add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errl
 {
     int rc = engine_check_range(e, p, err, errlen);
     if (rc) return rc;
-    distmap_add(&e->dmap, p, 0);
+    distmap_add(&e->dmap, p, tree_count(&e->tree) + 1, 0);
     rc = tree_insert(&e->tree, p);
     if (rc) return fail(PDLA_ENOMEM, err, errlen, "out of memory (or 2^32 tree records) at %llu particles",
                         (unsigned long long)tree_count(&e->tree));

@@ -116,7 +116,7 @@ static int insert_concurrent(worker *k, int64_t *p, int status)
         }
         /* The map first: a reader that sees the particle's cell lowered
          * before the particle itself only gets a smaller bound. */
-        distmap_add(&e->dmap, p, 1);
+        distmap_add(&e->dmap, p, count + 1, 1);
         const int rc = tree_append(t, &slot, p);
         if (rc == 0) recent_put(k->recent, count, p, t->dim);
         pthread_mutex_unlock(&e->bucket_mu);

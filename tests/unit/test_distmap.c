@@ -123,7 +123,7 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
         const int64_t step = (i % 500 < 20) ? 3000 : 40;
         for (int a = 0; a < dim; a++) cur[a] += rand_range(&r, -step, step);
         for (int a = 0; a < dim; a++) pts[i][a] = cur[a];
-        distmap_add(&m, cur, 0);
+        distmap_add(&m, cur, i + 1, 0);
         CHECK(tree_insert(&t, cur) == 0, "insert");
         /* The block search from a walker-like cursor: never above the true
          * distance, exact whenever that is below one leaf (so always where
@@ -261,7 +261,7 @@ static void test_growth_cache(int dim, uint64_t seed)
         /* a blob near the origin, then one particle ever farther out */
         for (int i = 0; i < 100 && n < NMAX - 1; i++, n++) {
             for (int a = 0; a < dim; a++) pts[n][a] = rand_range(&r, -3000, 3000);
-            distmap_add(&m, pts[n], 0);
+            distmap_add(&m, pts[n], n + 1, 0);
             tree_insert(&t, pts[n]);
         }
         for (int q = 0; q < 300; q++) {
@@ -282,7 +282,7 @@ static void test_growth_cache(int dim, uint64_t seed)
         search_block2(&t, &cfg, &m, p, &ss);
         const int64_t half0 = atomic_load(&m.grid)->half;
         for (int a = 0; a < dim; a++) pts[n][a] = (a == 0 ? 1 : -1) * (int64_t)(6000 + 1200 * round);
-        distmap_add(&m, pts[n], 0);
+        distmap_add(&m, pts[n], n + 1, 0);
         tree_insert(&t, pts[n]);
         n++;
         const int64_t shift = atomic_load(&m.grid)->half - half0;

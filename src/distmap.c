@@ -329,6 +329,18 @@ static int mark(distmap *m, distmap_level *L, const int64_t *c)
     return 0;
 }
 
+int distmap_needs_add(const distmap *m, const int64_t *p)
+{
+    const distmap_grid *g = atomic_load_explicit(&m->grid, memory_order_acquire);
+    if (!g || !covers(m, g, p)) return 1;
+    for (int l = 0; l < 2; l++) {
+        int64_t c[3] = {0, 0, 0};
+        for (int a = 0; a < m->dim; a++) c[a] = (p[a] + g->half) >> g->lv[l].bits;
+        if (distmap_level_value(&g->lv[l], c, m->dim) != 0) return 1;
+    }
+    return 0;
+}
+
 int distmap_add(distmap *m, const int64_t *p, uint64_t particles, int concurrent)
 {
     if (m->disabled) return 0;

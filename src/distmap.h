@@ -23,11 +23,14 @@
  *
  * Concurrency (PDLA). Readers never lock: the grid pointer and the cells are
  * C11 atomics (release stores, acquire loads). The writer (serialised by the
- * engine's bucket mutex) updates the map BEFORE the particle is published in
+ * engine's node mutex) updates the map BEFORE the particle is published in
  * the tree, so a reader that already sees a lowered cell gets a smaller
  * (conservative) bound, and one that sees a stale cell answers for the
  * cluster as it was a moment before, exactly like a tree search that misses
- * a particle appended meanwhile (the WALK_OVERLAP re-check path). A grid
+ * a particle appended meanwhile (the WALK_OVERLAP re-check path). A spot
+ * the insertion re-check then turns down leaves its cells marked: a fine
+ * cell at 0 then has no leaf behind it, which search_block2 allows for, and
+ * the bounds around it are merely smaller than they could be. A grid
  * replaced while workers run is kept (retired) until distmap_free or
  * distmap_quiesce, as a reader may still hold it.
  */
@@ -86,7 +89,8 @@ typedef struct distmap {
     PDLA_CACHE_PAD(pad_grid_);
     _Atomic uint64_t leaves;      /* fine cells marked occupied so far (= leaves) */
     PDLA_CACHE_PAD(pad_leaves_);
-    /* The writer's (under the engine's bucket mutex while workers run). */
+    /* The writer's (under the engine's node mutex while workers run); dim
+     * and margin are fixed at init, so readers may read them too. */
     int dim;
     int bits;                     /* fine cell side 2^bits units, >= TREE_LEAF_BITS */
     int64_t margin;               /* units the grid keeps beyond every particle */
@@ -112,6 +116,11 @@ void distmap_free(distmap *m);
  * Returns 0; on allocation failure the map disables itself (readers fall
  * back to the tree), which is not an error. */
 int distmap_add(distmap *m, const int64_t *p, uint64_t particles, int concurrent);
+
+/* 0 when distmap_add(p) would change nothing (p's cells are marked in a
+ * grid that covers it), else 1. Reads only: workers call it without a lock
+ * so that most particles skip the writer's mutex. */
+int distmap_needs_add(const distmap *m, const int64_t *p);
 
 /* Free grids retired while workers ran; only when no reader runs. */
 void distmap_quiesce(distmap *m);

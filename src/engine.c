@@ -340,6 +340,10 @@ void walker_ctx_add_counts(walker_ctx *s, const walker_ctx *o)
     s->recheck_overlaps += o->recheck_overlaps;
     s->recheck_continued += o->recheck_continued;
     s->recheck_discarded += o->recheck_discarded;
+    for (int i = 0; i < 3; i++) {
+        s->mutex_taken[i] += o->mutex_taken[i];
+        s->mutex_contended[i] += o->mutex_contended[i];
+    }
 }
 
 static void add_walker_counts(pdla_stats *s, const walker_ctx *w)
@@ -355,6 +359,10 @@ static void add_walker_counts(pdla_stats *s, const walker_ctx *w)
     s->recheck_overlaps += w->recheck_overlaps;
     s->recheck_continued += w->recheck_continued;
     s->recheck_discarded += w->recheck_discarded;
+    for (int i = 0; i < 3; i++) {
+        s->mutex_taken[i] += w->mutex_taken[i];
+        s->mutex_contended[i] += w->mutex_contended[i];
+    }
 }
 
 /* Safe while workers run (the progress callback calls it): worker counters

@@ -28,6 +28,10 @@ typedef struct walker_ctx {
     search_state ss;
     uint64_t walkers, jumps, returns, lost, killed, restarts;
     uint64_t recheck_overlaps, recheck_continued, recheck_discarded;
+    /* Acquisitions of the node, bucket and gyration mutexes (PDLA_MUTEX_*),
+     * and how many found the mutex held (this process only; not saved in
+     * checkpoints): the measure of lock contention as threads are added. */
+    uint64_t mutex_taken[3], mutex_contended[3];
     PDLA_CACHE_PAD(pad_); /* workers' contexts sit side by side in one array */
 } walker_ctx;
 
@@ -43,9 +47,10 @@ struct pdla_engine {
     tree tree;                /* padded inside: query fields / insertion counts */
     distmap dmap;             /* far-query accelerator, derived from the tree */
     /* PDLA: the three mutexes of the seed's flow diagram, each on its own
-     * line. node: creating tree nodes (inner pool, root growth); bucket:
-     * appending to a leaf's chunks (chunk pool, count, the exact re-check,
-     * the target, the distance map and the recent-insertion ring); gyration:
+     * line. node: creating tree nodes (inner pool, root growth) and the
+     * distance map's writes (cells, grids); bucket: appending to a leaf's
+     * chunks (chunk pool, count, the exact re-check, the target and the
+     * recent-insertion ring); gyration:
      * the R_g sums, R_ext and the samples. Taken one at a time, in that
      * order. */
     pthread_mutex_t node_mu;

@@ -94,12 +94,13 @@ int h5u_close(const h5u_writer *w, int rc, hid_t id, herr_t (*close_fn)(hid_t), 
 
 /* ---- attributes --------------------------------------------------------- */
 
-int h5u_attr_write(const h5u_writer *w, hid_t obj, const char *name, hid_t ftype, hid_t mtype,
-                      const void *val)
+/* n = 0: a scalar attribute; else a one-dimensional one of n values. */
+static int attr_write_n(const h5u_writer *w, hid_t obj, const char *name, hid_t ftype, hid_t mtype,
+                        const void *val, hsize_t n)
 {
     int rc = -1;
     hid_t space = H5I_INVALID_HID, attr = H5I_INVALID_HID;
-    if ((space = H5Screate(H5S_SCALAR)) < 0) {
+    if ((space = n ? H5Screate_simple(1, &n, NULL) : H5Screate(H5S_SCALAR)) < 0) {
         h5u_fail(w, "create a dataspace for attribute %s", name);
         goto fail;
     }
@@ -115,6 +116,18 @@ int h5u_attr_write(const h5u_writer *w, hid_t obj, const char *name, hid_t ftype
 fail:
     rc = h5u_close(w, rc, attr, H5Aclose, name);
     return h5u_close(w, rc, space, H5Sclose, "an attribute dataspace");
+}
+
+int h5u_attr_write(const h5u_writer *w, hid_t obj, const char *name, hid_t ftype, hid_t mtype,
+                   const void *val)
+{
+    return attr_write_n(w, obj, name, ftype, mtype, val, 0);
+}
+
+int h5u_attr_u64_array(const h5u_writer *w, hid_t obj, const char *name, const uint64_t *v,
+                       size_t n)
+{
+    return attr_write_n(w, obj, name, H5T_STD_U64LE, H5T_NATIVE_UINT64, v, (hsize_t)n);
 }
 
 int h5u_attr_int(const h5u_writer *w, hid_t obj, const char *name, int v)

@@ -38,6 +38,9 @@ int h5u_attr_int(const h5u_writer *w, hid_t obj, const char *name, int v);
 int h5u_attr_i64(const h5u_writer *w, hid_t obj, const char *name, int64_t v);
 int h5u_attr_u64(const h5u_writer *w, hid_t obj, const char *name, uint64_t v);
 int h5u_attr_f64(const h5u_writer *w, hid_t obj, const char *name, double v);
+/* A one-dimensional attribute of n (> 0) unsigned 64-bit values. */
+int h5u_attr_u64_array(const h5u_writer *w, hid_t obj, const char *name, const uint64_t *v,
+                       size_t n);
 int h5u_attr_str(const h5u_writer *w, hid_t obj, const char *name, const char *s);
 
 /* A group without time stamps. */

@@ -6,9 +6,10 @@
  *   walk (lock-free reads of the tree)
  *   -> exact check of the spot against the live tree, lock-free
  *   -> [node mutex]     create the tree nodes down to the particle's leaf
- *                       (skipped when they exist, as for most particles)
+ *                       and mark its cells in the distance map (skipped
+ *                       when both exist, as for most particles)
  *   -> [bucket mutex]   re-check against the particles appended since,
- *                       target check, distance map, append
+ *                       target check, append
  *   -> [gyration mutex] R_g sums, R_ext, R_g samples
  *
  * The re-check matters because another walker may have stuck in the spot
@@ -56,6 +57,16 @@ static int worker_fail(worker *k, int rc, const char *what)
     return rc;
 }
 
+/* Lock mu, counting the acquisition and whether it had to wait. */
+static inline void lock_counted(pthread_mutex_t *mu, walker_ctx *w, int which)
+{
+    w->mutex_taken[which]++;
+    if (pthread_mutex_trylock(mu)) {
+        w->mutex_contended[which]++;
+        pthread_mutex_lock(mu);
+    }
+}
+
 /* Insert the particle where walker w stopped; see the file comment. The exact
  * re-check is split in two: against the live tree as of `seen` particles
  * without a lock, then against those appended since under the bucket mutex.
@@ -95,15 +106,24 @@ static int insert_concurrent(worker *k, int64_t *p, int status)
             status = WALK_OVERLAP; /* someone stuck here since the last query */
             continue;
         }
+        /* Structure: the tree's nodes down to p's leaf and p's cells in the
+         * distance map, under the node mutex and only when missing (for about
+         * one particle in ten: a new leaf). The map is updated before the
+         * particle is published in the tree, so a walker that sees the
+         * particle also sees its cells; if the re-check below then turns the
+         * spot down, the cells stay marked, which only makes the map's
+         * bounds more conservative there. */
         tree_slot slot;
-        if (!tree_find_slot(t, p, &slot)) {
-            pthread_mutex_lock(&e->node_mu);
-            const int rc = tree_make_path(t, p, &slot);
+        const int have_path = tree_find_slot(t, p, &slot);
+        if (!have_path || distmap_needs_add(&e->dmap, p)) {
+            lock_counted(&e->node_mu, w, PDLA_MUTEX_NODE);
+            const int rc = have_path ? 0 : tree_make_path(t, p, &slot);
+            if (rc == 0) distmap_add(&e->dmap, p, seen + 1, 1);
             pthread_mutex_unlock(&e->node_mu);
             if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory (or tree index space) creating nodes");
         }
 
-        pthread_mutex_lock(&e->bucket_mu);
+        lock_counted(&e->bucket_mu, w, PDLA_MUTEX_BUCKET);
         const uint64_t count = atomic_load_explicit(&t->count, memory_order_relaxed);
         if (count >= k->n_until) {
             pthread_mutex_unlock(&e->bucket_mu);
@@ -114,16 +134,13 @@ static int insert_concurrent(worker *k, int64_t *p, int status)
             status = WALK_OVERLAP;
             continue;
         }
-        /* The map first: a reader that sees the particle's cell lowered
-         * before the particle itself only gets a smaller bound. */
-        distmap_add(&e->dmap, p, count + 1, 1);
         const int rc = tree_append(t, &slot, p);
         if (rc == 0) recent_put(k->recent, count, p, t->dim);
         pthread_mutex_unlock(&e->bucket_mu);
         if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory appending a particle");
         if (retried) w->recheck_continued++;
 
-        pthread_mutex_lock(&e->gyration_mu);
+        lock_counted(&e->gyration_mu, w, PDLA_MUTEX_GYRATION);
         const int grc = engine_gyration_add(e, p, err, sizeof err);
         pthread_mutex_unlock(&e->gyration_mu);
         if (grc) return worker_fail(k, grc, err);

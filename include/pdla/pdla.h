@@ -149,8 +149,15 @@ typedef struct pdla_stats {
     uint64_t recheck_overlaps;  /* PDLA: walkers that found their spot taken */
     uint64_t recheck_continued; /* ... and were inserted in contact with the newcomer */
     uint64_t recheck_discarded; /* ... and were discarded / restarted */
+    /* PDLA lock contention, indexed by PDLA_MUTEX_NODE/BUCKET/GYRATION:
+     * acquisitions by workers, and those that found the mutex held (so had
+     * to wait). Counted since this process started (not checkpointed). */
+    uint64_t mutex_taken[3];
+    uint64_t mutex_contended[3];
     char binding[256];       /* how workers were placed, e.g. "none" or "core: 0 1 2 3" */
 } pdla_stats;
+
+enum { PDLA_MUTEX_NODE = 0, PDLA_MUTEX_BUCKET = 1, PDLA_MUTEX_GYRATION = 2 };
 
 /* One fit of ln R_g = ln C + ln N / D_f. */
 typedef struct pdla_fit {

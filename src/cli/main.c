@@ -370,6 +370,14 @@ static void print_summary(FILE *f, const report *r, int with_command)
     if (s->threads)
         fprintf(f, "re-checks        %" PRIu64 " spots taken: %" PRIu64 " continued, %" PRIu64 " discarded\n",
                 s->recheck_overlaps, s->recheck_continued, s->recheck_discarded);
+    if (s->threads) {
+        static const char *const names[3] = {"node", "bucket", "gyration"};
+        fprintf(f, "mutex waits     ");
+        for (int i = 0; i < 3; i++)
+            fprintf(f, " %s %.2f%% of %" PRIu64 "%s", names[i],
+                    s->mutex_taken[i] ? 100.0 * (double)s->mutex_contended[i] / (double)s->mutex_taken[i] : 0.0,
+                    s->mutex_taken[i], i < 2 ? "," : "\n");
+    }
     fprintf(f, "wall time        %.3f s (growth %.3f s)\n", r->wall_seconds, s->grow_seconds);
     fprintf(f, "rate             %.0f particles/s\n", s->grow_seconds > 0 ? n / s->grow_seconds : 0.0);
     fprintf(f, "jumps/particle   %.2f\n", n > 0 ? (double)s->jumps / n : 0.0);
@@ -468,8 +476,12 @@ static void write_json(FILE *f, const report *r, const char *status)
     json_real(f, s->parallel_seconds);
     fprintf(f, ",\n  \"threads\": %d,\n  \"recheck_overlaps\": %" PRIu64
                ",\n  \"recheck_continued\": %" PRIu64 ",\n  \"recheck_discarded\": %" PRIu64
+               ",\n  \"mutex_taken\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]"
+               ",\n  \"mutex_contended\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]"
                ",\n  \"binding\": ",
-            s->threads, s->recheck_overlaps, s->recheck_continued, s->recheck_discarded);
+            s->threads, s->recheck_overlaps, s->recheck_continued, s->recheck_discarded,
+            s->mutex_taken[0], s->mutex_taken[1], s->mutex_taken[2], s->mutex_contended[0],
+            s->mutex_contended[1], s->mutex_contended[2]);
     json_string(f, s->binding);
     fprintf(f, ",\n  \"fit\": {\"df\": ");
     json_real(f, r->fit.points ? r->fit.df : NAN);

@@ -159,46 +159,14 @@ static int leaf_append(tree *t, uint32_t head, const uint8_t *rel)
     return 0;
 }
 
-int tree_make_path(tree *t, const int64_t *p, tree_slot *slot)
+/* Walk p's path from the root (which must contain p) down to its level-1
+ * node. A missing node is made when `maker` is the tree (the writer holding
+ * the node mutex); with maker NULL the walk only reads and gives up there.
+ * Returns 1 with the slot filled, 0 if a node is missing, -1 when out of
+ * memory. */
+static int walk_to_slot(const tree *t, tree *maker, tree_root root, const int64_t *p,
+                        tree_slot *slot)
 {
-    tree_root root = tree_root_get(t);
-    while (!inside_root(t, root.level, p)) {
-        const int rc = tree_grow_root(t);
-        if (rc) return rc;
-        root = tree_root_get(t);
-    }
-    const int dim = t->dim;
-    int64_t lo[3];
-    for (int a = 0; a < dim; a++) lo[a] = -tree_root_half(root.level);
-    uint32_t node = root.node;
-    for (int level = root.level;; level--) {
-        const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
-        uint32_t k = 0;
-        for (int a = 0; a < dim; a++)
-            if (p[a] >= lo[a] + half) {
-                k |= 1u << a;
-                lo[a] += half;
-            }
-        if (level == 1) {
-            slot->node = node;
-            slot->k = k;
-            for (int a = 0; a < dim; a++) slot->leaf_lo[a] = lo[a];
-            return 0;
-        }
-        uint32_t child = tree_child(tree_children(t, node), k);
-        if (!child) {
-            child = pool_new(&t->inner);
-            if (!child) return -1;
-            set_child(t, node, k, child);
-        }
-        node = child;
-    }
-}
-
-int tree_find_slot(const tree *t, const int64_t *p, tree_slot *slot)
-{
-    const tree_root root = tree_root_get(t);
-    if (!inside_root(t, root.level, p)) return 0;
     const int dim = t->dim;
     int64_t lo[3];
     for (int a = 0; a < dim; a++) lo[a] = -tree_root_half(root.level);
@@ -217,9 +185,33 @@ int tree_find_slot(const tree *t, const int64_t *p, tree_slot *slot)
             for (int a = 0; a < dim; a++) slot->leaf_lo[a] = lo[a];
             return 1;
         }
-        node = tree_child(tree_children(t, node), k);
-        if (!node) return 0;
+        uint32_t child = tree_child(tree_children(t, node), k);
+        if (!child) {
+            if (!maker) return 0;
+            child = pool_new(&maker->inner);
+            if (!child) return -1;
+            set_child(maker, node, k, child);
+        }
+        node = child;
     }
+}
+
+int tree_make_path(tree *t, const int64_t *p, tree_slot *slot)
+{
+    tree_root root = tree_root_get(t);
+    while (!inside_root(t, root.level, p)) {
+        const int rc = tree_grow_root(t);
+        if (rc) return rc;
+        root = tree_root_get(t);
+    }
+    return walk_to_slot(t, t, root, p, slot) == 1 ? 0 : -1;
+}
+
+int tree_find_slot(const tree *t, const int64_t *p, tree_slot *slot)
+{
+    const tree_root root = tree_root_get(t);
+    if (!inside_root(t, root.level, p)) return 0;
+    return walk_to_slot(t, NULL, root, p, slot) == 1;
 }
 
 int tree_append(tree *t, const tree_slot *slot, const int64_t *p)

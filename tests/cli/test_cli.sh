@@ -4,7 +4,8 @@
 # Bad usage must give exit status 2, nothing on stdout and exactly one line
 # on stderr starting with "pdla:", and must not create anything. Good usage:
 # --help/--version, tiny real runs into --out and the default runs/ name,
-# --force, -q silence, --no-output with --stats-json, and SIGTERM writing the
+# --force, -q silence, --no-output with --stats-json, the lock counters of a
+# threaded run (summary, JSON, cluster.h5), and SIGTERM writing the
 # partial cluster before pdla ends by the signal. Everything happens in a
 # temporary directory that is removed afterwards.
 set -u
@@ -162,6 +163,24 @@ if command -v python3 >/dev/null 2>&1; then
 fi
 good "--no-output summary" --no-output --target 100
 grep -q '^output  *none$' "$tmp/out" || fail "--no-output: summary output line"
+
+# ---- threads: the lock counters reach the summary, the JSON and the file ---
+good "threads" --threads 2 --serial-until 200 --target 3000 --out "$tmp/thr" --stats-json "$tmp/thr.json"
+grep -q '^mutex waits  *node [0-9.]*% of [0-9]*, bucket [0-9.]*% of [0-9]*, gyration [0-9.]*% of 2800$' \
+    "$tmp/out" || fail "threads: summary mutex line: $(grep mutex "$tmp/out")"
+if command -v python3 >/dev/null 2>&1 && python3 -c 'import h5py' 2>/dev/null; then
+    checks=$((checks + 1))
+    python3 - "$tmp/thr.json" "$tmp/thr/cluster.h5" <<'PY' || fail "threads: mutex counters in JSON / cluster.h5"
+import json, sys, h5py
+s = json.load(open(sys.argv[1]))
+taken, waits = s["mutex_taken"], s["mutex_contended"]
+assert len(taken) == 3 and len(waits) == 3 and taken[2] == 2800, (taken, waits)
+assert all(0 <= w <= t for w, t in zip(waits, taken)), (taken, waits)
+with h5py.File(sys.argv[2], "r") as f:
+    r = f["/results"].attrs
+    assert list(r["mutex_taken"]) == taken and list(r["mutex_contended"]) == waits
+PY
+fi
 
 # ---- SIGTERM: the partial cluster is written, then pdla ends by the signal --
 checks=$((checks + 1))

@@ -664,7 +664,10 @@ static herr_t cmp_one(hid_t loc, const char *name, const H5A_info_t *ainfo, void
     const hid_t a = H5Aopen(loc, name, H5P_DEFAULT);
     const hid_t b = H5Aopen_by_name(c->other, c->obj, name, H5P_DEFAULT, H5P_DEFAULT);
     const hid_t ta = H5Aget_type(a), tb = b >= 0 ? H5Aget_type(b) : -1;
-    const size_t n = H5Tget_size(ta);
+    const hid_t sa = H5Aget_space(a);
+    const hssize_t points = sa >= 0 ? H5Sget_simple_extent_npoints(sa) : 1;
+    if (sa >= 0) H5Sclose(sa);
+    const size_t n = H5Tget_size(ta) * (size_t)(points > 0 ? points : 1);
     unsigned char *const x = calloc(n, 1), *const y = calloc(n, 1);
     CHECK(b >= 0 && H5Tequal(ta, tb) > 0 && x && y && H5Aread(a, ta, x) >= 0 &&
               H5Aread(b, tb, y) >= 0 && !memcmp(x, y, n),

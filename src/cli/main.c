@@ -669,7 +669,10 @@ int main(int argc, char **argv)
 
     progress prog;
     const int tty = isatty(STDERR_FILENO);
-    progress_init(&prog, stderr, o.progress == 1 || (o.progress == -1 && !o.quiet && tty), tty);
+    pdla_stats at_start;
+    pdla_engine_stats(eng, &at_start);
+    progress_init(&prog, stderr, o.progress == 1 || (o.progress == -1 && !o.quiet && tty), tty,
+                  at_start.particles);
     char gerr[512] = "";
     grow_ctx gc;
     memset(&gc, 0, sizeof gc);

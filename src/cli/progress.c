@@ -23,7 +23,7 @@ double progress_now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-void progress_init(progress *p, FILE *out, int enabled, int tty)
+void progress_init(progress *p, FILE *out, int enabled, int tty, uint64_t particles)
 {
     memset(p, 0, sizeof *p);
     p->out = out;
@@ -31,6 +31,7 @@ void progress_init(progress *p, FILE *out, int enabled, int tty)
     p->tty = tty;
     p->interval = tty ? TTY_INTERVAL : LOG_INTERVAL;
     p->t_start = p->t_last = progress_now();
+    p->n_start = p->n_last = particles;
 }
 
 /* Counts in 3 significant digits with an SI suffix once they stop being
@@ -86,7 +87,7 @@ static void draw(progress *p, const pdla_engine *e, double now, int final)
      * gives the mean over the whole growth instead. */
     const double dt = now - p->t_last;
     if (final) {
-        p->rate = now > p->t_start ? (double)s.particles / (now - p->t_start) : 0;
+        p->rate = now > p->t_start ? (double)(s.particles - p->n_start) / (now - p->t_start) : 0;
     } else if (dt > 0 && s.particles >= p->n_last) {
         const double r = (double)(s.particles - p->n_last) / dt;
         /* Until RATE_TAU has passed, dt / elapsed makes it the plain mean

@@ -26,6 +26,7 @@ typedef struct progress {
     double interval;     /* seconds between lines */
     double t_start;      /* when growth began */
     double t_last;       /* last line (or the start) */
+    uint64_t n_start;    /* particles when growth began (a resumed run's count) */
     uint64_t n_last;     /* particles at t_last */
     double rate;         /* smoothed particles per second, 0 before the first line */
     int width;           /* length of the line on screen, to blank leftovers */
@@ -37,8 +38,10 @@ double progress_now(void);
 /* A byte count for people: "812 B", "3.4 MiB". */
 void progress_fmt_bytes(char *buf, size_t n, double b);
 
-/* Start timing; enabled = 0 makes every other call a no-op. */
-void progress_init(progress *p, FILE *out, int enabled, int tty);
+/* Start timing a growth that begins at `particles` (0, or where a resumed
+ * run stood: rates count only what this process grows); enabled = 0 makes
+ * every other call a no-op. */
+void progress_init(progress *p, FILE *out, int enabled, int tty, uint64_t particles);
 
 /* Print a line if one is due. */
 void progress_tick(progress *p, const pdla_engine *e);

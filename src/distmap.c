@@ -43,6 +43,8 @@ int distmap_init(distmap *m, int dim, int bits, int64_t margin_units)
     m->budget_per_particle = dim == 3 ? DISTMAP_BUDGET_PER_PARTICLE_3D : DISTMAP_BUDGET_PER_PARTICLE;
     atomic_init(&m->grid, NULL);
     atomic_init(&m->leaves, 0);
+    atomic_init(&m->epoch, 0);
+    m->retired_bytes = 0;
     m->old = NULL;
     m->queue = NULL;
     m->qcap = 0;
@@ -56,6 +58,23 @@ void distmap_quiesce(distmap *m)
         distmap_grid *next = m->old->retired;
         grid_free(m->old);
         m->old = next;
+    }
+    m->retired_bytes = 0;
+}
+
+void distmap_reclaim(distmap *m, uint64_t oldest_seen)
+{
+    /* The list is newest first: cut it at the first grid a reader may still
+     * hold, free everything older. */
+    distmap_grid **link = &m->old;
+    while (*link && (*link)->retired_at >= oldest_seen) link = &(*link)->retired;
+    distmap_grid *g = *link;
+    *link = NULL;
+    while (g) {
+        distmap_grid *next = g->retired;
+        m->retired_bytes -= g->bytes;
+        grid_free(g);
+        g = next;
     }
 }
 
@@ -113,8 +132,13 @@ static void publish(distmap *m, distmap_grid *g, int concurrent)
                  : 0;
     if (!old) return;
     if (concurrent) {
+        /* Retired at this epoch; readers that see a later one no longer
+         * hold it (distmap_reclaim). */
+        old->retired_at = atomic_load_explicit(&m->epoch, memory_order_relaxed);
         old->retired = m->old;
         m->old = old;
+        m->retired_bytes += old->bytes;
+        atomic_store_explicit(&m->epoch, old->retired_at + 1, memory_order_release);
     } else {
         grid_free(old);
     }
@@ -214,6 +238,7 @@ static distmap_grid *grid_make(const distmap *m, const distmap_grid *old, int64_
         grid_free(g);
         return NULL;
     }
+    g->bytes = g->lv[0].bytes + g->lv[1].bytes;
     if (!old) return g;
     if (old->lv[0].bits == fb) {
         for (int l = 0; l < 2; l++) {

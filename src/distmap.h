@@ -78,6 +78,8 @@ typedef struct distmap_level {
 typedef struct distmap_grid {
     int64_t half;                 /* covers [-half, half)^dim units, whole coarse cells */
     distmap_level lv[2];          /* 0 fine, 1 coarse */
+    size_t bytes;                 /* of both levels' cells */
+    uint64_t retired_at;          /* the map's epoch when it was replaced */
     struct distmap_grid *retired; /* older grids a reader may still hold */
 } distmap_grid;
 
@@ -86,6 +88,7 @@ typedef struct distmap {
      * cache line (PDLA_CACHE_PAD), as the writer's fields change with every
      * particle and `leaves` with every new leaf. */
     _Atomic(distmap_grid *) grid; /* NULL: no map (readers use the tree) */
+    _Atomic uint64_t epoch;       /* grids replaced while readers ran, so far */
     PDLA_CACHE_PAD(pad_grid_);
     _Atomic uint64_t leaves;      /* fine cells marked occupied so far (= leaves) */
     PDLA_CACHE_PAD(pad_leaves_);
@@ -98,7 +101,8 @@ typedef struct distmap {
     uint64_t particles;           /* cluster size at the last grid change (budget) */
     size_t budget_min;            /* the fine level may use max(budget_min, */
     double budget_per_particle;   /*   budget_per_particle x particles) bytes */
-    distmap_grid *old;            /* retired grids, freed at quiesce */
+    distmap_grid *old;            /* retired grids, newest first */
+    size_t retired_bytes;         /* their cells */
     uint64_t *queue;              /* ring buffer of the breadth-first pass */
     size_t qcap;
     size_t bytes;                 /* bytes of the current grid */
@@ -124,6 +128,19 @@ int distmap_needs_add(const distmap *m, const int64_t *p);
 
 /* Free grids retired while workers ran; only when no reader runs. */
 void distmap_quiesce(distmap *m);
+
+/* Reclamation while readers run (epochs). A reader holds a grid only inside
+ * one query; between queries (a worker's walks) it publishes the epoch it
+ * sees, distmap_epoch. Once every reader has published at least E, no
+ * reader holds a grid retired before epoch E: distmap_reclaim(m, E) frees
+ * those (the caller serialises it with the writer: the engine's node
+ * mutex). Without it, a long parallel phase would keep every grid the map
+ * ever outgrew (about 4.7 times the current one: 0.2 bytes/particle). */
+static inline uint64_t distmap_epoch(const distmap *m)
+{
+    return atomic_load_explicit(&m->epoch, memory_order_acquire);
+}
+void distmap_reclaim(distmap *m, uint64_t oldest_seen);
 
 /* Rebuild the whole map from the particles of a tree (e.g. after loading a
  * checkpoint): the cells hold the same values as the incrementally built

@@ -36,6 +36,11 @@
 #define RECENT_CAP 4096u
 
 typedef struct worker {
+    /* The map epoch this worker saw between two walks, when it held no map
+     * grid (UINT64_MAX once it has returned); written by the worker once a
+     * walk, read by the coordinating thread to free retired grids. */
+    _Atomic uint64_t seen_epoch;
+    PDLA_CACHE_PAD(pad_epoch_);
     pdla_engine *e;
     walker_ctx *w;
     recent_ring *recent;     /* shared by all workers */
@@ -159,12 +164,28 @@ static void *worker_main(void *arg)
     }
     while (!atomic_load_explicit(&e->stop, memory_order_relaxed) &&
            tree_count(&e->tree) < k->n_until) {
+        atomic_store_explicit(&k->seen_epoch, distmap_epoch(&e->dmap), memory_order_release);
         int64_t p[3];
         const int status = walker_run(e, k->w, p);
         const int r = insert_concurrent(k, p, status);
         if (r == TARGET_REACHED || r < 0) break;
     }
+    atomic_store_explicit(&k->seen_epoch, UINT64_MAX, memory_order_release);
     return NULL;
+}
+
+/* Free the map grids that no worker can still hold: those retired before
+ * the oldest epoch any worker has seen between two of its walks. */
+static void reclaim_grids(pdla_engine *e, worker *ks, int n)
+{
+    uint64_t oldest = UINT64_MAX;
+    for (int i = 0; i < n; i++) {
+        const uint64_t s = atomic_load_explicit(&ks[i].seen_epoch, memory_order_acquire);
+        if (s < oldest) oldest = s;
+    }
+    pthread_mutex_lock(&e->node_mu);
+    distmap_reclaim(&e->dmap, oldest);
+    pthread_mutex_unlock(&e->node_mu);
 }
 
 static void sleep_ms(long ms)
@@ -226,6 +247,7 @@ int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, v
         ks[i].e = e;
         ks[i].w = &ws[i];
         ks[i].n_until = n_until;
+        atomic_init(&ks[i].seen_epoch, 0); /* not started: holds anything */
         ks[i].recent = &recent;
         if (P->bind == PDLA_BIND_CORE) {
             ks[i].topo = topo;
@@ -258,6 +280,7 @@ int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, v
     while (rc == PDLA_OK && !atomic_load_explicit(&e->stop, memory_order_relaxed) &&
            tree_count(&e->tree) < n_until) {
         sleep_ms(20);
+        reclaim_grids(e, ks, started);
         if (progress && progress(e, user)) {
             atomic_store_explicit(&e->stop, 1, memory_order_relaxed);
             snprintf(err, errlen, "stopped at %llu particles",

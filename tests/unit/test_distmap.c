@@ -300,8 +300,52 @@ static void test_growth_cache(int dim, uint64_t seed)
     free(pts);
 }
 
+/* Grids outgrown while readers may run are kept, then freed by epoch:
+ * distmap_reclaim(E) frees exactly those retired before epoch E. */
+static size_t retired_count(const distmap *m, size_t *bytes)
+{
+    size_t n = 0;
+    *bytes = 0;
+    for (const distmap_grid *g = m->old; g; g = g->retired, n++) *bytes += g->bytes;
+    return n;
+}
+
+static void test_reclaim(int dim)
+{
+    distmap m;
+    distmap_init(&m, dim, 8, 2 * 32 + 8 * 256);
+    int64_t p[3] = {0, 0, 0};
+    uint64_t n = 0;
+    distmap_add(&m, p, ++n, 1);
+    for (int k = 0; k < 6; k++) { /* each point beyond the grid: a new one */
+        for (int a = 0; a < dim; a++) p[a] = (int64_t)(4000 << k);
+        distmap_add(&m, p, ++n, 1);
+    }
+    size_t bytes;
+    const size_t kept = retired_count(&m, &bytes);
+    const uint64_t epoch = distmap_epoch(&m);
+    CHECK(kept >= 4 && epoch == kept, "dim %d: %zu grids retired, epoch %llu", dim, kept,
+          (unsigned long long)epoch);
+    CHECK(bytes == m.retired_bytes && bytes > 0, "dim %d: retired bytes %zu, counted %zu", dim,
+          m.retired_bytes, bytes);
+    distmap_reclaim(&m, 0); /* a reader has seen nothing yet: keep all */
+    CHECK(retired_count(&m, &bytes) == kept, "dim %d: reclaim(0) freed a grid", dim);
+    distmap_reclaim(&m, 2); /* the two oldest (retired at epochs 0 and 1) go */
+    CHECK(retired_count(&m, &bytes) == kept - 2 && bytes == m.retired_bytes,
+          "dim %d: reclaim(2) left %zu of %zu", dim, retired_count(&m, &bytes), kept);
+    for (const distmap_grid *g = m.old; g; g = g->retired)
+        CHECK(g->retired_at >= 2, "dim %d: a grid retired at %llu survived", dim,
+              (unsigned long long)g->retired_at);
+    distmap_reclaim(&m, epoch);
+    CHECK(m.old == NULL && m.retired_bytes == 0, "dim %d: reclaim(epoch) kept grids", dim);
+    CHECK(atomic_load(&m.grid) != NULL, "dim %d: the current grid was freed", dim);
+    distmap_free(&m);
+}
+
 int main(void)
 {
+    test_reclaim(2);
+    test_reclaim(3);
     test_growth_cache(2, 7);
     test_growth_cache(3, 8);
     test_cluster(2, 2000, 1, 1, 0);

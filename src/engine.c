@@ -346,23 +346,22 @@ void walker_ctx_add_counts(walker_ctx *s, const walker_ctx *o)
     }
 }
 
-static void add_walker_counts(pdla_stats *s, const walker_ctx *w)
+/* Copy a walker's (summed) counters into the stats. */
+static void stats_set_counts(pdla_stats *s, const walker_ctx *w)
 {
-    s->walkers += w->walkers;
-    s->jumps += w->jumps;
-    s->returns += w->returns;
-    s->lost += w->lost;
-    s->killed += w->killed;
-    s->restarts += w->restarts;
-    s->node_visits += w->ss.node_visits;
-    s->particle_checks += w->ss.particle_checks;
-    s->recheck_overlaps += w->recheck_overlaps;
-    s->recheck_continued += w->recheck_continued;
-    s->recheck_discarded += w->recheck_discarded;
-    for (int i = 0; i < 3; i++) {
-        s->mutex_taken[i] += w->mutex_taken[i];
-        s->mutex_contended[i] += w->mutex_contended[i];
-    }
+    s->walkers = w->walkers;
+    s->jumps = w->jumps;
+    s->returns = w->returns;
+    s->lost = w->lost;
+    s->killed = w->killed;
+    s->restarts = w->restarts;
+    s->node_visits = w->ss.node_visits;
+    s->particle_checks = w->ss.particle_checks;
+    s->recheck_overlaps = w->recheck_overlaps;
+    s->recheck_continued = w->recheck_continued;
+    s->recheck_discarded = w->recheck_discarded;
+    memcpy(s->mutex_taken, w->mutex_taken, sizeof s->mutex_taken);
+    memcpy(s->mutex_contended, w->mutex_contended, sizeof s->mutex_contended);
 }
 
 /* Safe while workers run (the progress callback calls it): worker counters
@@ -373,8 +372,11 @@ void pdla_engine_stats(const pdla_engine *e, pdla_stats *s)
     pdla_engine *m = (pdla_engine *)e; /* the mutexes are the only thing touched */
     memset(s, 0, sizeof *s);
     s->particles = tree_count(&e->tree);
-    add_walker_counts(s, &e->walker);
-    for (int i = 0; i < e->nworkers; i++) add_walker_counts(s, &e->workers[i]);
+    walker_ctx sum;
+    memset(&sum, 0, sizeof sum);
+    walker_ctx_add_counts(&sum, &e->walker);
+    for (int i = 0; i < e->nworkers; i++) walker_ctx_add_counts(&sum, &e->workers[i]);
+    stats_set_counts(s, &sum);
     s->threads = e->nworkers;
     s->parallel_seconds = e->parallel_seconds;
     snprintf(s->binding, sizeof s->binding, "%s", e->binding);

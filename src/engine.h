@@ -94,7 +94,8 @@ int walker_run(const pdla_engine *e, walker_ctx *w, int64_t *stuck_at);
 
 /* Move p onto contact (distance D) with its nearest particle within `reach2`,
  * at the grid point nearest to contact that overlaps nothing. Returns 1 if
- * it moved p, 0 if no such point exists (p unchanged). k: the walker's
+ * it moved p (then no particle the search saw lies closer than D to p), 0
+ * if no such point exists (p unchanged). k: the walker's
  * search state (its cached tree path finds the leaves). */
 int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2, search_state *k);
 

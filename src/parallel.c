@@ -88,6 +88,12 @@ static int insert_concurrent(worker *k, int64_t *p, int status)
     const uint64_t stick2 = (uint64_t)(D + P->eps) * (uint64_t)(D + P->eps);
     int retried = 0;
     for (;;) {
+        /* Every particle below `seen` is visible to the searches that follow
+         * (acquire on the count the bucket mutex's holder released). */
+        const uint64_t seen = tree_count(t);
+        /* A snap that moved p has just checked its new spot against every
+         * particle within D: the lock-free half of the re-check. */
+        int checked = 0;
         if (status == WALK_OVERLAP) {
             w->recheck_overlaps++;
             if (P->recheck == PDLA_RECHECK_DISCARD || retried ||
@@ -96,18 +102,16 @@ static int insert_concurrent(worker *k, int64_t *p, int status)
                 return DISCARDED;
             }
             retried = 1;
+            checked = 1;
         } else if (P->snap_contact) {
-            walker_snap_to_contact(t, p, D, stick2, &w->ss);
+            checked = walker_snap_to_contact(t, p, D, stick2, &w->ss);
         }
         char err[256];
         if (engine_check_range(e, p, err, sizeof err)) return worker_fail(k, PDLA_ERANGE, err);
 
-        /* Every particle below `seen` is visible to the search that follows
-         * (acquire on the count the bucket mutex's holder released). */
-        const uint64_t seen = tree_count(t);
         int64_t q[3];
         uint64_t d2;
-        if (search_nearest_point_cached(t, p, D2, q, &d2, &w->ss)) {
+        if (!checked && search_nearest_point_cached(t, p, D2, q, &d2, &w->ss)) {
             status = WALK_OVERLAP; /* someone stuck here since the last query */
             continue;
         }

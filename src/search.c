@@ -154,19 +154,11 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
         /* A chunk that links to a next one is full and never written again,
          * so the vector loads (which read all ten slots and the link) are
          * safe even while workers append; only the last chunk of a leaf may
-         * be filling, and then only its first m slots may be read. */
+         * be filling, and then only its first m slots may be read (the
+         * scalar loop). */
         if (small && (!concurrent || link > TREE_CHUNK_CAP)) {
             const uint32_t local = chunk_min_d2(chunk, q, m, dim);
             if (local < best2) best2 = local;
-        } else if (small) {
-            for (uint32_t j = 0; j < m; j++) {
-                uint32_t d2 = 0;
-                for (int a = 0; a < dim; a++) {
-                    const int32_t d = (int32_t)q[a] - (int32_t)chunk[a * TREE_CHUNK_CAP + (int)j];
-                    d2 += (uint32_t)(d * d);
-                }
-                if (d2 < best2) best2 = d2;
-            }
         } else {
             for (uint32_t j = 0; j < m; j++) {
                 uint64_t d2 = 0;

@@ -342,8 +342,43 @@ static void test_reclaim(int dim)
     distmap_free(&m);
 }
 
+/* distmap_needs_add, the workers' lock-free test, says 0 exactly when
+ * distmap_add would change nothing (no new grid, no newly marked leaf), and
+ * 0 for every point once it has been added. */
+static void test_needs_add(int dim, uint64_t seed)
+{
+    pdla_rng r;
+    rng_seed(&r, seed);
+    distmap m;
+    distmap_init(&m, dim, 8, 2 * 32 + 8 * 256);
+    int zeros = 0, ones = 0;
+    for (uint64_t n = 1; n <= 3000; n++) {
+        int64_t p[3] = {0, 0, 0};
+        const int64_t span = 200 + (int64_t)n * 3; /* the box grows: new grids too */
+        for (int a = 0; a < dim; a++) p[a] = rand_range(&r, -span, span);
+        const int needs = distmap_needs_add(&m, p);
+        const distmap_grid *g0 = atomic_load(&m.grid);
+        const uint64_t leaves0 = atomic_load(&m.leaves);
+        distmap_add(&m, p, n, 0);
+        const int changed = atomic_load(&m.grid) != g0 || atomic_load(&m.leaves) != leaves0;
+        if (!needs) {
+            zeros++;
+            CHECK(!changed, "dim %d n %llu: needs_add said 0 but the map changed", dim,
+                  (unsigned long long)n);
+        } else {
+            ones++;
+        }
+        CHECK(distmap_needs_add(&m, p) == 0, "dim %d n %llu: an added point still needs adding", dim,
+              (unsigned long long)n);
+    }
+    CHECK(zeros > 100 && ones > 100, "dim %d: both answers occur (%d, %d)", dim, zeros, ones);
+    distmap_free(&m);
+}
+
 int main(void)
 {
+    test_needs_add(2, 31);
+    test_needs_add(3, 32);
     test_reclaim(2);
     test_reclaim(3);
     test_growth_cache(2, 7);

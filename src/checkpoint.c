@@ -609,11 +609,36 @@ static int read_array(const reader *r, hid_t loc, const char *name, hid_t mtype,
     return rc;
 }
 
-static int parse_choice(const char *s, const char *const *words, int n)
+/* One row of the parameter table from its /parameters attribute. */
+static int read_param(hid_t g, const pdla_param_desc *d, pdla_params *p)
 {
-    for (int i = 0; i < n; i++)
-        if (!strcmp(s, words[i])) return i;
-    return -1;
+    switch (d->type) {
+    case PDLA_PT_U64: {
+        uint64_t v;
+        if (read_attr(g, d->name, H5T_NATIVE_UINT64, &v) < 0) return -1;
+        pdla_param_set_u(d, p, v);
+        return 0;
+    }
+    case PDLA_PT_REAL: {
+        double v;
+        if (read_attr(g, d->name, H5T_NATIVE_DOUBLE, &v) < 0) return -1;
+        pdla_param_set_real(d, p, v);
+        return 0;
+    }
+    case PDLA_PT_CHOICE: {
+        char word[32];
+        const int v = read_attr_str(g, d->name, word, sizeof word) < 0 ? -1 : pdla_param_choice(d, word);
+        if (v < 0) return -1;
+        pdla_param_set_u(d, p, (uint64_t)v);
+        return 0;
+    }
+    default: {
+        int32_t v;
+        if (read_attr(g, d->name, H5T_NATIVE_INT32, &v) < 0) return -1;
+        pdla_param_set_u(d, p, (uint64_t)(int64_t)v);
+        return 0;
+    }
+    }
 }
 
 static int read_params(const reader *r, hid_t file, pdla_params *p)
@@ -621,45 +646,16 @@ static int read_params(const reader *r, hid_t file, pdla_params *p)
     if (H5Lexists(file, "parameters", H5P_DEFAULT) <= 0) return damaged(r, "no /parameters");
     const hid_t g = H5Gopen2(file, "parameters", H5P_DEFAULT);
     if (g < 0) return damaged(r, "cannot open /parameters");
-    int32_t i32;
-    char s[32];
-    static const char *const ret[] = {"exact", "kill"}, *const rch[] = {"continue", "discard"},
-                             *const bnd[] = {"none", "core"};
-    int rc = PDLA_OK, v;
-#define P_INT(name, field)                                                                 \
-    if (rc == PDLA_OK) {                                                                   \
-        if (read_attr(g, name, H5T_NATIVE_INT32, &i32) < 0) rc = damaged(r, "parameter " name); \
-        else p->field = i32;                                                               \
+    size_t n;
+    const pdla_param_desc *t = pdla_param_table(&n);
+    int rc = PDLA_OK;
+    for (size_t i = 0; i < n && rc == PDLA_OK; i++) {
+        if (read_param(g, &t[i], p) < 0) {
+            char what[96];
+            snprintf(what, sizeof what, "parameter %s", t[i].name);
+            rc = damaged(r, what);
+        }
     }
-#define P_ANY(name, mtype, field)                                                          \
-    if (rc == PDLA_OK && read_attr(g, name, mtype, &p->field) < 0) rc = damaged(r, "parameter " name);
-#define P_CHOICE(name, words, field, type)                                                 \
-    if (rc == PDLA_OK) {                                                                   \
-        if (read_attr_str(g, name, s, sizeof s) < 0 || (v = parse_choice(s, words, 2)) < 0) \
-            rc = damaged(r, "parameter " name);                                            \
-        else p->field = (type)v;                                                           \
-    }
-    P_INT("dim", dim)
-    P_ANY("target", H5T_NATIVE_UINT64, target)
-    P_ANY("seed", H5T_NATIVE_UINT64, seed)
-    P_INT("resolution", resolution)
-    P_INT("eps", eps)
-    P_ANY("birth_margin", H5T_NATIVE_DOUBLE, birth_margin)
-    P_CHOICE("return_mode", ret, return_mode, pdla_return_mode)
-    P_ANY("kill_ratio", H5T_NATIVE_DOUBLE, kill_ratio)
-    P_INT("exact_search", exact_search)
-    P_ANY("far_factor", H5T_NATIVE_DOUBLE, far_factor)
-    P_ANY("max_jumps", H5T_NATIVE_UINT64, max_jumps)
-    P_INT("snap_contact", snap_contact)
-    P_INT("rg_per_decade", rg_per_decade)
-    P_INT("threads", threads)
-    P_ANY("serial_until", H5T_NATIVE_UINT64, serial_until)
-    P_CHOICE("recheck", rch, recheck, pdla_recheck_mode)
-    P_CHOICE("bind", bnd, bind, pdla_bind_mode)
-    P_INT("record_arrival", record_arrival)
-#undef P_INT
-#undef P_ANY
-#undef P_CHOICE
     H5Gclose(g);
     if (rc) return rc;
     char why[256];
@@ -671,53 +667,38 @@ static int read_params(const reader *r, hid_t file, pdla_params *p)
     return PDLA_OK;
 }
 
-/* Applies the caller's parameters; PDLA_EINVAL when one may not change. */
+/* Applies the caller's parameters (those named by f): a resumable row takes
+ * the asked value, any other must equal the checkpoint's; PDLA_EINVAL when
+ * one may not change. The target may not drop below the particles held. */
 static int apply_asked(const reader *r, pdla_params *p, const pdla_params *a, uint32_t f,
                        uint64_t particles)
 {
-    char what[256] = "";
-#define SAME_I(bit, name, field)                                                            \
-    if (!what[0] && (f & bit) && a->field != p->field)                                    \
-        snprintf(what, sizeof what, "%s is %lld in the checkpoint, %lld asked", name,      \
-                 (long long)p->field, (long long)a->field);
-#define SAME_D(bit, name, field)                                                            \
-    if (!what[0] && (f & bit) && a->field != p->field)                                    \
-        snprintf(what, sizeof what, "%s is %g in the checkpoint, %g asked", name, p->field,  \
-                 a->field);
-    SAME_I(PDLA_PARAM_DIM, "dim", dim)
-    SAME_I(PDLA_PARAM_SEED, "seed", seed)
-    SAME_I(PDLA_PARAM_RESOLUTION, "resolution", resolution)
-    SAME_I(PDLA_PARAM_EPS, "eps", eps)
-    SAME_D(PDLA_PARAM_BIRTH_MARGIN, "birth margin", birth_margin)
-    SAME_I(PDLA_PARAM_RETURN_MODE, "return mode", return_mode)
-    SAME_D(PDLA_PARAM_KILL_RATIO, "kill ratio", kill_ratio)
-    SAME_I(PDLA_PARAM_EXACT_SEARCH, "exact search", exact_search)
-    SAME_D(PDLA_PARAM_FAR_FACTOR, "far factor", far_factor)
-    SAME_I(PDLA_PARAM_MAX_JUMPS, "max jumps", max_jumps)
-    SAME_I(PDLA_PARAM_SNAP_CONTACT, "snap contact", snap_contact)
-    SAME_I(PDLA_PARAM_RG_PER_DECADE, "rg per decade", rg_per_decade)
-    SAME_I(PDLA_PARAM_RECHECK, "recheck mode", recheck)
-    SAME_I(PDLA_PARAM_RECORD_ARRIVAL, "arrival recording", record_arrival)
-#undef SAME_I
-#undef SAME_D
-    if (what[0]) {
+    size_t n;
+    const pdla_param_desc *t = pdla_param_table(&n);
+    for (size_t i = 0; i < n; i++) {
+        const pdla_param_desc *d = &t[i];
+        if (!(f & d->bit) || d->resumable || pdla_param_equal(d, a, p)) continue;
+        char have[64], asked[64];
+        pdla_param_format(d, p, 0, have, sizeof have);
+        pdla_param_format(d, a, 0, asked, sizeof asked);
         if (r->err && r->errlen)
-            snprintf(r->err, r->errlen, "%s: cannot resume with a different physics parameter: %s",
-                     r->path, what);
+            snprintf(r->err, r->errlen, "%s: cannot resume with a different physics parameter: "
+                     "%s is %s in the checkpoint, %s asked", r->path, d->label, have, asked);
         return PDLA_EINVAL;
     }
-    if (f & PDLA_PARAM_TARGET) {
-        if (a->target < particles) {
-            if (r->err && r->errlen)
-                snprintf(r->err, r->errlen, "%s: target %llu is below the %llu particles it holds",
-                         r->path, (unsigned long long)a->target, (unsigned long long)particles);
-            return PDLA_EINVAL;
-        }
-        p->target = a->target;
+    if ((f & PDLA_PARAM_TARGET) && a->target < particles) {
+        if (r->err && r->errlen)
+            snprintf(r->err, r->errlen, "%s: target %llu is below the %llu particles it holds",
+                     r->path, (unsigned long long)a->target, (unsigned long long)particles);
+        return PDLA_EINVAL;
     }
-    if (f & PDLA_PARAM_THREADS) p->threads = a->threads;
-    if (f & PDLA_PARAM_SERIAL_UNTIL) p->serial_until = a->serial_until;
-    if (f & PDLA_PARAM_BIND) p->bind = a->bind;
+    for (size_t i = 0; i < n; i++) {
+        const pdla_param_desc *d = &t[i];
+        if ((f & d->bit) && d->resumable) {
+            if (d->type == PDLA_PT_REAL) pdla_param_set_real(d, p, pdla_param_get_real(d, a));
+            else pdla_param_set_u(d, p, pdla_param_get_u(d, a));
+        }
+    }
     char why[256];
     if (pdla_params_validate(p, why, sizeof why) != PDLA_OK) {
         if (r->err && r->errlen) snprintf(r->err, r->errlen, "%s: %s", r->path, why);

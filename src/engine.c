@@ -27,76 +27,7 @@ static int fail(int code, char *err, size_t errlen, const char *fmt, ...)
     return code;
 }
 
-void pdla_params_default(pdla_params *p)
-{
-    p->dim = 2;
-    p->target = 1000000;
-    p->seed = 1;
-    p->resolution = 32;
-    p->eps = 2;
-    p->birth_margin = 2.0;
-    p->return_mode = PDLA_RETURN_EXACT;
-    p->kill_ratio = 100.0;
-    p->exact_search = 0;
-    p->far_factor = 2.0;
-    p->max_jumps = 100000000;
-    p->rg_per_decade = 100;
-    p->snap_contact = 1;
-    p->threads = 1;
-    p->serial_until = 10000000;
-    p->recheck = PDLA_RECHECK_CONTINUE;
-    p->bind = PDLA_BIND_NONE;
-    p->record_arrival = 0;
-}
-
-int pdla_params_validate(const pdla_params *p, char *err, size_t errlen)
-{
-    if (p->dim != 2 && p->dim != 3)
-        return fail(PDLA_EINVAL, err, errlen, "dim must be 2 or 3, got %d", p->dim);
-    if (p->target < 1)
-        return fail(PDLA_EINVAL, err, errlen, "target must be at least 1 particle");
-    if (p->target > UINT64_C(1) << 40)
-        return fail(PDLA_EINVAL, err, errlen, "target %llu exceeds the limit 2^40",
-                    (unsigned long long)p->target);
-    const int D = p->resolution;
-    if (D < PDLA_MIN_RESOLUTION || D > PDLA_MAX_RESOLUTION || (D & (D - 1)))
-        return fail(PDLA_EINVAL, err, errlen,
-                    "resolution must be a power of two in [%d, %d] units per diameter, got %d",
-                    PDLA_MIN_RESOLUTION, PDLA_MAX_RESOLUTION, D);
-    if (p->eps < 2 || p->eps > D / 2)
-        return fail(PDLA_EINVAL, err, errlen,
-                    "eps must be in [2, resolution/2 = %d] units, got %d", D / 2, p->eps);
-    if (!(p->birth_margin >= 1.0 && p->birth_margin <= 1e6))
-        return fail(PDLA_EINVAL, err, errlen, "birth margin must be in [1, 1e6] diameters, got %g",
-                    p->birth_margin);
-    if (p->return_mode != PDLA_RETURN_EXACT && p->return_mode != PDLA_RETURN_KILL)
-        return fail(PDLA_EINVAL, err, errlen, "unknown return mode %d", (int)p->return_mode);
-    if (!(p->kill_ratio > 1.0 && p->kill_ratio <= 1e6))
-        return fail(PDLA_EINVAL, err, errlen, "kill ratio must be in (1, 1e6], got %g",
-                    p->kill_ratio);
-    if (p->exact_search != 0 && p->exact_search != 1)
-        return fail(PDLA_EINVAL, err, errlen, "exact_search must be 0 or 1");
-    if (!(p->far_factor >= 0.5 && p->far_factor <= 64))
-        return fail(PDLA_EINVAL, err, errlen, "far factor must be in [0.5, 64], got %g",
-                    p->far_factor);
-    if (p->snap_contact != 0 && p->snap_contact != 1)
-        return fail(PDLA_EINVAL, err, errlen, "snap_contact must be 0 or 1");
-    if (p->max_jumps < 1)
-        return fail(PDLA_EINVAL, err, errlen, "max jumps must be at least 1");
-    if (p->threads < 0 || p->threads > 1024)
-        return fail(PDLA_EINVAL, err, errlen, "threads must be in [0, 1024] (0 = one per core), got %d",
-                    p->threads);
-    if (p->recheck != PDLA_RECHECK_CONTINUE && p->recheck != PDLA_RECHECK_DISCARD)
-        return fail(PDLA_EINVAL, err, errlen, "unknown re-check mode %d", (int)p->recheck);
-    if (p->bind != PDLA_BIND_NONE && p->bind != PDLA_BIND_CORE)
-        return fail(PDLA_EINVAL, err, errlen, "unknown binding %d", (int)p->bind);
-    if (p->record_arrival != 0 && p->record_arrival != 1)
-        return fail(PDLA_EINVAL, err, errlen, "record_arrival must be 0 or 1");
-    if (p->rg_per_decade < 0 || p->rg_per_decade > 10000)
-        return fail(PDLA_EINVAL, err, errlen, "rg samples per decade must be in [0, 10000], got %d",
-                    p->rg_per_decade);
-    return PDLA_OK;
-}
+/* pdla_params_default and pdla_params_validate: params.c, from the table. */
 
 /* N of grid point k: round(10^(k / per_decade)), forced strictly increasing. */
 static uint64_t rg_grid_n(uint64_t k, int per_decade, uint64_t prev)

@@ -270,47 +270,39 @@ fail:
 
 /* ---- attribute groups --------------------------------------------------- */
 
-const char *h5u_return_mode_name(pdla_return_mode m)
+/* One attribute per row of the table, typed by the row. */
+static int write_param(const h5u_writer *w, hid_t g, const pdla_param_desc *d, const void *s)
 {
-    return m == PDLA_RETURN_EXACT ? "exact" : m == PDLA_RETURN_KILL ? "kill" : "invalid";
+    switch (d->type) {
+    case PDLA_PT_U64: return h5u_attr_u64(w, g, d->name, pdla_param_get_u(d, s));
+    case PDLA_PT_REAL: return h5u_attr_f64(w, g, d->name, pdla_param_get_real(d, s));
+    case PDLA_PT_CHOICE: {
+        char word[64];
+        pdla_param_format(d, s, 0, word, sizeof word);
+        return h5u_attr_str(w, g, d->name, word);
+    }
+    default: return h5u_attr_int(w, g, d->name, (int)pdla_param_get_i(d, s));
+    }
 }
 
-const char *h5u_recheck_name(pdla_recheck_mode m)
-{
-    return m == PDLA_RECHECK_CONTINUE  ? "continue"
-           : m == PDLA_RECHECK_DISCARD ? "discard"
-                                       : "invalid";
-}
-
-const char *h5u_bind_name(pdla_bind_mode m)
-{
-    return m == PDLA_BIND_NONE ? "none" : m == PDLA_BIND_CORE ? "core" : "invalid";
-}
-
-int h5u_write_parameters(const h5u_writer *w, hid_t file, const pdla_params *p)
+int h5u_write_param_table(const h5u_writer *w, hid_t file, const pdla_param_desc *t, size_t n,
+                          const void *s)
 {
     hid_t g = H5I_INVALID_HID;
     int rc = -1;
     if ((g = h5u_group(w, file, "parameters")) < 0) goto fail;
-    if (h5u_attr_int(w, g, "dim", p->dim) < 0 || h5u_attr_u64(w, g, "target", p->target) < 0 ||
-        h5u_attr_u64(w, g, "seed", p->seed) < 0 || h5u_attr_int(w, g, "resolution", p->resolution) < 0 ||
-        h5u_attr_int(w, g, "eps", p->eps) < 0 || h5u_attr_f64(w, g, "birth_margin", p->birth_margin) < 0 ||
-        h5u_attr_str(w, g, "return_mode", h5u_return_mode_name(p->return_mode)) < 0 ||
-        h5u_attr_f64(w, g, "kill_ratio", p->kill_ratio) < 0 ||
-        h5u_attr_int(w, g, "exact_search", p->exact_search) < 0 ||
-        h5u_attr_f64(w, g, "far_factor", p->far_factor) < 0 ||
-        h5u_attr_u64(w, g, "max_jumps", p->max_jumps) < 0 ||
-        h5u_attr_int(w, g, "snap_contact", p->snap_contact) < 0 ||
-        h5u_attr_int(w, g, "rg_per_decade", p->rg_per_decade) < 0 ||
-        h5u_attr_int(w, g, "threads", p->threads) < 0 ||
-        h5u_attr_u64(w, g, "serial_until", p->serial_until) < 0 ||
-        h5u_attr_str(w, g, "recheck", h5u_recheck_name(p->recheck)) < 0 ||
-        h5u_attr_str(w, g, "bind", h5u_bind_name(p->bind)) < 0 ||
-        h5u_attr_int(w, g, "record_arrival", p->record_arrival) < 0)
-        goto fail;
+    for (size_t i = 0; i < n; i++)
+        if (write_param(w, g, &t[i], s) < 0) goto fail;
     rc = 0;
 fail:
     return h5u_close(w, rc, g, H5Gclose, "/parameters");
+}
+
+int h5u_write_parameters(const h5u_writer *w, hid_t file, const pdla_params *p)
+{
+    size_t n;
+    const pdla_param_desc *t = pdla_param_table(&n);
+    return h5u_write_param_table(w, file, t, n, p);
 }
 
 int h5u_write_code(const h5u_writer *w, hid_t file, const pdla_provenance *pv,

@@ -15,6 +15,7 @@
 #include <stdint.h>
 
 #include "pdla/pdla.h"
+#include "pdla/params.h"
 #include "provenance.h"
 
 /* Where messages go and which file they name. */
@@ -59,10 +60,10 @@ hid_t h5u_dataset(const h5u_writer *w, hid_t loc, const char *name, hid_t ftype,
 hid_t h5u_dataset_z(const h5u_writer *w, hid_t loc, const char *name, hid_t ftype, int rank,
                     hsize_t rows, hsize_t cols, hsize_t chunk_rows, int gzip, hid_t *space_out);
 
-const char *h5u_return_mode_name(pdla_return_mode m);
-const char *h5u_recheck_name(pdla_recheck_mode m);
-const char *h5u_bind_name(pdla_bind_mode m);
-/* /parameters: one attribute per pdla_params field. */
+/* /parameters: one attribute per row of a parameter table (params.h), typed
+ * by the row (a choice as its word); h5u_write_parameters for the DLA table. */
+int h5u_write_param_table(const h5u_writer *w, hid_t file, const pdla_param_desc *t, size_t n,
+                          const void *s);
 int h5u_write_parameters(const h5u_writer *w, hid_t file, const pdla_params *p);
 /* /Code: provenance strings. */
 int h5u_write_code(const h5u_writer *w, hid_t file, const pdla_provenance *pv,

@@ -78,7 +78,9 @@ typedef enum {
 #define PDLA_MAX_RESOLUTION 128
 
 /* Run parameters. Every field is documented with its default, which
- * pdla_params_default() sets. */
+ * pdla_params_default() sets. Each field is a row of the parameter table
+ * (pdla/params.h, src/params.c), which holds its default, range, help
+ * text, option name and resume rule, and drives every place that handles it. */
 typedef struct pdla_params {
     int dim;                 /* 2 or 3. Default 2. */
     uint64_t target;         /* particles in the final cluster, >= 1. Default 1000000. */
@@ -124,7 +126,8 @@ typedef struct pdla_params {
 } pdla_params;
 
 PDLA_API void pdla_params_default(pdla_params *p);
-/* 0 if every field is in range, else PDLA_EINVAL and the first bad field in err. */
+/* 0 if every field is in range, else PDLA_EINVAL and the first bad field in
+ * err (pdla_param_validate over the table, in its order). */
 PDLA_API int pdla_params_validate(const pdla_params *p, char *err, size_t errlen);
 
 /* Counters of a growth run. */
@@ -230,7 +233,8 @@ PDLA_API int pdla_output_write(const pdla_engine *e, const pdla_run_info *info,
 
 /* ---- checkpoints and resume (checkpoint.c; README "Checkpoints and resume") */
 
-/* Bits naming pdla_params fields, for pdla_checkpoint_load's `asked`. */
+/* Bits naming pdla_params fields, for pdla_checkpoint_load's `asked`
+ * (pdla_param_desc.bit of each row). */
 enum {
     PDLA_PARAM_DIM = 1u << 0,
     PDLA_PARAM_TARGET = 1u << 1,
@@ -251,8 +255,9 @@ enum {
     PDLA_PARAM_BIND = 1u << 16,
     PDLA_PARAM_RECORD_ARRIVAL = 1u << 17
 };
-/* The fields a resume may change; any other asked field must equal the
- * checkpoint's value. The target may be raised (not below the particles held). */
+/* The fields a resume may change (the rows with resumable = 1; tests/params
+ * checks they agree); any other asked field must equal the checkpoint's value.
+ * The target may be raised (not below the particles held). */
 #define PDLA_PARAM_RESUMABLE \
     (PDLA_PARAM_TARGET | PDLA_PARAM_THREADS | PDLA_PARAM_SERIAL_UNTIL | PDLA_PARAM_BIND)
 

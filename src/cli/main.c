@@ -349,7 +349,20 @@ typedef struct report {
 
 static const char *return_word(pdla_return_mode m) { return m == PDLA_RETURN_KILL ? "kill" : "exact"; }
 
-/* The human summary; summary.txt adds the command line. */
+/* Every row of the parameter table, one per line with its unit. */
+static void print_parameters(FILE *f, const pdla_params *P)
+{
+    size_t n;
+    const pdla_param_desc *t = pdla_param_table(&n);
+    fprintf(f, "parameters\n");
+    for (size_t i = 0; i < n; i++) {
+        char v[64];
+        pdla_param_format(&t[i], P, 0, v, sizeof v);
+        fprintf(f, "  %-15s%s%s%s\n", t[i].name, v, t[i].unit[0] ? " " : "", t[i].unit);
+    }
+}
+
+/* The human summary; summary.txt adds the command line and the parameters. */
 static void print_summary(FILE *f, const report *r, int with_command)
 {
     const pdla_stats *s = &r->st;
@@ -409,6 +422,7 @@ static void print_summary(FILE *f, const report *r, int with_command)
                 c->pause_seconds, c->max_pause);
     else if (c && c->o->checkpoint)
         fprintf(f, "checkpoints      none written (%d failed)\n", c->failures);
+    if (with_command) print_parameters(f, P);
 }
 
 /* ---- JSON -------------------------------------------------------------- */
@@ -435,6 +449,23 @@ static void json_real(FILE *f, double x)
     else fputs("null", f);
 }
 
+/* Every row of the parameter table: {"name": value, ...}; a choice as its word. */
+static void json_params(FILE *f, const pdla_params *P)
+{
+    size_t n;
+    const pdla_param_desc *t = pdla_param_table(&n);
+    fputc('{', f);
+    for (size_t i = 0; i < n; i++) {
+        char v[64];
+        pdla_param_format(&t[i], P, 1, v, sizeof v);
+        fprintf(f, "%s\"%s\": ", i ? ", " : "", t[i].name);
+        if (t[i].type == PDLA_PT_CHOICE) json_string(f, v);
+        else if (t[i].type == PDLA_PT_REAL) json_real(f, pdla_param_get_real(&t[i], P));
+        else fputs(v, f);
+    }
+    fputc('}', f);
+}
+
 static void write_json(FILE *f, const report *r, const char *status)
 {
     const pdla_stats *s = &r->st;
@@ -445,19 +476,9 @@ static void write_json(FILE *f, const report *r, const char *status)
     json_string(f, r->command);
     fprintf(f, ",\n  \"status\": ");
     json_string(f, status);
-    fprintf(f, ",\n  \"params\": {\"dim\": %d, \"target\": %" PRIu64 ", \"seed\": %" PRIu64
-               ", \"resolution\": %d, \"eps\": %d, \"birth_margin\": ",
-            P->dim, P->target, P->seed, P->resolution, P->eps);
-    json_real(f, P->birth_margin);
-    fprintf(f, ", \"return\": \"%s\", \"kill_ratio\": ", return_word(P->return_mode));
-    json_real(f, P->kill_ratio);
-    fprintf(f, ", \"exact_search\": %d, \"far_factor\": ", P->exact_search);
-    json_real(f, P->far_factor);
-    fprintf(f, ", \"max_jumps\": %" PRIu64 ", \"snap_contact\": %d, \"rg_per_decade\": %d"
-               ", \"threads\": %d, \"serial_until\": %" PRIu64 ", \"recheck\": \"%s\", \"bind\": \"%s\"},\n",
-            P->max_jumps, P->snap_contact, P->rg_per_decade, P->threads, P->serial_until,
-            P->recheck == PDLA_RECHECK_DISCARD ? "discard" : "continue",
-            P->bind == PDLA_BIND_CORE ? "core" : "none");
+    fprintf(f, ",\n  \"params\": ");
+    json_params(f, P);
+    fprintf(f, ",\n");
     fprintf(f, "  \"particles\": %" PRIu64 ",\n  \"walkers\": %" PRIu64 ",\n  \"jumps\": %" PRIu64
                ",\n  \"returns\": %" PRIu64 ",\n  \"lost\": %" PRIu64 ",\n  \"killed\": %" PRIu64
                ",\n  \"restarts\": %" PRIu64 ",\n  \"node_visits\": %" PRIu64

@@ -143,37 +143,22 @@ const char *cli_parse_duration(const char *s, double *out)
 
 /* ---- the option table -------------------------------------------------- */
 
+/* Ids of the CLI's own options; the parameters' options are generated from
+ * the library's table (params.h) and get OPT_PARAM + their row. */
 enum opt_id {
-    OPT_DIM = 256,
-    OPT_TARGET,
-    OPT_SEED,
-    OPT_RESOLUTION,
-    OPT_EPS,
-    OPT_NO_SNAP,
-    OPT_BIRTH_MARGIN,
-    OPT_RETURN,
-    OPT_KILL_RATIO,
-    OPT_MAX_JUMPS,
-    OPT_EXACT_SEARCH,
-    OPT_FAR_FACTOR,
-    OPT_THREADS,
-    OPT_SERIAL_UNTIL,
-    OPT_RECHECK,
-    OPT_BIND,
-    OPT_RG_PER_DECADE,
-    OPT_OUT,
+    OPT_OUT = 256,
     OPT_FORCE,
     OPT_NO_OUTPUT,
     OPT_STATS_JSON,
     OPT_PROGRESS,
     OPT_NO_PROGRESS,
-    OPT_ARRIVAL,
     OPT_SCENE,
     OPT_CHECKPOINT,
     OPT_CHECKPOINT_EVERY,
     OPT_CHECKPOINT_PARTICLES,
     OPT_CHECKPOINT_COMPRESS,
-    OPT_RESUME
+    OPT_RESUME,
+    OPT_PARAM = 1024
 };
 
 typedef enum arg_kind {
@@ -195,52 +180,13 @@ typedef struct opt_desc {
     const char *help;
 } opt_desc;
 
+/* The CLI's own options, and the --help headings under which the table's
+ * parameters of that group are listed first (see cli_help_text). */
 static const opt_desc options[] = {
     {NULL, 0, 0, ARG_NONE, NULL, "Cluster:"},
-    {"dim", 0, OPT_DIM, ARG_INT, "2|3", "dimension"},
-    {"target", 0, OPT_TARGET, ARG_COUNT, "N", "particles in the final cluster, 1 to 2^40"},
-    {"seed", 0, OPT_SEED, ARG_COUNT, "S", "random seed, 0 to 2^64-1"},
-    {"resolution", 0, OPT_RESOLUTION, ARG_INT, "D",
-     "units per particle diameter, a power of two from 4 to 128"},
-    {"eps", 0, OPT_EPS, ARG_INT, "E",
-     "sticking shell in units, 2 to D/2: a walker sticks closer than D + E "
-     "to a particle centre"},
-    {"no-snap-contact", 0, OPT_NO_SNAP, ARG_NONE, NULL,
-     "stick where the walker stops instead of moving it onto contact "
-     "(stretches the cluster by about E/(2D))"},
     {NULL, 0, 0, ARG_NONE, NULL, "Walkers:"},
-    {"birth-margin", 0, OPT_BIRTH_MARGIN, ARG_REAL, "M",
-     "walkers start on the circle (sphere) of radius R_ext + M diameters, M >= 1"},
-    {"return", 0, OPT_RETURN, ARG_CHOICE, "exact|kill",
-     "a walker that leaves the birth circle: exact return by the harmonic "
-     "measure, or the kill scheme"},
-    {"kill-ratio", 0, OPT_KILL_RATIO, ARG_REAL, "R",
-     "with --return kill: kill radius / birth radius, above 1"},
-    {"max-jumps", 0, OPT_MAX_JUMPS, ARG_COUNT, "N",
-     "restart a walk on the birth circle after N jumps"},
-    {"exact-search", 0, OPT_EXACT_SEARCH, ARG_NONE, NULL,
-     "every jump by the exact nearest distance from the tree: no distance map, no "
-     "far-node bound, no 2D leaf-block cut (the reference setting; about 2x slower)"},
-    {"far-factor", 0, OPT_FAR_FACTOR, ARG_REAL, "F",
-     "tree search: a node farther than F x its side is not opened; 0.5 to 64 (matters "
-     "in 3D; 2D walkers use the distance map and the leaf block instead)"},
     {NULL, 0, 0, ARG_NONE, NULL, "Threads (PDLA):"},
-    {"threads", 0, OPT_THREADS, ARG_INT, "N",
-     "worker threads after the serial phase: 1 = serial DLA throughout, "
-     "0 = one per physical core"},
-    {"serial-until", 0, OPT_SERIAL_UNTIL, ARG_COUNT, "N",
-     "grow with one walker (deterministic) up to N particles, then start the workers"},
-    {"recheck", 0, OPT_RECHECK, ARG_CHOICE, "continue|discard",
-     "a worker's walker whose spot another one took: continue in contact with "
-     "the newcomer, or discard it"},
-    {"bind", 0, OPT_BIND, ARG_CHOICE, "none|core",
-     "worker placement: none (the OS decides) or one per physical core"},
     {NULL, 0, 0, ARG_NONE, NULL, "Output:"},
-    {"rg-per-decade", 0, OPT_RG_PER_DECADE, ARG_INT, "K",
-     "R_g(N) samples per decade of N, 0 = none"},
-    {"arrival", 0, OPT_ARRIVAL, ARG_NONE, NULL,
-     "store positions in arrival order (costs 4 bytes per coordinate while growing; "
-     "lets `pdla render --color arrival` colour by it)"},
     {"out", 0, OPT_OUT, ARG_STRING, "DIR",
      "run directory; it must not exist, its parents are made "
      "(default runs/run-YYYYmmdd-HHMMSS-<dim>d-<target>)"},
@@ -275,36 +221,44 @@ static const opt_desc options[] = {
     {"version", 'V', 'V', ARG_NONE, NULL, "print the version and exit"},
 };
 #define N_OPTIONS (sizeof options / sizeof options[0])
+/* Room for the parameter table's options in getopt's array. */
+#define MAX_PARAMS 128
 
-typedef struct choice {
-    const char *word;
-    int value;
-} choice;
-
-static const choice return_choices[] = {{"exact", PDLA_RETURN_EXACT}, {"kill", PDLA_RETURN_KILL}, {NULL, 0}};
-static const choice recheck_choices[] = {
-    {"continue", PDLA_RECHECK_CONTINUE}, {"discard", PDLA_RECHECK_DISCARD}, {NULL, 0}};
-static const choice bind_choices[] = {{"none", PDLA_BIND_NONE}, {"core", PDLA_BIND_CORE}, {NULL, 0}};
-
-static const choice *choices_of(int id)
+static arg_kind kind_of(const pdla_param_desc *pd)
 {
-    switch (id) {
-    case OPT_RETURN: return return_choices;
-    case OPT_RECHECK: return recheck_choices;
-    case OPT_BIND: return bind_choices;
-    default: return NULL;
+    switch (pd->type) {
+    case PDLA_PT_INT: return ARG_INT;
+    case PDLA_PT_U64: return ARG_COUNT;
+    case PDLA_PT_REAL: return ARG_REAL;
+    case PDLA_PT_CHOICE: return ARG_CHOICE;
+    default: return ARG_NONE;
     }
 }
 
-static const char *choice_word(const choice *c, int value)
+/* The parameter of an option id, or NULL for the CLI's own options. */
+static const pdla_param_desc *param_of(int id)
 {
-    for (; c->word; c++)
-        if (c->value == value) return c->word;
-    return "?";
+    size_t n;
+    const pdla_param_desc *t = pdla_param_table(&n);
+    return id >= OPT_PARAM && (size_t)(id - OPT_PARAM) < n ? &t[id - OPT_PARAM] : NULL;
 }
 
-static const opt_desc *find_opt(int id)
+/* The option row of table row i, made from its descriptor. */
+static opt_desc param_opt(const pdla_param_desc *t, size_t i)
 {
+    return (opt_desc){t[i].option, 0, OPT_PARAM + (int)i, kind_of(&t[i]), t[i].metavar, t[i].help};
+}
+
+/* The row of option id: a CLI row, or *tmp filled from the table. */
+static const opt_desc *find_opt(int id, opt_desc *tmp)
+{
+    const pdla_param_desc *pd = param_of(id);
+    if (pd) {
+        size_t n;
+        const pdla_param_desc *t = pdla_param_table(&n);
+        *tmp = param_opt(t, (size_t)(pd - t));
+        return tmp;
+    }
     for (size_t i = 0; i < N_OPTIONS; i++)
         if (options[i].name && options[i].id == id) return &options[i];
     return NULL;
@@ -349,6 +303,15 @@ static const char *opt_label(char dst[64], const opt_desc *o)
 
 /* ---- the parser -------------------------------------------------------- */
 
+/* A parameter's value into o->params, and its bit into o->given. */
+static void set_param(cli_options *o, const pdla_param_desc *pd, uint64_t n, double x)
+{
+    if (pd->type == PDLA_PT_REAL) pdla_param_set_real(pd, &o->params, x);
+    else if (pd->type == PDLA_PT_FLAG) pdla_param_set_u(pd, &o->params, (uint64_t)pd->flag_value);
+    else pdla_param_set_u(pd, &o->params, n);
+    o->given |= pd->bit;
+}
+
 static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *err, size_t errlen)
 {
     char v[64], l[64];
@@ -368,57 +331,23 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
         else if (*arg == '-') why = "a name starting with '-' looks like an option (write ./NAME)";
         break;
     case ARG_CHOICE: {
-        const choice *c = choices_of(d->id);
-        for (; c->word; c++)
-            if (!strcmp(arg, c->word)) break;
-        if (!c->word)
+        const int c = pdla_param_choice(param_of(d->id), arg);
+        if (c < 0)
             return fail(err, errlen, "invalid value '%s' for %s: should be %s", shown(v, arg),
                         opt_label(l, d), d->metavar);
-        n = (uint64_t)c->value;
+        n = (uint64_t)c;
         break;
     }
     case ARG_NONE: break;
     }
     if (why) return fail(err, errlen, "invalid value '%s' for %s: %s", shown(v, arg), opt_label(l, d), why);
 
-    pdla_params *p = &o->params;
-    static const uint32_t field_of[] = {
-        [OPT_DIM - OPT_DIM] = PDLA_PARAM_DIM, [OPT_TARGET - OPT_DIM] = PDLA_PARAM_TARGET,
-        [OPT_SEED - OPT_DIM] = PDLA_PARAM_SEED, [OPT_RESOLUTION - OPT_DIM] = PDLA_PARAM_RESOLUTION,
-        [OPT_EPS - OPT_DIM] = PDLA_PARAM_EPS, [OPT_NO_SNAP - OPT_DIM] = PDLA_PARAM_SNAP_CONTACT,
-        [OPT_BIRTH_MARGIN - OPT_DIM] = PDLA_PARAM_BIRTH_MARGIN,
-        [OPT_RETURN - OPT_DIM] = PDLA_PARAM_RETURN_MODE,
-        [OPT_KILL_RATIO - OPT_DIM] = PDLA_PARAM_KILL_RATIO,
-        [OPT_MAX_JUMPS - OPT_DIM] = PDLA_PARAM_MAX_JUMPS,
-        [OPT_EXACT_SEARCH - OPT_DIM] = PDLA_PARAM_EXACT_SEARCH,
-        [OPT_FAR_FACTOR - OPT_DIM] = PDLA_PARAM_FAR_FACTOR,
-        [OPT_THREADS - OPT_DIM] = PDLA_PARAM_THREADS,
-        [OPT_SERIAL_UNTIL - OPT_DIM] = PDLA_PARAM_SERIAL_UNTIL,
-        [OPT_RECHECK - OPT_DIM] = PDLA_PARAM_RECHECK, [OPT_BIND - OPT_DIM] = PDLA_PARAM_BIND,
-        [OPT_RG_PER_DECADE - OPT_DIM] = PDLA_PARAM_RG_PER_DECADE};
-    if (d->id >= OPT_DIM && d->id <= OPT_RG_PER_DECADE) o->given |= field_of[d->id - OPT_DIM];
+    const pdla_param_desc *pd = param_of(d->id);
+    if (pd) {
+        set_param(o, pd, n, x);
+        return CLI_PARSE_OK;
+    }
     switch (d->id) {
-    case OPT_DIM: p->dim = (int)n; break;
-    case OPT_TARGET: p->target = n; break;
-    case OPT_SEED: p->seed = n; break;
-    case OPT_RESOLUTION: p->resolution = (int)n; break;
-    case OPT_EPS: p->eps = (int)n; break;
-    case OPT_NO_SNAP: p->snap_contact = 0; break;
-    case OPT_BIRTH_MARGIN: p->birth_margin = x; break;
-    case OPT_RETURN: p->return_mode = (pdla_return_mode)n; break;
-    case OPT_KILL_RATIO: p->kill_ratio = x; break;
-    case OPT_MAX_JUMPS: p->max_jumps = n; break;
-    case OPT_EXACT_SEARCH: p->exact_search = 1; break;
-    case OPT_FAR_FACTOR: p->far_factor = x; break;
-    case OPT_THREADS: p->threads = (int)n; break;
-    case OPT_SERIAL_UNTIL: p->serial_until = n; break;
-    case OPT_RECHECK: p->recheck = (pdla_recheck_mode)n; break;
-    case OPT_BIND: p->bind = (pdla_bind_mode)n; break;
-    case OPT_RG_PER_DECADE: p->rg_per_decade = (int)n; break;
-    case OPT_ARRIVAL:
-        p->record_arrival = 1;
-        o->given |= PDLA_PARAM_RECORD_ARRIVAL;
-        break;
     case OPT_OUT: o->out_dir = arg; break;
     case OPT_FORCE: o->force = 1; break;
     case OPT_NO_OUTPUT: o->no_output = 1; break;
@@ -450,6 +379,11 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
 int cli_set_option(cli_options *o, const char *name, const char *value, char *err, size_t errlen)
 {
     const opt_desc *d = NULL;
+    opt_desc tmp;
+    size_t np;
+    const pdla_param_desc *t = pdla_param_table(&np);
+    for (size_t i = 0; i < np && !d; i++)
+        if (!strcmp(t[i].option, name)) d = find_opt(OPT_PARAM + (int)i, &tmp);
     for (size_t i = 0; i < N_OPTIONS && !d; i++)
         if (options[i].name && !strcmp(options[i].name, name)) d = &options[i];
     char v[64];
@@ -468,10 +402,17 @@ int cli_set_option(cli_options *o, const char *name, const char *value, char *er
 /* One pass of getopt over argv into *out (not reset). */
 static int parse_args(int argc, char **argv, cli_options *out, char *err, size_t errlen)
 {
-    struct option longopts[N_OPTIONS + 1];
+    size_t np;
+    const pdla_param_desc *t = pdla_param_table(&np);
+    if (np > MAX_PARAMS) return fail(err, errlen, "internal error: %zu parameters", np);
+    struct option longopts[N_OPTIONS + MAX_PARAMS + 1];
     char shortopts[2 * N_OPTIONS + 2];
     size_t nl = 0, ns = 0;
     shortopts[ns++] = ':'; /* report a missing value as ':' rather than '?' */
+    for (size_t i = 0; i < np; i++)
+        longopts[nl++] = (struct option){t[i].option,
+                                         t[i].type == PDLA_PT_FLAG ? no_argument : required_argument,
+                                         NULL, OPT_PARAM + (int)i};
     for (size_t i = 0; i < N_OPTIONS; i++) {
         const opt_desc *d = &options[i];
         if (!d->name) continue;
@@ -495,13 +436,15 @@ static int parse_args(int argc, char **argv, cli_options *out, char *err, size_t
     while ((c = getopt_long(argc, argv, shortopts, longopts, NULL)) != -1) {
         const char *cur = optind > 0 && optind <= argc ? argv[optind - 1] : "?";
         if (c == ':') {
-            const opt_desc *d = find_opt(optopt);
+            opt_desc tmp;
+            const opt_desc *d = find_opt(optopt, &tmp);
             char l[64];
             return fail(err, errlen, "option %s needs a value (%s)",
                         d ? opt_label(l, d) : shown(v, cur), d ? d->metavar : "see --help");
         }
         if (c == '?') {
-            const opt_desc *d = optopt ? find_opt(optopt) : NULL;
+            opt_desc tmp;
+            const opt_desc *d = optopt ? find_opt(optopt, &tmp) : NULL;
             if (d) { /* a known flag given "=value" */
                 char l[64];
                 return fail(err, errlen, "option %s does not take a value", opt_label(l, d));
@@ -510,7 +453,8 @@ static int parse_args(int argc, char **argv, cli_options *out, char *err, size_t
                 return fail(err, errlen, "unknown option '-%c' (see --help)", optopt);
             return fail(err, errlen, "unknown or ambiguous option '%s' (see --help)", shown(v, cur));
         }
-        const opt_desc *d = find_opt(c);
+        opt_desc tmp;
+        const opt_desc *d = find_opt(c, &tmp);
         if (!d) return fail(err, errlen, "internal error: getopt returned %d", c);
         const int rc = set_value(out, d, optarg, err, errlen);
         if (rc) return rc;
@@ -530,6 +474,18 @@ int cli_parse_long_in(const char *s, long lo, long hi, long *out)
 }
 
 static int parse_all(int argc, char **argv, cli_options *out, char *err, size_t errlen);
+
+int cli_check_params(const pdla_params *p, char *err, size_t errlen)
+{
+    size_t np;
+    const pdla_param_desc *t = pdla_param_table(&np);
+    const pdla_param_desc *bad = NULL;
+    if (pdla_param_validate(t, np, p, &bad, err, errlen) == PDLA_OK) return CLI_PARSE_OK;
+    /* The library names the value; the user also wants the option to change. */
+    const size_t used = err ? strlen(err) : 0;
+    if (bad && err && used < errlen) snprintf(err + used, errlen - used, " (--%s)", bad->option);
+    return CLI_PARSE_ERROR;
+}
 
 /* Errors are one line: a file name or argument quoted in the message may
  * hold a newline or another control byte, so those are shown as '?'. */
@@ -575,8 +531,7 @@ static int parse_all(int argc, char **argv, cli_options *out, char *err, size_t 
     if (out->resume && (out->out_dir || out->force))
         return fail(err, errlen, "--resume continues in the checkpoint's run directory: "
                                  "--out and --force do not apply");
-    if (pdla_params_validate(&out->params, err, errlen) != PDLA_OK) return CLI_PARSE_ERROR;
-    return CLI_PARSE_OK;
+    return cli_check_params(&out->params, err, errlen);
 }
 
 /* ---- --help ------------------------------------------------------------ */
@@ -622,30 +577,42 @@ static void put_wrapped(text *t, int col, const char *s)
     put(t, "\n");
 }
 
-/* The default of an option as text, from the library's defaults; 0 if the
- * option has none worth showing. */
-static int default_text(int id, const pdla_params *d, char *buf, size_t n)
+/* One option's --help entry: the name column, then the wrapped text. */
+static void put_option(text *t, const opt_desc *d, const char *dflt)
 {
-    switch (id) {
-    case OPT_DIM: snprintf(buf, n, "%d", d->dim); return 1;
-    case OPT_TARGET: snprintf(buf, n, "%" PRIu64, d->target); return 1;
-    case OPT_SEED: snprintf(buf, n, "%" PRIu64, d->seed); return 1;
-    case OPT_RESOLUTION: snprintf(buf, n, "%d", d->resolution); return 1;
-    case OPT_EPS: snprintf(buf, n, "%d", d->eps); return 1;
-    case OPT_BIRTH_MARGIN: snprintf(buf, n, "%g", d->birth_margin); return 1;
-    case OPT_RETURN: snprintf(buf, n, "%s", choice_word(return_choices, d->return_mode)); return 1;
-    case OPT_KILL_RATIO: snprintf(buf, n, "%g", d->kill_ratio); return 1;
-    case OPT_MAX_JUMPS: snprintf(buf, n, "%" PRIu64, d->max_jumps); return 1;
-    case OPT_FAR_FACTOR: snprintf(buf, n, "%g", d->far_factor); return 1;
-    case OPT_THREADS: snprintf(buf, n, "%d", d->threads); return 1;
-    case OPT_SERIAL_UNTIL: snprintf(buf, n, "%" PRIu64, d->serial_until); return 1;
-    case OPT_RECHECK: snprintf(buf, n, "%s", choice_word(recheck_choices, d->recheck)); return 1;
-    case OPT_BIND: snprintf(buf, n, "%s", choice_word(bind_choices, d->bind)); return 1;
-    case OPT_RG_PER_DECADE: snprintf(buf, n, "%d", d->rg_per_decade); return 1;
-    /* Flags that turn a default off or on say so only when it matters. */
-    case OPT_NO_SNAP: return 0;
-    case OPT_EXACT_SEARCH: return 0;
-    default: return 0;
+    char head[64];
+    int col;
+    if (d->short_name)
+        col = snprintf(head, sizeof head, "  -%c, --%s", d->short_name, d->name);
+    else
+        col = snprintf(head, sizeof head, "  --%s", d->name);
+    if (d->metavar && col > 0 && (size_t)col < sizeof head)
+        col += snprintf(head + col, sizeof head - (size_t)col, " %s", d->metavar);
+    put(t, "%s", head);
+    if (col + 2 > HELP_COL) {
+        put(t, "\n");
+        col = 0;
+    }
+    put(t, "%*s", HELP_COL - col, "");
+    char help[512];
+    if (dflt)
+        snprintf(help, sizeof help, "%s (default%c%s)", d->help, NBSP, dflt);
+    else
+        snprintf(help, sizeof help, "%s", d->help);
+    put_wrapped(t, HELP_COL, help);
+}
+
+/* The parameters listed under a --help heading, with their defaults. */
+static void put_param_group(text *t, const char *group, const pdla_params *defaults)
+{
+    size_t np;
+    const pdla_param_desc *pt = pdla_param_table(&np);
+    for (size_t i = 0; i < np; i++) {
+        if (strcmp(pt[i].group, group)) continue;
+        const opt_desc d = param_opt(pt, i);
+        char dflt[48];
+        if (pt[i].show_default) pdla_param_format(&pt[i], defaults, 0, dflt, sizeof dflt);
+        put_option(t, &d, pt[i].show_default ? dflt : NULL);
     }
 }
 
@@ -665,28 +632,10 @@ size_t cli_help_text(char *buf, size_t len, const pdla_params *defaults)
         const opt_desc *d = &options[i];
         if (!d->name) {
             put(&t, "\n%s\n", d->help);
-            continue;
+            put_param_group(&t, d->help, defaults);
+        } else {
+            put_option(&t, d, NULL);
         }
-        char head[64];
-        int col;
-        if (d->short_name)
-            col = snprintf(head, sizeof head, "  -%c, --%s", d->short_name, d->name);
-        else
-            col = snprintf(head, sizeof head, "  --%s", d->name);
-        if (d->metavar && col > 0 && (size_t)col < sizeof head)
-            col += snprintf(head + col, sizeof head - (size_t)col, " %s", d->metavar);
-        put(&t, "%s", head);
-        if (col + 2 > HELP_COL) {
-            put(&t, "\n");
-            col = 0;
-        }
-        put(&t, "%*s", HELP_COL - col, "");
-        char dflt[48], help[512];
-        if (default_text(d->id, defaults, dflt, sizeof dflt))
-            snprintf(help, sizeof help, "%s (default%c%s)", d->help, NBSP, dflt);
-        else
-            snprintf(help, sizeof help, "%s", d->help);
-        put_wrapped(&t, HELP_COL, help);
     }
     put(&t,
         "\n"

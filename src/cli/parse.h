@@ -20,6 +20,7 @@
 #include <stdint.h>
 
 #include "pdla/pdla.h"
+#include "pdla/params.h"
 
 typedef enum cli_action {
     CLI_RUN = 0,  /* grow a cluster */
@@ -78,6 +79,10 @@ int cli_parse_long_in(const char *s, long lo, long hi, long *out);
 /* A positive duration: a decimal number of seconds with an optional suffix
  * s, m or h ("90", "30m", "1.5h"). */
 const char *cli_parse_duration(const char *s, double *out);
+
+/* pdla_params_validate with the option to change appended to the reason,
+ * e.g. "far factor must be in [0.5, 64], got 65 (--far-factor)". */
+int cli_check_params(const pdla_params *p, char *err, size_t errlen);
 
 /* The --help text for the given defaults, like snprintf: writes at most len
  * bytes (NUL-terminated when len > 0) and returns the full length. */

@@ -1,0 +1,381 @@
+/*
+ * params.c - the DLA engine's parameter table (see include/pdla/params.h)
+ * and the table-driven functions every parameter user shares: defaults,
+ * validation, typed access, formatting. A row here is the only place a
+ * parameter's default, range, help text, option name and resume rule are
+ * written down.
+ */
+#include "pdla/params.h"
+
+#include <inttypes.h>
+#include <limits.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+/* Enums are stored and read as int (CHOICE rows). */
+_Static_assert(sizeof(pdla_return_mode) == sizeof(int), "enum size");
+_Static_assert(sizeof(pdla_recheck_mode) == sizeof(int), "enum size");
+_Static_assert(sizeof(pdla_bind_mode) == sizeof(int), "enum size");
+
+static int param_fail(char *err, size_t errlen, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static int param_fail(char *err, size_t errlen, const char *fmt, ...)
+{
+    if (err && errlen) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, errlen, fmt, ap);
+        va_end(ap);
+    }
+    return PDLA_EINVAL;
+}
+
+/* ---- rules that a range cannot say ------------------------------------- */
+
+static int check_target(const void *s, char *err, size_t errlen)
+{
+    const pdla_params *p = s;
+    if (p->target < 1) return param_fail(err, errlen, "target must be at least 1 particle");
+    if (p->target > UINT64_C(1) << 40)
+        return param_fail(err, errlen, "target %" PRIu64 " exceeds the limit 2^40", p->target);
+    return 0;
+}
+
+static int check_resolution(const void *s, char *err, size_t errlen)
+{
+    const int D = ((const pdla_params *)s)->resolution;
+    if (D < PDLA_MIN_RESOLUTION || D > PDLA_MAX_RESOLUTION || (D & (D - 1)))
+        return param_fail(err, errlen,
+                          "resolution must be a power of two in [%d, %d] units per diameter, got %d",
+                          PDLA_MIN_RESOLUTION, PDLA_MAX_RESOLUTION, D);
+    return 0;
+}
+
+/* The sticking shell is at most half a diameter (resolution checked before). */
+static int check_eps(const void *s, char *err, size_t errlen)
+{
+    const pdla_params *p = s;
+    if (p->eps < 2 || p->eps > p->resolution / 2)
+        return param_fail(err, errlen, "eps must be in [2, resolution/2 = %d] units, got %d",
+                          p->resolution / 2, p->eps);
+    return 0;
+}
+
+/* ---- the table ---------------------------------------------------------- */
+
+static const char *const return_words[] = {"exact", "kill", NULL};
+static const char *const recheck_words[] = {"continue", "discard", NULL};
+static const char *const bind_words[] = {"none", "core", NULL};
+
+#define AT(field) offsetof(pdla_params, field)
+#define DLA PDLA_MODEL_DLA
+
+/* Order: the --help order within each group; validation also runs in this
+ * order, so a row whose rule reads another field comes after it (eps after
+ * resolution). */
+static const pdla_param_desc dla_params[] = {
+    {.name = "dim", .option = "dim", .label = "dim", .unit = "", .metavar = "2|3",
+     .help = "dimension", .group = "Cluster:", .example = "3",
+     .type = PDLA_PT_INT, .offset = AT(dim), .bit = PDLA_PARAM_DIM, .models = DLA,
+     .show_default = 1, .def_u = 2, .lo_u = 2, .hi_u = 3},
+    {.name = "target", .option = "target", .label = "target", .unit = "particles", .metavar = "N",
+     .help = "particles in the final cluster, 1 to 2^40", .group = "Cluster:", .example = "500",
+     .type = PDLA_PT_U64, .offset = AT(target), .bit = PDLA_PARAM_TARGET, .models = DLA,
+     .resumable = 1, .show_default = 1, .def_u = 1000000, .lo_u = 1, .hi_u = UINT64_C(1) << 40,
+     .check = check_target},
+    {.name = "seed", .option = "seed", .label = "seed", .unit = "", .metavar = "S",
+     .help = "random seed, 0 to 2^64-1", .group = "Cluster:", .example = "12345",
+     .type = PDLA_PT_U64, .offset = AT(seed), .bit = PDLA_PARAM_SEED, .models = DLA,
+     .show_default = 1, .def_u = 1, .lo_u = 0, .hi_u = UINT64_MAX},
+    {.name = "resolution", .option = "resolution", .label = "resolution",
+     .unit = "units per diameter", .metavar = "D",
+     .help = "units per particle diameter, a power of two from 4 to 128", .group = "Cluster:",
+     .example = "16", .type = PDLA_PT_INT, .offset = AT(resolution),
+     .bit = PDLA_PARAM_RESOLUTION, .models = DLA, .show_default = 1, .def_u = 32,
+     .lo_u = PDLA_MIN_RESOLUTION, .hi_u = PDLA_MAX_RESOLUTION, .check = check_resolution},
+    {.name = "eps", .option = "eps", .label = "eps", .unit = "units", .metavar = "E",
+     .help = "sticking shell in units, 2 to D/2: a walker sticks closer than D + E "
+             "to a particle centre",
+     .group = "Cluster:", .example = "3", .type = PDLA_PT_INT, .offset = AT(eps),
+     .bit = PDLA_PARAM_EPS, .models = DLA, .show_default = 1, .def_u = 2, .lo_u = 2,
+     .hi_u = PDLA_MAX_RESOLUTION / 2, .check = check_eps},
+    {.name = "snap_contact", .option = "no-snap-contact", .label = "snap_contact", .unit = "",
+     .help = "stick where the walker stops instead of moving it onto contact "
+             "(stretches the cluster by about E/(2D))",
+     .group = "Cluster:", .example = "yes", .type = PDLA_PT_FLAG, .offset = AT(snap_contact),
+     .bit = PDLA_PARAM_SNAP_CONTACT, .models = DLA, .flag_value = 0, .def_u = 1, .lo_u = 0,
+     .hi_u = 1},
+    {.name = "birth_margin", .option = "birth-margin", .label = "birth margin",
+     .unit = "diameters", .metavar = "M",
+     .help = "walkers start on the circle (sphere) of radius R_ext + M diameters, M >= 1",
+     .group = "Walkers:", .example = "3.5", .type = PDLA_PT_REAL, .offset = AT(birth_margin),
+     .bit = PDLA_PARAM_BIRTH_MARGIN, .models = DLA, .show_default = 1, .def_r = 2.0,
+     .lo_r = 1.0, .hi_r = 1e6},
+    {.name = "return_mode", .option = "return", .label = "return mode", .unit = "",
+     .metavar = "exact|kill",
+     .help = "a walker that leaves the birth circle: exact return by the harmonic "
+             "measure, or the kill scheme",
+     .group = "Walkers:", .example = "kill", .type = PDLA_PT_CHOICE, .offset = AT(return_mode),
+     .bit = PDLA_PARAM_RETURN_MODE, .models = DLA, .show_default = 1,
+     .def_u = PDLA_RETURN_EXACT, .lo_u = 0, .hi_u = 1, .choices = return_words},
+    {.name = "kill_ratio", .option = "kill-ratio", .label = "kill ratio", .unit = "",
+     .metavar = "R", .help = "with --return kill: kill radius / birth radius, above 1",
+     .group = "Walkers:", .example = "50", .type = PDLA_PT_REAL, .offset = AT(kill_ratio),
+     .bit = PDLA_PARAM_KILL_RATIO, .models = DLA, .show_default = 1, .def_r = 100.0,
+     .lo_r = 1.0, .hi_r = 1e6, .lo_open = 1},
+    {.name = "max_jumps", .option = "max-jumps", .label = "max jumps", .unit = "jumps",
+     .metavar = "N", .help = "restart a walk on the birth circle after N jumps",
+     .group = "Walkers:", .example = "1e6", .type = PDLA_PT_U64, .offset = AT(max_jumps),
+     .bit = PDLA_PARAM_MAX_JUMPS, .models = DLA, .show_default = 1, .def_u = 100000000,
+     .lo_u = 1, .hi_u = UINT64_MAX},
+    {.name = "exact_search", .option = "exact-search", .label = "exact_search", .unit = "",
+     .help = "every jump by the exact nearest distance from the tree: no distance map, no "
+             "far-node bound, no 2D leaf-block cut (the reference setting; about 2x slower)",
+     .group = "Walkers:", .example = "yes", .type = PDLA_PT_FLAG, .offset = AT(exact_search),
+     .bit = PDLA_PARAM_EXACT_SEARCH, .models = DLA, .flag_value = 1, .def_u = 0, .lo_u = 0,
+     .hi_u = 1},
+    {.name = "far_factor", .option = "far-factor", .label = "far factor", .unit = "",
+     .metavar = "F",
+     .help = "tree search: a node farther than F x its side is not opened; 0.5 to 64 (matters "
+             "in 3D; 2D walkers use the distance map and the leaf block instead)",
+     .group = "Walkers:", .example = "4", .type = PDLA_PT_REAL, .offset = AT(far_factor),
+     .bit = PDLA_PARAM_FAR_FACTOR, .models = DLA, .show_default = 1, .def_r = 2.0,
+     .lo_r = 0.5, .hi_r = 64},
+    {.name = "threads", .option = "threads", .label = "threads", .unit = "", .metavar = "N",
+     .help = "worker threads after the serial phase: 1 = serial DLA throughout, "
+             "0 = one per physical core",
+     .group = "Threads (PDLA):", .example = "2", .type = PDLA_PT_INT, .offset = AT(threads),
+     .bit = PDLA_PARAM_THREADS, .models = DLA, .resumable = 1, .show_default = 1, .def_u = 1,
+     .lo_u = 0, .hi_u = 1024},
+    {.name = "serial_until", .option = "serial-until", .label = "serial until",
+     .unit = "particles", .metavar = "N",
+     .help = "grow with one walker (deterministic) up to N particles, then start the workers",
+     .group = "Threads (PDLA):", .example = "100", .type = PDLA_PT_U64,
+     .offset = AT(serial_until), .bit = PDLA_PARAM_SERIAL_UNTIL, .models = DLA, .resumable = 1,
+     .show_default = 1, .def_u = 10000000, .lo_u = 0, .hi_u = UINT64_MAX},
+    {.name = "recheck", .option = "recheck", .label = "re-check mode", .unit = "",
+     .metavar = "continue|discard",
+     .help = "a worker's walker whose spot another one took: continue in contact with "
+             "the newcomer, or discard it",
+     .group = "Threads (PDLA):", .example = "discard", .type = PDLA_PT_CHOICE,
+     .offset = AT(recheck), .bit = PDLA_PARAM_RECHECK, .models = DLA, .show_default = 1,
+     .def_u = PDLA_RECHECK_CONTINUE, .lo_u = 0, .hi_u = 1, .choices = recheck_words},
+    {.name = "bind", .option = "bind", .label = "binding", .unit = "", .metavar = "none|core",
+     .help = "worker placement: none (the OS decides) or one per physical core",
+     .group = "Threads (PDLA):", .example = "core", .type = PDLA_PT_CHOICE, .offset = AT(bind),
+     .bit = PDLA_PARAM_BIND, .models = DLA, .resumable = 1, .show_default = 1,
+     .def_u = PDLA_BIND_NONE, .lo_u = 0, .hi_u = 1, .choices = bind_words},
+    {.name = "rg_per_decade", .option = "rg-per-decade", .label = "rg samples per decade",
+     .unit = "", .metavar = "K", .help = "R_g(N) samples per decade of N, 0 = none",
+     .group = "Output:", .example = "20", .type = PDLA_PT_INT, .offset = AT(rg_per_decade),
+     .bit = PDLA_PARAM_RG_PER_DECADE, .models = DLA, .show_default = 1, .def_u = 100,
+     .lo_u = 0, .hi_u = 10000},
+    {.name = "record_arrival", .option = "arrival", .label = "record_arrival", .unit = "",
+     .help = "store positions in arrival order (costs 4 bytes per coordinate while growing; "
+             "lets `pdla render --color arrival` colour by it)",
+     .group = "Output:", .example = "yes", .type = PDLA_PT_FLAG, .offset = AT(record_arrival),
+     .bit = PDLA_PARAM_RECORD_ARRIVAL, .models = DLA, .flag_value = 1, .def_u = 0, .lo_u = 0,
+     .hi_u = 1},
+};
+#undef AT
+#undef DLA
+
+#define N_DLA_PARAMS (sizeof dla_params / sizeof dla_params[0])
+
+const pdla_param_desc *pdla_param_table(size_t *n)
+{
+    *n = N_DLA_PARAMS;
+    return dla_params;
+}
+
+void pdla_params_default(pdla_params *p)
+{
+    memset(p, 0, sizeof *p);
+    pdla_param_defaults(dla_params, N_DLA_PARAMS, p);
+}
+
+int pdla_params_validate(const pdla_params *p, char *err, size_t errlen)
+{
+    return pdla_param_validate(dla_params, N_DLA_PARAMS, p, NULL, err, errlen);
+}
+
+/* ---- table-driven functions -------------------------------------------- */
+
+static int same_key(const char *a, const char *b)
+{
+    for (; *a && *b; a++, b++) {
+        const char x = *a == '_' ? '-' : *a, y = *b == '_' ? '-' : *b;
+        if (x != y) return 0;
+    }
+    return *a == *b;
+}
+
+const pdla_param_desc *pdla_param_find(const pdla_param_desc *t, size_t n, const char *key)
+{
+    for (size_t i = 0; i < n; i++)
+        if (same_key(t[i].option, key)) return &t[i];
+    for (size_t i = 0; i < n; i++)
+        if (same_key(t[i].name, key)) return &t[i];
+    return NULL;
+}
+
+static void *field(const pdla_param_desc *d, void *s) { return (char *)s + d->offset; }
+static const void *cfield(const pdla_param_desc *d, const void *s)
+{
+    return (const char *)s + d->offset;
+}
+
+int64_t pdla_param_get_i(const pdla_param_desc *d, const void *s)
+{
+    switch (d->type) {
+    case PDLA_PT_U64: return (int64_t) * (const uint64_t *)cfield(d, s);
+    case PDLA_PT_REAL: return (int64_t) * (const double *)cfield(d, s);
+    default: return *(const int *)cfield(d, s);
+    }
+}
+
+uint64_t pdla_param_get_u(const pdla_param_desc *d, const void *s)
+{
+    if (d->type == PDLA_PT_U64) return *(const uint64_t *)cfield(d, s);
+    return (uint64_t)pdla_param_get_i(d, s);
+}
+
+double pdla_param_get_real(const pdla_param_desc *d, const void *s)
+{
+    if (d->type == PDLA_PT_REAL) return *(const double *)cfield(d, s);
+    if (d->type == PDLA_PT_U64) return (double)*(const uint64_t *)cfield(d, s);
+    return (double)*(const int *)cfield(d, s);
+}
+
+void pdla_param_set_u(const pdla_param_desc *d, void *s, uint64_t v)
+{
+    switch (d->type) {
+    case PDLA_PT_U64: *(uint64_t *)field(d, s) = v; break;
+    case PDLA_PT_REAL: *(double *)field(d, s) = (double)v; break;
+    default: *(int *)field(d, s) = (int)v; break;
+    }
+}
+
+void pdla_param_set_real(const pdla_param_desc *d, void *s, double v)
+{
+    if (d->type == PDLA_PT_REAL) *(double *)field(d, s) = v;
+    else pdla_param_set_u(d, s, (uint64_t)v);
+}
+
+int pdla_param_equal(const pdla_param_desc *d, const void *a, const void *b)
+{
+    const size_t size = d->type == PDLA_PT_U64 ? sizeof(uint64_t)
+                        : d->type == PDLA_PT_REAL ? sizeof(double)
+                                                  : sizeof(int);
+    return memcmp(cfield(d, a), cfield(d, b), size) == 0;
+}
+
+void pdla_param_defaults(const pdla_param_desc *t, size_t n, void *s)
+{
+    for (size_t i = 0; i < n; i++) {
+        if (t[i].type == PDLA_PT_REAL) pdla_param_set_real(&t[i], s, t[i].def_r);
+        else pdla_param_set_u(&t[i], s, t[i].def_u);
+    }
+}
+
+int pdla_param_choice(const pdla_param_desc *d, const char *word)
+{
+    if (d->type != PDLA_PT_CHOICE || !word) return -1;
+    for (int i = 0; d->choices[i]; i++)
+        if (!strcmp(d->choices[i], word)) return i;
+    return -1;
+}
+
+int pdla_param_format(const pdla_param_desc *d, const void *s, int exact, char *buf, size_t len)
+{
+    switch (d->type) {
+    case PDLA_PT_U64: return snprintf(buf, len, "%" PRIu64, pdla_param_get_u(d, s));
+    case PDLA_PT_REAL: return snprintf(buf, len, exact ? "%.17g" : "%g", pdla_param_get_real(d, s));
+    case PDLA_PT_CHOICE: {
+        const int64_t v = pdla_param_get_i(d, s);
+        return snprintf(buf, len, "%s", v >= 0 && (uint64_t)v <= d->hi_u ? d->choices[v] : "invalid");
+    }
+    default: return snprintf(buf, len, "%" PRId64, pdla_param_get_i(d, s));
+    }
+}
+
+/* A bound as people write it: %g, with "1e+06" shortened to "1e6". */
+static const char *bound_text(char buf[32], double x)
+{
+    char t[32];
+    snprintf(t, sizeof t, "%g", x);
+    size_t j = 0;
+    for (size_t i = 0; t[i] && j < 31; i++) {
+        if (t[i] == 'e') {
+            buf[j++] = 'e';
+            if (t[i + 1] == '+') i++;
+            else if (t[i + 1] == '-') buf[j++] = t[++i];
+            while (t[i + 1] == '0' && t[i + 2]) i++;
+            continue;
+        }
+        buf[j++] = t[i];
+    }
+    buf[j] = '\0';
+    return buf;
+}
+
+/* The generic range rule of one row; 0 or PDLA_EINVAL with the message. */
+static int check_range(const pdla_param_desc *d, const void *s, char *err, size_t errlen)
+{
+    const char *sp = d->unit[0] ? " " : "";
+    switch (d->type) {
+    case PDLA_PT_REAL: {
+        const double v = pdla_param_get_real(d, s);
+        const int low = d->lo_open ? !(v > d->lo_r) : !(v >= d->lo_r);
+        char lo[32], hi[32];
+        if (low || !(v <= d->hi_r))
+            return param_fail(err, errlen, "%s must be in %c%s, %s]%s%s, got %g", d->label,
+                              d->lo_open ? '(' : '[', bound_text(lo, d->lo_r),
+                              bound_text(hi, d->hi_r), sp, d->unit, v);
+        return 0;
+    }
+    case PDLA_PT_FLAG:
+        if (pdla_param_get_i(d, s) != 0 && pdla_param_get_i(d, s) != 1)
+            return param_fail(err, errlen, "%s must be 0 or 1", d->label);
+        return 0;
+    case PDLA_PT_CHOICE: {
+        const int64_t v = pdla_param_get_i(d, s);
+        if (v < 0 || (uint64_t)v > d->hi_u)
+            return param_fail(err, errlen, "unknown %s %" PRId64, d->label, v);
+        return 0;
+    }
+    case PDLA_PT_U64: {
+        const uint64_t v = pdla_param_get_u(d, s);
+        if (v >= d->lo_u && v <= d->hi_u) return 0;
+        if (d->hi_u == UINT64_MAX)
+            return param_fail(err, errlen, "%s must be at least %" PRIu64, d->label, d->lo_u);
+        return param_fail(err, errlen, "%s must be in [%" PRIu64 ", %" PRIu64 "]%s%s, got %" PRIu64,
+                          d->label, d->lo_u, d->hi_u, sp, d->unit, v);
+    }
+    case PDLA_PT_INT: {
+        const int64_t v = pdla_param_get_i(d, s);
+        if (v >= (int64_t)d->lo_u && v <= (int64_t)d->hi_u) return 0;
+        if (d->hi_u == d->lo_u + 1)
+            return param_fail(err, errlen, "%s must be %" PRIu64 " or %" PRIu64 ", got %" PRId64,
+                              d->label, d->lo_u, d->hi_u, v);
+        return param_fail(err, errlen, "%s must be in [%" PRIu64 ", %" PRIu64 "]%s%s, got %" PRId64,
+                          d->label, d->lo_u, d->hi_u, sp, d->unit, v);
+    }
+    }
+    return 0;
+}
+
+int pdla_param_validate(const pdla_param_desc *t, size_t n, const void *s,
+                        const pdla_param_desc **bad, char *err, size_t errlen)
+{
+    for (size_t i = 0; i < n; i++) {
+        /* The row's own rule first: it words the common mistakes best. */
+        if ((t[i].check && t[i].check(s, err, errlen)) || check_range(&t[i], s, err, errlen)) {
+            if (bad) *bad = &t[i];
+            return PDLA_EINVAL;
+        }
+    }
+    if (bad) *bad = NULL;
+    return PDLA_OK;
+}

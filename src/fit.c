@@ -74,3 +74,15 @@ void fit_default_range(uint64_t n_final, uint64_t *n_lo, uint64_t *n_hi)
     *n_lo = lo;
     *n_hi = n_final;
 }
+
+/* The public names (pdla.h) of the two functions above, for the tools. */
+pdla_fit pdla_fit_powerlaw(const uint64_t *n, const double *rg, size_t count, uint64_t n_lo,
+                           uint64_t n_hi)
+{
+    return fit_powerlaw(n, rg, count, n_lo, n_hi);
+}
+
+void pdla_fit_default_range(uint64_t n_final, uint64_t *n_lo, uint64_t *n_hi)
+{
+    fit_default_range(n_final, n_lo, n_hi);
+}

@@ -19,6 +19,7 @@
 #include <unistd.h>
 
 #include "pdla_config.h"
+#include "pdla/pdla.h"
 #include "pdla_git_rev.h"
 
 static const char unknown[] = "unknown";
@@ -165,3 +166,6 @@ int prov_collect(pdla_provenance *out)
     missing += utc_now(out->created_utc, sizeof out->created_utc);
     return missing;
 }
+
+const char *pdla_build_compiler(void) { return PDLA_COMPILER; }
+const char *pdla_build_flags(void) { return PDLA_BUILD_FLAGS; }

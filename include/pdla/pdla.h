@@ -215,6 +215,19 @@ PDLA_API double pdla_engine_nearest(const pdla_engine *e, const int64_t *p);
 
 /* Library version string, e.g. "0.1.0". */
 PDLA_API const char *pdla_version(void);
+/* The compiler and the build flags libpdla was built with (as in /Code). */
+PDLA_API const char *pdla_build_compiler(void);
+PDLA_API const char *pdla_build_flags(void);
+
+/* Least squares of ln R_g = ln C + ln N / D_f over the samples with
+ * n_lo <= N <= n_hi and rg > 0 (rg in any length unit; prefactor_diam is in
+ * that unit). Fewer than 3 usable points give points = 0 and df = NAN. The
+ * same fit serves a mass-radius relation: pass M as n and r as rg. */
+PDLA_API pdla_fit pdla_fit_powerlaw(const uint64_t *n, const double *rg, size_t count,
+                                    uint64_t n_lo, uint64_t n_hi);
+/* The default fit range for a cluster of n_final particles (the one
+ * pdla_engine_fit uses): [max(10, min(1000, n_final / 10)), n_final]. */
+PDLA_API void pdla_fit_default_range(uint64_t n_final, uint64_t *n_lo, uint64_t *n_hi);
 
 /* ---- output ---------------------------------------------------------- */
 

@@ -27,7 +27,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "fit.h"
+#include "pdla/pdla.h"
 #include "h5read.h"
 #include "parse.h"
 #include "tools.h"
@@ -256,8 +256,8 @@ int tool_analyze(int argc, char **argv)
     m.dim = f.dim;
     if (h5r_read_series(&f, &sn, &srg, &k, err, sizeof err)) goto out;
     uint64_t n_lo, n_hi;
-    fit_default_range(f.n, &n_lo, &n_hi);
-    const pdla_fit frg = fit_powerlaw(sn, srg, k, n_lo, n_hi);
+    pdla_fit_default_range(f.n, &n_lo, &n_hi);
+    const pdla_fit frg = pdla_fit_powerlaw(sn, srg, k, n_lo, n_hi);
 
     if (f.n == 0) {
         snprintf(err, sizeof err, "%s holds no particles", f.path);
@@ -325,7 +325,7 @@ int tool_analyze(int argc, char **argv)
             fr[nf] = edges_diam[i];
             nf++;
         }
-    const pdla_fit fmr = fit_powerlaw(fm, fr, nf, 1, UINT64_MAX);
+    const pdla_fit fmr = pdla_fit_powerlaw(fm, fr, nf, 1, UINT64_MAX);
     free(fm);
     free(fr);
 

@@ -25,7 +25,6 @@
 
 #include "parse.h"
 #include "pdla/pdla.h"
-#include "pdla_config.h"
 #include "progress.h"
 #include "tools.h"
 
@@ -597,7 +596,7 @@ int main(int argc, char **argv)
             fputs(help, stdout);
             free(help);
         } else {
-            printf("pdla %s\ncompiler %s\nbuild %s\n", pdla_version(), PDLA_COMPILER, PDLA_BUILD_FLAGS);
+            printf("pdla %s\ncompiler %s\nbuild %s\n", pdla_version(), pdla_build_compiler(), pdla_build_flags());
         }
         if (fflush(stdout) || ferror(stdout)) {
             fprintf(stderr, "pdla: cannot write to stdout: %s\n", strerror(errno));

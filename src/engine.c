@@ -1,7 +1,9 @@
 /*
- * engine.c - the serial DLA engine: parameters, lifecycle, the growth loop,
- * exact radius of gyration and its log-spaced samples, and read access to
- * the cluster for output and tests.
+ * engine.c - the DLA engine's state below both growth loops: lifecycle,
+ * inserting a particle into the cluster state (range check, exact radius of
+ * gyration sums, R_ext, log-spaced R_g samples, arrival order) and read
+ * access to the cluster for output and tests. The serial loop (grow.c) and
+ * the workers (parallel.c) call down into it; it calls neither.
  */
 #define _GNU_SOURCE /* PTHREAD_MUTEX_ADAPTIVE_NP (glibc), where it exists */
 #include <math.h>
@@ -193,89 +195,8 @@ int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errl
     return PDLA_OK;
 }
 
-/* Serial phase: add a particle to the tree, the gyration sums, R_ext and the
- * samples; no other thread runs. */
-static int add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
-{
-    int rc = engine_check_range(e, p, err, errlen);
-    if (rc) return rc;
-    distmap_add(&e->dmap, p, tree_count(&e->tree) + 1, 0);
-    rc = tree_insert(&e->tree, p);
-    if (rc) return fail(PDLA_ENOMEM, err, errlen, "out of memory (or 2^32 tree records) at %llu particles",
-                        (unsigned long long)tree_count(&e->tree));
-    return engine_gyration_add(e, p, err, errlen);
-}
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, uint64_t every,
-                     void *user, char *err, size_t errlen)
-{
-    if (n_until > e->params.target) n_until = e->params.target;
-    const double t0 = now_seconds();
-    int rc = PDLA_OK;
-    if (tree_count(&e->tree) == 0 && n_until > 0) {
-        const int64_t origin[3] = {0, 0, 0};
-        rc = add_particle(e, origin, err, errlen);
-    }
-    if (every == 0) every = 1000;
-    const uint64_t serial_end = e->params.threads == 1 || n_until < e->params.serial_until
-                                    ? n_until
-                                    : e->params.serial_until;
-    const int64_t D = e->params.resolution;
-    const uint64_t stick2 = (uint64_t)(D + e->params.eps) * (uint64_t)(D + e->params.eps);
-    while (rc == PDLA_OK && tree_count(&e->tree) < serial_end) {
-        int64_t p[3];
-        if (walker_run(e, &e->walker, p) != WALK_CONTACT) {
-            rc = fail(PDLA_EINVAL, err, errlen,
-                      "internal error: a serial walker stopped closer than one diameter");
-            break;
-        }
-        if (e->params.snap_contact) walker_snap_to_contact(&e->tree, p, D, stick2, &e->walker.ss);
-        rc = add_particle(e, p, err, errlen);
-        if (rc == PDLA_OK && progress && tree_count(&e->tree) % every == 0) {
-            e->grow_seconds += now_seconds() - t0;
-            const int stop = progress(e, user);
-            e->grow_seconds -= now_seconds() - t0;
-            if (stop) rc = fail(PDLA_ESTOPPED, err, errlen, "stopped at %llu particles",
-                                (unsigned long long)tree_count(&e->tree));
-        }
-    }
-    if (rc == PDLA_OK && tree_count(&e->tree) < n_until) {
-        const double tp = now_seconds();
-        rc = parallel_grow(e, n_until, progress, user, err, errlen);
-        e->parallel_seconds += now_seconds() - tp;
-    }
-    e->grow_seconds += now_seconds() - t0;
-    return rc;
-}
-
 const pdla_params *pdla_engine_params(const pdla_engine *e) { return &e->params; }
 uint64_t pdla_engine_count(const pdla_engine *e) { return tree_count(&e->tree); }
-
-void walker_ctx_add_counts(walker_ctx *s, const walker_ctx *o)
-{
-    s->walkers += o->walkers;
-    s->jumps += o->jumps;
-    s->returns += o->returns;
-    s->lost += o->lost;
-    s->killed += o->killed;
-    s->restarts += o->restarts;
-    s->ss.node_visits += o->ss.node_visits;
-    s->ss.particle_checks += o->ss.particle_checks;
-    s->recheck_overlaps += o->recheck_overlaps;
-    s->recheck_continued += o->recheck_continued;
-    s->recheck_discarded += o->recheck_discarded;
-    for (int i = 0; i < 3; i++) {
-        s->mutex_taken[i] += o->mutex_taken[i];
-        s->mutex_contended[i] += o->mutex_contended[i];
-    }
-}
 
 /* Copy a walker's (summed) counters into the stats. */
 static void stats_set_counts(pdla_stats *s, const walker_ctx *w)

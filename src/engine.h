@@ -1,6 +1,7 @@
 /*
  * engine.h - the engine struct shared by engine.c (lifecycle, gyration,
- * sampling, results) and walker.c (one walker's walk from birth to contact).
+ * sampling, results), walker.c (one walker's walk from birth to contact),
+ * grow.c (the serial loop) and parallel.c (the workers).
  * Not installed: the public face is include/pdla/pdla.h.
  */
 #ifndef PDLA_SRC_ENGINE_H
@@ -110,8 +111,4 @@ int engine_check_range(const pdla_engine *e, const int64_t *p, char *err, size_t
 /* Add p to the gyration sums, R_ext and the R_g samples (caller holds
  * gyration_mu when workers run). */
 int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errlen);
-
-/* The parallel phase (parallel.c): workers grow the cluster to n_until. */
-int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, void *user,
-                  char *err, size_t errlen);
 #endif

@@ -29,6 +29,7 @@
 #include <time.h>
 
 #include "engine.h"
+#include "parallel.h"
 #include "recent.h"
 
 /* Particles appended between a worker's lock-free check and its bucket

@@ -219,3 +219,22 @@ int walker_run(const pdla_engine *e, walker_ctx *w, int64_t *stuck_at)
 {
     return e->params.dim == 2 ? walk_dim(e, w, stuck_at, 2) : walk_dim(e, w, stuck_at, 3);
 }
+
+void walker_ctx_add_counts(walker_ctx *s, const walker_ctx *o)
+{
+    s->walkers += o->walkers;
+    s->jumps += o->jumps;
+    s->returns += o->returns;
+    s->lost += o->lost;
+    s->killed += o->killed;
+    s->restarts += o->restarts;
+    s->ss.node_visits += o->ss.node_visits;
+    s->ss.particle_checks += o->ss.particle_checks;
+    s->recheck_overlaps += o->recheck_overlaps;
+    s->recheck_continued += o->recheck_continued;
+    s->recheck_discarded += o->recheck_discarded;
+    for (int i = 0; i < 3; i++) {
+        s->mutex_taken[i] += o->mutex_taken[i];
+        s->mutex_contended[i] += o->mutex_contended[i];
+    }
+}

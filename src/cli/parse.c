@@ -475,6 +475,103 @@ int cli_parse_long_in(const char *s, long lo, long hi, long *out)
 
 static int parse_all(int argc, char **argv, cli_options *out, char *err, size_t errlen);
 
+/* ---- scenes ------------------------------------------------------------ */
+
+/* Apply sc's entries except `skip` (-1: none) to a copy of base. */
+static int apply_entries(const cli_options *base, const scene *sc, int skip, cli_options *out,
+                         int *bad_line, char *err, size_t errlen)
+{
+    *out = *base;
+    for (int i = 0; i < sc->n; i++) {
+        if (i == skip) continue;
+        const int rc = cli_set_option(out, sc->entries[i].key, sc->entries[i].value, err, errlen);
+        if (rc != CLI_PARSE_OK) {
+            *bad_line = sc->entries[i].line;
+            return rc;
+        }
+    }
+    return CLI_PARSE_OK;
+}
+
+/* The line to blame for an invalid scene: the one that sets the parameter
+ * the validation named, else one whose removal makes the scene valid, else 0. */
+static int blame_line(const cli_options *base, const scene *sc, const pdla_param_desc *bad)
+{
+    for (int i = 0; bad && i < sc->n; i++)
+        if (!strcmp(sc->entries[i].key, bad->option)) return sc->entries[i].line;
+    cli_options *t2 = malloc(sizeof *t2);
+    int blamed = 0, unused;
+    char ignore[512];
+    for (int i = sc->n - 1; t2 && i >= 0 && !blamed; i--)
+        if (apply_entries(base, sc, i, t2, &unused, ignore, sizeof ignore) == CLI_PARSE_OK &&
+            pdla_params_validate(&t2->params, ignore, sizeof ignore) == PDLA_OK)
+            blamed = sc->entries[i].line;
+    free(t2);
+    return blamed;
+}
+
+/* The scene's strings live in its buffer, which is freed: keep the paths
+ * in the options themselves. */
+static void keep_strings(cli_options *o, const scene *sc)
+{
+    if (o->out_dir && o->out_dir >= sc->buf && o->out_dir < sc->buf + sc->len) {
+        snprintf(o->scene_out, sizeof o->scene_out, "%s", o->out_dir);
+        o->out_dir = o->scene_out;
+    }
+    if (o->stats_json && o->stats_json >= sc->buf && o->stats_json < sc->buf + sc->len) {
+        snprintf(o->scene_stats, sizeof o->scene_stats, "%s", o->stats_json);
+        o->stats_json = o->scene_stats;
+    }
+}
+
+static int apply_scene(const char *name, const scene *sc, cli_options *o, char *err, size_t errlen)
+{
+    cli_options *tmp = malloc(sizeof *tmp);
+    if (!tmp) return fail(err, errlen, "%s: out of memory", name);
+    char why[512];
+    int bad_line = 0;
+    int rc = apply_entries(o, sc, -1, tmp, &bad_line, why, sizeof why);
+    if (rc != CLI_PARSE_OK) {
+        fail(err, errlen, "%s:%d: %s", name, bad_line, why);
+    } else {
+        size_t np;
+        const pdla_param_desc *t = pdla_param_table(&np);
+        const pdla_param_desc *bad = NULL;
+        if (pdla_param_validate(t, np, &tmp->params, &bad, why, sizeof why) != PDLA_OK) {
+            const int line = blame_line(o, sc, bad);
+            rc = line ? fail(err, errlen, "%s:%d: %s", name, line, why)
+                      : fail(err, errlen, "%s: %s", name, why);
+        } else {
+            keep_strings(tmp, sc);
+            *o = *tmp;
+            /* *o was copied from tmp: repoint what pointed into tmp's own arrays. */
+            if (tmp->out_dir == tmp->scene_out) o->out_dir = o->scene_out;
+            if (tmp->stats_json == tmp->scene_stats) o->stats_json = o->scene_stats;
+        }
+    }
+    free(tmp);
+    return rc;
+}
+
+int scene_apply_text(const char *name, const char *text, size_t len, cli_options *o, char *err,
+                     size_t errlen)
+{
+    scene sc;
+    if (scene_read_text(name, text, len, &sc, err, errlen)) return CLI_PARSE_ERROR;
+    const int rc = apply_scene(name, &sc, o, err, errlen);
+    scene_free(&sc);
+    return rc;
+}
+
+int scene_apply(const char *path, cli_options *o, char *err, size_t errlen)
+{
+    scene sc;
+    if (scene_read_file(path, &sc, err, errlen)) return CLI_PARSE_ERROR;
+    const int rc = apply_scene(path, &sc, o, err, errlen);
+    scene_free(&sc);
+    return rc;
+}
+
 int cli_check_params(const pdla_params *p, char *err, size_t errlen)
 {
     size_t np;

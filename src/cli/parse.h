@@ -68,6 +68,14 @@ int cli_parse(int argc, char **argv, cli_options *out, char *err, size_t errlen)
  * reason in err. Used by scene.c. */
 int cli_set_option(cli_options *o, const char *name, const char *value, char *err, size_t errlen);
 
+/* Apply the scene file `path` (scene.h) to *o, which already holds the
+ * defaults: each key as cli_set_option, then the scene alone must be a valid
+ * run. CLI_PARSE_OK or CLI_PARSE_ERROR with "FILE:LINE: reason" in err. */
+int scene_apply(const char *path, cli_options *o, char *err, size_t errlen);
+/* The same for a scene held in memory (`name` is used in messages only). */
+int scene_apply_text(const char *name, const char *text, size_t len, cli_options *o, char *err,
+                     size_t errlen);
+
 /* Strict parsers for one value. Return NULL on success, else a short static
  * reason such as "trailing characters after the number" (*out untouched). */
 const char *cli_parse_count(const char *s, uint64_t *out);

@@ -1,7 +1,8 @@
 /*
- * scene.c - scene files (see scene.h): read the file, split it into
- * KEY = VALUE lines and hand each to parse.c's cli_set_option, the same code
- * that handles command-line options. Errors carry FILE:LINE.
+ * scene.c - scene files (see scene.h): read the text and split it into
+ * KEY = VALUE entries with their line numbers. It knows nothing of options:
+ * parse.c applies the entries with the same code as the command line, so
+ * this file sits below the option table.
  */
 #include "scene.h"
 
@@ -11,12 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-typedef struct scene_entry {
-    char key[64];    /* normalised: '_' -> '-' */
-    const char *value;
-    int line;
-} scene_entry;
-
+static int fail(char *err, size_t errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 static int fail(char *err, size_t errlen, const char *fmt, ...)
 {
     if (err && errlen) {
@@ -25,7 +21,7 @@ static int fail(char *err, size_t errlen, const char *fmt, ...)
         vsnprintf(err, errlen, fmt, ap);
         va_end(ap);
     }
-    return CLI_PARSE_ERROR;
+    return -1;
 }
 
 static int is_blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
@@ -38,48 +34,27 @@ static char *trim(char *s)
     return s;
 }
 
-/* Apply entries[0..n) except `skip` (-1: none) to a copy of base. */
-static int apply_all(const cli_options *base, const scene_entry *entries, int n, int skip,
-                     cli_options *out, int *bad_line, char *err, size_t errlen)
+void scene_free(scene *sc)
 {
-    *out = *base;
-    for (int i = 0; i < n; i++) {
-        if (i == skip) continue;
-        const int rc = cli_set_option(out, entries[i].key, entries[i].value, err, errlen);
-        if (rc != CLI_PARSE_OK) {
-            *bad_line = entries[i].line;
-            return rc;
-        }
-    }
-    return CLI_PARSE_OK;
+    free(sc->entries);
+    free(sc->buf);
+    memset(sc, 0, sizeof *sc);
 }
 
-/* The scene's strings live in the file buffer, which is freed: keep the
- * paths in the options themselves. */
-static void keep_strings(cli_options *o, const char *buf, size_t len)
+int scene_read_text(const char *name, const char *text, size_t len, scene *sc, char *err,
+                    size_t errlen)
 {
-    if (o->out_dir && o->out_dir >= buf && o->out_dir < buf + len) {
-        snprintf(o->scene_out, sizeof o->scene_out, "%s", o->out_dir);
-        o->out_dir = o->scene_out;
-    }
-    if (o->stats_json && o->stats_json >= buf && o->stats_json < buf + len) {
-        snprintf(o->scene_stats, sizeof o->scene_stats, "%s", o->stats_json);
-        o->stats_json = o->scene_stats;
-    }
-}
-
-int scene_apply_text(const char *name, const char *text, size_t len, cli_options *o, char *err,
-                     size_t errlen)
-{
+    memset(sc, 0, sizeof *sc);
     if (len > SCENE_MAX_BYTES)
         return fail(err, errlen, "%s: too large (a scene is at most %d bytes)", name, SCENE_MAX_BYTES);
     if (memchr(text, '\0', len))
         return fail(err, errlen, "%s: contains a NUL byte (not a text file?)", name);
     char *buf = malloc(len + 1);
     scene_entry *entries = calloc(SCENE_MAX_BYTES / 4 + 1, sizeof *entries);
-    cli_options *tmp = malloc(sizeof *tmp);
-    int rc = CLI_PARSE_OK, n = 0;
-    if (!buf || !entries || !tmp) {
+    sc->buf = buf;
+    sc->entries = entries;
+    int rc = 0, n = 0;
+    if (!buf || !entries) {
         rc = fail(err, errlen, "%s: out of memory", name);
         goto out;
     }
@@ -142,51 +117,16 @@ int scene_apply_text(const char *name, const char *text, size_t len, cli_options
         n++;
     }
 
-    /* Each key, with its value checked by the command line's parsers. */
-    char why[512];
-    int bad_line = 0;
-    rc = apply_all(o, entries, n, -1, tmp, &bad_line, why, sizeof why);
-    if (rc != CLI_PARSE_OK) {
-        fail(err, errlen, "%s:%d: %s", name, bad_line, why);
-        goto out;
-    }
-    /* The scene on its own must be a valid run. Blame the line whose
-     * removal makes it valid, if there is one. */
-    if (pdla_params_validate(&tmp->params, why, sizeof why) != PDLA_OK) {
-        int blamed = 0, named = 0;
-        for (int i = n - 1; i >= 0 && !named; i--) {
-            cli_options *t2 = malloc(sizeof *t2);
-            char ignore[512];
-            if (t2 && apply_all(o, entries, n, i, t2, &bad_line, ignore, sizeof ignore) == CLI_PARSE_OK &&
-                pdla_params_validate(&t2->params, ignore, sizeof ignore) == PDLA_OK) {
-                /* prefer the line whose key the message names ("kill ratio") */
-                char words[64];
-                snprintf(words, sizeof words, "%s", entries[i].key);
-                for (char *c = words; *c; c++)
-                    if (*c == '-') *c = ' ';
-                named = strstr(why, words) != NULL;
-                if (!blamed || named) blamed = entries[i].line;
-            }
-            free(t2);
-        }
-        rc = blamed ? fail(err, errlen, "%s:%d: %s", name, blamed, why)
-                    : fail(err, errlen, "%s: %s", name, why);
-        goto out;
-    }
-    keep_strings(tmp, buf, len);
-    *o = *tmp;
-    /* *o was copied from tmp: repoint what pointed into tmp's own arrays. */
-    if (tmp->out_dir == tmp->scene_out) o->out_dir = o->scene_out;
-    if (tmp->stats_json == tmp->scene_stats) o->stats_json = o->scene_stats;
 out:
-    free(tmp);
-    free(entries);
-    free(buf);
+    sc->n = n;
+    sc->len = len;
+    if (rc) scene_free(sc);
     return rc;
 }
 
-int scene_apply(const char *path, cli_options *o, char *err, size_t errlen)
+int scene_read_file(const char *path, scene *sc, char *err, size_t errlen)
 {
+    memset(sc, 0, sizeof *sc);
     FILE *f = fopen(path, "rb");
     if (!f) return fail(err, errlen, "cannot open scene %s: %s", path, strerror(errno));
     char *buf = malloc(SCENE_MAX_BYTES + 1);
@@ -199,7 +139,7 @@ int scene_apply(const char *path, cli_options *o, char *err, size_t errlen)
     fclose(f);
     int rc;
     if (rerr) rc = fail(err, errlen, "cannot read scene %s", path);
-    else rc = scene_apply_text(path, buf, len, o, err, errlen);
+    else rc = scene_read_text(path, buf, len, sc, err, errlen);
     free(buf);
     return rc;
 }

@@ -8,30 +8,44 @@
  * around both. Keys are option names ('_' may be written for '-'); each key
  * at most once; flags (options without a value) take yes|no|true|false|1|0,
  * and "no" leaves the default. `scene`, `help` and `version` are not keys.
- * Values are parsed by parse.c's own value parsers, so a scene accepts
+ * This file only reads and splits; parse.c's scene_apply applies the
+ * entries with the command line's own value parsers, so a scene accepts
  * exactly what the command line accepts (1e6, 10M, ...). Paths (`out`,
  * `stats-json`) are relative to the working directory, as on the command
  * line. A scene must be valid on its own (pdla_params_validate); options on
  * the command line are applied after it and override its keys.
  *
  * Every error is one line "FILE:LINE: reason" (or "FILE: reason" when no
- * single line is to blame); no I/O other than reading the file.
+ * single line is to blame); no I/O other than reading the file. Nothing
+ * here knows the options: the scene reader sits below the option table.
  */
 #ifndef PDLA_CLI_SCENE_H
 #define PDLA_CLI_SCENE_H
 #include <stddef.h>
 
-#include "parse.h"
-
 /* Largest scene file and line, in bytes. */
 #define SCENE_MAX_BYTES (64 * 1024)
 #define SCENE_MAX_LINE 1024
 
-/* Apply the scene in `path` to *o (already holding the defaults). Returns
- * CLI_PARSE_OK or CLI_PARSE_ERROR with the reason in err. */
-int scene_apply(const char *path, cli_options *o, char *err, size_t errlen);
+typedef struct scene_entry {
+    char key[64];      /* normalised: '_' -> '-' */
+    const char *value; /* into the scene's buffer */
+    int line;
+} scene_entry;
 
-/* The same for a scene held in memory (`name` is used in messages only). */
-int scene_apply_text(const char *name, const char *text, size_t len, cli_options *o, char *err,
-                     size_t errlen);
+/* A scene split into entries; the values point into buf ([0, len)). */
+typedef struct scene {
+    char *buf;
+    size_t len;
+    scene_entry *entries;
+    int n;
+} scene;
+
+/* Read and split a scene held in memory (`name` is used in messages only)
+ * or in the file `path`: 0, or -1 with the reason in err (and *sc empty).
+ * Syntax errors, over-long lines and duplicate keys are found here. */
+int scene_read_text(const char *name, const char *text, size_t len, scene *sc, char *err,
+                    size_t errlen);
+int scene_read_file(const char *path, scene *sc, char *err, size_t errlen);
+void scene_free(scene *sc);
 #endif /* PDLA_CLI_SCENE_H */

@@ -182,15 +182,15 @@ static void check_refused(const pdla_param_desc *d)
     char cmd[1024], v[64], errf[128];
     snprintf(errf, sizeof errf, "%s/err", tmpdir);
     if (d->type == PDLA_PT_FLAG) { /* no value on the command line: a bad scene value */
-        char scene[128];
-        snprintf(scene, sizeof scene, "%s/bad.scene", tmpdir);
-        FILE *f = fopen(scene, "w");
+        char scene_path[128];
+        snprintf(scene_path, sizeof scene_path, "%s/bad.scene", tmpdir);
+        FILE *f = fopen(scene_path, "w");
         if (f) {
             fprintf(f, "%s = maybe\n", d->option);
             fclose(f);
         }
         snprintf(cmd, sizeof cmd, "'%s' --no-output -q --target 10 --scene '%s' 2>'%s'", pdla_exe,
-                 scene, errf);
+                 scene_path, errf);
     } else {
         bad_value(d, v, sizeof v);
         snprintf(cmd, sizeof cmd, "'%s' --no-output -q --target 10 --%s '%s' 2>'%s'", pdla_exe,

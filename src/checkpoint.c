@@ -70,13 +70,6 @@
 #define PACK_CHUNK_BYTES (UINT64_C(1) << 18)
 #define PACK_BUF_BYTES ((size_t)1 << 22)
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 static void gen_name(char *buf, size_t n, const char *dir, int k)
 {
     if (k == 0) snprintf(buf, n, "%s/%s", dir, PDLA_CHECKPOINT_NAME);
@@ -361,7 +354,7 @@ fail:
 int pdla_checkpoint_write(pdla_engine *e, const char *dir, const pdla_checkpoint_opts *opts,
                           pdla_checkpoint_info *info, char *err, size_t errlen)
 {
-    const double t0 = now_s();
+    const double t0 = pdla_clock_seconds();
     char path[4200], tmp[4200], g1[4200], g2[4200];
     if (err && errlen) err[0] = '\0';
     if (!e || !dir || !dir[0] || strlen(dir) > 4000) {
@@ -451,7 +444,7 @@ done:
     }
     if (rc == PDLA_OK) {
         e->ckpt_generation = generation;
-        e->ckpt_write_seconds = now_s() - t0;
+        e->ckpt_write_seconds = pdla_clock_seconds() - t0;
         if (info) {
             memset(info, 0, sizeof *info);
             snprintf(info->path, sizeof info->path, "%s", path);
@@ -1231,7 +1224,7 @@ int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params 
                          uint32_t asked_fields, pdla_checkpoint_info *info, char *err,
                          size_t errlen)
 {
-    const double t0 = now_s();
+    const double t0 = pdla_clock_seconds();
     *out = NULL;
     if (err && errlen) err[0] = '\0';
     if (info) memset(info, 0, sizeof *info);
@@ -1278,7 +1271,7 @@ int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params 
         rc = load_file(path, asked, asked_fields, out, info, err, errlen);
     }
     h5u_restore(&q);
-    if (rc == PDLA_OK && info) info->seconds = now_s() - t0;
+    if (rc == PDLA_OK && info) info->seconds = pdla_clock_seconds() - t0;
     if (err && errlen) h5u_one_line(err);
     return rc;
 }

@@ -18,17 +18,6 @@
 
 const char *pdla_version(void) { return PDLA_VERSION; }
 
-static int fail(int code, char *err, size_t errlen, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
-
 /* pdla_params_default and pdla_params_validate: params.c, from the table. */
 
 /* N of grid point k: round(10^(k / per_decade)), forced strictly increasing. */
@@ -51,11 +40,11 @@ int pdla_engine_create(pdla_engine **out, const pdla_params *p, char *err, size_
     const int rc = pdla_params_validate(p, err, errlen);
     if (rc) return rc;
     pdla_engine *e = calloc(1, sizeof *e);
-    if (!e) return fail(PDLA_ENOMEM, err, errlen, "out of memory creating the engine");
+    if (!e) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory creating the engine");
     e->params = *p;
     if (tree_init(&e->tree, p->dim)) {
         free(e);
-        return fail(PDLA_ENOMEM, err, errlen, "out of memory creating the tree");
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory creating the tree");
     }
     search_config_init(&e->search, p->exact_search ? 0.0 : p->far_factor, p->resolution, p->eps);
     {
@@ -87,7 +76,7 @@ int pdla_engine_create(pdla_engine **out, const pdla_params *p, char *err, size_
     if (mu_rc) {
         tree_free(&e->tree);
         free(e);
-        return fail(PDLA_ENOMEM, err, errlen, "cannot create the engine's mutexes");
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create the engine's mutexes");
     }
     snprintf(e->binding, sizeof e->binding, "none");
     e->rg_next_k = 0;
@@ -146,7 +135,7 @@ int engine_check_range(const pdla_engine *e, const int64_t *p, char *err, size_t
 {
     for (int a = 0; a < e->params.dim; a++)
         if (p[a] <= -PDLA_MAX_CLUSTER_RADIUS_UNITS || p[a] >= PDLA_MAX_CLUSTER_RADIUS_UNITS)
-            return fail(PDLA_ERANGE, err, errlen,
+            return pdla_errorf(PDLA_ERANGE, err, errlen,
                         "cluster reached the coordinate limit |x| < 2^28 units at %llu particles",
                         (unsigned long long)tree_count(&e->tree));
     return PDLA_OK;
@@ -174,7 +163,7 @@ int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errl
     const int dim = e->params.dim;
     uint64_t r2 = 0;
     if (e->params.record_arrival && record_arrival(e, p))
-        return fail(PDLA_ENOMEM, err, errlen, "out of memory for the arrival order at %llu particles",
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the arrival order at %llu particles",
                     (unsigned long long)e->gyr.n);
     for (int a = 0; a < dim; a++) {
         r2 += (uint64_t)(p[a] * p[a]);
@@ -189,7 +178,7 @@ int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errl
         atomic_store_explicit(&e->r_ext, r, memory_order_relaxed);
     }
     if (e->params.rg_per_decade > 0 && e->gyr.n >= e->rg_next_n) {
-        if (record_rg_sample(e)) return fail(PDLA_ENOMEM, err, errlen, "out of memory for R_g samples");
+        if (record_rg_sample(e)) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for R_g samples");
         while (e->rg_next_n <= e->gyr.n) rg_advance(e);
     }
     return PDLA_OK;

@@ -4,25 +4,8 @@
  * the top of the engine: it calls the walker, the cluster state (engine.c)
  * and the workers; nothing below calls back into it.
  */
-#include <stdarg.h>
-#include <stdio.h>
-#include <time.h>
-
 #include "engine.h"
 #include "parallel.h"
-
-static int fail(int code, char *err, size_t errlen, const char *fmt, ...)
-    __attribute__((format(printf, 4, 5)));
-static int fail(int code, char *err, size_t errlen, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
 
 /* Serial phase: add a particle to the tree, the gyration sums, R_ext and the
  * samples; no other thread runs. */
@@ -32,23 +15,16 @@ static int add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errl
     if (rc) return rc;
     distmap_add(&e->dmap, p, tree_count(&e->tree) + 1, 0);
     rc = tree_insert(&e->tree, p);
-    if (rc) return fail(PDLA_ENOMEM, err, errlen, "out of memory (or 2^32 tree records) at %llu particles",
+    if (rc) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory (or 2^32 tree records) at %llu particles",
                         (unsigned long long)tree_count(&e->tree));
     return engine_gyration_add(e, p, err, errlen);
-}
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, uint64_t every,
                      void *user, char *err, size_t errlen)
 {
     if (n_until > e->params.target) n_until = e->params.target;
-    const double t0 = now_seconds();
+    const double t0 = pdla_clock_seconds();
     int rc = PDLA_OK;
     if (tree_count(&e->tree) == 0 && n_until > 0) {
         const int64_t origin[3] = {0, 0, 0};
@@ -63,25 +39,25 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
     while (rc == PDLA_OK && tree_count(&e->tree) < serial_end) {
         int64_t p[3];
         if (walker_run(e, &e->walker, p) != WALK_CONTACT) {
-            rc = fail(PDLA_EINVAL, err, errlen,
+            rc = pdla_errorf(PDLA_EINVAL, err, errlen,
                       "internal error: a serial walker stopped closer than one diameter");
             break;
         }
         if (e->params.snap_contact) walker_snap_to_contact(&e->tree, p, D, stick2, &e->walker.ss);
         rc = add_particle(e, p, err, errlen);
         if (rc == PDLA_OK && progress && tree_count(&e->tree) % every == 0) {
-            e->grow_seconds += now_seconds() - t0;
+            e->grow_seconds += pdla_clock_seconds() - t0;
             const int stop = progress(e, user);
-            e->grow_seconds -= now_seconds() - t0;
-            if (stop) rc = fail(PDLA_ESTOPPED, err, errlen, "stopped at %llu particles",
+            e->grow_seconds -= pdla_clock_seconds() - t0;
+            if (stop) rc = pdla_errorf(PDLA_ESTOPPED, err, errlen, "stopped at %llu particles",
                                 (unsigned long long)tree_count(&e->tree));
         }
     }
     if (rc == PDLA_OK && tree_count(&e->tree) < n_until) {
-        const double tp = now_seconds();
+        const double tp = pdla_clock_seconds();
         rc = parallel_grow(e, n_until, progress, user, err, errlen);
-        e->parallel_seconds += now_seconds() - tp;
+        e->parallel_seconds += pdla_clock_seconds() - tp;
     }
-    e->grow_seconds += now_seconds() - t0;
+    e->grow_seconds += pdla_clock_seconds() - t0;
     return rc;
 }

@@ -9,7 +9,6 @@
 
 #include <inttypes.h>
 #include <limits.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -18,27 +17,14 @@ _Static_assert(sizeof(pdla_return_mode) == sizeof(int), "enum size");
 _Static_assert(sizeof(pdla_recheck_mode) == sizeof(int), "enum size");
 _Static_assert(sizeof(pdla_bind_mode) == sizeof(int), "enum size");
 
-static int param_fail(char *err, size_t errlen, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
-static int param_fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return PDLA_EINVAL;
-}
-
 /* ---- rules that a range cannot say ------------------------------------- */
 
 static int check_target(const void *s, char *err, size_t errlen)
 {
     const pdla_params *p = s;
-    if (p->target < 1) return param_fail(err, errlen, "target must be at least 1 particle");
+    if (p->target < 1) return pdla_errorf(PDLA_EINVAL, err, errlen, "target must be at least 1 particle");
     if (p->target > UINT64_C(1) << 40)
-        return param_fail(err, errlen, "target %" PRIu64 " exceeds the limit 2^40", p->target);
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "target %" PRIu64 " exceeds the limit 2^40", p->target);
     return 0;
 }
 
@@ -46,7 +32,7 @@ static int check_resolution(const void *s, char *err, size_t errlen)
 {
     const int D = ((const pdla_params *)s)->resolution;
     if (D < PDLA_MIN_RESOLUTION || D > PDLA_MAX_RESOLUTION || (D & (D - 1)))
-        return param_fail(err, errlen,
+        return pdla_errorf(PDLA_EINVAL, err, errlen,
                           "resolution must be a power of two in [%d, %d] units per diameter, got %d",
                           PDLA_MIN_RESOLUTION, PDLA_MAX_RESOLUTION, D);
     return 0;
@@ -57,7 +43,7 @@ static int check_eps(const void *s, char *err, size_t errlen)
 {
     const pdla_params *p = s;
     if (p->eps < 2 || p->eps > p->resolution / 2)
-        return param_fail(err, errlen, "eps must be in [2, resolution/2 = %d] units, got %d",
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "eps must be in [2, resolution/2 = %d] units, got %d",
                           p->resolution / 2, p->eps);
     return 0;
 }
@@ -330,36 +316,36 @@ static int check_range(const pdla_param_desc *d, const void *s, char *err, size_
         const int low = d->lo_open ? !(v > d->lo_r) : !(v >= d->lo_r);
         char lo[32], hi[32];
         if (low || !(v <= d->hi_r))
-            return param_fail(err, errlen, "%s must be in %c%s, %s]%s%s, got %g", d->label,
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "%s must be in %c%s, %s]%s%s, got %g", d->label,
                               d->lo_open ? '(' : '[', bound_text(lo, d->lo_r),
                               bound_text(hi, d->hi_r), sp, d->unit, v);
         return 0;
     }
     case PDLA_PT_FLAG:
         if (pdla_param_get_i(d, s) != 0 && pdla_param_get_i(d, s) != 1)
-            return param_fail(err, errlen, "%s must be 0 or 1", d->label);
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "%s must be 0 or 1", d->label);
         return 0;
     case PDLA_PT_CHOICE: {
         const int64_t v = pdla_param_get_i(d, s);
         if (v < 0 || (uint64_t)v > d->hi_u)
-            return param_fail(err, errlen, "unknown %s %" PRId64, d->label, v);
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "unknown %s %" PRId64, d->label, v);
         return 0;
     }
     case PDLA_PT_U64: {
         const uint64_t v = pdla_param_get_u(d, s);
         if (v >= d->lo_u && v <= d->hi_u) return 0;
         if (d->hi_u == UINT64_MAX)
-            return param_fail(err, errlen, "%s must be at least %" PRIu64, d->label, d->lo_u);
-        return param_fail(err, errlen, "%s must be in [%" PRIu64 ", %" PRIu64 "]%s%s, got %" PRIu64,
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "%s must be at least %" PRIu64, d->label, d->lo_u);
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "%s must be in [%" PRIu64 ", %" PRIu64 "]%s%s, got %" PRIu64,
                           d->label, d->lo_u, d->hi_u, sp, d->unit, v);
     }
     case PDLA_PT_INT: {
         const int64_t v = pdla_param_get_i(d, s);
         if (v >= (int64_t)d->lo_u && v <= (int64_t)d->hi_u) return 0;
         if (d->hi_u == d->lo_u + 1)
-            return param_fail(err, errlen, "%s must be %" PRIu64 " or %" PRIu64 ", got %" PRId64,
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "%s must be %" PRIu64 " or %" PRIu64 ", got %" PRId64,
                               d->label, d->lo_u, d->hi_u, v);
-        return param_fail(err, errlen, "%s must be in [%" PRIu64 ", %" PRIu64 "]%s%s, got %" PRId64,
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "%s must be in [%" PRIu64 ", %" PRIu64 "]%s%s, got %" PRId64,
                           d->label, d->lo_u, d->hi_u, sp, d->unit, v);
     }
     }

@@ -18,6 +18,7 @@
 #ifndef PDLA_PDLA_H
 #define PDLA_PDLA_H
 
+#include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -212,6 +213,21 @@ PDLA_API pdla_fit pdla_engine_fit(const pdla_engine *e);
 /* Exact lower-bound-free distance (units) from a point to the nearest particle
  * centre, by the engine's own tree search in exact mode; for tests and tools. */
 PDLA_API double pdla_engine_nearest(const pdla_engine *e, const int64_t *p);
+
+/* Write a one-line message (printf format; control characters such as a
+ * newline in a file name become '?') into
+ * err[errlen] when err is not NULL, and return code: the error convention of
+ * the library, shared with its tools (`return pdla_errorf(PDLA_EINVAL, err,
+ * errlen, "dim must be 2 or 3, got %d", dim);`). */
+PDLA_API int pdla_errorf(int code, char *err, size_t errlen, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 4, 5)))
+#endif
+    ;
+PDLA_API int pdla_verrorf(int code, char *err, size_t errlen, const char *fmt, va_list ap);
+/* Seconds on the monotonic clock (CLOCK_MONOTONIC): the clock behind every
+ * timing the library reports (stats.grow_seconds, checkpoint times). */
+PDLA_API double pdla_clock_seconds(void);
 
 /* Library version string, e.g. "0.1.0". */
 PDLA_API const char *pdla_version(void);

@@ -4,6 +4,8 @@
  */
 #include "h5read.h"
 
+#include "pdla/pdla.h"
+
 #include <errno.h>
 #include <fcntl.h>
 #include <math.h>
@@ -15,14 +17,10 @@
 
 static int fail(char *err, size_t errlen, const char *fmt, ...)
 {
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-        for (char *c = err; *c; c++)
-            if (*c == '\n' || *c == '\r') *c = ' ';
-    }
+    va_list ap;
+    va_start(ap, fmt);
+    pdla_verrorf(-1, err, errlen, fmt, ap);
+    va_end(ap);
     return -1;
 }
 

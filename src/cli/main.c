@@ -56,12 +56,7 @@ static int install_signals(void)
     return 0;
 }
 
-static double wall_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
+static double wall_now(void) { return pdla_clock_seconds(); }
 
 /* Peak resident memory of this process image. VmHWM first: getrusage's
  * ru_maxrss keeps the high-water mark of the process that forked us (a

@@ -266,17 +266,6 @@ static const opt_desc *find_opt(int id, opt_desc *tmp)
 
 /* ---- error messages ---------------------------------------------------- */
 
-static int fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return CLI_PARSE_ERROR;
-}
-
 /* A user's string made fit for a one-line message: control characters
  * become '?', and it is cut to 48 bytes with "...". */
 static const char *shown(char dst[64], const char *s)
@@ -333,14 +322,14 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
     case ARG_CHOICE: {
         const int c = pdla_param_choice(param_of(d->id), arg);
         if (c < 0)
-            return fail(err, errlen, "invalid value '%s' for %s: should be %s", shown(v, arg),
+            return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "invalid value '%s' for %s: should be %s", shown(v, arg),
                         opt_label(l, d), d->metavar);
         n = (uint64_t)c;
         break;
     }
     case ARG_NONE: break;
     }
-    if (why) return fail(err, errlen, "invalid value '%s' for %s: %s", shown(v, arg), opt_label(l, d), why);
+    if (why) return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "invalid value '%s' for %s: %s", shown(v, arg), opt_label(l, d), why);
 
     const pdla_param_desc *pd = param_of(d->id);
     if (pd) {
@@ -353,7 +342,7 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
     case OPT_NO_OUTPUT: o->no_output = 1; break;
     case OPT_STATS_JSON: o->stats_json = arg; break;
     case OPT_SCENE:
-        if (o->scene) return fail(err, errlen, "--scene given twice");
+        if (o->scene) return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "--scene given twice");
         o->scene = arg;
         break;
     case 'q': o->quiet = 1; break;
@@ -362,7 +351,7 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
     case OPT_CHECKPOINT: o->checkpoint = 1; break;
     case OPT_CHECKPOINT_EVERY: o->checkpoint = 1; o->checkpoint_every = x; break;
     case OPT_CHECKPOINT_PARTICLES:
-        if (n == 0) return fail(err, errlen, "invalid value '%s' for --checkpoint-particles: must be at least 1",
+        if (n == 0) return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "invalid value '%s' for --checkpoint-particles: must be at least 1",
                                 shown(v, arg));
         o->checkpoint = 1;
         o->checkpoint_particles = n;
@@ -371,7 +360,7 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
     case OPT_RESUME: o->checkpoint = 1; o->resume = arg; break;
     case 'h': o->action = CLI_HELP; break;
     case 'V': o->action = CLI_VERSION; break;
-    default: return fail(err, errlen, "internal error: option %d has no handler", d->id);
+    default: return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "internal error: option %d has no handler", d->id);
     }
     return CLI_PARSE_OK;
 }
@@ -388,7 +377,7 @@ int cli_set_option(cli_options *o, const char *name, const char *value, char *er
         if (options[i].name && !strcmp(options[i].name, name)) d = &options[i];
     char v[64];
     if (!d || d->id == 'h' || d->id == 'V' || d->id == OPT_SCENE)
-        return fail(err, errlen, "unknown key '%s' (keys are the long options of pdla --help "
+        return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "unknown key '%s' (keys are the long options of pdla --help "
                     "without '--', except scene, help and version)", shown(v, name));
     if (d->kind != ARG_NONE) return set_value(o, d, value, err, errlen);
     static const char *const yes[] = {"yes", "true", "1"}, *const no[] = {"no", "false", "0"};
@@ -396,7 +385,7 @@ int cli_set_option(cli_options *o, const char *name, const char *value, char *er
         if (!strcmp(value, yes[i])) return set_value(o, d, NULL, err, errlen);
         if (!strcmp(value, no[i])) return CLI_PARSE_OK;
     }
-    return fail(err, errlen, "invalid value '%s' for %s: should be yes or no", shown(v, value), name);
+    return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "invalid value '%s' for %s: should be yes or no", shown(v, value), name);
 }
 
 /* One pass of getopt over argv into *out (not reset). */
@@ -404,7 +393,7 @@ static int parse_args(int argc, char **argv, cli_options *out, char *err, size_t
 {
     size_t np;
     const pdla_param_desc *t = pdla_param_table(&np);
-    if (np > MAX_PARAMS) return fail(err, errlen, "internal error: %zu parameters", np);
+    if (np > MAX_PARAMS) return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "internal error: %zu parameters", np);
     struct option longopts[N_OPTIONS + MAX_PARAMS + 1];
     char shortopts[2 * N_OPTIONS + 2];
     size_t nl = 0, ns = 0;
@@ -439,7 +428,7 @@ static int parse_args(int argc, char **argv, cli_options *out, char *err, size_t
             opt_desc tmp;
             const opt_desc *d = find_opt(optopt, &tmp);
             char l[64];
-            return fail(err, errlen, "option %s needs a value (%s)",
+            return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "option %s needs a value (%s)",
                         d ? opt_label(l, d) : shown(v, cur), d ? d->metavar : "see --help");
         }
         if (c == '?') {
@@ -447,20 +436,20 @@ static int parse_args(int argc, char **argv, cli_options *out, char *err, size_t
             const opt_desc *d = optopt ? find_opt(optopt, &tmp) : NULL;
             if (d) { /* a known flag given "=value" */
                 char l[64];
-                return fail(err, errlen, "option %s does not take a value", opt_label(l, d));
+                return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "option %s does not take a value", opt_label(l, d));
             }
             if (optopt > 0x20 && optopt < 0x7f) /* printable: control bytes would break the line */
-                return fail(err, errlen, "unknown option '-%c' (see --help)", optopt);
-            return fail(err, errlen, "unknown or ambiguous option '%s' (see --help)", shown(v, cur));
+                return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "unknown option '-%c' (see --help)", optopt);
+            return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "unknown or ambiguous option '%s' (see --help)", shown(v, cur));
         }
         opt_desc tmp;
         const opt_desc *d = find_opt(c, &tmp);
-        if (!d) return fail(err, errlen, "internal error: getopt returned %d", c);
+        if (!d) return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "internal error: getopt returned %d", c);
         const int rc = set_value(out, d, optarg, err, errlen);
         if (rc) return rc;
     }
     if (optind < argc)
-        return fail(err, errlen, "unexpected argument '%s' (options only; see --help)",
+        return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "unexpected argument '%s' (options only; see --help)",
                     shown(v, argv[optind]));
     return CLI_PARSE_OK;
 }
@@ -527,20 +516,20 @@ static void keep_strings(cli_options *o, const scene *sc)
 static int apply_scene(const char *name, const scene *sc, cli_options *o, char *err, size_t errlen)
 {
     cli_options *tmp = malloc(sizeof *tmp);
-    if (!tmp) return fail(err, errlen, "%s: out of memory", name);
+    if (!tmp) return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "%s: out of memory", name);
     char why[512];
     int bad_line = 0;
     int rc = apply_entries(o, sc, -1, tmp, &bad_line, why, sizeof why);
     if (rc != CLI_PARSE_OK) {
-        fail(err, errlen, "%s:%d: %s", name, bad_line, why);
+        pdla_errorf(CLI_PARSE_ERROR, err, errlen, "%s:%d: %s", name, bad_line, why);
     } else {
         size_t np;
         const pdla_param_desc *t = pdla_param_table(&np);
         const pdla_param_desc *bad = NULL;
         if (pdla_param_validate(t, np, &tmp->params, &bad, why, sizeof why) != PDLA_OK) {
             const int line = blame_line(o, sc, bad);
-            rc = line ? fail(err, errlen, "%s:%d: %s", name, line, why)
-                      : fail(err, errlen, "%s: %s", name, why);
+            rc = line ? pdla_errorf(CLI_PARSE_ERROR, err, errlen, "%s:%d: %s", name, line, why)
+                      : pdla_errorf(CLI_PARSE_ERROR, err, errlen, "%s: %s", name, why);
         } else {
             keep_strings(tmp, sc);
             *o = *tmp;
@@ -606,7 +595,7 @@ static int parse_all(int argc, char **argv, cli_options *out, char *err, size_t 
     /* Pass 1 finds --help, --version and --scene (and any syntax error);
      * with a scene, pass 2 applies the command line over it. */
     cli_options *first = malloc(sizeof *first);
-    if (!first) return fail(err, errlen, "out of memory");
+    if (!first) return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "out of memory");
     *first = *out;
     int rc = parse_args(argc, argv, first, err, errlen);
     if (rc == CLI_PARSE_OK && first->scene && first->action == CLI_RUN) {
@@ -620,13 +609,13 @@ static int parse_all(int argc, char **argv, cli_options *out, char *err, size_t 
     if (out->action != CLI_RUN) return CLI_PARSE_EXIT;
 
     if (out->no_output && out->out_dir)
-        return fail(err, errlen, "--no-output and --out exclude each other");
+        return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "--no-output and --out exclude each other");
     if (out->no_output && out->force)
-        return fail(err, errlen, "--no-output and --force exclude each other");
+        return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "--no-output and --force exclude each other");
     if (out->no_output && out->checkpoint)
-        return fail(err, errlen, "checkpoints need a run directory: --no-output excludes them");
+        return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "checkpoints need a run directory: --no-output excludes them");
     if (out->resume && (out->out_dir || out->force))
-        return fail(err, errlen, "--resume continues in the checkpoint's run directory: "
+        return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "--resume continues in the checkpoint's run directory: "
                                  "--out and --force do not apply");
     return cli_check_params(&out->params, err, errlen);
 }

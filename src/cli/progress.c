@@ -16,12 +16,7 @@
  * cluster grows. */
 #define RATE_TAU 10.0
 
-double progress_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
+double progress_now(void) { return pdla_clock_seconds(); }
 
 void progress_init(progress *p, FILE *out, int enabled, int tty, uint64_t particles)
 {

@@ -6,23 +6,13 @@
  */
 #include "scene.h"
 
+#include "pdla/pdla.h"
+
 #include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-static int fail(char *err, size_t errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static int fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return -1;
-}
 
 static int is_blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
 
@@ -46,16 +36,16 @@ int scene_read_text(const char *name, const char *text, size_t len, scene *sc, c
 {
     memset(sc, 0, sizeof *sc);
     if (len > SCENE_MAX_BYTES)
-        return fail(err, errlen, "%s: too large (a scene is at most %d bytes)", name, SCENE_MAX_BYTES);
+        return pdla_errorf(-1, err, errlen, "%s: too large (a scene is at most %d bytes)", name, SCENE_MAX_BYTES);
     if (memchr(text, '\0', len))
-        return fail(err, errlen, "%s: contains a NUL byte (not a text file?)", name);
+        return pdla_errorf(-1, err, errlen, "%s: contains a NUL byte (not a text file?)", name);
     char *buf = malloc(len + 1);
     scene_entry *entries = calloc(SCENE_MAX_BYTES / 4 + 1, sizeof *entries);
     sc->buf = buf;
     sc->entries = entries;
     int rc = 0, n = 0;
     if (!buf || !entries) {
-        rc = fail(err, errlen, "%s: out of memory", name);
+        rc = pdla_errorf(-1, err, errlen, "%s: out of memory", name);
         goto out;
     }
     memcpy(buf, text, len);
@@ -66,7 +56,7 @@ int scene_read_text(const char *name, const char *text, size_t len, scene *sc, c
         char *nl = strchr(line, '\n');
         if (nl) *nl = '\0';
         if (strlen(line) > SCENE_MAX_LINE) {
-            rc = fail(err, errlen, "%s:%d: line too long (at most %d bytes)", name, lineno,
+            rc = pdla_errorf(-1, err, errlen, "%s:%d: line too long (at most %d bytes)", name, lineno,
                       SCENE_MAX_LINE);
             goto out;
         }
@@ -77,13 +67,13 @@ int scene_read_text(const char *name, const char *text, size_t len, scene *sc, c
         if (!*s) continue;
         char *eq = strchr(s, '=');
         if (!eq) {
-            rc = fail(err, errlen, "%s:%d: missing '=' (lines are KEY = VALUE)", name, lineno);
+            rc = pdla_errorf(-1, err, errlen, "%s:%d: missing '=' (lines are KEY = VALUE)", name, lineno);
             goto out;
         }
         *eq = '\0';
         char *key = trim(s), *value = trim(eq + 1);
         if (!*key) {
-            rc = fail(err, errlen, "%s:%d: missing key before '='", name, lineno);
+            rc = pdla_errorf(-1, err, errlen, "%s:%d: missing key before '='", name, lineno);
             goto out;
         }
         size_t kl = strlen(key);
@@ -96,19 +86,19 @@ int scene_read_text(const char *name, const char *text, size_t len, scene *sc, c
             snprintf(shown, sizeof shown, "%.32s%s", key, kl > 32 ? "..." : "");
             for (char *c = shown; *c; c++)
                 if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
-            rc = fail(err, errlen, "%s:%d: bad key '%s' (keys are option names such as 'target')",
+            rc = pdla_errorf(-1, err, errlen, "%s:%d: bad key '%s' (keys are option names such as 'target')",
                       name, lineno, shown);
             goto out;
         }
         scene_entry *en = &entries[n];
         for (size_t i = 0; i <= kl; i++) en->key[i] = key[i] == '_' ? '-' : key[i];
         if (!*value) {
-            rc = fail(err, errlen, "%s:%d: missing value for '%s'", name, lineno, en->key);
+            rc = pdla_errorf(-1, err, errlen, "%s:%d: missing value for '%s'", name, lineno, en->key);
             goto out;
         }
         for (int i = 0; i < n; i++)
             if (!strcmp(entries[i].key, en->key)) {
-                rc = fail(err, errlen, "%s:%d: duplicate key '%s' (first set on line %d)", name,
+                rc = pdla_errorf(-1, err, errlen, "%s:%d: duplicate key '%s' (first set on line %d)", name,
                           lineno, en->key, entries[i].line);
                 goto out;
             }
@@ -128,17 +118,17 @@ int scene_read_file(const char *path, scene *sc, char *err, size_t errlen)
 {
     memset(sc, 0, sizeof *sc);
     FILE *f = fopen(path, "rb");
-    if (!f) return fail(err, errlen, "cannot open scene %s: %s", path, strerror(errno));
+    if (!f) return pdla_errorf(-1, err, errlen, "cannot open scene %s: %s", path, strerror(errno));
     char *buf = malloc(SCENE_MAX_BYTES + 1);
     if (!buf) {
         fclose(f);
-        return fail(err, errlen, "%s: out of memory", path);
+        return pdla_errorf(-1, err, errlen, "%s: out of memory", path);
     }
     const size_t len = fread(buf, 1, SCENE_MAX_BYTES + 1, f);
     const int rerr = ferror(f);
     fclose(f);
     int rc;
-    if (rerr) rc = fail(err, errlen, "cannot read scene %s", path);
+    if (rerr) rc = pdla_errorf(-1, err, errlen, "cannot read scene %s", path);
     else rc = scene_read_text(path, buf, len, sc, err, errlen);
     free(buf);
     return rc;

@@ -1,0 +1,36 @@
+/*
+ * util.c - the two helpers every layer shares: the one-line error message
+ * (library, models and CLI all report errors this way) and the monotonic
+ * clock that every timing in pdla reads.
+ */
+#include "pdla/pdla.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <time.h>
+
+int pdla_verrorf(int code, char *err, size_t errlen, const char *fmt, va_list ap)
+{
+    if (err && errlen) {
+        vsnprintf(err, errlen, fmt, ap);
+        for (char *c = err; *c; c++) /* a path may hold a newline: keep one line */
+            if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
+    }
+    return code;
+}
+
+int pdla_errorf(int code, char *err, size_t errlen, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    pdla_verrorf(code, err, errlen, fmt, ap);
+    va_end(ap);
+    return code;
+}
+
+double pdla_clock_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}

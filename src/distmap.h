@@ -147,17 +147,7 @@ void distmap_reclaim(distmap *m, uint64_t oldest_seen);
  * map wherever both grids reach. Returns 0 (or the map is disabled). */
 int distmap_rebuild(distmap *m, const tree *t);
 
-/* Squared lower bound on the distance from p to the cluster from the leaves
- * of the 3^dim block around p's leaf that the map's fine level marks
- * occupied (the fine cells are the leaves), scanned exactly: exact whenever
- * the nearest particle is nearer than the outside of the block (so always
- * near contact), else the distance to the outside of the block. Returns
- * UINT64_MAX when the map cannot answer (none, or p near the grid's edge):
- * then search_lower_bound2 does. The leaves' first chunks are cached in k
- * (a leaf once seen never moves; one not seen yet is looked up again when
- * the map marks its cell). Implemented in search.c. */
-uint64_t search_block2(const tree *t, const search_config *c, const distmap *m, const int64_t *p,
-                       search_state *k);
+/* search_block2, the map-assisted search, is declared in search.h. */
 
 /* The value of cell (c) of a level, and the distance bound it gives. */
 static inline __attribute__((always_inline)) unsigned distmap_level_value(const distmap_level *L,

@@ -12,6 +12,7 @@
 #include "pdla/pdla.h"
 #include "distmap.h"
 #include "rng.h"
+#include "search.h"
 #include "tree.h"
 
 /* Exact running sums for the radius of gyration: with |x| < 2^28 units,

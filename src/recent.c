@@ -2,6 +2,7 @@
  * recent.c - the ring of recently appended particles (see recent.h).
  */
 #include "recent.h"
+#include "search.h"
 
 #include <stdlib.h>
 

@@ -18,6 +18,7 @@
  * and 3, so a 2D run pays nothing for 3D.
  */
 #include "tree.h"
+#include "search.h"
 
 #include <math.h>
 

@@ -173,73 +173,8 @@ static inline int64_t tree_root_half(int root_level)
 typedef int (*tree_visit_fn)(const int64_t *p, void *user);
 int tree_visit(const tree *t, tree_visit_fn fn, void *user);
 
-/* ---- distance search (search.c) -------------------------------------- */
-
-/* Per-walker state of the search: counters, and the path of the previous
- * query (successive queries of one walker are close, so the next descent
- * starts from the lowest cached node that still contains the point instead
- * of the root). Reset it with search_state_reset before first use; it stays
- * valid while the tree only grows, and is dropped when the root changes. */
-typedef struct search_state {
-    uint64_t node_visits;
-    uint64_t particle_checks;
-    uint32_t root;               /* root the cache was made under; 0 = empty */
-    int root_level;
-    int depth;                   /* lowest cached level */
-    uint32_t node[TREE_MAX_LEVEL + 1];
-    uint32_t own[TREE_MAX_LEVEL + 1];
-    int64_t lo[TREE_MAX_LEVEL + 1][3];
-    /* The leaves around the walker's own leaf (search_block2): their first
-     * chunks (or not seen yet, or empty), for the block centred on the leaf
-     * whose low corner is blk_c. */
-    int blk_valid;
-    uint64_t blk_leaves;         /* the map's leaf count when they were cached */
-    int64_t blk_c[3];
-    uint32_t blk_head[27];
-} search_state;
-
-static inline void search_state_reset(search_state *s)
-{
-    s->node_visits = 0;
-    s->particle_checks = 0;
-    s->root = 0;
-    s->blk_valid = 0;
-}
-
-/* Per-level squared far thresholds: a non-empty node at level L whose box is
- * at squared distance > far2[L] from the query is not opened; its box
- * distance is used as the lower bound. UINT64_MAX disables it (exact). */
-typedef struct search_config {
-    uint64_t far2[TREE_MAX_LEVEL + 2];
-    int concurrent; /* 1 while other threads may append: scalar leaf scans only */
-} search_config;
-
-/* far_factor <= 0 gives exact search. The thresholds never fall below
- * (2 (D + eps))^2, so any result below (D + eps)^2 is an exact distance. */
-void search_config_init(search_config *c, double far_factor, int resolution, int eps);
-
-/* Squared lower bound on the distance from p to the nearest particle centre
- * (UINT64_MAX if the tree is empty). Exact whenever it is below the
- * smallest far threshold; never above the true squared distance.
- * `cap2`: the caller needs no answer larger than this (pass UINT64_MAX for
- * none); the search may return any value >= cap2 once it knows the true
- * distance is at least that large. */
-uint64_t search_lower_bound2(const tree *t, const search_config *c, const int64_t *p,
-                             uint64_t cap2, search_state *k);
-
-/* Exact squared distance by brute force over every particle: the reference
- * the optimised search is tested against. */
-uint64_t search_brute2(const tree *t, const int64_t *p);
-#endif
-
 /* The leaf (its first chunk) whose box contains p (0 if none), and its low corner. */
 uint32_t tree_find_leaf(const tree *t, const int64_t *p, int64_t *leaf_lo);
 
-/* Exact nearest particle centre within sqrt(radius2) of p, radius2 < 256^2
- * (so up to three leaves per axis: D + eps reaches 192 units at D = 128):
- * returns 1 and writes it to q (and its squared distance), or 0 if none. */
-int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
-                         uint64_t *d2);
-/* The same, finding the leaves from (and updating) a walker's cached path. */
-int search_nearest_point_cached(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
-                                uint64_t *d2, search_state *k);
+/* The distance search over the tree (search.c) is declared in search.h. */
+#endif

@@ -27,6 +27,7 @@
 
 #include "check.h"
 #include "engine.h"
+#include "search.h"
 #include "tree.h"
 
 typedef struct pt {

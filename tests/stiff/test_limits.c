@@ -30,6 +30,7 @@
 
 #include "check.h"
 #include "engine.h"
+#include "search.h"
 #include "sample.h"
 #include "tree.h"
 

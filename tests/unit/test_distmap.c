@@ -24,6 +24,7 @@
 #include "check.h"
 #include "distmap.h"
 #include "rng.h"
+#include "search.h"
 #include "tree.h"
 
 static int64_t rand_range(pdla_rng *r, int64_t lo, int64_t hi)

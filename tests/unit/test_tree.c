@@ -17,6 +17,7 @@
 
 #include "check.h"
 #include "rng.h"
+#include "search.h"
 #include "tree.h"
 
 typedef struct pt {

@@ -1,0 +1,91 @@
+/*
+ * search.h - the distance search (search.c): per-walker search state, the
+ * far-threshold configuration, the variable-precision lower bound on the
+ * tree, the map-assisted block search, the exact nearest point near contact
+ * and the brute-force reference. Above tree.h and distmap.h (it reads both);
+ * below the walker, the workers and the engine. Internal to libpdla.
+ */
+#ifndef PDLA_SRC_SEARCH_H
+#define PDLA_SRC_SEARCH_H
+#include <stdint.h>
+
+#include "distmap.h"
+#include "tree.h"
+
+/* Per-walker state of the search: counters, and the path of the previous
+ * query (successive queries of one walker are close, so the next descent
+ * starts from the lowest cached node that still contains the point instead
+ * of the root). Reset it with search_state_reset before first use; it stays
+ * valid while the tree only grows, and is dropped when the root changes. */
+typedef struct search_state {
+    uint64_t node_visits;
+    uint64_t particle_checks;
+    uint32_t root;               /* root the cache was made under; 0 = empty */
+    int root_level;
+    int depth;                   /* lowest cached level */
+    uint32_t node[TREE_MAX_LEVEL + 1];
+    uint32_t own[TREE_MAX_LEVEL + 1];
+    int64_t lo[TREE_MAX_LEVEL + 1][3];
+    /* The leaves around the walker's own leaf (search_block2): their first
+     * chunks (or not seen yet, or empty), for the block centred on the leaf
+     * whose low corner is blk_c. */
+    int blk_valid;
+    uint64_t blk_leaves;         /* the map's leaf count when they were cached */
+    int64_t blk_c[3];
+    uint32_t blk_head[27];
+} search_state;
+
+static inline void search_state_reset(search_state *s)
+{
+    s->node_visits = 0;
+    s->particle_checks = 0;
+    s->root = 0;
+    s->blk_valid = 0;
+}
+
+/* Per-level squared far thresholds: a non-empty node at level L whose box is
+ * at squared distance > far2[L] from the query is not opened; its box
+ * distance is used as the lower bound. UINT64_MAX disables it (exact). */
+typedef struct search_config {
+    uint64_t far2[TREE_MAX_LEVEL + 2];
+    int concurrent; /* 1 while other threads may append: scalar leaf scans only */
+} search_config;
+
+/* far_factor <= 0 gives exact search. The thresholds never fall below
+ * (2 (D + eps))^2, so any result below (D + eps)^2 is an exact distance. */
+void search_config_init(search_config *c, double far_factor, int resolution, int eps);
+
+/* Squared lower bound on the distance from p to the nearest particle centre
+ * (UINT64_MAX if the tree is empty). Exact whenever it is below the
+ * smallest far threshold; never above the true squared distance.
+ * `cap2`: the caller needs no answer larger than this (pass UINT64_MAX for
+ * none); the search may return any value >= cap2 once it knows the true
+ * distance is at least that large. */
+uint64_t search_lower_bound2(const tree *t, const search_config *c, const int64_t *p,
+                             uint64_t cap2, search_state *k);
+
+/* Exact squared distance by brute force over every particle: the reference
+ * the optimised search is tested against. */
+uint64_t search_brute2(const tree *t, const int64_t *p);
+
+/* Exact nearest particle centre within sqrt(radius2) of p, radius2 < 256^2
+ * (so up to three leaves per axis: D + eps reaches 192 units at D = 128):
+ * returns 1 and writes it to q (and its squared distance), or 0 if none. */
+int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
+                         uint64_t *d2);
+/* The same, finding the leaves from (and updating) a walker's cached path. */
+int search_nearest_point_cached(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
+                                uint64_t *d2, search_state *k);
+
+/* Squared lower bound on the distance from p to the cluster from the leaves
+ * of the 3^dim block around p's leaf that the map's fine level marks
+ * occupied (the fine cells are the leaves), scanned exactly: exact whenever
+ * the nearest particle is nearer than the outside of the block (so always
+ * near contact), else the distance to the outside of the block. Returns
+ * UINT64_MAX when the map cannot answer (none, or p near the grid's edge):
+ * then search_lower_bound2 does. The leaves' first chunks are cached in k
+ * (a leaf once seen never moves; one not seen yet is looked up again when
+ * the map marks its cell). */
+uint64_t search_block2(const tree *t, const search_config *c, const distmap *m, const int64_t *p,
+                       search_state *k);
+#endif /* PDLA_SRC_SEARCH_H */

@@ -793,87 +793,6 @@ static int read_chunks(const reader *r, hid_t g, tree *t, uint64_t nc)
     return rc;
 }
 
-/* What a walk of the loaded tree finds. */
-typedef struct tree_check {
-    const tree *t;
-    uint64_t *inner_seen, *chunk_seen;
-    uint64_t count, leaves, r2max;
-    __int128 s1[3];
-    unsigned __int128 s2;
-    const char *bad;
-} tree_check;
-
-static int seen(uint64_t *bits, uint32_t i)
-{
-    const uint64_t m = UINT64_C(1) << (i & 63);
-    if (bits[i >> 6] & m) return 1;
-    bits[i >> 6] |= m;
-    return 0;
-}
-
-static void check_leaf(tree_check *c, uint32_t head, const int64_t *lo)
-{
-    const tree *t = c->t;
-    c->leaves++;
-    for (uint32_t ch = head;;) {
-        if (ch <= TREE_CHUNK_CAP || ch >= t->chunks.count) {
-            c->bad = "a chunk index out of range";
-            return;
-        }
-        if (seen(c->chunk_seen, ch)) {
-            c->bad = "a chunk listed twice";
-            return;
-        }
-        const uint8_t *rec = tree_chunk_at(t, ch);
-        const uint32_t link = tree_chunk_link(t, rec);
-        if (link == 0) {
-            c->bad = "an empty chunk";
-            return;
-        }
-        const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
-        for (uint32_t j = 0; j < m; j++) {
-            uint64_t r2 = 0;
-            for (int a = 0; a < t->dim; a++) {
-                const int64_t x = lo[a] + rec[a * TREE_CHUNK_CAP + (int)j];
-                if (x <= -PDLA_MAX_CLUSTER_RADIUS_UNITS || x >= PDLA_MAX_CLUSTER_RADIUS_UNITS) {
-                    c->bad = "a particle beyond the coordinate limit";
-                    return;
-                }
-                c->s1[a] += x;
-                r2 += (uint64_t)(x * x);
-            }
-            c->s2 += r2;
-            if (r2 > c->r2max) c->r2max = r2;
-        }
-        c->count += m;
-        if (link <= TREE_CHUNK_CAP) return;
-        ch = link;
-    }
-}
-
-static void check_node(tree_check *c, uint32_t node, int level, const int64_t *lo)
-{
-    const tree *t = c->t;
-    if (c->bad) return;
-    if (node == 0 || node >= t->inner.count) {
-        c->bad = "a node index out of range";
-        return;
-    }
-    if (seen(c->inner_seen, node)) {
-        c->bad = "a node listed twice";
-        return;
-    }
-    const uint32_t *ch = (const uint32_t *)pool_at(&t->inner, node);
-    const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
-    for (int k = 0; k < t->nchild && !c->bad; k++) {
-        if (!ch[k]) continue;
-        int64_t clo[3] = {0, 0, 0};
-        for (int a = 0; a < t->dim; a++) clo[a] = lo[a] + ((k >> a) & 1) * half;
-        if (level == 1) check_leaf(c, ch[k], clo);
-        else check_node(c, ch[k], level - 1, clo);
-    }
-}
-
 static int all_zero(const void *p, size_t n)
 {
     const uint8_t *b = p;
@@ -921,27 +840,14 @@ static int load_tree(const reader *r, hid_t file, pdla_engine *e)
     t->leaves = leaves;
 
     /* Walk it: structure, and the particles against the stored sums. */
-    tree_check c;
-    memset(&c, 0, sizeof c);
-    c.t = t;
-    c.inner_seen = calloc((ni + 63) / 64, sizeof *c.inner_seen);
-    c.chunk_seen = calloc((nc + 63) / 64, sizeof *c.chunk_seen);
-    if (!c.inner_seen || !c.chunk_seen) {
-        free(c.inner_seen);
-        free(c.chunk_seen);
+    tree_verify_sums c;
+    const char *bad = NULL;
+    rc = tree_verify(t, &c, &bad);
+    if (rc == PDLA_ENOMEM) {
         if (r->err && r->errlen) snprintf(r->err, r->errlen, "%s: out of memory", r->path);
         return PDLA_ENOMEM;
     }
-    int64_t lo[3];
-    for (int a = 0; a < 3; a++) lo[a] = -tree_root_half(level);
-    check_node(&c, (uint32_t)root, level, lo);
-    uint64_t unseen = 0;
-    for (uint64_t i = TREE_CHUNK_CAP + 1; !c.bad && i < nc; i++)
-        if (!(c.chunk_seen[i >> 6] >> (i & 63) & 1)) unseen++;
-    free(c.inner_seen);
-    free(c.chunk_seen);
-    if (c.bad) return damaged(r, c.bad);
-    if (unseen) return damaged(r, "chunks that no leaf holds");
+    if (bad) return damaged(r, bad);
     if (c.count != count) return damaged(r, "the particle count differs from the chunks' fills");
     if (c.leaves != leaves) return damaged(r, "the leaf count differs from the tree");
 
@@ -1276,35 +1182,7 @@ int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params 
     return rc;
 }
 
-/* ---- the run directory ---------------------------------------------------- */
-
-int pdla_rundir_lock(const char *dir, int *fd, char *err, size_t errlen)
-{
-    *fd = -1;
-    const int d = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-    if (d < 0) {
-        if (err && errlen) snprintf(err, errlen, "cannot open run directory '%s': %s", dir, strerror(errno));
-        return PDLA_EIO;
-    }
-    if (flock(d, LOCK_EX | LOCK_NB) != 0) {
-        const int e = errno;
-        close(d);
-        if (e == EWOULDBLOCK) {
-            if (err && errlen)
-                snprintf(err, errlen, "run directory '%s' is in use by another pdla process", dir);
-            return PDLA_EEXIST;
-        }
-        if (err && errlen) snprintf(err, errlen, "cannot lock run directory '%s': %s", dir, strerror(e));
-        return PDLA_EIO;
-    }
-    *fd = d;
-    return PDLA_OK;
-}
-
-void pdla_rundir_unlock(int fd)
-{
-    if (fd >= 0) close(fd); /* closing the last descriptor releases the flock */
-}
+/* ---- stale temporary files (the lock is in rundir.c) ------------------- */
 
 int pdla_checkpoint_remove_stale(const char *dir)
 {
@@ -1320,9 +1198,4 @@ int pdla_checkpoint_remove_stale(const char *dir)
         }
     closedir(d);
     return n;
-}
-
-int pdla_hdf5_quiet(void)
-{
-    return H5Eset_auto2(H5E_DEFAULT, NULL, NULL) < 0 ? PDLA_EIO : PDLA_OK;
 }

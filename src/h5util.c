@@ -442,3 +442,9 @@ int h5u_restore(h5u_quiet *q)
     q->on = 0;
     return H5Eset_auto2(H5E_DEFAULT, q->fn, q->data) < 0 ? -1 : 0;
 }
+
+/* pdla.h: HDF5 printing off for the calling thread, for good. */
+int pdla_hdf5_quiet(void)
+{
+    return H5Eset_auto2(H5E_DEFAULT, NULL, NULL) < 0 ? PDLA_EIO : PDLA_OK;
+}

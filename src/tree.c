@@ -5,7 +5,10 @@
  */
 #include "tree.h"
 
+#include "pdla/pdla.h"
+
 #include <stdlib.h>
+#include <string.h>
 
 static int pool_init(tree_pool *p, uint32_t elem)
 {
@@ -301,4 +304,114 @@ int tree_visit(const tree *t, tree_visit_fn fn, void *user)
     int64_t lo[3];
     for (int a = 0; a < t->dim; a++) lo[a] = -tree_root_half(root.level);
     return visit_node(t, root.node, root.level, lo, fn, user);
+}
+
+/* ---- verification of a tree read from storage ---------------------------- */
+
+/* The state of one verifying walk. */
+typedef struct tree_check {
+    const tree *t;
+    uint64_t *inner_seen, *chunk_seen;
+    tree_verify_sums sums;
+    const char *bad;
+} tree_check;
+
+static int seen(uint64_t *bits, uint32_t i)
+{
+    const uint64_t m = UINT64_C(1) << (i & 63);
+    if (bits[i >> 6] & m) return 1;
+    bits[i >> 6] |= m;
+    return 0;
+}
+
+static void check_leaf(tree_check *c, uint32_t head, const int64_t *lo)
+{
+    const tree *t = c->t;
+    c->sums.leaves++;
+    for (uint32_t ch = head;;) {
+        if (ch <= TREE_CHUNK_CAP || ch >= t->chunks.count) {
+            c->bad = "a chunk index out of range";
+            return;
+        }
+        if (seen(c->chunk_seen, ch)) {
+            c->bad = "a chunk listed twice";
+            return;
+        }
+        const uint8_t *rec = tree_chunk_at(t, ch);
+        const uint32_t link = tree_chunk_link(t, rec);
+        if (link == 0) {
+            c->bad = "an empty chunk";
+            return;
+        }
+        const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+        for (uint32_t j = 0; j < m; j++) {
+            uint64_t r2 = 0;
+            for (int a = 0; a < t->dim; a++) {
+                const int64_t x = lo[a] + rec[a * TREE_CHUNK_CAP + (int)j];
+                if (x <= -PDLA_MAX_CLUSTER_RADIUS_UNITS || x >= PDLA_MAX_CLUSTER_RADIUS_UNITS) {
+                    c->bad = "a particle beyond the coordinate limit";
+                    return;
+                }
+                c->sums.s1[a] += x;
+                r2 += (uint64_t)(x * x);
+            }
+            c->sums.s2 += r2;
+            if (r2 > c->sums.r2max) c->sums.r2max = r2;
+        }
+        c->sums.count += m;
+        if (link <= TREE_CHUNK_CAP) return;
+        ch = link;
+    }
+}
+
+static void check_node(tree_check *c, uint32_t node, int level, const int64_t *lo)
+{
+    const tree *t = c->t;
+    if (c->bad) return;
+    if (node == 0 || node >= t->inner.count) {
+        c->bad = "a node index out of range";
+        return;
+    }
+    if (seen(c->inner_seen, node)) {
+        c->bad = "a node listed twice";
+        return;
+    }
+    const uint32_t *ch = (const uint32_t *)pool_at(&t->inner, node);
+    const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
+    for (int k = 0; k < t->nchild && !c->bad; k++) {
+        if (!ch[k]) continue;
+        int64_t clo[3] = {0, 0, 0};
+        for (int a = 0; a < t->dim; a++) clo[a] = lo[a] + ((k >> a) & 1) * half;
+        if (level == 1) check_leaf(c, ch[k], clo);
+        else check_node(c, ch[k], level - 1, clo);
+    }
+}
+
+int tree_verify(const tree *t, tree_verify_sums *sums, const char **bad)
+{
+    tree_check c;
+    memset(&c, 0, sizeof c);
+    c.t = t;
+    *bad = NULL;
+    const uint64_t ni = t->inner.count, nc = t->chunks.count;
+    c.inner_seen = calloc((ni + 63) / 64, sizeof *c.inner_seen);
+    c.chunk_seen = calloc((nc + 63) / 64, sizeof *c.chunk_seen);
+    if (!c.inner_seen || !c.chunk_seen) {
+        free(c.inner_seen);
+        free(c.chunk_seen);
+        return TREE_VERIFY_ENOMEM;
+    }
+    const tree_root root = tree_root_get(t);
+    int64_t lo[3];
+    for (int a = 0; a < 3; a++) lo[a] = -tree_root_half(root.level);
+    check_node(&c, root.node, root.level, lo);
+    uint64_t unseen = 0;
+    for (uint64_t i = TREE_CHUNK_CAP + 1; !c.bad && i < nc; i++)
+        if (!(c.chunk_seen[i >> 6] >> (i & 63) & 1)) unseen++;
+    free(c.inner_seen);
+    free(c.chunk_seen);
+    if (!c.bad && unseen) c.bad = "chunks that no leaf holds";
+    *bad = c.bad;
+    *sums = c.sums;
+    return 0;
 }

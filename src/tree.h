@@ -176,5 +176,19 @@ int tree_visit(const tree *t, tree_visit_fn fn, void *user);
 /* The leaf (its first chunk) whose box contains p (0 if none), and its low corner. */
 uint32_t tree_find_leaf(const tree *t, const int64_t *p, int64_t *leaf_lo);
 
+/* What a verifying walk of a tree finds: particles, leaves, and the exact
+ * sums the gyration state must reproduce. */
+typedef struct tree_verify_sums {
+    uint64_t count, leaves, r2max;
+    __extension__ __int128 s1[3];
+    __extension__ unsigned __int128 s2;
+} tree_verify_sums;
+enum { TREE_VERIFY_ENOMEM = -2 }; /* = PDLA_ENOMEM */
+/* Walk a tree read from untrusted storage (a checkpoint): every node and
+ * chunk index in range and reached exactly once, no chunk unreached or
+ * empty, every particle within the coordinate limit. Returns 0 with *bad
+ * NULL (or a short static reason) and the sums, or TREE_VERIFY_ENOMEM. */
+int tree_verify(const tree *t, tree_verify_sums *sums, const char **bad);
+
 /* The distance search over the tree (search.c) is declared in search.h. */
 #endif

@@ -8,7 +8,7 @@
  * --stats-json and the parameter list of summary.txt.
  *
  * Adding a parameter to the DLA engine is one field in pdla_params (pdla.h),
- * one PDLA_PARAM_* bit and one row in src/params.c; tests/params walks the
+ * one PDLA_PARAM_* bit and one row in src/core/params.c; tests/params walks the
  * table and checks every row end to end.
  *
  * The functions below take (table, count, struct) so that another model can

@@ -80,7 +80,7 @@ typedef enum {
 
 /* Run parameters. Every field is documented with its default, which
  * pdla_params_default() sets. Each field is a row of the parameter table
- * (pdla/params.h, src/params.c), which holds its default, range, help
+ * (pdla/params.h, src/core/params.c), which holds its default, range, help
  * text, option name and resume rule, and drives every place that handles it. */
 typedef struct pdla_params {
     int dim;                 /* 2 or 3. Default 2. */

@@ -2,7 +2,7 @@
  * analyze.c - `pdla analyze FILE`: the fractal dimension two ways.
  *
  * (a) From the R_g(N) series stored while growing: least squares of
- *     ln R_g on ln N over the engine's default range (src/fit.c).
+ *     ln R_g on ln N over the engine's default range (src/core/fit.c).
  * (b) From the mass-radius relation of the final cluster: M(r) = particles
  *     whose centre lies closer than r to the centre (the seed, or the centre
  *     of mass), at log-spaced r = 10^(i/K) diameters; least squares of ln r

@@ -1,5 +1,5 @@
 /*
- * h5read.h - reading a pdla cluster file (the layout of src/output_h5.c)
+ * h5read.h - reading a pdla cluster file (the layout of src/dla/output_h5.c)
  * for the tools: checks that it is one, streams /cluster/positions in
  * hyperslabs of bounded size, reads the R_g series and the attributes of
  * /parameters, /results and /Code. HDF5's own error printing is turned off

@@ -1,5 +1,5 @@
 /*
- * test_bruteforce.c - the return laws of src/sample.c against Brownian motion
+ * test_bruteforce.c - the return laws of src/dla/sample.c against Brownian motion
  * itself, with none of their formulas: walkers started at radius r are moved
  * by walk-on-spheres in free space (from a point at distance d from the
  * circle/sphere of radius R, Brownian motion first leaves the ball of radius d

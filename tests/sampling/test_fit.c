@@ -1,5 +1,5 @@
 /*
- * test_fit.c - the D_f fit (src/fit.c): exact power laws recovered to 1e-9,
+ * test_fit.c - the D_f fit (src/core/fit.c): exact power laws recovered to 1e-9,
  * a noisy power law recovered within its own error bar, and that error bar
  * checked by its coverage over 1000 noisy replicates; too few points, range
  * filtering and the default range.

@@ -1,5 +1,5 @@
 /*
- * test_rng.c - xoshiro256** (src/rng.h) against the reference generator:
+ * test_rng.c - xoshiro256** (src/core/rng.h) against the reference generator:
  * known outputs from a known state, the exact ends of the two uniform
  * mappings, a chi-square of uniformity, and rng_jump checked against an
  * independent computation of 2^128 steps (the state transition is linear over

@@ -1,5 +1,5 @@
 /*
- * test_sample.c - goodness of fit of every sampler in src/sample.c against
+ * test_sample.c - goodness of fit of every sampler in src/dla/sample.c against
  * its exact law, each with a fixed seed and a p = 0.001 critical value
  * (stats.h), and each with a negative control: the same statistic on a
  * slightly wrong law must exceed the critical value, so the test can fail.

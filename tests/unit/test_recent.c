@@ -1,6 +1,6 @@
 /*
  * test_recent.c - the PDLA insertion check's ring of recent particles
- * (src/recent.c) against brute force on random clusters, 2D and 3D: for a
+ * (src/dla/recent.c) against brute force on random clusters, 2D and 3D: for a
  * random spot p and a random `seen`, recent_overlap must say whether one of
  * particles seen..N-1 lies closer than D to p; when the ring (capacities 1,
  * 7, 64, 4096) no longer holds them all, whether any particle does (the

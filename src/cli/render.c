@@ -28,6 +28,7 @@
 #include <string.h>
 
 #include "h5read.h"
+#include "optcheck.h"
 #include "parse.h"
 #include "tools.h"
 
@@ -160,8 +161,11 @@ static int splat_pass(const int32_t *xyz, size_t rows, uint64_t first, void *use
             deposit(c, x0 + 1, y0 + 1, ax * ay, val, depth);
         } else {
             /* A disc: coverage ~ how far a pixel centre lies inside the rim. */
-            const int x0 = (int)floor(px - c->rp - 1), x1 = (int)ceil(px + c->rp + 1);
-            const int y0 = (int)floor(py - c->rp - 1), y1 = (int)ceil(py + c->rp + 1);
+            /* Clipped to the picture, in double before narrowing: zoomed in,
+             * a disc may be far wider than the image (or lie far outside). */
+            const double last = c->size - 1;
+            const int x0 = (int)fmax(0, floor(px - c->rp - 1)), x1 = (int)fmin(last, ceil(px + c->rp + 1));
+            const int y0 = (int)fmax(0, floor(py - c->rp - 1)), y1 = (int)fmin(last, ceil(py + c->rp + 1));
             for (int y = y0; y <= y1; y++)
                 for (int x = x0; x <= x1; x++) {
                     const double dx = x + 0.5 - px, dy = y + 0.5 - py;
@@ -246,6 +250,11 @@ int tool_render(int argc, char **argv)
     double zoom = 1;
     opterr = 0;
     optind = 1;
+    char oerr[160];
+    if (optcheck_exact(argc, argv, longopts, "ho:", oerr, sizeof oerr)) {
+        fprintf(stderr, "pdla render: %s\n", oerr);
+        return TOOL_USAGE;
+    }
     while ((c = getopt_long(argc, argv, "ho:", longopts, NULL)) != -1) {
         const char *bad = NULL;
         switch (c) {

@@ -4,32 +4,42 @@
  * broken disk would.
  *
  *   FAULT_AT=k      the k-th counted call fails (1-based); 0 or unset: none
- *   FAULT_OP=write|fsync|fallocate|any   which calls are counted (default any)
+ *   FAULT_OP=write|fsync|fallocate|stdio|any   which calls are counted
+ *                   (default any). stdio: fflush and fclose of a stream
+ *                   writing a regular file - glibc's stdio writes through
+ *                   internal calls no preload can see, so a failure there is
+ *                   made by dropping the stream's buffer (__fpurge) and
+ *                   returning EOF with the error, as a failed flush does
  *   FAULT_ERR=ENOSPC|EIO|EDQUOT|SHORT    the error; SHORT writes half the
  *                   bytes and reports that, which a correct caller retries
  *   FAULT_STICKY=1  every counted call after the k-th fails too (a full disk)
  *   FAULT_COUNT=F   at exit, write the number of counted calls to file F
+ *   FAULT_FLOCK=1   flock(LOCK_NB) answers EWOULDBLOCK: another process won
+ *                   the run directory's lock (a deterministic lost race)
  *
  * Counted: write, pwrite, pwrite64, writev, fsync, fdatasync, fallocate,
  * posix_fallocate - only on regular files, so stderr and pipes are left alone.
  */
+#undef _FILE_OFFSET_BITS /* define pwrite and pwrite64 both, as libc does */
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <stdatomic.h>
 #include <stdio.h>
+#include <stdio_ext.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/uio.h>
 #include <unistd.h>
 
-enum { OP_WRITE = 1, OP_FSYNC = 2, OP_FALLOC = 4 };
+enum { OP_WRITE = 1, OP_FSYNC = 2, OP_FALLOC = 4, OP_STDIO = 8 };
 
 static atomic_long calls;
 static long fault_at = -1;
-static int ops = OP_WRITE | OP_FSYNC | OP_FALLOC, err_no = ENOSPC, shortw, sticky, inited;
+static int ops = OP_WRITE | OP_FSYNC | OP_FALLOC | OP_STDIO, err_no = ENOSPC, shortw, sticky, inited;
 static const char *count_file;
 
 static void init(void)
@@ -42,6 +52,7 @@ static void init(void)
         if (!strcmp(s, "write")) ops = OP_WRITE;
         else if (!strcmp(s, "fsync")) ops = OP_FSYNC;
         else if (!strcmp(s, "fallocate")) ops = OP_FALLOC;
+        else if (!strcmp(s, "stdio")) ops = OP_STDIO;
     }
     if ((s = getenv("FAULT_ERR"))) {
         if (!strcmp(s, "EIO")) err_no = EIO;
@@ -183,4 +194,38 @@ int posix_fallocate64(int fd, off_t off, off_t len)
     REAL(posix_fallocate64, int, int, off_t, off_t);
     if (hit(fd, OP_FALLOC)) return shortw ? ENOSPC : err_no;
     return real_posix_fallocate64(fd, off, len);
+}
+
+int flock(int fd, int op)
+{
+    REAL(flock, int, int, int);
+    const char *s = getenv("FAULT_FLOCK");
+    if (s && *s == '1' && (op & LOCK_NB)) {
+        errno = EWOULDBLOCK;
+        return -1;
+    }
+    return real_flock(fd, op);
+}
+
+int fflush(FILE *fp)
+{
+    REAL(fflush, int, FILE *);
+    if (fp && __fwritable(fp) && __fpending(fp) > 0 && hit(fileno(fp), OP_STDIO)) {
+        __fpurge(fp);
+        errno = shortw ? EIO : err_no;
+        return EOF;
+    }
+    return real_fflush(fp);
+}
+
+int fclose(FILE *fp)
+{
+    REAL(fclose, int, FILE *);
+    if (fp && __fwritable(fp) && __fpending(fp) > 0 && hit(fileno(fp), OP_STDIO)) {
+        __fpurge(fp);
+        real_fclose(fp);
+        errno = shortw ? EIO : err_no;
+        return EOF;
+    }
+    return real_fclose(fp);
 }

@@ -694,22 +694,25 @@ int main(int argc, char **argv)
             free(cmd);
             return EXIT_USAGE;
         }
-        /* Writability now, not after growth: a resume writes checkpoints,
-         * cluster.h5 and summary.txt there. */
-        const int we = probe_writable(dir);
-        if (we) {
-            fprintf(stderr, "pdla: cannot resume: run directory '%s' is not writable: %s\n", dir,
-                    strerror(we));
-            pdla_rundir_unlock(lock);
-            free(cmd);
-            return EXIT_USAGE;
-        }
         const int lrc = pdla_checkpoint_load(&eng, o.resume, &o.params, o.given, &loaded, err, sizeof err);
         if (lrc != PDLA_OK) {
             fprintf(stderr, "pdla: cannot resume: %s\n", err);
             pdla_rundir_unlock(lock);
             free(cmd);
             return lrc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
+        }
+        /* Writability now, not after growth: a resume writes checkpoints,
+         * cluster.h5 and summary.txt there. (After the load, so that a
+         * resume refused for its checkpoint or parameters touches nothing,
+         * not even the directory's mtime.) */
+        const int we = probe_writable(dir);
+        if (we) {
+            fprintf(stderr, "pdla: cannot resume: run directory '%s' is not writable: %s\n", dir,
+                    strerror(we));
+            pdla_engine_destroy(eng);
+            pdla_rundir_unlock(lock);
+            free(cmd);
+            return EXIT_USAGE;
         }
         if (loaded.note[0])
             fprintf(stderr, "pdla: note: %s; resuming from %s (generation %" PRIu64 ")\n", loaded.note,

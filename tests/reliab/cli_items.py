@@ -6,6 +6,7 @@ directory, --force over an older run's checkpoints, abbreviated options,
 render --zoom 1e6, and what SOURCE_DATE_EPOCH makes identical. Each check
 failed on the build before the fixes (see the commit message)."""
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -191,4 +192,6 @@ check(a.get("Code@created_utc") == b.get("Code@created_utc") and "1970" in str(a
 print("SOURCE_DATE_EPOCH: %d attributes/datasets, differing: %r" % (len(a), differ))
 
 print("cli_items: %d failures" % len(failures))
+_ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+print("children's CPU time: %.1f s user, %.1f s system" % (_ru.ru_utime, _ru.ru_stime))
 sys.exit(1 if failures else 0)

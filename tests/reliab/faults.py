@@ -200,4 +200,6 @@ for tool, args, outs, refs, olds in (
                 check(got == read(r), tag + ": exit 0 but %s is not the new output" % os.path.basename(o))
 
 print("faults: %d runs, %d failures" % (runs, len(failures)))
+_ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+print("children's CPU time: %.1f s user, %.1f s system" % (_ru.ru_utime, _ru.ru_stime))
 sys.exit(1 if failures else 0)

@@ -12,6 +12,7 @@ its peak RSS under a bound; and leave no temporary file. Cases listed in
 """
 import json
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -400,4 +401,6 @@ one_run("fifo", "scene", ["--scene", os.path.join(WORK, "s.scene"), "--no-output
 
 n = len(cluster_cases) * 4 + 4 + len(ckpt_cases) + 2
 print("hostile: %d runs, %d failures" % (n, len(failures)))
+_ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+print("children's CPU time: %.1f s user, %.1f s system" % (_ru.ru_utime, _ru.ru_stime))
 sys.exit(1 if failures else 0)

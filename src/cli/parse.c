@@ -5,6 +5,7 @@
  */
 #include "parse.h"
 #include "scene.h"
+#include "optcheck.h"
 
 #include <errno.h>
 #include <getopt.h>
@@ -420,6 +421,7 @@ static int parse_args(int argc, char **argv, cli_options *out, char *err, size_t
      * from printing. */
     optind = 0;
     opterr = 0;
+    if (optcheck_exact(argc, argv, longopts, shortopts, err, errlen)) return CLI_PARSE_ERROR;
     char v[64];
     int c;
     while ((c = getopt_long(argc, argv, shortopts, longopts, NULL)) != -1) {
@@ -511,6 +513,10 @@ static void keep_strings(cli_options *o, const scene *sc)
         snprintf(o->scene_stats, sizeof o->scene_stats, "%s", o->stats_json);
         o->stats_json = o->scene_stats;
     }
+    if (o->resume && o->resume >= sc->buf && o->resume < sc->buf + sc->len) {
+        snprintf(o->scene_resume, sizeof o->scene_resume, "%s", o->resume);
+        o->resume = o->scene_resume;
+    }
 }
 
 static int apply_scene(const char *name, const scene *sc, cli_options *o, char *err, size_t errlen)
@@ -536,6 +542,7 @@ static int apply_scene(const char *name, const scene *sc, cli_options *o, char *
             /* *o was copied from tmp: repoint what pointed into tmp's own arrays. */
             if (tmp->out_dir == tmp->scene_out) o->out_dir = o->scene_out;
             if (tmp->stats_json == tmp->scene_stats) o->stats_json = o->scene_stats;
+            if (tmp->resume == tmp->scene_resume) o->resume = o->scene_resume;
         }
     }
     free(tmp);

@@ -9,10 +9,13 @@
 #include "pdla/pdla.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 static int is_blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
 
@@ -117,8 +120,19 @@ out:
 int scene_read_file(const char *path, scene *sc, char *err, size_t errlen)
 {
     memset(sc, 0, sizeof *sc);
-    FILE *f = fopen(path, "rb");
-    if (!f) return pdla_errorf(-1, err, errlen, "cannot open scene %s: %s", path, strerror(errno));
+    /* O_NONBLOCK and a regular-file check: a FIFO would wait for a writer. */
+    const int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+    if (fd < 0) return pdla_errorf(-1, err, errlen, "cannot open scene %s: %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        return pdla_errorf(-1, err, errlen, "scene %s is not a regular file", path);
+    }
+    FILE *f = fdopen(fd, "rb");
+    if (!f) {
+        close(fd);
+        return pdla_errorf(-1, err, errlen, "cannot open scene %s: %s", path, strerror(errno));
+    }
     char *buf = malloc(SCENE_MAX_BYTES + 1);
     if (!buf) {
         fclose(f);

@@ -236,6 +236,18 @@ static int record_arrival(pdla_engine *e, const int64_t *p)
     return PDLA_OK;
 }
 
+void engine_raise_r_ext(pdla_engine *e, const int64_t *p)
+{
+    uint64_t r2 = 0;
+    for (int a = 0; a < e->params.dim; a++) r2 += (uint64_t)(p[a] * p[a]);
+    int64_t r = (int64_t)sqrt((double)r2);
+    while ((uint64_t)(r * r) < r2) r++;
+    int64_t cur = atomic_load_explicit(&e->r_ext, memory_order_relaxed);
+    while (r > cur && !atomic_compare_exchange_weak_explicit(&e->r_ext, &cur, r, memory_order_relaxed,
+                                                             memory_order_relaxed)) {
+    }
+}
+
 int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
 {
     const int dim = e->params.dim;
@@ -251,9 +263,7 @@ int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errl
     e->gyr.n++;
     if (r2 > e->r_ext2) {
         e->r_ext2 = r2;
-        int64_t r = (int64_t)sqrt((double)r2);
-        while ((uint64_t)(r * r) < r2) r++;
-        atomic_store_explicit(&e->r_ext, r, memory_order_relaxed);
+        engine_raise_r_ext(e, p);
     }
     if (e->params.rg_per_decade > 0 && e->gyr.n >= e->rg_next_n) {
         if (record_rg_sample(e)) return fail(PDLA_ENOMEM, err, errlen, "out of memory for R_g samples");
@@ -340,6 +350,8 @@ void walker_ctx_add_counts(walker_ctx *s, const walker_ctx *o)
     s->recheck_overlaps += o->recheck_overlaps;
     s->recheck_continued += o->recheck_continued;
     s->recheck_discarded += o->recheck_discarded;
+    s->stale_jumps += o->stale_jumps;
+    s->stale_births += o->stale_births;
     for (int i = 0; i < 3; i++) {
         s->mutex_taken[i] += o->mutex_taken[i];
         s->mutex_contended[i] += o->mutex_contended[i];
@@ -360,6 +372,8 @@ static void stats_set_counts(pdla_stats *s, const walker_ctx *w)
     s->recheck_overlaps = w->recheck_overlaps;
     s->recheck_continued = w->recheck_continued;
     s->recheck_discarded = w->recheck_discarded;
+    s->stale_jumps = w->stale_jumps;
+    s->stale_births = w->stale_births;
     memcpy(s->mutex_taken, w->mutex_taken, sizeof s->mutex_taken);
     memcpy(s->mutex_contended, w->mutex_contended, sizeof s->mutex_contended);
 }

@@ -149,6 +149,11 @@ typedef struct pdla_stats {
     uint64_t recheck_overlaps;  /* PDLA: walkers that found their spot taken */
     uint64_t recheck_continued; /* ... and were inserted in contact with the newcomer */
     uint64_t recheck_discarded; /* ... and were discarded / restarted */
+    /* PDLA stale reads caught (this process only, not checkpointed): jumps
+     * queried again because a particle appended since the walker's distance
+     * query lay inside the jump's ball, and birth-circle moves redone
+     * because R_ext had grown since it was read. */
+    uint64_t stale_jumps, stale_births;
     /* PDLA lock contention, indexed by PDLA_MUTEX_NODE/BUCKET/GYRATION:
      * acquisitions by workers, and those that found the mutex held (so had
      * to wait). Counted since this process started (not checkpointed). */

@@ -370,6 +370,9 @@ static void print_summary(FILE *f, const report *r, int with_command)
     if (s->threads)
         fprintf(f, "re-checks        %" PRIu64 " spots taken: %" PRIu64 " continued, %" PRIu64 " discarded\n",
                 s->recheck_overlaps, s->recheck_continued, s->recheck_discarded);
+    if (s->threads)
+        fprintf(f, "stale reads      %" PRIu64 " jumps and %" PRIu64 " births queried again\n",
+                s->stale_jumps, s->stale_births);
     if (s->threads) {
         static const char *const names[3] = {"node", "bucket", "gyration"};
         fprintf(f, "mutex waits     ");
@@ -476,11 +479,12 @@ static void write_json(FILE *f, const report *r, const char *status)
     json_real(f, s->parallel_seconds);
     fprintf(f, ",\n  \"threads\": %d,\n  \"recheck_overlaps\": %" PRIu64
                ",\n  \"recheck_continued\": %" PRIu64 ",\n  \"recheck_discarded\": %" PRIu64
+               ",\n  \"stale_jumps\": %" PRIu64 ",\n  \"stale_births\": %" PRIu64
                ",\n  \"mutex_taken\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]"
                ",\n  \"mutex_contended\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]"
                ",\n  \"binding\": ",
             s->threads, s->recheck_overlaps, s->recheck_continued, s->recheck_discarded,
-            s->mutex_taken[0], s->mutex_taken[1], s->mutex_taken[2], s->mutex_contended[0],
+            s->stale_jumps, s->stale_births, s->mutex_taken[0], s->mutex_taken[1], s->mutex_taken[2], s->mutex_contended[0],
             s->mutex_contended[1], s->mutex_contended[2]);
     json_string(f, s->binding);
     fprintf(f, ",\n  \"fit\": {\"df\": ");

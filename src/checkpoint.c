@@ -657,6 +657,10 @@ static int read_params(const reader *r, hid_t file, pdla_params *p)
     P_CHOICE("recheck", rch, recheck, pdla_recheck_mode)
     P_CHOICE("bind", bnd, bind, pdla_bind_mode)
     P_INT("record_arrival", record_arrival)
+    /* Absent from files written before the reference mode: 0 (off). */
+    p->reference_walkers = 0;
+    if (rc == PDLA_OK && H5Aexists(g, "reference_walkers") > 0)
+        P_INT("reference_walkers", reference_walkers)
 #undef P_INT
 #undef P_ANY
 #undef P_CHOICE
@@ -718,6 +722,7 @@ static int apply_asked(const reader *r, pdla_params *p, const pdla_params *a, ui
     if (f & PDLA_PARAM_THREADS) p->threads = a->threads;
     if (f & PDLA_PARAM_SERIAL_UNTIL) p->serial_until = a->serial_until;
     if (f & PDLA_PARAM_BIND) p->bind = a->bind;
+    if (f & PDLA_PARAM_REFERENCE_WALKERS) p->reference_walkers = a->reference_walkers;
     char why[256];
     if (pdla_params_validate(p, why, sizeof why) != PDLA_OK) {
         if (r->err && r->errlen) snprintf(r->err, r->errlen, "%s: %s", r->path, why);

@@ -46,6 +46,7 @@ void pdla_params_default(pdla_params *p)
     p->serial_until = 10000000;
     p->recheck = PDLA_RECHECK_CONTINUE;
     p->bind = PDLA_BIND_NONE;
+    p->reference_walkers = 0;
     p->record_arrival = 0;
 }
 
@@ -90,6 +91,13 @@ int pdla_params_validate(const pdla_params *p, char *err, size_t errlen)
         return fail(PDLA_EINVAL, err, errlen, "unknown re-check mode %d", (int)p->recheck);
     if (p->bind != PDLA_BIND_NONE && p->bind != PDLA_BIND_CORE)
         return fail(PDLA_EINVAL, err, errlen, "unknown binding %d", (int)p->bind);
+    if (p->reference_walkers < 0 || p->reference_walkers > (1 << 20))
+        return fail(PDLA_EINVAL, err, errlen, "reference walkers must be in [0, 2^20], got %d",
+                    p->reference_walkers);
+    if (p->reference_walkers > 0 && p->threads != 1)
+        return fail(PDLA_EINVAL, err, errlen,
+                    "reference walkers (one thread) and %d worker threads exclude each other",
+                    p->threads);
     if (p->record_arrival != 0 && p->record_arrival != 1)
         return fail(PDLA_EINVAL, err, errlen, "record_arrival must be 0 or 1");
     if (p->rg_per_decade < 0 || p->rg_per_decade > 10000)
@@ -272,6 +280,13 @@ int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errl
     return PDLA_OK;
 }
 
+static int add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errlen);
+
+int engine_add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
+{
+    return add_particle(e, p, err, errlen);
+}
+
 /* Serial phase: add a particle to the tree, the gyration sums, R_ext and the
  * samples; no other thread runs. */
 static int add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
@@ -303,7 +318,8 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
         rc = add_particle(e, origin, err, errlen);
     }
     if (every == 0) every = 1000;
-    const uint64_t serial_end = e->params.threads == 1 || n_until < e->params.serial_until
+    const int phase2 = e->params.threads != 1 || e->params.reference_walkers > 0;
+    const uint64_t serial_end = !phase2 || n_until < e->params.serial_until
                                     ? n_until
                                     : e->params.serial_until;
     const int64_t D = e->params.resolution;
@@ -325,7 +341,9 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
                                 (unsigned long long)tree_count(&e->tree));
         }
     }
-    if (rc == PDLA_OK && tree_count(&e->tree) < n_until) {
+    if (rc == PDLA_OK && tree_count(&e->tree) < n_until && e->params.reference_walkers > 0) {
+        rc = reference_grow(e, n_until, progress, every, user, err, errlen);
+    } else if (rc == PDLA_OK && tree_count(&e->tree) < n_until) {
         const double tp = now_seconds();
         rc = parallel_grow(e, n_until, progress, user, err, errlen);
         e->parallel_seconds += now_seconds() - tp;

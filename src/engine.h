@@ -160,6 +160,14 @@ void engine_raise_r_ext(pdla_engine *e, const int64_t *p);
  * gyration_mu when workers run). */
 int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errlen);
 
+/* Serial phase's insertion (one thread): tree, map, gyration, R_ext. */
+int engine_add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errlen);
+
+/* The reference phase (reference.c): reference_walkers walkers in turn,
+ * in this thread, to n_until. */
+int reference_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, uint64_t every,
+                   void *user, char *err, size_t errlen);
+
 /* The parallel phase (parallel.c): workers grow the cluster to n_until. */
 int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, void *user,
                   char *err, size_t errlen);

@@ -306,6 +306,7 @@ int h5u_write_parameters(const h5u_writer *w, hid_t file, const pdla_params *p)
         h5u_attr_u64(w, g, "serial_until", p->serial_until) < 0 ||
         h5u_attr_str(w, g, "recheck", h5u_recheck_name(p->recheck)) < 0 ||
         h5u_attr_str(w, g, "bind", h5u_bind_name(p->bind)) < 0 ||
+        h5u_attr_int(w, g, "reference_walkers", p->reference_walkers) < 0 ||
         h5u_attr_int(w, g, "record_arrival", p->record_arrival) < 0)
         goto fail;
     rc = 0;

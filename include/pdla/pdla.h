@@ -115,6 +115,12 @@ typedef struct pdla_params {
                                 Default 10^7, the seed paper's value. */
     pdla_recheck_mode recheck; /* Default PDLA_RECHECK_CONTINUE. */
     pdla_bind_mode bind;     /* Default PDLA_BIND_NONE. */
+    int reference_walkers;   /* P > 0: after the serial phase, grow with P walkers
+                                advanced in turn, one jump each, in one thread
+                                (deterministic): the race-free reference of P
+                                concurrent walkers, with the workers' insertion
+                                rules (recheck). 1 = serial DLA exactly. Needs
+                                threads = 1. In [0, 2^20]. Default 0 (off). */
     int record_arrival;      /* 1: also keep every particle's position in arrival
                                 order (dim int32 per particle, 8 or 12 bytes), so
                                 pdla_output_write stores /cluster/positions in
@@ -254,12 +260,14 @@ enum {
     PDLA_PARAM_SERIAL_UNTIL = 1u << 14,
     PDLA_PARAM_RECHECK = 1u << 15,
     PDLA_PARAM_BIND = 1u << 16,
-    PDLA_PARAM_RECORD_ARRIVAL = 1u << 17
+    PDLA_PARAM_RECORD_ARRIVAL = 1u << 17,
+    PDLA_PARAM_REFERENCE_WALKERS = 1u << 18
 };
 /* The fields a resume may change; any other asked field must equal the
  * checkpoint's value. The target may be raised (not below the particles held). */
 #define PDLA_PARAM_RESUMABLE \
-    (PDLA_PARAM_TARGET | PDLA_PARAM_THREADS | PDLA_PARAM_SERIAL_UNTIL | PDLA_PARAM_BIND)
+    (PDLA_PARAM_TARGET | PDLA_PARAM_THREADS | PDLA_PARAM_SERIAL_UNTIL | PDLA_PARAM_BIND | \
+     PDLA_PARAM_REFERENCE_WALKERS)
 
 /* File names inside a run directory: the newest checkpoint, then the two
  * generations before it. */

@@ -367,7 +367,10 @@ static void print_summary(FILE *f, const report *r, int with_command)
     if (s->threads)
         fprintf(f, "threads          %d after %" PRIu64 " serial particles (%.3f s parallel, binding %s)\n",
                 s->threads, P->serial_until, s->parallel_seconds, s->binding);
-    if (s->threads)
+    if (P->reference_walkers)
+        fprintf(f, "reference        %d walkers in turn (one thread) after %" PRIu64 " serial particles\n",
+                P->reference_walkers, P->serial_until);
+    if (s->threads || P->reference_walkers)
         fprintf(f, "re-checks        %" PRIu64 " spots taken: %" PRIu64 " continued, %" PRIu64 " discarded\n",
                 s->recheck_overlaps, s->recheck_continued, s->recheck_discarded);
     if (s->threads)
@@ -457,10 +460,10 @@ static void write_json(FILE *f, const report *r, const char *status)
     fprintf(f, ", \"exact_search\": %d, \"far_factor\": ", P->exact_search);
     json_real(f, P->far_factor);
     fprintf(f, ", \"max_jumps\": %" PRIu64 ", \"snap_contact\": %d, \"rg_per_decade\": %d"
-               ", \"threads\": %d, \"serial_until\": %" PRIu64 ", \"recheck\": \"%s\", \"bind\": \"%s\"},\n",
+               ", \"threads\": %d, \"serial_until\": %" PRIu64 ", \"recheck\": \"%s\", \"bind\": \"%s\", \"reference_walkers\": %d},\n",
             P->max_jumps, P->snap_contact, P->rg_per_decade, P->threads, P->serial_until,
             P->recheck == PDLA_RECHECK_DISCARD ? "discard" : "continue",
-            P->bind == PDLA_BIND_CORE ? "core" : "none");
+            P->bind == PDLA_BIND_CORE ? "core" : "none", P->reference_walkers);
     fprintf(f, "  \"particles\": %" PRIu64 ",\n  \"walkers\": %" PRIu64 ",\n  \"jumps\": %" PRIu64
                ",\n  \"returns\": %" PRIu64 ",\n  \"lost\": %" PRIu64 ",\n  \"killed\": %" PRIu64
                ",\n  \"restarts\": %" PRIu64 ",\n  \"node_visits\": %" PRIu64

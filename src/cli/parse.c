@@ -160,6 +160,7 @@ enum opt_id {
     OPT_SERIAL_UNTIL,
     OPT_RECHECK,
     OPT_BIND,
+    OPT_REFERENCE_WALKERS,
     OPT_RG_PER_DECADE,
     OPT_OUT,
     OPT_FORCE,
@@ -235,6 +236,11 @@ static const opt_desc options[] = {
      "the newcomer, or discard it"},
     {"bind", 0, OPT_BIND, ARG_CHOICE, "none|core",
      "worker placement: none (the OS decides) or one per physical core"},
+    {"reference-walkers", 0, OPT_REFERENCE_WALKERS, ARG_INT, "P",
+     "instead of worker threads: after the serial phase, P walkers advanced in turn "
+     "(one jump each) in one thread, each jump seeing the cluster as it is, with the "
+     "workers' --recheck rules; deterministic (the race-free reference of P "
+     "concurrent walkers; P = 1 is serial DLA); 0 = off"},
     {NULL, 0, 0, ARG_NONE, NULL, "Output:"},
     {"rg-per-decade", 0, OPT_RG_PER_DECADE, ARG_INT, "K",
      "R_g(N) samples per decade of N, 0 = none"},
@@ -269,8 +275,8 @@ static const opt_desc options[] = {
      "shuffle + deflate the checkpoint (about 20% smaller, several times slower to write)"},
     {"resume", 0, OPT_RESUME, ARG_STRING, "PATH",
      "continue the run in a run directory (its newest valid checkpoint) or from a "
-     "checkpoint file; --target may be raised, --threads, --serial-until and --bind "
-     "changed, other parameters must match"},
+     "checkpoint file; --target may be raised, --threads, --serial-until, --bind and "
+     "--reference-walkers changed, other parameters must match"},
     {"help", 'h', 'h', ARG_NONE, NULL, "print this help and exit"},
     {"version", 'V', 'V', ARG_NONE, NULL, "print the version and exit"},
 };
@@ -395,6 +401,7 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
         [OPT_THREADS - OPT_DIM] = PDLA_PARAM_THREADS,
         [OPT_SERIAL_UNTIL - OPT_DIM] = PDLA_PARAM_SERIAL_UNTIL,
         [OPT_RECHECK - OPT_DIM] = PDLA_PARAM_RECHECK, [OPT_BIND - OPT_DIM] = PDLA_PARAM_BIND,
+        [OPT_REFERENCE_WALKERS - OPT_DIM] = PDLA_PARAM_REFERENCE_WALKERS,
         [OPT_RG_PER_DECADE - OPT_DIM] = PDLA_PARAM_RG_PER_DECADE};
     if (d->id >= OPT_DIM && d->id <= OPT_RG_PER_DECADE) o->given |= field_of[d->id - OPT_DIM];
     switch (d->id) {
@@ -414,6 +421,7 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
     case OPT_SERIAL_UNTIL: p->serial_until = n; break;
     case OPT_RECHECK: p->recheck = (pdla_recheck_mode)n; break;
     case OPT_BIND: p->bind = (pdla_bind_mode)n; break;
+    case OPT_REFERENCE_WALKERS: p->reference_walkers = (int)n; break;
     case OPT_RG_PER_DECADE: p->rg_per_decade = (int)n; break;
     case OPT_ARRIVAL:
         p->record_arrival = 1;
@@ -641,6 +649,7 @@ static int default_text(int id, const pdla_params *d, char *buf, size_t n)
     case OPT_SERIAL_UNTIL: snprintf(buf, n, "%" PRIu64, d->serial_until); return 1;
     case OPT_RECHECK: snprintf(buf, n, "%s", choice_word(recheck_choices, d->recheck)); return 1;
     case OPT_BIND: snprintf(buf, n, "%s", choice_word(bind_choices, d->bind)); return 1;
+    case OPT_REFERENCE_WALKERS: snprintf(buf, n, "%d", d->reference_walkers); return 1;
     case OPT_RG_PER_DECADE: snprintf(buf, n, "%d", d->rg_per_decade); return 1;
     /* Flags that turn a default off or on say so only when it matters. */
     case OPT_NO_SNAP: return 0;

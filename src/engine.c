@@ -370,9 +370,13 @@ void walker_ctx_add_counts(walker_ctx *s, const walker_ctx *o)
     s->recheck_discarded += o->recheck_discarded;
     s->stale_jumps += o->stale_jumps;
     s->stale_births += o->stale_births;
+    s->cpu_seconds += o->cpu_seconds;
     for (int i = 0; i < 3; i++) {
         s->mutex_taken[i] += o->mutex_taken[i];
         s->mutex_contended[i] += o->mutex_contended[i];
+        s->mutex_hold_ticks[i] += o->mutex_hold_ticks[i];
+        s->mutex_wait_ticks[i] += o->mutex_wait_ticks[i];
+        s->mutex_long_holds[i] += o->mutex_long_holds[i];
     }
 }
 
@@ -410,6 +414,12 @@ void pdla_engine_stats(const pdla_engine *e, pdla_stats *s)
     for (int i = 0; i < e->nworkers; i++) walker_ctx_add_counts(&sum, &e->workers[i]);
     stats_set_counts(s, &sum);
     s->threads = e->nworkers;
+    for (int i = 0; i < 3; i++) {
+        s->mutex_hold_ns[i] = (double)sum.mutex_hold_ticks[i] * e->tick_ns;
+        s->mutex_wait_ns[i] = (double)sum.mutex_wait_ticks[i] * e->tick_ns;
+        s->mutex_long_holds[i] = sum.mutex_long_holds[i];
+    }
+    s->worker_cpu_seconds = sum.cpu_seconds;
     s->parallel_seconds = e->parallel_seconds;
     snprintf(s->binding, sizeof s->binding, "%s", e->binding);
     s->r_ext = atomic_load_explicit(&e->r_ext, memory_order_relaxed);

@@ -37,6 +37,14 @@ typedef struct walker_ctx {
      * and how many found the mutex held (this process only; not saved in
      * checkpoints): the measure of lock contention as threads are added. */
     uint64_t mutex_taken[3], mutex_contended[3];
+    /* Time (timestamp-counter ticks, engine tick_ns each) spent holding each
+     * mutex and waiting for it, and the worker thread's CPU time: the
+     * inputs of the contention model (runs/contention-model). */
+    uint64_t mutex_hold_ticks[3], mutex_wait_ticks[3];
+    /* Holds longer than LONG_HOLD_TICKS (a preempted holder, or a distance
+     * map grid rebuilt under the node mutex): counted apart, not in the sum. */
+    uint64_t mutex_long_holds[3];
+    double cpu_seconds;
     PDLA_CACHE_PAD(pad_); /* workers' contexts sit side by side in one array */
 } walker_ctx;
 
@@ -99,6 +107,7 @@ struct pdla_engine {
     walker_ctx walker;        /* the serial phase's walker */
     double grow_seconds;
     double parallel_seconds;
+    double tick_ns;            /* ns per timestamp tick, measured in the parallel phase */
     walker_ctx *workers;       /* per-thread walkers of the last parallel phase */
     int nworkers;
     char binding[256];

@@ -165,6 +165,14 @@ typedef struct pdla_stats {
      * to wait). Counted since this process started (not checkpointed). */
     uint64_t mutex_taken[3];
     uint64_t mutex_contended[3];
+    /* ... total time workers held each mutex (holds up to 2^17 ticks) and
+     * waited for it (ns), and
+     * the workers' CPU time (s); this process only. */
+    double mutex_hold_ns[3], mutex_wait_ns[3];
+    uint64_t mutex_long_holds[3]; /* holds over 2^17 timestamp ticks (tens of us: a
+                                     preempted holder, a map grid rebuilt), not
+                                     in mutex_hold_ns */
+    double worker_cpu_seconds;
     char binding[256];       /* how workers were placed, e.g. "none" or "core: 0 1 2 3" */
 } pdla_stats;
 

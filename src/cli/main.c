@@ -383,6 +383,13 @@ static void print_summary(FILE *f, const report *r, int with_command)
             fprintf(f, " %s %.2f%% of %" PRIu64 "%s", names[i],
                     s->mutex_taken[i] ? 100.0 * (double)s->mutex_contended[i] / (double)s->mutex_taken[i] : 0.0,
                     s->mutex_taken[i], i < 2 ? "," : "\n");
+        fprintf(f, "mutex hold ns   ");
+        for (int i = 0; i < 3; i++)
+            fprintf(f, " %s %.0f%s", names[i],
+                    s->mutex_taken[i] > s->mutex_long_holds[i]
+                        ? s->mutex_hold_ns[i] / (double)(s->mutex_taken[i] - s->mutex_long_holds[i])
+                        : 0.0,
+                    i < 2 ? "," : " (mean per acquisition)\n");
     }
     fprintf(f, "wall time        %.3f s (growth %.3f s)\n", r->wall_seconds, s->grow_seconds);
     fprintf(f, "rate             %.0f particles/s\n", s->grow_seconds > 0 ? n / s->grow_seconds : 0.0);
@@ -485,10 +492,17 @@ static void write_json(FILE *f, const report *r, const char *status)
                ",\n  \"stale_jumps\": %" PRIu64 ",\n  \"stale_births\": %" PRIu64
                ",\n  \"mutex_taken\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]"
                ",\n  \"mutex_contended\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]"
+               ",\n  \"mutex_hold_ns\": [%.0f, %.0f, %.0f]"
+               ",\n  \"mutex_wait_ns\": [%.0f, %.0f, %.0f]"
+               ",\n  \"mutex_long_holds\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]"
+               ",\n  \"worker_cpu_seconds\": %.6f"
                ",\n  \"binding\": ",
             s->threads, s->recheck_overlaps, s->recheck_continued, s->recheck_discarded,
             s->stale_jumps, s->stale_births, s->mutex_taken[0], s->mutex_taken[1], s->mutex_taken[2], s->mutex_contended[0],
-            s->mutex_contended[1], s->mutex_contended[2]);
+            s->mutex_contended[1], s->mutex_contended[2], s->mutex_hold_ns[0], s->mutex_hold_ns[1],
+            s->mutex_hold_ns[2], s->mutex_wait_ns[0], s->mutex_wait_ns[1], s->mutex_wait_ns[2],
+            s->mutex_long_holds[0], s->mutex_long_holds[1], s->mutex_long_holds[2],
+            s->worker_cpu_seconds);
     json_string(f, s->binding);
     fprintf(f, ",\n  \"fit\": {\"df\": ");
     json_real(f, r->fit.points ? r->fit.df : NAN);

@@ -55,6 +55,9 @@ typedef struct pdla_param_desc {
     uint32_t models;     /* PDLA_MODEL_* it applies to */
     int resumable;       /* 1: a resume may change it; 0: it must equal the checkpoint's */
     int show_default;    /* 1: --help shows "(default X)" */
+    int absent_default;  /* 1: a /parameters group without its attribute (a file
+                            written before the parameter existed) reads as the
+                            default; 0: the file is damaged */
     int flag_value;      /* FLAG: the value the CLI flag sets (the default is the other) */
     /* INT, U64, FLAG, CHOICE: default and closed range [lo, hi]. */
     uint64_t def_u, lo_u, hi_u;

@@ -118,6 +118,12 @@ typedef struct pdla_params {
                                 Default 10^7, the seed paper's value. */
     pdla_recheck_mode recheck; /* Default PDLA_RECHECK_CONTINUE. */
     pdla_bind_mode bind;     /* Default PDLA_BIND_NONE. */
+    int reference_walkers;   /* P > 0: after the serial phase, grow with P walkers
+                                advanced in turn, one jump each, in one thread
+                                (deterministic): the race-free reference of P
+                                concurrent walkers, with the workers' insertion
+                                rules (recheck). 1 = serial DLA exactly. Needs
+                                threads = 1. In [0, 2^20]. Default 0 (off). */
     int record_arrival;      /* 1: also keep every particle's position in arrival
                                 order (dim int32 per particle, 8 or 12 bytes), so
                                 pdla_output_write stores /cluster/positions in
@@ -153,11 +159,24 @@ typedef struct pdla_stats {
     uint64_t recheck_overlaps;  /* PDLA: walkers that found their spot taken */
     uint64_t recheck_continued; /* ... and were inserted in contact with the newcomer */
     uint64_t recheck_discarded; /* ... and were discarded / restarted */
+    /* PDLA stale reads caught (this process only, not checkpointed): jumps
+     * queried again because a particle appended since the walker's distance
+     * query lay inside the jump's ball, and birth-circle moves redone
+     * because R_ext had grown since it was read. */
+    uint64_t stale_jumps, stale_births;
     /* PDLA lock contention, indexed by PDLA_MUTEX_NODE/BUCKET/GYRATION:
      * acquisitions by workers, and those that found the mutex held (so had
      * to wait). Counted since this process started (not checkpointed). */
     uint64_t mutex_taken[3];
     uint64_t mutex_contended[3];
+    /* ... total time workers held each mutex (holds up to 2^17 ticks) and
+     * waited for it (ns), and
+     * the workers' CPU time (s); this process only. */
+    double mutex_hold_ns[3], mutex_wait_ns[3];
+    uint64_t mutex_long_holds[3]; /* holds over 2^17 timestamp ticks (tens of us: a
+                                     preempted holder, a map grid rebuilt), not
+                                     in mutex_hold_ns */
+    double worker_cpu_seconds;
     char binding[256];       /* how workers were placed, e.g. "none" or "core: 0 1 2 3" */
 } pdla_stats;
 
@@ -282,13 +301,15 @@ enum {
     PDLA_PARAM_SERIAL_UNTIL = 1u << 14,
     PDLA_PARAM_RECHECK = 1u << 15,
     PDLA_PARAM_BIND = 1u << 16,
-    PDLA_PARAM_RECORD_ARRIVAL = 1u << 17
+    PDLA_PARAM_RECORD_ARRIVAL = 1u << 17,
+    PDLA_PARAM_REFERENCE_WALKERS = 1u << 18
 };
 /* The fields a resume may change (the rows with resumable = 1; tests/params
  * checks they agree); any other asked field must equal the checkpoint's value.
  * The target may be raised (not below the particles held). */
 #define PDLA_PARAM_RESUMABLE \
-    (PDLA_PARAM_TARGET | PDLA_PARAM_THREADS | PDLA_PARAM_SERIAL_UNTIL | PDLA_PARAM_BIND)
+    (PDLA_PARAM_TARGET | PDLA_PARAM_THREADS | PDLA_PARAM_SERIAL_UNTIL | PDLA_PARAM_BIND | \
+     PDLA_PARAM_REFERENCE_WALKERS)
 
 /* File names inside a run directory: the newest checkpoint, then the two
  * generations before it. */

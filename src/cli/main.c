@@ -435,9 +435,15 @@ static void print_summary(FILE *f, const report *r, int with_command)
     if (s->threads)
         fprintf(f, "threads          %d after %" PRIu64 " serial particles (%.3f s parallel, binding %s)\n",
                 s->threads, P->serial_until, s->parallel_seconds, s->binding);
-    if (s->threads)
+    if (P->reference_walkers)
+        fprintf(f, "reference        %d walkers in turn (one thread) after %" PRIu64 " serial particles\n",
+                P->reference_walkers, P->serial_until);
+    if (s->threads || P->reference_walkers)
         fprintf(f, "re-checks        %" PRIu64 " spots taken: %" PRIu64 " continued, %" PRIu64 " discarded\n",
                 s->recheck_overlaps, s->recheck_continued, s->recheck_discarded);
+    if (s->threads)
+        fprintf(f, "stale reads      %" PRIu64 " jumps and %" PRIu64 " births queried again\n",
+                s->stale_jumps, s->stale_births);
     if (s->threads) {
         static const char *const names[3] = {"node", "bucket", "gyration"};
         fprintf(f, "mutex waits     ");
@@ -445,6 +451,13 @@ static void print_summary(FILE *f, const report *r, int with_command)
             fprintf(f, " %s %.2f%% of %" PRIu64 "%s", names[i],
                     s->mutex_taken[i] ? 100.0 * (double)s->mutex_contended[i] / (double)s->mutex_taken[i] : 0.0,
                     s->mutex_taken[i], i < 2 ? "," : "\n");
+        fprintf(f, "mutex hold ns   ");
+        for (int i = 0; i < 3; i++)
+            fprintf(f, " %s %.0f%s", names[i],
+                    s->mutex_taken[i] > s->mutex_long_holds[i]
+                        ? s->mutex_hold_ns[i] / (double)(s->mutex_taken[i] - s->mutex_long_holds[i])
+                        : 0.0,
+                    i < 2 ? "," : " (mean per acquisition)\n");
     }
     fprintf(f, "wall time        %.3f s (growth %.3f s)\n", r->wall_seconds, s->grow_seconds);
     fprintf(f, "rate             %.0f particles/s\n", s->grow_seconds > 0 ? n / s->grow_seconds : 0.0);
@@ -552,12 +565,20 @@ static void write_json(FILE *f, const report *r, const char *status)
     json_real(f, s->parallel_seconds);
     fprintf(f, ",\n  \"threads\": %d,\n  \"recheck_overlaps\": %" PRIu64
                ",\n  \"recheck_continued\": %" PRIu64 ",\n  \"recheck_discarded\": %" PRIu64
+               ",\n  \"stale_jumps\": %" PRIu64 ",\n  \"stale_births\": %" PRIu64
                ",\n  \"mutex_taken\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]"
                ",\n  \"mutex_contended\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]"
+               ",\n  \"mutex_hold_ns\": [%.0f, %.0f, %.0f]"
+               ",\n  \"mutex_wait_ns\": [%.0f, %.0f, %.0f]"
+               ",\n  \"mutex_long_holds\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]"
+               ",\n  \"worker_cpu_seconds\": %.6f"
                ",\n  \"binding\": ",
             s->threads, s->recheck_overlaps, s->recheck_continued, s->recheck_discarded,
-            s->mutex_taken[0], s->mutex_taken[1], s->mutex_taken[2], s->mutex_contended[0],
-            s->mutex_contended[1], s->mutex_contended[2]);
+            s->stale_jumps, s->stale_births, s->mutex_taken[0], s->mutex_taken[1], s->mutex_taken[2], s->mutex_contended[0],
+            s->mutex_contended[1], s->mutex_contended[2], s->mutex_hold_ns[0], s->mutex_hold_ns[1],
+            s->mutex_hold_ns[2], s->mutex_wait_ns[0], s->mutex_wait_ns[1], s->mutex_wait_ns[2],
+            s->mutex_long_holds[0], s->mutex_long_holds[1], s->mutex_long_holds[2],
+            s->worker_cpu_seconds);
     json_string(f, s->binding);
     fprintf(f, ",\n  \"fit\": {\"df\": ");
     json_real(f, r->fit.points ? r->fit.df : NAN);

@@ -216,8 +216,8 @@ static const opt_desc options[] = {
      "shuffle + deflate the checkpoint (about 20% smaller, several times slower to write)"},
     {"resume", 0, OPT_RESUME, ARG_STRING, "PATH",
      "continue the run in a run directory (its newest valid checkpoint) or from a "
-     "checkpoint file; --target may be raised, --threads, --serial-until and --bind "
-     "changed, other parameters must match"},
+     "checkpoint file; --target may be raised, --threads, --serial-until, --bind and "
+     "--reference-walkers changed, other parameters must match"},
     {"help", 'h', 'h', ARG_NONE, NULL, "print this help and exit"},
     {"version", 'V', 'V', ARG_NONE, NULL, "print the version and exit"},
 };

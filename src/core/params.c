@@ -48,6 +48,17 @@ static int check_eps(const void *s, char *err, size_t errlen)
     return 0;
 }
 
+/* Reference mode is one thread: P walkers in turn, not next to workers. */
+static int check_reference_walkers(const void *s, char *err, size_t errlen)
+{
+    const pdla_params *p = s;
+    if (p->reference_walkers > 0 && p->threads != 1)
+        return pdla_errorf(PDLA_EINVAL, err, errlen,
+                           "reference walkers (one thread) and %d worker threads exclude each other",
+                           p->threads);
+    return 0;
+}
+
 /* ---- the table ---------------------------------------------------------- */
 
 static const char *const return_words[] = {"exact", "kill", NULL};
@@ -134,6 +145,16 @@ static const pdla_param_desc dla_params[] = {
      .group = "Threads (PDLA):", .example = "2", .type = PDLA_PT_INT, .offset = AT(threads),
      .bit = PDLA_PARAM_THREADS, .models = DLA, .resumable = 1, .show_default = 1, .def_u = 1,
      .lo_u = 0, .hi_u = 1024},
+    {.name = "reference_walkers", .option = "reference-walkers", .label = "reference walkers",
+     .unit = "", .metavar = "P",
+     .help = "instead of worker threads: after the serial phase, P walkers advanced in turn "
+             "(one jump each) in one thread, each jump seeing the cluster as it is, with the "
+             "workers' --recheck rules; deterministic (the race-free reference of P "
+             "concurrent walkers; P = 1 is serial DLA); 0 = off",
+     .group = "Threads (PDLA):", .example = "2", .type = PDLA_PT_INT,
+     .offset = AT(reference_walkers), .bit = PDLA_PARAM_REFERENCE_WALKERS, .models = DLA,
+     .resumable = 1, .show_default = 1, .absent_default = 1, .def_u = 0, .lo_u = 0,
+     .hi_u = 1u << 20, .check = check_reference_walkers},
     {.name = "serial_until", .option = "serial-until", .label = "serial until",
      .unit = "particles", .metavar = "N",
      .help = "grow with one walker (deterministic) up to N particles, then start the workers",

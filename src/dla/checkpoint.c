@@ -649,6 +649,11 @@ static int read_params(const reader *r, hid_t file, pdla_params *p)
     const pdla_param_desc *t = pdla_param_table(&n);
     int rc = PDLA_OK;
     for (size_t i = 0; i < n && rc == PDLA_OK; i++) {
+        if (t[i].absent_default && H5Aexists(g, t[i].name) == 0) {
+            if (t[i].type == PDLA_PT_REAL) pdla_param_set_real(&t[i], p, t[i].def_r);
+            else pdla_param_set_u(&t[i], p, t[i].def_u);
+            continue;
+        }
         if (read_param(g, &t[i], p) < 0) {
             char what[96];
             snprintf(what, sizeof what, "parameter %s", t[i].name);

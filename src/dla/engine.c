@@ -158,6 +158,18 @@ static int record_arrival(pdla_engine *e, const int64_t *p)
     return PDLA_OK;
 }
 
+void engine_raise_r_ext(pdla_engine *e, const int64_t *p)
+{
+    uint64_t r2 = 0;
+    for (int a = 0; a < e->params.dim; a++) r2 += (uint64_t)(p[a] * p[a]);
+    int64_t r = (int64_t)sqrt((double)r2);
+    while ((uint64_t)(r * r) < r2) r++;
+    int64_t cur = atomic_load_explicit(&e->r_ext, memory_order_relaxed);
+    while (r > cur && !atomic_compare_exchange_weak_explicit(&e->r_ext, &cur, r, memory_order_relaxed,
+                                                             memory_order_relaxed)) {
+    }
+}
+
 int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
 {
     const int dim = e->params.dim;
@@ -173,15 +185,26 @@ int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errl
     e->gyr.n++;
     if (r2 > e->r_ext2) {
         e->r_ext2 = r2;
-        int64_t r = (int64_t)sqrt((double)r2);
-        while ((uint64_t)(r * r) < r2) r++;
-        atomic_store_explicit(&e->r_ext, r, memory_order_relaxed);
+        engine_raise_r_ext(e, p);
     }
     if (e->params.rg_per_decade > 0 && e->gyr.n >= e->rg_next_n) {
         if (record_rg_sample(e)) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for R_g samples");
         while (e->rg_next_n <= e->gyr.n) rg_advance(e);
     }
     return PDLA_OK;
+}
+
+/* Serial insertion (one thread: the serial loop, the reference mode): the
+ * tree, the distance map, the gyration sums, R_ext and the samples. */
+int engine_add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
+{
+    int rc = engine_check_range(e, p, err, errlen);
+    if (rc) return rc;
+    distmap_add(&e->dmap, p, tree_count(&e->tree) + 1, 0);
+    rc = tree_insert(&e->tree, p);
+    if (rc) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory (or 2^32 tree records) at %llu particles",
+                        (unsigned long long)tree_count(&e->tree));
+    return engine_gyration_add(e, p, err, errlen);
 }
 
 const pdla_params *pdla_engine_params(const pdla_engine *e) { return &e->params; }
@@ -201,6 +224,8 @@ static void stats_set_counts(pdla_stats *s, const walker_ctx *w)
     s->recheck_overlaps = w->recheck_overlaps;
     s->recheck_continued = w->recheck_continued;
     s->recheck_discarded = w->recheck_discarded;
+    s->stale_jumps = w->stale_jumps;
+    s->stale_births = w->stale_births;
     memcpy(s->mutex_taken, w->mutex_taken, sizeof s->mutex_taken);
     memcpy(s->mutex_contended, w->mutex_contended, sizeof s->mutex_contended);
 }
@@ -219,6 +244,12 @@ void pdla_engine_stats(const pdla_engine *e, pdla_stats *s)
     for (int i = 0; i < e->nworkers; i++) walker_ctx_add_counts(&sum, &e->workers[i]);
     stats_set_counts(s, &sum);
     s->threads = e->nworkers;
+    for (int i = 0; i < 3; i++) {
+        s->mutex_hold_ns[i] = (double)sum.mutex_hold_ticks[i] * e->tick_ns;
+        s->mutex_wait_ns[i] = (double)sum.mutex_wait_ticks[i] * e->tick_ns;
+        s->mutex_long_holds[i] = sum.mutex_long_holds[i];
+    }
+    s->worker_cpu_seconds = sum.cpu_seconds;
     s->parallel_seconds = e->parallel_seconds;
     snprintf(s->binding, sizeof s->binding, "%s", e->binding);
     s->r_ext = atomic_load_explicit(&e->r_ext, memory_order_relaxed);

@@ -30,12 +30,43 @@ typedef struct walker_ctx {
     search_state ss;
     uint64_t walkers, jumps, returns, lost, killed, restarts;
     uint64_t recheck_overlaps, recheck_continued, recheck_discarded;
+    /* Stale reads caught before a jump (PDLA): a particle appended since the
+     * walker's distance query lay inside the jump's ball (stale_jumps), or
+     * beyond the R_ext the birth circle was drawn from (stale_births); the
+     * walker queried again instead. */
+    uint64_t stale_jumps, stale_births;
     /* Acquisitions of the node, bucket and gyration mutexes (PDLA_MUTEX_*),
      * and how many found the mutex held (this process only; not saved in
      * checkpoints): the measure of lock contention as threads are added. */
     uint64_t mutex_taken[3], mutex_contended[3];
+    /* Time (timestamp-counter ticks, engine tick_ns each) spent holding each
+     * mutex and waiting for it, and the worker thread's CPU time: the
+     * inputs of the contention model (runs/contention-model). */
+    uint64_t mutex_hold_ticks[3], mutex_wait_ticks[3];
+    /* Holds longer than LONG_HOLD_TICKS (a preempted holder, or a distance
+     * map grid rebuilt under the node mutex): counted apart, not in the sum. */
+    uint64_t mutex_long_holds[3];
+    double cpu_seconds;
     PDLA_CACHE_PAD(pad_); /* workers' contexts sit side by side in one array */
 } walker_ctx;
+
+/* Test hooks (tests/threads only; the engine's pointer is NULL otherwise):
+ * what a test needs to force the races of the PDLA phase and check every
+ * jump against the cluster as it was when the jump was taken. */
+typedef struct engine_hooks {
+    /* A worker's walker, between its distance query and the stale check. */
+    void (*stall)(void *user);
+    /* A worker's walker jumps from p; every particle below index `now` must
+     * keep a squared distance of at least R2 from p for the jump to be exact. */
+    void (*jump)(void *user, const int64_t *p, uint64_t R2, uint64_t now);
+    /* Particle `index` is being appended at p (bucket mutex held, before
+     * the count publishes it). */
+    void (*append)(void *user, uint64_t index, const int64_t *p);
+    int take_stale; /* count stale jumps but take them (the behaviour before the check) */
+    void *user;
+} engine_hooks;
+
+struct recent_ring;
 
 struct pdla_engine {
     /* Read by every walker step; written once (or, r_ext and stop, rarely).
@@ -45,6 +76,8 @@ struct pdla_engine {
     search_config search;
     _Atomic int64_t r_ext;    /* ceil(sqrt(r_ext2)); read by walkers without a lock */
     _Atomic int stop;         /* set to make the workers return */
+    const struct recent_ring *recent; /* the PDLA phase's ring of appended particles, else NULL */
+    const engine_hooks *hooks; /* tests only */
     PDLA_CACHE_PAD(pad_read_);
     tree tree;                /* padded inside: query fields / insertion counts */
     distmap dmap;             /* far-query accelerator, derived from the tree */
@@ -76,6 +109,7 @@ struct pdla_engine {
     walker_ctx walker;        /* the serial phase's walker */
     double grow_seconds;
     double parallel_seconds;
+    double tick_ns;            /* ns per timestamp tick, measured in the parallel phase */
     walker_ctx *workers;       /* per-thread walkers of the last parallel phase */
     int nworkers;
     char binding[256];
@@ -83,8 +117,9 @@ struct pdla_engine {
     double ckpt_write_seconds; /* time of the last checkpoint write */
 };
 
-/* Outcomes of a walk. */
+/* Outcomes of a walk (and of one step of it). */
 enum {
+    WALK_MOVED = -1,  /* walker_step: still walking */
     WALK_CONTACT = 0, /* inside the sticking shell: D <= distance < D + eps */
     WALK_OVERLAP = 1  /* closer than D: a particle appeared during the last jump */
 };
@@ -93,6 +128,24 @@ enum {
  * Returns WALK_CONTACT or WALK_OVERLAP. Reads the tree only (any number of
  * threads at once). */
 int walker_run(const pdla_engine *e, walker_ctx *w, int64_t *stuck_at);
+
+/* A walker in flight, for walking several in turn in one thread (the
+ * race-free reference of PDLA, reference.c). */
+typedef struct walk_state {
+    int64_t p[3];
+    uint64_t jumps;           /* since launch (for max_jumps) */
+    int64_t r_ext_units;      /* the R_ext the radii below were drawn from */
+    double r_ext, Rb, Rout2, Rdeath;
+} walk_state;
+
+/* Launch a walker on the birth circle (sphere). */
+void walker_begin(const pdla_engine *e, walker_ctx *w, walk_state *s);
+
+/* One step (a jump, a return, a restart): WALK_MOVED, or WALK_CONTACT /
+ * WALK_OVERLAP with the spot in stuck_at. One thread only: each step sees
+ * the cluster as it is. walker_run is walker_begin, then steps until one
+ * stops, with the same random draws. */
+int walker_step(const pdla_engine *e, walker_ctx *w, walk_state *s, int64_t *stuck_at);
 
 /* Move p onto contact (distance D) with its nearest particle within `reach2`,
  * at the grid point nearest to contact that overlaps nothing. Returns 1 if
@@ -109,7 +162,15 @@ double gyration_rg2_units(const gyration_sums *g, int dim);
 /* PDLA_ERANGE if p lies beyond the coordinate limit. */
 int engine_check_range(const pdla_engine *e, const int64_t *p, char *err, size_t errlen);
 
+/* Raise R_ext to cover |p| (atomic max: the worker that appends p raises
+ * it before publishing p, so a walker that has acquired the count sees an
+ * R_ext that covers every particle below it). */
+void engine_raise_r_ext(pdla_engine *e, const int64_t *p);
+
 /* Add p to the gyration sums, R_ext and the R_g samples (caller holds
  * gyration_mu when workers run). */
 int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errlen);
+
+/* Serial insertion (one thread): tree, map, gyration, R_ext. */
+int engine_add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errlen);
 #endif

@@ -6,19 +6,7 @@
  */
 #include "engine.h"
 #include "parallel.h"
-
-/* Serial phase: add a particle to the tree, the gyration sums, R_ext and the
- * samples; no other thread runs. */
-static int add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
-{
-    int rc = engine_check_range(e, p, err, errlen);
-    if (rc) return rc;
-    distmap_add(&e->dmap, p, tree_count(&e->tree) + 1, 0);
-    rc = tree_insert(&e->tree, p);
-    if (rc) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory (or 2^32 tree records) at %llu particles",
-                        (unsigned long long)tree_count(&e->tree));
-    return engine_gyration_add(e, p, err, errlen);
-}
+#include "reference.h"
 
 int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, uint64_t every,
                      void *user, char *err, size_t errlen)
@@ -28,10 +16,11 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
     int rc = PDLA_OK;
     if (tree_count(&e->tree) == 0 && n_until > 0) {
         const int64_t origin[3] = {0, 0, 0};
-        rc = add_particle(e, origin, err, errlen);
+        rc = engine_add_particle(e, origin, err, errlen);
     }
     if (every == 0) every = 1000;
-    const uint64_t serial_end = e->params.threads == 1 || n_until < e->params.serial_until
+    const int phase2 = e->params.threads != 1 || e->params.reference_walkers > 0;
+    const uint64_t serial_end = !phase2 || n_until < e->params.serial_until
                                     ? n_until
                                     : e->params.serial_until;
     const int64_t D = e->params.resolution;
@@ -44,7 +33,7 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
             break;
         }
         if (e->params.snap_contact) walker_snap_to_contact(&e->tree, p, D, stick2, &e->walker.ss);
-        rc = add_particle(e, p, err, errlen);
+        rc = engine_add_particle(e, p, err, errlen);
         if (rc == PDLA_OK && progress && tree_count(&e->tree) % every == 0) {
             e->grow_seconds += pdla_clock_seconds() - t0;
             const int stop = progress(e, user);
@@ -53,7 +42,9 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
                                 (unsigned long long)tree_count(&e->tree));
         }
     }
-    if (rc == PDLA_OK && tree_count(&e->tree) < n_until) {
+    if (rc == PDLA_OK && tree_count(&e->tree) < n_until && e->params.reference_walkers > 0) {
+        rc = reference_grow(e, n_until, progress, every, user, err, errlen);
+    } else if (rc == PDLA_OK && tree_count(&e->tree) < n_until) {
         const double tp = pdla_clock_seconds();
         rc = parallel_grow(e, n_until, progress, user, err, errlen);
         e->parallel_seconds += pdla_clock_seconds() - tp;

@@ -21,6 +21,7 @@
 #endif
 
 #include "engine.h"
+#include "recent.h"
 #include "sample.h"
 
 static inline __attribute__((always_inline)) void random_dir(pdla_rng *rng, double *v,
@@ -132,92 +133,177 @@ int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2
     return 0;
 }
 
-static inline __attribute__((always_inline)) int walk_dim(const pdla_engine *e, walker_ctx *w,
-                                                          int64_t *stuck_at, const int dim)
+/* The radii drawn from R_ext = r units. */
+static inline __attribute__((always_inline)) void walk_set_radii(const pdla_engine *e,
+                                                                 walk_state *s, int64_t r)
+{
+    const pdla_params *P = &e->params;
+    const double D = (double)P->resolution;
+    s->r_ext_units = r;
+    s->r_ext = (double)r;
+    s->Rb = s->r_ext + P->birth_margin * D;
+    /* One unit of hysteresis: a walker just put on the circle (rounded to the
+     * grid) is not sent straight back. */
+    s->Rout2 = (s->Rb + 1.0) * (s->Rb + 1.0);
+    s->Rdeath = P->kill_ratio * s->Rb;
+}
+
+/* Re-read R_ext: it only grows, as particles are added (by this walker
+ * between two walks, or by other walkers at any time). */
+static inline __attribute__((always_inline)) void walk_refresh(const pdla_engine *e, walk_state *s)
+{
+    const int64_t now = atomic_load_explicit(&e->r_ext, memory_order_relaxed);
+    if (now != s->r_ext_units) walk_set_radii(e, s, now);
+}
+
+static inline __attribute__((always_inline)) void walk_begin_dim(const pdla_engine *e,
+                                                                 walker_ctx *w, walk_state *s,
+                                                                 const int dim)
+{
+    walk_set_radii(e, s, atomic_load_explicit(&e->r_ext, memory_order_relaxed));
+    launch(w, s->Rb, s->p, dim);
+    s->jumps = 0;
+}
+
+/* With worker threads (conc): 1 if a particle appended since the query
+ * (count `seen`) makes the move just computed wrong (what: RECENT_NEAR, one
+ * inside the ball of squared radius R2 around p; RECENT_FAR, one beyond
+ * R_ext); then the walker queries again instead of moving. */
+static inline __attribute__((always_inline)) int walk_stale(const pdla_engine *e, walker_ctx *w,
+                                                            uint64_t seen, const int64_t *p,
+                                                            uint64_t R2, int what)
+{
+    const engine_hooks *h = e->hooks;
+    if (__builtin_expect(h != NULL, 0) && h->stall) h->stall(h->user);
+    uint64_t now;
+    if (!recent_stale(e->recent, &e->tree, seen, p, R2, what, &now)) {
+        if (__builtin_expect(h != NULL, 0) && h->jump && what == RECENT_NEAR) h->jump(h->user, p, R2, now);
+        return 0;
+    }
+    if (what == RECENT_NEAR)
+        w->stale_jumps++;
+    else
+        w->stale_births++;
+    if (__builtin_expect(h != NULL, 0) && h->take_stale) {
+        if (h->jump && what == RECENT_NEAR) h->jump(h->user, p, R2, now);
+        return 0;
+    }
+    return 1;
+}
+
+/* One step of a walk: one jump (or return to the birth circle, restart,
+ * kill). Returns WALK_MOVED, or WALK_CONTACT / WALK_OVERLAP with the spot in
+ * stuck_at. conc: worker threads append meanwhile; every move is then
+ * checked against the particles appended since its query (walk_stale), so
+ * each jump is exact for the cluster as it is when the jump is taken, as in
+ * the race-free reference. */
+static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine *e,
+                                                               walker_ctx *w, walk_state *s,
+                                                               int64_t *stuck_at, const int dim,
+                                                               const int conc)
 {
     const pdla_params *P = &e->params;
     const tree *t = &e->tree;
     const double D = (double)P->resolution;
     const uint64_t stick2 = (uint64_t)(P->resolution + P->eps) * (uint64_t)(P->resolution + P->eps);
-    const int kill = P->return_mode == PDLA_RETURN_KILL;
-    /* R_ext only grows; with worker threads it may grow during this walk, so
-     * the birth circle follows it (re-read when it changes: one relaxed load
-     * per jump). In the serial phase it is constant over a walk. */
-    int64_t r_ext_units = atomic_load_explicit(&e->r_ext, memory_order_relaxed);
-    double r_ext = (double)r_ext_units;
-    double Rb = r_ext + P->birth_margin * D;
-    /* One unit of hysteresis: a walker just put on the circle (rounded to the
-     * grid) is not sent straight back. */
-    double Rout2 = (Rb + 1.0) * (Rb + 1.0);
-    double Rdeath = P->kill_ratio * Rb;
-
-    int64_t p[3];
-    launch(w, Rb, p, dim);
-    uint64_t jumps = 0;
-    for (;;) {
-        const int64_t now = atomic_load_explicit(&e->r_ext, memory_order_relaxed);
-        if (now != r_ext_units) {
-            r_ext_units = now;
-            r_ext = (double)now;
-            Rb = r_ext + P->birth_margin * D;
-            Rout2 = (Rb + 1.0) * (Rb + 1.0);
-            Rdeath = P->kill_ratio * Rb;
-        }
-        if (jumps >= P->max_jumps) {
-            w->restarts++;
-            launch(w, Rb, p, dim);
-            jumps = 0;
-        }
-        double r2 = 0;
-        for (int a = 0; a < dim; a++) r2 += (double)p[a] * (double)p[a];
-        if (r2 > Rout2) {
-            const double r = sqrt(r2);
-            if (kill) {
-                if (r > Rdeath) {
-                    w->killed++;
-                    launch(w, Rb, p, dim);
-                    continue;
-                }
-                jump(w, p, r - r_ext - D - 1.0, dim);
-                jumps++;
-            } else if (!return_to_birth(w, p, r, Rb, dim)) {
-                w->lost++;
-                launch(w, Rb, p, dim);
+    int64_t *p = s->p;
+    /* The count first: R_ext is raised before a particle is published, so
+     * the R_ext read next covers every particle below `seen`, and so do
+     * the map and the tree searches. */
+    const uint64_t seen = conc ? tree_count(t) : 0;
+    walk_refresh(e, s);
+    if (s->jumps >= P->max_jumps) {
+        w->restarts++;
+        launch(w, s->Rb, p, dim);
+        s->jumps = 0;
+    }
+    double r2 = 0;
+    for (int a = 0; a < dim; a++) r2 += (double)p[a] * (double)p[a];
+    if (r2 > s->Rout2) {
+        static const int64_t origin[3] = {0, 0, 0};
+        if (conc && walk_stale(e, w, seen, origin,
+                               (uint64_t)s->r_ext_units * (uint64_t)s->r_ext_units, RECENT_FAR))
+            return WALK_MOVED;
+        const double r = sqrt(r2);
+        if (P->return_mode == PDLA_RETURN_KILL) {
+            if (r > s->Rdeath) {
+                w->killed++;
+                launch(w, s->Rb, p, dim);
+                return WALK_MOVED;
             }
-            continue;
+            jump(w, p, r - s->r_ext - D - 1.0, dim);
+            s->jumps++;
+        } else if (!return_to_birth(w, p, r, s->Rb, dim)) {
+            w->lost++;
+            launch(w, s->Rb, p, dim);
         }
-        /* Far from the cluster one look-up in the distance map bounds the
-         * distance (at least one map cell, far above the sticking shell).
-         * --exact-search (the reference setting) skips the map and the
-         * block cut: every jump is by the exact distance from the tree. */
-        const int64_t far = P->exact_search ? 0 : distmap_bound(&e->dmap, p, dim);
-        if (far > 0) {
-            jump(w, p, (double)far - D - 1.0, dim);
-            jumps++;
-            continue;
-        }
-        /* Near the cluster in 2D: the 3 x 3 leaves around the walker, whose
-         * chunks stay cached while it moves among them. (In 3D the cut at
-         * the block's edge costs more jumps than it saves: the tree.) */
-        uint64_t d2 = dim == 2 && !P->exact_search
-                          ? search_block2(t, &e->search, &e->dmap, p, &w->ss)
-                          : UINT64_MAX;
-        if (d2 == UINT64_MAX) d2 = search_lower_bound2(t, &e->search, p, UINT64_MAX, &w->ss);
-        if (d2 < stick2) {
-            for (int a = 0; a < dim; a++) stuck_at[a] = p[a];
-            /* Closer than one diameter can only mean another thread's particle
-             * appeared inside this walker's last jump. */
-            return d2 < (uint64_t)P->resolution * (uint64_t)P->resolution ? WALK_OVERLAP
-                                                                           : WALK_CONTACT;
-        }
-        jump(w, p, sqrt((double)d2) - D - 1.0, dim);
-        jumps++;
+        return WALK_MOVED;
+    }
+    /* Far from the cluster one look-up in the distance map bounds the
+     * distance (at least one map cell, far above the sticking shell).
+     * --exact-search (the reference setting) skips the map and the
+     * block cut: every jump is by the exact distance from the tree. */
+    const int64_t far = P->exact_search ? 0 : distmap_bound(&e->dmap, p, dim);
+    if (far > 0) {
+        if (conc && walk_stale(e, w, seen, p, (uint64_t)far * (uint64_t)far, RECENT_NEAR))
+            return WALK_MOVED;
+        jump(w, p, (double)far - D - 1.0, dim);
+        s->jumps++;
+        return WALK_MOVED;
+    }
+    /* Near the cluster in 2D: the 3 x 3 leaves around the walker, whose
+     * chunks stay cached while it moves among them. (In 3D the cut at
+     * the block's edge costs more jumps than it saves: the tree.) */
+    uint64_t d2 = dim == 2 && !P->exact_search
+                      ? search_block2(t, &e->search, &e->dmap, p, &w->ss)
+                      : UINT64_MAX;
+    if (d2 == UINT64_MAX) d2 = search_lower_bound2(t, &e->search, p, UINT64_MAX, &w->ss);
+    if (d2 < stick2) {
+        /* A particle appended since the query only makes the walker closer:
+         * the insertion's exact re-check (parallel.c) sees it. */
+        for (int a = 0; a < dim; a++) stuck_at[a] = p[a];
+        /* Closer than one diameter can only mean another walker's particle
+         * appeared next to this one since its last jump. */
+        return d2 < (uint64_t)P->resolution * (uint64_t)P->resolution ? WALK_OVERLAP
+                                                                       : WALK_CONTACT;
+    }
+    if (conc && walk_stale(e, w, seen, p, d2, RECENT_NEAR)) return WALK_MOVED;
+    jump(w, p, sqrt((double)d2) - D - 1.0, dim);
+    s->jumps++;
+    return WALK_MOVED;
+}
+
+static inline __attribute__((always_inline)) int walk_dim(const pdla_engine *e, walker_ctx *w,
+                                                          int64_t *stuck_at, const int dim,
+                                                          const int conc)
+{
+    walk_state s;
+    walk_begin_dim(e, w, &s, dim);
+    for (;;) {
+        const int r = walk_step_dim(e, w, &s, stuck_at, dim, conc);
+        if (r != WALK_MOVED) return r;
     }
 }
 
 int walker_run(const pdla_engine *e, walker_ctx *w, int64_t *stuck_at)
 {
-    return e->params.dim == 2 ? walk_dim(e, w, stuck_at, 2) : walk_dim(e, w, stuck_at, 3);
+    if (e->recent)
+        return e->params.dim == 2 ? walk_dim(e, w, stuck_at, 2, 1) : walk_dim(e, w, stuck_at, 3, 1);
+    return e->params.dim == 2 ? walk_dim(e, w, stuck_at, 2, 0) : walk_dim(e, w, stuck_at, 3, 0);
+}
+
+void walker_begin(const pdla_engine *e, walker_ctx *w, walk_state *s)
+{
+    if (e->params.dim == 2)
+        walk_begin_dim(e, w, s, 2);
+    else
+        walk_begin_dim(e, w, s, 3);
+}
+
+int walker_step(const pdla_engine *e, walker_ctx *w, walk_state *s, int64_t *stuck_at)
+{
+    return e->params.dim == 2 ? walk_step_dim(e, w, s, stuck_at, 2, 0)
+                              : walk_step_dim(e, w, s, stuck_at, 3, 0);
 }
 
 void walker_ctx_add_counts(walker_ctx *s, const walker_ctx *o)
@@ -233,8 +319,14 @@ void walker_ctx_add_counts(walker_ctx *s, const walker_ctx *o)
     s->recheck_overlaps += o->recheck_overlaps;
     s->recheck_continued += o->recheck_continued;
     s->recheck_discarded += o->recheck_discarded;
+    s->stale_jumps += o->stale_jumps;
+    s->stale_births += o->stale_births;
+    s->cpu_seconds += o->cpu_seconds;
     for (int i = 0; i < 3; i++) {
         s->mutex_taken[i] += o->mutex_taken[i];
         s->mutex_contended[i] += o->mutex_contended[i];
+        s->mutex_hold_ticks[i] += o->mutex_hold_ticks[i];
+        s->mutex_wait_ticks[i] += o->mutex_wait_ticks[i];
+        s->mutex_long_holds[i] += o->mutex_long_holds[i];
     }
 }

@@ -205,8 +205,53 @@ static void copy_file(const char *from, const char *to)
     CHECK(system(cmd) == 0, "%s", cmd);
 }
 
+/* Checkpoints written before --reference-walkers existed have no
+ * /parameters/reference_walkers: they load with 0 (its table row's
+ * absent_default). Any other missing parameter still means a damaged file. */
+static void absent_parameter(void)
+{
+    char dir[300], path[400], err[1024];
+    snprintf(dir, sizeof dir, "%s/absent", tmpdir);
+    mkdir(dir, 0777);
+    pdla_params p;
+    pdla_params_default(&p);
+    p.target = 1000;
+    p.seed = 7;
+    p.serial_until = 200;
+    p.reference_walkers = 2;
+    pdla_engine *e = NULL;
+    CHECK(pdla_engine_create(&e, &p, err, sizeof err) == PDLA_OK, "%s", err);
+    CHECK(pdla_engine_grow(e, 400, NULL, 1000, NULL, err, sizeof err) == PDLA_OK, "%s", err);
+    CHECK(pdla_checkpoint_write(e, dir, NULL, NULL, err, sizeof err) == PDLA_OK, "%s", err);
+    pdla_engine_destroy(e);
+    snprintf(path, sizeof path, "%s/checkpoint.h5", dir);
+    pdla_engine *r = NULL;
+    CHECK(pdla_checkpoint_load(&r, path, NULL, 0, NULL, err, sizeof err) == PDLA_OK, "%s", err);
+    CHECK(r && pdla_engine_params(r)->reference_walkers == 2, "reference_walkers not stored");
+    pdla_engine_destroy(r);
+    r = NULL;
+    const char *const drop[] = {"reference_walkers", "eps"};
+    for (int k = 0; k < 2; k++) {
+        const hid_t f = H5Fopen(path, H5F_ACC_RDWR, H5P_DEFAULT);
+        const hid_t g = f < 0 ? -1 : H5Gopen2(f, "parameters", H5P_DEFAULT);
+        CHECK(g >= 0 && H5Adelete(g, drop[k]) >= 0, "cannot delete /parameters/%s", drop[k]);
+        if (g >= 0) H5Gclose(g);
+        if (f >= 0) H5Fclose(f);
+        if (k == 0) {
+            CHECK(pdla_checkpoint_load(&r, path, NULL, 0, NULL, err, sizeof err) == PDLA_OK,
+                  "without reference_walkers: %s", err);
+            CHECK(r && pdla_engine_params(r)->reference_walkers == 0, "absent reference_walkers not 0");
+            pdla_engine_destroy(r);
+            r = NULL;
+        } else {
+            expect_refused(path, "parameter eps", PDLA_EIO);
+        }
+    }
+}
+
 static void basic(void)
 {
+    absent_parameter();
     resume_identical(2, 6000);
     resume_identical(3, 3000);
 

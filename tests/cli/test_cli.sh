@@ -73,6 +73,8 @@ bad "--return bogus" --return bogus
 bad "--far-factor nan" --far-factor nan
 bad "--kill-ratio inf" --kill-ratio inf
 bad "--threads -1" --threads -1
+bad "--reference-walkers with --threads" --reference-walkers 4 --threads 2
+bad "--reference-walkers -1" --reference-walkers -1
 bad "flag with a value" --force=1
 bad "--no-output with --out" --no-output --out "$tmp/never"
 run --target 12x
@@ -163,6 +165,22 @@ if command -v python3 >/dev/null 2>&1; then
 fi
 good "--no-output summary" --no-output --target 100
 grep -q '^output  *none$' "$tmp/out" || fail "--no-output: summary output line"
+
+# ---- reference walkers: deterministic, summary, JSON, /parameters --------
+good "reference walkers" --reference-walkers 4 --serial-until 200 --target 2000 --out "$tmp/ref" \
+    --stats-json "$tmp/ref1.json"
+grep -q '^reference  *4 walkers in turn (one thread) after 200 serial particles$' "$tmp/out" ||
+    fail "reference walkers: summary line"
+grep -q '"reference_walkers": 4' "$tmp/ref1.json" || fail "reference walkers: JSON parameter"
+good "reference walkers again" --reference-walkers 4 --serial-until 200 --target 2000 --no-output \
+    --stats-json "$tmp/ref2.json"
+[ "$(grep '"rg_diam"' "$tmp/ref1.json")" = "$(grep '"rg_diam"' "$tmp/ref2.json")" ] ||
+    fail "reference walkers: same seed, different R_g"
+if command -v h5dump >/dev/null 2>&1; then
+    checks=$((checks + 1))
+    h5dump -a /parameters/reference_walkers "$tmp/ref/cluster.h5" 2>/dev/null | grep -q '(0): 4' ||
+        fail "reference walkers: /parameters/reference_walkers"
+fi
 
 # ---- threads: the lock counters reach the summary, the JSON and the file ---
 good "threads" --threads 2 --serial-until 200 --target 3000 --out "$tmp/thr" --stats-json "$tmp/thr.json"

@@ -16,6 +16,16 @@
  *       [1.66, 1.76]. (A live shared tree with P walkers is DLA while P/N is
  *       small; a frozen snapshot per batch would drift by percents.)
  *
+ *   test_physics pair DIM M N SERIAL_UNTIL THREADS_A REFS_A THREADS_B REFS_B TOL
+ *       Paired ensembles (issue 11): M seeds, each grown to SERIAL_UNTIL
+ *       serially (the same prefix for both arms), then on to N by arm A and
+ *       by arm B, each given as worker threads and reference walkers
+ *       (1 0 = serial DLA, P 0 = P workers, 1 P = the race-free reference of
+ *       P walkers). The mean over seeds of R_g(A)/R_g(B) - 1 at N must be
+ *       within TOL (a fraction), and its standard error at most TOL / 3, so
+ *       that a difference of 2 TOL is at least 3 standard errors out: the
+ *       ensemble is then large enough that a bias of 2 TOL fails.
+ *
  * The ensemble mean is over clusters at identical sample points (the R_g
  * grid is fixed per decade), seeds 1000 + i.
  */
@@ -136,10 +146,68 @@ static int compare_pdla(int clusters, uint64_t n, int threads, uint64_t serial_u
     return check_finish();
 }
 
+static double grow_rg(int dim, uint64_t n, uint64_t serial_until, int threads, int refs,
+                      uint64_t seed)
+{
+    pdla_params p;
+    pdla_params_default(&p);
+    p.dim = dim;
+    p.target = n;
+    p.threads = threads;
+    p.reference_walkers = refs;
+    p.serial_until = serial_until;
+    p.seed = seed;
+    p.rg_per_decade = 0;
+    pdla_engine *e;
+    char err[256];
+    if (pdla_engine_create(&e, &p, err, sizeof err) ||
+        pdla_engine_grow(e, n, NULL, 0, NULL, err, sizeof err)) {
+        CHECK(0, "growth failed: %s", err);
+        return NAN;
+    }
+    pdla_stats s;
+    pdla_engine_stats(e, &s);
+    pdla_engine_destroy(e);
+    return s.rg_diam;
+}
+
+static int compare_pairs(char **a)
+{
+    const int dim = atoi(a[0]), m = atoi(a[1]);
+    const uint64_t n = (uint64_t)atof(a[2]), serial_until = (uint64_t)atof(a[3]);
+    const int ta = atoi(a[4]), ra = atoi(a[5]), tb = atoi(a[6]), rb = atoi(a[7]);
+    const double tol = atof(a[8]);
+    double sum = 0, sum2 = 0;
+    for (int i = 0; i < m; i++) {
+        const uint64_t seed = 1001 + (uint64_t)i;
+        const double d = grow_rg(dim, n, serial_until, ta, ra, seed) /
+                             grow_rg(dim, n, serial_until, tb, rb, seed) -
+                         1;
+        sum += d;
+        sum2 += d * d;
+    }
+    const double mean = sum / m, sd = sqrt(fmax(0, (sum2 - m * mean * mean) / (m - 1)));
+    const double se = sd / sqrt(m);
+    fprintf(stderr,
+            "%dD, %d pairs of %llu after %llu serial: R_g(threads %d, reference %d) / "
+            "R_g(threads %d, reference %d) - 1 = %+.3f%% +- %.3f%% (pair sd %.2f%%; tolerance %.3f%%)\n",
+            dim, m, (unsigned long long)n, (unsigned long long)serial_until, ta, ra, tb, rb,
+            100 * mean, 100 * se, 100 * sd, 100 * tol);
+    CHECK(fabs(mean) <= tol, "the arms differ by %+.3f%% +- %.3f%%, tolerance %.3f%%", 100 * mean,
+          100 * se, 100 * tol);
+    CHECK(se <= tol / 3, "standard error %.3f%% above tolerance / 3 = %.3f%%: too few pairs to fail a "
+                         "bias of twice the tolerance",
+          100 * se, 100 * tol / 3);
+    return check_finish();
+}
+
 int main(int argc, char **argv)
 {
+    if (argc == 11 && !strcmp(argv[1], "pair")) return compare_pairs(argv + 2);
     if (argc != 4 && argc != 6) {
-        fprintf(stderr, "usage: test_physics DIM CLUSTERS N [THREADS SERIAL_UNTIL]\n");
+        fprintf(stderr, "usage: test_physics DIM CLUSTERS N [THREADS SERIAL_UNTIL]\n"
+                        "       test_physics pair DIM M N SERIAL_UNTIL THREADS_A REFS_A THREADS_B "
+                        "REFS_B TOL\n");
         return 2;
     }
     const int dim = atoi(argv[1]);

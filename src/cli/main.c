@@ -28,6 +28,7 @@
 #include "pdla_config.h"
 #include "progress.h"
 #include "tools.h"
+#include "event_cmd.h"
 
 enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 
@@ -541,6 +542,10 @@ static int write_cluster(const pdla_engine *e, const pdla_run_info *info, const 
 
 int main(int argc, char **argv)
 {
+    /* The event model has its own command line and info (event_cmd.h). */
+    if (argc > 1 && strcmp(argv[1], "info") == 0 && event_info_wanted(argc - 1, argv + 1))
+        return event_info_main(argc - 1, argv + 1);
+    if (event_cmd_wanted(argc, argv)) return event_cmd_main(argc, argv);
     /* Subcommands that read a cluster file (tools.h). */
     if (argc > 1 && strcmp(argv[1], "info") == 0) return tool_info(argc - 1, argv + 1);
     if (argc > 1 && strcmp(argv[1], "render") == 0) return tool_render(argc - 1, argv + 1);

@@ -223,6 +223,19 @@ static int make_dir(ev_cli *c, char *dir, size_t len)
     return 0;
 }
 
+/* Peak resident memory (VmHWM) in bytes, 0 if unknown. */
+static unsigned long long peak_rss(void)
+{
+    FILE *f = fopen("/proc/self/status", "r");
+    if (!f) return 0;
+    char line[256];
+    unsigned long long kib = 0;
+    while (fgets(line, sizeof line, f))
+        if (sscanf(line, "VmHWM: %llu kB", &kib) == 1) break;
+    fclose(f);
+    return kib * 1024;
+}
+
 static char *joined(int argc, char **argv)
 {
     size_t n = 1;
@@ -289,10 +302,11 @@ int event_cmd_main(int argc, char **argv)
         printf("model event, %dd, %zu particles, box %.6g (%s walls)\n"
                "stopped: %s at time %.6g\n"
                "stuck %" PRIu64 ", events %" PRIu64 ", collisions %" PRIu64 ", wall hits %" PRIu64
-               "\ncpu %.3f s, %.3g collisions/s\nwrote %s\n",
+               "\ncpu %.3f s, %.3g collisions/s, %.3g us/event, peak RSS %.1f MB\nwrote %s\n",
                ev_dim(s), ev_count(s), st.box, c.p.walls ? "periodic" : "elastic",
                ev_stop_name(why), st.t, st.stuck, st.events, st.collisions, st.wall_hits, cpu,
-               cpu > 0 ? (double)st.collisions / cpu : 0.0, path);
+               cpu > 0 ? (double)st.collisions / cpu : 0.0,
+               st.events ? 1e6 * cpu / (double)st.events : 0.0, peak_rss() / 1e6, path);
     free(cmd);
     ev_series_free(&ser);
     ev_free(s);

@@ -50,58 +50,53 @@ static inline double ev_key(const ev_sim *s, uint32_t i)
     return e->t_pair < e->t_cell ? e->t_pair : e->t_cell;
 }
 
-static inline int ev_less(const ev_sim *s, uint32_t a, uint32_t b)
-{
-    const double ka = ev_key(s, a), kb = ev_key(s, b);
-    return ka < kb || (ka == kb && a < b);
-}
+/* Heap entries carry their key, so sifting touches only the heap array. */
+static inline int hless(ev_hent a, ev_hent b) { return a.t < b.t || (a.t == b.t && a.id < b.id); }
 
-static void heap_up(ev_sim *s, uint32_t pos)
+static void heap_up(ev_sim *s, uint32_t pos, ev_hent x)
 {
-    const uint32_t i = s->heap[pos];
     while (pos > 0) {
         const uint32_t parent = (pos - 1) / 2;
-        const uint32_t p = s->heap[parent];
-        if (!ev_less(s, i, p)) break;
+        const ev_hent p = s->heap[parent];
+        if (!hless(x, p)) break;
         s->heap[pos] = p;
-        s->hpos[p] = pos;
+        s->hpos[p.id] = pos;
         pos = parent;
     }
-    s->heap[pos] = i;
-    s->hpos[i] = pos;
+    s->heap[pos] = x;
+    s->hpos[x.id] = pos;
 }
 
-static void heap_down(ev_sim *s, uint32_t pos)
+static void heap_down(ev_sim *s, uint32_t pos, ev_hent x)
 {
-    const uint32_t i = s->heap[pos], n = s->hn;
+    const uint32_t n = s->hn;
     for (;;) {
         uint32_t c = 2 * pos + 1;
         if (c >= n) break;
-        if (c + 1 < n && ev_less(s, s->heap[c + 1], s->heap[c])) c++;
-        const uint32_t ch = s->heap[c];
-        if (!ev_less(s, ch, i)) break;
+        if (c + 1 < n && hless(s->heap[c + 1], s->heap[c])) c++;
+        const ev_hent ch = s->heap[c];
+        if (!hless(ch, x)) break;
         s->heap[pos] = ch;
-        s->hpos[ch] = pos;
+        s->hpos[ch.id] = pos;
         pos = c;
     }
-    s->heap[pos] = i;
-    s->hpos[i] = pos;
+    s->heap[pos] = x;
+    s->hpos[x.id] = pos;
 }
 
 /* Key of i changed: restore the heap order. */
 static void heap_fix(ev_sim *s, uint32_t i)
 {
     const uint32_t pos = s->hpos[i];
-    if (pos > 0 && ev_less(s, i, s->heap[(pos - 1) / 2])) heap_up(s, pos);
-    else heap_down(s, pos);
+    const ev_hent x = {ev_key(s, i), i};
+    if (pos > 0 && hless(x, s->heap[(pos - 1) / 2])) heap_up(s, pos, x);
+    else heap_down(s, pos, x);
 }
 
 void ev_heap_push(ev_sim *s, uint32_t i)
 {
-    s->heap[s->hn] = i;
-    s->hpos[i] = s->hn;
     s->hn++;
-    heap_up(s, s->hn - 1);
+    heap_up(s, s->hn - 1, (ev_hent){ev_key(s, i), i});
 }
 
 static void heap_remove(ev_sim *s, uint32_t i)
@@ -110,9 +105,9 @@ static void heap_remove(ev_sim *s, uint32_t i)
     s->hn--;
     s->hpos[i] = UINT32_MAX;
     if (pos == s->hn) return;
-    s->heap[pos] = s->heap[s->hn];
-    s->hpos[s->heap[pos]] = pos;
-    heap_fix(s, s->heap[pos]);
+    const ev_hent last = s->heap[s->hn];
+    if (pos > 0 && hless(last, s->heap[(pos - 1) / 2])) heap_up(s, pos, last);
+    else heap_down(s, pos, last);
 }
 
 /* ---- cells --------------------------------------------------------------- */
@@ -437,7 +432,7 @@ static inline __attribute__((always_inline)) void collide(ev_sim *s, const int D
 static inline __attribute__((always_inline)) int step(ev_sim *s, const int D)
 {
     if (s->hn == 0) return -1;
-    const uint32_t i = s->heap[0];
+    const uint32_t i = s->heap[0].id;
     ev_evt *e = &s->evt[i];
     s->events++;
     if (e->t_cell <= e->t_pair) {
@@ -525,7 +520,7 @@ int ev_loop(ev_sim *s, double t_end, volatile const int *interrupt)
                                                                    : EV_STOP_NO_EVENTS;
         if (p->max_stuck && s->nstuck >= p->max_stuck) return EV_STOP_STUCK;
         if (p->max_events && s->events >= p->max_events) return EV_STOP_EVENTS;
-        const double next = ev_key(s, s->heap[0]);
+        const double next = s->heap[0].t;
         if (next == EV_INF) return EV_STOP_NO_EVENTS; /* everything free is at rest */
         if (next > t_end) return 0;
         if (interrupt && (n & 0xffff) == 0 && *interrupt) return EV_STOP_INTERRUPT;

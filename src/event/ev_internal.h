@@ -21,6 +21,11 @@ typedef struct ev_evt {
     int8_t cell_what; /* 2k + (direction > 0), -1: none */
 } ev_evt;
 
+typedef struct ev_hent {
+    double t;
+    uint32_t id;
+} ev_hent;
+
 struct ev_sim {
     ev_params par;
     int dim, periodic;
@@ -39,7 +44,8 @@ struct ev_sim {
     uint32_t *count, *parent;
     uint32_t *cell, *cnext, *cprev, *chead;
     ev_evt *evt;
-    uint32_t *heap, *hpos, hn;
+    ev_hent *heap;
+    uint32_t *hpos, hn;
     /* stuck particles in arrival order */
     uint32_t *stuck_idx, nstuck;
     double *stuck_t;

@@ -13,5 +13,7 @@ int event_cmd_main(int argc, char **argv);
  * written by the event model. */
 int event_info_wanted(int argc, char **argv);
 int event_info_main(int argc, char **argv);
+/* `pdla render` for event files (argv[0] = "render"). */
+int event_render_main(int argc, char **argv);
 
 #endif

@@ -15,9 +15,14 @@ static const char *file_arg(int argc, char **argv, int *json)
 {
     const char *f = NULL;
     *json = 0;
+    static const char *valued[] = {"-o", "--output", "--size", "--color", "--axis", "--zoom",
+                                    "--slab-rows", "--csv", "--bins", NULL};
     for (int k = 1; k < argc; k++) {
         if (!strcmp(argv[k], "--json")) *json = 1;
-        else if (argv[k][0] != '-') f = argv[k];
+        int v = 0;
+        for (int q = 0; valued[q]; q++) v |= !strcmp(argv[k], valued[q]);
+        if (v) k++;
+        else if (argv[k][0] != '-' && !f) f = argv[k];
     }
     return f;
 }

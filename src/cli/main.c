@@ -545,6 +545,8 @@ int main(int argc, char **argv)
     /* The event model has its own command line and info (event_cmd.h). */
     if (argc > 1 && strcmp(argv[1], "info") == 0 && event_info_wanted(argc - 1, argv + 1))
         return event_info_main(argc - 1, argv + 1);
+    if (argc > 1 && strcmp(argv[1], "render") == 0 && event_info_wanted(argc - 1, argv + 1))
+        return event_render_main(argc - 1, argv + 1);
     if (event_cmd_wanted(argc, argv)) return event_cmd_main(argc, argv);
     /* Subcommands that read a cluster file (tools.h). */
     if (argc > 1 && strcmp(argv[1], "info") == 0) return tool_info(argc - 1, argv + 1);

@@ -64,6 +64,7 @@ struct ev_sim {
 #define EV_P(s, i) ((s)->ps + (size_t)(i) * (size_t)(2 * D + 2))
 #define EV_P_ANY(s, i) ((s)->ps + (size_t)(i) * (size_t)(2 * (s)->dim + 2))
 void ev_rebuild(ev_sim *s);
+double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi);
 
 void ev_heap_push(ev_sim *s, uint32_t i);
 void ev_cell_insert(ev_sim *s, uint32_t i, uint32_t c);

@@ -198,6 +198,60 @@ static int write_species(const h5u_writer *w, hid_t file, const ev_sim *s)
     return h5u_close(w, rc, g, H5Gclose, "/species");
 }
 
+/* Fractal dimension of the stuck cluster from R_g(k) over arrival order:
+ * least squares of log R_g against log k on 40 log-spaced k in
+ * [max(20, k1/30), k1], k1 the last k with R_g < L/8 (before the walls are
+ * felt). NaN when the range is shorter than a factor 5. */
+double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi)
+{
+    const int D = s->dim;
+    const uint32_t n = s->nstuck;
+    double sx[3] = {0, 0, 0}, sxx = 0;
+    double *rg = malloc((n ? n : 1) * sizeof *rg);
+    *k_lo = *k_hi = 0;
+    if (!rg) return NAN;
+    uint32_t k1 = 0;
+    for (uint32_t a = 0; a < n; a++) {
+        const double *p = EV_P(s, s->stuck_idx[a]);
+        for (int q = 0; q < D; q++) {
+            sx[q] += p[q];
+            sxx += p[q] * p[q];
+        }
+        double c2 = 0;
+        for (int q = 0; q < D; q++) c2 += (sx[q] / (a + 1)) * (sx[q] / (a + 1));
+        rg[a] = sqrt(fmax(0, sxx / (a + 1) - c2));
+        if (rg[a] < s->L / 8) k1 = a + 1;
+    }
+    const double k0 = fmax(20, k1 / 30.0);
+    double res = NAN;
+    if (k1 >= 5 * k0) {
+        double sl = 0, sll = 0, sy = 0, sly = 0;
+        const int m = 40;
+        for (int j = 0; j < m; j++) {
+            const uint32_t k = (uint32_t)llround(exp(log(k0) + (log((double)k1) - log(k0)) * j / (m - 1)));
+            const double l = log((double)k), y = log(rg[k - 1]);
+            sl += l, sll += l * l, sy += y, sly += l * y;
+        }
+        const double slope = (m * sly - sl * sy) / (m * sll - sl * sl);
+        res = 1 / slope;
+        *k_lo = (uint64_t)k0;
+        *k_hi = k1;
+    }
+    free(rg);
+    return res;
+}
+
+/* Dilute-gas mean free path / diameter at the start density (one species:
+ * its diameter; several: the mean). */
+static double mean_free_path(const ev_sim *s)
+{
+    double sig = 0;
+    for (uint32_t i = 0; i < s->n; i++) sig += 2 * EV_P_ANY(s, i)[2 * s->dim + 1];
+    sig /= s->n;
+    const double rho = s->n / s->V;
+    return s->dim == 2 ? 1 / (2 * sqrt(2.0) * rho * sig) / sig : 1 / (sqrt(2.0) * M_PI * rho * sig * sig) / sig;
+}
+
 static int write_results(const h5u_writer *w, hid_t file, const ev_sim *s, int why)
 {
     const hid_t g = h5u_group(w, file, "results");
@@ -216,6 +270,12 @@ static int write_results(const h5u_writer *w, hid_t file, const ev_sim *s, int w
     if (!rc) rc = h5u_attr_f64(w, g, "box_side", st.box);
     if (!rc) rc = h5u_attr_f64(w, g, "max_overlap_seen", st.max_overlap);
     if (!rc) rc = h5u_attr_str(w, g, "stop_reason", ev_stop_name(why));
+    uint64_t klo, khi;
+    const double df = ev_fractal_dimension(s, &klo, &khi);
+    if (!rc) rc = h5u_attr_f64(w, g, "D_f_rg", df);
+    if (!rc) rc = h5u_attr_u64(w, g, "D_f_k_lo", klo);
+    if (!rc) rc = h5u_attr_u64(w, g, "D_f_k_hi", khi);
+    if (!rc) rc = h5u_attr_f64(w, g, "mean_free_path_over_diameter", mean_free_path(s));
     return h5u_close(w, rc, g, H5Gclose, "/results");
 }
 

@@ -263,10 +263,11 @@ ev_sim *ev_create(const ev_params *p, char *err, size_t errlen)
     }
     /* Cells no smaller than the largest contact distance (a hair more, so a
      * particle assigned by round-off to the next cell is still found), and
-     * no more cells than about 4 per particle at low packing. */
+     * no more cells than particles at low packing (bigger cells there mean
+     * fewer crossing events, and still about one particle per cell). */
     const double cmin = 2 * rmax * (1 + 1e-9);
     double ncd = floor(s->L / cmin);
-    const double cap = floor(pow(4.0 * (double)s->ntot + 27, 1.0 / D));
+    const double cap = floor(pow((double)s->ntot + 27, 1.0 / D));
     if (ncd > cap) ncd = cap;
     if (ncd < 1) ncd = 1;
     s->nc = (int)ncd;

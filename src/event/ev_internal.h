@@ -50,6 +50,7 @@ struct ev_sim {
     uint32_t *stuck_idx, nstuck;
     double *stuck_t;
     double now;
+    double series_dt; /* the series' interval now (doubles when thinned) */
     double stick_p;
     pdla_rng rng;
     uint64_t events, collisions, wall_hits, sticks, cell_crossings, invalid;

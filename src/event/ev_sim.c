@@ -452,8 +452,28 @@ double ev_pressure(const ev_sim *s, double dvir, double dt)
     return (2 * st.ke_free / s->dim + dvir / (s->dim * dt)) / s->V;
 }
 
-static int series_push(ev_series *ser, const ev_sim *s, double pressure)
+/* At most EV_SERIES_MAX rows: when full, neighbouring rows are merged in
+ * pairs (the later row's values, the mean of the two pressures, which cover
+ * equal intervals) and the interval doubles. A run that goes on for ever
+ * (one particle that never finds the cluster) thus keeps bounded memory. */
+enum { EV_SERIES_MAX = 1 << 16 };
+static void series_thin(ev_series *ser, ev_sim *s)
 {
+    size_t w = 1;
+    for (size_t r = 1; r + 1 < ser->n; r += 2, w++) {
+        ser->t[w] = ser->t[r + 1];
+        ser->ke[w] = ser->ke[r + 1];
+        ser->stuck[w] = ser->stuck[r + 1];
+        ser->collisions[w] = ser->collisions[r + 1];
+        ser->pressure[w] = 0.5 * (ser->pressure[r] + ser->pressure[r + 1]);
+    }
+    ser->n = w;
+    s->series_dt *= 2;
+}
+
+static int series_push(ev_series *ser, ev_sim *s, double pressure)
+{
+    if (ser->n >= EV_SERIES_MAX) series_thin(ser, s);
     if (ser->n == ser->cap) {
         const size_t cap = ser->cap ? 2 * ser->cap : 256;
         double *a = realloc(ser->t, cap * sizeof *a);
@@ -492,11 +512,12 @@ void ev_series_free(ev_series *ser)
 
 int ev_run_series(ev_sim *s, ev_series *ser, volatile const int *interrupt)
 {
+    s->series_dt = s->par.series_dt;
     if (series_push(ser, s, NAN)) return -1;
     const double tstop = stop_time(s);
     for (;;) {
         const double t0 = s->now, v0 = s->virial;
-        double t1 = t0 + s->par.series_dt;
+        double t1 = t0 + s->series_dt;
         if (t1 > tstop) t1 = tstop;
         int why = ev_loop(s, t1, interrupt);
         if (!why) s->now = t1;

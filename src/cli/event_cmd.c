@@ -59,6 +59,12 @@ static char *trim(char *s)
 typedef int (*scene_fn)(const char *key, const char *val, int line, void *u);
 static int scene_each(const char *path, scene_fn fn, void *u, char *err, size_t errlen)
 {
+    /* Regular files only: opening a FIFO would block. */
+    struct stat st;
+    if (stat(path, &st) != 0 || !S_ISREG(st.st_mode)) {
+        snprintf(err, errlen, "scene %s is not a readable regular file", path);
+        return -1;
+    }
     FILE *f = fopen(path, "r");
     if (!f) {
         snprintf(err, errlen, "cannot read scene %s: %s", path, strerror(errno));

@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "event_cmd.h"
 
@@ -33,6 +34,10 @@ int event_info_wanted(int argc, char **argv)
     int json;
     const char *path = file_arg(argc, argv, &json);
     if (!path) return 0;
+    /* Only a regular file can be ours: never open a FIFO or device here
+     * (opening a FIFO blocks); the general tools report those. */
+    struct stat st;
+    if (stat(path, &st) != 0 || !S_ISREG(st.st_mode)) return 0;
     H5E_auto2_t fn;
     void *data;
     H5Eget_auto2(H5E_DEFAULT, &fn, &data);

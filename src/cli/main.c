@@ -33,6 +33,7 @@
 #include "progress.h"
 #include "h5read.h"
 #include "tools.h"
+#include "event_cmd.h"
 
 enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 
@@ -631,6 +632,12 @@ int main(int argc, char **argv)
      * our one-line message and exit 1 instead of a segfault. Must come
      * before the first HDF5 call. */
     H5dont_atexit();
+    /* The event model has its own command line and info (event_cmd.h). */
+    if (argc > 1 && strcmp(argv[1], "info") == 0 && event_info_wanted(argc - 1, argv + 1))
+        return event_info_main(argc - 1, argv + 1);
+    if (argc > 1 && strcmp(argv[1], "render") == 0 && event_info_wanted(argc - 1, argv + 1))
+        return event_render_main(argc - 1, argv + 1);
+    if (event_cmd_wanted(argc, argv)) return event_cmd_main(argc, argv);
     /* Subcommands that read a cluster file (tools.h). */
     if (argc > 1 && strcmp(argv[1], "info") == 0) return tool_info(argc - 1, argv + 1);
     if (argc > 1 && strcmp(argv[1], "render") == 0) return tool_render(argc - 1, argv + 1);

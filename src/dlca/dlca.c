@@ -600,9 +600,17 @@ static int move_lattice(dlca_sim *s, uint32_t c, int a, int sg)
     s->ncon = 0;
     const uint64_t stamp = ++s->stamp_now;
     const int skip = 2 * a + (sg > 0); /* the way back: own old site */
+    /* With sticking 1 no cluster touched the mover before, so a monomer
+     * whose site ahead is its own (x + e was in the cluster) cannot touch
+     * anything now: every neighbour of x + e was free of other clusters.
+     * Only the leading face is scanned. */
+    const int lead_only = s->p.sticking >= 1;
+    const int64_t fw_n = sg * st, fw_w = -sg * (L - 1) * st;
+    const int32_t Tf = sg > 0 ? T1[a] : T0[a];
     for (uint32_t i = 0; i < n; i++) {
         const int32_t *o = C->off + (size_t)i * d;
         const int64_t ki = k[i];
+        if (lead_only && grid[ki + (o[a] == Tf ? fw_w : fw_n)] == c) continue;
         for (int b = 0; b < d; b++) {
             const int64_t sb = s->stride[b], wb = (s->L[b] - 1) * sb;
             const int64_t kp = o[b] == T1[b] ? ki - wb : ki + sb;

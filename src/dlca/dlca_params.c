@@ -230,7 +230,7 @@ int dlca_params_validate(const dlca_params *p, char *err, size_t errlen)
     const long pages = sysconf(_SC_PHYS_PAGES), psz = sysconf(_SC_PAGESIZE);
     if (pages > 0 && psz > 0 && 4.0 * V > 0.5 * (double)pages * (double)psz) {
         if (err && errlen)
-            snprintf(err, errlen, "--box needs %.3g GiB for its lattice, more than this machine's memory",
+            snprintf(err, errlen, "--box needs %.3g GiB for its lattice, more than half of this machine's memory",
                      4.0 * V / 1073741824.0);
         return PDLA_EINVAL;
     }

@@ -146,6 +146,16 @@ PDLA_API const dlca_row *dlca_series(const dlca_sim *s, size_t *n);
 PDLA_API int dlca_write_h5(const dlca_sim *s, const char *path, const char *command_line,
                            double wall_s, char *err, size_t errlen);
 
+/* Checkpoints: everything needed to go on (parameters, random state,
+ * clusters, counters, series) in one HDF5 file (model = "dlca-checkpoint").
+ * A run resumed from one continues with the same history, bit for bit, as
+ * the run that was never stopped. Load refuses a damaged or foreign file
+ * with one line (PDLA_EIO). */
+PDLA_API int dlca_checkpoint_write(const dlca_sim *s, const char *path, char *err, size_t errlen);
+PDLA_API int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, size_t errlen);
+/* New stop conditions for a resumed run; returns the stop they give now. */
+PDLA_API int dlca_set_stops(dlca_sim *s, uint64_t until_clusters, double until_time, uint64_t max_attempts);
+
 /* ---- the parameter descriptor table ---------------------------------- */
 typedef enum { DLCA_T_INT, DLCA_T_U64, DLCA_T_F64, DLCA_T_BOX, DLCA_T_SEARCH } dlca_ptype;
 typedef struct dlca_param_desc {

@@ -23,12 +23,15 @@
 #include "pdla/dlca.h"
 
 enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
-enum { OPT_MODEL = 1000, OPT_SCENE, OPT_OUT, OPT_FORCE, OPT_NO_OUTPUT, OPT_QUIET, OPT_HELP, OPT_CHECK, OPT_TABLE = 2000 };
+enum { OPT_MODEL = 1000, OPT_SCENE, OPT_OUT, OPT_FORCE, OPT_NO_OUTPUT, OPT_QUIET, OPT_HELP, OPT_CHECK, OPT_CKPT,
+       OPT_RESUME, OPT_TABLE = 2000 };
 
 typedef struct dlca_cli {
     dlca_params p;
     const char *out;
-    int force, no_output, quiet, check;
+    int force, no_output, quiet, check, checkpoint;
+    const char *resume;
+    const char *given_model_option; /* a table option other than the stops */
 } dlca_cli;
 
 static volatile sig_atomic_t stop_signal;
@@ -83,6 +86,9 @@ static void print_help(FILE *o)
                "  --force                            write into an existing run directory\n"
                "  --no-output                        write no files\n"
                "  --check                            check every invariant at the end (O(N log N))\n"
+               "  --checkpoint                       write RUN_DIR/checkpoint.h5 at the end (and when stopped)\n"
+               "  --resume FILE                      go on from a checkpoint (its run directory unless --out);\n"
+               "                                     only --until-* and --max-attempts may change\n"
                "  -q, --quiet                        no summary on stdout\n"
                "  --help                             this text\n");
 }
@@ -172,7 +178,7 @@ static int parse(int argc, char **argv, dlca_cli *c, char **scene_buf, char *err
 {
     size_t n;
     const dlca_param_desc *t = dlca_param_table(&n);
-    struct option *lo = calloc(n + 10, sizeof *lo);
+    struct option *lo = calloc(n + 16, sizeof *lo); /* the table, then extra[] */
     if (!lo) {
         snprintf(err, errlen, "out of memory");
         return -1;
@@ -183,7 +189,9 @@ static int parse(int argc, char **argv, dlca_cli *c, char **scene_buf, char *err
         {"out", required_argument, NULL, OPT_OUT},     {"force", no_argument, NULL, OPT_FORCE},
         {"no-output", no_argument, NULL, OPT_NO_OUTPUT}, {"quiet", no_argument, NULL, OPT_QUIET},
         {"help", no_argument, NULL, OPT_HELP},         {"check", no_argument, NULL, OPT_CHECK},
+        {"checkpoint", no_argument, NULL, OPT_CKPT},   {"resume", required_argument, NULL, OPT_RESUME},
         {NULL, 0, NULL, 0}};
+    _Static_assert(sizeof extra / sizeof extra[0] <= 16, "extra[] outgrew lo");
     memcpy(lo + n, extra, sizeof extra);
     /* Pass 1: the scene (and --help), so that options override its keys. */
     int rc = 0, opt;
@@ -213,14 +221,19 @@ static int parse(int argc, char **argv, dlca_cli *c, char **scene_buf, char *err
         case OPT_FORCE: c->force = 1; break;
         case OPT_NO_OUTPUT: c->no_output = 1; break;
         case OPT_CHECK: c->check = 1; break;
+        case OPT_CKPT: c->checkpoint = 1; break;
+        case OPT_RESUME: c->resume = optarg; break;
         case 'q':
         case OPT_QUIET: c->quiet = 1; break;
         case OPT_SCENE: break;
         default:
-            if (opt >= OPT_TABLE && opt < OPT_TABLE + (int)n &&
-                dlca_param_set(&c->p, &t[opt - OPT_TABLE], optarg, why, sizeof why)) {
-                snprintf(err, errlen, "%s", why);
-                rc = -1;
+            if (opt >= OPT_TABLE && opt < OPT_TABLE + (int)n) {
+                const char *nm = t[opt - OPT_TABLE].name;
+                if (strncmp(nm, "until-", 6) && strcmp(nm, "max-attempts")) c->given_model_option = nm;
+                if (dlca_param_set(&c->p, &t[opt - OPT_TABLE], optarg, why, sizeof why)) {
+                    snprintf(err, errlen, "%s", why);
+                    rc = -1;
+                }
             }
         }
     }
@@ -245,7 +258,7 @@ static int mkdir_parents(const char *dir)
 static int make_dir(const dlca_cli *c, char *dir, size_t len)
 {
     if (c->out) {
-        snprintf(dir, len, "%s", c->out);
+        if (c->out != dir) snprintf(dir, len, "%s", c->out);
         for (size_t l = strlen(dir); l > 1 && dir[l - 1] == '/';) dir[--l] = '\0';
     } else {
         char stamp[32];
@@ -303,11 +316,16 @@ int dlca_cmd_main(int argc, char **argv)
     memset(&c, 0, sizeof c);
     dlca_params_default(&c.p);
     char err[1024], *scene_buf = NULL;
-    const int prc = parse(argc, argv, &c, &scene_buf, err, sizeof err);
+    int prc = parse(argc, argv, &c, &scene_buf, err, sizeof err);
     if (prc == 1) {
         free(scene_buf);
         print_help(stdout);
         return fflush(stdout) ? EXIT_RUNTIME : 0;
+    }
+    if (prc == 0 && c.resume && c.given_model_option) {
+        snprintf(err, sizeof err, "--%s cannot change on --resume (only --until-* and --max-attempts)",
+                 c.given_model_option);
+        prc = -1;
     }
     if (prc || dlca_params_validate(&c.p, err, sizeof err)) {
         fprintf(stderr, "pdla: %s\n", err);
@@ -315,6 +333,26 @@ int dlca_cmd_main(int argc, char **argv)
         return EXIT_USAGE;
     }
     char dir[4096] = "";
+    dlca_sim *s = NULL;
+    if (c.resume) {
+        const int lrc = dlca_checkpoint_load(&s, c.resume, err, sizeof err);
+        if (lrc) {
+            fprintf(stderr, "pdla: %s\n", err);
+            free(scene_buf);
+            return lrc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
+        }
+        const dlca_params *lp = dlca_get_params(s);
+        (void)dlca_set_stops(s, c.p.until_clusters, c.p.until_time, c.p.max_attempts);
+        c.p = *lp;
+        if (!c.out) {
+            snprintf(dir, sizeof dir, "%s", c.resume);
+            char *sl = strrchr(dir, '/');
+            if (sl) *sl = '\0';
+            else snprintf(dir, sizeof dir, ".");
+            c.out = dir;
+        }
+        c.force = 1; /* its own run directory */
+    }
     if (!c.no_output) {
         const int drc = make_dir(&c, dir, sizeof dir);
         if (drc) {
@@ -323,8 +361,7 @@ int dlca_cmd_main(int argc, char **argv)
         }
     }
     const double t0 = wall_now();
-    dlca_sim *s = NULL;
-    int rc = dlca_create(&s, &c.p, err, sizeof err);
+    int rc = s ? 0 : dlca_create(&s, &c.p, err, sizeof err);
     if (rc) {
         fprintf(stderr, "pdla: %s\n", err);
         free(scene_buf);
@@ -358,6 +395,16 @@ int dlca_cmd_main(int argc, char **argv)
             status = EXIT_RUNTIME;
         }
         free(cmd);
+        if (c.checkpoint) {
+            snprintf(h5, sizeof h5, "%s/checkpoint.h5", dir);
+            snprintf(tmp, sizeof tmp, "%s/.checkpoint.h5.new", dir);
+            unlink(tmp);
+            if (dlca_checkpoint_write(s, tmp, err, sizeof err) || rename(tmp, h5)) {
+                fprintf(stderr, "pdla: %s\n", err[0] ? err : strerror(errno));
+                unlink(tmp);
+                status = EXIT_RUNTIME;
+            }
+        }
     }
     if (!c.quiet) {
         dlca_stats st;

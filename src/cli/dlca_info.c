@@ -62,6 +62,18 @@ static herr_t print_attr(hid_t loc, const char *name, const H5A_info_t *info, vo
         if (!H5Tis_variable_str(t) && H5Tget_size(t) < sizeof buf && H5Aread(a, mt, buf) >= 0)
             fprintf(c->o, c->json ? "\"%s\"" : "%s", buf);
         H5Tclose(mt);
+    } else if (cls == H5T_INTEGER && n >= 1 && n <= 8) {
+        /* Integers exactly (a u64 digest does not survive a double). */
+        const int sgn = H5Tget_sign(t) == H5T_SGN_2;
+        unsigned long long v[8];
+        if (H5Aread(a, sgn ? H5T_NATIVE_LLONG : H5T_NATIVE_ULLONG, v) < 0) rc = -1;
+        if (n > 1) fputs(c->json ? "[" : "", c->o);
+        for (hssize_t i = 0; i < n && rc == 0; i++) {
+            if (i) fputs(c->json ? ", " : "x", c->o);
+            if (sgn) fprintf(c->o, "%lld", (long long)v[i]);
+            else fprintf(c->o, "%llu", v[i]);
+        }
+        if (n > 1) fputs(c->json ? "]" : "", c->o);
     } else if (n >= 1 && n <= 8) {
         double v[8];
         if (H5Aread(a, H5T_NATIVE_DOUBLE, v) < 0) rc = -1;

@@ -1068,3 +1068,283 @@ done:
     free(ks);
     return rc;
 }
+
+/* ---- checkpoints ---------------------------------------------------------- */
+
+#include "dlca_h5.h"
+
+/* The scalars of the state, in one array of doubles and one of u64. */
+enum { CK_U_ATT, CK_U_MOV, CK_U_MMOV, CK_U_MRG, CK_U_LARGE, CK_U_CAND, CK_U_DIG, CK_U_NC, CK_U_ROWNC, CK_U_SMIN,
+       CK_U_A, CK_U_SEARCH, CK_U_SPAN, CK_U_STOP, CK_U_N, CK_NU };
+enum { CK_D_T, CK_D_S2, CK_ND };
+
+static int ck_write(const h5u_writer *w, hid_t loc, const char *name, hid_t ftype, hid_t mtype, const void *data,
+                    size_t n)
+{
+    hid_t space = H5I_INVALID_HID, d;
+    int rc = 0;
+    if ((d = h5u_dataset(w, loc, name, ftype, 1, n, 1, n > 65536 ? 65536 : (n ? n : 1), &space)) < 0) return -1;
+    if (n > 0 && H5Dwrite(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) rc = h5u_fail(w, "write %s", name);
+    rc = h5u_close(w, rc, space, H5Sclose, "a dataspace");
+    return h5u_close(w, rc, d, H5Dclose, name);
+}
+
+int dlca_checkpoint_write(const dlca_sim *s, const char *path, char *err, size_t errlen)
+{
+    h5u_writer w = {path, err, errlen};
+    h5u_quiet q;
+    if (h5u_silence(&q)) return fail(err, errlen, PDLA_EIO, "cannot silence HDF5");
+    const int d = s->d;
+    uint64_t u[CK_NU] = {s->attempts, s->moves, s->monomer_moves, s->merges, s->largest, s->candidates,
+                         s->digest, s->nc, s->row_nc, s->smin, (uint64_t)s->A, (uint64_t)s->search_now,
+                         (uint64_t)s->spanning, (uint64_t)s->stop, s->N};
+    double dv[CK_ND] = {s->t, s->sum_s2};
+    uint32_t *slot_n = malloc((s->N + 1) * sizeof *slot_n), *k = malloc(s->N * sizeof *k);
+    int32_t *off = malloc(s->N * (size_t)d * sizeof *off);
+    double *rt = malloc((s->nrows + 1) * sizeof(double) * 3);
+    uint64_t *ru = malloc((s->nrows + 1) * sizeof(uint64_t) * 3);
+    hid_t file = H5I_INVALID_HID;
+    int rc = -1;
+    if (!slot_n || !k || !off || !rt || !ru) {
+        h5u_fail_msg(&w, "cannot write %s: out of memory", path);
+        goto done;
+    }
+    uint64_t m = 0;
+    for (uint64_t c = 0; c <= s->N; c++) {
+        slot_n[c] = c ? s->cl[c].n : 0;
+        for (uint32_t i = 0; c && i < s->cl[c].n; i++, m++) {
+            k[m] = s->cl[c].k[i];
+            memcpy(off + m * d, s->cl[c].off + (size_t)i * d, (size_t)d * sizeof *off);
+        }
+    }
+    for (size_t r = 0; r < s->nrows; r++) {
+        rt[3 * r] = s->rows[r].t;
+        rt[3 * r + 1] = s->rows[r].mean_size;
+        rt[3 * r + 2] = s->rows[r].weight_size;
+        ru[3 * r] = s->rows[r].attempts;
+        ru[3 * r + 1] = s->rows[r].n_clusters;
+        ru[3 * r + 2] = s->rows[r].largest;
+    }
+    if ((file = h5u_create_file(&w, path)) < 0) goto done;
+    if (h5u_attr_str(&w, file, "model", "dlca-checkpoint") < 0 || h5u_attr_int(&w, file, "format_version", 1) < 0 ||
+        dlca_write_parameters_h5(&w, file, &s->p) < 0 ||
+        ck_write(&w, file, "rng", H5T_STD_U64LE, H5T_NATIVE_UINT64, s->rng.s, 4) < 0 ||
+        ck_write(&w, file, "u64", H5T_STD_U64LE, H5T_NATIVE_UINT64, u, CK_NU) < 0 ||
+        ck_write(&w, file, "f64", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dv, CK_ND) < 0 ||
+        ck_write(&w, file, "slot_n", H5T_STD_U32LE, H5T_NATIVE_UINT32, slot_n, s->N + 1) < 0 ||
+        ck_write(&w, file, "geom", H5T_STD_I32LE, H5T_NATIVE_INT32, s->geom, (s->N + 1) * 3 * (size_t)d) < 0 ||
+        ck_write(&w, file, "active", H5T_STD_U32LE, H5T_NATIVE_UINT32, s->act, s->nc) < 0 ||
+        ck_write(&w, file, "site", H5T_STD_U32LE, H5T_NATIVE_UINT32, k, s->N) < 0 ||
+        ck_write(&w, file, "offset", H5T_STD_I32LE, H5T_NATIVE_INT32, off, s->N * (size_t)d) < 0 ||
+        ck_write(&w, file, "rows_f64", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, rt, 3 * s->nrows) < 0 ||
+        ck_write(&w, file, "rows_u64", H5T_STD_U64LE, H5T_NATIVE_UINT64, ru, 3 * s->nrows) < 0)
+        goto done;
+    rc = 0;
+done:
+    if (file >= 0) rc = h5u_close(&w, rc, file, H5Fclose, path);
+    free(slot_n), free(k), free(off), free(rt), free(ru);
+    h5u_restore(&q);
+    return rc < 0 ? PDLA_EIO : 0;
+}
+
+/* Read dataset name of exactly n elements. */
+static int ck_read(hid_t f, const char *name, hid_t mtype, void *buf, size_t n)
+{
+    const hid_t d = H5Dopen2(f, name, H5P_DEFAULT);
+    if (d < 0) return -1;
+    const hid_t sp = H5Dget_space(d);
+    const hssize_t have = sp >= 0 ? H5Sget_simple_extent_npoints(sp) : -1;
+    int rc = have == (hssize_t)n ? 0 : -1;
+    if (rc == 0 && n && H5Dread(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) rc = -1;
+    if (sp >= 0) H5Sclose(sp);
+    H5Dclose(d);
+    return rc;
+}
+
+int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, size_t errlen)
+{
+    *out = NULL;
+    h5u_quiet q;
+    if (h5u_silence(&q)) return fail(err, errlen, PDLA_EIO, "cannot silence HDF5");
+    dlca_sim *s = NULL;
+    uint32_t *slot_n = NULL, *k = NULL, *one = NULL;
+    int32_t *off = NULL;
+    double *rt = NULL;
+    uint64_t *ru = NULL;
+    int rc = PDLA_EIO;
+    char why[256] = "";
+    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f < 0) {
+        snprintf(why, sizeof why, "cannot open it as HDF5");
+        goto done;
+    }
+    /* The parameters, through the table: every field the writer wrote. */
+    dlca_params p;
+    dlca_params_default(&p);
+    if (dlca_read_parameters_h5(f, &p)) {
+        snprintf(why, sizeof why, "not a DLCA checkpoint (no readable /parameters)");
+        goto done;
+    }
+    uint64_t u[CK_NU];
+    double dv[CK_ND];
+    if (ck_read(f, "u64", H5T_NATIVE_UINT64, u, CK_NU) || ck_read(f, "f64", H5T_NATIVE_DOUBLE, dv, CK_ND)) {
+        snprintf(why, sizeof why, "not a DLCA checkpoint (no state)");
+        goto done;
+    }
+    const uint64_t N = u[CK_U_N];
+    if (N != dlca_params_monomers(&p) && p.count == 0) p.count = N;
+    p.count = N;
+    const int d = p.dim;
+    slot_n = malloc((N + 1) * sizeof *slot_n);
+    k = malloc(N * sizeof *k);
+    off = malloc(N * (size_t)d * sizeof *off);
+    one = malloc(sizeof *one);
+    if (!slot_n || !k || !off || !one) {
+        rc = PDLA_ENOMEM;
+        snprintf(why, sizeof why, "out of memory");
+        goto done;
+    }
+    if (ck_read(f, "slot_n", H5T_NATIVE_UINT32, slot_n, N + 1) || ck_read(f, "site", H5T_NATIVE_UINT32, k, N) ||
+        ck_read(f, "offset", H5T_NATIVE_INT32, off, N * (size_t)d)) {
+        snprintf(why, sizeof why, "its monomer arrays are missing or have the wrong length");
+        goto done;
+    }
+    /* A fresh sim of these parameters from the saved sites, then the state
+     * laid over it. */
+    dlca_params q0 = p;
+    q0.search = DLCA_SEARCH_LATTICE;
+    if ((rc = dlca_create_sites(&s, &q0, k, N, why, sizeof why))) goto done;
+    rc = PDLA_EIO;
+    s->p = p;
+    for (uint64_t c = 1; c <= N; c++) {
+        free(s->cl[c].k);
+        free(s->cl[c].off);
+        s->cl[c].k = NULL;
+        s->cl[c].off = NULL;
+        s->cl[c].n = s->cl[c].cap = 0;
+    }
+    memset(s->grid, 0, s->V * sizeof *s->grid);
+    if (ck_read(f, "rng", H5T_NATIVE_UINT64, s->rng.s, 4) ||
+        ck_read(f, "geom", H5T_NATIVE_INT32, s->geom, (N + 1) * 3 * (size_t)d) ||
+        ck_read(f, "active", H5T_NATIVE_UINT32, s->act, u[CK_U_NC])) {
+        snprintf(why, sizeof why, "its state arrays are missing or have the wrong length");
+        goto done;
+    }
+    uint64_t m = 0;
+    for (uint64_t c = 1; c <= N; c++) {
+        const uint32_t n = slot_n[c];
+        if (!n) continue;
+        if (m + n > N) {
+            snprintf(why, sizeof why, "its cluster sizes add up to more than N");
+            goto done;
+        }
+        dlca_cl *C = &s->cl[c];
+        C->k = malloc(n * sizeof *C->k);
+        C->off = malloc((size_t)n * d * sizeof *C->off);
+        if (!C->k || !C->off) {
+            rc = PDLA_ENOMEM;
+            snprintf(why, sizeof why, "out of memory");
+            goto done;
+        }
+        C->n = C->cap = n;
+        memcpy(C->k, k + m, n * sizeof *C->k);
+        memcpy(C->off, off + m * d, (size_t)n * d * sizeof *C->off);
+        for (uint32_t i = 0; i < n; i++) s->grid[C->k[i]] = (uint32_t)c;
+        m += n;
+    }
+    s->nc = u[CK_U_NC];
+    for (uint64_t j = 0; j < s->nc; j++) {
+        if (s->act[j] < 1 || s->act[j] > N || !s->cl[s->act[j]].n) {
+            snprintf(why, sizeof why, "its active list names an empty cluster");
+            goto done;
+        }
+        s->cl[s->act[j]].act = (uint32_t)j;
+    }
+    s->attempts = u[CK_U_ATT];
+    s->moves = u[CK_U_MOV];
+    s->monomer_moves = u[CK_U_MMOV];
+    s->merges = u[CK_U_MRG];
+    s->largest = u[CK_U_LARGE];
+    s->candidates = u[CK_U_CAND];
+    s->digest = u[CK_U_DIG];
+    s->row_nc = u[CK_U_ROWNC];
+    s->smin = u[CK_U_SMIN];
+    s->spanning = (int)u[CK_U_SPAN];
+    s->stop = (int)u[CK_U_STOP];
+    s->t = dv[CK_D_T];
+    s->sum_s2 = dv[CK_D_S2];
+    if (s->size_count) {
+        memset(s->size_count, 0, (N + 1) * sizeof *s->size_count);
+        for (uint64_t j = 0; j < s->nc; j++) s->size_count[s->cl[s->act[j]].n]++;
+    }
+    /* The series. */
+    const hid_t dr = H5Dopen2(f, "rows_u64", H5P_DEFAULT);
+    size_t nr = 0;
+    if (dr >= 0) {
+        const hid_t sp = H5Dget_space(dr);
+        nr = (size_t)H5Sget_simple_extent_npoints(sp) / 3;
+        H5Sclose(sp);
+        H5Dclose(dr);
+    }
+    rt = malloc((nr + 1) * 3 * sizeof *rt);
+    ru = malloc((nr + 1) * 3 * sizeof *ru);
+    dlca_row *rows = realloc(s->rows, (nr + 1) * sizeof *rows);
+    if (!rt || !ru || !rows) {
+        rc = PDLA_ENOMEM;
+        snprintf(why, sizeof why, "out of memory");
+        goto done;
+    }
+    s->rows = rows;
+    s->caprows = nr + 1;
+    if (ck_read(f, "rows_f64", H5T_NATIVE_DOUBLE, rt, 3 * nr) || ck_read(f, "rows_u64", H5T_NATIVE_UINT64, ru, 3 * nr)) {
+        snprintf(why, sizeof why, "its series is damaged");
+        goto done;
+    }
+    for (size_t r = 0; r < nr; r++)
+        s->rows[r] = (dlca_row){rt[3 * r], ru[3 * r], ru[3 * r + 1], ru[3 * r + 2], rt[3 * r + 1], rt[3 * r + 2]};
+    s->nrows = nr;
+    /* The search structures from the state. */
+    if (p.search != DLCA_SEARCH_LATTICE) {
+        free(s->grid);
+        s->grid = NULL;
+        s->brange = malloc((N + 1) * 2 * (size_t)d * sizeof *s->brange);
+        if (!s->brange) {
+            rc = PDLA_ENOMEM;
+            snprintf(why, sizeof why, "out of memory");
+            goto done;
+        }
+        s->search_now = (int)u[CK_U_SEARCH];
+        s->A = (int)u[CK_U_A];
+        if (s->search_now == DLCA_SEARCH_BOXES && boxes_build(s)) {
+            rc = PDLA_ENOMEM;
+            snprintf(why, sizeof why, "out of memory");
+            goto done;
+        }
+    } else s->search_now = DLCA_SEARCH_LATTICE;
+    char cerr[160];
+    if (dlca_check(s, cerr, sizeof cerr)) {
+        snprintf(why, sizeof why, "its state is inconsistent: %s", cerr);
+        goto done;
+    }
+    rc = 0;
+done:
+    if (f >= 0) H5Fclose(f);
+    h5u_restore(&q);
+    free(slot_n), free(k), free(off), free(one), free(rt), free(ru);
+    if (rc) {
+        dlca_destroy(s);
+        if (err && errlen) snprintf(err, errlen, "cannot resume from %s: %s", path, why);
+        return rc;
+    }
+    *out = s;
+    return 0;
+}
+
+int dlca_set_stops(dlca_sim *s, uint64_t until_clusters, double until_time, uint64_t max_attempts)
+{
+    s->p.until_clusters = until_clusters;
+    s->p.until_time = until_time;
+    s->p.max_attempts = max_attempts;
+    if (s->stop != DLCA_STOP_SPANNING) s->stop = 0;
+    return check_stop(s);
+}

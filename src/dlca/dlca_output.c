@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dlca_h5.h"
 #include "h5util.h"
 #include "pdla/dlca.h"
 #include "provenance.h"
@@ -70,7 +71,7 @@ static int write_1d(const h5u_writer *w, hid_t g, const char *name, hid_t ftype,
     return h5u_close(w, rc, d, H5Dclose, name);
 }
 
-static int write_parameters(const h5u_writer *w, hid_t file, const dlca_params *p)
+int dlca_write_parameters_h5(const h5u_writer *w, hid_t file, const dlca_params *p)
 {
     hid_t g = h5u_group(w, file, "parameters");
     if (g < 0) return -1;
@@ -97,6 +98,47 @@ static int write_parameters(const h5u_writer *w, hid_t file, const dlca_params *
         }
     }
     return h5u_close(w, rc < 0 ? -1 : 0, g, H5Gclose, "/parameters");
+}
+
+int dlca_read_parameters_h5(hid_t file, dlca_params *p)
+{
+    const hid_t g = H5Gopen2(file, "parameters", H5P_DEFAULT);
+    if (g < 0) return -1;
+    size_t n;
+    const dlca_param_desc *t = dlca_param_table(&n);
+    int rc = 0;
+    for (size_t i = 0; i < n && rc == 0; i++) {
+        char name[64], text[128];
+        snprintf(name, sizeof name, "%s", t[i].name);
+        for (char *c = name; *c; c++)
+            if (*c == '-') *c = '_';
+        const hid_t a = H5Aopen(g, name, H5P_DEFAULT);
+        if (a < 0) {
+            rc = -1;
+            break;
+        }
+        char *f = (char *)p + t[i].offset;
+        if (t[i].type == DLCA_T_INT) rc = H5Aread(a, H5T_NATIVE_INT, f) < 0 ? -1 : 0;
+        else if (t[i].type == DLCA_T_U64) rc = H5Aread(a, H5T_NATIVE_UINT64, f) < 0 ? -1 : 0;
+        else if (t[i].type == DLCA_T_F64) rc = H5Aread(a, H5T_NATIVE_DOUBLE, f) < 0 ? -1 : 0;
+        else if (t[i].type == DLCA_T_SEARCH) {
+            const hid_t ty = H5Aget_type(a);
+            memset(text, 0, sizeof text);
+            if (ty < 0 || H5Tis_variable_str(ty) || H5Tget_size(ty) >= sizeof text || H5Aread(a, ty, text) < 0 ||
+                dlca_param_set(p, &t[i], text, NULL, 0))
+                rc = -1;
+            if (ty >= 0) H5Tclose(ty);
+        } else {
+            const hid_t sp = H5Aget_space(a);
+            uint64_t L[DLCA_MAX_DIM] = {0};
+            if (sp < 0 || H5Sget_simple_extent_npoints(sp) != p->dim || H5Aread(a, H5T_NATIVE_UINT64, L) < 0) rc = -1;
+            for (int j = 0; j < DLCA_MAX_DIM; j++) ((uint32_t *)f)[j] = j < p->dim ? (uint32_t)L[j] : 0;
+            if (sp >= 0) H5Sclose(sp);
+        }
+        H5Aclose(a);
+    }
+    H5Gclose(g);
+    return rc == 0 && dlca_params_validate(p, NULL, 0) == 0 ? 0 : -1;
 }
 
 /* The columns of the series, one dataset each. */
@@ -166,7 +208,7 @@ int dlca_write_h5(const dlca_sim *s, const char *path, const char *command_line,
     (void)prov_collect(&pv);
     if ((file = h5u_create_file(&w, path)) < 0) goto done;
     if (h5u_attr_str(&w, file, "model", "dlca") < 0 || h5u_attr_int(&w, file, "format_version", 1) < 0 ||
-        write_parameters(&w, file, p) < 0 || write_series(&w, file, s) < 0)
+        dlca_write_parameters_h5(&w, file, p) < 0 || write_series(&w, file, s) < 0)
         goto done;
     if ((g = h5u_group(&w, file, "results")) < 0) goto done;
     if (h5u_attr_f64(&w, g, "t", st.t) < 0 || h5u_attr_u64(&w, g, "attempts", st.attempts) < 0 ||

@@ -9,6 +9,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "check.h"
 #include "dlca/dlca_internal.h"
@@ -297,12 +298,78 @@ static void determinism(void)
     CHECK(dg[0] != dg[2], "different seeds, same history");
 }
 
+/* A run stopped half way, written, loaded and run on ends exactly where the
+ * straight run ends (every search, size-dependent mobility, p < 1). */
+static void resume(int search)
+{
+    dlca_params p;
+    dlca_params_default(&p);
+    const uint32_t L[2] = {64, 48};
+    set_box(&p, 2, L);
+    p.fill = 0.04;
+    p.mobility = -0.5;
+    p.sticking = 0.7;
+    p.search = search;
+    p.seed = 11;
+    p.until_clusters = 5;
+    char err[512], path[] = "/tmp/pdla-dlca-ckpt-XXXXXX";
+    const int fd = mkstemp(path);
+    if (fd < 0) return;
+    close(fd);
+    unlink(path);
+    dlca_sim *a = NULL, *b = NULL, *c = NULL;
+    if (dlca_create(&a, &p, err, sizeof err) || dlca_create(&b, &p, err, sizeof err)) {
+        CHECK(0, "%s", err);
+        goto done;
+    }
+    dlca_run(a, 0);
+    dlca_stats s0;
+    dlca_get_stats(a, &s0);
+    CHECK(dlca_run(b, s0.attempts / 2) == DLCA_RUNNING && s0.attempts > 1000, "%s: no half-way point (%llu attempts)",
+          dlca_search_name(search), (unsigned long long)s0.attempts);
+    CHECK(dlca_checkpoint_write(b, path, err, sizeof err) == 0, "write: %s", err);
+    CHECK(dlca_checkpoint_load(&c, path, err, sizeof err) == 0, "load: %s", err);
+    if (!c) goto done;
+    dlca_run(c, 0);
+    dlca_stats sa, sc;
+    dlca_get_stats(a, &sa);
+    dlca_get_stats(c, &sc);
+    CHECK(sa.digest == sc.digest && sa.t == sc.t && sa.attempts == sc.attempts && sa.n_clusters == sc.n_clusters,
+          "%s: resumed run differs (attempts %llu vs %llu)", dlca_search_name(search),
+          (unsigned long long)sa.attempts, (unsigned long long)sc.attempts);
+    size_t na, nc;
+    const dlca_row *ra = dlca_series(a, &na), *rc = dlca_series(c, &nc);
+    CHECK(na == nc && memcmp(ra, rc, na * sizeof *ra) == 0, "%s: series differ (%zu vs %zu rows)",
+          dlca_search_name(search), na, nc);
+    uint32_t *ea = malloc(sa.n_monomers * 2 * sizeof *ea), *ec = malloc(sa.n_monomers * 2 * sizeof *ec);
+    dlca_export_sites(a, ea, ea + sa.n_monomers);
+    dlca_export_sites(c, ec, ec + sa.n_monomers);
+    CHECK(memcmp(ea, ec, sa.n_monomers * 2 * sizeof *ea) == 0, "%s: final sites differ", dlca_search_name(search));
+    free(ea), free(ec);
+    /* A file that is not a checkpoint is refused in one line. */
+    FILE *f = fopen(path, "w");
+    if (f) {
+        fputs("not hdf5\n", f);
+        fclose(f);
+        dlca_sim *x = NULL;
+        err[0] = '\0';
+        CHECK(dlca_checkpoint_load(&x, path, err, sizeof err) == PDLA_EIO && !x && err[0] && !strchr(err, '\n'),
+              "a text file loaded as a checkpoint: '%s'", err);
+    }
+done:
+    unlink(path);
+    dlca_destroy(a);
+    dlca_destroy(b);
+    dlca_destroy(c);
+}
+
 int main(void)
 {
     static const uint32_t L2[] = {40, 36}, L3[] = {24, 20, 18}, L4[] = {16, 14, 15, 13}, L5[] = {10, 9, 11, 10, 9};
     static const uint32_t E2[] = {7, 5}, E3[] = {5, 4, 6}, E4[] = {4, 5, 4, 4}, E5[] = {4, 5, 4, 4, 5};
     const uint32_t *Ls[] = {L2, L3, L4, L5}, *Es[] = {E2, E3, E4, E5};
     refusals();
+    for (int m = 0; m < 3; m++) resume(m);
     two_site_axis();
     determinism();
     for (int d = 2; d <= 5; d++) {

@@ -60,6 +60,19 @@ for s in lattice boxes allpairs; do
 done
 [ ! -e "$d/.cluster.h5.new" ] || fail "temporary file left behind"
 
+# Checkpoint half way, resume to the end: the same history as one run.
+c="$tmp/ck"
+"$pdla" --model dlca --box 64x48 --fill 0.05 --until-clusters 40 --seed 3 --out "$c" --checkpoint -q ||
+    fail "--checkpoint run"
+[ -f "$c/checkpoint.h5" ] || fail "no checkpoint.h5"
+"$pdla" --model dlca --resume "$c/checkpoint.h5" --until-clusters 10 -q || fail "--resume"
+"$pdla" info "$c/cluster.h5" >"$tmp/info3"
+[ "$(digest "$tmp/info3")" = "$dg" ] || fail "resumed: history digest $(digest "$tmp/info3") != $dg"
+"$pdla" --model dlca --resume "$c/checkpoint.h5" --seed 5 >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] && [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "--resume with --seed: $(cat "$tmp/err")"
+"$pdla" --model dlca --resume "$d/cluster.h5" >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] && [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "--resume from a cluster.h5: $(cat "$tmp/err")"
+
 cat >"$tmp/scene" <<EOS
 # a DLCA scene
 model = dlca

@@ -320,11 +320,15 @@ static void remove_active(dlca_sim *s, uint32_t c)
     s->cl[last].act = j;
 }
 
-static void size_changed(dlca_sim *s, uint64_t from, uint64_t to)
+/* Sizes a and b joined: the count per size, and the smallest size present
+ * (the mobility bound for gamma < 0). The new size is counted before the
+ * smallest is searched, so the search stops at it at the latest. */
+static void sizes_joined(dlca_sim *s, uint64_t a, uint64_t b)
 {
     if (!s->size_count) return;
-    if (from) s->size_count[from]--;
-    if (to) s->size_count[to]++;
+    s->size_count[a + b]++;
+    s->size_count[a]--;
+    s->size_count[b]--;
     while (s->smin < s->N && s->size_count[s->smin] == 0) s->smin++;
 }
 
@@ -370,9 +374,7 @@ static uint32_t join(dlca_sim *s, uint32_t c, uint32_t b, const int64_t *disp_in
         if (s->grid) s->grid[G->k[j]] = keep;
     }
     s->sum_s2 += 2.0 * (double)K->n * (double)G->n;
-    size_changed(s, K->n, 0);
-    size_changed(s, G->n, 0);
-    size_changed(s, 0, n);
+    sizes_joined(s, K->n, G->n);
     K->n = n;
     G->n = 0;
     free(G->k);
@@ -1016,6 +1018,12 @@ int dlca_check(const dlca_sim *s, char *err, size_t errlen)
     if (active != s->nc) BAD("%llu clusters hold monomers, N_c says %llu", (unsigned long long)active, (unsigned long long)s->nc);
     if (largest != s->largest) BAD("largest cluster %llu, recorded %llu", (unsigned long long)largest, (unsigned long long)s->largest);
     if (s2 != s->sum_s2) BAD("sum of s^2 %.0f, recorded %.0f", s2, s->sum_s2);
+    if (s->size_count) {
+        uint64_t smin = s->N;
+        for (uint64_t j = 0; j < s->nc; j++)
+            if (s->cl[s->act[j]].n < smin) smin = s->cl[s->act[j]].n;
+        if (smin != s->smin) BAD("smallest cluster %llu, recorded %llu", (unsigned long long)smin, (unsigned long long)s->smin);
+    }
     qsort(ks, m, sizeof *ks, cmp_u64);
     for (uint64_t j = 1; j < m; j++)
         if (ks[j] >> 32 == ks[j - 1] >> 32) BAD("two monomers on site %llu", (unsigned long long)(ks[j] >> 32));
@@ -1045,7 +1053,7 @@ int dlca_check(const dlca_sim *s, char *err, size_t errlen)
                         (unsigned long long)(ks[lo] & 0xffffffffu));
             }
         }
-    if (s->search_now == DLCA_SEARCH_BOXES) {
+    if (s->search_now == DLCA_SEARCH_BOXES && !s->spanning) { /* a spanning join stops the bookkeeping */
         uint64_t listed = 0, expect = 0;
         for (uint64_t b = 0; b < s->nboxes; b++) listed += s->box_n[b];
         for (uint64_t j = 0; j < s->nc; j++) {

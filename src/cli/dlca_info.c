@@ -22,8 +22,11 @@ int dlca_info_is_dlca(const char *path)
         if (H5Aexists(f, "model") > 0) {
             const hid_t a = H5Aopen(f, "model", H5P_DEFAULT);
             const hid_t t = a >= 0 ? H5Aget_type(a) : -1;
+            const hid_t sp = a >= 0 ? H5Aget_space(a) : -1;
+            const int one = sp >= 0 && H5Sget_simple_extent_npoints(sp) == 1; /* buf holds one string */
+            if (sp >= 0) H5Sclose(sp);
             char buf[16] = "";
-            if (t >= 0 && H5Tget_class(t) == H5T_STRING && !H5Tis_variable_str(t) && H5Tget_size(t) < sizeof buf) {
+            if (t >= 0 && one && H5Tget_class(t) == H5T_STRING && !H5Tis_variable_str(t) && H5Tget_size(t) < sizeof buf) {
                 const hid_t mt = H5Tcopy(t);
                 if (mt >= 0 && H5Aread(a, mt, buf) >= 0) yes = strncmp(buf, "dlca", 4) == 0;
                 if (mt >= 0) H5Tclose(mt);
@@ -59,8 +62,16 @@ static herr_t print_attr(hid_t loc, const char *name, const H5A_info_t *info, vo
     if (cls == H5T_STRING) {
         char buf[4096] = "";
         const hid_t mt = H5Tcopy(t);
-        if (!H5Tis_variable_str(t) && H5Tget_size(t) < sizeof buf && H5Aread(a, mt, buf) >= 0)
-            fprintf(c->o, c->json ? "\"%s\"" : "%s", buf);
+        if (n == 1 && !H5Tis_variable_str(t) && H5Tget_size(t) < sizeof buf && H5Aread(a, mt, buf) >= 0) {
+            if (c->json) { /* escaped: a file's strings are not trusted */
+                fputc('"', c->o);
+                for (const unsigned char *q = (const unsigned char *)buf; *q; q++)
+                    if (*q == '"' || *q == '\\') fprintf(c->o, "\\%c", *q);
+                    else if (*q < 0x20) fprintf(c->o, "\\u%04x", *q);
+                    else fputc(*q, c->o);
+                fputc('"', c->o);
+            } else fputs(buf, c->o);
+        } else if (c->json) fputs("null", c->o);
         H5Tclose(mt);
     } else if (cls == H5T_INTEGER && n >= 1 && n <= 8) {
         /* Integers exactly (a u64 digest does not survive a double). */
@@ -85,6 +96,7 @@ static herr_t print_attr(hid_t loc, const char *name, const H5A_info_t *info, vo
         }
         if (n > 1) fputs(c->json ? "]" : "", c->o);
     }
+    else if (cls != H5T_STRING && !(n >= 1 && n <= 8) && c->json) fputs("null", c->o);
     if (!c->json) fputc('\n', c->o);
     H5Sclose(sp);
     H5Tclose(t);
@@ -123,7 +135,7 @@ int dlca_info_main(const char *path, int json)
     }
     FILE *o = stdout;
     int rc = 0;
-    if (json) fprintf(o, "{\n  \"file\": \"%s\",\n  \"model\": \"dlca\",\n  \"series_rows\": %lld,\n", path, rows);
+    if (json) fprintf(o, "{\n  \"model\": \"dlca\",\n  \"series_rows\": %lld,\n", rows);
     else fprintf(o, "%s: model dlca, %lld series rows\n", path, rows);
     if (print_group(o, f, "parameters", json, 0) || print_group(o, f, "results", json, 0) ||
         print_group(o, f, "Code", json, 1)) {

@@ -40,6 +40,8 @@ static void on_signal(int sig) { stop_signal = sig; }
 /* Is `--model dlca` asked for, on the command line or by the scene? */
 static int scene_is_dlca(const char *path)
 {
+    struct stat st; /* a FIFO or device would block or never end */
+    if (stat(path, &st) || !S_ISREG(st.st_mode)) return 0;
     FILE *f = fopen(path, "r");
     if (!f) return 0;
     char line[1024];
@@ -131,6 +133,11 @@ static int set_key(dlca_cli *c, const char *key, const char *val, char *err, siz
 /* Scene: KEY = VALUE lines; '#' comments. The strings are kept (out). */
 static int read_scene(dlca_cli *c, const char *path, char **keep, char *err, size_t errlen)
 {
+    struct stat st;
+    if (stat(path, &st) || !S_ISREG(st.st_mode)) {
+        snprintf(err, errlen, "cannot read scene '%s': not a regular file", path);
+        return -1;
+    }
     FILE *f = fopen(path, "r");
     if (!f) {
         snprintf(err, errlen, "cannot read scene '%s': %s", path, strerror(errno));

@@ -7,11 +7,14 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "dlca_cmd.h"
 
 int dlca_info_is_dlca(const char *path)
 {
+    struct stat st; /* never open a FIFO or device: HDF5 would block on it */
+    if (stat(path, &st) || !S_ISREG(st.st_mode)) return 0;
     H5E_auto2_t fn;
     void *data;
     H5Eget_auto2(H5E_DEFAULT, &fn, &data);

@@ -545,6 +545,7 @@ int main(int argc, char **argv)
     if (argc > 1 && strcmp(argv[1], "info") == 0) return tool_info(argc - 1, argv + 1);
     if (argc > 1 && strcmp(argv[1], "render") == 0) return tool_render(argc - 1, argv + 1);
     if (argc > 1 && strcmp(argv[1], "analyze") == 0) return tool_analyze(argc - 1, argv + 1);
+    if (argc > 1 && strcmp(argv[1], "export") == 0) return tool_export(argc - 1, argv + 1);
 
     const double t0 = wall_now();
     char *cmd = command_line(argc, argv); /* before getopt reorders argv */

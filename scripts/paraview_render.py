@@ -61,6 +61,7 @@ else:
 if not flat and not a.no_ssao:
     view.UseAmbientOcclusion = 1
 
+Render(view)  # paraview.simple resets the camera on a view's first render
 view.ResetCamera()
 cam = view.GetActiveCamera()
 if not flat:
@@ -68,7 +69,7 @@ if not flat:
     cam.Azimuth(a.azimuth)
     cam.OrthogonalizeViewUp()
 view.ResetCamera()
-cam.Zoom(1.5)
+cam.Zoom(1.1 if flat else 1.3)
 Render(view)
 tmp = "%s.tmp.%d.png" % (a.output, os.getpid())
 try:

@@ -55,7 +55,6 @@
 #include "pdla/pdla.h"
 #include "h5util.h"
 #include "provenance.h"
-#include "xdmf.h"
 
 /* Rows per chunk of /cluster/positions: 768 KiB in 3D, which fits HDF5's
  * default 1 MiB chunk cache, and the positions are buffered to whole chunks
@@ -426,11 +425,6 @@ int pdla_output_write(const pdla_engine *e, const pdla_run_info *info, const cha
         h5u_fail_msg(&w, "written, but cannot sync directory %s: %s", dir, strerror(errno));
         goto fail;
     }
-    /* The ParaView sidecar (xdmf.h), once the file it points at is in place. */
-    const pdla_params *const pp = pdla_engine_params(e);
-    if (xdmf_write_cluster(path, pdla_engine_count(e), pp->dim, pp->resolution, pp->record_arrival,
-                           err, errlen) < 0)
-        goto fail;
     rc = PDLA_OK;
 
 fail:

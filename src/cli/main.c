@@ -28,6 +28,7 @@
 #include "pdla_config.h"
 #include "progress.h"
 #include "tools.h"
+#include "xdmf.h"
 
 enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 
@@ -536,7 +537,10 @@ static int write_cluster(const pdla_engine *e, const pdla_run_info *info, const 
         unlink(tmp);
         return -1;
     }
-    return 0;
+    /* ParaView's sidecar (src/xdmf.h), for the file under its final name. */
+    return xdmf_write_cluster(h5, pdla_engine_count(e), pdla_engine_params(e)->dim,
+                              pdla_engine_params(e)->resolution,
+                              pdla_engine_params(e)->record_arrival, why, whylen);
 }
 
 int main(int argc, char **argv)

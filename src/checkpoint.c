@@ -567,6 +567,12 @@ static hid_t open_dset(const reader *r, hid_t loc, const char *name, hid_t mtype
                 fl = 1;
         }
         if (!fl) goto out;
+        /* What is declared must be stored: a forged file may declare 2^40
+         * rows in a few KB (unwritten chunks read as fill values), and the
+         * loader sizes its memory by the declaration. Deflate expands at most
+         * about 1032:1; the checksum adds bytes, never removes them. */
+        const double need = (double)rows * (double)(rank == 2 ? cols : 1) * (double)H5Tget_size(t);
+        if (need > (double)H5Dget_storage_size(d) * (nf > 1 ? 1100.0 : 1.0)) goto out;
     }
     ok = 1;
 out:
@@ -1127,14 +1133,22 @@ static int load_file(const char *path, const pdla_params *asked, uint32_t fields
     const reader rr = {path, err, errlen}, *r = &rr;
     *out = NULL;
     if (is_tmp_name(path)) return rfail(r, "an unfinished temporary checkpoint; not loaded");
-    const int fd = open(path, O_RDONLY | O_CLOEXEC);
+    /* O_NONBLOCK: opening a FIFO for reading would wait for a writer. */
+    const int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
     if (fd < 0) return rfail(r, "cannot open: %s", strerror(errno));
     unsigned char sb[48];
     struct stat st;
-    const ssize_t got = read(fd, sb, sizeof sb);
     const int fst = fstat(fd, &st);
+    if (fst == 0 && S_ISDIR(st.st_mode)) {
+        close(fd);
+        return rfail(r, "is a directory");
+    }
+    if (fst != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        return rfail(r, "not a regular file, so not a pdla checkpoint");
+    }
+    const ssize_t got = read(fd, sb, sizeof sb);
     close(fd);
-    if (fst == 0 && S_ISDIR(st.st_mode)) return rfail(r, "is a directory");
     if (got < 8 || memcmp(sb, "\211HDF\r\n\032\n", 8) != 0)
         return rfail(r, "not an HDF5 file, so not a pdla checkpoint");
     /* HDF5 1.10 leaks its internals when it fails to open a truncated file

@@ -29,6 +29,7 @@
 
 #include "fit.h"
 #include "h5read.h"
+#include "optcheck.h"
 #include "parse.h"
 #include "tools.h"
 
@@ -178,6 +179,11 @@ int tool_analyze(int argc, char **argv)
     long v;
     opterr = 0;
     optind = 1;
+    char oerr[160];
+    if (optcheck_exact(argc, argv, longopts, "h", oerr, sizeof oerr)) {
+        fprintf(stderr, "pdla analyze: %s\n", oerr);
+        return TOOL_USAGE;
+    }
     while ((c = getopt_long(argc, argv, "h", longopts, NULL)) != -1) {
         const char *bad = NULL;
         switch (c) {

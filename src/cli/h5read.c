@@ -8,6 +8,7 @@
 #include <fcntl.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -27,6 +28,17 @@ static int fail(char *err, size_t errlen, const char *fmt, ...)
 }
 
 /* A scalar string attribute into buf; 0, or -1 if missing or not a string. */
+/* Whether attribute a holds exactly one element (scalar or 1-element
+ * array): H5Aread writes every element, and our buffers hold one. */
+static int attr_is_single(hid_t a)
+{
+    const hid_t sp = H5Aget_space(a);
+    if (sp < 0) return 0;
+    const hssize_t n = H5Sget_simple_extent_npoints(sp);
+    H5Sclose(sp);
+    return n == 1;
+}
+
 static int read_str_attr(hid_t obj, const char *name, char *buf, size_t len)
 {
     if (H5Aexists(obj, name) <= 0) return -1;
@@ -34,11 +46,12 @@ static int read_str_attr(hid_t obj, const char *name, char *buf, size_t len)
     if (a < 0) return -1;
     int rc = -1;
     const hid_t t = H5Aget_type(a);
-    if (t >= 0 && H5Tget_class(t) == H5T_STRING) {
+    if (t >= 0 && H5Tget_class(t) == H5T_STRING && attr_is_single(a)) {
         if (H5Tis_variable_str(t) > 0) {
             char *s = NULL;
-            const hid_t mt = H5Tcopy(H5T_C_S1);
-            H5Tset_size(mt, H5T_VARIABLE);
+            /* The file's own string type (ASCII or UTF-8, as h5py writes):
+             * HDF5 will not convert between character sets. */
+            const hid_t mt = H5Tcopy(t);
             if (H5Aread(a, mt, &s) >= 0 && s) {
                 snprintf(buf, len, "%s", s);
                 H5free_memory(s);
@@ -67,10 +80,44 @@ static int read_int_attr(hid_t obj, const char *name, int64_t *v)
     if (a < 0) return -1;
     const hid_t t = H5Aget_type(a);
     int rc = -1;
-    if (t >= 0 && H5Tget_class(t) == H5T_INTEGER && H5Aread(a, H5T_NATIVE_INT64, v) >= 0) rc = 0;
+    if (t >= 0 && H5Tget_class(t) == H5T_INTEGER && attr_is_single(a) &&
+        H5Aread(a, H5T_NATIVE_INT64, v) >= 0)
+        rc = 0;
     if (t >= 0) H5Tclose(t);
     H5Aclose(a);
     return rc;
+}
+
+/* Whether dataset d really stores elems elements (each esize bytes in memory)
+ * rather than merely declaring them: a file of a few KB can declare 2^61
+ * rows (chunked, nothing written), and readers must neither allocate nor
+ * loop for what is not there. Compressed data may expand; deflate's limit
+ * is about 1032:1, so filtered datasets get that much room. 0, or -1 with
+ * a one-line reason. */
+static int h5r_stored(hid_t d, uint64_t elems, size_t esize, const char *path, const char *name,
+                      char *err, size_t errlen)
+{
+    if (elems == 0) return 0;
+    if (elems > (uint64_t)(SIZE_MAX / 2) / esize || elems > (uint64_t)1 << 52)
+        return fail(err, errlen, "%s: %s declares %llu elements, more than this machine can address",
+                    path, name, (unsigned long long)elems);
+    const hid_t t = H5Dget_type(d);
+    const size_t fsize = t >= 0 ? H5Tget_size(t) : 0;
+    if (t >= 0) H5Tclose(t);
+    const hid_t dcpl = H5Dget_create_plist(d);
+    const int nfilters = dcpl >= 0 ? H5Pget_nfilters(dcpl) : -1;
+    if (dcpl >= 0) H5Pclose(dcpl);
+    if (fsize == 0 || nfilters < 0)
+        return fail(err, errlen, "%s: cannot read the layout of %s (damaged?)", path, name);
+    const uint64_t stored = H5Dget_storage_size(d);
+    const uint64_t room = nfilters > 0 ? 1100 : 1;
+    const double need = (double)elems * (double)fsize;
+    if (need > (double)stored * (double)room)
+        return fail(err, errlen,
+                    "%s: %s declares %llu elements (%.0f bytes) but the file stores only %llu bytes "
+                    "of it (damaged or not written by pdla)",
+                    path, name, (unsigned long long)elems, need, (unsigned long long)stored);
+    return 0;
 }
 
 void h5r_close(h5r_file *f)
@@ -92,6 +139,8 @@ int h5r_open(h5r_file *f, const char *path, char *err, size_t errlen)
     struct stat st;
     if (stat(path, &st) != 0) return fail(err, errlen, "cannot open %s: %s", path, strerror(errno));
     if (S_ISDIR(st.st_mode)) return fail(err, errlen, "%s is a directory, not a cluster file", path);
+    /* A FIFO or device would block or never end. */
+    if (!S_ISREG(st.st_mode)) return fail(err, errlen, "%s is not a regular file, not a cluster file", path);
     const int fd = open(path, O_RDONLY | O_CLOEXEC);
     if (fd < 0) return fail(err, errlen, "cannot open %s: %s", path, strerror(errno));
     close(fd);
@@ -140,6 +189,11 @@ int h5r_open(h5r_file *f, const char *path, char *err, size_t errlen)
     }
     f->n = dims[0];
     f->dim = (int)dims[1];
+    if (h5r_stored(f->dset, f->n * (uint64_t)f->dim, sizeof(int32_t), path, "/cluster/positions", err,
+                   errlen)) {
+        h5r_close(f);
+        return -1;
+    }
 
     /* Cross-check the declared dimension when /parameters has one. */
     if (H5Lexists(f->file, "/parameters", H5P_DEFAULT) > 0) {
@@ -148,7 +202,8 @@ int h5r_open(h5r_file *f, const char *path, char *err, size_t errlen)
             int64_t pd = 0;
             const int have = read_int_attr(g, "dim", &pd) == 0;
             int64_t res = 0;
-            if (read_int_attr(g, "resolution", &res) == 0) f->diameter_units = (int)res;
+            if (read_int_attr(g, "resolution", &res) == 0)
+                f->diameter_units = res >= 1 && res <= 1 << 20 ? (int)res : -1;
             H5Oclose(g);
             if (have && pd != f->dim) {
                 h5r_close(f);
@@ -158,7 +213,9 @@ int h5r_open(h5r_file *f, const char *path, char *err, size_t errlen)
             }
         }
     }
-    if (read_int_attr(f->dset, "diameter_units", &v) == 0) f->diameter_units = (int)v;
+    /* Range-check the 64-bit value before narrowing: 2^32 + 32 is not 32. */
+    if (read_int_attr(f->dset, "diameter_units", &v) == 0)
+        f->diameter_units = v >= 1 && v <= 1 << 20 ? (int)v : -1;
     if (f->diameter_units < 1 || f->diameter_units > 1 << 20) {
         h5r_close(f);
         return fail(err, errlen, "%s: no valid diameter_units attribute on /cluster/positions", path);
@@ -202,8 +259,13 @@ static int read_1d(h5r_file *f, const char *name, hid_t mt, size_t esize, void *
 {
     *out = NULL;
     *k = 0;
-    if (H5Lexists(f->file, "/gyration", H5P_DEFAULT) <= 0 || H5Lexists(f->file, name, H5P_DEFAULT) <= 0)
-        return 0;
+    /* Absent: no series. A link that cannot be followed is damage, not absence. */
+    const htri_t hg = H5Lexists(f->file, "/gyration", H5P_DEFAULT);
+    const htri_t hn = hg > 0 ? H5Lexists(f->file, name, H5P_DEFAULT) : 0;
+    if (hg < 0 || hn < 0 || (hg > 0 && H5Oexists_by_name(f->file, "/gyration", H5P_DEFAULT) <= 0) ||
+        (hn > 0 && H5Oexists_by_name(f->file, name, H5P_DEFAULT) <= 0))
+        return fail(err, errlen, "%s: cannot follow the link to %s (damaged?)", f->path, name);
+    if (hn <= 0) return 0;
     const hid_t d = H5Dopen2(f->file, name, H5P_DEFAULT);
     if (d < 0) return fail(err, errlen, "%s: cannot open %s", f->path, name);
     const hid_t s = H5Dget_space(d);
@@ -211,6 +273,8 @@ static int read_1d(h5r_file *f, const char *name, hid_t mt, size_t esize, void *
     int rc = 0;
     if (s < 0 || H5Sget_simple_extent_ndims(s) != 1 || H5Sget_simple_extent_dims(s, dims, NULL) != 1) {
         rc = fail(err, errlen, "%s: %s is not one-dimensional", f->path, name);
+    } else if (dims[0] > 0 && h5r_stored(d, dims[0], esize, f->path, name, err, errlen)) {
+        rc = -1;
     } else if (dims[0] > 0) {
         void *buf = malloc((size_t)dims[0] * esize);
         if (!buf) rc = fail(err, errlen, "out of memory reading %s", name);

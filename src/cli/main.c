@@ -11,7 +11,9 @@
  * cluster is written, then pdla ends by the same signal so that shells and
  * loops see an interrupted command (status 130/143).
  */
+#include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <inttypes.h>
 #include <math.h>
 #include <signal.h>
@@ -23,10 +25,13 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <hdf5.h>
+
 #include "parse.h"
 #include "pdla/pdla.h"
 #include "pdla_config.h"
 #include "progress.h"
+#include "h5read.h"
 #include "tools.h"
 #include "xdmf.h"
 
@@ -131,6 +136,60 @@ static char *command_line(int argc, char **argv)
 
 /* ---- the run directory ------------------------------------------------- */
 
+/* The longest run directory name: the checkpoint writer and loader take
+ * names of at most 4000 bytes, and the longest name pdla makes in the
+ * directory, ".cluster.h5.new.tmp.<pid>" or ".checkpoint.h5.tmp.<pid>", must
+ * still fit the 4096 bytes of PATH_MAX. Checked at the start, so that no
+ * write fails late, after growth, for a name known from the start. */
+enum { RUN_DIR_MAX = 4000 };
+
+/* Whether dir takes new files: a file is made and removed again, since
+ * access() cannot see an immutable directory or a read-only mount for root.
+ * 0, or an errno. */
+static int probe_writable(const char *dir)
+{
+    char p[4200];
+    snprintf(p, sizeof p, "%s/.pdla-probe.%ld", dir, (long)getpid());
+    const int fd = open(p, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd < 0) return errno;
+    close(fd);
+    return unlink(p) == 0 ? 0 : errno;
+}
+
+/* Removes what an earlier pdla in dir left behind when it was killed while
+ * writing cluster.h5 or summary.txt (kill -9, a second SIGINT): only names
+ * pdla makes, and only while we hold the directory's lock, so no live
+ * writer can own them. */
+static void remove_stale_outputs(const char *dir)
+{
+    static const char *const prefixes[] = {"cluster.h5.tmp.", ".cluster.h5.new", "summary.txt.tmp."};
+    DIR *d = opendir(dir);
+    if (!d) return;
+    const struct dirent *de;
+    char p[4400];
+    while ((de = readdir(d)))
+        for (size_t i = 0; i < sizeof prefixes / sizeof prefixes[0]; i++)
+            if (!strncmp(de->d_name, prefixes[i], strlen(prefixes[i]))) {
+                snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
+                unlink(p);
+                break;
+            }
+    closedir(d);
+}
+
+/* A new run written with --force into a directory that holds another run's
+ * checkpoints: those would let a later --resume grow the old run and replace
+ * the new cluster.h5 with it, so they go (the new run writes its own). */
+static void remove_old_checkpoints(const char *dir)
+{
+    char p[4200];
+    for (int k = 0; k < PDLA_CHECKPOINT_GENERATIONS; k++) {
+        if (k == 0) snprintf(p, sizeof p, "%s/%s", dir, PDLA_CHECKPOINT_NAME);
+        else snprintf(p, sizeof p, "%s/checkpoint.%d.h5", dir, k);
+        unlink(p);
+    }
+}
+
 /* mkdir -p: make every missing directory of path. 0 or an errno. */
 static int mkdir_p(const char *path)
 {
@@ -200,8 +259,9 @@ static int make_run_dir(const cli_options *o, char *dir, size_t dirlen, int *cre
     }
 
     const int n = snprintf(dir, dirlen, "%s", o->out_dir);
-    if (n < 0 || (size_t)n >= dirlen) {
-        fprintf(stderr, "pdla: run directory name is too long\n");
+    if (n < 0 || (size_t)n >= dirlen || n > RUN_DIR_MAX) {
+        fprintf(stderr, "pdla: run directory name is too long (%zu bytes; at most %d)\n",
+                strlen(o->out_dir), RUN_DIR_MAX);
         return EXIT_USAGE;
     }
     /* "DIR/" names DIR: drop trailing slashes so file paths read DIR/x. */
@@ -238,8 +298,9 @@ static int make_run_dir(const cli_options *o, char *dir, size_t dirlen, int *cre
         fprintf(stderr, "pdla: '%s' exists and is not a directory\n", dir);
         return EXIT_USAGE;
     }
-    if (access(dir, W_OK | X_OK)) {
-        fprintf(stderr, "pdla: run directory '%s' is not writable: %s\n", dir, strerror(errno));
+    const int we = probe_writable(dir);
+    if (we) {
+        fprintf(stderr, "pdla: run directory '%s' is not writable: %s\n", dir, strerror(we));
         return EXIT_USAGE;
     }
     return 0;
@@ -291,7 +352,7 @@ static int on_progress(const pdla_engine *e, void *user)
         if (t - c->last_stop_check >= 1.0) { /* a stat() a second, not per particle */
             c->last_stop_check = t;
             struct stat st;
-            if (stat(c->stop_path, &st) == 0) {
+            if (stat(c->stop_path, &st) == 0 && !S_ISDIR(st.st_mode)) { /* a directory cannot be removed once honoured */
                 c->reason = STOP_FILE;
                 c->t_stop = t;
                 return 1;
@@ -314,7 +375,7 @@ static int do_checkpoint(pdla_engine *e, grow_ctx *c, double pause, char *why, s
 {
     const pdla_checkpoint_opts co = {c->o->checkpoint_compress, c->command, pause};
     pdla_checkpoint_info info;
-    char err[1200];
+    char err[4600];
     const int rc = pdla_checkpoint_write(e, c->dir, &co, &info, err, sizeof err);
     schedule_checkpoints(c, e);
     if (rc != PDLA_OK) {
@@ -516,7 +577,7 @@ static int close_checked(FILE *f, const char *path, char *why, size_t whylen)
 static int write_cluster(const pdla_engine *e, const pdla_run_info *info, const char *h5,
                          const char *dir, char *why, size_t whylen)
 {
-    char err[512];
+    char err[4600];
     char tmp[4200];
     const int exists = access(h5, F_OK) == 0;
     const char *target = h5;
@@ -545,6 +606,14 @@ static int write_cluster(const pdla_engine *e, const pdla_run_info *info, const 
 
 int main(int argc, char **argv)
 {
+    /* HDF5 1.10 frees a file whose close failed (a write-back hit a full
+     * disk or an I/O error) but keeps its id, and its own exit handler then
+     * closes that id again and crashes (H5F__close_cb; HDFFV-11052). Every
+     * file pdla opens is closed explicitly before it exits, so HDF5's exit
+     * handler has nothing else to do: without it a failed close ends with
+     * our one-line message and exit 1 instead of a segfault. Must come
+     * before the first HDF5 call. */
+    H5dont_atexit();
     /* Subcommands that read a cluster file (tools.h). */
     if (argc > 1 && strcmp(argv[1], "info") == 0) return tool_info(argc - 1, argv + 1);
     if (argc > 1 && strcmp(argv[1], "render") == 0) return tool_render(argc - 1, argv + 1);
@@ -617,6 +686,12 @@ int main(int argc, char **argv)
             else slash[slash == dir ? 1 : 0] = '\0';
         }
         for (size_t len = strlen(dir); len > 1 && dir[len - 1] == '/';) dir[--len] = '\0';
+        if (strlen(o.resume) > RUN_DIR_MAX) {
+            fprintf(stderr, "pdla: cannot resume: the checkpoint path is too long (%zu bytes; at most %d)\n",
+                    strlen(o.resume), RUN_DIR_MAX);
+            free(cmd);
+            return EXIT_USAGE;
+        }
         /* Lock first, so no other pdla writes while we read; the lock
          * creates nothing, so a refused resume leaves the disk as it was. */
         if (pdla_rundir_lock(dir, &lock, err, sizeof err) != PDLA_OK) {
@@ -631,10 +706,24 @@ int main(int argc, char **argv)
             free(cmd);
             return lrc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
         }
+        /* Writability now, not after growth: a resume writes checkpoints,
+         * cluster.h5 and summary.txt there. (After the load, so that a
+         * resume refused for its checkpoint or parameters touches nothing,
+         * not even the directory's mtime.) */
+        const int we = probe_writable(dir);
+        if (we) {
+            fprintf(stderr, "pdla: cannot resume: run directory '%s' is not writable: %s\n", dir,
+                    strerror(we));
+            pdla_engine_destroy(eng);
+            pdla_rundir_unlock(lock);
+            free(cmd);
+            return EXIT_USAGE;
+        }
         if (loaded.note[0])
             fprintf(stderr, "pdla: note: %s; resuming from %s (generation %" PRIu64 ")\n", loaded.note,
                     loaded.path, loaded.generation);
         pdla_checkpoint_remove_stale(dir);
+        remove_stale_outputs(dir);
     } else {
         int rc = pdla_engine_create(&eng, &o.params, err, sizeof err);
         if (rc != PDLA_OK) {
@@ -651,13 +740,16 @@ int main(int argc, char **argv)
                 return drc;
             }
             if (pdla_rundir_lock(dir, &lock, err, sizeof err) != PDLA_OK) {
+                /* Not removed even if we made it: the pdla that holds the
+                 * lock (a --force run that found it there) writes into it. */
                 fprintf(stderr, "pdla: %s\n", err);
-                if (created) rmdir(dir);
                 pdla_engine_destroy(eng);
                 free(cmd);
                 return EXIT_USAGE;
             }
-            if (o.checkpoint) pdla_checkpoint_remove_stale(dir);
+            pdla_checkpoint_remove_stale(dir);
+            remove_stale_outputs(dir);
+            if (!created) remove_old_checkpoints(dir);
         }
     }
     FILE *json = NULL;
@@ -689,7 +781,7 @@ int main(int argc, char **argv)
     snprintf(gc.stop_path, sizeof gc.stop_path, "%s/STOP", dir);
     gc.last_stop_check = wall_now();
     schedule_checkpoints(&gc, eng);
-    char ckwhy[1400] = "";
+    char ckwhy[4700] = "";
     int grc;
     for (;;) {
         gc.reason = STOP_NONE;
@@ -732,13 +824,15 @@ int main(int argc, char **argv)
     r.peak_rss = peak_rss_bytes();
 
     if (!o.no_output && !write_failed) {
-        FILE *f = fopen(txt, "w");
+        /* Beside it and renamed, as cluster.h5: a failed write (disk full)
+         * leaves the old summary.txt, or none, never a truncated one. */
+        char stmp[4300];
+        FILE *f = tools_out_open(txt, stmp, sizeof stmp, why, sizeof why);
         if (!f) {
-            snprintf(why, sizeof why, "cannot write %s: %s", txt, strerror(errno));
             write_failed = 1;
         } else {
             print_summary(f, &r, 1);
-            if (close_checked(f, txt, why, sizeof why)) write_failed = 1;
+            if (tools_out_commit(f, stmp, txt, 1, why, sizeof why)) write_failed = 1;
         }
     }
     const char *status = grc == PDLA_OK                                       ? "done"

@@ -5,6 +5,7 @@
  */
 #include "parse.h"
 #include "scene.h"
+#include "optcheck.h"
 
 #include <errno.h>
 #include <getopt.h>
@@ -490,6 +491,7 @@ static int parse_args(int argc, char **argv, cli_options *out, char *err, size_t
      * from printing. */
     optind = 0;
     opterr = 0;
+    if (optcheck_exact(argc, argv, longopts, shortopts, err, errlen)) return CLI_PARSE_ERROR;
     char v[64];
     int c;
     while ((c = getopt_long(argc, argv, shortopts, longopts, NULL)) != -1) {

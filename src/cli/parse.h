@@ -39,6 +39,7 @@ typedef struct cli_options {
     const char *scene;       /* --scene FILE (into argv), NULL: none */
     char scene_out[4096];    /* a scene's `out` and `stats-json` values live */
     char scene_stats[4096];  /* here (out_dir/stats_json point to them) */
+    char scene_resume[4096]; /* a scene's `resume` value (resume points to it) */
     /* Checkpoints (README "Checkpoints and resume"). */
     int checkpoint;          /* 1: write checkpoints (any --checkpoint* option or --resume) */
     double checkpoint_every; /* --checkpoint-every, seconds; 0: no time trigger */

@@ -28,6 +28,7 @@
 #include <string.h>
 
 #include "h5read.h"
+#include "optcheck.h"
 #include "parse.h"
 #include "tools.h"
 
@@ -160,8 +161,11 @@ static int splat_pass(const int32_t *xyz, size_t rows, uint64_t first, void *use
             deposit(c, x0 + 1, y0 + 1, ax * ay, val, depth);
         } else {
             /* A disc: coverage ~ how far a pixel centre lies inside the rim. */
-            const int x0 = (int)floor(px - c->rp - 1), x1 = (int)ceil(px + c->rp + 1);
-            const int y0 = (int)floor(py - c->rp - 1), y1 = (int)ceil(py + c->rp + 1);
+            /* Clipped to the picture, in double before narrowing: zoomed in,
+             * a disc may be far wider than the image (or lie far outside). */
+            const double last = c->size - 1;
+            const int x0 = (int)fmax(0, floor(px - c->rp - 1)), x1 = (int)fmin(last, ceil(px + c->rp + 1));
+            const int y0 = (int)fmax(0, floor(py - c->rp - 1)), y1 = (int)fmin(last, ceil(py + c->rp + 1));
             for (int y = y0; y <= y1; y++)
                 for (int x = x0; x <= x1; x++) {
                     const double dx = x + 0.5 - px, dy = y + 0.5 - py;
@@ -175,9 +179,27 @@ static int splat_pass(const int32_t *xyz, size_t rows, uint64_t first, void *use
     return 0;
 }
 
+static void png_error_fn(png_structp png, png_const_charp msg)
+{
+    char *const buf = png_get_error_ptr(png);
+    const int e = errno;
+    snprintf(buf, 160, "%s%s%s", msg, e ? ", " : "", e ? strerror(e) : "");
+    png_longjmp(png, 1);
+}
+
+static void png_warning_fn(png_structp png, png_const_charp msg)
+{
+    (void)png;
+    (void)msg;
+}
+
 static int write_png(FILE *fp, const canvas *c, char *err, size_t errlen)
 {
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
+    /* libpng's own handlers print to stderr; ours keep the message for
+     * the one line pdla prints (with errno: a failed write sets it). */
+    static char png_msg[160];
+    png_msg[0] = '\0';
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, png_msg, png_error_fn, png_warning_fn);
     png_infop info = png ? png_create_info_struct(png) : NULL;
     unsigned char *row = malloc((size_t)c->size * 3);
     if (!png || !info || !row) {
@@ -189,7 +211,7 @@ static int write_png(FILE *fp, const canvas *c, char *err, size_t errlen)
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_write_struct(&png, &info);
         free(row);
-        snprintf(err, errlen, "libpng could not write the picture");
+        snprintf(err, errlen, "libpng could not write the picture%s%s", png_msg[0] ? ": " : "", png_msg);
         return -1;
     }
     const size_t npix = (size_t)c->size * (size_t)c->size;
@@ -197,6 +219,7 @@ static int write_png(FILE *fp, const canvas *c, char *err, size_t errlen)
     for (size_t k = 0; k < npix; k++)
         if (c->w[k] > wmax) wmax = c->w[k];
     const double lnorm = wmax > 0 ? 1.0 / log1p(wmax) : 0;
+    errno = 0; /* so that a write error names its own cause */
     png_init_io(png, fp);
     png_set_IHDR(png, info, (png_uint_32)c->size, (png_uint_32)c->size, 8, PNG_COLOR_TYPE_RGB,
                  PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
@@ -246,6 +269,11 @@ int tool_render(int argc, char **argv)
     double zoom = 1;
     opterr = 0;
     optind = 1;
+    char oerr[160];
+    if (optcheck_exact(argc, argv, longopts, "ho:", oerr, sizeof oerr)) {
+        fprintf(stderr, "pdla render: %s\n", oerr);
+        return TOOL_USAGE;
+    }
     while ((c = getopt_long(argc, argv, "ho:", longopts, NULL)) != -1) {
         const char *bad = NULL;
         switch (c) {

@@ -6,10 +6,13 @@
 #include "scene.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 typedef struct scene_entry {
     char key[64];    /* normalised: '_' -> '-' */
@@ -65,6 +68,10 @@ static void keep_strings(cli_options *o, const char *buf, size_t len)
     if (o->stats_json && o->stats_json >= buf && o->stats_json < buf + len) {
         snprintf(o->scene_stats, sizeof o->scene_stats, "%s", o->stats_json);
         o->stats_json = o->scene_stats;
+    }
+    if (o->resume && o->resume >= buf && o->resume < buf + len) {
+        snprintf(o->scene_resume, sizeof o->scene_resume, "%s", o->resume);
+        o->resume = o->scene_resume;
     }
 }
 
@@ -178,6 +185,7 @@ int scene_apply_text(const char *name, const char *text, size_t len, cli_options
     /* *o was copied from tmp: repoint what pointed into tmp's own arrays. */
     if (tmp->out_dir == tmp->scene_out) o->out_dir = o->scene_out;
     if (tmp->stats_json == tmp->scene_stats) o->stats_json = o->scene_stats;
+    if (tmp->resume == tmp->scene_resume) o->resume = o->scene_resume;
 out:
     free(tmp);
     free(entries);
@@ -187,8 +195,19 @@ out:
 
 int scene_apply(const char *path, cli_options *o, char *err, size_t errlen)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) return fail(err, errlen, "cannot open scene %s: %s", path, strerror(errno));
+    /* O_NONBLOCK and a regular-file check: a FIFO would wait for a writer. */
+    const int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+    if (fd < 0) return fail(err, errlen, "cannot open scene %s: %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        return fail(err, errlen, "scene %s is not a regular file", path);
+    }
+    FILE *f = fdopen(fd, "rb");
+    if (!f) {
+        close(fd);
+        return fail(err, errlen, "cannot open scene %s: %s", path, strerror(errno));
+    }
     char *buf = malloc(SCENE_MAX_BYTES + 1);
     if (!buf) {
         fclose(f);

@@ -124,7 +124,7 @@ static const bad_case bad[] = {
     {{"--bogus", NULL}, "unknown"},
     /* A newline in a quoted name must not split the one-line error (the
      * fuzzer's find: --sc "//\xce\nF"); the test also rejects '\n'. */
-    {{"--sc", "//\xce\nF", NULL}, "scene //\xce?F"},
+    {{"--scene", "//\xce\nF", NULL}, "scene //\xce?F"},
     {{"-x", NULL}, "unknown option '-x'"},
     {{"--target", NULL}, "needs a value"},
     {{"--target", "12x", NULL}, "invalid value '12x' for --target: trailing characters"},
@@ -149,7 +149,10 @@ static const bad_case bad[] = {
     {{"--out", "", NULL}, "empty"},
     {{"--out", "--force", NULL}, "starting with '-'"},
     {{"--no-output", "--out", "x", NULL}, "exclude"},
-    {{"--t", "5", NULL}, "ambiguous"},
+    {{"--t", "5", NULL}, "unknown option '--t'"},
+    /* Long options are exact: a unique prefix is refused too (issue 10). */
+    {{"--targ", "5", NULL}, "long options are not abbreviated"},
+    {{"--no-out", NULL}, "unknown option '--no-out'"},
     {{"--target", "1\n2", NULL}, "'1?2'"},
 };
 

@@ -1,0 +1,231 @@
+/*
+ * faultshim.c - an LD_PRELOAD library for the write-fault suite (issue 10):
+ * makes the k-th write-like call on a regular file fail, as a full or
+ * broken disk would.
+ *
+ *   FAULT_AT=k      the k-th counted call fails (1-based); 0 or unset: none
+ *   FAULT_OP=write|fsync|fallocate|stdio|any   which calls are counted
+ *                   (default any). stdio: fflush and fclose of a stream
+ *                   writing a regular file - glibc's stdio writes through
+ *                   internal calls no preload can see, so a failure there is
+ *                   made by dropping the stream's buffer (__fpurge) and
+ *                   returning EOF with the error, as a failed flush does
+ *   FAULT_ERR=ENOSPC|EIO|EDQUOT|SHORT    the error; SHORT writes half the
+ *                   bytes and reports that, which a correct caller retries
+ *   FAULT_STICKY=1  every counted call after the k-th fails too (a full disk)
+ *   FAULT_COUNT=F   at exit, write the number of counted calls to file F
+ *   FAULT_FLOCK=1   flock(LOCK_NB) answers EWOULDBLOCK: another process won
+ *                   the run directory's lock (a deterministic lost race)
+ *
+ * Counted: write, pwrite, pwrite64, writev, fsync, fdatasync, fallocate,
+ * posix_fallocate - only on regular files, so stderr and pipes are left alone.
+ */
+#undef _FILE_OFFSET_BITS /* define pwrite and pwrite64 both, as libc does */
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdio_ext.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <sys/uio.h>
+#include <unistd.h>
+
+enum { OP_WRITE = 1, OP_FSYNC = 2, OP_FALLOC = 4, OP_STDIO = 8 };
+
+static atomic_long calls;
+static long fault_at = -1;
+static int ops = OP_WRITE | OP_FSYNC | OP_FALLOC | OP_STDIO, err_no = ENOSPC, shortw, sticky, inited;
+static const char *count_file;
+
+static void init(void)
+{
+    if (inited) return;
+    inited = 1;
+    const char *s = getenv("FAULT_AT");
+    fault_at = s ? atol(s) : 0;
+    if ((s = getenv("FAULT_OP"))) {
+        if (!strcmp(s, "write")) ops = OP_WRITE;
+        else if (!strcmp(s, "fsync")) ops = OP_FSYNC;
+        else if (!strcmp(s, "fallocate")) ops = OP_FALLOC;
+        else if (!strcmp(s, "stdio")) ops = OP_STDIO;
+    }
+    if ((s = getenv("FAULT_ERR"))) {
+        if (!strcmp(s, "EIO")) err_no = EIO;
+        else if (!strcmp(s, "EDQUOT")) err_no = EDQUOT;
+        else if (!strcmp(s, "SHORT")) shortw = 1;
+    }
+    sticky = (s = getenv("FAULT_STICKY")) && *s == '1';
+    count_file = getenv("FAULT_COUNT");
+}
+
+__attribute__((destructor)) static void report(void)
+{
+    if (!count_file) return;
+    FILE *f = fopen(count_file, "w");
+    if (f) {
+        fprintf(f, "%ld\n", (long)atomic_load(&calls));
+        fclose(f);
+    }
+}
+
+/* 1: this call fails (or, SHORT, is cut); 0: it goes through. */
+static int hit(int fd, int op)
+{
+    init();
+    if (!(ops & op)) return 0;
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) return 0;
+    /* Memory files (memfd_create) are not on the disk that fails. */
+    char link[64], target[32];
+    snprintf(link, sizeof link, "/proc/self/fd/%d", fd);
+    const ssize_t n = readlink(link, target, sizeof target - 1);
+    if (n > 0) {
+        target[n] = '\0';
+        if (!strncmp(target, "/memfd:", 7)) return 0;
+    }
+    const long k = atomic_fetch_add(&calls, 1) + 1;
+    if (fault_at <= 0) return 0;
+    return k == fault_at || (sticky && k > fault_at);
+}
+
+#define REAL(name, ret, ...)                                                       \
+    static ret (*real_##name)(__VA_ARGS__);                                        \
+    if (!real_##name) real_##name = (ret(*)(__VA_ARGS__))dlsym(RTLD_NEXT, #name)
+
+ssize_t write(int fd, const void *buf, size_t n)
+{
+    REAL(write, ssize_t, int, const void *, size_t);
+    if (n > 0 && hit(fd, OP_WRITE)) {
+        if (shortw && n > 1) return real_write(fd, buf, n / 2);
+        errno = shortw ? EIO : err_no;
+        return -1;
+    }
+    return real_write(fd, buf, n);
+}
+
+ssize_t pwrite(int fd, const void *buf, size_t n, off_t off)
+{
+    REAL(pwrite, ssize_t, int, const void *, size_t, off_t);
+    if (n > 0 && hit(fd, OP_WRITE)) {
+        if (shortw && n > 1) return real_pwrite(fd, buf, n / 2, off);
+        errno = shortw ? EIO : err_no;
+        return -1;
+    }
+    return real_pwrite(fd, buf, n, off);
+}
+
+ssize_t pwrite64(int fd, const void *buf, size_t n, off_t off)
+{
+    REAL(pwrite64, ssize_t, int, const void *, size_t, off_t);
+    if (n > 0 && hit(fd, OP_WRITE)) {
+        if (shortw && n > 1) return real_pwrite64(fd, buf, n / 2, off);
+        errno = shortw ? EIO : err_no;
+        return -1;
+    }
+    return real_pwrite64(fd, buf, n, off);
+}
+
+ssize_t writev(int fd, const struct iovec *iov, int cnt)
+{
+    REAL(writev, ssize_t, int, const struct iovec *, int);
+    if (cnt > 0 && hit(fd, OP_WRITE)) {
+        /* SHORT: half of the first buffer, as a partial writev may. */
+        if (shortw && iov[0].iov_len > 1) return real_writev(fd, &(struct iovec){iov[0].iov_base, iov[0].iov_len / 2}, 1);
+        errno = shortw ? EIO : err_no;
+        return -1;
+    }
+    return real_writev(fd, iov, cnt);
+}
+
+int fsync(int fd)
+{
+    REAL(fsync, int, int);
+    if (hit(fd, OP_FSYNC)) {
+        errno = shortw ? EIO : err_no;
+        return -1;
+    }
+    return real_fsync(fd);
+}
+
+int fdatasync(int fd)
+{
+    REAL(fdatasync, int, int);
+    if (hit(fd, OP_FSYNC)) {
+        errno = shortw ? EIO : err_no;
+        return -1;
+    }
+    return real_fdatasync(fd);
+}
+
+int fallocate(int fd, int mode, off_t off, off_t len)
+{
+    REAL(fallocate, int, int, int, off_t, off_t);
+    if (hit(fd, OP_FALLOC)) {
+        errno = shortw ? ENOSPC : err_no;
+        return -1;
+    }
+    return real_fallocate(fd, mode, off, len);
+}
+
+int fallocate64(int fd, int mode, off_t off, off_t len)
+{
+    REAL(fallocate64, int, int, int, off_t, off_t);
+    if (hit(fd, OP_FALLOC)) {
+        errno = shortw ? ENOSPC : err_no;
+        return -1;
+    }
+    return real_fallocate64(fd, mode, off, len);
+}
+
+int posix_fallocate(int fd, off_t off, off_t len)
+{
+    REAL(posix_fallocate, int, int, off_t, off_t);
+    if (hit(fd, OP_FALLOC)) return shortw ? ENOSPC : err_no;
+    return real_posix_fallocate(fd, off, len);
+}
+
+int posix_fallocate64(int fd, off_t off, off_t len)
+{
+    REAL(posix_fallocate64, int, int, off_t, off_t);
+    if (hit(fd, OP_FALLOC)) return shortw ? ENOSPC : err_no;
+    return real_posix_fallocate64(fd, off, len);
+}
+
+int flock(int fd, int op)
+{
+    REAL(flock, int, int, int);
+    const char *s = getenv("FAULT_FLOCK");
+    if (s && *s == '1' && (op & LOCK_NB)) {
+        errno = EWOULDBLOCK;
+        return -1;
+    }
+    return real_flock(fd, op);
+}
+
+int fflush(FILE *fp)
+{
+    REAL(fflush, int, FILE *);
+    if (fp && __fwritable(fp) && __fpending(fp) > 0 && hit(fileno(fp), OP_STDIO)) {
+        __fpurge(fp);
+        errno = shortw ? EIO : err_no;
+        return EOF;
+    }
+    return real_fflush(fp);
+}
+
+int fclose(FILE *fp)
+{
+    REAL(fclose, int, FILE *);
+    if (fp && __fwritable(fp) && __fpending(fp) > 0 && hit(fileno(fp), OP_STDIO)) {
+        __fpurge(fp);
+        real_fclose(fp);
+        errno = shortw ? EIO : err_no;
+        return EOF;
+    }
+    return real_fclose(fp);
+}

@@ -155,7 +155,7 @@ int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, siz
 
     const size_t len = strlen(xmf_path);
     char *const tmp = malloc(len + 32), *const dir = malloc(len + 2);
-    int rc = -1;
+    int rc = -1, renamed = 0;
     FILE *fp = NULL;
     if (!tmp || !dir) {
         fail(err, errlen, "out of memory for the sidecar's name");
@@ -195,12 +195,19 @@ int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, siz
         unlink(tmp);
         goto out;
     }
+    renamed = 1;
     if (h5u_fsync_dir(dir) != 0) {
         fail(err, errlen, "written, but cannot sync directory %s: %s", dir, strerror(errno));
         goto out;
     }
     rc = 0;
 out:
+    /* An older sidecar left in place would describe the previous HDF5
+     * file (another N): none is better than a stale one. */
+    if (rc < 0 && !renamed && unlink(xmf_path) != 0 && errno != ENOENT && err && errlen) {
+        const size_t used = strlen(err);
+        snprintf(err + used, errlen - used, "; the old %s is left", xmf_path);
+    }
     free(tmp);
     free(dir);
     return rc;

@@ -50,7 +50,8 @@ int xdmf_sidecar_path(const char *h5_path, char *out, size_t len);
  * renamed over xmf_path (a sidecar describes the HDF5 file just written, so
  * an older one is stale), then the folder is fsync'ed. Nothing is written
  * for n == 0 (no points to show; XDMF readers refuse empty arrays).
- * 0, or -1 with one line in err. */
+ * 0, or -1 with one line in err; a failure before the rename also removes
+ * an older xmf_path, which would describe another file. */
 int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, size_t errlen);
 
 /* The sidecar of a cluster file written by pdla_output_write (positions in

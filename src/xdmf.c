@@ -35,53 +35,88 @@ int xdmf_sidecar_path(const char *h5_path, char *out, size_t len)
     return w < 0 || (size_t)w >= len ? -1 : 0;
 }
 
+/* The sidecar's text, built in memory and written with write(2): it is a
+ * few kB, and the run's one stdio file stays summary.txt. */
+typedef struct sbuf {
+    char *p;
+    size_t n, cap;
+    int oom;
+} sbuf;
+
+static void sb_printf(sbuf *b, const char *fmt, ...)
+{
+    if (b->oom) return;
+    for (;;) {
+        va_list ap;
+        va_start(ap, fmt);
+        const int w = vsnprintf(b->p ? b->p + b->n : NULL, b->p ? b->cap - b->n : 0, fmt, ap);
+        va_end(ap);
+        if (w < 0) {
+            b->oom = 1;
+            return;
+        }
+        if (b->p && (size_t)w < b->cap - b->n) {
+            b->n += (size_t)w;
+            return;
+        }
+        const size_t cap = 2 * (b->cap + (size_t)w) + 256;
+        char *const q = realloc(b->p, cap);
+        if (!q) {
+            b->oom = 1;
+            return;
+        }
+        b->p = q;
+        b->cap = cap;
+    }
+}
+
 /* s with the XML special characters escaped (it goes into element text). */
-static void put_escaped(FILE *fp, const char *s)
+static void put_escaped(sbuf *fp, const char *s)
 {
     for (; *s; s++) {
         switch (*s) {
-        case '&': fputs("&amp;", fp); break;
-        case '<': fputs("&lt;", fp); break;
-        case '>': fputs("&gt;", fp); break;
-        case '"': fputs("&quot;", fp); break;
-        default: fputc(*s, fp);
+        case '&': sb_printf(fp, "&amp;"); break;
+        case '<': sb_printf(fp, "&lt;"); break;
+        case '>': sb_printf(fp, "&gt;"); break;
+        case '"': sb_printf(fp, "&quot;"); break;
+        default: sb_printf(fp, "%c", *s);
         }
     }
 }
 
 /* The HDF5 reference "file.h5:/dataset", file relative to the sidecar. */
-static void put_ref(FILE *fp, const char *base, const char *dataset)
+static void put_ref(sbuf *fp, const char *base, const char *dataset)
 {
     put_escaped(fp, base);
-    fputc(':', fp);
+    sb_printf(fp, ":");
     put_escaped(fp, dataset);
 }
 
 /* The whole positions dataset, converted to reals by HDF5 on reading. */
-static void put_positions(FILE *fp, const xdmf_points *p, const char *base, const char *indent)
+static void put_positions(sbuf *fp, const xdmf_points *p, const char *base, const char *indent)
 {
-    fprintf(fp, "%s<DataItem Dimensions=\"%" PRIu64 " %d\" NumberType=\"Float\" Precision=\"8\" "
+    sb_printf(fp, "%s<DataItem Dimensions=\"%" PRIu64 " %d\" NumberType=\"Float\" Precision=\"8\" "
                 "Format=\"HDF\">", indent, p->n, p->dim);
     put_ref(fp, base, p->positions);
-    fputs("</DataItem>\n", fp);
+    sb_printf(fp, "</DataItem>\n");
 }
 
 /* Column c of the positions, as an [n][1] hyperslab (start, stride, count). */
-static void put_column(FILE *fp, const xdmf_points *p, const char *base, int c)
+static void put_column(sbuf *fp, const xdmf_points *p, const char *base, int c)
 {
-    fprintf(fp, "     <DataItem ItemType=\"HyperSlab\" Type=\"HyperSlab\" Dimensions=\"%" PRIu64 " 1\">\n"
+    sb_printf(fp, "     <DataItem ItemType=\"HyperSlab\" Type=\"HyperSlab\" Dimensions=\"%" PRIu64 " 1\">\n"
                 "      <DataItem Dimensions=\"3 2\" Format=\"XML\">0 %d 1 1 %" PRIu64 " 1</DataItem>\n",
             p->n, c, p->n);
     put_positions(fp, p, base, "      ");
-    fputs("     </DataItem>\n", fp);
+    sb_printf(fp, "     </DataItem>\n");
 }
 
-static void put_body(FILE *fp, const xdmf_points *p, const char *base)
+static void put_body(sbuf *fp, const xdmf_points *p, const char *base)
 {
-    fprintf(fp, "<?xml version=\"1.0\" ?>\n"
+    sb_printf(fp, "<?xml version=\"1.0\" ?>\n"
                 "<!-- pdla: particles of ");
     put_escaped(fp, base);
-    fprintf(fp, " for ParaView's \"XDMF Reader\" (XDMF 2); positions in diameters -->\n"
+    sb_printf(fp, " for ParaView's \"XDMF Reader\" (XDMF 2); positions in diameters -->\n"
                 "<Xdmf Version=\"2.0\">\n <Domain>\n  <Grid Name=\"particles\" GridType=\"Uniform\">\n"
                 "   <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%" PRIu64
                 "\" NodesPerElement=\"1\"/>\n"
@@ -90,42 +125,42 @@ static void put_body(FILE *fp, const xdmf_points *p, const char *base)
                 " %d\">\n",
             p->n, p->dim == 3 ? "XYZ" : "XY", p->units_per_diameter, p->n, p->dim);
     put_positions(fp, p, base, "     ");
-    fputs("    </DataItem>\n   </Geometry>\n", fp);
+    sb_printf(fp, "    </DataItem>\n   </Geometry>\n");
 
     if (p->distance) {
         /* Lower-case sqrt: the XDMF 2 parser reads SQRT as no function. */
-        fprintf(fp, "   <Attribute Name=\"distance\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+        sb_printf(fp, "   <Attribute Name=\"distance\" AttributeType=\"Scalar\" Center=\"Node\">\n"
                     "    <DataItem ItemType=\"Function\" Function=\"sqrt(%s) / %d\" Dimensions=\"%" PRIu64
                     "\">\n",
                 p->dim == 3 ? "$0 * $0 + $1 * $1 + $2 * $2" : "$0 * $0 + $1 * $1",
                 p->units_per_diameter, p->n);
         for (int c = 0; c < p->dim; c++) put_column(fp, p, base, c);
-        fputs("    </DataItem>\n   </Attribute>\n", fp);
+        sb_printf(fp, "    </DataItem>\n   </Attribute>\n");
     }
     if (p->row_index) {
         /* XDMF 2 has no "range" item; WHERE over a test every row passes
          * gives the row numbers 0..n-1 in order. */
-        fputs("   <Attribute Name=\"", fp);
+        sb_printf(fp, "   <Attribute Name=\"");
         put_escaped(fp, p->row_index);
-        fprintf(fp, "\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+        sb_printf(fp, "\" AttributeType=\"Scalar\" Center=\"Node\">\n"
                     "    <DataItem ItemType=\"Function\" Function=\"WHERE($0 * $0 &gt;= 0)\" "
                     "Dimensions=\"%" PRIu64 "\">\n",
                 p->n);
         put_column(fp, p, base, 0);
-        fputs("    </DataItem>\n   </Attribute>\n", fp);
+        sb_printf(fp, "    </DataItem>\n   </Attribute>\n");
     }
     for (size_t i = 0; i < p->narrays; i++) {
         const xdmf_array *const a = &p->arrays[i];
-        fputs("   <Attribute Name=\"", fp);
+        sb_printf(fp, "   <Attribute Name=\"");
         put_escaped(fp, a->name);
-        fprintf(fp, "\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+        sb_printf(fp, "\" AttributeType=\"Scalar\" Center=\"Node\">\n"
                     "    <DataItem Dimensions=\"%" PRIu64 "\" NumberType=\"%s\" Precision=\"%d\" "
                     "Format=\"HDF\">",
                 p->n, a->number_type, a->precision);
         put_ref(fp, base, a->dataset);
-        fputs("</DataItem>\n   </Attribute>\n", fp);
+        sb_printf(fp, "</DataItem>\n   </Attribute>\n");
     }
-    fputs("  </Grid>\n </Domain>\n</Xdmf>\n", fp);
+    sb_printf(fp, "  </Grid>\n </Domain>\n</Xdmf>\n");
 }
 
 static int check(const xdmf_points *p, char *err, size_t errlen)
@@ -156,7 +191,7 @@ int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, siz
     const size_t len = strlen(xmf_path);
     char *const tmp = malloc(len + 32), *const dir = malloc(len + 2);
     int rc = -1, renamed = 0;
-    FILE *fp = NULL;
+    sbuf text = {NULL, 0, 0, 0};
     if (!tmp || !dir) {
         fail(err, errlen, "out of memory for the sidecar's name");
         goto out;
@@ -169,24 +204,27 @@ int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, siz
         memcpy(dir, xmf_path, dl);
         dir[dl] = '\0';
     }
+    put_body(&text, p, base);
+    if (text.oom) {
+        fail(err, errlen, "out of memory for the sidecar %s", xmf_path);
+        goto out;
+    }
     const int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd < 0) {
         fail(err, errlen, "cannot create %s: %s", tmp, strerror(errno));
         goto out;
     }
-    if (!(fp = fdopen(fd, "w"))) {
-        fail(err, errlen, "cannot write %s: %s", tmp, strerror(errno));
-        close(fd);
-        unlink(tmp);
-        goto out;
+    int bad = 0;
+    for (size_t done = 0; done < text.n && !bad;) {
+        const ssize_t w = write(fd, text.p + done, text.n - done);
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) bad = w < 0 ? errno : EIO;
+        else done += (size_t)w;
     }
-    put_body(fp, p, base);
-    const int bad = fflush(fp) != 0 || ferror(fp) || fsync(fd) != 0;
-    const int e = errno;
-    const int cbad = fclose(fp) != 0;
-    fp = NULL;
-    if (bad || cbad) {
-        fail(err, errlen, "cannot write %s: %s", tmp, strerror(bad ? e : errno));
+    if (!bad && fsync(fd) != 0) bad = errno;
+    if (close(fd) != 0 && !bad) bad = errno;
+    if (bad) {
+        fail(err, errlen, "cannot write %s: %s", tmp, strerror(bad));
         unlink(tmp);
         goto out;
     }
@@ -208,6 +246,7 @@ out:
         const size_t used = strlen(err);
         snprintf(err + used, errlen - used, "; the old %s is left", xmf_path);
     }
+    free(text.p);
     free(tmp);
     free(dir);
     return rc;

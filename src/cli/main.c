@@ -35,6 +35,7 @@
 #include "h5read.h"
 #include "tools.h"
 #include "event_cmd.h"
+#include "xdmf.h"
 
 enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 
@@ -620,7 +621,10 @@ static int write_cluster(const pdla_engine *e, const pdla_run_info *info, const 
         unlink(tmp);
         return -1;
     }
-    return 0;
+    /* ParaView's sidecar (src/xdmf.h), for the file under its final name. */
+    return xdmf_write_cluster(h5, pdla_engine_count(e), pdla_engine_params(e)->dim,
+                              pdla_engine_params(e)->resolution,
+                              pdla_engine_params(e)->record_arrival, why, whylen);
 }
 
 int main(int argc, char **argv)
@@ -644,6 +648,7 @@ int main(int argc, char **argv)
     if (argc > 1 && strcmp(argv[1], "render") == 0) return tool_render(argc - 1, argv + 1);
     if (argc > 1 && strcmp(argv[1], "analyze") == 0) return tool_analyze(argc - 1, argv + 1);
     if (dlca_cmd_wanted(argc, argv)) return dlca_cmd_main(argc, argv); /* --model dlca */
+    if (argc > 1 && strcmp(argv[1], "export") == 0) return tool_export(argc - 1, argv + 1);
 
     const double t0 = wall_now();
     char *cmd = command_line(argc, argv); /* before getopt reorders argv */

@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "h5read.h"
+#include "dlca_cmd.h"
 #include "optcheck.h"
 #include "tools.h"
 
@@ -220,6 +221,7 @@ int tool_info(int argc, char **argv)
                 optind >= argc ? "no FILE given" : "more than one FILE given");
         return TOOL_USAGE;
     }
+    if (dlca_info_is_dlca(argv[optind])) return dlca_info_main(argv[optind], json); /* model dlca */
     char err[1024];
     h5r_file f;
     if (h5r_open(&f, argv[optind], err, sizeof err)) {

@@ -27,11 +27,14 @@
 
 #include <hdf5.h>
 
+#include "dlca_cmd.h"
 #include "parse.h"
 #include "pdla/pdla.h"
 #include "progress.h"
 #include "h5read.h"
 #include "tools.h"
+#include "event_cmd.h"
+#include "pdla/xdmf.h"
 
 enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 
@@ -633,7 +636,10 @@ static int write_cluster(const pdla_engine *e, const pdla_run_info *info, const 
         unlink(tmp);
         return -1;
     }
-    return 0;
+    /* ParaView's sidecar (include/pdla/xdmf.h), for the file under its final name. */
+    return xdmf_write_cluster(h5, pdla_engine_count(e), pdla_engine_params(e)->dim,
+                              pdla_engine_params(e)->resolution,
+                              pdla_engine_params(e)->record_arrival, why, whylen);
 }
 
 int main(int argc, char **argv)
@@ -646,10 +652,18 @@ int main(int argc, char **argv)
      * our one-line message and exit 1 instead of a segfault. Must come
      * before the first HDF5 call. */
     H5dont_atexit();
+    /* The event model has its own command line and info (event_cmd.h). */
+    if (argc > 1 && strcmp(argv[1], "info") == 0 && event_info_wanted(argc - 1, argv + 1))
+        return event_info_main(argc - 1, argv + 1);
+    if (argc > 1 && strcmp(argv[1], "render") == 0 && event_info_wanted(argc - 1, argv + 1))
+        return event_render_main(argc - 1, argv + 1);
+    if (event_cmd_wanted(argc, argv)) return event_cmd_main(argc, argv);
     /* Subcommands that read a cluster file (tools.h). */
     if (argc > 1 && strcmp(argv[1], "info") == 0) return tool_info(argc - 1, argv + 1);
     if (argc > 1 && strcmp(argv[1], "render") == 0) return tool_render(argc - 1, argv + 1);
     if (argc > 1 && strcmp(argv[1], "analyze") == 0) return tool_analyze(argc - 1, argv + 1);
+    if (dlca_cmd_wanted(argc, argv)) return dlca_cmd_main(argc, argv); /* --model dlca */
+    if (argc > 1 && strcmp(argv[1], "export") == 0) return tool_export(argc - 1, argv + 1);
 
     const double t0 = wall_now();
     char *cmd = command_line(argc, argv); /* before getopt reorders argv */

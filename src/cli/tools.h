@@ -15,5 +15,6 @@ enum { TOOL_OK = 0, TOOL_RUNTIME = 1, TOOL_USAGE = 2 };
 int tool_info(int argc, char **argv);
 int tool_render(int argc, char **argv);
 int tool_analyze(int argc, char **argv);
+int tool_export(int argc, char **argv);
 
 #endif

@@ -128,7 +128,7 @@ bad "run again without --force" --target 200 --out "$tmp/r"
 cmp -s "$tmp/r.h5" "$tmp/r/cluster.h5" || fail "refused rerun changed cluster.h5"
 good "run again with --force" --target 300 --out "$tmp/r" --force -q
 grep -q '^particles  *300 of 300$' "$tmp/r/summary.txt" || fail "--force: summary.txt not replaced"
-[ "$(ls -A "$tmp/r" | sort | tr '\n' ' ')" = "cluster.h5 summary.txt " ] ||
+[ "$(ls -A "$tmp/r" | sort | tr '\n' ' ')" = "cluster.h5 cluster.xdmf2 summary.txt " ] ||
     fail "--force: unexpected files: $(ls -A "$tmp/r")"
 
 good "-q" -q --target 200 --out "$tmp/q"

@@ -1,0 +1,184 @@
+/*
+ * dlca.h - public API of pdla's diffusion-limited cluster-cluster aggregation
+ * (DLCA) model on a periodic hypercubic lattice in 2 to 5 dimensions (seed
+ * 002, Hawick, James and Scogings 2006). A DLCA run allocates none of the
+ * DLA engine's tree or walkers.
+ *
+ * The model. Sites of an L_1 x ... x L_d box with periodic boundaries are
+ * numbered k = x_1 + x_2 L_1 + x_3 L_1 L_2 + ... (the seed's k-index). N
+ * monomers start on distinct random sites; face-adjacent monomers start
+ * joined. Each attempt picks a cluster uniformly, accepts it with
+ * probability m(s) / m_bound where m(s) = s^mobility (kinetic Monte Carlo by
+ * thinning: m_bound is the largest mobility present), and moves it rigidly
+ * one site along a random axis and sign (with probability `drift` the move
+ * is instead one site down the last axis: gravity). Time advances by
+ * 1 / (N_c m_bound) per attempt, so t counts monomer-move units: a monomer
+ * moves once per unit of time on average. A move onto an occupied site is
+ * refused; after a move every other cluster face-adjacent to the mover
+ * joins it with probability `sticking` (one draw per cluster, in cluster-id
+ * order). The run stops at `until_clusters` clusters, at time
+ * `until_time`, after `max_attempts` attempts, or when a cluster spans the
+ * box (its extent along an axis reaches L: it touches its own image).
+ *
+ * Collision search (dlca_params.search): DLCA_SEARCH_LATTICE keeps the
+ * cluster id of every site (a move costs O(cluster size)); BOXES is the
+ * seed's grid-boxing (boxes of side A doubling to hold the largest
+ * cluster, halo search, all-pairs once 3A >= L on an axis); ALLPAIRS tests
+ * every cluster. All three give the same history, bit for bit, for a seed.
+ *
+ * Errors follow pdla.h: 0 or a negative PDLA_E* code with a one-line reason.
+ */
+#ifndef PDLA_DLCA_H
+#define PDLA_DLCA_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "pdla/pdla.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define DLCA_MAX_DIM 5
+
+typedef enum { DLCA_SEARCH_LATTICE = 0, DLCA_SEARCH_BOXES = 1, DLCA_SEARCH_ALLPAIRS = 2 } dlca_search;
+
+/* Every field's unit, default and range live in one descriptor table
+ * (dlca_params.c, dlca_param_table); dlca_params_default() fills them. */
+typedef struct dlca_params {
+    int dim;                  /* d, 2..5 */
+    uint32_t box[DLCA_MAX_DIM]; /* L_1..L_d, each 2..65536; product < 2^32 */
+    double fill;              /* phi in (0, 1): N = round(phi V) when count is 0 */
+    uint64_t count;           /* N (monomers); 0: from fill */
+    double mobility;          /* gamma: a cluster of s monomers moves at rate s^gamma */
+    double sticking;          /* p in (0, 1] */
+    double drift;             /* probability in [0, 1) that a move is a step down the last axis */
+    uint64_t until_clusters;  /* stop at this many clusters (>= 1) */
+    double until_time;        /* stop at this time (0: never) */
+    uint64_t max_attempts;    /* stop after this many attempts (0: never) */
+    uint64_t seed;
+    int search;               /* dlca_search */
+    int grid_box;             /* first box side A of BOXES (a power of two) */
+} dlca_params;
+
+PDLA_API void dlca_params_default(dlca_params *p);
+/* 0, or PDLA_EINVAL naming the first bad field. Also refuses a lattice whose
+ * id array would not fit in the machine's memory. */
+PDLA_API int dlca_params_validate(const dlca_params *p, char *err, size_t errlen);
+/* N for these parameters (count, or round(fill V)). */
+PDLA_API uint64_t dlca_params_monomers(const dlca_params *p);
+
+typedef enum {
+    DLCA_RUNNING = 0,
+    DLCA_STOP_CLUSTERS = 1,
+    DLCA_STOP_TIME = 2,
+    DLCA_STOP_SPANNING = 3,
+    DLCA_STOP_ATTEMPTS = 4,
+    DLCA_STOP_CALLER = 5
+} dlca_stop;
+
+PDLA_API const char *dlca_stop_name(int stop);
+PDLA_API const char *dlca_search_name(int search);
+
+typedef struct dlca_sim dlca_sim;
+
+/* Random start (seeded by p->seed). */
+PDLA_API int dlca_create(dlca_sim **out, const dlca_params *p, char *err, size_t errlen);
+/* Start from the given distinct sites (k-indices); p->count/fill are ignored. */
+PDLA_API int dlca_create_sites(dlca_sim **out, const dlca_params *p, const uint32_t *sites,
+                               uint64_t n, char *err, size_t errlen);
+PDLA_API void dlca_destroy(dlca_sim *s);
+
+/* Run up to `attempts` more attempts (0: no limit) or until a stop
+ * condition; returns the stop reason (DLCA_RUNNING if only `attempts` ran). */
+PDLA_API int dlca_run(dlca_sim *s, uint64_t attempts);
+
+typedef struct dlca_stats {
+    double t;              /* physical time, monomer-move units */
+    uint64_t attempts;     /* cluster picks */
+    uint64_t moves;        /* accepted and performed moves */
+    uint64_t monomer_moves; /* sum of the sizes of the moved clusters */
+    uint64_t merges;
+    uint64_t n_monomers, n_clusters, largest;
+    double sum_s2;         /* sum of s^2 over clusters (weight-average size = sum_s2 / N) */
+    int stop;              /* dlca_stop */
+    int search_now;        /* the search in use (BOXES falls back to ALLPAIRS) */
+    int box_side;          /* A of BOXES (0 otherwise) */
+    uint64_t candidates;   /* clusters pair-tested (BOXES, ALLPAIRS) */
+    uint64_t digest;       /* hash of the whole history of attempts */
+    uint64_t bytes;        /* memory held by the model */
+} dlca_stats;
+PDLA_API void dlca_get_stats(const dlca_sim *s, dlca_stats *out);
+PDLA_API const dlca_params *dlca_get_params(const dlca_sim *s);
+
+/* Full consistency check (sizes sum to N, every site once, no overlap,
+ * the id lattice and boxes agree, no two clusters face-adjacent when
+ * sticking = 1): 0 or PDLA_EINVAL with the first fault. O(N log N). */
+PDLA_API int dlca_check(const dlca_sim *s, char *err, size_t errlen);
+
+/* Monomer sites and their cluster numbers (0..N_c-1, in cluster-id order);
+ * both arrays hold N. */
+PDLA_API void dlca_export_sites(const dlca_sim *s, uint32_t *site, uint32_t *cluster);
+/* Per cluster (same numbering): size and radius of gyration (lattice units). */
+PDLA_API void dlca_cluster_table(const dlca_sim *s, uint64_t *size, double *rg);
+
+/* Fractal dimension from R_g against size over the clusters of size >=
+ * s_min: the clusters are binned by size in factors of sqrt 2, and
+ * log s = D_f log R_g + c is fitted to the bins' mean logs (bins with at
+ * least 2 clusters; each bin weighted by its count). Returns the number of
+ * bins used (< 2: no fit; *df and *df_err NaN). */
+PDLA_API int dlca_fractal_dim(const uint64_t *size, const double *rg, size_t n, uint64_t s_min,
+                              double *df, double *df_err);
+
+/* One row of the time series, added each time N_c fell by 1% (and at the
+ * start and the end). */
+typedef struct dlca_row {
+    double t;
+    uint64_t attempts, n_clusters, largest;
+    double mean_size, weight_size;
+} dlca_row;
+PDLA_API const dlca_row *dlca_series(const dlca_sim *s, size_t *n);
+
+/* Write path (which must not exist) as a DLCA cluster.h5: root attribute
+ * model = "dlca", /parameters (from the descriptor table), /results,
+ * /series, /clusters, /monomers, /Code. */
+PDLA_API int dlca_write_h5(const dlca_sim *s, const char *path, const char *command_line,
+                           double wall_s, char *err, size_t errlen);
+
+/* Checkpoints: everything needed to go on (parameters, random state,
+ * clusters, counters, series) in one HDF5 file (model = "dlca-checkpoint").
+ * A run resumed from one continues with the same history, bit for bit, as
+ * the run that was never stopped. Load refuses a damaged or foreign file
+ * with one line (PDLA_EIO). */
+PDLA_API int dlca_checkpoint_write(const dlca_sim *s, const char *path, char *err, size_t errlen);
+PDLA_API int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, size_t errlen);
+/* New stop conditions for a resumed run; returns the stop they give now. */
+PDLA_API int dlca_set_stops(dlca_sim *s, uint64_t until_clusters, double until_time, uint64_t max_attempts);
+
+/* ---- the parameter descriptor table ---------------------------------- */
+typedef enum { DLCA_T_INT, DLCA_T_U64, DLCA_T_F64, DLCA_T_BOX, DLCA_T_SEARCH } dlca_ptype;
+typedef struct dlca_param_desc {
+    const char *name;       /* long option, scene key (with '_' for '-') and attribute name */
+    dlca_ptype type;
+    const char *ctype;      /* the C type of the field */
+    const char *unit;
+    const char *def;        /* default, as text (parsed by the same code as the option) */
+    double min, max;        /* inclusive range for numbers (NaN: none) */
+    int min_open, max_open; /* 1: the bound itself is refused */
+    const char *meta;       /* the argument's name in --help */
+    const char *help;
+    size_t offset;          /* of the field in dlca_params */
+} dlca_param_desc;
+PDLA_API const dlca_param_desc *dlca_param_table(size_t *n);
+/* Parse text into the field of desc in *p; 0 or PDLA_EINVAL with a reason. */
+PDLA_API int dlca_param_set(dlca_params *p, const dlca_param_desc *desc, const char *text,
+                            char *err, size_t errlen);
+/* The field's value as text (for --help defaults and messages). */
+PDLA_API void dlca_param_format(const dlca_params *p, const dlca_param_desc *desc, char *buf,
+                                size_t len);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* PDLA_DLCA_H */

@@ -1,0 +1,153 @@
+/*
+ * event.h - the `event` model of pdla: event-driven hard disks (2D) or
+ * spheres (3D) in a box, around an immobile seed of infinite mass (seed 001,
+ * Nassib and Dashiell). A free particle that touches the seed or a stuck
+ * particle sticks with probability p and stops; every other contact is an
+ * elastic collision. Allocates none of the DLA tree or walkers.
+ *
+ * Units: lengths as given (radii), masses = density * volume of the particle
+ * (pi r^2 in 2D, 4/3 pi r^3 in 3D), energies in k_B T as given, time derived.
+ *
+ * Parameters live in one descriptor table (ev_param_table): the CLI's
+ * parsing, --help, validation and the output's /parameters attributes are
+ * all generated from it.
+ */
+#ifndef PDLA_EVENT_H
+#define PDLA_EVENT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#define EV_MAX_SPECIES 8
+
+enum ev_walls { EV_WALLS_ELASTIC = 0, EV_WALLS_PERIODIC = 1 };
+enum ev_velocities { EV_VEL_MAXWELL = 0, EV_VEL_FIXED = 1 };
+enum ev_start { EV_START_RANDOM = 0, EV_START_LATTICE = 1 };
+
+typedef struct ev_species {
+    uint64_t count;
+    double radius, density;
+} ev_species;
+
+/* Every parameter of the model; the fields are named in ev_param_table. */
+typedef struct ev_params {
+    int dim;                 /* 2 or 3 */
+    uint64_t particles;      /* when species is empty: one species of this many */
+    double radius, density;  /* ... with this radius and density */
+    char species[256];       /* "COUNT:RADIUS:DENSITY[,...]" or "" */
+    double packing;          /* volume fraction of the free particles in the box */
+    int walls;               /* enum ev_walls */
+    uint64_t seed;           /* random seed */
+    double kT;               /* k_B T */
+    int velocities;          /* enum ev_velocities */
+    int start;               /* enum ev_start */
+    double seed_radius;      /* radius of the central seed; 0: no seed (a plain gas) */
+    double stick_p;          /* sticking probability in [0, 1] */
+    double t_max;            /* stop at this time (0: no limit) */
+    uint64_t max_stuck;      /* stop at this many stuck particles (0: no limit) */
+    uint64_t max_events;     /* stop after this many events (0: no limit) */
+    double series_dt;        /* time between rows of the series */
+} ev_params;
+
+/* The descriptor table. */
+typedef enum ev_ptype { EV_P_INT, EV_P_U64, EV_P_F64, EV_P_STR, EV_P_ENUM } ev_ptype;
+typedef struct ev_param_desc {
+    const char *name;    /* CLI option without "--", scene key with '-' -> '_' */
+    ev_ptype type;
+    size_t offset;       /* into ev_params */
+    const char *unit;    /* "" when dimensionless */
+    const char *defval;  /* default, parsed like user input */
+    double min, max;     /* numeric bounds (inclusive) */
+    int min_open;        /* 1: min itself is refused */
+    const char *choices; /* EV_P_ENUM: "a|b|c", index = value */
+    const char *help;
+} ev_param_desc;
+
+extern const ev_param_desc ev_param_table[];
+extern const size_t ev_param_count;
+
+/* Defaults from the table. */
+void ev_params_default(ev_params *p);
+/* Set one parameter from text (validated against the table): 0, or -1 with
+ * one line in err. */
+int ev_param_set(ev_params *p, const char *name, const char *value, char *err, size_t errlen);
+/* Cross-field validation (species, packing, box vs cell size): 0 or -1. */
+int ev_params_check(const ev_params *p, char *err, size_t errlen);
+/* Value of parameter k as text (for --help and /parameters). */
+void ev_param_format(const ev_params *p, size_t k, char *buf, size_t len);
+/* The --help text (allocated; caller frees). */
+char *ev_help_text(void);
+
+/* The simulation. */
+typedef struct ev_sim ev_sim;
+
+enum ev_event_kind { EV_EV_PAIR = 0, EV_EV_WALL = 1, EV_EV_STICK = 2, EV_EV_CELL = 3 };
+
+/* One processed event as the optional trace callback sees it. */
+typedef struct ev_trace_event {
+    double t;
+    uint32_t i, j; /* j: partner, or UINT32_MAX for a wall */
+    int kind;      /* enum ev_event_kind */
+} ev_trace_event;
+typedef void (*ev_trace_fn)(const ev_trace_event *e, void *user);
+
+/* Build the start state (placement, velocities). Returns NULL with one line
+ * in err: bad parameters (exit 2) or a packing that cannot be reached. */
+ev_sim *ev_create(const ev_params *p, char *err, size_t errlen);
+void ev_free(ev_sim *s);
+/* Trace every physical event (pairs, walls, sticks), for tests. */
+void ev_set_trace(ev_sim *s, ev_trace_fn fn, void *user);
+
+/* Why ev_run stopped. */
+enum ev_stop { EV_STOP_ALL_STUCK = 1, EV_STOP_TIME, EV_STOP_STUCK, EV_STOP_EVENTS,
+               EV_STOP_NO_EVENTS, EV_STOP_INTERRUPT };
+/* Run until a stop condition of p; `interrupt`, if not NULL, is polled. */
+int ev_run(ev_sim *s, volatile const int *interrupt);
+/* Process events up to time t (all particles then advanced to t). */
+int ev_run_until(ev_sim *s, double t);
+/* Advance every particle's stored position to the current time. */
+void ev_sync(ev_sim *s);
+
+/* Read-out. */
+typedef struct ev_stats {
+    double t;
+    uint64_t events, collisions, wall_hits, sticks, cell_crossings, invalid;
+    uint64_t stuck;          /* stuck particles (without the seed) */
+    double ke_free;          /* kinetic energy of the free particles */
+    double ke_stuck;         /* kinetic energy carried away by the stuck ones */
+    double virial;           /* sum over pair collisions of r_ij . dp_i */
+    double box;              /* box side */
+    double max_overlap;      /* largest overlap / (r_i + r_j) ever seen in a collision */
+} ev_stats;
+void ev_get_stats(const ev_sim *s, ev_stats *st);
+int ev_dim(const ev_sim *s);
+size_t ev_count(const ev_sim *s);          /* particles without the seed */
+/* Position (current time, ev_sync first) and velocity of particle i; the
+ * seed is index ev_count(s) when there is one. */
+const double *ev_pos(const ev_sim *s, size_t i);
+const double *ev_vel(const ev_sim *s, size_t i);
+double ev_radius(const ev_sim *s, size_t i);
+double ev_mass(const ev_sim *s, size_t i);
+int ev_species_of(const ev_sim *s, size_t i);
+int ev_has_seed(const ev_sim *s);
+/* Stuck particles in arrival order: index and the time they stuck. */
+size_t ev_stuck_list(const ev_sim *s, const uint32_t **idx, const double **t);
+/* Pressure P from the collision virial over the time [t0, t] with
+ * virial sum difference dvir: (2 KE/d + dvir/(d (t - t0))) / V. */
+double ev_pressure(const ev_sim *s, double dvir, double dt);
+/* Largest overlap / (r_i + r_j) over all pairs now (O(N) with the cells). */
+double ev_max_overlap_now(ev_sim *s);
+
+/* Run with series recording and write DIR's cluster.h5 (see event_out.c). */
+typedef struct ev_series {
+    size_t n, cap;
+    double *t, *ke, *pressure;
+    uint64_t *stuck, *collisions;
+} ev_series;
+int ev_run_series(ev_sim *s, ev_series *ser, volatile const int *interrupt);
+void ev_series_free(ev_series *ser);
+int ev_write_h5(const ev_sim *s, const ev_series *ser, const char *path, const char *cmdline,
+                int stop_reason, char *err, size_t errlen);
+const char *ev_stop_name(int why);
+
+#endif

@@ -1,0 +1,64 @@
+/*
+ * xdmf.h - XDMF sidecars: a small XML file beside an HDF5 output that tells
+ * ParaView (and other XDMF readers) where the particles are, so the HDF5
+ * file opens without pdla.
+ *
+ * Tested with ParaView 5.11 (Debian 12): the sidecar is named *.xdmf2 so
+ * that ParaView opens it with its "XDMF Reader" (XDMF 2) without asking.
+ * That reader evaluates the Function data items used here: positions are
+ * read from the HDF5 file as reals and divided by the units per diameter,
+ * so ParaView shows diameters. The newer Xdmf3 readers (which ParaView
+ * picks for *.xmf) cannot evaluate Function items and show no points.
+ *
+ * Every particle is one Polyvertex cell (N cells of one node), so ParaView
+ * draws them with any representation. The HDF5 data are never copied: the
+ * sidecar only points at datasets, by the HDF5 file's name relative to the
+ * sidecar (both must stay in one folder).
+ */
+#ifndef PDLA_XDMF_H
+#define PDLA_XDMF_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "pdla/pdla.h"
+
+/* One more per-particle array: a 1-D dataset of n rows in the same file. */
+typedef struct xdmf_array {
+    const char *name;        /* the name ParaView shows */
+    const char *dataset;     /* path inside the HDF5 file, e.g. "/cluster/id" */
+    const char *number_type; /* XDMF NumberType: "Int", "UInt", "Float" */
+    int precision;           /* bytes per value: 1, 2, 4 or 8 */
+} xdmf_array;
+
+typedef struct xdmf_points {
+    const char *h5_path;       /* the HDF5 file; the sidecar names its last component */
+    const char *positions;     /* integer dataset [n][dim] of particle centres */
+    uint64_t n;                /* rows */
+    int dim;                   /* 2 or 3 */
+    int units_per_diameter;    /* positions / this = diameters */
+    int distance;              /* add "distance": |position| in diameters */
+    const char *row_index;     /* add this array holding 0..n-1 (e.g. "arrival" when the
+                                * rows are in arrival order); NULL: none */
+    const xdmf_array *arrays;  /* more per-particle arrays; may be NULL */
+    size_t narrays;
+} xdmf_points;
+
+/* The sidecar's path for an HDF5 file: a trailing ".h5" replaced by
+ * ".xdmf2", else ".xdmf2" appended. 0, or -1 if it does not fit in len. */
+PDLA_API int xdmf_sidecar_path(const char *h5_path, char *out, size_t len);
+
+/* Writes the sidecar of p to xmf_path: into xmf_path.tmp.<pid>, fsync'ed,
+ * renamed over xmf_path (a sidecar describes the HDF5 file just written, so
+ * an older one is stale), then the folder is fsync'ed. Nothing is written
+ * for n == 0 (no points to show; XDMF readers refuse empty arrays).
+ * 0, or -1 with one line in err; a failure before the rename also removes
+ * an older xmf_path, which would describe another file. */
+PDLA_API int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, size_t errlen);
+
+/* The sidecar of a cluster file written by pdla_output_write (positions in
+ * /cluster/positions; "arrival" when arrival is set). 0 or -1 with err. */
+PDLA_API int xdmf_write_cluster(const char *h5_path, uint64_t n, int dim, int units_per_diameter,
+                                int arrival, char *err, size_t errlen);
+
+#endif

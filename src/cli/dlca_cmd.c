@@ -1,0 +1,445 @@
+/*
+ * dlca_cmd.c - `pdla --model dlca ...`: the DLCA model's command line. Its
+ * options, --help lines and checks are generated from the model's parameter
+ * descriptor table (dlca_param_table); a scene file with `model = dlca`
+ * takes the same keys. Writes RUN_DIR/cluster.h5 (beside, then renamed) and
+ * prints a summary on stdout.
+ *
+ * Exit status: 0 done; 1 runtime failure; 2 bad usage or input (one line on
+ * stderr, before any work). SIGINT/SIGTERM stop the run; what was reached is
+ * written, then pdla ends by the same signal.
+ */
+#include <errno.h>
+#include <getopt.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "dlca_cmd.h"
+#include "pdla/dlca.h"
+
+enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
+enum { OPT_MODEL = 1000, OPT_SCENE, OPT_OUT, OPT_FORCE, OPT_NO_OUTPUT, OPT_QUIET, OPT_HELP, OPT_CHECK, OPT_CKPT,
+       OPT_RESUME, OPT_TABLE = 2000 };
+
+typedef struct dlca_cli {
+    dlca_params p;
+    const char *out;
+    int force, no_output, quiet, check, checkpoint;
+    const char *resume;
+    const char *given_model_option; /* a table option other than the stops */
+} dlca_cli;
+
+static volatile sig_atomic_t stop_signal;
+static void on_signal(int sig) { stop_signal = sig; }
+
+/* Is `--model dlca` asked for, on the command line or by the scene? */
+static int scene_is_dlca(const char *path)
+{
+    struct stat st; /* a FIFO or device would block or never end */
+    if (stat(path, &st) || !S_ISREG(st.st_mode)) return 0;
+    FILE *f = fopen(path, "r");
+    if (!f) return 0;
+    char line[1024];
+    int yes = 0;
+    while (!yes && fgets(line, sizeof line, f)) {
+        char k[64], v[64];
+        if (sscanf(line, " %63[A-Za-z_-] = %63s", k, v) == 2 && strcmp(k, "model") == 0 && strcmp(v, "dlca") == 0)
+            yes = 1;
+    }
+    fclose(f);
+    return yes;
+}
+
+int dlca_cmd_wanted(int argc, char **argv)
+{
+    for (int i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "--") == 0) break;
+        if (strcmp(argv[i], "--model=dlca") == 0) return 1;
+        if (strcmp(argv[i], "--model") == 0 && i + 1 < argc && strcmp(argv[i + 1], "dlca") == 0) return 1;
+        if (strcmp(argv[i], "--scene") == 0 && i + 1 < argc && scene_is_dlca(argv[i + 1])) return 1;
+        if (strncmp(argv[i], "--scene=", 8) == 0 && scene_is_dlca(argv[i] + 8)) return 1;
+    }
+    return 0;
+}
+
+static void print_help(FILE *o)
+{
+    dlca_params d;
+    dlca_params_default(&d);
+    fprintf(o, "usage: pdla --model dlca [OPTIONS]\n"
+               "Diffusion-limited cluster-cluster aggregation on a periodic lattice (d = 2..5).\n\n"
+               "Model options (also scene keys, with model = dlca):\n");
+    size_t n;
+    const dlca_param_desc *t = dlca_param_table(&n);
+    for (size_t i = 0; i < n; i++) {
+        char def[64], opt[96];
+        dlca_param_format(&d, &t[i], def, sizeof def);
+        snprintf(opt, sizeof opt, "--%s %s", t[i].name, t[i].meta);
+        fprintf(o, "  %-34s %s%s%s [default %s]\n", opt, t[i].help, t[i].unit[0] ? ", in " : "", t[i].unit, def);
+    }
+    fprintf(o, "\nRun options:\n"
+               "  --scene FILE                       read KEY = VALUE lines (model = dlca, the keys above, out, force)\n"
+               "  --out DIR                          run directory (default runs/dlca-YYYYmmdd-HHMMSS-<d>d)\n"
+               "  --force                            write into an existing run directory\n"
+               "  --no-output                        write no files\n"
+               "  --check                            check every invariant at the end (O(N log N))\n"
+               "  --checkpoint                       write RUN_DIR/checkpoint.h5 at the end (and when stopped)\n"
+               "  --resume FILE                      go on from a checkpoint (its run directory unless --out);\n"
+               "                                     only --until-* and --max-attempts may change\n"
+               "  -q, --quiet                        no summary on stdout\n"
+               "  --help                             this text\n");
+}
+
+static int set_key(dlca_cli *c, const char *key, const char *val, char *err, size_t errlen)
+{
+    char k[64];
+    snprintf(k, sizeof k, "%s", key);
+    for (char *q = k; *q; q++)
+        if (*q == '_') *q = '-';
+    if (strcmp(k, "model") == 0) {
+        if (strcmp(val, "dlca")) {
+            snprintf(err, errlen, "--model %s: this command runs model dlca", val);
+            return -1;
+        }
+        return 0;
+    }
+    if (strcmp(k, "out") == 0) {
+        c->out = val;
+        return 0;
+    }
+    if (strcmp(k, "force") == 0 || strcmp(k, "check") == 0) {
+        int *f = k[0] == 'f' ? &c->force : &c->check;
+        if (!strcmp(val, "yes") || !strcmp(val, "true") || !strcmp(val, "1")) *f = 1;
+        else if (!strcmp(val, "no") || !strcmp(val, "false") || !strcmp(val, "0")) *f = 0;
+        else {
+            snprintf(err, errlen, "invalid %s '%s' (yes or no)", k, val);
+            return -1;
+        }
+        return 0;
+    }
+    size_t n;
+    const dlca_param_desc *t = dlca_param_table(&n);
+    for (size_t i = 0; i < n; i++)
+        if (strcmp(k, t[i].name) == 0) return dlca_param_set(&c->p, &t[i], val, err, errlen) ? -1 : 0;
+    snprintf(err, errlen, "unknown key '%s' for model dlca", key);
+    return -1;
+}
+
+/* Scene: KEY = VALUE lines; '#' comments. The strings are kept (out). */
+static int read_scene(dlca_cli *c, const char *path, char **keep, char *err, size_t errlen)
+{
+    struct stat st;
+    if (stat(path, &st) || !S_ISREG(st.st_mode)) {
+        snprintf(err, errlen, "cannot read scene '%s': not a regular file", path);
+        return -1;
+    }
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        snprintf(err, errlen, "cannot read scene '%s': %s", path, strerror(errno));
+        return -1;
+    }
+    char *buf = calloc(1, 65537);
+    const size_t len = buf ? fread(buf, 1, 65536, f) : 0;
+    fclose(f);
+    if (!buf) {
+        snprintf(err, errlen, "out of memory");
+        return -1;
+    }
+    *keep = buf;
+    (void)len;
+    int lineno = 0;
+    for (char *line = buf, *next; line && *line; line = next) {
+        lineno++;
+        next = strchr(line, '\n');
+        if (next) *next++ = '\0';
+        char *h = strchr(line, '#');
+        if (h) *h = '\0';
+        char *eq = strchr(line, '=');
+        char *k = line;
+        while (*k == ' ' || *k == '\t') k++;
+        if (!*k || *k == '\r') continue;
+        if (!eq) {
+            snprintf(err, errlen, "%s:%d: expected KEY = VALUE", path, lineno);
+            return -1;
+        }
+        *eq = '\0';
+        char *v = eq + 1;
+        for (char *e = eq - 1; e >= k && (*e == ' ' || *e == '\t'); e--) *e = '\0';
+        while (*v == ' ' || *v == '\t') v++;
+        for (char *e = v + strlen(v) - 1; e >= v && (*e == ' ' || *e == '\t' || *e == '\r'); e--) *e = '\0';
+        char why[512];
+        if (set_key(c, k, v, why, sizeof why)) {
+            snprintf(err, errlen, "%s:%d: %s", path, lineno, why);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+static int parse(int argc, char **argv, dlca_cli *c, char **scene_buf, char *err, size_t errlen)
+{
+    size_t n;
+    const dlca_param_desc *t = dlca_param_table(&n);
+    struct option *lo = calloc(n + 16, sizeof *lo); /* the table, then extra[] */
+    if (!lo) {
+        snprintf(err, errlen, "out of memory");
+        return -1;
+    }
+    for (size_t i = 0; i < n; i++) lo[i] = (struct option){t[i].name, required_argument, NULL, OPT_TABLE + (int)i};
+    const struct option extra[] = {
+        {"model", required_argument, NULL, OPT_MODEL}, {"scene", required_argument, NULL, OPT_SCENE},
+        {"out", required_argument, NULL, OPT_OUT},     {"force", no_argument, NULL, OPT_FORCE},
+        {"no-output", no_argument, NULL, OPT_NO_OUTPUT}, {"quiet", no_argument, NULL, OPT_QUIET},
+        {"help", no_argument, NULL, OPT_HELP},         {"check", no_argument, NULL, OPT_CHECK},
+        {"checkpoint", no_argument, NULL, OPT_CKPT},   {"resume", required_argument, NULL, OPT_RESUME},
+        {NULL, 0, NULL, 0}};
+    _Static_assert(sizeof extra / sizeof extra[0] <= 16, "extra[] outgrew lo");
+    memcpy(lo + n, extra, sizeof extra);
+    /* Pass 1: the scene (and --help), so that options override its keys. */
+    int rc = 0, opt;
+    opterr = 0;
+    optind = 1;
+    while (rc == 0 && (opt = getopt_long(argc, argv, ":q", lo, NULL)) != -1) {
+        if (opt == OPT_HELP) rc = 1;
+        else if (opt == OPT_SCENE) rc = read_scene(c, optarg, scene_buf, err, errlen);
+        else if (opt == '?') {
+            snprintf(err, errlen, "unknown option '%s' for --model dlca (see pdla --model dlca --help)", argv[optind - 1]);
+            rc = -1;
+        } else if (opt == ':') {
+            snprintf(err, errlen, "option '%s' needs a value", argv[optind - 1]);
+            rc = -1;
+        }
+    }
+    if (rc == 0 && optind < argc) {
+        snprintf(err, errlen, "unexpected argument '%s'", argv[optind]);
+        rc = -1;
+    }
+    optind = 1;
+    while (rc == 0 && (opt = getopt_long(argc, argv, ":q", lo, NULL)) != -1) {
+        char why[512];
+        switch (opt) {
+        case OPT_MODEL: rc = set_key(c, "model", optarg, err, errlen); break;
+        case OPT_OUT: c->out = optarg; break;
+        case OPT_FORCE: c->force = 1; break;
+        case OPT_NO_OUTPUT: c->no_output = 1; break;
+        case OPT_CHECK: c->check = 1; break;
+        case OPT_CKPT: c->checkpoint = 1; break;
+        case OPT_RESUME: c->resume = optarg; break;
+        case 'q':
+        case OPT_QUIET: c->quiet = 1; break;
+        case OPT_SCENE: break;
+        default:
+            if (opt >= OPT_TABLE && opt < OPT_TABLE + (int)n) {
+                const char *nm = t[opt - OPT_TABLE].name;
+                if (strncmp(nm, "until-", 6) && strcmp(nm, "max-attempts")) c->given_model_option = nm;
+                if (dlca_param_set(&c->p, &t[opt - OPT_TABLE], optarg, why, sizeof why)) {
+                    snprintf(err, errlen, "%s", why);
+                    rc = -1;
+                }
+            }
+        }
+    }
+    free(lo);
+    return rc;
+}
+
+static int mkdir_parents(const char *dir)
+{
+    char buf[4096];
+    snprintf(buf, sizeof buf, "%s", dir);
+    for (char *q = buf + 1; *q; q++)
+        if (*q == '/') {
+            *q = '\0';
+            if (mkdir(buf, 0777) && errno != EEXIST) return -1;
+            *q = '/';
+        }
+    return 0;
+}
+
+/* A new run directory, or an existing one with --force. */
+static int make_dir(const dlca_cli *c, char *dir, size_t len)
+{
+    if (c->out) {
+        if (c->out != dir) snprintf(dir, len, "%s", c->out);
+        for (size_t l = strlen(dir); l > 1 && dir[l - 1] == '/';) dir[--l] = '\0';
+    } else {
+        char stamp[32];
+        const time_t now = time(NULL);
+        struct tm tm;
+        localtime_r(&now, &tm);
+        strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &tm);
+        snprintf(dir, len, "runs/dlca-%s-%dd", stamp, c->p.dim);
+    }
+    if (mkdir_parents(dir)) {
+        fprintf(stderr, "pdla: cannot create run directory '%s': %s\n", dir, strerror(errno));
+        return EXIT_USAGE;
+    }
+    if (mkdir(dir, 0777) == 0) return 0;
+    if (errno != EEXIST) {
+        fprintf(stderr, "pdla: cannot create run directory '%s': %s\n", dir, strerror(errno));
+        return EXIT_USAGE;
+    }
+    struct stat st;
+    if (!c->force) {
+        fprintf(stderr, "pdla: run directory '%s' already exists (use --force to write into it)\n", dir);
+        return EXIT_USAGE;
+    }
+    if (stat(dir, &st) || !S_ISDIR(st.st_mode)) {
+        fprintf(stderr, "pdla: '%s' exists and is not a directory\n", dir);
+        return EXIT_USAGE;
+    }
+    return 0;
+}
+
+static double wall_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static char *join_args(int argc, char **argv)
+{
+    size_t len = 1;
+    for (int i = 0; i < argc; i++) len += strlen(argv[i]) + 1;
+    char *s = malloc(len);
+    if (!s) return NULL;
+    s[0] = '\0';
+    for (int i = 0; i < argc; i++) {
+        if (i) strcat(s, " ");
+        strcat(s, argv[i]);
+    }
+    return s;
+}
+
+int dlca_cmd_main(int argc, char **argv)
+{
+    dlca_cli c;
+    memset(&c, 0, sizeof c);
+    dlca_params_default(&c.p);
+    char err[1024], *scene_buf = NULL;
+    int prc = parse(argc, argv, &c, &scene_buf, err, sizeof err);
+    if (prc == 1) {
+        free(scene_buf);
+        print_help(stdout);
+        return fflush(stdout) ? EXIT_RUNTIME : 0;
+    }
+    if (prc == 0 && c.resume && c.given_model_option) {
+        snprintf(err, sizeof err, "--%s cannot change on --resume (only --until-* and --max-attempts)",
+                 c.given_model_option);
+        prc = -1;
+    }
+    if (prc || dlca_params_validate(&c.p, err, sizeof err)) {
+        fprintf(stderr, "pdla: %s\n", err);
+        free(scene_buf);
+        return EXIT_USAGE;
+    }
+    char dir[4096] = "";
+    dlca_sim *s = NULL;
+    if (c.resume) {
+        const int lrc = dlca_checkpoint_load(&s, c.resume, err, sizeof err);
+        if (lrc) {
+            fprintf(stderr, "pdla: %s\n", err);
+            free(scene_buf);
+            return lrc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
+        }
+        const dlca_params *lp = dlca_get_params(s);
+        (void)dlca_set_stops(s, c.p.until_clusters, c.p.until_time, c.p.max_attempts);
+        c.p = *lp;
+        if (!c.out) {
+            snprintf(dir, sizeof dir, "%s", c.resume);
+            char *sl = strrchr(dir, '/');
+            if (sl) *sl = '\0';
+            else snprintf(dir, sizeof dir, ".");
+            c.out = dir;
+        }
+        c.force = 1; /* its own run directory */
+    }
+    if (!c.no_output) {
+        const int drc = make_dir(&c, dir, sizeof dir);
+        if (drc) {
+            free(scene_buf);
+            return drc;
+        }
+    }
+    const double t0 = wall_now();
+    int rc = s ? 0 : dlca_create(&s, &c.p, err, sizeof err);
+    if (rc) {
+        fprintf(stderr, "pdla: %s\n", err);
+        free(scene_buf);
+        return rc == PDLA_EINVAL ? EXIT_USAGE : EXIT_RUNTIME;
+    }
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESETHAND | SA_RESTART;
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    int stop;
+    while ((stop = dlca_run(s, 1u << 20)) == DLCA_RUNNING && !stop_signal) {
+    }
+    const double wall = wall_now() - t0;
+    int status = 0;
+    if (c.check && dlca_check(s, err, sizeof err)) {
+        fprintf(stderr, "pdla: check failed: %s\n", err);
+        status = EXIT_RUNTIME;
+    }
+    if (!c.no_output) {
+        char h5[4200], tmp[4200];
+        snprintf(h5, sizeof h5, "%s/cluster.h5", dir);
+        snprintf(tmp, sizeof tmp, "%s/.cluster.h5.new", dir);
+        unlink(tmp);
+        char *cmd = join_args(argc, argv);
+        if (dlca_write_h5(s, tmp, cmd, wall, err, sizeof err) || rename(tmp, h5)) {
+            fprintf(stderr, "pdla: %s\n", err[0] ? err : strerror(errno));
+            unlink(tmp);
+            status = EXIT_RUNTIME;
+        }
+        free(cmd);
+        if (c.checkpoint) {
+            snprintf(h5, sizeof h5, "%s/checkpoint.h5", dir);
+            snprintf(tmp, sizeof tmp, "%s/.checkpoint.h5.new", dir);
+            unlink(tmp);
+            if (dlca_checkpoint_write(s, tmp, err, sizeof err) || rename(tmp, h5)) {
+                fprintf(stderr, "pdla: %s\n", err[0] ? err : strerror(errno));
+                unlink(tmp);
+                status = EXIT_RUNTIME;
+            }
+        }
+    }
+    if (!c.quiet) {
+        dlca_stats st;
+        dlca_get_stats(s, &st);
+        char box[64];
+        size_t n;
+        const dlca_param_desc *t = dlca_param_table(&n);
+        for (size_t i = 0; i < n; i++)
+            if (t[i].type == DLCA_T_BOX) dlca_param_format(&c.p, &t[i], box, sizeof box);
+        printf("model dlca, d = %d, box %s, N = %llu, search %s\n", c.p.dim, box,
+               (unsigned long long)st.n_monomers, dlca_search_name(c.p.search));
+        printf("stop: %s; t = %.6g; clusters %llu; largest %llu; weight-average size %.4g\n",
+               stop_signal ? "signal" : dlca_stop_name(st.stop), st.t, (unsigned long long)st.n_clusters,
+               (unsigned long long)st.largest, st.sum_s2 / (double)st.n_monomers);
+        printf("attempts %llu, moves %llu, monomer moves %llu, joins %llu\n", (unsigned long long)st.attempts,
+               (unsigned long long)st.moves, (unsigned long long)st.monomer_moves, (unsigned long long)st.merges);
+        printf("time %.3f s: %.1f ns/attempt, %.2f ns/monomer-move; model memory %.1f bytes/monomer\n", wall,
+               st.attempts ? 1e9 * wall / (double)st.attempts : 0.0,
+               st.monomer_moves ? 1e9 * wall / (double)st.monomer_moves : 0.0,
+               (double)st.bytes / (double)st.n_monomers);
+        if (dir[0]) printf("wrote %s/cluster.h5\n", dir);
+        fflush(stdout);
+    }
+    dlca_destroy(s);
+    free(scene_buf);
+    if (stop_signal) {
+        signal((int)stop_signal, SIG_DFL);
+        raise((int)stop_signal);
+    }
+    return status;
+}

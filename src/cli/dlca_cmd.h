@@ -1,0 +1,16 @@
+/*
+ * dlca_cmd.h - the DLCA model's entry points in the CLI: `pdla --model dlca`
+ * (dlca_cmd.c) and `pdla info` of a DLCA cluster.h5 (dlca_info.c).
+ */
+#ifndef PDLA_CLI_DLCA_CMD_H
+#define PDLA_CLI_DLCA_CMD_H
+
+/* 1 if argv asks for model dlca (--model dlca, or a scene saying so). */
+int dlca_cmd_wanted(int argc, char **argv);
+/* Run it; returns the exit status. */
+int dlca_cmd_main(int argc, char **argv);
+/* 1 if path is an HDF5 file whose root attribute model is "dlca". */
+int dlca_info_is_dlca(const char *path);
+/* Print what the file holds (text, or JSON); returns the exit status. */
+int dlca_info_main(const char *path, int json);
+#endif

@@ -1,0 +1,321 @@
+/*
+ * event_cmd.c - `pdla --model event ...`: the event model's command line.
+ * Options, --help and validation all come from ev_param_table (pdla/event.h);
+ * a scene file (`--scene FILE` holding `model = event`) uses the same keys.
+ * Makes the run directory (new, or existing with --force), runs, writes
+ * DIR/cluster.h5 (beside as .tmp, then renamed) and prints a summary.
+ * Exit: 0 done, 1 runtime failure, 2 bad usage or input.
+ */
+#include "event_cmd.h"
+
+#include <errno.h>
+#include <inttypes.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+
+#include "pdla/event.h"
+#include "pdla/pdla.h"
+
+static volatile int ev_stop_flag;
+static void on_signal(int sig)
+{
+    (void)sig;
+    ev_stop_flag = 1;
+}
+
+/* Value of --model / --scene in argv (or NULL). */
+static const char *opt_value(int argc, char **argv, const char *name, int *at)
+{
+    const size_t n = strlen(name);
+    for (int k = 1; k < argc; k++) {
+        if (strncmp(argv[k], name, n) != 0) continue;
+        if (argv[k][n] == '=') {
+            if (at) *at = k;
+            return argv[k] + n + 1;
+        }
+        if (argv[k][n] == '\0' && k + 1 < argc) {
+            if (at) *at = k;
+            return argv[k + 1];
+        }
+    }
+    return NULL;
+}
+
+static char *trim(char *s)
+{
+    while (*s == ' ' || *s == '\t') s++;
+    size_t n = strlen(s);
+    while (n && (s[n - 1] == ' ' || s[n - 1] == '\t' || s[n - 1] == '\r' || s[n - 1] == '\n'))
+        s[--n] = '\0';
+    return s;
+}
+
+/* Calls fn(key, value, line) for each KEY = VALUE line of a scene. 0, or -1
+ * (file unreadable or a line without '='), or fn's non-zero return. */
+typedef int (*scene_fn)(const char *key, const char *val, int line, void *u);
+static int scene_each(const char *path, scene_fn fn, void *u, char *err, size_t errlen)
+{
+    /* Regular files only: opening a FIFO would block. */
+    struct stat st;
+    if (stat(path, &st) != 0 || !S_ISREG(st.st_mode)) {
+        snprintf(err, errlen, "scene %s is not a readable regular file", path);
+        return -1;
+    }
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        snprintf(err, errlen, "cannot read scene %s: %s", path, strerror(errno));
+        return -1;
+    }
+    char buf[1024];
+    int line = 0, rc = 0;
+    while (!rc && fgets(buf, sizeof buf, f)) {
+        line++;
+        char *hash = strchr(buf, '#');
+        if (hash) *hash = '\0';
+        char *s = trim(buf);
+        if (!*s) continue;
+        char *eq = strchr(s, '=');
+        if (!eq) {
+            snprintf(err, errlen, "%s:%d: want KEY = VALUE", path, line);
+            rc = -1;
+            break;
+        }
+        *eq = '\0';
+        rc = fn(trim(s), trim(eq + 1), line, u);
+    }
+    fclose(f);
+    return rc;
+}
+
+static int find_model(const char *key, const char *val, int line, void *u)
+{
+    (void)line;
+    if (!strcmp(key, "model")) *(int *)u = !strcmp(val, "event");
+    return 0;
+}
+
+int event_cmd_wanted(int argc, char **argv)
+{
+    const char *m = opt_value(argc, argv, "--model", NULL);
+    if (m) return !strcmp(m, "event");
+    const char *sc = opt_value(argc, argv, "--scene", NULL);
+    int is = 0;
+    char err[256];
+    if (sc) (void)scene_each(sc, find_model, &is, err, sizeof err);
+    return is;
+}
+
+typedef struct ev_cli {
+    ev_params p;
+    const char *out;
+    int force, quiet;
+    char err[512];
+    const char *scene;
+} ev_cli;
+
+static int apply_scene_line(const char *key, const char *val, int line, void *u)
+{
+    ev_cli *c = u;
+    if (!strcmp(key, "model")) {
+        if (strcmp(val, "event") != 0) {
+            snprintf(c->err, sizeof c->err, "%s:%d: model must be event here", c->scene, line);
+            return -1;
+        }
+        return 0;
+    }
+    if (!strcmp(key, "out")) {
+        static char outbuf[4096];
+        snprintf(outbuf, sizeof outbuf, "%s", val);
+        c->out = outbuf;
+        return 0;
+    }
+    char e[400];
+    if (ev_param_set(&c->p, key, val, e, sizeof e)) {
+        snprintf(c->err, sizeof c->err, "%s:%d: %s", c->scene, line, e);
+        return -1;
+    }
+    return 0;
+}
+
+/* 0 run, 1 help printed, -1 error in c->err. */
+static int parse(int argc, char **argv, ev_cli *c)
+{
+    ev_params_default(&c->p);
+    int at = -1;
+    c->scene = opt_value(argc, argv, "--scene", &at);
+    if (c->scene && scene_each(c->scene, apply_scene_line, c, c->err, sizeof c->err)) return -1;
+    for (int k = 1; k < argc; k++) {
+        const char *a = argv[k];
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) return 1;
+        if (!strcmp(a, "--force")) {
+            c->force = 1;
+            continue;
+        }
+        if (!strcmp(a, "--quiet")) {
+            c->quiet = 1;
+            continue;
+        }
+        if (strncmp(a, "--", 2) != 0) {
+            snprintf(c->err, sizeof c->err, "unexpected argument '%s' (see pdla --model event --help)", a);
+            return -1;
+        }
+        char name[64];
+        const char *eq = strchr(a, '=');
+        const char *val;
+        if (eq) {
+            snprintf(name, sizeof name, "%.*s", (int)(eq - a - 2), a + 2);
+            val = eq + 1;
+        } else {
+            snprintf(name, sizeof name, "%s", a + 2);
+            if (k + 1 >= argc) {
+                snprintf(c->err, sizeof c->err, "--%s needs a value", name);
+                return -1;
+            }
+            val = argv[++k];
+        }
+        if (!strcmp(name, "model") || !strcmp(name, "scene")) continue;
+        if (!strcmp(name, "out")) {
+            c->out = val;
+            continue;
+        }
+        char e[400];
+        if (ev_param_set(&c->p, name, val, e, sizeof e)) {
+            snprintf(c->err, sizeof c->err, "%s", e);
+            return -1;
+        }
+    }
+    char e[400];
+    if (ev_params_check(&c->p, e, sizeof e)) {
+        snprintf(c->err, sizeof c->err, "%s", e);
+        return -1;
+    }
+    return 0;
+}
+
+static int make_dir(ev_cli *c, char *dir, size_t len)
+{
+    if (c->out) {
+        snprintf(dir, len, "%s", c->out);
+    } else {
+        if (mkdir("runs", 0777) && errno != EEXIST) {
+            fprintf(stderr, "pdla: cannot create directory 'runs': %s\n", strerror(errno));
+            return 2;
+        }
+        char stamp[32];
+        const time_t t = time(NULL);
+        struct tm tm;
+        if (!localtime_r(&t, &tm) || !strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &tm))
+            snprintf(stamp, sizeof stamp, "%lld", (long long)t);
+        snprintf(dir, len, "runs/event-%s-%dd-%" PRIu64, stamp, c->p.dim, c->p.particles);
+    }
+    if (mkdir(dir, 0777) == 0) return 0;
+    if (errno != EEXIST) {
+        fprintf(stderr, "pdla: cannot create run directory '%s': %s\n", dir, strerror(errno));
+        return 2;
+    }
+    struct stat st;
+    if (!c->force) {
+        fprintf(stderr, "pdla: run directory '%s' already exists (use --force to write into it)\n", dir);
+        return 2;
+    }
+    if (stat(dir, &st) || !S_ISDIR(st.st_mode)) {
+        fprintf(stderr, "pdla: '%s' exists and is not a directory\n", dir);
+        return 2;
+    }
+    return 0;
+}
+
+/* Peak resident memory (VmHWM) in bytes, 0 if unknown. */
+static unsigned long long peak_rss(void)
+{
+    FILE *f = fopen("/proc/self/status", "r");
+    if (!f) return 0;
+    char line[256];
+    unsigned long long kib = 0;
+    while (fgets(line, sizeof line, f))
+        if (sscanf(line, "VmHWM: %llu kB", &kib) == 1) break;
+    fclose(f);
+    return kib * 1024;
+}
+
+static char *joined(int argc, char **argv)
+{
+    size_t n = 1;
+    for (int k = 0; k < argc; k++) n += strlen(argv[k]) + 1;
+    char *s = malloc(n);
+    if (!s) return NULL;
+    s[0] = '\0';
+    for (int k = 0; k < argc; k++) {
+        strcat(s, argv[k]);
+        if (k + 1 < argc) strcat(s, " ");
+    }
+    return s;
+}
+
+int event_cmd_main(int argc, char **argv)
+{
+    ev_cli c;
+    memset(&c, 0, sizeof c);
+    const int prc = parse(argc, argv, &c);
+    if (prc < 0) {
+        fprintf(stderr, "pdla: %s\n", c.err);
+        return 2;
+    }
+    if (prc == 1) {
+        char *h = ev_help_text();
+        if (!h) return 1;
+        fputs(h, stdout);
+        free(h);
+        return fflush(stdout) ? 1 : 0;
+    }
+    char err[512];
+    ev_sim *s = ev_create(&c.p, err, sizeof err);
+    if (!s) {
+        fprintf(stderr, "pdla: %s\n", err);
+        return 2;
+    }
+    char dir[4096];
+    const int drc = make_dir(&c, dir, sizeof dir);
+    if (drc) {
+        ev_free(s);
+        return drc;
+    }
+    signal(SIGINT, on_signal);
+    signal(SIGTERM, on_signal);
+    pdla_hdf5_quiet();
+    const clock_t c0 = clock();
+    ev_series ser = {0};
+    const int why = ev_run_series(s, &ser, &ev_stop_flag);
+    const double cpu = (double)(clock() - c0) / CLOCKS_PER_SEC;
+    char path[4200];
+    snprintf(path, sizeof path, "%s/cluster.h5", dir);
+    char *cmd = joined(argc, argv);
+    int rc = 0;
+    if (why < 0) {
+        fprintf(stderr, "pdla: out of memory for the series\n");
+        rc = 1;
+    } else if (ev_write_h5(s, &ser, path, cmd, why, err, sizeof err)) {
+        fprintf(stderr, "pdla: %s\n", err);
+        rc = 1;
+    }
+    ev_stats st;
+    ev_get_stats(s, &st);
+    if (!rc && !c.quiet)
+        printf("model event, %dd, %zu particles, box %.6g (%s walls)\n"
+               "stopped: %s at time %.6g\n"
+               "stuck %" PRIu64 ", events %" PRIu64 ", collisions %" PRIu64 ", wall hits %" PRIu64
+               "\ncpu %.3f s, %.3g collisions/s, %.3g us/event, peak RSS %.1f MB\nwrote %s\n",
+               ev_dim(s), ev_count(s), st.box, c.p.walls ? "periodic" : "elastic",
+               ev_stop_name(why), st.t, st.stuck, st.events, st.collisions, st.wall_hits, cpu,
+               cpu > 0 ? (double)st.collisions / cpu : 0.0,
+               st.events ? 1e6 * cpu / (double)st.events : 0.0, peak_rss() / 1e6, path);
+    free(cmd);
+    ev_series_free(&ser);
+    ev_free(s);
+    if (why == EV_STOP_INTERRUPT && !rc) return 130;
+    return rc;
+}

@@ -1,0 +1,183 @@
+/*
+ * event_info.c - `pdla info FILE` for a cluster.h5 of the event model: the
+ * root, /parameters and /results attributes, the cluster and free counts and
+ * the last series row, as text or (--json) JSON.
+ */
+#include <hdf5.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "event_cmd.h"
+
+static const char *file_arg(int argc, char **argv, int *json)
+{
+    const char *f = NULL;
+    *json = 0;
+    static const char *valued[] = {"-o", "--output", "--size", "--color", "--axis", "--zoom",
+                                    "--slab-rows", "--csv", "--bins", NULL};
+    for (int k = 1; k < argc; k++) {
+        if (!strcmp(argv[k], "--json")) *json = 1;
+        int v = 0;
+        for (int q = 0; valued[q]; q++) v |= !strcmp(argv[k], valued[q]);
+        if (v) k++;
+        else if (argv[k][0] != '-' && !f) f = argv[k];
+    }
+    return f;
+}
+
+/* Root attribute model == "event"? Quiet on any failure. */
+int event_info_wanted(int argc, char **argv)
+{
+    int json;
+    const char *path = file_arg(argc, argv, &json);
+    if (!path) return 0;
+    /* Only a regular file can be ours: never open a FIFO or device here
+     * (opening a FIFO blocks); the general tools report those. */
+    struct stat st;
+    if (stat(path, &st) != 0 || !S_ISREG(st.st_mode)) return 0;
+    H5E_auto2_t fn;
+    void *data;
+    H5Eget_auto2(H5E_DEFAULT, &fn, &data);
+    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    int is = 0;
+    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f >= 0) {
+        if (H5Aexists(f, "model") > 0) {
+            const hid_t a = H5Aopen(f, "model", H5P_DEFAULT);
+            const hid_t t = a >= 0 ? H5Aget_type(a) : -1;
+            if (t >= 0 && H5Tget_class(t) == H5T_STRING && !H5Tis_variable_str(t)) {
+                char buf[64] = {0};
+                const size_t n = H5Tget_size(t);
+                if (n < sizeof buf && H5Aread(a, t, buf) >= 0) is = !strncmp(buf, "event", 6);
+            }
+            if (t >= 0) H5Tclose(t);
+            if (a >= 0) H5Aclose(a);
+        }
+        H5Fclose(f);
+    }
+    H5Eset_auto2(H5E_DEFAULT, fn, data);
+    return is;
+}
+
+typedef struct pr {
+    FILE *o;
+    int json, first;
+} pr;
+
+static herr_t print_attr(hid_t loc, const char *name, const H5A_info_t *info, void *u)
+{
+    (void)info;
+    pr *p = u;
+    const hid_t a = H5Aopen(loc, name, H5P_DEFAULT);
+    if (a < 0) return -1;
+    const hid_t t = H5Aget_type(a), sp = H5Aget_space(a);
+    const H5T_class_t cl = H5Tget_class(t);
+    const hssize_t n = H5Sget_simple_extent_npoints(sp);
+    char val[1100] = "?";
+    int isstr = 0;
+    if (n == 1 && cl == H5T_STRING && !H5Tis_variable_str(t) && H5Tget_size(t) < 1024) {
+        char buf[1024] = {0};
+        if (H5Aread(a, t, buf) >= 0) snprintf(val, sizeof val, "%s", buf);
+        isstr = 1;
+    } else if (n == 1 && cl == H5T_INTEGER) {
+        long long v = 0;
+        unsigned long long uv = 0;
+        if (H5Tget_sign(t) == H5T_SGN_NONE) {
+            if (H5Aread(a, H5T_NATIVE_ULLONG, &uv) >= 0) snprintf(val, sizeof val, "%llu", uv);
+        } else if (H5Aread(a, H5T_NATIVE_LLONG, &v) >= 0) {
+            snprintf(val, sizeof val, "%lld", v);
+        }
+    } else if (n == 1 && cl == H5T_FLOAT) {
+        double v = 0;
+        if (H5Aread(a, H5T_NATIVE_DOUBLE, &v) >= 0) {
+            if (isfinite(v)) snprintf(val, sizeof val, "%.10g", v);
+            else {
+                snprintf(val, sizeof val, "%s", v != v ? "NaN" : v > 0 ? "Infinity" : "-Infinity");
+                isstr = p->json;
+            }
+        }
+    } else {
+        isstr = 1;
+        snprintf(val, sizeof val, "(array of %lld)", (long long)n);
+    }
+    H5Sclose(sp);
+    H5Tclose(t);
+    H5Aclose(a);
+    if (p->json) {
+        fprintf(p->o, "%s\n    \"%s\": ", p->first ? "" : ",", name);
+        if (isstr) {
+            fputc('"', p->o);
+            for (const char *c = val; *c; c++) {
+                if (*c == '"' || *c == '\\') fputc('\\', p->o);
+                if ((unsigned char)*c >= 0x20) fputc(*c, p->o);
+            }
+            fputc('"', p->o);
+        } else {
+            fputs(val, p->o);
+        }
+    } else {
+        fprintf(p->o, "  %-22s %s\n", name, val);
+    }
+    p->first = 0;
+    return 0;
+}
+
+static int group(FILE *o, hid_t f, const char *g, int json, int last)
+{
+    const hid_t id = H5Oopen(f, g, H5P_DEFAULT);
+    if (id < 0) return -1;
+    pr p = {o, json, 1};
+    if (json) fprintf(o, "  \"%s\": {", g[1] ? g + 1 : "root");
+    else fprintf(o, "%s\n", g);
+    hsize_t idx = 0;
+    const herr_t rc = H5Aiterate2(id, H5_INDEX_NAME, H5_ITER_INC, &idx, print_attr, &p);
+    if (json) fprintf(o, "\n  }%s\n", last ? "" : ",");
+    H5Oclose(id);
+    return rc < 0 ? -1 : 0;
+}
+
+static long long rows(hid_t f, const char *ds)
+{
+    const hid_t d = H5Dopen2(f, ds, H5P_DEFAULT);
+    if (d < 0) return -1;
+    const hid_t sp = H5Dget_space(d);
+    hsize_t dims[2] = {0, 0};
+    H5Sget_simple_extent_dims(sp, dims, NULL);
+    H5Sclose(sp);
+    H5Dclose(d);
+    return (long long)dims[0];
+}
+
+int event_info_main(int argc, char **argv)
+{
+    int json;
+    const char *path = file_arg(argc, argv, &json);
+    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f < 0) {
+        fprintf(stderr, "pdla info: cannot open %s\n", path);
+        return 2;
+    }
+    const long long ns = rows(f, "/cluster/positions"), nf = rows(f, "/free/positions"),
+                    nr = rows(f, "/series/time");
+    int rc = 0;
+    if (ns < 0 || nf < 0 || nr < 0) {
+        fprintf(stderr, "pdla info: %s: malformed event file (missing datasets)\n", path);
+        H5Fclose(f);
+        return 2;
+    }
+    if (json) fprintf(stdout, "{\n  \"file\": \"%s\",\n  \"stuck\": %lld,\n  \"free\": %lld,\n"
+                              "  \"series_rows\": %lld,\n", path, ns, nf, nr);
+    else fprintf(stdout, "%s: event model, %lld stuck, %lld free, %lld series rows\n", path, ns, nf, nr);
+    if (group(stdout, f, "/", json, 0) || group(stdout, f, "/parameters", json, 0) ||
+        group(stdout, f, "/results", json, 0) || group(stdout, f, "/Code", json, 1))
+        rc = 1;
+    if (json) fprintf(stdout, "}\n");
+    H5Fclose(f);
+    if (rc) fprintf(stderr, "pdla info: %s: cannot read its attributes\n", path);
+    if (fflush(stdout)) rc = 1;
+    return rc;
+}

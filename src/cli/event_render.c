@@ -1,0 +1,178 @@
+/*
+ * event_render.c - `pdla render FILE -o PNG [--size N] [--force]` for a
+ * cluster.h5 of the event model: the box seen along z, stuck particles as
+ * discs coloured by arrival (dark blue first, yellow last), the seed white,
+ * free particles grey. 3D files are projected (the nearest particle wins).
+ */
+#include <errno.h>
+#include <hdf5.h>
+#include <math.h>
+#include <png.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "event_cmd.h"
+
+static double *read_all(hid_t f, const char *name, size_t *rows, size_t *cols)
+{
+    const hid_t d = H5Dopen2(f, name, H5P_DEFAULT);
+    if (d < 0) return NULL;
+    const hid_t sp = H5Dget_space(d);
+    hsize_t dims[2] = {0, 1};
+    const int rank = H5Sget_simple_extent_dims(sp, dims, NULL);
+    H5Sclose(sp);
+    *rows = (size_t)dims[0];
+    *cols = rank == 2 ? (size_t)dims[1] : 1;
+    double *buf = malloc((*rows ? *rows : 1) * *cols * sizeof *buf);
+    if (buf && *rows && H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) {
+        free(buf);
+        buf = NULL;
+    }
+    H5Dclose(d);
+    return buf;
+}
+
+typedef struct img {
+    int n;
+    double scale;
+    unsigned char *rgb;
+    float *depth;
+} img;
+
+static void disc(img *im, const double *x, int dim, double r, const unsigned char *col)
+{
+    const double cx = x[0] * im->scale, cy = x[1] * im->scale, rr = fmax(r * im->scale, 0.7);
+    const double z = dim == 3 ? x[2] : 0;
+    for (int py = (int)floor(cy - rr); py <= (int)ceil(cy + rr); py++)
+        for (int px = (int)floor(cx - rr); px <= (int)ceil(cx + rr); px++) {
+            if (px < 0 || py < 0 || px >= im->n || py >= im->n) continue;
+            const double dx = px + 0.5 - cx, dy = py + 0.5 - cy;
+            if (dx * dx + dy * dy > rr * rr) continue;
+            const size_t k = (size_t)(im->n - 1 - py) * (size_t)im->n + (size_t)px;
+            if (dim == 3 && z < im->depth[k]) continue;
+            im->depth[k] = (float)z;
+            const double shade = dim == 3 ? 0.6 + 0.4 * sqrt(fmax(0, 1 - (dx * dx + dy * dy) / (rr * rr))) : 1;
+            for (int c = 0; c < 3; c++) im->rgb[3 * k + c] = (unsigned char)(col[c] * shade);
+        }
+}
+
+static void arrival_colour(double u, unsigned char *c)
+{
+    /* dark blue -> magenta -> orange -> yellow */
+    static const double k[4][3] = {{20, 20, 120}, {160, 40, 140}, {240, 120, 40}, {250, 240, 80}};
+    const double s = u * 3;
+    const int i = s >= 3 ? 2 : (int)s;
+    const double f = s - i;
+    for (int q = 0; q < 3; q++) c[q] = (unsigned char)(k[i][q] + f * (k[i + 1][q] - k[i][q]));
+}
+
+static int write_png(const char *out, int size, const unsigned char *rgb)
+{
+    FILE *fo = fopen(out, "wb");
+    if (!fo) {
+        fprintf(stderr, "pdla render: cannot write %s: %s\n", out, strerror(errno));
+        return 1;
+    }
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
+    png_infop info = png ? png_create_info_struct(png) : NULL;
+    if (!png || !info || setjmp(png_jmpbuf(png))) {
+        png_destroy_write_struct(&png, &info);
+        fclose(fo);
+        fprintf(stderr, "pdla render: cannot write %s\n", out);
+        return 1;
+    }
+    png_init_io(png, fo);
+    png_set_compression_level(png, 9);
+    png_set_IHDR(png, info, (png_uint_32)size, (png_uint_32)size, 8, PNG_COLOR_TYPE_RGB,
+                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_write_info(png, info);
+    for (int y = 0; y < size; y++) png_write_row(png, (png_bytep)(rgb + (size_t)y * size * 3));
+    png_write_end(png, NULL);
+    png_destroy_write_struct(&png, &info);
+    if (fclose(fo)) {
+        fprintf(stderr, "pdla render: cannot write %s\n", out);
+        return 1;
+    }
+    return 0;
+}
+
+int event_render_main(int argc, char **argv)
+{
+    const char *in = NULL, *out = NULL;
+    int size = 1024, force = 0;
+    for (int k = 1; k < argc; k++) {
+        if ((!strcmp(argv[k], "-o") || !strcmp(argv[k], "--output")) && k + 1 < argc) out = argv[++k];
+        else if (!strcmp(argv[k], "--size") && k + 1 < argc) size = atoi(argv[++k]);
+        else if (!strcmp(argv[k], "--force")) force = 1;
+        else if (argv[k][0] != '-') in = argv[k];
+        else {
+            fprintf(stderr, "pdla render: option '%s' is not known for event files "
+                            "(use -o PNG, --size N, --force)\n", argv[k]);
+            return 2;
+        }
+    }
+    if (!in || !out || size < 16 || size > 8192) {
+        fprintf(stderr, "pdla render: need FILE and -o PNG (--size 16..8192)\n");
+        return 2;
+    }
+    struct stat st;
+    if (!force && stat(out, &st) == 0) {
+        fprintf(stderr, "pdla render: %s exists; not overwriting it (use --force)\n", out);
+        return 2;
+    }
+    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    const hid_t f = H5Fopen(in, H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f < 0) {
+        fprintf(stderr, "pdla render: cannot open %s\n", in);
+        return 2;
+    }
+    size_t ns, dim, nr, one, nf, fdim, nfr;
+    double *cp = read_all(f, "/cluster/positions", &ns, &dim);
+    double *cr = read_all(f, "/cluster/radii", &nr, &one);
+    double *fp = read_all(f, "/free/positions", &nf, &fdim);
+    double *fr = read_all(f, "/free/radii", &nfr, &one);
+    double L = 0, seed[3] = {0, 0, 0}, sr = 0;
+    const hid_t g = H5Gopen2(f, "/results", H5P_DEFAULT), gc = H5Gopen2(f, "/cluster", H5P_DEFAULT);
+    int ok = cp && cr && fp && fr && g >= 0 && gc >= 0;
+    if (ok) {
+        const hid_t a = H5Aopen(g, "box_side", H5P_DEFAULT);
+        ok = a >= 0 && H5Aread(a, H5T_NATIVE_DOUBLE, &L) >= 0;
+        if (a >= 0) H5Aclose(a);
+        if (H5Aexists(gc, "seed_radius") > 0) {
+            static const char *nm[] = {"seed_x", "seed_y", "seed_z", "seed_radius"};
+            for (int q = 0; q < 4 && ok; q++) {
+                if (q < 3 && (size_t)q >= dim) continue;
+                const hid_t b = H5Aopen(gc, nm[q], H5P_DEFAULT);
+                ok = b >= 0 && H5Aread(b, H5T_NATIVE_DOUBLE, q < 3 ? &seed[q] : &sr) >= 0;
+                if (b >= 0) H5Aclose(b);
+            }
+        }
+    }
+    if (g >= 0) H5Gclose(g);
+    if (gc >= 0) H5Gclose(gc);
+    H5Fclose(f);
+    int rc = 0;
+    img im = {size, size / (L > 0 ? L : 1), calloc((size_t)size * size * 3, 1),
+              malloc((size_t)size * size * sizeof(float))};
+    if (!ok || !im.rgb || !im.depth || (dim != 2 && dim != 3)) {
+        fprintf(stderr, "pdla render: %s: malformed event file\n", in);
+        rc = 2;
+        goto done;
+    }
+    for (size_t k = 0; k < (size_t)size * size; k++) im.depth[k] = -INFINITY;
+    memset(im.rgb, 24, (size_t)size * size * 3);
+    static const unsigned char grey[3] = {110, 110, 110}, white[3] = {255, 255, 255};
+    for (size_t i = 0; i < nf; i++) disc(&im, fp + i * dim, (int)dim, fr[i], grey);
+    for (size_t i = 0; i < ns; i++) {
+        unsigned char c[3];
+        arrival_colour(ns > 1 ? (double)i / (double)(ns - 1) : 0, c);
+        disc(&im, cp + i * dim, (int)dim, cr[i], c);
+    }
+    if (sr > 0) disc(&im, seed, (int)dim, sr, white);
+    rc = write_png(out, size, im.rgb);
+done:
+    free(cp), free(cr), free(fp), free(fr), free(im.rgb), free(im.depth);
+    return rc;
+}

@@ -1,0 +1,267 @@
+/*
+ * xdmf.c - XDMF 2 sidecars for particle files (see xdmf.h for what ParaView
+ * 5.11 reads and why the items look as they do).
+ */
+#include "pdla/xdmf.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "h5util.h"
+
+static int fail(char *err, size_t errlen, const char *fmt, ...)
+{
+    if (err && errlen) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, errlen, fmt, ap);
+        va_end(ap);
+        h5u_one_line(err);
+    }
+    return -1;
+}
+
+int xdmf_sidecar_path(const char *h5_path, char *out, size_t len)
+{
+    const size_t n = strlen(h5_path);
+    const size_t stem = n >= 3 && strcmp(h5_path + n - 3, ".h5") == 0 ? n - 3 : n;
+    const int w = snprintf(out, len, "%.*s.xdmf2", (int)stem, h5_path);
+    return w < 0 || (size_t)w >= len ? -1 : 0;
+}
+
+/* The sidecar's text, built in memory and written with write(2): it is a
+ * few kB, and the run's one stdio file stays summary.txt. */
+typedef struct sbuf {
+    char *p;
+    size_t n, cap;
+    int oom;
+} sbuf;
+
+static void sb_printf(sbuf *b, const char *fmt, ...)
+{
+    if (b->oom) return;
+    for (;;) {
+        va_list ap;
+        va_start(ap, fmt);
+        const int w = vsnprintf(b->p ? b->p + b->n : NULL, b->p ? b->cap - b->n : 0, fmt, ap);
+        va_end(ap);
+        if (w < 0) {
+            b->oom = 1;
+            return;
+        }
+        if (b->p && (size_t)w < b->cap - b->n) {
+            b->n += (size_t)w;
+            return;
+        }
+        const size_t cap = 2 * (b->cap + (size_t)w) + 256;
+        char *const q = realloc(b->p, cap);
+        if (!q) {
+            b->oom = 1;
+            return;
+        }
+        b->p = q;
+        b->cap = cap;
+    }
+}
+
+/* s with the XML special characters escaped (it goes into element text). */
+static void put_escaped(sbuf *fp, const char *s)
+{
+    for (; *s; s++) {
+        switch (*s) {
+        case '&': sb_printf(fp, "&amp;"); break;
+        case '<': sb_printf(fp, "&lt;"); break;
+        case '>': sb_printf(fp, "&gt;"); break;
+        case '"': sb_printf(fp, "&quot;"); break;
+        default: sb_printf(fp, "%c", *s);
+        }
+    }
+}
+
+/* The HDF5 reference "file.h5:/dataset", file relative to the sidecar. */
+static void put_ref(sbuf *fp, const char *base, const char *dataset)
+{
+    put_escaped(fp, base);
+    sb_printf(fp, ":");
+    put_escaped(fp, dataset);
+}
+
+/* The whole positions dataset, converted to reals by HDF5 on reading. */
+static void put_positions(sbuf *fp, const xdmf_points *p, const char *base, const char *indent)
+{
+    sb_printf(fp, "%s<DataItem Dimensions=\"%" PRIu64 " %d\" NumberType=\"Float\" Precision=\"8\" "
+                "Format=\"HDF\">", indent, p->n, p->dim);
+    put_ref(fp, base, p->positions);
+    sb_printf(fp, "</DataItem>\n");
+}
+
+/* Column c of the positions, as an [n][1] hyperslab (start, stride, count). */
+static void put_column(sbuf *fp, const xdmf_points *p, const char *base, int c)
+{
+    sb_printf(fp, "     <DataItem ItemType=\"HyperSlab\" Type=\"HyperSlab\" Dimensions=\"%" PRIu64 " 1\">\n"
+                "      <DataItem Dimensions=\"3 2\" Format=\"XML\">0 %d 1 1 %" PRIu64 " 1</DataItem>\n",
+            p->n, c, p->n);
+    put_positions(fp, p, base, "      ");
+    sb_printf(fp, "     </DataItem>\n");
+}
+
+static void put_body(sbuf *fp, const xdmf_points *p, const char *base)
+{
+    sb_printf(fp, "<?xml version=\"1.0\" ?>\n"
+                "<!-- pdla: particles of ");
+    put_escaped(fp, base);
+    sb_printf(fp, " for ParaView's \"XDMF Reader\" (XDMF 2); positions in diameters -->\n"
+                "<Xdmf Version=\"2.0\">\n <Domain>\n  <Grid Name=\"particles\" GridType=\"Uniform\">\n"
+                "   <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%" PRIu64
+                "\" NodesPerElement=\"1\"/>\n"
+                "   <Geometry GeometryType=\"%s\">\n"
+                "    <DataItem ItemType=\"Function\" Function=\"$0 / %d\" Dimensions=\"%" PRIu64
+                " %d\">\n",
+            p->n, p->dim == 3 ? "XYZ" : "XY", p->units_per_diameter, p->n, p->dim);
+    put_positions(fp, p, base, "     ");
+    sb_printf(fp, "    </DataItem>\n   </Geometry>\n");
+
+    if (p->distance) {
+        /* Lower-case sqrt: the XDMF 2 parser reads SQRT as no function. */
+        sb_printf(fp, "   <Attribute Name=\"distance\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+                    "    <DataItem ItemType=\"Function\" Function=\"sqrt(%s) / %d\" Dimensions=\"%" PRIu64
+                    "\">\n",
+                p->dim == 3 ? "$0 * $0 + $1 * $1 + $2 * $2" : "$0 * $0 + $1 * $1",
+                p->units_per_diameter, p->n);
+        for (int c = 0; c < p->dim; c++) put_column(fp, p, base, c);
+        sb_printf(fp, "    </DataItem>\n   </Attribute>\n");
+    }
+    if (p->row_index) {
+        /* XDMF 2 has no "range" item; WHERE over a test every row passes
+         * gives the row numbers 0..n-1 in order. */
+        sb_printf(fp, "   <Attribute Name=\"");
+        put_escaped(fp, p->row_index);
+        sb_printf(fp, "\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+                    "    <DataItem ItemType=\"Function\" Function=\"WHERE($0 * $0 &gt;= 0)\" "
+                    "Dimensions=\"%" PRIu64 "\">\n",
+                p->n);
+        put_column(fp, p, base, 0);
+        sb_printf(fp, "    </DataItem>\n   </Attribute>\n");
+    }
+    for (size_t i = 0; i < p->narrays; i++) {
+        const xdmf_array *const a = &p->arrays[i];
+        sb_printf(fp, "   <Attribute Name=\"");
+        put_escaped(fp, a->name);
+        sb_printf(fp, "\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+                    "    <DataItem Dimensions=\"%" PRIu64 "\" NumberType=\"%s\" Precision=\"%d\" "
+                    "Format=\"HDF\">",
+                p->n, a->number_type, a->precision);
+        put_ref(fp, base, a->dataset);
+        sb_printf(fp, "</DataItem>\n   </Attribute>\n");
+    }
+    sb_printf(fp, "  </Grid>\n </Domain>\n</Xdmf>\n");
+}
+
+static int check(const xdmf_points *p, char *err, size_t errlen)
+{
+    if (!p || !p->h5_path || !p->positions || p->positions[0] != '/')
+        return fail(err, errlen, "xdmf: no HDF5 file or no absolute positions dataset given");
+    if (p->dim != 2 && p->dim != 3) return fail(err, errlen, "xdmf: dim %d, want 2 or 3", p->dim);
+    if (p->units_per_diameter < 1)
+        return fail(err, errlen, "xdmf: units per diameter %d, want >= 1", p->units_per_diameter);
+    for (size_t i = 0; i < p->narrays; i++) {
+        const xdmf_array *const a = &p->arrays[i];
+        const int pr = a->precision;
+        if (!a->name || !a->dataset || a->dataset[0] != '/' || !a->number_type ||
+            (pr != 1 && pr != 2 && pr != 4 && pr != 8))
+            return fail(err, errlen, "xdmf: array %zu is incomplete", i);
+    }
+    return 0;
+}
+
+int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, size_t errlen)
+{
+    if (check(p, err, errlen) < 0) return -1;
+    if (!xmf_path || !xmf_path[0]) return fail(err, errlen, "xdmf: no sidecar path given");
+    if (p->n == 0) return 0;
+    const char *const slash = strrchr(p->h5_path, '/');
+    const char *const base = slash ? slash + 1 : p->h5_path;
+
+    const size_t len = strlen(xmf_path);
+    char *const tmp = malloc(len + 32), *const dir = malloc(len + 2);
+    int rc = -1, renamed = 0;
+    sbuf text = {NULL, 0, 0, 0};
+    if (!tmp || !dir) {
+        fail(err, errlen, "out of memory for the sidecar's name");
+        goto out;
+    }
+    snprintf(tmp, len + 32, "%s.tmp.%ld", xmf_path, (long)getpid());
+    const char *const ds = strrchr(xmf_path, '/');
+    if (!ds) strcpy(dir, ".");
+    else {
+        const size_t dl = ds == xmf_path ? 1 : (size_t)(ds - xmf_path);
+        memcpy(dir, xmf_path, dl);
+        dir[dl] = '\0';
+    }
+    put_body(&text, p, base);
+    if (text.oom) {
+        fail(err, errlen, "out of memory for the sidecar %s", xmf_path);
+        goto out;
+    }
+    const int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd < 0) {
+        fail(err, errlen, "cannot create %s: %s", tmp, strerror(errno));
+        goto out;
+    }
+    int bad = 0;
+    for (size_t done = 0; done < text.n && !bad;) {
+        const ssize_t w = write(fd, text.p + done, text.n - done);
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) bad = w < 0 ? errno : EIO;
+        else done += (size_t)w;
+    }
+    if (!bad && fsync(fd) != 0) bad = errno;
+    if (close(fd) != 0 && !bad) bad = errno;
+    if (bad) {
+        fail(err, errlen, "cannot write %s: %s", tmp, strerror(bad));
+        unlink(tmp);
+        goto out;
+    }
+    if (rename(tmp, xmf_path) != 0) {
+        fail(err, errlen, "cannot rename %s to %s: %s", tmp, xmf_path, strerror(errno));
+        unlink(tmp);
+        goto out;
+    }
+    renamed = 1;
+    if (h5u_fsync_dir(dir) != 0) {
+        fail(err, errlen, "written, but cannot sync directory %s: %s", dir, strerror(errno));
+        goto out;
+    }
+    rc = 0;
+out:
+    /* An older sidecar left in place would describe the previous HDF5
+     * file (another N): none is better than a stale one. */
+    if (rc < 0 && !renamed && unlink(xmf_path) != 0 && errno != ENOENT && err && errlen) {
+        const size_t used = strlen(err);
+        snprintf(err + used, errlen - used, "; the old %s is left", xmf_path);
+    }
+    free(text.p);
+    free(tmp);
+    free(dir);
+    return rc;
+}
+
+int xdmf_write_cluster(const char *h5_path, uint64_t n, int dim, int units_per_diameter,
+                       int arrival, char *err, size_t errlen)
+{
+    const size_t len = strlen(h5_path) + 8;
+    char *const xmf = malloc(len);
+    if (!xmf) return fail(err, errlen, "out of memory for the sidecar's name");
+    (void)xdmf_sidecar_path(h5_path, xmf, len); /* len always fits */
+    const xdmf_points p = {h5_path, "/cluster/positions", n, dim, units_per_diameter, 1,
+                           arrival ? "arrival" : NULL, NULL, 0};
+    const int rc = xdmf_write_points(xmf, &p, err, errlen);
+    free(xmf);
+    return rc;
+}

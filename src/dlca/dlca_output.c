@@ -1,0 +1,182 @@
+/*
+ * dlca_output.c - a DLCA run's cluster.h5 (root attribute model = "dlca"),
+ * with /parameters written from the model's descriptor table (dlca_params_h5.c), and the
+ * fractal-dimension fit of R_g against cluster size.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dlca_h5.h"
+#include "h5util.h"
+#include "pdla/dlca.h"
+#include "provenance.h"
+
+int dlca_fractal_dim(const uint64_t *size, const double *rg, size_t n, uint64_t s_min, double *df,
+                     double *df_err)
+{
+    enum { NB = 128 };
+    double cnt[NB] = {0}, sx[NB] = {0}, sy[NB] = {0};
+    if (s_min < 2) s_min = 2; /* a monomer has R_g = 0 */
+    for (size_t i = 0; i < n; i++) {
+        if (size[i] < s_min || !(rg[i] > 0)) continue;
+        const int b = (int)floor(2.0 * log2((double)size[i]));
+        if (b < 0 || b >= NB) continue;
+        cnt[b]++;
+        sx[b] += log(rg[i]);
+        sy[b] += log((double)size[i]);
+    }
+    double W = 0, X = 0, Y = 0;
+    int nb = 0;
+    for (int b = 0; b < NB; b++)
+        if (cnt[b] >= 2) {
+            nb++;
+            W += cnt[b];
+            X += sx[b];
+            Y += sy[b];
+        }
+    *df = *df_err = NAN;
+    if (nb < 2) return nb;
+    X /= W;
+    Y /= W;
+    double sxx = 0, sxy = 0;
+    for (int b = 0; b < NB; b++)
+        if (cnt[b] >= 2) {
+            const double x = sx[b] / cnt[b] - X, y = sy[b] / cnt[b] - Y;
+            sxx += cnt[b] * x * x;
+            sxy += cnt[b] * x * y;
+        }
+    if (!(sxx > 0)) return nb;
+    *df = sxy / sxx;
+    if (nb > 2) {
+        double rss = 0;
+        for (int b = 0; b < NB; b++)
+            if (cnt[b] >= 2) {
+                const double x = sx[b] / cnt[b] - X, y = sy[b] / cnt[b] - Y;
+                rss += cnt[b] * (y - *df * x) * (y - *df * x);
+            }
+        *df_err = sqrt(rss / (nb - 2) / sxx);
+    }
+    return nb;
+}
+
+static int write_1d(const h5u_writer *w, hid_t g, const char *name, hid_t ftype, hid_t mtype, const void *data,
+                    size_t n)
+{
+    hid_t space = H5I_INVALID_HID, d;
+    int rc = 0;
+    if ((d = h5u_dataset(w, g, name, ftype, 1, n, 1, n > 65536 ? 65536 : (n ? n : 1), &space)) < 0) return -1;
+    if (n > 0 && H5Dwrite(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) rc = h5u_fail(w, "write %s", name);
+    rc = h5u_close(w, rc, space, H5Sclose, "a dataspace");
+    return h5u_close(w, rc, d, H5Dclose, name);
+}
+
+/* The columns of the series, one dataset each. */
+static int write_series(const h5u_writer *w, hid_t file, const dlca_sim *s)
+{
+    size_t n;
+    const dlca_row *r = dlca_series(s, &n);
+    double *t = malloc((n ? n : 1) * sizeof *t), *ms = malloc((n ? n : 1) * sizeof *ms),
+           *ws = malloc((n ? n : 1) * sizeof *ws);
+    uint64_t *at = malloc((n ? n : 1) * sizeof *at), *nc = malloc((n ? n : 1) * sizeof *nc),
+             *lg = malloc((n ? n : 1) * sizeof *lg);
+    hid_t g = H5I_INVALID_HID;
+    int rc = -1;
+    if (!t || !ms || !ws || !at || !nc || !lg) {
+        h5u_fail_msg(w, "cannot write %s: out of memory", w->path);
+        goto done;
+    }
+    for (size_t i = 0; i < n; i++) {
+        t[i] = r[i].t;
+        ms[i] = r[i].mean_size;
+        ws[i] = r[i].weight_size;
+        at[i] = r[i].attempts;
+        nc[i] = r[i].n_clusters;
+        lg[i] = r[i].largest;
+    }
+    if ((g = h5u_group(w, file, "series")) < 0) goto done;
+    if (write_1d(w, g, "t", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, t, n) < 0 ||
+        write_1d(w, g, "attempts", H5T_STD_U64LE, H5T_NATIVE_UINT64, at, n) < 0 ||
+        write_1d(w, g, "n_clusters", H5T_STD_U64LE, H5T_NATIVE_UINT64, nc, n) < 0 ||
+        write_1d(w, g, "mean_size", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, ms, n) < 0 ||
+        write_1d(w, g, "weight_average_size", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, ws, n) < 0 ||
+        write_1d(w, g, "largest", H5T_STD_U64LE, H5T_NATIVE_UINT64, lg, n) < 0)
+        goto done;
+    rc = 0;
+done:
+    free(t), free(ms), free(ws), free(at), free(nc), free(lg);
+    return g < 0 ? rc : h5u_close(w, rc, g, H5Gclose, "/series");
+}
+
+int dlca_write_h5(const dlca_sim *s, const char *path, const char *command_line, double wall_s, char *err,
+                  size_t errlen)
+{
+    h5u_writer w = {path, err, errlen};
+    h5u_quiet q;
+    if (h5u_silence(&q)) {
+        if (err && errlen) snprintf(err, errlen, "cannot write %s: cannot silence HDF5", path);
+        return PDLA_EIO;
+    }
+    dlca_stats st;
+    dlca_get_stats(s, &st);
+    const dlca_params *p = dlca_get_params(s);
+    const size_t N = st.n_monomers, nc = st.n_clusters;
+    uint32_t *site = malloc(N * sizeof *site), *cid = malloc(N * sizeof *cid);
+    uint64_t *size = malloc(nc * sizeof *size);
+    double *rg = malloc(nc * sizeof *rg);
+    hid_t file = H5I_INVALID_HID, g = H5I_INVALID_HID;
+    int rc = -1;
+    if (!site || !cid || !size || !rg) {
+        h5u_fail_msg(&w, "cannot write %s: out of memory", path);
+        goto done;
+    }
+    dlca_export_sites(s, site, cid);
+    dlca_cluster_table(s, size, rg);
+    double df, dferr;
+    dlca_fractal_dim(size, rg, nc, 8, &df, &dferr);
+    pdla_provenance pv;
+    (void)prov_collect(&pv);
+    if ((file = h5u_create_file(&w, path)) < 0) goto done;
+    if (h5u_attr_str(&w, file, "model", "dlca") < 0 || h5u_attr_int(&w, file, "format_version", 1) < 0 ||
+        dlca_write_parameters_h5(&w, file, p) < 0 || write_series(&w, file, s) < 0)
+        goto done;
+    if ((g = h5u_group(&w, file, "results")) < 0) goto done;
+    if (h5u_attr_f64(&w, g, "t", st.t) < 0 || h5u_attr_u64(&w, g, "attempts", st.attempts) < 0 ||
+        h5u_attr_u64(&w, g, "moves", st.moves) < 0 || h5u_attr_u64(&w, g, "monomer_moves", st.monomer_moves) < 0 ||
+        h5u_attr_u64(&w, g, "merges", st.merges) < 0 || h5u_attr_u64(&w, g, "n_monomers", st.n_monomers) < 0 ||
+        h5u_attr_u64(&w, g, "n_clusters", st.n_clusters) < 0 || h5u_attr_u64(&w, g, "largest", st.largest) < 0 ||
+        h5u_attr_f64(&w, g, "mean_size", (double)N / (double)nc) < 0 ||
+        h5u_attr_f64(&w, g, "weight_average_size", st.sum_s2 / (double)N) < 0 ||
+        h5u_attr_str(&w, g, "stop", dlca_stop_name(st.stop)) < 0 ||
+        h5u_attr_str(&w, g, "search_used", dlca_search_name(st.search_now)) < 0 ||
+        h5u_attr_f64(&w, g, "D_f", df) < 0 || h5u_attr_f64(&w, g, "D_f_err", dferr) < 0 ||
+        h5u_attr_u64(&w, g, "history_digest", st.digest) < 0 || h5u_attr_u64(&w, g, "model_bytes", st.bytes) < 0 ||
+        h5u_attr_f64(&w, g, "wall_s", wall_s) < 0)
+        goto done;
+    rc = h5u_close(&w, 0, g, H5Gclose, "/results");
+    g = H5I_INVALID_HID;
+    if (rc < 0) goto done;
+    rc = -1;
+    if ((g = h5u_group(&w, file, "clusters")) < 0 ||
+        write_1d(&w, g, "size", H5T_STD_U64LE, H5T_NATIVE_UINT64, size, nc) < 0 ||
+        write_1d(&w, g, "rg", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, rg, nc) < 0)
+        goto done;
+    rc = h5u_close(&w, 0, g, H5Gclose, "/clusters");
+    g = H5I_INVALID_HID;
+    if (rc < 0) goto done;
+    rc = -1;
+    if ((g = h5u_group(&w, file, "monomers")) < 0 ||
+        write_1d(&w, g, "site", H5T_STD_U32LE, H5T_NATIVE_UINT32, site, N) < 0 ||
+        write_1d(&w, g, "cluster", H5T_STD_U32LE, H5T_NATIVE_UINT32, cid, N) < 0)
+        goto done;
+    rc = h5u_close(&w, 0, g, H5Gclose, "/monomers");
+    g = H5I_INVALID_HID;
+    if (rc < 0) goto done;
+    rc = h5u_write_code(&w, file, &pv, command_line);
+done:
+    if (g >= 0) rc = h5u_close(&w, rc, g, H5Gclose, "a group");
+    if (file >= 0) rc = h5u_close(&w, rc, file, H5Fclose, path);
+    free(site), free(cid), free(size), free(rg);
+    h5u_restore(&q);
+    return rc < 0 ? PDLA_EIO : 0;
+}

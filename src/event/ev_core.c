@@ -1,0 +1,562 @@
+/*
+ * ev_core.c - event-driven hard disks/spheres that stick (see pdla/event.h).
+ *
+ * Scheme (after Rapaport; Bannerman et al. 2014 for the stability rules):
+ *  - each free particle keeps ONE pending event: its earliest pair or wall
+ *    event (t_pair) and its next cell crossing (t_cell); an indexed binary
+ *    heap orders particles by min(t_pair, t_cell), ties by particle index;
+ *  - lazy update: a particle's stored state is (x, v) at its local time t_i
+ *    and only changes at its own events;
+ *  - a pair event stores the partner's collision counter; if the counter
+ *    moved, the event is stale and the particle is simply re-predicted;
+ *  - invariant that keeps every collision: whenever a trajectory changes,
+ *    that particle re-predicts against all its neighbours, so of any pair
+ *    that will touch at time t at least one has an event <= t pending. A
+ *    particle that sticks has no events of its own, so it instead offers
+ *    its (new, resting) pair event to every free neighbour;
+ *  - a pair prediction depends only on the two stored states: both are
+ *    moved to max(t_i, t_j) first, so predicting again later (after a cell
+ *    crossing) gives the same bits, and the brute-force reference in the
+ *    tests produces the same event sequence.
+ * Stability rules (Bannerman 2014), each tested in tests/event:
+ *  - overlapping by round-off and approaching (r.v < 0): collide now;
+ *    overlapping and receding: no event (they separate, no pass-through);
+ *  - grazing (discriminant <= 0): no event; receding (r.v >= 0): no event;
+ *  - event times are never earlier than now (no time going back);
+ *  - a wall or cell crossing already passed by round-off happens now; a wall
+ *    reflection sets the sign of v explicitly, so it cannot fire twice;
+ *  - simultaneous events run in (time, particle index) order; a pair event
+ *    made stale by an earlier one at the same instant is re-predicted and
+ *    (if the pair still approaches while touching) happens at once;
+ *  - sticking onto two at once: the first event in that order decides
+ *    the parent; the second contact is then between two stuck particles,
+ *    which have no events. Elastic collisions separate the pair (r.v > 0
+ *    after), so zero-time events cannot repeat without end.
+ */
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ev_internal.h"
+
+#define EV_INF INFINITY
+
+/* ---- heap ---------------------------------------------------------------- */
+
+static inline double ev_key(const ev_sim *s, uint32_t i)
+{
+    const ev_evt *e = &s->evt[i];
+    return e->t_pair < e->t_cell ? e->t_pair : e->t_cell;
+}
+
+/* Heap entries carry their key, so sifting touches only the heap array. */
+static inline int hless(ev_hent a, ev_hent b) { return a.t < b.t || (a.t == b.t && a.id < b.id); }
+
+static void heap_up(ev_sim *s, uint32_t pos, ev_hent x)
+{
+    while (pos > 0) {
+        const uint32_t parent = (pos - 1) / 2;
+        const ev_hent p = s->heap[parent];
+        if (!hless(x, p)) break;
+        s->heap[pos] = p;
+        s->hpos[p.id] = pos;
+        pos = parent;
+    }
+    s->heap[pos] = x;
+    s->hpos[x.id] = pos;
+}
+
+static void heap_down(ev_sim *s, uint32_t pos, ev_hent x)
+{
+    const uint32_t n = s->hn;
+    for (;;) {
+        uint32_t c = 2 * pos + 1;
+        if (c >= n) break;
+        if (c + 1 < n && hless(s->heap[c + 1], s->heap[c])) c++;
+        const ev_hent ch = s->heap[c];
+        if (!hless(ch, x)) break;
+        s->heap[pos] = ch;
+        s->hpos[ch.id] = pos;
+        pos = c;
+    }
+    s->heap[pos] = x;
+    s->hpos[x.id] = pos;
+}
+
+/* Key of i changed: restore the heap order. */
+static void heap_fix(ev_sim *s, uint32_t i)
+{
+    const uint32_t pos = s->hpos[i];
+    const ev_hent x = {ev_key(s, i), i};
+    if (pos > 0 && hless(x, s->heap[(pos - 1) / 2])) heap_up(s, pos, x);
+    else heap_down(s, pos, x);
+}
+
+void ev_heap_push(ev_sim *s, uint32_t i)
+{
+    s->hn++;
+    heap_up(s, s->hn - 1, (ev_hent){ev_key(s, i), i});
+}
+
+static void heap_remove(ev_sim *s, uint32_t i)
+{
+    const uint32_t pos = s->hpos[i];
+    s->hn--;
+    s->hpos[i] = UINT32_MAX;
+    if (pos == s->hn) return;
+    const ev_hent last = s->heap[s->hn];
+    if (pos > 0 && hless(last, s->heap[(pos - 1) / 2])) heap_up(s, pos, last);
+    else heap_down(s, pos, last);
+}
+
+/* ---- cells --------------------------------------------------------------- */
+
+void ev_cell_insert(ev_sim *s, uint32_t i, uint32_t c)
+{
+    s->cell[i] = c;
+    s->cprev[i] = UINT32_MAX;
+    s->cnext[i] = s->chead[c];
+    if (s->chead[c] != UINT32_MAX) s->cprev[s->chead[c]] = i;
+    s->chead[c] = i;
+}
+
+static void cell_remove(ev_sim *s, uint32_t i)
+{
+    const uint32_t c = s->cell[i];
+    if (s->cprev[i] != UINT32_MAX) s->cnext[s->cprev[i]] = s->cnext[i];
+    else s->chead[c] = s->cnext[i];
+    if (s->cnext[i] != UINT32_MAX) s->cprev[s->cnext[i]] = s->cprev[i];
+}
+
+/* ---- predictions (D is a compile-time constant at every call) ------------ */
+
+/* Time at which i and j touch, or INF; never before `now`. Depends only on
+ * the two stored states (see the top comment). */
+static inline __attribute__((always_inline)) double
+pred_pair(const ev_sim *s, const int D, uint32_t i, uint32_t j, double now)
+{
+    const double *pi = EV_P(s, i), *pj = EV_P(s, j);
+    const double ti = pi[2 * D], tj = pj[2 * D];
+    const double tr = ti > tj ? ti : tj;
+    const double di = tr - ti, dj = tr - tj;
+    double b = 0, rr = 0, vv = 0;
+    for (int k = 0; k < D; k++) {
+        double r = (pj[k] + pj[D + k] * dj) - (pi[k] + pi[D + k] * di);
+        if (s->periodic) {
+            if (r > s->half) r -= s->L;
+            else if (r < -s->half) r += s->L;
+        }
+        const double v = pj[D + k] - pi[D + k];
+        b += r * v;
+        rr += r * r;
+        vv += v * v;
+    }
+    if (b >= 0) return EV_INF; /* receding or at rest: no event */
+    const double sig = pi[2 * D + 1] + pj[2 * D + 1];
+    const double c = rr - sig * sig;
+    if (c <= 0) return tr > now ? tr : now; /* round-off overlap, approaching: now */
+    const double disc = b * b - vv * c;
+    if (disc <= 0) return EV_INF; /* miss or exact graze */
+    const double t = tr + c / (-b + sqrt(disc)); /* stable root (no cancellation) */
+    return t > now ? t : now;
+}
+
+/* Earliest wall event of i (elastic walls only): time, *what = 2k+side. */
+static inline __attribute__((always_inline)) double
+pred_wall(const ev_sim *s, const int D, uint32_t i, double now, int *what)
+{
+    const double *p = EV_P(s, i);
+    const double r = p[2 * D + 1];
+    double best = EV_INF;
+    for (int k = 0; k < D; k++) {
+        const double v = p[D + k];
+        double t;
+        if (v > 0) t = (s->L - r - p[k]) / v;
+        else if (v < 0) t = (p[k] - r) / -v;
+        else continue;
+        t = t > 0 ? p[2 * D] + t : p[2 * D];
+        if (t < best) {
+            best = t;
+            *what = 2 * k + (v > 0);
+        }
+    }
+    return best > now ? best : now;
+}
+
+/* Cell coordinates of cell c. */
+static inline __attribute__((always_inline)) void cell_coords(const ev_sim *s, const int D,
+                                                              uint32_t c, int32_t *cc)
+{
+    for (int k = 0; k < D; k++) {
+        cc[k] = (int32_t)(c % (uint32_t)s->nc);
+        c /= (uint32_t)s->nc;
+    }
+}
+
+/* Next cell crossing of i: time, *what = 2k + (direction > 0). In a box with
+ * walls the outer faces are never crossed (the wall comes first). */
+static inline __attribute__((always_inline)) double
+pred_cell(const ev_sim *s, const int D, uint32_t i, double now, int *what)
+{
+    const double *p = EV_P(s, i);
+    int32_t cc[3];
+    cell_coords(s, D, s->cell[i], cc);
+    double best = EV_INF;
+    *what = -1;
+    for (int k = 0; k < D; k++) {
+        const double v = p[D + k];
+        double t;
+        if (v > 0) {
+            if (!s->periodic && cc[k] == s->nc - 1) continue;
+            t = ((double)(cc[k] + 1) * s->w - p[k]) / v;
+        } else if (v < 0) {
+            if (!s->periodic && cc[k] == 0) continue;
+            t = ((double)cc[k] * s->w - p[k]) / v;
+        } else {
+            continue;
+        }
+        t = t > 0 ? p[2 * D] + t : p[2 * D];
+        if (t < best) {
+            best = t;
+            *what = 2 * k + (v > 0);
+        }
+    }
+    return best > now ? best : now;
+}
+
+/* Visit the cells around cc (3^D, or the 3^(D-1) slab at offset `slab` in
+ * dimension `sk` when sk >= 0), calling scan on each particle there. */
+#define EV_FOR_NEIGHBOURS(s, D, cc, sk, slab, BODY)                                          \
+    do {                                                                                     \
+        const int nc_ = (s)->nc;                                                             \
+        int lo_[3] = {-1, -1, -1}, hi_[3] = {1, 1, 1};                                       \
+        if ((sk) >= 0) lo_[(sk)] = hi_[(sk)] = (slab);                                       \
+        for (int oz_ = (D) == 3 ? lo_[2] : 0; oz_ <= ((D) == 3 ? hi_[2] : 0); oz_++) {        \
+            int z_ = 0;                                                                      \
+            if ((D) == 3) {                                                                  \
+                z_ = (cc)[2] + oz_;                                                          \
+                if (z_ < 0 || z_ >= nc_) {                                                   \
+                    if (!(s)->periodic) continue;                                            \
+                    z_ = z_ < 0 ? z_ + nc_ : z_ - nc_;                                       \
+                }                                                                            \
+            }                                                                                \
+            for (int oy_ = lo_[1]; oy_ <= hi_[1]; oy_++) {                                   \
+                int y_ = (cc)[1] + oy_;                                                      \
+                if (y_ < 0 || y_ >= nc_) {                                                   \
+                    if (!(s)->periodic) continue;                                            \
+                    y_ = y_ < 0 ? y_ + nc_ : y_ - nc_;                                       \
+                }                                                                            \
+                for (int ox_ = lo_[0]; ox_ <= hi_[0]; ox_++) {                               \
+                    int x_ = (cc)[0] + ox_;                                                  \
+                    if (x_ < 0 || x_ >= nc_) {                                               \
+                        if (!(s)->periodic) continue;                                        \
+                        x_ = x_ < 0 ? x_ + nc_ : x_ - nc_;                                   \
+                    }                                                                        \
+                    const uint32_t c_ = (uint32_t)x_ +                                       \
+                                        (uint32_t)nc_ * ((uint32_t)y_ + (uint32_t)nc_ * (uint32_t)z_); \
+                    for (uint32_t j = (s)->chead[c_]; j != UINT32_MAX; j = (s)->cnext[j]) {  \
+                        BODY                                                                 \
+                    }                                                                        \
+                }                                                                            \
+            }                                                                                \
+        }                                                                                    \
+    } while (0)
+
+/* Scan the cells around i (all, or one slab) for an earlier pair event. */
+static inline __attribute__((always_inline)) void
+scan_pairs(ev_sim *s, const int D, uint32_t i, double now, int sk, int slab)
+{
+    ev_evt *e = &s->evt[i];
+    int32_t cc[3] = {0, 0, 0};
+    cell_coords(s, D, s->cell[i], cc);
+    EV_FOR_NEIGHBOURS(s, D, cc, sk, slab, {
+        if (j == i) continue;
+        const double t = pred_pair(s, D, i, j, now);
+        if (t < e->t_pair || (t == e->t_pair && e->kind == EV_K_PAIR && j < e->partner)) {
+            e->t_pair = t;
+            e->kind = EV_K_PAIR;
+            e->partner = j;
+            e->pcount = s->count[j];
+        }
+    });
+}
+
+/* Full prediction of i's events. */
+static inline __attribute__((always_inline)) void predict_all(ev_sim *s, const int D, uint32_t i,
+                                                              double now)
+{
+    ev_evt *e = &s->evt[i];
+    e->t_pair = EV_INF;
+    e->kind = EV_K_NONE;
+    if (!s->periodic) {
+        int what = 0;
+        const double t = pred_wall(s, D, i, now, &what);
+        if (t < EV_INF) {
+            e->t_pair = t;
+            e->kind = EV_K_WALL;
+            e->partner = (uint32_t)what;
+        }
+    }
+    scan_pairs(s, D, i, now, -1, 0);
+    int what = -1;
+    e->t_cell = pred_cell(s, D, i, now, &what);
+    e->cell_what = (int8_t)what;
+}
+
+/* Move i's stored state to time t. */
+static inline __attribute__((always_inline)) void advance(ev_sim *s, const int D, uint32_t i,
+                                                          double t)
+{
+    double *p = EV_P(s, i);
+    const double dt = t - p[2 * D];
+    for (int k = 0; k < D; k++) p[k] += p[D + k] * dt;
+    p[2 * D] = t;
+}
+
+static inline __attribute__((always_inline)) double kinetic(const ev_sim *s, const int D,
+                                                            uint32_t i)
+{
+    const double *p = EV_P(s, i);
+    double v2 = 0;
+    for (int k = 0; k < D; k++) v2 += p[D + k] * p[D + k];
+    return 0.5 * s->mass[i] * v2;
+}
+
+/* i (just stuck, at rest) offers itself as a partner to every free
+ * neighbour whose pending event is later (see the invariant above). */
+static inline __attribute__((always_inline)) void offer_stuck(ev_sim *s, const int D, uint32_t i,
+                                                              double now)
+{
+    int32_t cc[3] = {0, 0, 0};
+    cell_coords(s, D, s->cell[i], cc);
+    EV_FOR_NEIGHBOURS(s, D, cc, -1, 0, {
+        if (j == i || s->stuck[j]) continue;
+        const double t = pred_pair(s, D, j, i, now);
+        ev_evt *e = &s->evt[j];
+        if (t < e->t_pair || (t == e->t_pair && e->kind == EV_K_PAIR && i < e->partner)) {
+            e->t_pair = t;
+            e->kind = EV_K_PAIR;
+            e->partner = i;
+            e->pcount = s->count[i];
+            heap_fix(s, j);
+        }
+    });
+}
+
+/* Free i meets stuck j: stick with probability p, else reflect off the
+ * infinite mass. */
+static inline __attribute__((always_inline)) void hit_stuck(ev_sim *s, const int D, uint32_t i,
+                                                            uint32_t j, double now)
+{
+    double *pi = EV_P(s, i);
+    const double *pj = EV_P(s, j);
+    double r[3], rr = 0, rv = 0;
+    for (int k = 0; k < D; k++) {
+        r[k] = pi[k] - pj[k];
+        if (s->periodic) {
+            if (r[k] > s->half) r[k] -= s->L;
+            else if (r[k] < -s->half) r[k] += s->L;
+        }
+        rr += r[k] * r[k];
+        rv += r[k] * pi[D + k];
+    }
+    const double sig = pi[2 * D + 1] + pj[2 * D + 1];
+    const double ov = (sig - sqrt(rr)) / sig;
+    if (ov > s->max_overlap) s->max_overlap = ov;
+    const int sticks = s->stick_p >= 1 || (s->stick_p > 0 && rng_uniform(&s->rng) < s->stick_p);
+    if (sticks) {
+        s->ke_stuck += kinetic(s, D, i);
+        for (int k = 0; k < D; k++) pi[D + k] = 0;
+        s->stuck[i] = 1;
+        s->parent[i] = j;
+        s->stuck_idx[s->nstuck] = i;
+        s->stuck_t[s->nstuck] = now;
+        s->nstuck++;
+        s->sticks++;
+        s->count[i]++;
+        heap_remove(s, i);
+        if (s->trace) s->trace(&(ev_trace_event){now, i, j, EV_EV_STICK}, s->trace_user);
+        offer_stuck(s, D, i, now);
+        return;
+    }
+    /* Reflect: dp_i = -2 m (v.r) r / rr; virial r_ij . dp_i. */
+    const double f = 2 * rv / rr;
+    for (int k = 0; k < D; k++) pi[D + k] -= f * r[k];
+    s->virial += -s->mass[i] * f * rr;
+    s->collisions++;
+    s->count[i]++;
+    if (s->trace) s->trace(&(ev_trace_event){now, i, j, EV_EV_PAIR}, s->trace_user);
+    predict_all(s, D, i, now);
+    heap_fix(s, i);
+}
+
+/* Elastic collision of free i and free j at time now (both advanced). */
+static inline __attribute__((always_inline)) void collide(ev_sim *s, const int D, uint32_t i,
+                                                          uint32_t j, double now)
+{
+    double *pi = EV_P(s, i), *pj = EV_P(s, j);
+    double r[3], rr = 0, rv = 0;
+    for (int k = 0; k < D; k++) {
+        r[k] = pj[k] - pi[k];
+        if (s->periodic) {
+            if (r[k] > s->half) r[k] -= s->L;
+            else if (r[k] < -s->half) r[k] += s->L;
+        }
+        rr += r[k] * r[k];
+        rv += r[k] * (pj[D + k] - pi[D + k]);
+    }
+    const double sig = pi[2 * D + 1] + pj[2 * D + 1];
+    const double ov = (sig - sqrt(rr)) / sig;
+    if (ov > s->max_overlap) s->max_overlap = ov;
+    const double mi = s->mass[i], mj = s->mass[j];
+    /* Reflection along r with r.r in the denominator: exact for any |r|. */
+    const double f = 2 * rv / (rr * (mi + mj));
+    for (int k = 0; k < D; k++) {
+        pi[D + k] += mj * f * r[k];
+        pj[D + k] -= mi * f * r[k];
+    }
+    /* r_ij = -r, dp_i = mi mj f r: r_ij . dp_i = -mi mj f rr (> 0, f < 0). */
+    s->virial += -mi * mj * f * rr;
+    s->collisions++;
+    s->count[i]++;
+    s->count[j]++;
+    if (s->trace) s->trace(&(ev_trace_event){now, i, j, EV_EV_PAIR}, s->trace_user);
+    predict_all(s, D, i, now);
+    heap_fix(s, i);
+    predict_all(s, D, j, now);
+    heap_fix(s, j);
+}
+
+/* Process the earliest event. 0, or -1 when none is left. */
+static inline __attribute__((always_inline)) int step(ev_sim *s, const int D)
+{
+    if (s->hn == 0) return -1;
+    const uint32_t i = s->heap[0].id;
+    ev_evt *e = &s->evt[i];
+    s->events++;
+    if (e->t_cell <= e->t_pair) {
+        /* Cell crossing: the stored state does not change (periodic: the
+         * position moves by one box side). Scan only the new slab. */
+        const double now = e->t_cell;
+        s->now = now;
+        s->cell_crossings++;
+        const int k = e->cell_what >> 1, up = e->cell_what & 1;
+        int32_t cc[3] = {0, 0, 0};
+        cell_coords(s, D, s->cell[i], cc);
+        cc[k] += up ? 1 : -1;
+        if (cc[k] == s->nc) {
+            cc[k] = 0;
+            EV_P(s, i)[k] -= s->L;
+        } else if (cc[k] < 0) {
+            cc[k] = s->nc - 1;
+            EV_P(s, i)[k] += s->L;
+        }
+        uint32_t c = 0;
+        for (int q = D - 1; q >= 0; q--) c = c * (uint32_t)s->nc + (uint32_t)cc[q];
+        cell_remove(s, i);
+        ev_cell_insert(s, i, c);
+        scan_pairs(s, D, i, now, k, up ? 1 : -1);
+        int what = -1;
+        e->t_cell = pred_cell(s, D, i, now, &what);
+        e->cell_what = (int8_t)what;
+        heap_fix(s, i);
+        return 0;
+    }
+    const double now = e->t_pair;
+    s->now = now;
+    if (e->kind == EV_K_WALL) {
+        advance(s, D, i, now);
+        double *p = EV_P(s, i);
+        const int k = (int)e->partner >> 1, up = (int)e->partner & 1;
+        /* Hitting the upper wall leaves with v < 0, the lower with v > 0. */
+        s->wall_impulse += 2 * s->mass[i] * fabs(p[D + k]);
+        p[D + k] = up ? -fabs(p[D + k]) : fabs(p[D + k]);
+        s->wall_hits++;
+        s->count[i]++;
+        if (s->trace) s->trace(&(ev_trace_event){now, i, UINT32_MAX, EV_EV_WALL}, s->trace_user);
+        predict_all(s, D, i, now);
+        heap_fix(s, i);
+        return 0;
+    }
+    const uint32_t j = e->partner;
+    if (e->kind != EV_K_PAIR || s->count[j] != e->pcount) {
+        /* Stale: the partner moved on. Predict again from the stored state. */
+        s->invalid++;
+        predict_all(s, D, i, now);
+        heap_fix(s, i);
+        return 0;
+    }
+    advance(s, D, i, now);
+    if (s->stuck[j]) {
+        hit_stuck(s, D, i, j, now);
+        return 0;
+    }
+    advance(s, D, j, now);
+    collide(s, D, i, j, now);
+    return 0;
+}
+
+/* Dimension-specialised entry points: D is a constant in each. */
+static int step2(ev_sim *s) { return step(s, 2); }
+static int step3(ev_sim *s) { return step(s, 3); }
+static void predict2(ev_sim *s, uint32_t i, double now) { predict_all(s, 2, i, now); }
+static void predict3(ev_sim *s, uint32_t i, double now) { predict_all(s, 3, i, now); }
+
+void ev_predict(ev_sim *s, uint32_t i, double now)
+{
+    if (s->dim == 2) predict2(s, i, now);
+    else predict3(s, i, now);
+}
+
+/* Process events while the next is at or before t_end and no stop
+ * condition holds; returns the stop reason or 0 when t_end was reached. */
+int ev_loop(ev_sim *s, double t_end, volatile const int *interrupt)
+{
+    int (*const stepf)(ev_sim *) = s->dim == 2 ? step2 : step3;
+    const ev_params *p = &s->par;
+    for (uint64_t n = 0;; n++) {
+        if (s->hn == 0) return s->nfree_total && s->nstuck == s->n ? EV_STOP_ALL_STUCK
+                                                                   : EV_STOP_NO_EVENTS;
+        if (p->max_stuck && s->nstuck >= p->max_stuck) return EV_STOP_STUCK;
+        if (p->max_events && s->events >= p->max_events) return EV_STOP_EVENTS;
+        const double next = s->heap[0].t;
+        if (next == EV_INF) return EV_STOP_NO_EVENTS; /* everything free is at rest */
+        if (next > t_end) return 0;
+        if (interrupt && (n & 0xffff) == 0 && *interrupt) return EV_STOP_INTERRUPT;
+        stepf(s);
+    }
+}
+
+/* Largest overlap/(r_i + r_j) over all pairs at the current time, each
+ * particle's position taken at s->now without changing the state. */
+double ev_max_overlap_now(ev_sim *s)
+{
+    const int D = s->dim;
+    double worst = -INFINITY;
+    const uint32_t ntot = s->ntot;
+    for (uint32_t i = 0; i < ntot; i++) {
+        const double *pi = EV_P(s, i);
+        double xi[3];
+        for (int k = 0; k < D; k++) xi[k] = pi[k] + pi[D + k] * (s->now - pi[2 * D]);
+        int32_t cc[3] = {0, 0, 0};
+        cell_coords(s, D, s->cell[i], cc);
+        EV_FOR_NEIGHBOURS(s, D, cc, -1, 0, {
+            if (j <= i) continue;
+            const double *pj = EV_P(s, j);
+            double rr = 0;
+            for (int k = 0; k < D; k++) {
+                double r = pj[k] + pj[D + k] * (s->now - pj[2 * D]) - xi[k];
+                if (s->periodic) {
+                    if (r > s->half) r -= s->L;
+                    else if (r < -s->half) r += s->L;
+                }
+                rr += r * r;
+            }
+            const double sig = pi[2 * D + 1] + pj[2 * D + 1];
+            const double ov = (sig - sqrt(rr)) / sig;
+            if (ov > worst) worst = ov;
+        });
+    }
+    return worst;
+}

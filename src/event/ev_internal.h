@@ -1,0 +1,78 @@
+/*
+ * ev_internal.h - the event model's state, shared by its source files.
+ */
+#ifndef PDLA_EV_INTERNAL_H
+#define PDLA_EV_INTERNAL_H
+
+#include <stdint.h>
+
+#include "pdla/event.h"
+#include "rng.h"
+
+enum { EV_K_NONE = 0, EV_K_PAIR = 1, EV_K_WALL = 2 };
+
+/* A particle's pending events: its earliest pair or wall event and its
+ * next cell crossing (see ev_core.c). 32 bytes. */
+typedef struct ev_evt {
+    double t_pair, t_cell;
+    uint32_t partner; /* pair: particle; wall: 2k + side */
+    uint32_t pcount;  /* partner's collision counter when predicted */
+    int8_t kind;      /* EV_K_* */
+    int8_t cell_what; /* 2k + (direction > 0), -1: none */
+} ev_evt;
+
+typedef struct ev_hent {
+    double t;
+    uint32_t id;
+} ev_hent;
+
+struct ev_sim {
+    ev_params par;
+    int dim, periodic;
+    uint32_t n;           /* particles without the seed */
+    uint32_t ntot;        /* n + (seed ? 1 : 0) */
+    int has_seed;
+    int nfree_total;      /* 1 when there are particles that can stick */
+    double L, half, V;    /* box side, L/2, volume */
+    int nc;               /* cells per dimension */
+    double w;             /* cell side */
+    /* Particle i: ps[i*S ..]: x[D], v[D], t_i, radius (S = 2D + 2). */
+    double *ps;
+    int S;
+    double *mass;
+    uint8_t *species, *stuck;
+    uint32_t *count, *parent;
+    uint32_t *cell, *cnext, *cprev, *chead;
+    ev_evt *evt;
+    ev_hent *heap;
+    uint32_t *hpos, hn;
+    /* stuck particles in arrival order */
+    uint32_t *stuck_idx, nstuck;
+    double *stuck_t;
+    double now;
+    double series_dt; /* the series' interval now (doubles when thinned) */
+    double stick_p;
+    pdla_rng rng;
+    uint64_t events, collisions, wall_hits, sticks, cell_crossings, invalid;
+    double ke_stuck, virial, wall_impulse, max_overlap;
+    ev_trace_fn trace;
+    void *trace_user;
+    /* species table actually used */
+    int nspecies;
+    ev_species sp[EV_MAX_SPECIES];
+};
+
+#define EV_P(s, i) ((s)->ps + (size_t)(i) * (size_t)(2 * D + 2))
+#define EV_P_ANY(s, i) ((s)->ps + (size_t)(i) * (size_t)(2 * (s)->dim + 2))
+void ev_rebuild(ev_sim *s);
+double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi);
+
+void ev_heap_push(ev_sim *s, uint32_t i);
+void ev_cell_insert(ev_sim *s, uint32_t i, uint32_t c);
+void ev_predict(ev_sim *s, uint32_t i, double now);
+int ev_loop(ev_sim *s, double t_end, volatile const int *interrupt);
+/* Species list from p (the string, or one species): 0 or -1 with err. */
+int ev_parse_species(const ev_params *p, ev_species *sp, int *nsp, char *err, size_t errlen);
+double ev_particle_volume(int dim, double r);
+
+#endif

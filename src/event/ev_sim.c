@@ -1,0 +1,560 @@
+/*
+ * ev_sim.c - the event model's start state (box, cells, placement,
+ * velocities), its run loop with the series, and read-out.
+ */
+#include <inttypes.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ev_internal.h"
+
+static int fail(char *err, size_t errlen, const char *fmt, ...)
+{
+    if (err && errlen) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, errlen, fmt, ap);
+        va_end(ap);
+    }
+    return -1;
+}
+
+static double gauss(pdla_rng *r)
+{
+    /* Box-Muller, one value per call: simple and deterministic. */
+    const double u = rng_uniform_open(r), v = rng_uniform(r);
+    return sqrt(-2 * log(u)) * cos(2 * M_PI * v);
+}
+
+void ev_free(ev_sim *s)
+{
+    if (!s) return;
+    free(s->ps);
+    free(s->mass);
+    free(s->species);
+    free(s->stuck);
+    free(s->count);
+    free(s->parent);
+    free(s->cell);
+    free(s->cnext);
+    free(s->cprev);
+    free(s->chead);
+    free(s->evt);
+    free(s->heap);
+    free(s->hpos);
+    free(s->stuck_idx);
+    free(s->stuck_t);
+    free(s);
+}
+
+static uint32_t cell_of(const ev_sim *s, const double *x)
+{
+    uint32_t c = 0;
+    for (int k = s->dim - 1; k >= 0; k--) {
+        double y = x[k];
+        if (s->periodic) y -= s->L * floor(y / s->L);
+        int q = (int)(y / s->w);
+        if (q < 0) q = 0;
+        if (q >= s->nc) q = s->nc - 1;
+        c = c * (uint32_t)s->nc + (uint32_t)q;
+    }
+    return c;
+}
+
+/* Does a particle of radius r at x overlap anything placed (cells)? */
+static int overlaps(const ev_sim *s, const double *x, double r)
+{
+    const int D = s->dim;
+    const uint32_t c = cell_of(s, x);
+    int cc[3] = {0, 0, 0};
+    uint32_t t = c;
+    for (int k = 0; k < D; k++) {
+        cc[k] = (int)(t % (uint32_t)s->nc);
+        t /= (uint32_t)s->nc;
+    }
+    for (int oz = D == 3 ? -1 : 0; oz <= (D == 3 ? 1 : 0); oz++)
+        for (int oy = -1; oy <= 1; oy++)
+            for (int ox = -1; ox <= 1; ox++) {
+                int q[3] = {cc[0] + ox, cc[1] + oy, cc[2] + oz}, ok = 1;
+                for (int k = 0; k < D; k++) {
+                    if (q[k] < 0 || q[k] >= s->nc) {
+                        if (!s->periodic) ok = 0;
+                        q[k] = (q[k] + s->nc) % s->nc;
+                    }
+                }
+                if (!ok) continue;
+                const uint32_t cn = (uint32_t)q[0] +
+                                    (uint32_t)s->nc * ((uint32_t)q[1] + (uint32_t)s->nc * (uint32_t)(D == 3 ? q[2] : 0));
+                for (uint32_t j = s->chead[cn]; j != UINT32_MAX; j = s->cnext[j]) {
+                    const double *pj = EV_P(s, j);
+                    double rr = 0;
+                    for (int k = 0; k < D; k++) {
+                        double d = pj[k] - x[k];
+                        if (s->periodic) {
+                            if (d > s->half) d -= s->L;
+                            else if (d < -s->half) d += s->L;
+                        }
+                        rr += d * d;
+                    }
+                    const double sig = r + pj[2 * D + 1];
+                    if (rr < sig * sig) return 1;
+                }
+            }
+    return 0;
+}
+
+static void put(ev_sim *s, uint32_t i, const double *x)
+{
+    const int D = s->dim;
+    double *p = EV_P(s, i);
+    for (int k = 0; k < D; k++) p[k] = x[k];
+    ev_cell_insert(s, i, cell_of(s, x));
+}
+
+static int place_random(ev_sim *s, char *err, size_t errlen)
+{
+    const int D = s->dim;
+    enum { TRIES = 10000 };
+    for (uint32_t i = 0; i < s->n; i++) {
+        const double r = EV_P(s, i)[2 * D + 1];
+        int placed = 0;
+        for (int a = 0; a < TRIES && !placed; a++) {
+            double x[3];
+            for (int k = 0; k < D; k++)
+                x[k] = s->periodic ? rng_uniform(&s->rng) * s->L
+                                   : r + rng_uniform(&s->rng) * (s->L - 2 * r);
+            if (!overlaps(s, x, r)) {
+                put(s, i, x);
+                placed = 1;
+            }
+        }
+        if (!placed)
+            return fail(err, errlen,
+                        "cannot place particle %" PRIu32 " of %" PRIu32 " without overlap at packing "
+                        "%g after %d tries (random placement jams near 0.55 in 2D, 0.38 in 3D): "
+                        "lower --packing or use --start lattice",
+                        i + 1, s->n, s->par.packing, TRIES);
+    }
+    return 0;
+}
+
+/* Grid sites (k + 1/2) a, a = L / m, in random order; sites touching the
+ * seed are skipped; m grows until there are enough. */
+static int place_lattice(ev_sim *s, double rmax, char *err, size_t errlen)
+{
+    const int D = s->dim;
+    int m = (int)ceil(pow((double)s->n, 1.0 / D) - 1e-9);
+    for (;; m++) {
+        const double a = s->L / m;
+        if (a < 2 * rmax * (1 + 1e-9))
+            return fail(err, errlen, "cannot place %" PRIu32 " particles on a grid at packing %g "
+                                     "(sites closer than a diameter): lower --packing",
+                        s->n, s->par.packing);
+        const uint64_t nsites = (uint64_t)m * (uint64_t)m * (D == 3 ? (uint64_t)m : 1);
+        if (nsites > 4ull * s->n + 64) continue;
+        uint32_t *ok = malloc(nsites * sizeof *ok);
+        if (!ok) return fail(err, errlen, "out of memory");
+        uint64_t nok = 0;
+        for (uint64_t q = 0; q < nsites; q++) {
+            double x[3];
+            uint64_t t = q;
+            for (int k = 0; k < D; k++) {
+                x[k] = ((double)(t % (uint64_t)m) + 0.5) * a;
+                t /= (uint64_t)m;
+            }
+            if (!overlaps(s, x, rmax)) ok[nok++] = (uint32_t)q;
+        }
+        if (nok < s->n) {
+            free(ok);
+            continue;
+        }
+        for (uint32_t i = 0; i < s->n; i++) {
+            /* partial Fisher-Yates: a random unused site */
+            const uint64_t pick = i + (uint64_t)(rng_uniform(&s->rng) * (double)(nok - i));
+            const uint32_t q = ok[pick];
+            ok[pick] = ok[i];
+            double x[3];
+            uint64_t t = q;
+            for (int k = 0; k < D; k++) {
+                x[k] = ((double)(t % (uint64_t)m) + 0.5) * a;
+                t /= (uint64_t)m;
+            }
+            put(s, i, x);
+        }
+        free(ok);
+        return 0;
+    }
+}
+
+/* Renumber the particles (not the seed) in cell order, so that neighbours
+ * sit close in memory: a collision then touches few cache lines. Called
+ * after placement, before anything else refers to particle indices. */
+static int sort_by_cell(ev_sim *s)
+{
+    const int D = s->dim, S = 2 * D + 2;
+    const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (D == 3 ? (uint64_t)s->nc : 1);
+    uint32_t *order = malloc((s->n ? s->n : 1) * sizeof *order);
+    double *ps = malloc((size_t)(s->n ? s->n : 1) * (size_t)S * sizeof *ps);
+    double *m = malloc((s->n ? s->n : 1) * sizeof *m);
+    uint8_t *sp = malloc(s->n ? s->n : 1);
+    if (!order || !ps || !m || !sp) {
+        free(order), free(ps), free(m), free(sp);
+        return -1;
+    }
+    uint32_t k = 0;
+    for (uint64_t c = 0; c < ncell; c++)
+        for (uint32_t j = s->chead[c]; j != UINT32_MAX; j = s->cnext[j])
+            if (j < s->n) order[k++] = j;
+    for (uint32_t a = 0; a < s->n; a++) {
+        memcpy(ps + (size_t)a * S, EV_P(s, order[a]), (size_t)S * sizeof *ps);
+        m[a] = s->mass[order[a]];
+        sp[a] = s->species[order[a]];
+    }
+    memcpy(s->ps, ps, (size_t)s->n * (size_t)S * sizeof *ps);
+    memcpy(s->mass, m, s->n * sizeof *m);
+    memcpy(s->species, sp, s->n);
+    free(order), free(ps), free(m), free(sp);
+    for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
+    for (uint32_t i = 0; i < s->ntot; i++) ev_cell_insert(s, i, cell_of(s, EV_P(s, i)));
+    return 0;
+}
+
+#define ALLOC(ptr, n)                                                      \
+    do {                                                                   \
+        const size_t n_ = (size_t)(n);                                     \
+        (ptr) = calloc(n_ ? n_ : 1, sizeof *(ptr));                        \
+        if (!(ptr)) goto oom;                                              \
+    } while (0)
+
+ev_sim *ev_create(const ev_params *p, char *err, size_t errlen)
+{
+    if (ev_params_check(p, err, errlen)) return NULL;
+    ev_sim *s = calloc(1, sizeof *s);
+    if (!s) {
+        fail(err, errlen, "out of memory");
+        return NULL;
+    }
+    s->par = *p;
+    const int D = s->dim = p->dim;
+    s->periodic = p->walls == EV_WALLS_PERIODIC;
+    s->stick_p = p->stick_p;
+    rng_seed(&s->rng, p->seed);
+    ev_parse_species(p, s->sp, &s->nspecies, NULL, 0);
+    uint64_t n = 0;
+    double vol = 0, rmax = p->seed_radius, rpmax = 0;
+    for (int k = 0; k < s->nspecies; k++) {
+        n += s->sp[k].count;
+        vol += (double)s->sp[k].count * ev_particle_volume(D, s->sp[k].radius);
+        if (s->sp[k].radius > rmax) rmax = s->sp[k].radius;
+        if (s->sp[k].radius > rpmax) rpmax = s->sp[k].radius;
+    }
+    s->n = (uint32_t)n;
+    s->has_seed = p->seed_radius > 0;
+    s->ntot = s->n + (s->has_seed ? 1 : 0);
+    s->V = vol / p->packing;
+    s->L = pow(s->V, 1.0 / D);
+    s->half = 0.5 * s->L;
+    if (s->L < 2 * rmax * 1.5 || (s->has_seed && s->L < 2 * p->seed_radius + 4 * rpmax)) {
+        fail(err, errlen, "box too small: side %g for particles of radius up to %g", s->L, rmax);
+        goto bad;
+    }
+    /* Cells no smaller than the largest contact distance (a hair more, so a
+     * particle assigned by round-off to the next cell is still found), and
+     * no more cells than particles at low packing (bigger cells there mean
+     * fewer crossing events, and still about one particle per cell). */
+    const double cmin = 2 * rmax * (1 + 1e-9);
+    double ncd = floor(s->L / cmin);
+    const double cap = floor(pow((double)s->ntot + 27, 1.0 / D));
+    if (ncd > cap) ncd = cap;
+    if (ncd < 1) ncd = 1;
+    s->nc = (int)ncd;
+    s->w = s->L / s->nc;
+    if (s->periodic && s->nc < 3) {
+        fail(err, errlen, "box too small for periodic walls: side %g is under 3 cells of %g", s->L,
+             cmin);
+        goto bad;
+    }
+    const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (D == 3 ? (uint64_t)s->nc : 1);
+    const uint32_t N = s->ntot;
+    {
+        /* one particle = 64 bytes in 3D: align so it is one cache line */
+        const size_t bytes = ((size_t)N * (2 * D + 2) * sizeof(double) + 63) / 64 * 64;
+        s->ps = aligned_alloc(64, bytes ? bytes : 64);
+        if (!s->ps) goto oom;
+        memset(s->ps, 0, bytes);
+    }
+    ALLOC(s->mass, N);
+    ALLOC(s->species, N);
+    ALLOC(s->stuck, N);
+    ALLOC(s->count, N);
+    ALLOC(s->parent, N);
+    ALLOC(s->cell, N);
+    ALLOC(s->cnext, N);
+    ALLOC(s->cprev, N);
+    ALLOC(s->chead, ncell);
+    ALLOC(s->evt, N);
+    ALLOC(s->heap, N);
+    ALLOC(s->hpos, N);
+    ALLOC(s->stuck_idx, N);
+    ALLOC(s->stuck_t, N);
+    for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
+    {
+        uint32_t i = 0;
+        for (int k = 0; k < s->nspecies; k++)
+            for (uint64_t q = 0; q < s->sp[k].count; q++, i++) {
+                EV_P(s, i)[2 * D + 1] = s->sp[k].radius;
+                s->mass[i] = s->sp[k].density * ev_particle_volume(D, s->sp[k].radius);
+                s->species[i] = (uint8_t)k;
+                s->parent[i] = UINT32_MAX;
+            }
+    }
+    if (s->has_seed) {
+        const uint32_t sd = s->n;
+        double x[3] = {s->half, s->half, s->half};
+        EV_P(s, sd)[2 * D + 1] = p->seed_radius;
+        s->mass[sd] = INFINITY;
+        s->stuck[sd] = 1;
+        s->species[sd] = UINT8_MAX;
+        s->parent[sd] = UINT32_MAX;
+        put(s, sd, x);
+    }
+    if (p->start == EV_START_LATTICE ? place_lattice(s, rpmax, err, errlen)
+                                     : place_random(s, err, errlen))
+        goto bad;
+    if (sort_by_cell(s)) goto oom;
+    for (uint32_t i = 0; i < s->n; i++) {
+        double *q = EV_P(s, i);
+        const double m = s->mass[i];
+        if (p->velocities == EV_VEL_MAXWELL) {
+            const double sd = sqrt(p->kT / m);
+            for (int k = 0; k < D; k++) q[D + k] = sd * gauss(&s->rng);
+        } else {
+            /* seed 001: speed sqrt(2 kT / m) in a uniformly random direction */
+            double u[3], uu;
+            do {
+                uu = 0;
+                for (int k = 0; k < D; k++) {
+                    u[k] = 2 * rng_uniform(&s->rng) - 1;
+                    uu += u[k] * u[k];
+                }
+            } while (uu > 1 || uu < 1e-12);
+            const double f = sqrt(2 * p->kT / m) / sqrt(uu);
+            for (int k = 0; k < D; k++) q[D + k] = f * u[k];
+        }
+    }
+    s->nfree_total = s->has_seed && s->stick_p > 0;
+    for (uint32_t i = 0; i < s->n; i++) ev_predict(s, i, 0);
+    for (uint32_t i = 0; i < s->n; i++) ev_heap_push(s, i);
+    return s;
+oom:
+    fail(err, errlen, "out of memory for %" PRIu64 " particles", n);
+bad:
+    ev_free(s);
+    return NULL;
+}
+
+void ev_set_trace(ev_sim *s, ev_trace_fn fn, void *user)
+{
+    s->trace = fn;
+    s->trace_user = user;
+}
+
+static double stop_time(const ev_sim *s) { return s->par.t_max > 0 ? s->par.t_max : INFINITY; }
+
+int ev_run(ev_sim *s, volatile const int *interrupt)
+{
+    const int why = ev_loop(s, stop_time(s), interrupt);
+    if (why) return why;
+    s->now = stop_time(s);
+    return EV_STOP_TIME;
+}
+
+int ev_run_until(ev_sim *s, double t)
+{
+    const int why = ev_loop(s, t, NULL);
+    if (!why && t > s->now) s->now = t;
+    return why;
+}
+
+void ev_sync(ev_sim *s)
+{
+    const int D = s->dim;
+    for (uint32_t i = 0; i < s->n; i++) {
+        if (s->stuck[i]) continue;
+        double *p = EV_P(s, i);
+        const double dt = s->now - p[2 * D];
+        for (int k = 0; k < D; k++) p[k] += p[D + k] * dt;
+        p[2 * D] = s->now;
+    }
+}
+
+void ev_get_stats(const ev_sim *s, ev_stats *st)
+{
+    const int D = s->dim;
+    memset(st, 0, sizeof *st);
+    st->t = s->now;
+    st->events = s->events;
+    st->collisions = s->collisions;
+    st->wall_hits = s->wall_hits;
+    st->sticks = s->sticks;
+    st->cell_crossings = s->cell_crossings;
+    st->invalid = s->invalid;
+    st->stuck = s->nstuck;
+    double ke = 0;
+    for (uint32_t i = 0; i < s->n; i++) {
+        if (s->stuck[i]) continue;
+        const double *p = EV_P(s, i);
+        double v2 = 0;
+        for (int k = 0; k < D; k++) v2 += p[D + k] * p[D + k];
+        ke += 0.5 * s->mass[i] * v2;
+    }
+    st->ke_free = ke;
+    st->ke_stuck = s->ke_stuck;
+    st->virial = s->virial;
+    st->box = s->L;
+    st->max_overlap = s->max_overlap;
+}
+
+int ev_dim(const ev_sim *s) { return s->dim; }
+size_t ev_count(const ev_sim *s) { return s->n; }
+int ev_has_seed(const ev_sim *s) { return s->has_seed; }
+const double *ev_pos(const ev_sim *s, size_t i)
+{
+    const int D = s->dim;
+    return EV_P(s, i);
+}
+const double *ev_vel(const ev_sim *s, size_t i)
+{
+    const int D = s->dim;
+    return EV_P(s, i) + D;
+}
+double ev_radius(const ev_sim *s, size_t i)
+{
+    const int D = s->dim;
+    return EV_P(s, i)[2 * D + 1];
+}
+double ev_mass(const ev_sim *s, size_t i) { return s->mass[i]; }
+int ev_species_of(const ev_sim *s, size_t i) { return s->species[i] == UINT8_MAX ? -1 : s->species[i]; }
+size_t ev_stuck_list(const ev_sim *s, const uint32_t **idx, const double **t)
+{
+    *idx = s->stuck_idx;
+    *t = s->stuck_t;
+    return s->nstuck;
+}
+
+double ev_pressure(const ev_sim *s, double dvir, double dt)
+{
+    ev_stats st;
+    ev_get_stats(s, &st);
+    return (2 * st.ke_free / s->dim + dvir / (s->dim * dt)) / s->V;
+}
+
+/* At most EV_SERIES_MAX rows: when full, neighbouring rows are merged in
+ * pairs (the later row's values, the mean of the two pressures, which cover
+ * equal intervals) and the interval doubles. A run that goes on for ever
+ * (one particle that never finds the cluster) thus keeps bounded memory. */
+enum { EV_SERIES_MAX = 1 << 16 };
+static void series_thin(ev_series *ser, ev_sim *s)
+{
+    size_t w = 1;
+    for (size_t r = 1; r + 1 < ser->n; r += 2, w++) {
+        ser->t[w] = ser->t[r + 1];
+        ser->ke[w] = ser->ke[r + 1];
+        ser->stuck[w] = ser->stuck[r + 1];
+        ser->collisions[w] = ser->collisions[r + 1];
+        ser->pressure[w] = 0.5 * (ser->pressure[r] + ser->pressure[r + 1]);
+    }
+    ser->n = w;
+    s->series_dt *= 2;
+}
+
+static int series_push(ev_series *ser, ev_sim *s, double pressure)
+{
+    if (ser->n >= EV_SERIES_MAX) series_thin(ser, s);
+    if (ser->n == ser->cap) {
+        const size_t cap = ser->cap ? 2 * ser->cap : 256;
+        double *a = realloc(ser->t, cap * sizeof *a);
+        if (a) ser->t = a;
+        double *b = realloc(ser->ke, cap * sizeof *b);
+        if (b) ser->ke = b;
+        double *c = realloc(ser->pressure, cap * sizeof *c);
+        if (c) ser->pressure = c;
+        uint64_t *d = realloc(ser->stuck, cap * sizeof *d);
+        if (d) ser->stuck = d;
+        uint64_t *e = realloc(ser->collisions, cap * sizeof *e);
+        if (e) ser->collisions = e;
+        if (!a || !b || !c || !d || !e) return -1;
+        ser->cap = cap;
+    }
+    ev_stats st;
+    ev_get_stats(s, &st);
+    ser->t[ser->n] = st.t;
+    ser->ke[ser->n] = st.ke_free;
+    ser->pressure[ser->n] = pressure;
+    ser->stuck[ser->n] = st.stuck;
+    ser->collisions[ser->n] = st.collisions;
+    ser->n++;
+    return 0;
+}
+
+void ev_series_free(ev_series *ser)
+{
+    free(ser->t);
+    free(ser->ke);
+    free(ser->pressure);
+    free(ser->stuck);
+    free(ser->collisions);
+    memset(ser, 0, sizeof *ser);
+}
+
+int ev_run_series(ev_sim *s, ev_series *ser, volatile const int *interrupt)
+{
+    s->series_dt = s->par.series_dt;
+    if (series_push(ser, s, NAN)) return -1;
+    const double tstop = stop_time(s);
+    for (;;) {
+        const double t0 = s->now, v0 = s->virial;
+        double t1 = t0 + s->series_dt;
+        if (t1 > tstop) t1 = tstop;
+        int why = ev_loop(s, t1, interrupt);
+        if (!why) s->now = t1;
+        const double dt = s->now - t0;
+        if (series_push(ser, s, dt > 0 ? ev_pressure(s, s->virial - v0, dt) : NAN)) return -1;
+        if (why) return why;
+        if (s->now >= tstop) return EV_STOP_TIME;
+    }
+}
+
+const char *ev_stop_name(int why)
+{
+    switch (why) {
+    case EV_STOP_ALL_STUCK: return "all stuck";
+    case EV_STOP_TIME: return "time reached";
+    case EV_STOP_STUCK: return "stuck count reached";
+    case EV_STOP_EVENTS: return "event count reached";
+    case EV_STOP_NO_EVENTS: return "no events left";
+    case EV_STOP_INTERRUPT: return "interrupted";
+    default: return "unknown";
+    }
+}
+
+/* Tests set positions, velocities or stuck flags by hand, then call this:
+ * cells, events and the heap are rebuilt from the stored states. */
+void ev_rebuild(ev_sim *s)
+{
+    const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (s->dim == 3 ? (uint64_t)s->nc : 1);
+    ev_sync(s);
+    for (uint32_t i = 0; i < s->ntot && s->periodic; i++)
+        for (int k = 0; k < s->dim; k++) EV_P_ANY(s, i)[k] -= s->L * floor(EV_P_ANY(s, i)[k] / s->L);
+    for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
+    for (uint32_t i = 0; i < s->ntot; i++) ev_cell_insert(s, i, cell_of(s, EV_P_ANY(s, i)));
+    s->hn = 0;
+    for (uint32_t i = 0; i < s->ntot; i++) s->hpos[i] = UINT32_MAX;
+    for (uint32_t i = 0; i < s->n; i++)
+        if (!s->stuck[i]) ev_predict(s, i, s->now);
+    for (uint32_t i = 0; i < s->n; i++)
+        if (!s->stuck[i]) ev_heap_push(s, i);
+}

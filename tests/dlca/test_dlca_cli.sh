@@ -1,0 +1,98 @@
+#!/bin/sh
+# test_dlca_cli.sh PDLA - `pdla --model dlca`: bad input refused with one
+# line and exit 2 before any work; a run writes RUN_DIR/cluster.h5 that
+# `pdla info` reads; --force; determinism and the three searches agreeing
+# through the CLI; a scene with model = dlca; --help from the table.
+set -u
+pdla=$1
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fails=0
+fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
+
+# refused ARGS...: exit 2, exactly one stderr line starting "pdla: ", no dir.
+refused() {
+    "$pdla" --model dlca --out "$tmp/bad" "$@" >"$tmp/out" 2>"$tmp/err"
+    rc=$?
+    [ $rc -eq 2 ] || fail "$* -> exit $rc, not 2"
+    [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "$* -> stderr is not one line: $(cat "$tmp/err")"
+    grep -q '^pdla: ' "$tmp/err" || fail "$* -> stderr: $(cat "$tmp/err")"
+    [ ! -e "$tmp/bad" ] || { fail "$* -> made the run directory"; rm -rf "$tmp/bad"; }
+}
+refused --dim 1
+refused --dim 6
+refused --fill 0
+refused --fill 1
+refused --fill 1.5
+refused --box 4x4 --fill 0.01
+refused --box 1x64
+refused --dim 3 --box 2000
+refused --box 65536x60000
+refused --search nearest
+refused --until-clusters 0
+refused --mobility x
+refused --nosuch 3
+refused --grid-box 3
+
+d="$tmp/run"
+"$pdla" --model dlca --dim 2 --box 64x48 --fill 0.05 --until-clusters 10 --seed 3 --out "$d" --check >"$tmp/out" 2>"$tmp/err" ||
+    fail "run: exit $? $(cat "$tmp/err")"
+[ -f "$d/cluster.h5" ] || fail "no cluster.h5"
+grep -q 'stop: clusters' "$tmp/out" || fail "summary: $(cat "$tmp/out")"
+"$pdla" info "$d/cluster.h5" >"$tmp/info" 2>&1 || fail "info: $(cat "$tmp/info")"
+grep -q 'model dlca' "$tmp/info" || fail "info does not say model dlca"
+grep -Eq '^  n_clusters +10$' "$tmp/info" || fail "info n_clusters: $(grep n_clusters "$tmp/info")"
+"$pdla" info --json "$d/cluster.h5" >"$tmp/json" || fail "info --json"
+if command -v python3 >/dev/null; then
+    python3 -c "import json,sys; j=json.load(open(sys.argv[1])); assert j['model']=='dlca' and j['results']['n_clusters']==10 and j['parameters']['box']==[64,48]" "$tmp/json" ||
+        fail "info --json content"
+fi
+digest() { grep history_digest "$1" | awk '{print $2}'; }
+dg=$(digest "$tmp/info")
+
+"$pdla" --model dlca --box 64x48 --fill 0.05 --out "$d" >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] || fail "existing run directory without --force was not refused"
+for s in lattice boxes allpairs; do
+    "$pdla" --model dlca --box 64x48 --fill 0.05 --until-clusters 10 --seed 3 --search $s --out "$d" --force -q ||
+        fail "--force --search $s"
+    "$pdla" info "$d/cluster.h5" >"$tmp/info2"
+    [ "$(digest "$tmp/info2")" = "$dg" ] || fail "--search $s: history digest $(digest "$tmp/info2") != $dg"
+done
+[ ! -e "$d/.cluster.h5.new" ] || fail "temporary file left behind"
+
+# Checkpoint half way, resume to the end: the same history as one run.
+c="$tmp/ck"
+"$pdla" --model dlca --box 64x48 --fill 0.05 --until-clusters 40 --seed 3 --out "$c" --checkpoint -q ||
+    fail "--checkpoint run"
+[ -f "$c/checkpoint.h5" ] || fail "no checkpoint.h5"
+"$pdla" --model dlca --resume "$c/checkpoint.h5" --until-clusters 10 -q || fail "--resume"
+"$pdla" info "$c/cluster.h5" >"$tmp/info3"
+[ "$(digest "$tmp/info3")" = "$dg" ] || fail "resumed: history digest $(digest "$tmp/info3") != $dg"
+"$pdla" --model dlca --resume "$c/checkpoint.h5" --seed 5 >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] && [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "--resume with --seed: $(cat "$tmp/err")"
+"$pdla" --model dlca --resume "$d/cluster.h5" >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] && [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "--resume from a cluster.h5: $(cat "$tmp/err")"
+
+cat >"$tmp/scene" <<EOS
+# a DLCA scene
+model = dlca
+dim = 3
+box = 16x12x10
+fill = 0.02
+until_clusters = 5
+seed = 4
+out = $tmp/scene-run
+EOS
+"$pdla" --scene "$tmp/scene" -q || fail "scene run"
+"$pdla" info "$tmp/scene-run/cluster.h5" | grep -Eq '^  dim +3$' || fail "scene: dim is not 3"
+printf 'model = dlca\nfill = 2\n' >"$tmp/bad-scene"
+"$pdla" --scene "$tmp/bad-scene" >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] && grep -q ':2: ' "$tmp/err" || fail "bad scene: $(cat "$tmp/err")"
+
+"$pdla" --model dlca --help >"$tmp/help" || fail "--help"
+for o in dim box fill count mobility sticking drift until-clusters until-time max-attempts seed search grid-box; do
+    grep -q -- "--$o " "$tmp/help" || fail "--help lacks --$o"
+done
+
+[ $fails -eq 0 ] && echo "dlca cli: all passed"
+exit $((fails != 0))

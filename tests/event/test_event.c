@@ -1,0 +1,747 @@
+/*
+ * test_event.c - the event model's engine checks (fast suite `event`):
+ *   brute     the engine against an independent all-pairs event loop: the
+ *             same events, in the same order, at the same times
+ *   conserve  sticking off: energy (walls) and momentum (periodic) to
+ *             round-off, no overlap beyond 1e-10 diameters
+ *   stick     sticking on: free energy falls by exactly what stuck ones
+ *             carried, every stuck particle touches its parent, no overlap
+ *   edge      round-off overlaps, grazing, simultaneous events, wall and
+ *             particle at once, sticking onto two at once, Newton's cradle
+ *   determinism, params
+ */
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ev_internal.h"
+#include "check.h"
+
+#define TOL 1e-10 /* the stated overlap tolerance, in units of r_i + r_j */
+
+/* ---- recorded traces ----------------------------------------------------- */
+typedef struct trace {
+    ev_trace_event *e;
+    size_t n, cap;
+} trace;
+
+static void rec(const ev_trace_event *e, void *u)
+{
+    trace *t = u;
+    if (t->n == t->cap) {
+        t->cap = t->cap ? 2 * t->cap : 1024;
+        t->e = realloc(t->e, t->cap * sizeof *t->e);
+        if (!t->e) abort();
+    }
+    ev_trace_event x = *e;
+    if (x.kind == EV_EV_PAIR && x.j != UINT32_MAX && x.j < x.i) {
+        const uint32_t a = x.i;
+        x.i = x.j;
+        x.j = a;
+    }
+    t->e[t->n++] = x;
+}
+
+/* ---- brute force: all pairs, no cells, no heap ---------------------------- */
+/* Independent of the engine's data structures; the same arithmetic for a
+ * prediction (both states moved to max(t_i, t_j)), so with elastic walls
+ * the two produce bit-identical event times. */
+typedef struct bf {
+    int D, periodic;
+    uint32_t n, ntot;
+    double L, half, p;
+    double *x, *v, *t, *r, *m;
+    uint8_t *stuck;
+    double *bt;
+    int *bk; /* 0 none, 1 pair, 2 wall */
+    uint32_t *bp;
+    double now;
+    pdla_rng rng;
+} bf;
+
+static double bf_pair(const bf *b, uint32_t i, uint32_t j)
+{
+    const int D = b->D;
+    const double tr = b->t[i] > b->t[j] ? b->t[i] : b->t[j];
+    const double di = tr - b->t[i], dj = tr - b->t[j];
+    double rv = 0, rr = 0, vv = 0;
+    for (int k = 0; k < D; k++) {
+        double r = (b->x[j * 3 + k] + b->v[j * 3 + k] * dj) - (b->x[i * 3 + k] + b->v[i * 3 + k] * di);
+        if (b->periodic) {
+            if (r > b->half) r -= b->L;
+            else if (r < -b->half) r += b->L;
+        }
+        const double v = b->v[j * 3 + k] - b->v[i * 3 + k];
+        rv += r * v;
+        rr += r * r;
+        vv += v * v;
+    }
+    if (rv >= 0) return INFINITY;
+    const double sig = b->r[i] + b->r[j], c = rr - sig * sig;
+    if (c <= 0) return tr > b->now ? tr : b->now;
+    const double disc = rv * rv - vv * c;
+    if (disc <= 0) return INFINITY;
+    const double t = tr + c / (-rv + sqrt(disc));
+    return t > b->now ? t : b->now;
+}
+
+static void bf_best(bf *b, uint32_t i)
+{
+    b->bt[i] = INFINITY;
+    b->bk[i] = 0;
+    if (b->stuck[i]) return;
+    if (!b->periodic)
+        for (int k = 0; k < b->D; k++) {
+            const double v = b->v[i * 3 + k];
+            double t;
+            if (v > 0) t = (b->L - b->r[i] - b->x[i * 3 + k]) / v;
+            else if (v < 0) t = (b->x[i * 3 + k] - b->r[i]) / -v;
+            else continue;
+            t = t > 0 ? b->t[i] + t : b->t[i];
+            if (t < b->now) t = b->now;
+            if (t < b->bt[i]) {
+                b->bt[i] = t;
+                b->bk[i] = 2;
+                b->bp[i] = (uint32_t)(2 * k + (v > 0));
+            }
+        }
+    for (uint32_t j = 0; j < b->ntot; j++) {
+        if (j == i) continue;
+        const double t = bf_pair(b, i, j);
+        if (t < b->bt[i] || (t == b->bt[i] && b->bk[i] == 1 && j < b->bp[i])) {
+            b->bt[i] = t;
+            b->bk[i] = 1;
+            b->bp[i] = j;
+        }
+    }
+}
+
+static bf *bf_from(const ev_sim *s)
+{
+    bf *b = calloc(1, sizeof *b);
+    const int D = s->dim;
+    b->D = D;
+    b->periodic = s->periodic;
+    b->n = s->n;
+    b->ntot = s->ntot;
+    b->L = s->L;
+    b->half = s->half;
+    b->p = s->stick_p;
+    b->rng = s->rng;
+    b->x = calloc(3 * s->ntot, sizeof *b->x);
+    b->v = calloc(3 * s->ntot, sizeof *b->v);
+    b->t = calloc(s->ntot, sizeof *b->t);
+    b->r = calloc(s->ntot, sizeof *b->r);
+    b->m = calloc(s->ntot, sizeof *b->m);
+    b->stuck = calloc(s->ntot, 1);
+    b->bt = calloc(s->ntot, sizeof *b->bt);
+    b->bk = calloc(s->ntot, sizeof *b->bk);
+    b->bp = calloc(s->ntot, sizeof *b->bp);
+    for (uint32_t i = 0; i < s->ntot; i++) {
+        const double *p = EV_P_ANY(s, i);
+        for (int k = 0; k < D; k++) {
+            b->x[i * 3 + k] = p[k];
+            b->v[i * 3 + k] = p[D + k];
+        }
+        b->t[i] = p[2 * D];
+        b->r[i] = p[2 * D + 1];
+        b->m[i] = s->mass[i];
+        b->stuck[i] = s->stuck[i];
+    }
+    for (uint32_t i = 0; i < b->n; i++) bf_best(b, i);
+    return b;
+}
+
+static void bf_free(bf *b)
+{
+    free(b->x), free(b->v), free(b->t), free(b->r), free(b->m), free(b->stuck);
+    free(b->bt), free(b->bk), free(b->bp), free(b);
+}
+
+static void bf_adv(bf *b, uint32_t i)
+{
+    for (int k = 0; k < b->D; k++) b->x[i * 3 + k] += b->v[i * 3 + k] * (b->now - b->t[i]);
+    b->t[i] = b->now;
+}
+
+/* After particles in ch[0..nch) changed: re-predict them, and every other
+ * particle whose best involved them or that may now meet them sooner. */
+static void bf_update(bf *b, const uint32_t *ch, int nch)
+{
+    for (int q = 0; q < nch; q++) bf_best(b, ch[q]);
+    for (uint32_t k = 0; k < b->n; k++) {
+        if (b->stuck[k]) continue;
+        int mine = 0, hit = 0;
+        for (int q = 0; q < nch; q++) mine |= k == ch[q], hit |= b->bk[k] == 1 && b->bp[k] == ch[q];
+        if (mine) continue;
+        if (hit) {
+            bf_best(b, k);
+            continue;
+        }
+        for (int q = 0; q < nch; q++) {
+            const double t = bf_pair(b, k, ch[q]);
+            if (t < b->bt[k]) {
+                b->bt[k] = t;
+                b->bk[k] = 1;
+                b->bp[k] = ch[q];
+            }
+        }
+    }
+}
+
+/* One event; appends it to tr. 0, or -1 when none is left. */
+static int bf_step(bf *b, trace *tr)
+{
+    uint32_t i = UINT32_MAX;
+    for (uint32_t k = 0; k < b->n; k++)
+        if (!b->stuck[k] && b->bk[k] && (i == UINT32_MAX || b->bt[k] < b->bt[i])) i = k;
+    if (i == UINT32_MAX || b->bt[i] == INFINITY) return -1;
+    b->now = b->bt[i];
+    const int D = b->D;
+    if (b->bk[i] == 2) {
+        bf_adv(b, i);
+        const int k = (int)b->bp[i] >> 1, up = (int)b->bp[i] & 1;
+        b->v[i * 3 + k] = up ? -fabs(b->v[i * 3 + k]) : fabs(b->v[i * 3 + k]);
+        rec(&(ev_trace_event){b->now, i, UINT32_MAX, EV_EV_WALL}, tr);
+        bf_update(b, &i, 1);
+        return 0;
+    }
+    const uint32_t j = b->bp[i];
+    bf_adv(b, i);
+    double r[3], rr = 0, rv = 0;
+    if (b->stuck[j]) {
+        for (int k = 0; k < D; k++) {
+            r[k] = b->x[i * 3 + k] - b->x[j * 3 + k];
+            if (b->periodic) r[k] += r[k] > b->half ? -b->L : r[k] < -b->half ? b->L : 0;
+            rr += r[k] * r[k];
+            rv += r[k] * b->v[i * 3 + k];
+        }
+        const int sticks = b->p >= 1 || (b->p > 0 && rng_uniform(&b->rng) < b->p);
+        if (sticks) {
+            for (int k = 0; k < D; k++) b->v[i * 3 + k] = 0;
+            b->stuck[i] = 1;
+            b->bk[i] = 0;
+            rec(&(ev_trace_event){b->now, i, j, EV_EV_STICK}, tr);
+        } else {
+            const double f = 2 * rv / rr;
+            for (int k = 0; k < D; k++) b->v[i * 3 + k] -= f * r[k];
+            rec(&(ev_trace_event){b->now, i, j, EV_EV_PAIR}, tr);
+        }
+        bf_update(b, &i, 1);
+        return 0;
+    }
+    bf_adv(b, j);
+    for (int k = 0; k < D; k++) {
+        r[k] = b->x[j * 3 + k] - b->x[i * 3 + k];
+        if (b->periodic) r[k] += r[k] > b->half ? -b->L : r[k] < -b->half ? b->L : 0;
+        rr += r[k] * r[k];
+        rv += r[k] * (b->v[j * 3 + k] - b->v[i * 3 + k]);
+    }
+    const double mi = b->m[i], mj = b->m[j], f = 2 * rv / (rr * (mi + mj));
+    for (int k = 0; k < D; k++) {
+        b->v[i * 3 + k] += mj * f * r[k];
+        b->v[j * 3 + k] -= mi * f * r[k];
+    }
+    rec(&(ev_trace_event){b->now, i, j, EV_EV_PAIR}, tr);
+    const uint32_t ch[2] = {i, j};
+    bf_update(b, ch, 2);
+    return 0;
+}
+
+static ev_params base(int dim, uint64_t n, double packing, int periodic, double seed_r, double p)
+{
+    ev_params q;
+    ev_params_default(&q);
+    q.dim = dim;
+    q.particles = n;
+    q.packing = packing;
+    q.walls = periodic;
+    q.seed_radius = seed_r;
+    q.stick_p = p;
+    q.t_max = 1e300;
+    return q;
+}
+
+/* Engine and brute force from the same start: compare the first nev events.
+ * exact: times bit-identical; else within rel. tolerance 1e-9 until the
+ * first divergence of the pair sequence, which must come late. */
+static void cmp_brute(const char *what, ev_params q, size_t nev, int exact)
+{
+    char err[256];
+    ev_sim *s = ev_create(&q, err, sizeof err);
+    CHECK(s != NULL, "%s: %s", what, err);
+    if (!s) return;
+    bf *b = bf_from(s);
+    trace te = {0}, tb = {0};
+    ev_set_trace(s, rec, &te);
+    ev_loop(s, INFINITY, NULL); /* bounded by q.max_events */
+    while (tb.n < te.n && bf_step(b, &tb) == 0) {
+    }
+    size_t same = 0;
+    double worst = 0;
+    for (; same < te.n && same < tb.n; same++) {
+        const ev_trace_event *a = &te.e[same], *c = &tb.e[same];
+        if (a->i != c->i || a->j != c->j || a->kind != c->kind) break;
+        const double d = fabs(a->t - c->t) / (fabs(c->t) + 1e-300);
+        if (d > worst) worst = d;
+        if (exact ? a->t != c->t : d > 1e-9) break;
+    }
+    fprintf(stderr, "%s: %zu engine events, %zu brute, %zu identical, worst rel dt %.3g\n", what,
+            te.n, tb.n, same, worst);
+    CHECK(te.n >= nev, "%s: engine stopped early", what);
+    /* periodic: chaos amplifies the wrap's round-off; demand the first 1000 */
+    CHECK(exact ? same == te.n : same >= 1000, "%s: sequences differ at event %zu of %zu", what,
+          same, te.n);
+    free(te.e);
+    free(tb.e);
+    bf_free(b);
+    ev_free(s);
+}
+
+/* ev_loop runs until the heap is empty or t_end: bound it by events. */
+static void test_brute(void)
+{
+    ev_params q = base(2, 300, 0.2, 0, 0, 1);
+    q.max_events = 150000;
+    cmp_brute("2d walls gas", q, 40000, 1);
+    q = base(3, 250, 0.25, 0, 0, 1);
+    q.max_events = 150000;
+    cmp_brute("3d walls gas", q, 40000, 1);
+    q = base(2, 300, 0.1, 0, 1.0, 1);
+    q.max_events = 200000;
+    cmp_brute("2d walls sticking p=1", q, 1000, 1);
+    q = base(3, 200, 0.1, 0, 1.0, 0.3);
+    q.max_events = 200000;
+    cmp_brute("3d walls sticking p=0.3", q, 2000, 1);
+    q = base(2, 300, 0.2, 0, 0, 1);
+    strcpy(q.species, "150:0.5:1,150:0.8:3");
+    q.max_events = 100000;
+    cmp_brute("2d walls two species", q, 30000, 1);
+    /* periodic: wrapping at the box edge changes the stored position by L,
+     * so times agree to round-off only (chaos ends the agreement later). */
+    q = base(2, 300, 0.2, 1, 0, 1);
+    q.max_events = 20000;
+    cmp_brute("2d periodic gas", q, 5000, 0);
+    q = base(3, 250, 0.2, 1, 0, 1);
+    q.max_events = 20000;
+    cmp_brute("3d periodic gas", q, 5000, 0);
+}
+
+static void momentum(const ev_sim *s, double *p, double *scale)
+{
+    const int D = s->dim;
+    p[0] = p[1] = p[2] = 0;
+    *scale = 0;
+    for (uint32_t i = 0; i < s->n; i++)
+        for (int k = 0; k < D; k++) {
+            p[k] += s->mass[i] * EV_P_ANY(s, i)[D + k];
+            *scale += fabs(s->mass[i] * EV_P_ANY(s, i)[D + k]);
+        }
+}
+
+static void test_conserve(int dim, int periodic, double packing, double tend)
+{
+    ev_params q = base(dim, 1000, packing, periodic, 0, 1);
+    strcpy(q.species, "600:0.5:1,400:0.7:2.5");
+    q.start = EV_START_LATTICE;
+    ev_sim *s = ev_create(&q, NULL, 0);
+    CHECK(s != NULL, "create");
+    if (!s) return;
+    ev_stats a, b;
+    ev_get_stats(s, &a);
+    double p0[3], p1[3], sc;
+    momentum(s, p0, &sc);
+    double worst = ev_max_overlap_now(s);
+    for (int k = 1; k <= 20; k++) {
+        ev_run_until(s, tend * k / 20);
+        const double ov = ev_max_overlap_now(s);
+        if (ov > worst) worst = ov;
+    }
+    ev_get_stats(s, &b);
+    momentum(s, p1, &sc);
+    const double de = fabs(b.ke_free - a.ke_free) / a.ke_free;
+    double dp = 0;
+    for (int k = 0; k < dim; k++) dp = fmax(dp, fabs(p1[k] - p0[k]) / sc);
+    fprintf(stderr, "conserve %dd %s eta %.2f: %llu collisions, dE/E %.3g, dp/sum|p| %.3g, "
+            "overlap now %.3g, at collisions %.3g, stale %llu\n",
+            dim, periodic ? "periodic" : "walls", packing, (unsigned long long)b.collisions, de, dp,
+            worst, b.max_overlap, (unsigned long long)b.invalid);
+    CHECK(b.collisions > 100000, "too few collisions");
+    /* round-off: ~1e-16 per collision, summed as a random walk */
+    CHECK(de < 1e-11, "energy drift %g", de);
+    if (periodic) CHECK(dp < 1e-11, "momentum drift %g", dp);
+    CHECK(worst < TOL && b.max_overlap < TOL, "overlap %g / %g", worst, b.max_overlap);
+    ev_free(s);
+}
+
+/* Sticking on: energy bookkeeping, contacts, overlaps. */
+static void test_stick(int dim, double packing, double p)
+{
+    ev_params q = base(dim, dim == 2 ? 2000 : 1500, packing, 0, 0.5, p);
+    strcpy(q.species, dim == 2 ? "1500:0.5:1,500:0.3:2" : "1000:0.5:1,500:0.35:2");
+    q.t_max = 0;
+    q.velocities = EV_VEL_FIXED;
+    ev_sim *s = ev_create(&q, NULL, 0);
+    CHECK(s != NULL, "create");
+    if (!s) return;
+    ev_stats a, b;
+    ev_get_stats(s, &a);
+    double worst = 0;
+    int why = 0;
+    for (int k = 1; k <= 40 && why != EV_STOP_ALL_STUCK; k++) {
+        q.max_stuck = s->n * (uint64_t)k / 40;
+        s->par.max_stuck = q.max_stuck;
+        why = ev_run(s, NULL);
+        const double ov = ev_max_overlap_now(s);
+        if (ov > worst) worst = ov;
+    }
+    ev_get_stats(s, &b);
+    const double de = fabs(b.ke_free + b.ke_stuck - a.ke_free) / a.ke_free;
+    /* every stuck particle touches its parent */
+    const int D = dim;
+    double worst_touch = 0;
+    for (uint32_t k = 0; k < s->nstuck; k++) {
+        const uint32_t i = s->stuck_idx[k], j = s->parent[i];
+        double rr = 0;
+        for (int c = 0; c < D; c++) {
+            const double d = EV_P_ANY(s, i)[c] - EV_P_ANY(s, j)[c];
+            rr += d * d;
+        }
+        const double sig = EV_P_ANY(s, i)[2 * D + 1] + EV_P_ANY(s, j)[2 * D + 1];
+        const double gap = fabs(sqrt(rr) - sig) / sig;
+        if (gap > worst_touch) worst_touch = gap;
+        CHECK(j == s->n || (s->stuck[j] && j != i), "parent of %u not stuck", i);
+    }
+    fprintf(stderr, "stick %dd eta %.3f p %.1f: stuck %llu of %u (%s), dE/E %.3g, contact gap %.3g, "
+            "overlap %.3g\n", dim, packing, p, (unsigned long long)b.stuck, s->n,
+            ev_stop_name(why), de, worst_touch, worst);
+    CHECK(b.stuck == s->n && why == EV_STOP_ALL_STUCK, "not all stuck: %s", ev_stop_name(why));
+    CHECK(b.ke_free == 0, "free energy left %g", b.ke_free);
+    CHECK(de < 1e-12, "energy bookkeeping %g", de);
+    CHECK(worst_touch < TOL, "stuck particle off its parent by %g", worst_touch);
+    CHECK(worst < TOL && b.max_overlap < TOL, "overlap %g", worst);
+    ev_free(s);
+}
+
+/* ---- hand-made edge cases ------------------------------------------------- */
+/* A sim of n unit-diameter disks (2D, walls, box side about 40), states then
+ * set by hand; the seed (if any) is index n. */
+static ev_sim *blank(int n, int seed)
+{
+    ev_params q = base(2, (uint64_t)n, n * M_PI * 0.25 / 1600.0, 0, seed ? 0.5 : 0, 1);
+    q.start = EV_START_LATTICE;
+    ev_sim *s = ev_create(&q, NULL, 0);
+    if (!s) abort();
+    for (uint32_t i = 0; i < s->ntot; i++) {
+        double *p = EV_P_ANY(s, i);
+        p[0] = p[1] = 20;
+        p[2] = p[3] = 0;
+        p[4] = 0;
+    }
+    return s;
+}
+
+static void setp(ev_sim *s, uint32_t i, double x, double y, double vx, double vy)
+{
+    double *p = EV_P_ANY(s, i);
+    p[0] = x, p[1] = y, p[2] = vx, p[3] = vy, p[4] = s->now;
+}
+
+static double energy(const ev_sim *s)
+{
+    ev_stats st;
+    ev_get_stats(s, &st);
+    return st.ke_free + st.ke_stuck;
+}
+
+static void test_edge(void)
+{
+    trace t = {0};
+    /* 1. round-off overlap, approaching: collide at once; receding: never. */
+    {
+        ev_sim *s = blank(2, 0);
+        setp(s, 0, 10, 10, 1, 0);
+        setp(s, 1, 11 - 1e-14, 10, -1, 0);
+        ev_rebuild(s);
+        ev_set_trace(s, rec, &t);
+        t.n = 0;
+        ev_run_until(s, 1e-12);
+        CHECK(t.n == 1 && t.e[0].kind == EV_EV_PAIR && t.e[0].t == 0, "overlap approach: %zu", t.n);
+        CHECK(EV_P_ANY(s, 0)[2] < 0 && EV_P_ANY(s, 1)[2] > 0, "did not bounce");
+        ev_free(s);
+        s = blank(2, 0);
+        setp(s, 0, 10, 10, -1, 0);
+        setp(s, 1, 11 - 1e-14, 10, 1, 0);
+        ev_rebuild(s);
+        ev_set_trace(s, rec, &t);
+        t.n = 0;
+        ev_run_until(s, 5);
+        CHECK(t.n == 0, "overlap receding: %zu events", t.n);
+        ev_free(s);
+    }
+    /* 2. grazing: impact parameter exactly sigma (passes), and a hair less
+     *    (collides, no overlap). */
+    {
+        ev_sim *s = blank(2, 0);
+        setp(s, 0, 10, 10, 1, 0);
+        setp(s, 1, 15, 11, 0, 0);
+        ev_rebuild(s);
+        ev_set_trace(s, rec, &t);
+        t.n = 0;
+        ev_run_until(s, 8);
+        CHECK(t.n == 0, "exact graze: %zu events", t.n);
+        CHECK(ev_max_overlap_now(s) < TOL, "graze overlap");
+        ev_free(s);
+        s = blank(2, 0);
+        setp(s, 0, 10, 10, 1, 0);
+        setp(s, 1, 15, 11 - 1e-12, 0, 0);
+        ev_rebuild(s);
+        const double e0 = energy(s);
+        double worst = 0;
+        for (int k = 1; k <= 100; k++) {
+            ev_run_until(s, 0.1 * k);
+            worst = fmax(worst, ev_max_overlap_now(s));
+        }
+        CHECK(s->collisions == 1, "near graze: %llu collisions", (unsigned long long)s->collisions);
+        CHECK(worst < TOL, "near graze overlap %g", worst);
+        CHECK(fabs(energy(s) - e0) < 1e-14 * e0, "near graze energy");
+        ev_free(s);
+    }
+    /* 3. simultaneous: two disks hit a third from both sides at once. */
+    {
+        ev_sim *s = blank(3, 0);
+        setp(s, 0, 10, 20, 1, 0);
+        setp(s, 1, 13, 20, 0, 0);
+        setp(s, 2, 16, 20, -1, 0);
+        ev_rebuild(s);
+        const double e0 = energy(s);
+        ev_run_until(s, 3);
+        CHECK(ev_max_overlap_now(s) < TOL, "simultaneous overlap");
+        CHECK(fabs(energy(s) - e0) < 1e-14, "simultaneous energy");
+        CHECK(EV_P_ANY(s, 0)[2] < 0 && EV_P_ANY(s, 2)[2] > 0, "outer ones must leave");
+        CHECK(s->collisions < 10, "zero-time loop: %llu", (unsigned long long)s->collisions);
+        ev_free(s);
+    }
+    /* 4. a wall and a particle at the same instant: 0 reaches the wall
+     *    (x = r) at t = 1 while 1 hits it from the right. */
+    {
+        ev_sim *s = blank(2, 0);
+        setp(s, 0, 1.5, 20, -1, 0);
+        setp(s, 1, 3.5, 20, -2, 0);
+        ev_rebuild(s);
+        const double e0 = energy(s);
+        double worst = 0;
+        for (int k = 1; k <= 40; k++) {
+            ev_run_until(s, 0.1 * k);
+            worst = fmax(worst, ev_max_overlap_now(s));
+            const double *p = EV_P_ANY(s, 0);
+            CHECK(p[0] + p[2] * (s->now - p[4]) >= 0.5 - 1e-12, "through the wall");
+        }
+        CHECK(worst < TOL, "wall+pair overlap %g", worst);
+        CHECK(fabs(energy(s) - e0) < 1e-13 * e0, "wall+pair energy");
+        CHECK(EV_P_ANY(s, 0)[2] > 0 && EV_P_ANY(s, 1)[2] > 0, "both move away from the wall");
+        ev_free(s);
+    }
+    /* 5. sticking onto two at once: the seed (index 1) at (20,20), stuck 0
+     *    touching it at (21,20); free 2 falls onto both. */
+    {
+        ev_sim *s = blank(3, 1);
+        s->stuck[0] = 1;
+        setp(s, 0, 21, 20, 0, 0);
+        setp(s, 3, 20, 20, 0, 0);
+        setp(s, 1, 30, 30, 0, 0);
+        s->stuck[1] = 1; /* a far resting spectator */
+        setp(s, 2, 20.5, 20 + sqrt(0.75) + 2, 0, -1);
+        ev_rebuild(s);
+        ev_set_trace(s, rec, &t);
+        t.n = 0;
+        ev_run_until(s, 5);
+        CHECK(s->stuck[2], "did not stick");
+        CHECK(t.n == 1 && t.e[0].kind == EV_EV_STICK, "%zu events", t.n);
+        CHECK(s->parent[2] == 0 || s->parent[2] == 3, "parent %u", s->parent[2]);
+        CHECK(ev_max_overlap_now(s) < TOL, "overlap after double stick %g", ev_max_overlap_now(s));
+        ev_free(s);
+    }
+    /* 6. Newton's cradle: 5 touching disks, one hits the row: a chain of
+     *    zero-time collisions that must end with the last one leaving. */
+    {
+        ev_sim *s = blank(6, 0);
+        setp(s, 0, 5, 20, 1, 0);
+        for (int k = 1; k < 6; k++) setp(s, (uint32_t)k, 10 + k, 20, 0, 0);
+        ev_rebuild(s);
+        ev_run_until(s, 6);
+        CHECK(s->collisions == 5, "cradle: %llu collisions", (unsigned long long)s->collisions);
+        CHECK(fabs(EV_P_ANY(s, 5)[2] - 1) < 1e-15 && fabs(EV_P_ANY(s, 0)[2]) < 1e-15, "cradle velocities");
+        CHECK(ev_max_overlap_now(s) < TOL, "cradle overlap");
+        ev_free(s);
+    }
+    free(t.e);
+}
+
+static void test_determinism(void)
+{
+    uint64_t h[3];
+    for (int r = 0; r < 3; r++) {
+        ev_params q = base(3, 800, 0.1, 0, 0.5, 0.5);
+        q.t_max = 0;
+        q.seed = r == 2 ? 7 : 3;
+        ev_sim *s = ev_create(&q, NULL, 0);
+        CHECK(s != NULL, "create");
+        if (!s) return;
+        ev_run(s, NULL);
+        uint64_t x = 1469598103934665603ull;
+        for (uint32_t k = 0; k < s->nstuck; k++) {
+            double pos[3];
+            memcpy(pos, EV_P_ANY(s, s->stuck_idx[k]), sizeof pos);
+            const unsigned char *c = (const unsigned char *)pos;
+            for (size_t b = 0; b < sizeof pos; b++) x = (x ^ c[b]) * 1099511628211ull;
+        }
+        h[r] = x;
+        ev_free(s);
+    }
+    CHECK(h[0] == h[1], "same seed, different clusters");
+    CHECK(h[0] != h[2], "different seeds, same cluster");
+}
+
+static void test_params(void)
+{
+    char err[256];
+    ev_params p;
+    ev_params_default(&p);
+    CHECK(ev_params_check(&p, err, sizeof err) == 0, "defaults invalid: %s", err);
+    CHECK(ev_param_set(&p, "stick-p", "1.5", err, sizeof err) < 0, "p > 1 accepted");
+    CHECK(ev_param_set(&p, "density", "-1", err, sizeof err) < 0, "negative density accepted");
+    CHECK(ev_param_set(&p, "box_walls", "periodic", err, sizeof err) == 0 && p.walls == 1, "scene key");
+    CHECK(ev_param_set(&p, "particles", "1e5", err, sizeof err) == 0 && p.particles == 100000, "1e5");
+    ev_params_default(&p);
+    strcpy(p.species, "10:0.5:-1");
+    CHECK(ev_params_check(&p, err, sizeof err) < 0, "negative species density accepted");
+    ev_params_default(&p);
+    p.dim = 3;
+    p.packing = 0.45;
+    p.particles = 3000;
+    CHECK(ev_create(&p, err, sizeof err) == NULL && strstr(err, "cannot place"),
+          "unreachable packing not refused: %s", err);
+    p.particles = 4;
+    p.packing = 0.5;
+    CHECK(ev_create(&p, err, sizeof err) == NULL && strstr(err, "box too small"), "small box: %s", err);
+}
+
+/* Pressure from the collision virial against Henderson (2D) or
+ * Carnahan-Starling (3D), and the collision rate against Enskog with g(sigma)
+ * from the same equation of state. Periodic box, one species, lattice start
+ * melted for t_eq, measured over 10 blocks of t_meas / 10. The tolerance is
+ * 1% on Z (the equations of state are good to a few 0.1% at eta <= 0.4 and
+ * N >= 1000 adds ~0.1%); the block scatter is printed and must itself be
+ * well under the tolerance, so a pass is not luck. Collision rate: 2.5%
+ * (Enskog neglects velocity correlations, a ~1-2% effect at eta 0.4). */
+static void test_eos(int dim, double eta, uint64_t n, double t_meas)
+{
+    ev_params q = base(dim, n, eta, 1, 0, 1);
+    q.start = EV_START_LATTICE;
+    q.seed = 11;
+    ev_sim *s = ev_create(&q, NULL, 0);
+    CHECK(s != NULL, "create");
+    if (!s) return;
+    const double t_eq = 20;
+    ev_run_until(s, t_eq);
+    enum { B = 10 };
+    double z[B], zsum = 0, rate = 0;
+    ev_stats a, b;
+    ev_get_stats(s, &a);
+    const uint64_t c0 = a.collisions;
+    for (int k = 0; k < B; k++) {
+        ev_get_stats(s, &a);
+        ev_run_until(s, t_eq + t_meas * (k + 1) / B);
+        ev_get_stats(s, &b);
+        z[k] = 1 + (b.virial - a.virial) / (2 * b.ke_free * (b.t - a.t));
+        zsum += z[k];
+    }
+    const double zm = zsum / B;
+    double var = 0;
+    for (int k = 0; k < B; k++) var += (z[k] - zm) * (z[k] - zm);
+    const double se = sqrt(var / (B * (B - 1.0)));
+    const double zth = dim == 2 ? (1 + eta * eta / 8) / ((1 - eta) * (1 - eta))
+                                : (1 + eta + eta * eta - eta * eta * eta) / pow(1 - eta, 3);
+    const double kT = 2 * b.ke_free / (dim * (double)n), m = s->mass[0], sig = 2 * q.radius;
+    const double rho = (double)n / s->V;
+    const double g = (zth - 1) / (dim == 2 ? 2 * eta : 4 * eta);
+    const double omega = (dim == 2 ? 2 * rho * sig : 4 * rho * sig * sig) * g * sqrt(M_PI * kT / m);
+    rate = (double)(b.collisions - c0) / t_meas;
+    const double rate_th = 0.5 * (double)n * omega;
+    fprintf(stderr, "eos %dd eta %.2f N %llu: Z %.5f +- %.5f (theory %.5f, %+.3f%%), collision rate "
+            "%.5g (Enskog %.5g, %+.3f%%), %llu collisions\n", dim, eta, (unsigned long long)n, zm, se,
+            zth, 100 * (zm / zth - 1), rate, rate_th, 100 * (rate / rate_th - 1),
+            (unsigned long long)(b.collisions - c0));
+    CHECK(fabs(zm / zth - 1) < 0.01, "Z off by %g", zm / zth - 1);
+    CHECK(se / zth < 0.004, "too noisy to test: se %g", se);
+    CHECK(fabs(rate / rate_th - 1) < 0.025, "collision rate off by %g", rate / rate_th - 1);
+    CHECK(ev_max_overlap_now(s) < TOL, "overlap");
+    ev_free(s);
+}
+
+/* From the seed's fixed speed to Maxwell-Boltzmann: <v^4>/<v^2>^2 goes from
+ * 1 to 2 (2D) or 5/3 (3D). Averaged over 20 snapshots a few collision times
+ * apart (N = 3000: the statistical error is ~1%): tolerance 3%. */
+static void test_mb(int dim)
+{
+    ev_params q = base(dim, 3000, 0.2, 1, 0, 1);
+    q.velocities = EV_VEL_FIXED;
+    q.start = EV_START_LATTICE;
+    ev_sim *s = ev_create(&q, NULL, 0);
+    CHECK(s != NULL, "create");
+    if (!s) return;
+    ev_run_until(s, 15);
+    double r = 0;
+    const int S = 20;
+    for (int k = 0; k < S; k++) {
+        ev_run_until(s, 15 + 3.0 * (k + 1));
+        double v2 = 0, v4 = 0;
+        for (uint32_t i = 0; i < s->n; i++) {
+            double w = 0;
+            for (int c = 0; c < dim; c++) w += EV_P_ANY(s, i)[dim + c] * EV_P_ANY(s, i)[dim + c];
+            v2 += w;
+            v4 += w * w;
+        }
+        v2 /= s->n;
+        v4 /= s->n;
+        r += v4 / (v2 * v2) / S;
+    }
+    const double th = dim == 2 ? 2.0 : 5.0 / 3.0;
+    fprintf(stderr, "mb %dd: <v^4>/<v^2>^2 = %.4f (Maxwell-Boltzmann %.4f, start 1)\n", dim, r, th);
+    CHECK(fabs(r / th - 1) < 0.03, "not Maxwell-Boltzmann: %g", r);
+    ev_free(s);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc > 4 && !strcmp(argv[1], "eos")) {
+        test_eos(atoi(argv[2]), atof(argv[3]), strtoull(argv[4], NULL, 10), argc > 5 ? atof(argv[5]) : 200);
+        return check_finish();
+    }
+    if (argc > 2 && !strcmp(argv[1], "mb")) {
+        test_mb(atoi(argv[2]));
+        return check_finish();
+    }
+    const char *what = argc > 1 ? argv[1] : "all";
+    const int all = !strcmp(what, "all");
+    if (all || !strcmp(what, "brute")) test_brute();
+    if (all || !strcmp(what, "conserve")) {
+        test_conserve(2, 0, 0.3, 150);
+        test_conserve(2, 1, 0.4, 120);
+        test_conserve(3, 0, 0.3, 100);
+        test_conserve(3, 1, 0.3, 100);
+    }
+    if (all || !strcmp(what, "stick")) {
+        test_stick(2, 0.05, 1);
+        test_stick(2, 0.2, 0.3);
+        test_stick(3, 0.05, 1);
+        test_stick(3, 0.2, 0.5);
+    }
+    if (all || !strcmp(what, "edge")) test_edge();
+    if (all || !strcmp(what, "determinism")) test_determinism();
+    if (all || !strcmp(what, "params")) test_params();
+    return check_finish();
+}

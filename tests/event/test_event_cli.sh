@@ -1,0 +1,74 @@
+#!/bin/sh
+# test_event_cli.sh PDLA - the event model's command line: bad input refused
+# with one `pdla:` line and exit 2; --help from the table; a small run writes
+# cluster.h5 (model = event) that `pdla info` and `pdla render` read; an
+# existing run directory needs --force; a scene with `model = event` runs.
+set -u
+pdla=$1
+t=$(mktemp -d)
+trap 'rm -rf "$t"' EXIT
+fails=0
+fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
+
+# expect_usage DESCRIPTION ARGS...: exit 2 and exactly one line on stderr
+expect_usage() {
+    what=$1
+    shift
+    "$pdla" "$@" >"$t/out" 2>"$t/err"
+    rc=$?
+    [ $rc -eq 2 ] || fail "$what: exit $rc, want 2"
+    [ "$(wc -l <"$t/err")" -eq 1 ] || fail "$what: stderr not one line: $(cat "$t/err")"
+    grep -q '^pdla: ' "$t/err" || fail "$what: no 'pdla:' prefix"
+}
+expect_usage "p > 1" --model event --stick-p 1.5 --out "$t/a"
+expect_usage "negative density" --model event --density -1 --out "$t/a"
+expect_usage "bad species" --model event --species 10:0.5:-2 --out "$t/a"
+expect_usage "unknown option" --model event --frobnicate 3 --out "$t/a"
+expect_usage "packing too high" --model event --dim 3 --particles 2000 --packing 0.45 --out "$t/a"
+expect_usage "box too small" --model event --particles 4 --packing 0.5 --out "$t/a"
+expect_usage "seed above cell size" --model event --seed-radius 40 --out "$t/a"
+expect_usage "gas without an end" --model event --seed-radius 0 --out "$t/a"
+expect_usage "bad walls" --model event --box-walls sticky --out "$t/a"
+[ -e "$t/a" ] && fail "run directory made for bad input"
+
+"$pdla" --model event --help >"$t/help" || fail "--help exit"
+for k in dim particles packing box-walls seed kT velocities stick-p seed-radius t-max max-stuck max-events species; do
+    grep -q -- "--$k " "$t/help" || fail "--help lacks --$k"
+done
+
+"$pdla" --model event --dim 2 --particles 300 --packing 0.05 --seed 4 --out "$t/r" >"$t/out" 2>"$t/err" ||
+    fail "small run: $(cat "$t/err")"
+grep -q "stopped: all stuck" "$t/out" || fail "small run did not end all stuck: $(cat "$t/out")"
+"$pdla" info "$t/r/cluster.h5" >"$t/info" || fail "info exit"
+grep -q "model *event" "$t/info" || fail "info: no model event"
+grep -q "stuck *300" "$t/info" || fail "info: not 300 stuck"
+"$pdla" info --json "$t/r/cluster.h5" >"$t/info.json" || fail "info --json exit"
+grep -q '"stuck": 300' "$t/info.json" || fail "info --json: stuck"
+"$pdla" render "$t/r/cluster.h5" -o "$t/r.png" --size 64 || fail "render"
+[ -s "$t/r.png" ] || fail "render wrote nothing"
+expect_usage "existing dir" --model event --particles 300 --packing 0.05 --out "$t/r"
+"$pdla" --model event --dim 3 --particles 200 --packing 0.05 --seed 4 --out "$t/r" --force >/dev/null ||
+    fail "--force"
+# determinism: the same seed gives the same cluster file content
+"$pdla" --model event --dim 3 --particles 200 --packing 0.05 --seed 4 --out "$t/r2" >/dev/null || fail "r2"
+"$pdla" info "$t/r/cluster.h5" | grep -v "created_utc\|command_line" >"$t/i1"
+"$pdla" info "$t/r2/cluster.h5" | grep -v "created_utc\|command_line" | sed "s|$t/r2|$t/r|" >"$t/i2"
+cmp -s "$t/i1" "$t/i2" || fail "same seed, different results"
+
+cat >"$t/scene.txt" <<EOS
+# the event model from a scene
+model = event
+dim = 2
+particles = 200
+packing = 0.1
+box_walls = periodic
+stick_p = 0.5
+max_events = 200000
+EOS
+"$pdla" --scene "$t/scene.txt" --out "$t/s" >"$t/out" 2>"$t/err" || fail "scene run: $(cat "$t/err")"
+"$pdla" info "$t/s/cluster.h5" | grep -q "box-walls *periodic" || fail "scene keys not applied"
+printf 'model = event\nstick_p = 3\n' >"$t/bad.txt"
+expect_usage "bad scene" --scene "$t/bad.txt" --out "$t/b"
+
+[ $fails -eq 0 ] && echo "event cli: all passed"
+exit $((fails > 0))

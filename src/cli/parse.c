@@ -715,11 +715,13 @@ size_t cli_help_text(char *buf, size_t len, const pdla_params *defaults)
     if (buf && len) buf[0] = '\0';
     put(&t,
         "Usage: pdla [OPTION]...\n"
-        "       pdla info|render|analyze FILE [OPTION]...   (pdla COMMAND --help)\n"
+        "       pdla info|render|analyze|export FILE [OPTION]...   (pdla COMMAND --help)\n"
+        "       pdla --model dlca|event [OPTION]...   (pdla --model M --help)\n"
         "Grow an off-lattice diffusion-limited aggregation (DLA) cluster and write it\n"
         "to RUN_DIR/cluster.h5 (HDF5), with a summary in RUN_DIR/summary.txt.\n"
         "Look at a cluster file: `info` (what it holds), `render` (a PNG picture),\n"
-        "`analyze` (fractal dimension from R_g(N) and from the mass-radius relation).\n"
+        "`analyze` (fractal dimension from R_g(N) and from the mass-radius relation),\n"
+        "`export` (PLY, CSV or XYZ for other programs).\n"
         "Lengths are in units (D units = one particle diameter) or in diameters.\n");
     for (size_t i = 0; i < N_OPTIONS; i++) {
         const opt_desc *d = &options[i];

@@ -95,7 +95,8 @@ for t in info render analyze; do
     grep -q "Usage: pdla $t" out || fail "$t --help has no usage line"
 done
 good "pdla --help" --help
-grep -q "info|render|analyze" out || fail "pdla --help does not mention the subcommands"
+grep -q "info|render|analyze|export" out || fail "pdla --help does not mention the subcommands"
+grep -q "model dlca|event" out || fail "pdla --help does not mention the other models"
 
 # ---- info ---------------------------------------------------------------
 good "info 2D" info c2/cluster.h5

@@ -211,20 +211,11 @@ int tool_analyze(int argc, char **argv)
             break;
         case 'h': fputs(analyze_help, stdout); return fflush(stdout) ? TOOL_RUNTIME : TOOL_OK;
         default:
-            if (optopt) fprintf(stderr, "pdla analyze: option '%s' needs a value (see pdla analyze --help)\n", argv[optind - 1]);
-            else fprintf(stderr, "pdla analyze: unknown option '%s' (see pdla analyze --help)\n", argv[optind - 1]);
-            return TOOL_USAGE;
+            return tools_option_error("analyze", argv, optind, optopt);
         }
-        if (bad) {
-            fprintf(stderr, "pdla analyze: invalid value '%s' for %s\n", optarg, bad);
-            return TOOL_USAGE;
-        }
+        if (bad) return tools_value_error("analyze", optarg, bad);
     }
-    if (optind != argc - 1) {
-        fprintf(stderr, "pdla analyze: %s (see pdla analyze --help)\n",
-                optind >= argc ? "no FILE given" : "more than one FILE given");
-        return TOOL_USAGE;
-    }
+    if (tools_one_file("analyze", optind, argc)) return TOOL_USAGE;
     char err[1024];
     /* A bad --csv fails before any reading. */
     if (o.csv_dir) {

@@ -29,6 +29,7 @@
 #include <string.h>
 
 #include "h5read.h"
+#include "optcheck.h"
 #include "parse.h"
 #include "tools.h"
 
@@ -250,6 +251,11 @@ int tool_export(int argc, char **argv)
     int fmt = FMT_NONE, force = 0, c;
     opterr = 0;
     optind = 1;
+    char oerr[160];
+    if (optcheck_exact(argc, argv, longopts, "ho:", oerr, sizeof oerr)) {
+        fprintf(stderr, "pdla export: %s\n", oerr);
+        return TOOL_USAGE;
+    }
     while ((c = getopt_long(argc, argv, "ho:", longopts, NULL)) != -1) {
         const char *bad = NULL;
         switch (c) {
@@ -264,20 +270,11 @@ int tool_export(int argc, char **argv)
             break;
         case 'h': fputs(export_help, stdout); return fflush(stdout) ? TOOL_RUNTIME : TOOL_OK;
         default:
-            if (optopt) fprintf(stderr, "pdla export: option '%s' needs a value (see pdla export --help)\n", argv[optind - 1]);
-            else fprintf(stderr, "pdla export: unknown option '%s' (see pdla export --help)\n", argv[optind - 1]);
-            return TOOL_USAGE;
+            return tools_option_error("export", argv, optind, optopt);
         }
-        if (bad) {
-            fprintf(stderr, "pdla export: invalid value '%s' for %s\n", optarg, bad);
-            return TOOL_USAGE;
-        }
+        if (bad) return tools_value_error("export", optarg, bad);
     }
-    if (optind != argc - 1) {
-        fprintf(stderr, "pdla export: %s (see pdla export --help)\n",
-                optind >= argc ? "no FILE given" : "more than one FILE given");
-        return TOOL_USAGE;
-    }
+    if (tools_one_file("export", optind, argc)) return TOOL_USAGE;
     if (!out) {
         fprintf(stderr, "pdla export: no output given (-o OUT)\n");
         return TOOL_USAGE;

@@ -505,3 +505,28 @@ int tools_out_commit(FILE *fp, const char *tmp, const char *path, int force, cha
     }
     return 0;
 }
+
+int tools_option_error(const char *tool, char *const *argv, int optind_now, int optopt_now)
+{
+    if (optopt_now)
+        fprintf(stderr, "pdla %s: option '%s' needs a value (see pdla %s --help)\n", tool,
+                argv[optind_now - 1], tool);
+    else
+        fprintf(stderr, "pdla %s: unknown option '%s' (see pdla %s --help)\n", tool,
+                argv[optind_now - 1], tool);
+    return 2;
+}
+
+int tools_value_error(const char *tool, const char *value, const char *what)
+{
+    fprintf(stderr, "pdla %s: invalid value '%s' for %s\n", tool, value, what);
+    return 2;
+}
+
+int tools_one_file(const char *tool, int optind_now, int argc)
+{
+    if (optind_now == argc - 1) return 0;
+    fprintf(stderr, "pdla %s: %s (see pdla %s --help)\n", tool,
+            optind_now >= argc ? "no FILE given" : "more than one FILE given", tool);
+    return 2;
+}

@@ -73,6 +73,15 @@ double h5r_attr_num(const h5r_attrs *a, const char *name);
  * temporary name beside it and move it into place (replacing only with
  * force). tools_out_check runs before any work, so a bad -o fails early. */
 int tools_out_check(const char *path, int force, char *err, size_t errlen);
+
+/* The option errors every tool gives the same way (one line on stderr, the
+ * tool named; each returns 2 = TOOL_USAGE so a caller can `return` it):
+ * getopt's '?' (unknown option, or one whose value is missing: optopt != 0),
+ * a value its parser refused (what = "--opt: want ..."), and FILE counts other
+ * than one (returns 0 when exactly one FILE follows the options). */
+int tools_option_error(const char *tool, char *const *argv, int optind_now, int optopt_now);
+int tools_value_error(const char *tool, const char *value, const char *what);
+int tools_one_file(const char *tool, int optind_now, int argc);
 /* Returns a FILE* on path.tmp.<pid>; tools_out_commit closes, syncs and
  * renames it (removing it on failure). */
 #include <stdio.h>

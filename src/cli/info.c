@@ -212,15 +212,10 @@ int tool_info(int argc, char **argv)
         case 'j': json = 1; break;
         case 'h': fputs(info_help, stdout); return fflush(stdout) ? TOOL_RUNTIME : TOOL_OK;
         default:
-            fprintf(stderr, "pdla info: unknown option '%s' (see pdla info --help)\n", argv[optind - 1]);
-            return TOOL_USAGE;
+            return tools_option_error("info", argv, optind, 0); /* no option of info takes a value */
         }
     }
-    if (optind != argc - 1) {
-        fprintf(stderr, "pdla info: %s (see pdla info --help)\n",
-                optind >= argc ? "no FILE given" : "more than one FILE given");
-        return TOOL_USAGE;
-    }
+    if (tools_one_file("info", optind, argc)) return TOOL_USAGE;
     if (dlca_info_is_dlca(argv[optind])) return dlca_info_main(argv[optind], json); /* model dlca */
     char err[1024];
     h5r_file f;

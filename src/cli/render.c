@@ -302,20 +302,11 @@ int tool_render(int argc, char **argv)
             break;
         case 'h': fputs(render_help, stdout); return fflush(stdout) ? TOOL_RUNTIME : TOOL_OK;
         default:
-            if (optopt) fprintf(stderr, "pdla render: option '%s' needs a value (see pdla render --help)\n", argv[optind - 1]);
-            else fprintf(stderr, "pdla render: unknown option '%s' (see pdla render --help)\n", argv[optind - 1]);
-            return TOOL_USAGE;
+            return tools_option_error("render", argv, optind, optopt);
         }
-        if (bad) {
-            fprintf(stderr, "pdla render: invalid value '%s' for %s\n", optarg, bad);
-            return TOOL_USAGE;
-        }
+        if (bad) return tools_value_error("render", optarg, bad);
     }
-    if (optind != argc - 1) {
-        fprintf(stderr, "pdla render: %s (see pdla render --help)\n",
-                optind >= argc ? "no FILE given" : "more than one FILE given");
-        return TOOL_USAGE;
-    }
+    if (tools_one_file("render", optind, argc)) return TOOL_USAGE;
     if (!out) {
         fprintf(stderr, "pdla render: no output given (-o PNG)\n");
         return TOOL_USAGE;

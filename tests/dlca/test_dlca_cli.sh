@@ -33,6 +33,7 @@ refused --until-clusters 0
 refused --mobility x
 refused --nosuch 3
 refused --grid-box 3
+refused --dim 2 --box 64x64 --fil 0.01 --until-clusters 10   # abbreviated --fill
 
 d="$tmp/run"
 "$pdla" --model dlca --dim 2 --box 64x48 --fill 0.05 --until-clusters 10 --seed 3 --out "$d" --check >"$tmp/out" 2>"$tmp/err" ||

@@ -237,6 +237,7 @@ def test_export(pdla, fix, tmp):
                        (["--format", "ply", "-o", "n.ply"], "no FILE"),
                        (["c2/cluster.h5", "c3/cluster.h5", "-o", "n.ply"], "two FILEs"),
                        (["c2/cluster.h5", "-o", "n.ply", "--bogus"], "unknown option"),
+                       (["c2/cluster.h5", "--form", "ply", "-o", "n.ply"], "abbreviated --format"),
                        (["c2/cluster.h5", "-o", "n.ply", "--slab-rows", "0"], "bad --slab-rows"),
                        (["c2/cluster.h5", "-o", "/nonexistent-dir/n.ply"], "unwritable folder")):
         out = args[args.index("-o") + 1] if "-o" in args else None

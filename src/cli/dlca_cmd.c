@@ -206,7 +206,7 @@ static int parse(int argc, char **argv, dlca_cli *c, char **scene_buf, char *err
     opterr = 0;
     optind = 1;
     /* Long options are never abbreviated (as in the DLA command and the tools). */
-    if (optcheck_exact(argc, argv, lo, ":q", err, errlen)) return -1;
+    if (optcheck_exact(argc, argv, lo, ":q", err, errlen)) rc = -1;
     while (rc == 0 && (opt = getopt_long(argc, argv, ":q", lo, NULL)) != -1) {
         if (opt == OPT_HELP) rc = 1;
         else if (opt == OPT_SCENE) rc = read_scene(c, optarg, scene_buf, err, errlen);

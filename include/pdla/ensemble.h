@@ -178,10 +178,11 @@ typedef struct pdla_ens_stats {
     /* Local slope: D_f fitted over windows of half a decade of N, centred
      * every 0.1 decade from n_lo to the end, with the same bootstrap band. */
     size_t nslope;
+    double slope_window;       /* its width in decades (0.5) */
     double *slope_n, *slope_df, *slope_lo, *slope_hi;
     /* Correction to scaling R_g = A N^(1/D) (1 + B N^-nu) on the fit range
      * (nonlinear least squares on ln R_g; nu profiled over [0.2, 2]); the
-     * interval of D and A by bootstrap (corr_samples resamples). corr_ok = 0
+     * interval of D and A by bootstrap (the first corr_samples resamples). corr_ok = 0
      * when it could not be fitted (too few points). A in diameters. */
     int corr_ok, corr_samples;
     double corr_A, corr_A_lo, corr_A_hi, corr_D, corr_D_lo, corr_D_hi, corr_B, corr_nu, corr_rms;
@@ -190,14 +191,17 @@ typedef struct pdla_ens_stats {
 } pdla_ens_stats;
 
 #define PDLA_ENS_BOOT_SAMPLES 1000
+#define PDLA_ENS_CORR_SAMPLES 200 /* the correction fit profiles nu: 200 refits */
 #define PDLA_ENS_BOOT_SEED 20260101u
 
 /* rg: m x k, row-major (cluster i's series at rg + i * k); df_cluster: the
- * clusters' own D_f (may be NULL); n_final: the clusters' size. */
+ * clusters' own D_f (may be NULL); n_final: the clusters' size; the
+ * correction fit's interval uses the first min(corr_samples, boot_samples)
+ * resamples (0: no interval). */
 PDLA_API int pdla_ens_stats_compute(const uint64_t *n, size_t k, const double *rg, size_t m,
                                     const double *df_cluster, uint64_t n_final, int boot_samples,
-                                    uint64_t boot_seed, pdla_ens_stats *out, char *err,
-                                    size_t errlen);
+                                    int corr_samples, uint64_t boot_seed, pdla_ens_stats *out,
+                                    char *err, size_t errlen);
 PDLA_API void pdla_ens_stats_free(pdla_ens_stats *s);
 
 /* The correction-to-scaling fit alone, of one series y(N) over [n_lo, n_hi]:

@@ -224,6 +224,12 @@ int ens_cmd_main(int argc, char **argv)
         free(cmd);
         return EXIT_RUNTIME;
     }
+    /* First: a signal from now on stops the ensemble in an orderly way. */
+    if (install_signals()) {
+        fprintf(stderr, "pdla ensemble: cannot install signal handlers: %s\n", strerror(errno));
+        code = EXIT_RUNTIME;
+        goto out;
+    }
     if (split_args(argc, argv, &a, rest, &nrest, err, sizeof err)) {
         fprintf(stderr, "pdla ensemble: %s\n", err);
         goto out;
@@ -279,6 +285,9 @@ int ens_cmd_main(int argc, char **argv)
             code = EXIT_RUNTIME;
             goto out;
         }
+        if (!o.quiet)
+            fprintf(stderr, "pdla ensemble: resuming %s: %" PRIu64 " of %" PRIu64 " clusters recorded\n", dir,
+                    pdla_ens_journal_count(j), pdla_ens_journal_config(j)->clusters);
     } else {
         if (!a.clusters_given) {
             fprintf(stderr, "pdla ensemble: --clusters M is required (see pdla ensemble --help)\n");
@@ -325,11 +334,6 @@ int ens_cmd_main(int argc, char **argv)
         }
     }
 
-    if (install_signals()) {
-        fprintf(stderr, "pdla ensemble: cannot install signal handlers: %s\n", strerror(errno));
-        code = EXIT_RUNTIME;
-        goto out;
-    }
     const pdla_ens_config *cfg = pdla_ens_journal_config(j);
     prog_ctx pc;
     const int tty = isatty(STDERR_FILENO);

@@ -3,8 +3,8 @@
  * (include/pdla/ensemble.h, pdla_ens_stats): mean R_g(N) with standard
  * errors, D_f of the mean with a bootstrap interval over clusters, the local
  * slope with its band, and the correction-to-scaling fit
- * R_g = A N^(1/D) (1 + B N^-nu) with its interval; and /statistics in
- * ensemble.h5.
+ * R_g = A N^(1/D) (1 + B N^-nu) with its interval; /statistics in
+ * ensemble.h5 is written from them by ens_write.c.
  *
  * Why bootstrap over clusters: the R_g(N) of one cluster at neighbouring N
  * are strongly correlated (the same particles), so the least-squares error
@@ -16,13 +16,11 @@
 #include <string.h>
 
 #include "pdla/ensemble.h"
-#include "ens_internal.h"
 #include "fit.h"
 #include "rng.h"
 
 #define SLOPE_HALF 0.25 /* half width of a local-slope window, decades */
 #define SLOPE_STEP 0.1  /* spacing of the windows' centres, decades */
-#define CORR_SAMPLES 200 /* resamples for the correction fit's interval (each fit profiles nu) */
 
 void pdla_ens_stats_free(pdla_ens_stats *s)
 {
@@ -237,19 +235,20 @@ static void slope_range(double centre, uint64_t *lo, uint64_t *hi)
 }
 
 int pdla_ens_stats_compute(const uint64_t *n, size_t k, const double *rg, size_t m, const double *df_cluster,
-                           uint64_t n_final, int boot_samples, uint64_t boot_seed, pdla_ens_stats *s, char *err,
-                           size_t errlen)
+                           uint64_t n_final, int boot_samples, int corr_samples, uint64_t boot_seed,
+                           pdla_ens_stats *s, char *err, size_t errlen)
 {
     memset(s, 0, sizeof *s);
-    if (m < 1 || boot_samples < 0 || boot_samples > 1000000)
+    if (m < 1 || boot_samples < 0 || boot_samples > 1000000 || corr_samples < 0)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "statistics need at least one cluster and 0..1e6 resamples");
     s->k = k;
+    s->slope_window = 2 * SLOPE_HALF;
     s->boot_samples = boot_samples;
     s->boot_seed = boot_seed;
     fit_default_range(n_final, &s->n_lo, &s->n_hi);
     double centre[256];
     const size_t nw = slope_windows(s->n_lo, n_final, centre, 256);
-    const size_t B = (size_t)boot_samples, BC = B < CORR_SAMPLES ? B : CORR_SAMPLES;
+    const size_t B = (size_t)boot_samples, BC = B < (size_t)corr_samples ? B : (size_t)corr_samples;
     s->mean_rg = malloc((k ? k : 1) * 8);
     s->se_rg = malloc((k ? k : 1) * 8);
     s->slope_n = malloc((nw ? nw : 1) * 8), s->slope_df = malloc((nw ? nw : 1) * 8);
@@ -288,11 +287,11 @@ int pdla_ens_stats_compute(const uint64_t *n, size_t k, const double *rg, size_t
                                    &s->corr_nu, &s->corr_rms) == 0;
     if (!s->corr_ok) s->corr_A = s->corr_D = s->corr_B = s->corr_nu = s->corr_rms = NAN;
 
-    /* The bootstrap: resample b uses the stream of (boot_seed, b), so the
-     * interval is reproducible. */
+    /* The bootstrap: the resamples are drawn in turn from one stream seeded
+     * with boot_seed, so the interval is reproducible. */
+    pdla_rng r;
+    rng_seed(&r, boot_seed);
     for (size_t b = 0; b < B; b++) {
-        pdla_rng r;
-        rng_seed(&r, boot_seed + b);
         for (size_t i = 0; i < m; i++) {
             const size_t q = (size_t)(rng_uniform(&r) * (double)m);
             pick[i] = q < m ? q : m - 1; /* u * m may round up to m */
@@ -332,46 +331,4 @@ done:
     free(pick), free(mean), free(boot_df), free(boot_sl), free(boot_A), free(boot_D);
     if (rc) pdla_ens_stats_free(s);
     return rc;
-}
-
-/* ---- /statistics ---------------------------------------------------------------- */
-
-int ens_write_statistics(const h5u_writer *w, hid_t file, const uint64_t *grid, size_t k, const double *rg,
-                         size_t m, const double *df_cluster, uint64_t n_final)
-{
-    pdla_ens_stats s;
-    if (pdla_ens_stats_compute(grid, k, rg, m, df_cluster, n_final, PDLA_ENS_BOOT_SAMPLES, PDLA_ENS_BOOT_SEED, &s,
-                               w->err, w->errlen))
-        return -1;
-    hid_t g = H5I_INVALID_HID;
-    int rc = -1;
-    if ((g = h5u_group(w, file, "statistics")) < 0) goto fail;
-    if (ens_write_f64(w, g, "mean_rg_diam", s.mean_rg, k, "diameters") < 0 ||
-        ens_write_f64(w, g, "se_rg_diam", s.se_rg, k, "diameters") < 0 ||
-        ens_write_f64(w, g, "slope_N", s.slope_n, s.nslope, "particles") < 0 ||
-        ens_write_f64(w, g, "slope_D_f", s.slope_df, s.nslope, NULL) < 0 ||
-        ens_write_f64(w, g, "slope_D_f_lo", s.slope_lo, s.nslope, NULL) < 0 ||
-        ens_write_f64(w, g, "slope_D_f_hi", s.slope_hi, s.nslope, NULL) < 0 ||
-        h5u_attr_u64(w, g, "fit_n_lo", s.n_lo) < 0 || h5u_attr_u64(w, g, "fit_n_hi", s.n_hi) < 0 ||
-        h5u_attr_f64(w, g, "D_f", s.df) < 0 || h5u_attr_f64(w, g, "D_f_lo", s.df_lo) < 0 ||
-        h5u_attr_f64(w, g, "D_f_hi", s.df_hi) < 0 || h5u_attr_f64(w, g, "D_f_boot_sd", s.df_boot_sd) < 0 ||
-        h5u_attr_f64(w, g, "prefactor_diam", s.prefactor_diam) < 0 ||
-        h5u_attr_int(w, g, "bootstrap_samples", s.boot_samples) < 0 ||
-        h5u_attr_u64(w, g, "bootstrap_seed", s.boot_seed) < 0 ||
-        h5u_attr_str(w, g, "interval", "95% percentile bootstrap over clusters") < 0 ||
-        h5u_attr_f64(w, g, "slope_window_decades", 2 * SLOPE_HALF) < 0 ||
-        h5u_attr_str(w, g, "correction_model", "R_g = A N^(1/D) (1 + B N^-nu), least squares on ln R_g") < 0 ||
-        h5u_attr_int(w, g, "corr_ok", s.corr_ok) < 0 || h5u_attr_int(w, g, "corr_samples", s.corr_samples) < 0 ||
-        h5u_attr_f64(w, g, "corr_A_diam", s.corr_A) < 0 || h5u_attr_f64(w, g, "corr_A_lo", s.corr_A_lo) < 0 ||
-        h5u_attr_f64(w, g, "corr_A_hi", s.corr_A_hi) < 0 || h5u_attr_f64(w, g, "corr_D", s.corr_D) < 0 ||
-        h5u_attr_f64(w, g, "corr_D_lo", s.corr_D_lo) < 0 || h5u_attr_f64(w, g, "corr_D_hi", s.corr_D_hi) < 0 ||
-        h5u_attr_f64(w, g, "corr_B", s.corr_B) < 0 || h5u_attr_f64(w, g, "corr_nu", s.corr_nu) < 0 ||
-        h5u_attr_f64(w, g, "corr_rms", s.corr_rms) < 0 ||
-        h5u_attr_f64(w, g, "D_f_cluster_mean", s.df_cluster_mean) < 0 ||
-        h5u_attr_f64(w, g, "D_f_cluster_sd", s.df_cluster_sd) < 0)
-        goto fail;
-    rc = 0;
-fail:
-    pdla_ens_stats_free(&s);
-    return h5u_close(w, rc, g, H5Gclose, "/statistics");
 }

@@ -14,7 +14,7 @@
  *            cpu_seconds, wall_seconds (f64 [M]; timings, not reproducible)
  *   /clusters/positions   i32 [M*N][dim] with --keep-positions: rows
  *                         i*N .. i*N+N-1 are cluster i (attr rows_per_cluster)
- *   /statistics           ensemble statistics (ens_stats.c)
+ *   /statistics           ensemble statistics (pdla_ens_stats_compute, ens_stats.c)
  *   /Code                 provenance, as in cluster.h5
  * Every per-cluster dataset is in cluster index order, so two runs of the
  * same ensemble agree dataset by dataset whatever threads grew them (the
@@ -32,7 +32,6 @@
 #include <hdf5.h>
 
 #include "pdla/ensemble.h"
-#include "ens_internal.h"
 #include "h5util.h"
 #include "provenance.h"
 
@@ -54,14 +53,56 @@ fail:
     return h5u_close(w, rc, d, H5Dclose, name);
 }
 
-int ens_write_u64(const h5u_writer *w, hid_t g, const char *name, const uint64_t *v, size_t n, const char *units)
+static int ens_write_u64(const h5u_writer *w, hid_t g, const char *name, const uint64_t *v, size_t n, const char *units)
 {
     return write_ds(w, g, name, H5T_STD_U64LE, H5T_NATIVE_UINT64, 1, n, 1, v, units);
 }
 
-int ens_write_f64(const h5u_writer *w, hid_t g, const char *name, const double *v, size_t n, const char *units)
+static int ens_write_f64(const h5u_writer *w, hid_t g, const char *name, const double *v, size_t n, const char *units)
 {
     return write_ds(w, g, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 1, n, 1, v, units);
+}
+
+/* /statistics from the R_g matrix (m x k) and the clusters' own D_f. */
+
+static int write_statistics(const h5u_writer *w, hid_t file, const uint64_t *grid, size_t k, const double *rg,
+                         size_t m, const double *df_cluster, uint64_t n_final)
+{
+    pdla_ens_stats s;
+    if (pdla_ens_stats_compute(grid, k, rg, m, df_cluster, n_final, PDLA_ENS_BOOT_SAMPLES, PDLA_ENS_CORR_SAMPLES,
+                               PDLA_ENS_BOOT_SEED, &s, w->err, w->errlen))
+        return -1;
+    hid_t g = H5I_INVALID_HID;
+    int rc = -1;
+    if ((g = h5u_group(w, file, "statistics")) < 0) goto fail;
+    if (ens_write_f64(w, g, "mean_rg_diam", s.mean_rg, k, "diameters") < 0 ||
+        ens_write_f64(w, g, "se_rg_diam", s.se_rg, k, "diameters") < 0 ||
+        ens_write_f64(w, g, "slope_N", s.slope_n, s.nslope, "particles") < 0 ||
+        ens_write_f64(w, g, "slope_D_f", s.slope_df, s.nslope, NULL) < 0 ||
+        ens_write_f64(w, g, "slope_D_f_lo", s.slope_lo, s.nslope, NULL) < 0 ||
+        ens_write_f64(w, g, "slope_D_f_hi", s.slope_hi, s.nslope, NULL) < 0 ||
+        h5u_attr_u64(w, g, "fit_n_lo", s.n_lo) < 0 || h5u_attr_u64(w, g, "fit_n_hi", s.n_hi) < 0 ||
+        h5u_attr_f64(w, g, "D_f", s.df) < 0 || h5u_attr_f64(w, g, "D_f_lo", s.df_lo) < 0 ||
+        h5u_attr_f64(w, g, "D_f_hi", s.df_hi) < 0 || h5u_attr_f64(w, g, "D_f_boot_sd", s.df_boot_sd) < 0 ||
+        h5u_attr_f64(w, g, "prefactor_diam", s.prefactor_diam) < 0 ||
+        h5u_attr_int(w, g, "bootstrap_samples", s.boot_samples) < 0 ||
+        h5u_attr_u64(w, g, "bootstrap_seed", s.boot_seed) < 0 ||
+        h5u_attr_str(w, g, "interval", "95% percentile bootstrap over clusters") < 0 ||
+        h5u_attr_f64(w, g, "slope_window_decades", s.slope_window) < 0 ||
+        h5u_attr_str(w, g, "correction_model", "R_g = A N^(1/D) (1 + B N^-nu), least squares on ln R_g") < 0 ||
+        h5u_attr_int(w, g, "corr_ok", s.corr_ok) < 0 || h5u_attr_int(w, g, "corr_samples", s.corr_samples) < 0 ||
+        h5u_attr_f64(w, g, "corr_A_diam", s.corr_A) < 0 || h5u_attr_f64(w, g, "corr_A_lo", s.corr_A_lo) < 0 ||
+        h5u_attr_f64(w, g, "corr_A_hi", s.corr_A_hi) < 0 || h5u_attr_f64(w, g, "corr_D", s.corr_D) < 0 ||
+        h5u_attr_f64(w, g, "corr_D_lo", s.corr_D_lo) < 0 || h5u_attr_f64(w, g, "corr_D_hi", s.corr_D_hi) < 0 ||
+        h5u_attr_f64(w, g, "corr_B", s.corr_B) < 0 || h5u_attr_f64(w, g, "corr_nu", s.corr_nu) < 0 ||
+        h5u_attr_f64(w, g, "corr_rms", s.corr_rms) < 0 ||
+        h5u_attr_f64(w, g, "D_f_cluster_mean", s.df_cluster_mean) < 0 ||
+        h5u_attr_f64(w, g, "D_f_cluster_sd", s.df_cluster_sd) < 0)
+        goto fail;
+    rc = 0;
+fail:
+    pdla_ens_stats_free(&s);
+    return h5u_close(w, rc, g, H5Gclose, "/statistics");
 }
 
 /* Per-cluster columns, filled from the records in index order. */
@@ -242,7 +283,7 @@ static int write_file(const h5u_writer *w, const char *tmp, const pdla_ens_journ
         h5u_attr_str(w, file, "units", units_text) < 0 || h5u_write_parameters(w, file, &cfg->params) < 0 ||
         write_ensemble(w, file, cfg, c) < 0 || write_clusters(w, file, c) < 0 ||
         (cfg->keep_positions && write_positions(w, file, j, c) < 0) ||
-        ens_write_statistics(w, file, c->grid, c->k, c->rg, c->m, c->df, cfg->params.target) < 0 ||
+        write_statistics(w, file, c->grid, c->k, c->rg, c->m, c->df, cfg->params.target) < 0 ||
         h5u_write_code(w, file, pv, info ? info->command_line : NULL) < 0)
         goto fail;
     if (h5u_reserve_space(w, file, tmp) < 0) goto fail;

@@ -176,15 +176,18 @@ typedef struct pdla_ens_stats {
     int boot_samples;
     uint64_t boot_seed;
     /* Local slope: D_f fitted over windows of half a decade of N, centred
-     * every 0.1 decade from n_lo to the end, with the same bootstrap band. */
+     * every 0.1 decade from min(30, n_lo) to the end, with the same
+     * bootstrap band. */
     size_t nslope;
     double slope_window;       /* its width in decades (0.5) */
     double *slope_n, *slope_df, *slope_lo, *slope_hi;
-    /* Correction to scaling R_g = A N^(1/D) (1 + B N^-nu) on the fit range
-     * (nonlinear least squares on ln R_g; nu profiled over [0.2, 2]); the
+    /* Correction to scaling R_g = A N^(1/D) (1 + B N^-nu) over N in
+     * [corr_n_lo = 30, n_hi] (nonlinear least squares on ln R_g; nu profiled
+     * over [0.2, 2]); the
      * interval of D and A by bootstrap (the first corr_samples resamples). corr_ok = 0
      * when it could not be fitted (too few points). A in diameters. */
     int corr_ok, corr_samples;
+    uint64_t corr_n_lo;
     double corr_A, corr_A_lo, corr_A_hi, corr_D, corr_D_lo, corr_D_hi, corr_B, corr_nu, corr_rms;
     /* The per-cluster D_f: mean and standard deviation over clusters. */
     double df_cluster_mean, df_cluster_sd;

@@ -21,6 +21,7 @@
 
 #define SLOPE_HALF 0.25 /* half width of a local-slope window, decades */
 #define SLOPE_STEP 0.1  /* spacing of the windows' centres, decades */
+#define CORR_N_LO 30    /* smallest N of the correction-to-scaling fit */
 
 void pdla_ens_stats_free(pdla_ens_stats *s)
 {
@@ -247,7 +248,7 @@ int pdla_ens_stats_compute(const uint64_t *n, size_t k, const double *rg, size_t
     s->boot_seed = boot_seed;
     fit_default_range(n_final, &s->n_lo, &s->n_hi);
     double centre[256];
-    const size_t nw = slope_windows(s->n_lo, n_final, centre, 256);
+    const size_t nw = slope_windows(CORR_N_LO < s->n_lo ? CORR_N_LO : s->n_lo, n_final, centre, 256);
     const size_t B = (size_t)boot_samples, BC = B < (size_t)corr_samples ? B : (size_t)corr_samples;
     s->mean_rg = malloc((k ? k : 1) * 8);
     s->se_rg = malloc((k ? k : 1) * 8);
@@ -283,7 +284,10 @@ int pdla_ens_stats_compute(const uint64_t *n, size_t k, const double *rg, size_t
         s->slope_df[w] = fit_powerlaw(n, s->mean_rg, k, lo, hi).df;
     }
     s->corr_samples = (int)BC;
-    s->corr_ok = pdla_ens_corr_fit(n, s->mean_rg, k, s->n_lo, s->n_hi, &s->corr_A, &s->corr_D, &s->corr_B,
+    /* The correction term describes the approach to scaling: it needs the
+     * small clusters the power-law fit leaves out. */
+    s->corr_n_lo = CORR_N_LO;
+    s->corr_ok = pdla_ens_corr_fit(n, s->mean_rg, k, s->corr_n_lo, s->n_hi, &s->corr_A, &s->corr_D, &s->corr_B,
                                    &s->corr_nu, &s->corr_rms) == 0;
     if (!s->corr_ok) s->corr_A = s->corr_D = s->corr_B = s->corr_nu = s->corr_rms = NAN;
 
@@ -305,7 +309,7 @@ int pdla_ens_stats_compute(const uint64_t *n, size_t k, const double *rg, size_t
         }
         if (b < BC && s->corr_ok) {
             double a, d, bb, nu, rms;
-            if (pdla_ens_corr_fit(n, mean, k, s->n_lo, s->n_hi, &a, &d, &bb, &nu, &rms)) a = d = NAN;
+            if (pdla_ens_corr_fit(n, mean, k, s->corr_n_lo, s->n_hi, &a, &d, &bb, &nu, &rms)) a = d = NAN;
             boot_A[b] = a;
             boot_D[b] = d;
         }

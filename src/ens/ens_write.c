@@ -91,6 +91,7 @@ static int write_statistics(const h5u_writer *w, hid_t file, const uint64_t *gri
         h5u_attr_f64(w, g, "slope_window_decades", s.slope_window) < 0 ||
         h5u_attr_str(w, g, "correction_model", "R_g = A N^(1/D) (1 + B N^-nu), least squares on ln R_g") < 0 ||
         h5u_attr_int(w, g, "corr_ok", s.corr_ok) < 0 || h5u_attr_int(w, g, "corr_samples", s.corr_samples) < 0 ||
+        h5u_attr_u64(w, g, "corr_n_lo", s.corr_n_lo) < 0 ||
         h5u_attr_f64(w, g, "corr_A_diam", s.corr_A) < 0 || h5u_attr_f64(w, g, "corr_A_lo", s.corr_A_lo) < 0 ||
         h5u_attr_f64(w, g, "corr_A_hi", s.corr_A_hi) < 0 || h5u_attr_f64(w, g, "corr_D", s.corr_D) < 0 ||
         h5u_attr_f64(w, g, "corr_D_lo", s.corr_D_lo) < 0 || h5u_attr_f64(w, g, "corr_D_hi", s.corr_D_hi) < 0 ||

@@ -72,6 +72,19 @@ run ensemble --clusters 24 --target 4000 --seed 10 --keep-positions --threads 2 
 h5diff -q t1/ensemble.h5 s10/ensemble.h5 /clusters/rg_diam /clusters/rg_diam >/dev/null 2>&1 &&
     fail "seed 10 gave seed 9's ensemble"
 
+# ---- pdla analyze of an ensemble file ---------------------------------------------
+run analyze t1/ensemble.h5
+[ "$rc" -eq 0 ] || fail "analyze: $(cat err)"
+grep -q "^ensemble .*24 clusters of 4000 particles, 2D, seeds 9..32" out || fail "analyze: $(head -1 out)"
+grep -Eq "^D_f +1\.[5-9][0-9]*, 95% interval \[1\.[0-9]+, 1\.[0-9]+\]" out || fail "analyze: no D_f line: $(cat out)"
+grep -q "^correction fit" out || fail "analyze: no correction fit line"
+[ "$(grep -c '^  N ' out)" -ge 10 ] || fail "analyze: fewer than 10 local slopes"
+run analyze t1/ensemble.h5 --json
+[ "$rc" -eq 0 ] || fail "analyze --json: $(cat err)"
+/usr/bin/python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); assert d["clusters"]==24 and d["D_f_lo"]<=d["D_f"]<=d["D_f_hi"], d' out ||
+    fail "analyze --json: $(cat out)"
+bad "analyze, cluster option" "only --json applies" analyze t1/ensemble.h5 --centre mass
+
 # ---- kill -9 at a random moment, then resume ------------------------------------
 partial=0
 for attempt in 1 2 3 4 5 6; do

@@ -583,6 +583,18 @@ static void write_json(FILE *f, const report *r, const char *status)
             s->mutex_long_holds[0], s->mutex_long_holds[1], s->mutex_long_holds[2],
             s->worker_cpu_seconds);
     json_string(f, s->binding);
+    /* PDLA lag (issue 11): particles appended by the others while a walker
+     * was in flight, over the particles the workers / reference walkers
+     * inserted. */
+    const double lag_mean = s->lag_n ? (double)s->lag_sum / (double)s->lag_n : 0.0;
+    const double lag_var = s->lag_n ? s->lag_sum2 / (double)s->lag_n - lag_mean * lag_mean : 0.0;
+    fprintf(f, ",\n  \"lag_n\": %" PRIu64 ",\n  \"lag_mean\": ", s->lag_n);
+    json_real(f, lag_mean);
+    fprintf(f, ",\n  \"lag_sd\": ");
+    json_real(f, lag_var > 0 ? sqrt(lag_var) : 0.0);
+    fprintf(f, ",\n  \"lag_hist\": [");
+    for (int i = 0; i < PDLA_LAG_BINS; i++) fprintf(f, "%s%" PRIu64, i ? ", " : "", s->lag_hist[i]);
+    fprintf(f, "]");
     fprintf(f, ",\n  \"fit\": {\"df\": ");
     json_real(f, r->fit.points ? r->fit.df : NAN);
     fprintf(f, ", \"df_err\": ");

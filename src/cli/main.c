@@ -447,6 +447,13 @@ static void print_summary(FILE *f, const report *r, int with_command)
     if (s->threads)
         fprintf(f, "stale reads      %" PRIu64 " jumps and %" PRIu64 " births queried again\n",
                 s->stale_jumps, s->stale_births);
+    if ((s->threads || P->reference_walkers) && s->lag_n)
+        /* How the walkers were interleaved (issue 11): about P - 1 when they
+         * ran at once; mostly 0 when workers ran one at a time. */
+        fprintf(f, "lag              mean %.2f particles stuck while a walker flew, %.1f%% of "
+                   "walks saw none\n",
+                (double)s->lag_sum / (double)s->lag_n,
+                100.0 * (double)s->lag_hist[0] / (double)s->lag_n);
     if (s->threads) {
         static const char *const names[3] = {"node", "bucket", "gyration"};
         fprintf(f, "mutex waits     ");

@@ -73,6 +73,9 @@ typedef struct engine_hooks {
     /* Particle `index` is being appended at p (bucket mutex held, before
      * the count publishes it). */
     void (*append)(void *user, uint64_t index, const int64_t *p);
+    /* A worker appended particle `index` at p; its walker flew while `lag`
+     * others were appended (tests/physics/lag_probe.c). */
+    void (*inserted)(void *user, uint64_t index, const int64_t *p, uint64_t lag);
     /* Turns (tests/physics/test_lockstep.c): worker `id` calls turn_begin
      * before it launches a walker and before each further step, and
      * turn_end after a step that moved and after each insertion, so a test

@@ -205,6 +205,8 @@ static int insert_concurrent(worker *k, int64_t *p, int status)
         if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory appending a particle");
         if (retried) w->recheck_continued++;
         walker_note_lag(w, count);
+        if (__builtin_expect(e->hooks != NULL, 0) && e->hooks->inserted)
+            e->hooks->inserted(e->hooks->user, count, p, count - w->launched_at);
 
         const uint64_t gheld = lock_counted(&e->gyration_mu, w, PDLA_MUTEX_GYRATION);
         const int grc = engine_gyration_add(e, p, err, sizeof err);

@@ -21,6 +21,7 @@
 #include "checkpoint_fmt.h"
 #include "engine.h"
 #include "h5util.h"
+#include "pdla/h5check.h"
 
 typedef struct reader {
     const char *path;
@@ -49,123 +50,40 @@ static int damaged(const reader *r, const char *what)
     return rfail(r, "damaged checkpoint (%s)", what);
 }
 
-/* A scalar numeric attribute whose stored class and size match mtype. */
-static int read_attr(hid_t obj, const char *name, hid_t mtype, void *val)
+/* Opens dataset name of element type mtype (class and size) and exact
+ * shape; when it has rows, it must carry the Fletcher32 checksum and store
+ * what it declares: a forged file may declare 2^40 rows in a few KB, and
+ * the loader sizes its memory by the declaration. */
+static int open_dset(const reader *r, hid_t loc, const char *name, pdla_h5_type mtype, int rank,
+                     hsize_t rows, hsize_t cols, pdla_h5_dset *d)
 {
-    if (H5Aexists(obj, name) <= 0) return -1;
-    const hid_t a = H5Aopen(obj, name, H5P_DEFAULT);
-    if (a < 0) return -1;
-    const hid_t t = H5Aget_type(a), s = H5Aget_space(a);
-    int ok = t >= 0 && s >= 0 && H5Tget_class(t) == H5Tget_class(mtype) &&
-             H5Tget_size(t) == H5Tget_size(mtype) && H5Sget_simple_extent_npoints(s) == 1;
-    if (ok && H5Tget_class(t) == H5T_INTEGER) ok = H5Tget_sign(t) == H5Tget_sign(mtype);
-    if (ok) ok = H5Aread(a, mtype, val) >= 0;
-    if (t >= 0) H5Tclose(t);
-    if (s >= 0) H5Sclose(s);
-    H5Aclose(a);
-    return ok ? 0 : -1;
-}
-
-/* A fixed-length string attribute into buf (always terminated). */
-static int read_attr_str(hid_t obj, const char *name, char *buf, size_t len)
-{
-    buf[0] = '\0';
-    if (H5Aexists(obj, name) <= 0) return -1;
-    const hid_t a = H5Aopen(obj, name, H5P_DEFAULT);
-    if (a < 0) return -1;
-    const hid_t t = H5Aget_type(a), s = H5Aget_space(a);
-    int ok = t >= 0 && s >= 0 && H5Tget_class(t) == H5T_STRING && H5Tis_variable_str(t) == 0 &&
-             H5Tget_size(t) > 0 && H5Tget_size(t) < len && H5Sget_simple_extent_npoints(s) == 1;
-    if (ok) {
-        memset(buf, 0, len);
-        ok = H5Aread(a, t, buf) >= 0;
-        buf[len - 1] = '\0';
-    }
-    if (t >= 0) H5Tclose(t);
-    if (s >= 0) H5Sclose(s);
-    H5Aclose(a);
-    return ok ? 0 : -1;
-}
-
-
-/* Opens dataset name with the given element class/size and exact shape;
- * checks the Fletcher32 filter when it has rows. */
-static hid_t open_dset(const reader *r, hid_t loc, const char *name, hid_t mtype, int rank,
-                       hsize_t rows, hsize_t cols, int *rc)
-{
+    if (pdla_h5_dset_open(loc, name, d) == 0 && pdla_h5_dset_is(d, mtype) && d->rank == rank &&
+        d->dims[0] == rows && (rank == 1 || d->dims[1] == cols) &&
+        (rows == 0 || (d->fletcher32 && pdla_h5_dset_stored(d, d->size) == PDLA_H5_STORED)))
+        return PDLA_OK;
+    pdla_h5_dset_close(d);
     char what[128];
-    *rc = PDLA_OK;
-    hid_t d = H5I_INVALID_HID, t = H5I_INVALID_HID, s = H5I_INVALID_HID, pl = H5I_INVALID_HID;
-    int ok = 0;
-    if (H5Lexists(loc, name, H5P_DEFAULT) <= 0) goto out;
-    if ((d = H5Dopen2(loc, name, H5P_DEFAULT)) < 0) goto out;
-    t = H5Dget_type(d);
-    s = H5Dget_space(d);
-    if (t < 0 || s < 0 || H5Tget_class(t) != H5Tget_class(mtype) ||
-        H5Tget_size(t) != H5Tget_size(mtype) || H5Sget_simple_extent_ndims(s) != rank)
-        goto out;
-    hsize_t dims[2] = {0, 0};
-    H5Sget_simple_extent_dims(s, dims, NULL);
-    if (dims[0] != rows || (rank == 2 && dims[1] != cols)) goto out;
-    if (rows > 0) {
-        pl = H5Dget_create_plist(d);
-        if (pl < 0) goto out;
-        const int nf = H5Pget_nfilters(pl);
-        int fl = 0;
-        for (int i = 0; i < nf; i++) {
-            unsigned flags;
-            size_t ne = 0;
-            char fname[32];
-            if (H5Pget_filter2(pl, (unsigned)i, &flags, &ne, NULL, sizeof fname, fname, NULL) ==
-                H5Z_FILTER_FLETCHER32)
-                fl = 1;
-        }
-        if (!fl) goto out;
-        /* What is declared must be stored: a forged file may declare 2^40
-         * rows in a few KB (unwritten chunks read as fill values), and the
-         * loader sizes its memory by the declaration. Deflate expands at most
-         * about 1032:1; the checksum adds bytes, never removes them. */
-        const double need = (double)rows * (double)(rank == 2 ? cols : 1) * (double)H5Tget_size(t);
-        if (need > (double)H5Dget_storage_size(d) * (nf > 1 ? 1100.0 : 1.0)) goto out;
-    }
-    ok = 1;
-out:
-    if (pl >= 0) H5Pclose(pl);
-    if (t >= 0) H5Tclose(t);
-    if (s >= 0) H5Sclose(s);
-    if (ok) return d;
-    if (d >= 0) H5Dclose(d);
     snprintf(what, sizeof what, "dataset %s missing or of the wrong type or shape", name);
-    *rc = damaged(r, what);
-    return H5I_INVALID_HID;
+    return damaged(r, what);
 }
 
-static int read_rows(const reader *r, hid_t d, const char *name, hid_t mtype, hsize_t row0,
-                     hsize_t nrows, hsize_t cols, int rank, void *buf)
+static int read_rows(const reader *r, const pdla_h5_dset *d, const char *name, pdla_h5_type mtype,
+                     hsize_t row0, hsize_t nrows, void *buf)
 {
-    if (nrows == 0) return 0;
-    const hid_t fs = H5Dget_space(d);
-    const hsize_t start[2] = {row0, 0}, count[2] = {nrows, cols};
-    const hid_t ms = H5Screate_simple(rank, count, NULL);
-    const int ok = fs >= 0 && ms >= 0 &&
-                   H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, NULL, count, NULL) >= 0 &&
-                   H5Dread(d, mtype, ms, fs, H5P_DEFAULT, buf) >= 0;
-    if (fs >= 0) H5Sclose(fs);
-    if (ms >= 0) H5Sclose(ms);
-    if (ok) return 0;
+    if (pdla_h5_dset_read(d, mtype, row0, nrows, buf) == 0) return PDLA_OK;
     char what[160];
     snprintf(what, sizeof what, "cannot read %s: checksum or I/O error", name);
     return damaged(r, what);
 }
 
-static int read_array(const reader *r, hid_t loc, const char *name, hid_t mtype, int rank,
+static int read_array(const reader *r, hid_t loc, const char *name, pdla_h5_type mtype, int rank,
                       hsize_t rows, hsize_t cols, void *buf)
 {
-    int rc;
-    const hid_t d = open_dset(r, loc, name, mtype, rank, rows, cols, &rc);
-    if (d < 0) return rc;
-    rc = read_rows(r, d, name, mtype, 0, rows, cols, rank, buf);
-    H5Dclose(d);
+    pdla_h5_dset d;
+    int rc = open_dset(r, loc, name, mtype, rank, rows, cols, &d);
+    if (rc) return rc;
+    rc = read_rows(r, &d, name, mtype, 0, rows, buf);
+    pdla_h5_dset_close(&d);
     return rc;
 }
 
@@ -175,26 +93,26 @@ static int read_param(hid_t g, const pdla_param_desc *d, pdla_params *p)
     switch (d->type) {
     case PDLA_PT_U64: {
         uint64_t v;
-        if (read_attr(g, d->name, H5T_NATIVE_UINT64, &v) < 0) return -1;
+        if (pdla_h5_attr_exact(g, d->name, PDLA_H5_U64, &v) < 0) return -1;
         pdla_param_set_u(d, p, v);
         return 0;
     }
     case PDLA_PT_REAL: {
         double v;
-        if (read_attr(g, d->name, H5T_NATIVE_DOUBLE, &v) < 0) return -1;
+        if (pdla_h5_attr_exact(g, d->name, PDLA_H5_F64, &v) < 0) return -1;
         pdla_param_set_real(d, p, v);
         return 0;
     }
     case PDLA_PT_CHOICE: {
         char word[32];
-        const int v = read_attr_str(g, d->name, word, sizeof word) < 0 ? -1 : pdla_param_choice(d, word);
+        const int v = pdla_h5_attr_str(g, d->name, word, sizeof word) != 0 ? -1 : pdla_param_choice(d, word);
         if (v < 0) return -1;
         pdla_param_set_u(d, p, (uint64_t)v);
         return 0;
     }
     default: {
         int32_t v;
-        if (read_attr(g, d->name, H5T_NATIVE_INT32, &v) < 0) return -1;
+        if (pdla_h5_attr_exact(g, d->name, PDLA_H5_I32, &v) < 0) return -1;
         pdla_param_set_u(d, p, (uint64_t)(int64_t)v);
         return 0;
     }
@@ -274,15 +192,15 @@ static int apply_asked(const reader *r, pdla_params *p, const pdla_params *a, ui
 
 /* Reads a pool of `records` rows into freshly allocated segments. */
 static int read_pool(const reader *r, hid_t g, const char *name, tree_pool *p, uint64_t records,
-                     hid_t mtype, hsize_t cols)
+                     pdla_h5_type mtype, hsize_t cols)
 {
-    int rc;
-    const hid_t d = open_dset(r, g, name, mtype, 2, records, cols, &rc);
-    if (d < 0) return rc;
+    pdla_h5_dset d;
+    int rc = open_dset(r, g, name, mtype, 2, records, cols, &d);
+    if (rc) return rc;
     const uint32_t nseg = (uint32_t)((records + POOL_SEG_SIZE - 1) / POOL_SEG_SIZE);
     for (uint32_t s = p->nseg; s < nseg; s++) {
         if (!(p->seg[s] = calloc(POOL_SEG_SIZE, p->elem))) {
-            H5Dclose(d);
+            pdla_h5_dset_close(&d);
             if (r->err && r->errlen) snprintf(r->err, r->errlen, "%s: out of memory for the tree", r->path);
             return PDLA_ENOMEM;
         }
@@ -294,9 +212,9 @@ static int read_pool(const reader *r, hid_t g, const char *name, tree_pool *p, u
         const uint64_t n = records - row0 < POOL_SEG_SIZE ? records - row0 : POOL_SEG_SIZE;
         char full[64];
         snprintf(full, sizeof full, "/tree/%s", name);
-        rc = read_rows(r, d, full, mtype, row0, n, cols, 2, p->seg[s]);
+        rc = read_rows(r, &d, full, mtype, row0, n, p->seg[s]);
     }
-    H5Dclose(d);
+    pdla_h5_dset_close(&d);
     if (rc == PDLA_OK) p->count = (uint32_t)records;
     return rc;
 }
@@ -306,13 +224,13 @@ static int read_pool(const reader *r, hid_t g, const char *name, tree_pool *p, u
 static int read_chunks(const reader *r, hid_t g, tree *t, uint64_t nc)
 {
     uint64_t total = 0;
-    if (read_attr(g, "chunks_packed_bytes", H5T_NATIVE_UINT64, &total) < 0)
+    if (pdla_h5_attr_exact(g, "chunks_packed_bytes", PDLA_H5_U64, &total) < 0)
         return damaged(r, "/tree chunks_packed_bytes");
     if (total < (nc - TREE_CHUNK_CAP - 1) * 5 || total > (nc - TREE_CHUNK_CAP - 1) * (4 + 3 * TREE_CHUNK_CAP))
         return damaged(r, "/tree chunks_packed_bytes out of range");
-    int rc;
-    const hid_t d = open_dset(r, g, "chunks_packed", H5T_NATIVE_UINT8, 1, total, 1, &rc);
-    if (d < 0) return rc;
+    pdla_h5_dset d;
+    int rc = open_dset(r, g, "chunks_packed", PDLA_H5_U8, 1, total, 1, &d);
+    if (rc) return rc;
     tree_pool *p = &t->chunks;
     const uint32_t nseg = (uint32_t)((nc + POOL_SEG_SIZE - 1) / POOL_SEG_SIZE);
     uint8_t *buf = malloc(PACK_BUF_BYTES);
@@ -330,7 +248,7 @@ static int read_chunks(const reader *r, hid_t g, tree *t, uint64_t nc)
             have -= at;
             at = 0;
             const uint64_t want = total - pos < PACK_BUF_BYTES - have ? total - pos : PACK_BUF_BYTES - have;
-            rc = read_rows(r, d, "/tree/chunks_packed", H5T_NATIVE_UINT8, pos, want, 1, 1, buf + have);
+            rc = read_rows(r, &d, "/tree/chunks_packed", PDLA_H5_U8, pos, want, buf + have);
             if (rc) break;
             pos += want;
             have += (size_t)want;
@@ -358,7 +276,7 @@ static int read_chunks(const reader *r, hid_t g, tree *t, uint64_t nc)
     }
     if (rc == PDLA_OK && (at != have || pos != total)) rc = damaged(r, "bytes after the last packed chunk");
     free(buf);
-    H5Dclose(d);
+    pdla_h5_dset_close(&d);
     if (rc == PDLA_ENOMEM && r->err && r->errlen)
         snprintf(r->err, r->errlen, "%s: out of memory for the tree", r->path);
     if (rc == PDLA_OK) p->count = (uint32_t)nc;
@@ -384,14 +302,14 @@ static int load_tree(const reader *r, hid_t file, pdla_engine *e)
     int32_t dim = 0, cb = 0, level = 0;
     uint64_t root = 0, count = 0, leaves = 0, ni = 0, nc = 0;
     int rc = PDLA_OK;
-    if (read_attr(g, "dim", H5T_NATIVE_INT32, &dim) < 0 ||
-        read_attr(g, "chunk_bytes", H5T_NATIVE_INT32, &cb) < 0 ||
-        read_attr(g, "root_level", H5T_NATIVE_INT32, &level) < 0 ||
-        read_attr(g, "root_node", H5T_NATIVE_UINT64, &root) < 0 ||
-        read_attr(g, "count", H5T_NATIVE_UINT64, &count) < 0 ||
-        read_attr(g, "leaves", H5T_NATIVE_UINT64, &leaves) < 0 ||
-        read_attr(g, "inner_records", H5T_NATIVE_UINT64, &ni) < 0 ||
-        read_attr(g, "chunk_records", H5T_NATIVE_UINT64, &nc) < 0)
+    if (pdla_h5_attr_exact(g, "dim", PDLA_H5_I32, &dim) < 0 ||
+        pdla_h5_attr_exact(g, "chunk_bytes", PDLA_H5_I32, &cb) < 0 ||
+        pdla_h5_attr_exact(g, "root_level", PDLA_H5_I32, &level) < 0 ||
+        pdla_h5_attr_exact(g, "root_node", PDLA_H5_U64, &root) < 0 ||
+        pdla_h5_attr_exact(g, "count", PDLA_H5_U64, &count) < 0 ||
+        pdla_h5_attr_exact(g, "leaves", PDLA_H5_U64, &leaves) < 0 ||
+        pdla_h5_attr_exact(g, "inner_records", PDLA_H5_U64, &ni) < 0 ||
+        pdla_h5_attr_exact(g, "chunk_records", PDLA_H5_U64, &nc) < 0)
         rc = damaged(r, "/tree attributes");
     else if (dim != t->dim || (uint32_t)cb != t->chunk_bytes)
         rc = damaged(r, "/tree dim or record size differs from the parameters");
@@ -400,7 +318,7 @@ static int load_tree(const reader *r, hid_t file, pdla_engine *e)
              leaves > nc)
         rc = damaged(r, "/tree sizes out of range");
     if (rc == PDLA_OK)
-        rc = read_pool(r, g, "inner", &t->inner, ni, H5T_NATIVE_UINT32, (hsize_t)t->nchild);
+        rc = read_pool(r, g, "inner", &t->inner, ni, PDLA_H5_U32, (hsize_t)t->nchild);
     if (rc == PDLA_OK) rc = read_chunks(r, g, t, nc);
     H5Gclose(g);
     if (rc) return rc;
@@ -432,33 +350,33 @@ static int load_tree(const reader *r, hid_t file, pdla_engine *e)
     int64_t rext = 0;
     int32_t nw = 0;
     walker_ctx *w = &e->walker;
-    if (read_attr(s, "gyration_n", H5T_NATIVE_UINT64, &gn) < 0 ||
-        read_attr(s, "r_ext2", H5T_NATIVE_UINT64, &r2) < 0 ||
-        read_attr(s, "r_ext", H5T_NATIVE_INT64, &rext) < 0 ||
-        read_attr(s, "rg_next_k", H5T_NATIVE_UINT64, &k) < 0 ||
-        read_attr(s, "rg_next_n", H5T_NATIVE_UINT64, &nn) < 0 ||
-        read_attr(s, "grow_seconds", H5T_NATIVE_DOUBLE, &e->grow_seconds) < 0 ||
-        read_attr(s, "parallel_seconds", H5T_NATIVE_DOUBLE, &e->parallel_seconds) < 0 ||
-        read_attr(s, "walkers", H5T_NATIVE_UINT64, &w->walkers) < 0 ||
-        read_attr(s, "jumps", H5T_NATIVE_UINT64, &w->jumps) < 0 ||
-        read_attr(s, "returns", H5T_NATIVE_UINT64, &w->returns) < 0 ||
-        read_attr(s, "lost", H5T_NATIVE_UINT64, &w->lost) < 0 ||
-        read_attr(s, "killed", H5T_NATIVE_UINT64, &w->killed) < 0 ||
-        read_attr(s, "restarts", H5T_NATIVE_UINT64, &w->restarts) < 0 ||
-        read_attr(s, "node_visits", H5T_NATIVE_UINT64, &w->ss.node_visits) < 0 ||
-        read_attr(s, "particle_checks", H5T_NATIVE_UINT64, &w->ss.particle_checks) < 0 ||
-        read_attr(s, "recheck_overlaps", H5T_NATIVE_UINT64, &w->recheck_overlaps) < 0 ||
-        read_attr(s, "recheck_continued", H5T_NATIVE_UINT64, &w->recheck_continued) < 0 ||
-        read_attr(s, "recheck_discarded", H5T_NATIVE_UINT64, &w->recheck_discarded) < 0 ||
-        read_attr(s, "last_workers", H5T_NATIVE_INT32, &nw) < 0 ||
-        read_attr_str(s, "binding", e->binding, sizeof e->binding) < 0)
+    if (pdla_h5_attr_exact(s, "gyration_n", PDLA_H5_U64, &gn) < 0 ||
+        pdla_h5_attr_exact(s, "r_ext2", PDLA_H5_U64, &r2) < 0 ||
+        pdla_h5_attr_exact(s, "r_ext", PDLA_H5_I64, &rext) < 0 ||
+        pdla_h5_attr_exact(s, "rg_next_k", PDLA_H5_U64, &k) < 0 ||
+        pdla_h5_attr_exact(s, "rg_next_n", PDLA_H5_U64, &nn) < 0 ||
+        pdla_h5_attr_exact(s, "grow_seconds", PDLA_H5_F64, &e->grow_seconds) < 0 ||
+        pdla_h5_attr_exact(s, "parallel_seconds", PDLA_H5_F64, &e->parallel_seconds) < 0 ||
+        pdla_h5_attr_exact(s, "walkers", PDLA_H5_U64, &w->walkers) < 0 ||
+        pdla_h5_attr_exact(s, "jumps", PDLA_H5_U64, &w->jumps) < 0 ||
+        pdla_h5_attr_exact(s, "returns", PDLA_H5_U64, &w->returns) < 0 ||
+        pdla_h5_attr_exact(s, "lost", PDLA_H5_U64, &w->lost) < 0 ||
+        pdla_h5_attr_exact(s, "killed", PDLA_H5_U64, &w->killed) < 0 ||
+        pdla_h5_attr_exact(s, "restarts", PDLA_H5_U64, &w->restarts) < 0 ||
+        pdla_h5_attr_exact(s, "node_visits", PDLA_H5_U64, &w->ss.node_visits) < 0 ||
+        pdla_h5_attr_exact(s, "particle_checks", PDLA_H5_U64, &w->ss.particle_checks) < 0 ||
+        pdla_h5_attr_exact(s, "recheck_overlaps", PDLA_H5_U64, &w->recheck_overlaps) < 0 ||
+        pdla_h5_attr_exact(s, "recheck_continued", PDLA_H5_U64, &w->recheck_continued) < 0 ||
+        pdla_h5_attr_exact(s, "recheck_discarded", PDLA_H5_U64, &w->recheck_discarded) < 0 ||
+        pdla_h5_attr_exact(s, "last_workers", PDLA_H5_I32, &nw) < 0 ||
+        pdla_h5_attr_str(s, "binding", e->binding, sizeof e->binding) != 0)
         rc = damaged(r, "/state attributes");
     else if (nw < 0 || nw > 1024)
         rc = damaged(r, "/state last_workers out of range");
-    if (rc == PDLA_OK) rc = read_array(r, s, "gyration", H5T_NATIVE_UINT64, 2, 4, 2, gy);
+    if (rc == PDLA_OK) rc = read_array(r, s, "gyration", PDLA_H5_U64, 2, 4, 2, gy);
     uint64_t(*rng)[4] = NULL;
     if (rc == PDLA_OK && !(rng = malloc((size_t)(1 + nw) * sizeof *rng))) rc = PDLA_ENOMEM;
-    if (rc == PDLA_OK) rc = read_array(r, s, "rng", H5T_NATIVE_UINT64, 2, (hsize_t)(1 + nw), 4, rng);
+    if (rc == PDLA_OK) rc = read_array(r, s, "rng", PDLA_H5_U64, 2, (hsize_t)(1 + nw), 4, rng);
     H5Gclose(s);
     if (rc == PDLA_OK) {
         memcpy(e->walker.rng.s, rng[0], sizeof rng[0]);
@@ -502,7 +420,7 @@ static int load_arrival(const reader *r, hid_t file, pdla_engine *e)
         rfail(r, "out of memory for the arrival order");
         return PDLA_ENOMEM;
     }
-    int rc = read_array(r, file, "arrival", H5T_NATIVE_INT32, 2, n, (hsize_t)dim, a);
+    int rc = read_array(r, file, "arrival", PDLA_H5_I32, 2, n, (hsize_t)dim, a);
     if (rc) {
         free(a);
         return rc;
@@ -533,14 +451,11 @@ static int load_series(const reader *r, hid_t file, pdla_engine *e)
     if (H5Lexists(file, "gyration", H5P_DEFAULT) <= 0 ||
         H5Lexists(file, "gyration/N", H5P_DEFAULT) <= 0)
         return damaged(r, "no /gyration/N");
-    const hid_t d = H5Dopen2(file, "gyration/N", H5P_DEFAULT);
-    if (d < 0) return damaged(r, "cannot open /gyration/N");
-    const hid_t sp = H5Dget_space(d);
-    hsize_t k = 0;
-    const int ok = sp >= 0 && H5Sget_simple_extent_ndims(sp) == 1 &&
-                   H5Sget_simple_extent_dims(sp, &k, NULL) == 1;
-    if (sp >= 0) H5Sclose(sp);
-    H5Dclose(d);
+    pdla_h5_dset d;
+    if (pdla_h5_dset_open(file, "gyration/N", &d) < 0) return damaged(r, "cannot open /gyration/N");
+    const int ok = d.rank == 1;
+    const hsize_t k = d.dims[0];
+    pdla_h5_dset_close(&d);
     const uint64_t n = tree_count(&e->tree);
     if (!ok || k > 64 * 10000 || k > n) return damaged(r, "/gyration/N of a wrong shape");
     if (k > 0) {
@@ -552,8 +467,8 @@ static int load_series(const reader *r, hid_t file, pdla_engine *e)
         }
         e->rg_cap = k;
     }
-    int rc = read_array(r, file, "gyration/N", H5T_NATIVE_UINT64, 1, k, 1, e->rg_n);
-    if (rc == PDLA_OK) rc = read_array(r, file, "gyration/rg_diam", H5T_NATIVE_DOUBLE, 1, k, 1, e->rg_diam);
+    int rc = read_array(r, file, "gyration/N", PDLA_H5_U64, 1, k, 1, e->rg_n);
+    if (rc == PDLA_OK) rc = read_array(r, file, "gyration/rg_diam", PDLA_H5_F64, 1, k, 1, e->rg_diam);
     if (rc) return rc;
     e->rg_count = k;
     if (e->params.rg_per_decade == 0 && k) return damaged(r, "R_g samples with sampling off");
@@ -633,7 +548,7 @@ static int load_file(const char *path, const pdla_params *asked, uint32_t fields
         rc = rfail(r, "an HDF5 file but not a pdla checkpoint (no format attribute)");
         goto out;
     }
-    if (read_attr_str(file, "format", fmt, sizeof fmt) < 0) {
+    if (pdla_h5_attr_str(file, "format", fmt, sizeof fmt) != 0) {
         rc = damaged(r, "the format attribute cannot be read");
         goto out;
     }
@@ -641,7 +556,7 @@ static int load_file(const char *path, const pdla_params *asked, uint32_t fields
         rc = rfail(r, "an HDF5 file but not a pdla checkpoint (format '%s')", fmt);
         goto out;
     }
-    if (read_attr(file, "format_version", H5T_NATIVE_INT32, &ver) < 0) {
+    if (pdla_h5_attr_exact(file, "format_version", PDLA_H5_I32, &ver) < 0) {
         rc = damaged(r, "no format_version");
         goto out;
     }
@@ -651,9 +566,9 @@ static int load_file(const char *path, const pdla_params *asked, uint32_t fields
         goto out;
     }
     char order[16];
-    if (read_attr_str(file, "record_byte_order", order, sizeof order) < 0 ||
-        read_attr(file, "generation", H5T_NATIVE_UINT64, &generation) < 0 ||
-        read_attr(file, "particles", H5T_NATIVE_UINT64, &particles) < 0) {
+    if (pdla_h5_attr_str(file, "record_byte_order", order, sizeof order) != 0 ||
+        pdla_h5_attr_exact(file, "generation", PDLA_H5_U64, &generation) < 0 ||
+        pdla_h5_attr_exact(file, "particles", PDLA_H5_U64, &particles) < 0) {
         rc = damaged(r, "root attributes");
         goto out;
     }

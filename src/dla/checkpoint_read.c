@@ -293,55 +293,13 @@ static int all_zero(const void *p, size_t n)
 
 static unsigned __int128 join128(const uint64_t *w) { return (unsigned __int128)w[1] << 64 | w[0]; }
 
-static int load_tree(const reader *r, hid_t file, pdla_engine *e)
+/* /state, checked against what the tree's particles give (c): the exact
+ * gyration sums, R_ext, the R_g grid position; the random states. */
+static int load_state(const reader *r, hid_t file, pdla_engine *e, const tree_verify_sums *cs,
+                      uint64_t count)
 {
-    tree *t = &e->tree;
-    if (H5Lexists(file, "tree", H5P_DEFAULT) <= 0) return damaged(r, "no /tree");
-    const hid_t g = H5Gopen2(file, "tree", H5P_DEFAULT);
-    if (g < 0) return damaged(r, "cannot open /tree");
-    int32_t dim = 0, cb = 0, level = 0;
-    uint64_t root = 0, count = 0, leaves = 0, ni = 0, nc = 0;
-    int rc = PDLA_OK;
-    if (pdla_h5_attr_exact(g, "dim", PDLA_H5_I32, &dim) < 0 ||
-        pdla_h5_attr_exact(g, "chunk_bytes", PDLA_H5_I32, &cb) < 0 ||
-        pdla_h5_attr_exact(g, "root_level", PDLA_H5_I32, &level) < 0 ||
-        pdla_h5_attr_exact(g, "root_node", PDLA_H5_U64, &root) < 0 ||
-        pdla_h5_attr_exact(g, "count", PDLA_H5_U64, &count) < 0 ||
-        pdla_h5_attr_exact(g, "leaves", PDLA_H5_U64, &leaves) < 0 ||
-        pdla_h5_attr_exact(g, "inner_records", PDLA_H5_U64, &ni) < 0 ||
-        pdla_h5_attr_exact(g, "chunk_records", PDLA_H5_U64, &nc) < 0)
-        rc = damaged(r, "/tree attributes");
-    else if (dim != t->dim || (uint32_t)cb != t->chunk_bytes)
-        rc = damaged(r, "/tree dim or record size differs from the parameters");
-    else if (level < 1 || level > TREE_MAX_LEVEL || ni < 2 || ni > UINT32_MAX || nc < TREE_CHUNK_CAP + 1 ||
-             nc > UINT32_MAX || root == 0 || root >= ni || count > nc * TREE_CHUNK_CAP ||
-             leaves > nc)
-        rc = damaged(r, "/tree sizes out of range");
-    if (rc == PDLA_OK)
-        rc = read_pool(r, g, "inner", &t->inner, ni, PDLA_H5_U32, (hsize_t)t->nchild);
-    if (rc == PDLA_OK) rc = read_chunks(r, g, t, nc);
-    H5Gclose(g);
-    if (rc) return rc;
-    if (!all_zero(pool_at(&t->inner, 0), t->inner.elem) ||
-        !all_zero(pool_at(&t->chunks, 0), (size_t)t->chunks.elem * (TREE_CHUNK_CAP + 1)))
-        return damaged(r, "the null records are not empty");
-    atomic_store(&t->root_word, (uint64_t)level << 32 | root);
-    atomic_store(&t->count, count);
-    t->leaves = leaves;
-
-    /* Walk it: structure, and the particles against the stored sums. */
-    tree_verify_sums c;
-    const char *bad = NULL;
-    rc = tree_verify(t, &c, &bad);
-    if (rc == PDLA_ENOMEM) {
-        if (r->err && r->errlen) snprintf(r->err, r->errlen, "%s: out of memory", r->path);
-        return PDLA_ENOMEM;
-    }
-    if (bad) return damaged(r, bad);
-    if (c.count != count) return damaged(r, "the particle count differs from the chunks' fills");
-    if (c.leaves != leaves) return damaged(r, "the leaf count differs from the tree");
-
-    /* The state, checked against what the particles give. */
+    const tree_verify_sums c = *cs;
+    int rc;
     if (H5Lexists(file, "state", H5P_DEFAULT) <= 0) return damaged(r, "no /state");
     const hid_t s = H5Gopen2(file, "state", H5P_DEFAULT);
     if (s < 0) return damaged(r, "cannot open /state");
@@ -404,6 +362,57 @@ static int load_tree(const reader *r, hid_t file, pdla_engine *e)
     e->rg_next_k = k;
     e->rg_next_n = nn;
     return PDLA_OK;
+}
+
+static int load_tree(const reader *r, hid_t file, pdla_engine *e)
+{
+    tree *t = &e->tree;
+    if (H5Lexists(file, "tree", H5P_DEFAULT) <= 0) return damaged(r, "no /tree");
+    const hid_t g = H5Gopen2(file, "tree", H5P_DEFAULT);
+    if (g < 0) return damaged(r, "cannot open /tree");
+    int32_t dim = 0, cb = 0, level = 0;
+    uint64_t root = 0, count = 0, leaves = 0, ni = 0, nc = 0;
+    int rc = PDLA_OK;
+    if (pdla_h5_attr_exact(g, "dim", PDLA_H5_I32, &dim) < 0 ||
+        pdla_h5_attr_exact(g, "chunk_bytes", PDLA_H5_I32, &cb) < 0 ||
+        pdla_h5_attr_exact(g, "root_level", PDLA_H5_I32, &level) < 0 ||
+        pdla_h5_attr_exact(g, "root_node", PDLA_H5_U64, &root) < 0 ||
+        pdla_h5_attr_exact(g, "count", PDLA_H5_U64, &count) < 0 ||
+        pdla_h5_attr_exact(g, "leaves", PDLA_H5_U64, &leaves) < 0 ||
+        pdla_h5_attr_exact(g, "inner_records", PDLA_H5_U64, &ni) < 0 ||
+        pdla_h5_attr_exact(g, "chunk_records", PDLA_H5_U64, &nc) < 0)
+        rc = damaged(r, "/tree attributes");
+    else if (dim != t->dim || (uint32_t)cb != t->chunk_bytes)
+        rc = damaged(r, "/tree dim or record size differs from the parameters");
+    else if (level < 1 || level > TREE_MAX_LEVEL || ni < 2 || ni > UINT32_MAX || nc < TREE_CHUNK_CAP + 1 ||
+             nc > UINT32_MAX || root == 0 || root >= ni || count > nc * TREE_CHUNK_CAP ||
+             leaves > nc)
+        rc = damaged(r, "/tree sizes out of range");
+    if (rc == PDLA_OK)
+        rc = read_pool(r, g, "inner", &t->inner, ni, PDLA_H5_U32, (hsize_t)t->nchild);
+    if (rc == PDLA_OK) rc = read_chunks(r, g, t, nc);
+    H5Gclose(g);
+    if (rc) return rc;
+    if (!all_zero(pool_at(&t->inner, 0), t->inner.elem) ||
+        !all_zero(pool_at(&t->chunks, 0), (size_t)t->chunks.elem * (TREE_CHUNK_CAP + 1)))
+        return damaged(r, "the null records are not empty");
+    atomic_store(&t->root_word, (uint64_t)level << 32 | root);
+    atomic_store(&t->count, count);
+    t->leaves = leaves;
+
+    /* Walk it: structure, and the particles against the stored sums. */
+    tree_verify_sums c;
+    const char *bad = NULL;
+    rc = tree_verify(t, &c, &bad);
+    if (rc == PDLA_ENOMEM) {
+        if (r->err && r->errlen) snprintf(r->err, r->errlen, "%s: out of memory", r->path);
+        return PDLA_ENOMEM;
+    }
+    if (bad) return damaged(r, bad);
+    if (c.count != count) return damaged(r, "the particle count differs from the chunks' fills");
+    if (c.leaves != leaves) return damaged(r, "the leaf count differs from the tree");
+
+    return load_state(r, file, e, &c, count);
 }
 
 /* --arrival: the arrival order, checked against the tree by the exact
@@ -480,24 +489,20 @@ static int load_series(const reader *r, hid_t file, pdla_engine *e)
     return PDLA_OK;
 }
 
-/* One file: every check; *out on success. */
-static int load_file(const char *path, const pdla_params *asked, uint32_t fields,
-                     pdla_engine **out, pdla_checkpoint_info *info, char *err, size_t errlen)
+/* Before HDF5 sees it: a regular file (not a directory, FIFO or device)
+ * that starts with the HDF5 signature and whose superblock fits in it. */
+static int check_file(const reader *r, struct stat *st)
 {
-    const reader rr = {path, err, errlen}, *r = &rr;
-    *out = NULL;
-    if (ckpt_is_tmp_name(path)) return rfail(r, "an unfinished temporary checkpoint; not loaded");
     /* O_NONBLOCK: opening a FIFO for reading would wait for a writer. */
-    const int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+    const int fd = open(r->path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
     if (fd < 0) return rfail(r, "cannot open: %s", strerror(errno));
     unsigned char sb[48];
-    struct stat st;
-    const int fst = fstat(fd, &st);
-    if (fst == 0 && S_ISDIR(st.st_mode)) {
+    const int fst = fstat(fd, st);
+    if (fst == 0 && S_ISDIR(st->st_mode)) {
         close(fd);
         return rfail(r, "is a directory");
     }
-    if (fst != 0 || !S_ISREG(st.st_mode)) {
+    if (fst != 0 || !S_ISREG(st->st_mode)) {
         close(fd);
         return rfail(r, "not a regular file, so not a pdla checkpoint");
     }
@@ -517,11 +522,54 @@ static int load_file(const char *path, const pdla_params *asked, uint32_t fields
             base = base << 8 | sb[12 + i];
             eof = eof << 8 | sb[28 + i];
         }
-        if (base != 0 || eof > (uint64_t)st.st_size || eof < 48)
-            return damaged(r, eof > (uint64_t)st.st_size ? "truncated" : "superblock");
+        if (base != 0 || eof > (uint64_t)st->st_size || eof < 48)
+            return damaged(r, eof > (uint64_t)st->st_size ? "truncated" : "superblock");
     } else if (got < (ssize_t)sizeof sb) {
         return damaged(r, "truncated");
     }
+    return PDLA_OK;
+}
+
+/* The root attributes: a pdla checkpoint, of this format version, in a
+ * byte order this machine reads. */
+static int check_root(const reader *r, hid_t file, uint64_t *generation, uint64_t *particles)
+{
+    char fmt[64];
+    int32_t ver = 0;
+    const htri_t has_format = H5Aexists(file, "format");
+    if (has_format < 0) /* the root group's header does not read back */
+        return damaged(r, "the root group cannot be read");
+    if (has_format == 0) return rfail(r, "an HDF5 file but not a pdla checkpoint (no format attribute)");
+    if (pdla_h5_attr_str(file, "format", fmt, sizeof fmt) != 0)
+        return damaged(r, "the format attribute cannot be read");
+    if (strcmp(fmt, FORMAT_NAME) != 0)
+        return rfail(r, "an HDF5 file but not a pdla checkpoint (format '%s')", fmt);
+    if (pdla_h5_attr_exact(file, "format_version", PDLA_H5_I32, &ver) < 0)
+        return damaged(r, "no format_version");
+    if (ver != FORMAT_VERSION)
+        return rfail(r, "checkpoint format version %d; this pdla reads version %d", (int)ver,
+                     FORMAT_VERSION);
+    char order[16];
+    if (pdla_h5_attr_str(file, "record_byte_order", order, sizeof order) != 0 ||
+        pdla_h5_attr_exact(file, "generation", PDLA_H5_U64, generation) < 0 ||
+        pdla_h5_attr_exact(file, "particles", PDLA_H5_U64, particles) < 0)
+        return damaged(r, "root attributes");
+    const uint16_t probe = 1;
+    if (strcmp(order, "little") != 0 || *(const uint8_t *)&probe != 1)
+        return rfail(r, "records in byte order '%s' cannot be read on this machine", order);
+    return PDLA_OK;
+}
+
+/* One file: every check; *out on success. */
+static int load_file(const char *path, const pdla_params *asked, uint32_t fields,
+                     pdla_engine **out, pdla_checkpoint_info *info, char *err, size_t errlen)
+{
+    const reader rr = {path, err, errlen}, *r = &rr;
+    *out = NULL;
+    if (ckpt_is_tmp_name(path)) return rfail(r, "an unfinished temporary checkpoint; not loaded");
+    struct stat st;
+    const int crc = check_file(r, &st);
+    if (crc) return crc;
 
     hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
     /* Not H5F_CLOSE_STRONG here: with it, HDF5 1.10.8 keeps some internals
@@ -535,48 +583,9 @@ static int load_file(const char *path, const pdla_params *asked, uint32_t fields
     H5Pclose(fapl);
     if (file < 0) return damaged(r, "HDF5 cannot open it: truncated or corrupt");
     pdla_engine *e = NULL;
-    int rc = PDLA_OK;
-    char fmt[64];
-    int32_t ver = 0;
     uint64_t generation = 0, particles = 0;
-    const htri_t has_format = H5Aexists(file, "format");
-    if (has_format < 0) { /* the root group's header does not read back */
-        rc = damaged(r, "the root group cannot be read");
-        goto out;
-    }
-    if (has_format == 0) {
-        rc = rfail(r, "an HDF5 file but not a pdla checkpoint (no format attribute)");
-        goto out;
-    }
-    if (pdla_h5_attr_str(file, "format", fmt, sizeof fmt) != 0) {
-        rc = damaged(r, "the format attribute cannot be read");
-        goto out;
-    }
-    if (strcmp(fmt, FORMAT_NAME) != 0) {
-        rc = rfail(r, "an HDF5 file but not a pdla checkpoint (format '%s')", fmt);
-        goto out;
-    }
-    if (pdla_h5_attr_exact(file, "format_version", PDLA_H5_I32, &ver) < 0) {
-        rc = damaged(r, "no format_version");
-        goto out;
-    }
-    if (ver != FORMAT_VERSION) {
-        rc = rfail(r, "checkpoint format version %d; this pdla reads version %d", (int)ver,
-                   FORMAT_VERSION);
-        goto out;
-    }
-    char order[16];
-    if (pdla_h5_attr_str(file, "record_byte_order", order, sizeof order) != 0 ||
-        pdla_h5_attr_exact(file, "generation", PDLA_H5_U64, &generation) < 0 ||
-        pdla_h5_attr_exact(file, "particles", PDLA_H5_U64, &particles) < 0) {
-        rc = damaged(r, "root attributes");
-        goto out;
-    }
-    const uint16_t probe = 1;
-    if (strcmp(order, "little") != 0 || *(const uint8_t *)&probe != 1) {
-        rc = rfail(r, "records in byte order '%s' cannot be read on this machine", order);
-        goto out;
-    }
+    int rc = check_root(r, file, &generation, &particles);
+    if (rc) goto out;
     pdla_params p;
     if ((rc = read_params(r, file, &p))) goto out;
     if (asked && (rc = apply_asked(r, &p, asked, fields, particles))) goto out;

@@ -52,14 +52,10 @@ void h5r_close(h5r_file *f)
     f->file = H5I_INVALID_HID;
 }
 
-int h5r_open(h5r_file *f, const char *path, char *err, size_t errlen)
+/* A regular file that HDF5 opens; -1 with err. */
+static int open_file(h5r_file *f, char *err, size_t errlen)
 {
-    memset(f, 0, sizeof *f);
-    f->file = f->pos.id = H5I_INVALID_HID;
-    f->path = path;
-    /* The tools print their own one-line messages. */
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
-
+    const char *const path = f->path;
     struct stat st;
     if (stat(path, &st) != 0) return fail(err, errlen, "cannot open %s: %s", path, strerror(errno));
     if (S_ISDIR(st.st_mode)) return fail(err, errlen, "%s is a directory, not a cluster file", path);
@@ -71,50 +67,51 @@ int h5r_open(h5r_file *f, const char *path, char *err, size_t errlen)
     if (H5Fis_hdf5(path) <= 0) return fail(err, errlen, "%s is not an HDF5 file", path);
     if ((f->file = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT)) < 0)
         return fail(err, errlen, "%s: HDF5 cannot open it (damaged?)", path);
+    return 0;
+}
 
+/* format = "pdla-cluster", format_version = 1. */
+static int check_format(h5r_file *f, char *err, size_t errlen)
+{
     char fmt[64];
-    if (pdla_h5_attr_str(f->file, "format", fmt, sizeof fmt) < 0) {
-        h5r_close(f);
+    if (pdla_h5_attr_str(f->file, "format", fmt, sizeof fmt) < 0)
         return fail(err, errlen, "%s is not a pdla cluster file (no format = \"pdla-cluster\" attribute)",
-                    path);
-    }
-    if (strcmp(fmt, "pdla-cluster") != 0) {
-        h5r_close(f);
-        return fail(err, errlen, "%s is not a pdla cluster file (format = \"%s\")", path, fmt);
-    }
+                    f->path);
+    if (strcmp(fmt, "pdla-cluster") != 0)
+        return fail(err, errlen, "%s is not a pdla cluster file (format = \"%s\")", f->path, fmt);
     int64_t v = 0;
-    if (pdla_h5_attr_number(f->file, "format_version", PDLA_H5_I64, &v) != 0 || v != 1) {
-        h5r_close(f);
-        return fail(err, errlen, "%s: unsupported format_version (this pdla reads version 1)", path);
-    }
+    if (pdla_h5_attr_number(f->file, "format_version", PDLA_H5_I64, &v) != 0 || v != 1)
+        return fail(err, errlen, "%s: unsupported format_version (this pdla reads version 1)", f->path);
     f->format_version = (int)v;
+    return 0;
+}
 
+/* /cluster/positions: integer [N][2] or [N][3], all of it stored. */
+static int open_positions(h5r_file *f, char *err, size_t errlen)
+{
+    const char *const path = f->path;
     if (H5Lexists(f->file, "/cluster", H5P_DEFAULT) <= 0 ||
         H5Lexists(f->file, "/cluster/positions", H5P_DEFAULT) <= 0 ||
-        pdla_h5_dset_open(f->file, "/cluster/positions", &f->pos) < 0) {
-        h5r_close(f);
+        pdla_h5_dset_open(f->file, "/cluster/positions", &f->pos) < 0)
         return fail(err, errlen, "%s has no /cluster/positions dataset", path);
-    }
     const pdla_h5_dset *d = &f->pos;
-    const int is_int = d->kind == 'i' || d->kind == 'u';
-    if (!is_int || d->rank != 2 || (d->dims[1] != 2 && d->dims[1] != 3)) {
-        const int rank = d->rank;
-        const unsigned long long cols = rank == 2 ? d->dims[1] : 0;
-        h5r_close(f);
-        if (!is_int) return fail(err, errlen, "%s: /cluster/positions is not an integer dataset", path);
-        if (rank != 2)
-            return fail(err, errlen, "%s: /cluster/positions has rank %d; want [N][2] or [N][3]", path,
-                        rank);
-        return fail(err, errlen, "%s: /cluster/positions has %llu columns; want 2 or 3", path, cols);
-    }
+    if (d->kind != 'i' && d->kind != 'u')
+        return fail(err, errlen, "%s: /cluster/positions is not an integer dataset", path);
+    if (d->rank != 2)
+        return fail(err, errlen, "%s: /cluster/positions has rank %d; want [N][2] or [N][3]", path,
+                    d->rank);
+    if (d->dims[1] != 2 && d->dims[1] != 3)
+        return fail(err, errlen, "%s: /cluster/positions has %llu columns; want 2 or 3", path,
+                    (unsigned long long)d->dims[1]);
     f->n = d->dims[0];
     f->dim = (int)d->dims[1];
-    if (h5r_stored(d, sizeof(int32_t), path, "/cluster/positions", err, errlen)) {
-        h5r_close(f);
-        return -1;
-    }
+    return h5r_stored(d, sizeof(int32_t), path, "/cluster/positions", err, errlen);
+}
 
-    /* Cross-check the declared dimension when /parameters has one. */
+/* The units per diameter (/cluster/positions diameter_units, else
+ * /parameters resolution), and /parameters dim against the columns. */
+static int read_units(h5r_file *f, char *err, size_t errlen)
+{
     if (H5Lexists(f->file, "/parameters", H5P_DEFAULT) > 0) {
         const hid_t g = H5Oopen(f->file, "/parameters", H5P_DEFAULT);
         if (g >= 0) {
@@ -124,20 +121,32 @@ int h5r_open(h5r_file *f, const char *path, char *err, size_t errlen)
             if (pdla_h5_attr_number(g, "resolution", PDLA_H5_I64, &res) == 0)
                 f->diameter_units = res >= 1 && res <= 1 << 20 ? (int)res : -1;
             H5Oclose(g);
-            if (have && pd != f->dim) {
-                h5r_close(f);
+            if (have && pd != f->dim)
                 return fail(err, errlen,
-                            "%s: /cluster/positions has %d columns but /parameters dim = %lld", path,
+                            "%s: /cluster/positions has %d columns but /parameters dim = %lld", f->path,
                             f->dim, (long long)pd);
-            }
         }
     }
     /* Range-check the 64-bit value before narrowing: 2^32 + 32 is not 32. */
+    int64_t v = 0;
     if (pdla_h5_attr_number(f->pos.id, "diameter_units", PDLA_H5_I64, &v) == 0)
         f->diameter_units = v >= 1 && v <= 1 << 20 ? (int)v : -1;
-    if (f->diameter_units < 1 || f->diameter_units > 1 << 20) {
+    if (f->diameter_units < 1 || f->diameter_units > 1 << 20)
+        return fail(err, errlen, "%s: no valid diameter_units attribute on /cluster/positions", f->path);
+    return 0;
+}
+
+int h5r_open(h5r_file *f, const char *path, char *err, size_t errlen)
+{
+    memset(f, 0, sizeof *f);
+    f->file = f->pos.id = H5I_INVALID_HID;
+    f->path = path;
+    /* The tools print their own one-line messages. */
+    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    if (open_file(f, err, errlen) || check_format(f, err, errlen) || open_positions(f, err, errlen) ||
+        read_units(f, err, errlen)) {
         h5r_close(f);
-        return fail(err, errlen, "%s: no valid diameter_units attribute on /cluster/positions", path);
+        return -1;
     }
     if (pdla_h5_attr_str(f->pos.id, "order", f->order, sizeof f->order) < 0)
         snprintf(f->order, sizeof f->order, "unknown");

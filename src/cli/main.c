@@ -219,40 +219,43 @@ static int mkdir_p(const char *path)
 /* Make the run directory (path filled in dir) before any work, so that a bad
  * or taken name fails at once. *created says whether we made it (and may
  * remove it again while it is empty). 0, or EXIT_USAGE with a message. */
+/* No --out: a fresh runs/run-YYYYmmdd-HHMMSS-<dim>d-<target>; a run
+ * started in the same second with the same size gets -2, -3, ... */
+static int make_default_run_dir(const cli_options *o, char *dir, size_t dirlen, int *created)
+{
+    int e = mkdir_p("runs");
+    if (e) {
+        fprintf(stderr, "pdla: cannot create directory 'runs': %s\n", strerror(e));
+        return EXIT_USAGE;
+    }
+    const time_t t = time(NULL);
+    struct tm tm;
+    char stamp[32];
+    if (!localtime_r(&t, &tm) || !strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &tm))
+        snprintf(stamp, sizeof stamp, "%lld", (long long)t);
+    for (int k = 1; k <= 100; k++) {
+        const int n = k == 1 ? snprintf(dir, dirlen, "runs/run-%s-%dd-%" PRIu64, stamp,
+                                         o->params.dim, o->params.target)
+                             : snprintf(dir, dirlen, "runs/run-%s-%dd-%" PRIu64 "-%d", stamp,
+                                        o->params.dim, o->params.target, k);
+        if (n < 0 || (size_t)n >= dirlen) break;
+        if (mkdir(dir, 0777) == 0) {
+            *created = 1;
+            return 0;
+        }
+        if (errno != EEXIST) {
+            fprintf(stderr, "pdla: cannot create run directory '%s': %s\n", dir, strerror(errno));
+            return EXIT_USAGE;
+        }
+    }
+    fprintf(stderr, "pdla: cannot find a free run directory name under runs/\n");
+    return EXIT_USAGE;
+}
+
 static int make_run_dir(const cli_options *o, char *dir, size_t dirlen, int *created)
 {
     *created = 0;
-    if (!o->out_dir) {
-        /* runs/run-YYYYmmdd-HHMMSS-<dim>d-<target>; a run started in the
-         * same second with the same size gets -2, -3, ... */
-        int e = mkdir_p("runs");
-        if (e) {
-            fprintf(stderr, "pdla: cannot create directory 'runs': %s\n", strerror(e));
-            return EXIT_USAGE;
-        }
-        const time_t t = time(NULL);
-        struct tm tm;
-        char stamp[32];
-        if (!localtime_r(&t, &tm) || !strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &tm))
-            snprintf(stamp, sizeof stamp, "%lld", (long long)t);
-        for (int k = 1; k <= 100; k++) {
-            const int n = k == 1 ? snprintf(dir, dirlen, "runs/run-%s-%dd-%" PRIu64, stamp,
-                                             o->params.dim, o->params.target)
-                                 : snprintf(dir, dirlen, "runs/run-%s-%dd-%" PRIu64 "-%d", stamp,
-                                            o->params.dim, o->params.target, k);
-            if (n < 0 || (size_t)n >= dirlen) break;
-            if (mkdir(dir, 0777) == 0) {
-                *created = 1;
-                return 0;
-            }
-            if (errno != EEXIST) {
-                fprintf(stderr, "pdla: cannot create run directory '%s': %s\n", dir, strerror(errno));
-                return EXIT_USAGE;
-            }
-        }
-        fprintf(stderr, "pdla: cannot find a free run directory name under runs/\n");
-        return EXIT_USAGE;
-    }
+    if (!o->out_dir) return make_default_run_dir(o, dir, dirlen, created);
 
     const int n = snprintf(dir, dirlen, "%s", o->out_dir);
     if (n < 0 || (size_t)n >= dirlen || n > RUN_DIR_MAX) {

@@ -303,6 +303,64 @@ fail:
     return h5u_close(w, rc, file, H5Fclose, tmp);
 }
 
+/* A write that fails half-way leaves HDF5 1.10 in a state it may crash on
+ * at exit (see h5util.c h5u_divert_writes), so what can be known beforehand
+ * is checked beforehand: the free space, the file size limit (ulimit -f);
+ * then the temporary file is made, and disk blocks are reserved for the
+ * whole file (reserve_early) before HDF5 writes any data. */
+static int prepare(const h5u_writer *w, const pdla_engine *e, const char *dir, const char *tmp)
+{
+    const uint64_t need = size_bound(e);
+    struct statvfs fs;
+    if (statvfs(dir, &fs) == 0 && fs.f_blocks != 0 &&
+        (uint64_t)fs.f_bavail * (uint64_t)fs.f_frsize < need) {
+        h5u_fail_msg(w, "%s: about %llu bytes needed in %s", strerror(ENOSPC),
+                     (unsigned long long)need, dir);
+        return PDLA_EIO;
+    }
+    struct rlimit fl;
+    if (getrlimit(RLIMIT_FSIZE, &fl) == 0 && fl.rlim_cur != RLIM_INFINITY && fl.rlim_cur < need) {
+        h5u_fail_msg(w, "the file size limit (ulimit -f) is %llu bytes, about %llu needed",
+                     (unsigned long long)fl.rlim_cur, (unsigned long long)need);
+        return PDLA_EIO;
+    }
+    if (unlink(tmp) != 0 && errno != ENOENT) {
+        h5u_fail_msg(w, "cannot remove the stale %s: %s", tmp, strerror(errno));
+        return PDLA_EIO;
+    }
+    const int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd < 0) {
+        h5u_fail_msg(w, "cannot create %s: %s", tmp, strerror(errno));
+        return PDLA_EIO;
+    }
+    close(fd);
+    return PDLA_OK;
+}
+
+/* tmp becomes checkpoint.h5, the old one checkpoint.1.h5 and that one
+ * checkpoint.2.h5; each name always holds a complete file. 0 or -1. */
+static int shift_generations(const h5u_writer *w, const char *tmp, const char *path,
+                             const char *g1, const char *g2)
+{
+    if (rename(g1, g2) != 0 && errno != ENOENT) {
+        h5u_fail_msg(w, "cannot rename %s to %s: %s", g1, g2, strerror(errno));
+        return -1;
+    }
+    if (link(path, g1) != 0 && errno != ENOENT) {
+        /* No hard links here: a copy by rename, leaving a moment with no
+         * checkpoint.h5 (the loader then takes checkpoint.1.h5). */
+        if (rename(path, g1) != 0 && errno != ENOENT) {
+            h5u_fail_msg(w, "cannot keep %s as %s: %s", path, g1, strerror(errno));
+            return -1;
+        }
+    }
+    if (rename(tmp, path) != 0) {
+        h5u_fail_msg(w, "cannot rename %s to it: %s", tmp, strerror(errno));
+        return -1;
+    }
+    return 0;
+}
+
 int pdla_checkpoint_write(pdla_engine *e, const char *dir, const pdla_checkpoint_opts *opts,
                           pdla_checkpoint_info *info, char *err, size_t errlen)
 {
@@ -319,35 +377,8 @@ int pdla_checkpoint_write(pdla_engine *e, const char *dir, const pdla_checkpoint
     snprintf(tmp, sizeof tmp, "%s/" TMP_PREFIX "%ld", dir, (long)getpid());
     const h5u_writer w = {path, err, errlen};
 
-    /* A write that fails half-way leaves HDF5 1.10 in a state it may crash
-     * on at exit (see h5util.c h5u_divert_writes), so what can be known
-     * beforehand is checked beforehand: the free space, the file size limit
-     * (ulimit -f), and then disk blocks are reserved for the whole file
-     * (reserve_early) before HDF5 writes any data. */
-    const uint64_t need = size_bound(e);
-    struct statvfs fs;
-    if (statvfs(dir, &fs) == 0 && fs.f_blocks != 0 &&
-        (uint64_t)fs.f_bavail * (uint64_t)fs.f_frsize < need) {
-        h5u_fail_msg(&w, "%s: about %llu bytes needed in %s", strerror(ENOSPC),
-                     (unsigned long long)need, dir);
-        return PDLA_EIO;
-    }
-    struct rlimit fl;
-    if (getrlimit(RLIMIT_FSIZE, &fl) == 0 && fl.rlim_cur != RLIM_INFINITY && fl.rlim_cur < need) {
-        h5u_fail_msg(&w, "the file size limit (ulimit -f) is %llu bytes, about %llu needed",
-                     (unsigned long long)fl.rlim_cur, (unsigned long long)need);
-        return PDLA_EIO;
-    }
-    if (unlink(tmp) != 0 && errno != ENOENT) {
-        h5u_fail_msg(&w, "cannot remove the stale %s: %s", tmp, strerror(errno));
-        return PDLA_EIO;
-    }
-    const int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    if (fd < 0) {
-        h5u_fail_msg(&w, "cannot create %s: %s", tmp, strerror(errno));
-        return PDLA_EIO;
-    }
-    close(fd);
+    const int prc = prepare(&w, e, dir, tmp);
+    if (prc) return prc;
     h5u_quiet q;
     int rc = PDLA_EIO;
     if (h5u_silence(&q) < 0) {
@@ -360,23 +391,7 @@ int pdla_checkpoint_write(pdla_engine *e, const char *dir, const pdla_checkpoint
         h5u_fail_msg(&w, "cannot sync %s: %s", tmp, strerror(errno));
         goto fail;
     }
-    /* Shift the generations; each name always holds a complete file. */
-    if (rename(g1, g2) != 0 && errno != ENOENT) {
-        h5u_fail_msg(&w, "cannot rename %s to %s: %s", g1, g2, strerror(errno));
-        goto fail;
-    }
-    if (link(path, g1) != 0 && errno != ENOENT) {
-        /* No hard links here: a copy by rename, leaving a moment with no
-         * checkpoint.h5 (the loader then takes checkpoint.1.h5). */
-        if (rename(path, g1) != 0 && errno != ENOENT) {
-            h5u_fail_msg(&w, "cannot keep %s as %s: %s", path, g1, strerror(errno));
-            goto fail;
-        }
-    }
-    if (rename(tmp, path) != 0) {
-        h5u_fail_msg(&w, "cannot rename %s to it: %s", tmp, strerror(errno));
-        goto fail;
-    }
+    if (shift_generations(&w, tmp, path, g1, g2) < 0) goto fail;
     if (h5u_fsync_dir(dir) != 0) {
         h5u_fail_msg(&w, "written, but cannot sync directory %s: %s", dir, strerror(errno));
         rc = PDLA_EIO;

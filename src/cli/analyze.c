@@ -53,6 +53,10 @@ static const char analyze_help[] =
     "  --slab-rows N       rows read at once, 1..65536 (default 65536)\n"
     "  -h, --help          print this help and exit\n"
     "\n"
+    "An ensemble file (pdla ensemble DIR/ensemble.h5) prints its statistics:\n"
+    "D_f with its bootstrap interval, the correction-to-scaling fit, the local\n"
+    "slope with its band (only --json applies).\n"
+    "\n"
     "Exit status: 0 done; 1 a read or write failed; 2 bad usage or input.\n";
 
 typedef struct mr_pass {
@@ -124,6 +128,7 @@ typedef struct analyze_opts {
     const char *csv_dir;
     int force, json;
     size_t slab_rows;
+    int cluster_only; /* options given that apply to a cluster file only */
 } analyze_opts;
 
 /* The option values use the main command line's strict parsers. */
@@ -182,6 +187,7 @@ static int parse_options(int argc, char **argv, analyze_opts *o)
     opterr = 0;
     optind = 1;
     char oerr[160];
+    int cluster_only = 0; /* options that apply to a cluster file only */
     if (optcheck_exact(argc, argv, longopts, "h", oerr, sizeof oerr)) {
         fprintf(stderr, "pdla analyze: %s\n", oerr);
         return TOOL_USAGE;
@@ -216,6 +222,7 @@ static int parse_options(int argc, char **argv, analyze_opts *o)
             return tools_option_error("analyze", argv, optind, optopt);
         }
         if (bad) return tools_value_error("analyze", optarg, bad);
+        o->cluster_only += c != O_JSON;
     }
     if (tools_one_file("analyze", optind, argc)) return TOOL_USAGE;
     return GO_ON;
@@ -394,6 +401,14 @@ int tool_analyze(int argc, char **argv)
     analyze_opts o = {0, 5.0, 0.3, 20, NULL, 0, 0, H5R_MAX_SLAB_ROWS};
     int rc = parse_options(argc, argv, &o);
     if (rc != GO_ON) return rc;
+    /* An ensemble file (pdla ensemble): its stored statistics. */
+    if (ens_analyze_is_ensemble(argv[optind])) {
+        if (o.cluster_only) {
+            fprintf(stderr, "pdla analyze: %s is an ensemble file: only --json applies\n", argv[optind]);
+            return TOOL_USAGE;
+        }
+        return ens_analyze_main(argv[optind], o.json);
+    }
     if ((rc = check_csv_dir(&o))) return rc;
     char err[1024];
     h5r_file f;

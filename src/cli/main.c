@@ -28,6 +28,7 @@
 #include <hdf5.h>
 
 #include "dlca_cmd.h"
+#include "ens_cmd.h"
 #include "parse.h"
 #include "pdla/pdla.h"
 #include "progress.h"
@@ -692,6 +693,8 @@ static int run_subcommand(int argc, char **argv, int *code)
         *code = tool_render(argc - 1, argv + 1);
     else if (strcmp(sub, "analyze") == 0)
         *code = tool_analyze(argc - 1, argv + 1);
+    else if (strcmp(sub, "ensemble") == 0)
+        *code = ens_cmd_main(argc - 1, argv + 1);
     else if (dlca_cmd_wanted(argc, argv)) /* --model dlca */
         *code = dlca_cmd_main(argc, argv);
     else if (strcmp(sub, "export") == 0)

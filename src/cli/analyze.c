@@ -187,7 +187,6 @@ static int parse_options(int argc, char **argv, analyze_opts *o)
     opterr = 0;
     optind = 1;
     char oerr[160];
-    int cluster_only = 0; /* options that apply to a cluster file only */
     if (optcheck_exact(argc, argv, longopts, "h", oerr, sizeof oerr)) {
         fprintf(stderr, "pdla analyze: %s\n", oerr);
         return TOOL_USAGE;
@@ -398,7 +397,7 @@ static void print_text(FILE *out, const h5r_file *f, const analyze_opts *o, cons
 
 int tool_analyze(int argc, char **argv)
 {
-    analyze_opts o = {0, 5.0, 0.3, 20, NULL, 0, 0, H5R_MAX_SLAB_ROWS};
+    analyze_opts o = {0, 5.0, 0.3, 20, NULL, 0, 0, H5R_MAX_SLAB_ROWS, 0};
     int rc = parse_options(argc, argv, &o);
     if (rc != GO_ON) return rc;
     /* An ensemble file (pdla ensemble): its stored statistics. */

@@ -292,7 +292,7 @@ typedef struct pdla_run_info {
 PDLA_API int pdla_output_write(const pdla_engine *e, const pdla_run_info *info,
                                const char *path, char *err, size_t errlen);
 
-/* ---- checkpoints and resume (checkpoint.c; README "Checkpoints and resume") */
+/* ---- checkpoints and resume (checkpoint_write.c, checkpoint_read.c; README "Checkpoints and resume") */
 
 /* Bits naming pdla_params fields, for pdla_checkpoint_load's `asked`
  * (pdla_param_desc.bit of each row). */

@@ -7,40 +7,14 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "dlca_cmd.h"
+#include "pdla/h5check.h"
 
 int dlca_info_is_dlca(const char *path)
 {
-    struct stat st; /* never open a FIFO or device: HDF5 would block on it */
-    if (stat(path, &st) || !S_ISREG(st.st_mode)) return 0;
-    H5E_auto2_t fn;
-    void *data;
-    H5Eget_auto2(H5E_DEFAULT, &fn, &data);
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
-    int yes = 0;
-    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
-    if (f >= 0) {
-        if (H5Aexists(f, "model") > 0) {
-            const hid_t a = H5Aopen(f, "model", H5P_DEFAULT);
-            const hid_t t = a >= 0 ? H5Aget_type(a) : -1;
-            const hid_t sp = a >= 0 ? H5Aget_space(a) : -1;
-            const int one = sp >= 0 && H5Sget_simple_extent_npoints(sp) == 1; /* buf holds one string */
-            if (sp >= 0) H5Sclose(sp);
-            char buf[16] = "";
-            if (t >= 0 && one && H5Tget_class(t) == H5T_STRING && !H5Tis_variable_str(t) && H5Tget_size(t) < sizeof buf) {
-                const hid_t mt = H5Tcopy(t);
-                if (mt >= 0 && H5Aread(a, mt, buf) >= 0) yes = strncmp(buf, "dlca", 4) == 0;
-                if (mt >= 0) H5Tclose(mt);
-            }
-            if (t >= 0) H5Tclose(t);
-            if (a >= 0) H5Aclose(a);
-        }
-        H5Fclose(f);
-    }
-    H5Eset_auto2(H5E_DEFAULT, fn, data);
-    return yes;
+    char model[16];
+    return pdla_h5_file_model(path, model, sizeof model) == 0 && strcmp(model, "dlca") == 0;
 }
 
 typedef struct it_ctx {
@@ -48,62 +22,48 @@ typedef struct it_ctx {
     int json, first;
 } it_ctx;
 
-/* Print one attribute (number, string or number array). */
+/* A file's string in JSON, escaped: a file's strings are not trusted. */
+static void json_str(FILE *o, const char *s)
+{
+    fputc('"', o);
+    for (const unsigned char *q = (const unsigned char *)s; *q; q++)
+        if (*q == '"' || *q == '\\') fprintf(o, "\\%c", *q);
+        else if (*q < 0x20) fprintf(o, "\\u%04x", *q);
+        else fputc(*q, o);
+    fputc('"', o);
+}
+
+/* Print one attribute (number, string or number array of up to 8). */
 static herr_t print_attr(hid_t loc, const char *name, const H5A_info_t *info, void *op)
 {
     (void)info;
     it_ctx *c = op;
-    const hid_t a = H5Aopen(loc, name, H5P_DEFAULT);
-    if (a < 0) return -1;
-    const hid_t t = H5Aget_type(a), sp = H5Aget_space(a);
-    const H5T_class_t cls = H5Tget_class(t);
-    const hssize_t n = H5Sget_simple_extent_npoints(sp);
+    pdla_h5_value v;
+    if (pdla_h5_attr_value(loc, name, &v) < 0) return -1;
     herr_t rc = 0;
     if (c->json) fprintf(c->o, "%s\n    \"%s\": ", c->first ? "" : ",", name);
     else fprintf(c->o, "  %-22s ", name);
     c->first = 0;
-    if (cls == H5T_STRING) {
-        char buf[4096] = "";
-        const hid_t mt = H5Tcopy(t);
-        if (n == 1 && !H5Tis_variable_str(t) && H5Tget_size(t) < sizeof buf && H5Aread(a, mt, buf) >= 0) {
-            if (c->json) { /* escaped: a file's strings are not trusted */
-                fputc('"', c->o);
-                for (const unsigned char *q = (const unsigned char *)buf; *q; q++)
-                    if (*q == '"' || *q == '\\') fprintf(c->o, "\\%c", *q);
-                    else if (*q < 0x20) fprintf(c->o, "\\u%04x", *q);
-                    else fputc(*q, c->o);
-                fputc('"', c->o);
-            } else fputs(buf, c->o);
-        } else if (c->json) fputs("null", c->o);
-        H5Tclose(mt);
-    } else if (cls == H5T_INTEGER && n >= 1 && n <= 8) {
-        /* Integers exactly (a u64 digest does not survive a double). */
-        const int sgn = H5Tget_sign(t) == H5T_SGN_2;
-        unsigned long long v[8];
-        if (H5Aread(a, sgn ? H5T_NATIVE_LLONG : H5T_NATIVE_ULLONG, v) < 0) rc = -1;
-        if (n > 1) fputs(c->json ? "[" : "", c->o);
-        for (hssize_t i = 0; i < n && rc == 0; i++) {
+    if (v.kind == 's' && v.read && !v.cut) {
+        if (c->json) json_str(c->o, v.s);
+        else fputs(v.s, c->o);
+    } else if (v.kind && v.kind != 's' && v.read) {
+        if (v.n > 1) fputs(c->json ? "[" : "", c->o);
+        for (int64_t i = 0; i < v.n; i++) {
             if (i) fputs(c->json ? ", " : "x", c->o);
-            if (sgn) fprintf(c->o, "%lld", (long long)v[i]);
-            else fprintf(c->o, "%llu", v[i]);
-        }
-        if (n > 1) fputs(c->json ? "]" : "", c->o);
-    } else if (n >= 1 && n <= 8) {
-        double v[8];
-        if (H5Aread(a, H5T_NATIVE_DOUBLE, v) < 0) rc = -1;
-        if (n > 1) fputs(c->json ? "[" : "", c->o);
-        for (hssize_t i = 0; i < n && rc == 0; i++) {
-            if (i) fputs(c->json ? ", " : "x", c->o);
-            if (isfinite(v[i])) fprintf(c->o, "%.10g", v[i]);
+            /* Integers exactly (a u64 digest does not survive a double). */
+            if (v.kind == 'i') fprintf(c->o, "%lld", (long long)v.i[i]);
+            else if (v.kind == 'u') fprintf(c->o, "%llu", (unsigned long long)v.u[i]);
+            else if (isfinite(v.f[i])) fprintf(c->o, "%.10g", v.f[i]);
             else fputs(c->json ? "null" : "nan", c->o);
         }
-        if (n > 1) fputs(c->json ? "]" : "", c->o);
+        if (v.n > 1) fputs(c->json ? "]" : "", c->o);
+    } else if (v.kind && v.kind != 's' && v.n >= 1 && v.n <= PDLA_H5_MAX_ELEMS) {
+        rc = -1; /* a number HDF5 could not read: the file is damaged */
+    } else if (c->json) {
+        fputs("null", c->o);
     }
-    else if (cls != H5T_STRING && !(n >= 1 && n <= 8) && c->json) fputs("null", c->o);
     if (!c->json) fputc('\n', c->o);
-    H5Sclose(sp);
-    H5Tclose(t);
-    H5Aclose(a);
     return rc;
 }
 
@@ -129,12 +89,10 @@ int dlca_info_main(const char *path, int json)
         return 2;
     }
     long long rows = -1;
-    const hid_t d = H5Dopen2(f, "/series/t", H5P_DEFAULT);
-    if (d >= 0) {
-        const hid_t sp = H5Dget_space(d);
-        rows = (long long)H5Sget_simple_extent_npoints(sp);
-        H5Sclose(sp);
-        H5Dclose(d);
+    pdla_h5_dset d;
+    if (pdla_h5_dset_open(f, "/series/t", &d) == 0) {
+        rows = (long long)d.elems;
+        pdla_h5_dset_close(&d);
     }
     FILE *o = stdout;
     int rc = 0;

@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 
 #include "event_cmd.h"
+#include "pdla/h5check.h"
 
 static const char *file_arg(int argc, char **argv, int *json)
 {
@@ -38,28 +39,8 @@ int event_info_wanted(int argc, char **argv)
      * (opening a FIFO blocks); the general tools report those. */
     struct stat st;
     if (stat(path, &st) != 0 || !S_ISREG(st.st_mode)) return 0;
-    H5E_auto2_t fn;
-    void *data;
-    H5Eget_auto2(H5E_DEFAULT, &fn, &data);
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
-    int is = 0;
-    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
-    if (f >= 0) {
-        if (H5Aexists(f, "model") > 0) {
-            const hid_t a = H5Aopen(f, "model", H5P_DEFAULT);
-            const hid_t t = a >= 0 ? H5Aget_type(a) : -1;
-            if (t >= 0 && H5Tget_class(t) == H5T_STRING && !H5Tis_variable_str(t)) {
-                char buf[64] = {0};
-                const size_t n = H5Tget_size(t);
-                if (n < sizeof buf && H5Aread(a, t, buf) >= 0) is = !strncmp(buf, "event", 6);
-            }
-            if (t >= 0) H5Tclose(t);
-            if (a >= 0) H5Aclose(a);
-        }
-        H5Fclose(f);
-    }
-    H5Eset_auto2(H5E_DEFAULT, fn, data);
-    return is;
+    char model[64];
+    return pdla_h5_file_model(path, model, sizeof model) == 0 && strcmp(model, "event") == 0;
 }
 
 typedef struct pr {
@@ -71,41 +52,29 @@ static herr_t print_attr(hid_t loc, const char *name, const H5A_info_t *info, vo
 {
     (void)info;
     pr *p = u;
-    const hid_t a = H5Aopen(loc, name, H5P_DEFAULT);
-    if (a < 0) return -1;
-    const hid_t t = H5Aget_type(a), sp = H5Aget_space(a);
-    const H5T_class_t cl = H5Tget_class(t);
-    const hssize_t n = H5Sget_simple_extent_npoints(sp);
+    pdla_h5_value v;
+    if (pdla_h5_attr_value(loc, name, &v) < 0) return -1;
     char val[1100] = "?";
     int isstr = 0;
-    if (n == 1 && cl == H5T_STRING && !H5Tis_variable_str(t) && H5Tget_size(t) < 1024) {
-        char buf[1024] = {0};
-        if (H5Aread(a, t, buf) >= 0) snprintf(val, sizeof val, "%s", buf);
+    if (v.n == 1 && v.kind == 's') {
+        if (v.read) snprintf(val, sizeof val, "%.1023s", v.s);
         isstr = 1;
-    } else if (n == 1 && cl == H5T_INTEGER) {
-        long long v = 0;
-        unsigned long long uv = 0;
-        if (H5Tget_sign(t) == H5T_SGN_NONE) {
-            if (H5Aread(a, H5T_NATIVE_ULLONG, &uv) >= 0) snprintf(val, sizeof val, "%llu", uv);
-        } else if (H5Aread(a, H5T_NATIVE_LLONG, &v) >= 0) {
-            snprintf(val, sizeof val, "%lld", v);
-        }
-    } else if (n == 1 && cl == H5T_FLOAT) {
-        double v = 0;
-        if (H5Aread(a, H5T_NATIVE_DOUBLE, &v) >= 0) {
-            if (isfinite(v)) snprintf(val, sizeof val, "%.10g", v);
-            else {
-                snprintf(val, sizeof val, "%s", v != v ? "NaN" : v > 0 ? "Infinity" : "-Infinity");
-                isstr = p->json;
-            }
+    } else if (v.n == 1 && v.kind == 'u') {
+        if (v.read) snprintf(val, sizeof val, "%llu", (unsigned long long)v.u[0]);
+    } else if (v.n == 1 && v.kind == 'i') {
+        if (v.read) snprintf(val, sizeof val, "%lld", (long long)v.i[0]);
+    } else if (v.n == 1 && v.kind == 'f') {
+        const double x = v.f[0];
+        if (v.read && isfinite(x)) {
+            snprintf(val, sizeof val, "%.10g", x);
+        } else if (v.read) {
+            snprintf(val, sizeof val, "%s", x != x ? "NaN" : x > 0 ? "Infinity" : "-Infinity");
+            isstr = p->json;
         }
     } else {
         isstr = 1;
-        snprintf(val, sizeof val, "(array of %lld)", (long long)n);
+        snprintf(val, sizeof val, "(array of %lld)", (long long)v.n);
     }
-    H5Sclose(sp);
-    H5Tclose(t);
-    H5Aclose(a);
     if (p->json) {
         fprintf(p->o, "%s\n    \"%s\": ", p->first ? "" : ",", name);
         if (isstr) {
@@ -141,14 +110,10 @@ static int group(FILE *o, hid_t f, const char *g, int json, int last)
 
 static long long rows(hid_t f, const char *ds)
 {
-    const hid_t d = H5Dopen2(f, ds, H5P_DEFAULT);
-    if (d < 0) return -1;
-    const hid_t sp = H5Dget_space(d);
-    hsize_t dims[2] = {0, 0};
-    H5Sget_simple_extent_dims(sp, dims, NULL);
-    H5Sclose(sp);
-    H5Dclose(d);
-    return (long long)dims[0];
+    pdla_h5_dset d;
+    if (pdla_h5_dset_open(f, ds, &d) < 0) return -1;
+    pdla_h5_dset_close(&d);
+    return (long long)d.dims[0];
 }
 
 int event_info_main(int argc, char **argv)

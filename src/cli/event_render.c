@@ -14,23 +14,27 @@
 #include <sys/stat.h>
 
 #include "event_cmd.h"
+#include "pdla/h5check.h"
 
+/* A whole rank 1 or 2 dataset as doubles (malloc'ed), or NULL when it is
+ * missing, of another shape, or declares more than the file stores. */
 static double *read_all(hid_t f, const char *name, size_t *rows, size_t *cols)
 {
-    const hid_t d = H5Dopen2(f, name, H5P_DEFAULT);
-    if (d < 0) return NULL;
-    const hid_t sp = H5Dget_space(d);
-    hsize_t dims[2] = {0, 1};
-    const int rank = H5Sget_simple_extent_dims(sp, dims, NULL);
-    H5Sclose(sp);
-    *rows = (size_t)dims[0];
-    *cols = rank == 2 ? (size_t)dims[1] : 1;
-    double *buf = malloc((*rows ? *rows : 1) * *cols * sizeof *buf);
-    if (buf && *rows && H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) {
-        free(buf);
-        buf = NULL;
+    *rows = 0;
+    *cols = 1;
+    pdla_h5_dset d;
+    if (pdla_h5_dset_open(f, name, &d) < 0) return NULL;
+    double *buf = NULL;
+    if ((d.rank == 1 || d.rank == 2) && pdla_h5_dset_stored(&d, sizeof *buf) == PDLA_H5_STORED) {
+        *rows = (size_t)d.dims[0];
+        *cols = d.rank == 2 ? (size_t)d.dims[1] : 1;
+        buf = malloc(d.elems ? (size_t)d.elems * sizeof *buf : sizeof *buf);
+        if (buf && pdla_h5_dset_read(&d, PDLA_H5_F64, 0, d.dims[0], buf) < 0) {
+            free(buf);
+            buf = NULL;
+        }
     }
-    H5Dclose(d);
+    pdla_h5_dset_close(&d);
     return buf;
 }
 
@@ -137,16 +141,12 @@ int event_render_main(int argc, char **argv)
     const hid_t g = H5Gopen2(f, "/results", H5P_DEFAULT), gc = H5Gopen2(f, "/cluster", H5P_DEFAULT);
     int ok = cp && cr && fp && fr && g >= 0 && gc >= 0;
     if (ok) {
-        const hid_t a = H5Aopen(g, "box_side", H5P_DEFAULT);
-        ok = a >= 0 && H5Aread(a, H5T_NATIVE_DOUBLE, &L) >= 0;
-        if (a >= 0) H5Aclose(a);
+        ok = pdla_h5_attr_number(g, "box_side", PDLA_H5_F64, &L) == 0;
         if (H5Aexists(gc, "seed_radius") > 0) {
             static const char *nm[] = {"seed_x", "seed_y", "seed_z", "seed_radius"};
             for (int q = 0; q < 4 && ok; q++) {
                 if (q < 3 && (size_t)q >= dim) continue;
-                const hid_t b = H5Aopen(gc, nm[q], H5P_DEFAULT);
-                ok = b >= 0 && H5Aread(b, H5T_NATIVE_DOUBLE, q < 3 ? &seed[q] : &sr) >= 0;
-                if (b >= 0) H5Aclose(b);
+                ok = pdla_h5_attr_number(gc, nm[q], PDLA_H5_F64, q < 3 ? &seed[q] : &sr) == 0;
             }
         }
     }

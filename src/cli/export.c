@@ -239,16 +239,23 @@ static int format_from_name(const char *s)
     return FMT_NONE;
 }
 
-int tool_export(int argc, char **argv)
+typedef struct export_opts {
+    const char *out;
+    long slab;
+    int fmt, force;
+} export_opts;
+
+/* Parses the options into o (the format from --format or the output's
+ * ending); GO_ON, or the exit status. */
+#define GO_ON (-1)
+static int parse_options(int argc, char **argv, export_opts *o)
 {
     enum { O_FORMAT = 256, O_FORCE, O_SLAB };
     static const struct option longopts[] = {
         {"output", required_argument, NULL, 'o'}, {"format", required_argument, NULL, O_FORMAT},
         {"force", no_argument, NULL, O_FORCE}, {"slab-rows", required_argument, NULL, O_SLAB},
         {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
-    const char *out = NULL;
-    long slab = H5R_MAX_SLAB_ROWS;
-    int fmt = FMT_NONE, force = 0, c;
+    int c;
     opterr = 0;
     optind = 1;
     char oerr[160];
@@ -259,13 +266,13 @@ int tool_export(int argc, char **argv)
     while ((c = getopt_long(argc, argv, "ho:", longopts, NULL)) != -1) {
         const char *bad = NULL;
         switch (c) {
-        case 'o': out = optarg; break;
+        case 'o': o->out = optarg; break;
         case O_FORMAT:
-            if ((fmt = format_from_name(optarg)) == FMT_NONE) bad = "--format: want ply, csv or xyz";
+            if ((o->fmt = format_from_name(optarg)) == FMT_NONE) bad = "--format: want ply, csv or xyz";
             break;
-        case O_FORCE: force = 1; break;
+        case O_FORCE: o->force = 1; break;
         case O_SLAB:
-            if (cli_parse_long_in(optarg, 1, H5R_MAX_SLAB_ROWS, &slab))
+            if (cli_parse_long_in(optarg, 1, H5R_MAX_SLAB_ROWS, &o->slab))
                 bad = "--slab-rows: want a whole number in [1, 65536]";
             break;
         case 'h': fputs(export_help, stdout); return fflush(stdout) ? TOOL_RUNTIME : TOOL_OK;
@@ -275,17 +282,28 @@ int tool_export(int argc, char **argv)
         if (bad) return tools_value_error("export", optarg, bad);
     }
     if (tools_one_file("export", optind, argc)) return TOOL_USAGE;
-    if (!out) {
+    if (!o->out) {
         fprintf(stderr, "pdla export: no output given (-o OUT)\n");
         return TOOL_USAGE;
     }
-    if (fmt == FMT_NONE) {
-        const char *const dot = strrchr(out, '.');
-        if (!dot || (fmt = format_from_name(dot + 1)) == FMT_NONE) {
-            fprintf(stderr, "pdla export: no --format given and %s does not end in .ply, .csv or .xyz\n", out);
+    if (o->fmt == FMT_NONE) {
+        const char *const dot = strrchr(o->out, '.');
+        if (!dot || (o->fmt = format_from_name(dot + 1)) == FMT_NONE) {
+            fprintf(stderr, "pdla export: no --format given and %s does not end in .ply, .csv or .xyz\n", o->out);
             return TOOL_USAGE;
         }
     }
+    return GO_ON;
+}
+
+int tool_export(int argc, char **argv)
+{
+    export_opts o = {NULL, H5R_MAX_SLAB_ROWS, FMT_NONE, 0};
+    const int prc = parse_options(argc, argv, &o);
+    if (prc != GO_ON) return prc;
+    const char *const out = o.out;
+    const long slab = o.slab;
+    const int fmt = o.fmt, force = o.force;
     char err[1024];
     if (tools_out_check(out, force, err, sizeof err)) {
         fprintf(stderr, "pdla export: %s\n", err);

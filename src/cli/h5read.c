@@ -25,115 +25,37 @@ static int fail(char *err, size_t errlen, const char *fmt, ...)
     return -1;
 }
 
-/* A scalar string attribute into buf; 0, or -1 if missing or not a string. */
-/* Whether attribute a holds exactly one element (scalar or 1-element
- * array): H5Aread writes every element, and our buffers hold one. */
-static int attr_is_single(hid_t a)
-{
-    const hid_t sp = H5Aget_space(a);
-    if (sp < 0) return 0;
-    const hssize_t n = H5Sget_simple_extent_npoints(sp);
-    H5Sclose(sp);
-    return n == 1;
-}
-
-static int read_str_attr(hid_t obj, const char *name, char *buf, size_t len)
-{
-    if (H5Aexists(obj, name) <= 0) return -1;
-    const hid_t a = H5Aopen(obj, name, H5P_DEFAULT);
-    if (a < 0) return -1;
-    int rc = -1;
-    const hid_t t = H5Aget_type(a);
-    if (t >= 0 && H5Tget_class(t) == H5T_STRING && attr_is_single(a)) {
-        if (H5Tis_variable_str(t) > 0) {
-            char *s = NULL;
-            /* The file's own string type (ASCII or UTF-8, as h5py writes):
-             * HDF5 will not convert between character sets. */
-            const hid_t mt = H5Tcopy(t);
-            if (H5Aread(a, mt, &s) >= 0 && s) {
-                snprintf(buf, len, "%s", s);
-                H5free_memory(s);
-                rc = 0;
-            }
-            H5Tclose(mt);
-        } else {
-            const size_t sz = H5Tget_size(t);
-            char *s = calloc(sz + 1, 1);
-            if (s && H5Aread(a, t, s) >= 0) {
-                snprintf(buf, len, "%s", s);
-                rc = 0;
-            }
-            free(s);
-        }
-    }
-    if (t >= 0) H5Tclose(t);
-    H5Aclose(a);
-    return rc;
-}
-
-static int read_int_attr(hid_t obj, const char *name, int64_t *v)
-{
-    if (H5Aexists(obj, name) <= 0) return -1;
-    const hid_t a = H5Aopen(obj, name, H5P_DEFAULT);
-    if (a < 0) return -1;
-    const hid_t t = H5Aget_type(a);
-    int rc = -1;
-    if (t >= 0 && H5Tget_class(t) == H5T_INTEGER && attr_is_single(a) &&
-        H5Aread(a, H5T_NATIVE_INT64, v) >= 0)
-        rc = 0;
-    if (t >= 0) H5Tclose(t);
-    H5Aclose(a);
-    return rc;
-}
-
-/* Whether dataset d really stores elems elements (each esize bytes in memory)
- * rather than merely declaring them: a file of a few KB can declare 2^61
- * rows (chunked, nothing written), and readers must neither allocate nor
- * loop for what is not there. Compressed data may expand; deflate's limit
- * is about 1032:1, so filtered datasets get that much room. 0, or -1 with
- * a one-line reason. */
-static int h5r_stored(hid_t d, uint64_t elems, size_t esize, const char *path, const char *name,
+/* Whether dataset d really stores its elements (each esize bytes in
+ * memory) rather than merely declaring them (pdla_h5_dset_stored). 0, or
+ * -1 with a one-line reason. */
+static int h5r_stored(const pdla_h5_dset *d, size_t esize, const char *path, const char *name,
                       char *err, size_t errlen)
 {
-    if (elems == 0) return 0;
-    if (elems > (uint64_t)(SIZE_MAX / 2) / esize || elems > (uint64_t)1 << 52)
+    switch (pdla_h5_dset_stored(d, esize)) {
+    case PDLA_H5_STORED: return 0;
+    case PDLA_H5_TOO_LARGE:
         return fail(err, errlen, "%s: %s declares %llu elements, more than this machine can address",
-                    path, name, (unsigned long long)elems);
-    const hid_t t = H5Dget_type(d);
-    const size_t fsize = t >= 0 ? H5Tget_size(t) : 0;
-    if (t >= 0) H5Tclose(t);
-    const hid_t dcpl = H5Dget_create_plist(d);
-    const int nfilters = dcpl >= 0 ? H5Pget_nfilters(dcpl) : -1;
-    if (dcpl >= 0) H5Pclose(dcpl);
-    if (fsize == 0 || nfilters < 0)
-        return fail(err, errlen, "%s: cannot read the layout of %s (damaged?)", path, name);
-    const uint64_t stored = H5Dget_storage_size(d);
-    const uint64_t room = nfilters > 0 ? 1100 : 1;
-    const double need = (double)elems * (double)fsize;
-    if (need > (double)stored * (double)room)
+                    path, name, (unsigned long long)d->elems);
+    default:
         return fail(err, errlen,
                     "%s: %s declares %llu elements (%.0f bytes) but the file stores only %llu bytes "
                     "of it (damaged or not written by pdla)",
-                    path, name, (unsigned long long)elems, need, (unsigned long long)stored);
-    return 0;
+                    path, name, (unsigned long long)d->elems, (double)d->elems * (double)d->size,
+                    (unsigned long long)d->stored);
+    }
 }
 
 void h5r_close(h5r_file *f)
 {
-    if (f->fspace >= 0) H5Sclose(f->fspace);
-    if (f->dset >= 0) H5Dclose(f->dset);
+    pdla_h5_dset_close(&f->pos);
     if (f->file >= 0) H5Fclose(f->file);
-    f->fspace = f->dset = f->file = H5I_INVALID_HID;
+    f->file = H5I_INVALID_HID;
 }
 
-int h5r_open(h5r_file *f, const char *path, char *err, size_t errlen)
+/* A regular file that HDF5 opens; -1 with err. */
+static int open_file(h5r_file *f, char *err, size_t errlen)
 {
-    memset(f, 0, sizeof *f);
-    f->file = f->dset = f->fspace = H5I_INVALID_HID;
-    f->path = path;
-    /* The tools print their own one-line messages. */
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
-
+    const char *const path = f->path;
     struct stat st;
     if (stat(path, &st) != 0) return fail(err, errlen, "cannot open %s: %s", path, strerror(errno));
     if (S_ISDIR(st.st_mode)) return fail(err, errlen, "%s is a directory, not a cluster file", path);
@@ -145,80 +67,88 @@ int h5r_open(h5r_file *f, const char *path, char *err, size_t errlen)
     if (H5Fis_hdf5(path) <= 0) return fail(err, errlen, "%s is not an HDF5 file", path);
     if ((f->file = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT)) < 0)
         return fail(err, errlen, "%s: HDF5 cannot open it (damaged?)", path);
+    return 0;
+}
 
+/* format = "pdla-cluster", format_version = 1. */
+static int check_format(h5r_file *f, char *err, size_t errlen)
+{
     char fmt[64];
-    if (read_str_attr(f->file, "format", fmt, sizeof fmt) != 0) {
-        h5r_close(f);
+    if (pdla_h5_attr_str(f->file, "format", fmt, sizeof fmt) < 0)
         return fail(err, errlen, "%s is not a pdla cluster file (no format = \"pdla-cluster\" attribute)",
-                    path);
-    }
-    if (strcmp(fmt, "pdla-cluster") != 0) {
-        h5r_close(f);
-        return fail(err, errlen, "%s is not a pdla cluster file (format = \"%s\")", path, fmt);
-    }
+                    f->path);
+    if (strcmp(fmt, "pdla-cluster") != 0)
+        return fail(err, errlen, "%s is not a pdla cluster file (format = \"%s\")", f->path, fmt);
     int64_t v = 0;
-    if (read_int_attr(f->file, "format_version", &v) != 0 || v != 1) {
-        h5r_close(f);
-        return fail(err, errlen, "%s: unsupported format_version (this pdla reads version 1)", path);
-    }
+    if (pdla_h5_attr_number(f->file, "format_version", PDLA_H5_I64, &v) != 0 || v != 1)
+        return fail(err, errlen, "%s: unsupported format_version (this pdla reads version 1)", f->path);
     f->format_version = (int)v;
+    return 0;
+}
 
+/* /cluster/positions: integer [N][2] or [N][3], all of it stored. */
+static int open_positions(h5r_file *f, char *err, size_t errlen)
+{
+    const char *const path = f->path;
     if (H5Lexists(f->file, "/cluster", H5P_DEFAULT) <= 0 ||
         H5Lexists(f->file, "/cluster/positions", H5P_DEFAULT) <= 0 ||
-        (f->dset = H5Dopen2(f->file, "/cluster/positions", H5P_DEFAULT)) < 0) {
-        h5r_close(f);
+        pdla_h5_dset_open(f->file, "/cluster/positions", &f->pos) < 0)
         return fail(err, errlen, "%s has no /cluster/positions dataset", path);
-    }
-    const hid_t t = H5Dget_type(f->dset);
-    const int is_int = t >= 0 && H5Tget_class(t) == H5T_INTEGER;
-    if (t >= 0) H5Tclose(t);
-    hsize_t dims[2] = {0, 0};
-    f->fspace = H5Dget_space(f->dset);
-    const int rank = f->fspace >= 0 ? H5Sget_simple_extent_ndims(f->fspace) : -1;
-    if (!is_int || rank != 2 || H5Sget_simple_extent_dims(f->fspace, dims, NULL) != 2 ||
-        (dims[1] != 2 && dims[1] != 3)) {
-        h5r_close(f);
-        if (!is_int) return fail(err, errlen, "%s: /cluster/positions is not an integer dataset", path);
-        if (rank != 2)
-            return fail(err, errlen, "%s: /cluster/positions has rank %d; want [N][2] or [N][3]", path,
-                        rank);
+    const pdla_h5_dset *d = &f->pos;
+    if (d->kind != 'i' && d->kind != 'u')
+        return fail(err, errlen, "%s: /cluster/positions is not an integer dataset", path);
+    if (d->rank != 2)
+        return fail(err, errlen, "%s: /cluster/positions has rank %d; want [N][2] or [N][3]", path,
+                    d->rank);
+    if (d->dims[1] != 2 && d->dims[1] != 3)
         return fail(err, errlen, "%s: /cluster/positions has %llu columns; want 2 or 3", path,
-                    (unsigned long long)dims[1]);
-    }
-    f->n = dims[0];
-    f->dim = (int)dims[1];
-    if (h5r_stored(f->dset, f->n * (uint64_t)f->dim, sizeof(int32_t), path, "/cluster/positions", err,
-                   errlen)) {
-        h5r_close(f);
-        return -1;
-    }
+                    (unsigned long long)d->dims[1]);
+    f->n = d->dims[0];
+    f->dim = (int)d->dims[1];
+    return h5r_stored(d, sizeof(int32_t), path, "/cluster/positions", err, errlen);
+}
 
-    /* Cross-check the declared dimension when /parameters has one. */
+/* The units per diameter (/cluster/positions diameter_units, else
+ * /parameters resolution), and /parameters dim against the columns. */
+static int read_units(h5r_file *f, char *err, size_t errlen)
+{
     if (H5Lexists(f->file, "/parameters", H5P_DEFAULT) > 0) {
         const hid_t g = H5Oopen(f->file, "/parameters", H5P_DEFAULT);
         if (g >= 0) {
             int64_t pd = 0;
-            const int have = read_int_attr(g, "dim", &pd) == 0;
+            const int have = pdla_h5_attr_number(g, "dim", PDLA_H5_I64, &pd) == 0;
             int64_t res = 0;
-            if (read_int_attr(g, "resolution", &res) == 0)
+            if (pdla_h5_attr_number(g, "resolution", PDLA_H5_I64, &res) == 0)
                 f->diameter_units = res >= 1 && res <= 1 << 20 ? (int)res : -1;
             H5Oclose(g);
-            if (have && pd != f->dim) {
-                h5r_close(f);
+            if (have && pd != f->dim)
                 return fail(err, errlen,
-                            "%s: /cluster/positions has %d columns but /parameters dim = %lld", path,
+                            "%s: /cluster/positions has %d columns but /parameters dim = %lld", f->path,
                             f->dim, (long long)pd);
-            }
         }
     }
     /* Range-check the 64-bit value before narrowing: 2^32 + 32 is not 32. */
-    if (read_int_attr(f->dset, "diameter_units", &v) == 0)
+    int64_t v = 0;
+    if (pdla_h5_attr_number(f->pos.id, "diameter_units", PDLA_H5_I64, &v) == 0)
         f->diameter_units = v >= 1 && v <= 1 << 20 ? (int)v : -1;
-    if (f->diameter_units < 1 || f->diameter_units > 1 << 20) {
+    if (f->diameter_units < 1 || f->diameter_units > 1 << 20)
+        return fail(err, errlen, "%s: no valid diameter_units attribute on /cluster/positions", f->path);
+    return 0;
+}
+
+int h5r_open(h5r_file *f, const char *path, char *err, size_t errlen)
+{
+    memset(f, 0, sizeof *f);
+    f->file = f->pos.id = H5I_INVALID_HID;
+    f->path = path;
+    /* The tools print their own one-line messages. */
+    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    if (open_file(f, err, errlen) || check_format(f, err, errlen) || open_positions(f, err, errlen) ||
+        read_units(f, err, errlen)) {
         h5r_close(f);
-        return fail(err, errlen, "%s: no valid diameter_units attribute on /cluster/positions", path);
+        return -1;
     }
-    if (read_str_attr(f->dset, "order", f->order, sizeof f->order) != 0)
+    if (pdla_h5_attr_str(f->pos.id, "order", f->order, sizeof f->order) < 0)
         snprintf(f->order, sizeof f->order, "unknown");
     f->arrival = strcmp(f->order, "arrival") == 0;
     return 0;
@@ -236,23 +166,19 @@ int h5r_stream(h5r_file *f, size_t slab_rows, h5r_rows_fn fn, void *user, char *
     for (uint64_t first = 0; first < f->n && rc == 0; first += slab_rows) {
         const uint64_t left = f->n - first;
         const size_t rows = left < slab_rows ? (size_t)left : slab_rows;
-        const hsize_t start[2] = {first, 0}, count[2] = {rows, dim};
-        const hid_t ms = H5Screate_simple(2, count, NULL);
-        if (ms < 0 || H5Sselect_hyperslab(f->fspace, H5S_SELECT_SET, start, NULL, count, NULL) < 0 ||
-            H5Dread(f->dset, H5T_NATIVE_INT32, ms, f->fspace, H5P_DEFAULT, buf) < 0) {
+        if (pdla_h5_dset_read(&f->pos, PDLA_H5_I32, first, rows, buf) < 0) {
             rc = fail(err, errlen, "%s: cannot read rows %llu..%llu of /cluster/positions (damaged?)",
                       f->path, (unsigned long long)first, (unsigned long long)(first + rows - 1));
         } else {
             rc = fn(buf, rows, first, user);
         }
-        if (ms >= 0) H5Sclose(ms);
     }
     free(buf);
     return rc;
 }
 
 /* A whole 1-D dataset of k rows in native type mt; *out malloc'ed. */
-static int read_1d(h5r_file *f, const char *name, hid_t mt, size_t esize, void **out, size_t *k,
+static int read_1d(h5r_file *f, const char *name, pdla_h5_type mt, size_t esize, void **out, size_t *k,
                    char *err, size_t errlen)
 {
     *out = NULL;
@@ -264,28 +190,26 @@ static int read_1d(h5r_file *f, const char *name, hid_t mt, size_t esize, void *
         (hn > 0 && H5Oexists_by_name(f->file, name, H5P_DEFAULT) <= 0))
         return fail(err, errlen, "%s: cannot follow the link to %s (damaged?)", f->path, name);
     if (hn <= 0) return 0;
-    const hid_t d = H5Dopen2(f->file, name, H5P_DEFAULT);
-    if (d < 0) return fail(err, errlen, "%s: cannot open %s", f->path, name);
-    const hid_t s = H5Dget_space(d);
-    hsize_t dims[1] = {0};
+    pdla_h5_dset d;
+    if (pdla_h5_dset_open(f->file, name, &d) < 0) return fail(err, errlen, "%s: cannot open %s", f->path, name);
+    const uint64_t rows = d.dims[0];
     int rc = 0;
-    if (s < 0 || H5Sget_simple_extent_ndims(s) != 1 || H5Sget_simple_extent_dims(s, dims, NULL) != 1) {
+    if (d.rank != 1) {
         rc = fail(err, errlen, "%s: %s is not one-dimensional", f->path, name);
-    } else if (dims[0] > 0 && h5r_stored(d, dims[0], esize, f->path, name, err, errlen)) {
+    } else if (rows > 0 && h5r_stored(&d, esize, f->path, name, err, errlen)) {
         rc = -1;
-    } else if (dims[0] > 0) {
-        void *buf = malloc((size_t)dims[0] * esize);
+    } else if (rows > 0) {
+        void *buf = malloc((size_t)rows * esize);
         if (!buf) rc = fail(err, errlen, "out of memory reading %s", name);
-        else if (H5Dread(d, mt, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) {
+        else if (pdla_h5_dset_read(&d, mt, 0, rows, buf) < 0) {
             free(buf);
             rc = fail(err, errlen, "%s: cannot read %s (damaged?)", f->path, name);
         } else {
             *out = buf;
-            *k = (size_t)dims[0];
+            *k = (size_t)rows;
         }
     }
-    if (s >= 0) H5Sclose(s);
-    H5Dclose(d);
+    pdla_h5_dset_close(&d);
     return rc;
 }
 
@@ -296,8 +220,8 @@ int h5r_read_series(h5r_file *f, uint64_t **n, double **rg_diam, size_t *k, char
     *n = NULL;
     *rg_diam = NULL;
     *k = 0;
-    if (read_1d(f, "/gyration/N", H5T_NATIVE_UINT64, sizeof(uint64_t), &pn, &kn, err, errlen) ||
-        read_1d(f, "/gyration/rg_diam", H5T_NATIVE_DOUBLE, sizeof(double), &pr, &kr, err, errlen)) {
+    if (read_1d(f, "/gyration/N", PDLA_H5_U64, sizeof(uint64_t), &pn, &kn, err, errlen) ||
+        read_1d(f, "/gyration/rg_diam", PDLA_H5_F64, sizeof(double), &pr, &kr, err, errlen)) {
         free(pn);
         free(pr);
         return -1;
@@ -320,50 +244,17 @@ static herr_t attr_cb(hid_t obj, const char *name, const H5A_info_t *info, void 
 {
     (void)info;
     h5r_attrs *const out = data;
-    const hid_t a = H5Aopen(obj, name, H5P_DEFAULT);
-    if (a < 0) return 0;
-    const hid_t t = H5Aget_type(a), s = H5Aget_space(a);
+    pdla_h5_value v;
+    /* Only scalars are listed; a string cut to 4 KB is still one. */
+    if (pdla_h5_attr_value(obj, name, &v) < 0 || !v.read || v.n != 1) return 0;
     h5r_attr at;
     memset(&at, 0, sizeof at);
     snprintf(at.name, sizeof at.name, "%s", name);
-    int ok = 0;
-    if (t >= 0 && s >= 0 && H5Sget_simple_extent_npoints(s) == 1) {
-        switch (H5Tget_class(t)) {
-        case H5T_INTEGER:
-            if (H5Tget_sign(t) == H5T_SGN_NONE) {
-                at.kind = 'u';
-                ok = H5Aread(a, H5T_NATIVE_UINT64, &at.u) >= 0;
-                at.f = (double)at.u;
-            } else {
-                at.kind = 'i';
-                ok = H5Aread(a, H5T_NATIVE_INT64, &at.i) >= 0;
-                at.f = (double)at.i;
-            }
-            break;
-        case H5T_FLOAT:
-            at.kind = 'f';
-            ok = H5Aread(a, H5T_NATIVE_DOUBLE, &at.f) >= 0;
-            break;
-        case H5T_STRING: {
-            char tmp[4096];
-            at.kind = 's';
-            H5Aclose(a);
-            ok = read_str_attr(obj, name, tmp, sizeof tmp) == 0 && (at.s = strdup(tmp)) != NULL;
-            if (t >= 0) H5Tclose(t);
-            if (s >= 0) H5Sclose(s);
-            goto add;
-        }
-        default: break;
-        }
-    }
-    H5Aclose(a);
-    if (t >= 0) H5Tclose(t);
-    if (s >= 0) H5Sclose(s);
-add:
-    if (!ok) {
-        free(at.s);
-        return 0; /* not a scalar we can show: skipped */
-    }
+    at.kind = v.kind;
+    at.i = v.i[0];
+    at.u = v.u[0];
+    at.f = v.f[0];
+    if (v.kind == 's' && !(at.s = strdup(v.s))) return -1;
     if (out->n == out->cap) {
         const size_t cap = out->cap ? 2 * out->cap : 32;
         h5r_attr *p = realloc(out->a, cap * sizeof *p);

@@ -13,11 +13,14 @@
 
 #include <hdf5.h>
 
+#include "pdla/h5check.h"
+
 /* Largest rows read at once; also the chunk size the writer uses. */
 #define H5R_MAX_SLAB_ROWS 65536u
 
 typedef struct h5r_file {
-    hid_t file, dset, fspace;
+    hid_t file;
+    pdla_h5_dset pos; /* /cluster/positions */
     const char *path;
     int format_version;
     int dim;            /* 2 or 3 */

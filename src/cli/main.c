@@ -220,40 +220,43 @@ static int mkdir_p(const char *path)
 /* Make the run directory (path filled in dir) before any work, so that a bad
  * or taken name fails at once. *created says whether we made it (and may
  * remove it again while it is empty). 0, or EXIT_USAGE with a message. */
+/* No --out: a fresh runs/run-YYYYmmdd-HHMMSS-<dim>d-<target>; a run
+ * started in the same second with the same size gets -2, -3, ... */
+static int make_default_run_dir(const cli_options *o, char *dir, size_t dirlen, int *created)
+{
+    int e = mkdir_p("runs");
+    if (e) {
+        fprintf(stderr, "pdla: cannot create directory 'runs': %s\n", strerror(e));
+        return EXIT_USAGE;
+    }
+    const time_t t = time(NULL);
+    struct tm tm;
+    char stamp[32];
+    if (!localtime_r(&t, &tm) || !strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &tm))
+        snprintf(stamp, sizeof stamp, "%lld", (long long)t);
+    for (int k = 1; k <= 100; k++) {
+        const int n = k == 1 ? snprintf(dir, dirlen, "runs/run-%s-%dd-%" PRIu64, stamp,
+                                         o->params.dim, o->params.target)
+                             : snprintf(dir, dirlen, "runs/run-%s-%dd-%" PRIu64 "-%d", stamp,
+                                        o->params.dim, o->params.target, k);
+        if (n < 0 || (size_t)n >= dirlen) break;
+        if (mkdir(dir, 0777) == 0) {
+            *created = 1;
+            return 0;
+        }
+        if (errno != EEXIST) {
+            fprintf(stderr, "pdla: cannot create run directory '%s': %s\n", dir, strerror(errno));
+            return EXIT_USAGE;
+        }
+    }
+    fprintf(stderr, "pdla: cannot find a free run directory name under runs/\n");
+    return EXIT_USAGE;
+}
+
 static int make_run_dir(const cli_options *o, char *dir, size_t dirlen, int *created)
 {
     *created = 0;
-    if (!o->out_dir) {
-        /* runs/run-YYYYmmdd-HHMMSS-<dim>d-<target>; a run started in the
-         * same second with the same size gets -2, -3, ... */
-        int e = mkdir_p("runs");
-        if (e) {
-            fprintf(stderr, "pdla: cannot create directory 'runs': %s\n", strerror(e));
-            return EXIT_USAGE;
-        }
-        const time_t t = time(NULL);
-        struct tm tm;
-        char stamp[32];
-        if (!localtime_r(&t, &tm) || !strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &tm))
-            snprintf(stamp, sizeof stamp, "%lld", (long long)t);
-        for (int k = 1; k <= 100; k++) {
-            const int n = k == 1 ? snprintf(dir, dirlen, "runs/run-%s-%dd-%" PRIu64, stamp,
-                                             o->params.dim, o->params.target)
-                                 : snprintf(dir, dirlen, "runs/run-%s-%dd-%" PRIu64 "-%d", stamp,
-                                            o->params.dim, o->params.target, k);
-            if (n < 0 || (size_t)n >= dirlen) break;
-            if (mkdir(dir, 0777) == 0) {
-                *created = 1;
-                return 0;
-            }
-            if (errno != EEXIST) {
-                fprintf(stderr, "pdla: cannot create run directory '%s': %s\n", dir, strerror(errno));
-                return EXIT_USAGE;
-            }
-        }
-        fprintf(stderr, "pdla: cannot find a free run directory name under runs/\n");
-        return EXIT_USAGE;
-    }
+    if (!o->out_dir) return make_default_run_dir(o, dir, dirlen, created);
 
     const int n = snprintf(dir, dirlen, "%s", o->out_dir);
     if (n < 0 || (size_t)n >= dirlen || n > RUN_DIR_MAX) {
@@ -662,6 +665,362 @@ static int write_cluster(const pdla_engine *e, const pdla_run_info *info, const 
                               pdla_engine_params(e)->record_arrival, why, whylen);
 }
 
+/* ---- main: one run as a sequence of steps ------------------------------- */
+
+/* Steps return GO_ON to go on, or the exit status to end with. */
+#define GO_ON (-1)
+
+/* Everything one run of the main command holds between its steps; run_close
+ * is the one unwind. */
+typedef struct run {
+    double t0;
+    char *cmd; /* the command line, for provenance */
+    cli_options o;
+    pdla_engine *eng;
+    char dir[4096];              /* the run directory ("" with --no-output) */
+    int created, lock;           /* we made dir; its lock (-1: none) */
+    pdla_checkpoint_info loaded; /* --resume: what was loaded */
+    FILE *json;                  /* --stats-json */
+    progress prog;
+    grow_ctx gc;
+    int grew;                    /* growth ran: the exit follows a signal */
+    int grc;                     /* the last pdla_engine_grow return */
+    char gerr[512];
+    char ckwhy[4700];            /* why the last checkpoint failed */
+    int asked_stop, ckpt_failed; /* stopped by signal/STOP; final checkpoint failed */
+    report r;
+    char h5[4200], txt[4200], why[5000];
+    int write_failed;
+} run;
+
+/* The subcommands and the other models, each with its own command line.
+ * Returns 1 with *code set when argv was one of them. */
+static int run_subcommand(int argc, char **argv, int *code)
+{
+    const char *sub = argc > 1 ? argv[1] : "";
+    /* The event model has its own command line and info (event_cmd.h). */
+    if (strcmp(sub, "info") == 0 && event_info_wanted(argc - 1, argv + 1))
+        *code = event_info_main(argc - 1, argv + 1);
+    else if (strcmp(sub, "render") == 0 && event_info_wanted(argc - 1, argv + 1))
+        *code = event_render_main(argc - 1, argv + 1);
+    else if (event_cmd_wanted(argc, argv))
+        *code = event_cmd_main(argc, argv);
+    /* Subcommands that read a cluster file (tools.h). */
+    else if (strcmp(sub, "info") == 0)
+        *code = tool_info(argc - 1, argv + 1);
+    else if (strcmp(sub, "render") == 0)
+        *code = tool_render(argc - 1, argv + 1);
+    else if (strcmp(sub, "analyze") == 0)
+        *code = tool_analyze(argc - 1, argv + 1);
+    else if (strcmp(sub, "ensemble") == 0)
+        *code = ens_cmd_main(argc - 1, argv + 1);
+    else if (dlca_cmd_wanted(argc, argv)) /* --model dlca */
+        *code = dlca_cmd_main(argc, argv);
+    else if (strcmp(sub, "export") == 0)
+        *code = tool_export(argc - 1, argv + 1);
+    else
+        return 0;
+    return 1;
+}
+
+/* --help or --version on stdout. */
+static int print_help_or_version(const cli_options *o)
+{
+    if (o->action == CLI_HELP) {
+        pdla_params d;
+        pdla_params_default(&d);
+        const size_t n = cli_help_text(NULL, 0, &d) + 1;
+        char *help = malloc(n);
+        if (!help) {
+            fprintf(stderr, "pdla: out of memory\n");
+            return EXIT_RUNTIME;
+        }
+        cli_help_text(help, n, &d);
+        fputs(help, stdout);
+        free(help);
+    } else {
+        printf("pdla %s\ncompiler %s\nbuild %s\n", pdla_version(), pdla_build_compiler(), pdla_build_flags());
+    }
+    if (fflush(stdout) || ferror(stdout)) {
+        fprintf(stderr, "pdla: cannot write to stdout: %s\n", strerror(errno));
+        return EXIT_RUNTIME;
+    }
+    return 0;
+}
+
+/* Step 1, parse: the options (parse.c), then the signal handlers and a
+ * silent HDF5 for what follows. */
+static int parse_step(run *R, int argc, char **argv)
+{
+    R->cmd = command_line(argc, argv); /* before getopt reorders argv */
+    if (!R->cmd) {
+        fprintf(stderr, "pdla: out of memory\n");
+        return EXIT_RUNTIME;
+    }
+    char err[1024];
+    const int prc = cli_parse(argc, argv, &R->o, err, sizeof err);
+    if (prc == CLI_PARSE_ERROR) {
+        fprintf(stderr, "pdla: %s\n", err);
+        return EXIT_USAGE;
+    }
+    if (prc == CLI_PARSE_EXIT) return print_help_or_version(&R->o);
+    if (install_signals()) {
+        fprintf(stderr, "pdla: cannot install signal handlers: %s\n", strerror(errno));
+        return EXIT_RUNTIME;
+    }
+    pdla_hdf5_quiet(); /* HDF5 never prints; our messages say what failed */
+    return GO_ON;
+}
+
+/* The run directory of --resume PATH: PATH itself, or the checkpoint file's
+ * folder, without trailing slashes. */
+static void resume_dir(const char *path, int is_dir, char *dir, size_t dirlen)
+{
+    snprintf(dir, dirlen, "%s", path);
+    if (!is_dir) {
+        char *slash = strrchr(dir, '/');
+        if (!slash) snprintf(dir, dirlen, ".");
+        else slash[slash == dir ? 1 : 0] = '\0';
+    }
+    for (size_t len = strlen(dir); len > 1 && dir[len - 1] == '/';) dir[--len] = '\0';
+}
+
+/* Steps 2 and 3 for --resume: lock the run directory, then load the
+ * checkpoint, which validates it and the options against it. */
+static int resume_step(run *R)
+{
+    const cli_options *o = &R->o;
+    struct stat st;
+    if (stat(o->resume, &st) != 0) {
+        fprintf(stderr, "pdla: cannot resume from '%s': %s\n", o->resume, strerror(errno));
+        return EXIT_USAGE;
+    }
+    resume_dir(o->resume, S_ISDIR(st.st_mode), R->dir, sizeof R->dir);
+    if (strlen(o->resume) > RUN_DIR_MAX) {
+        fprintf(stderr, "pdla: cannot resume: the checkpoint path is too long (%zu bytes; at most %d)\n",
+                strlen(o->resume), RUN_DIR_MAX);
+        return EXIT_USAGE;
+    }
+    /* Lock first, so no other pdla writes while we read; the lock creates
+     * nothing, so a refused resume leaves the disk as it was. */
+    char err[1024];
+    if (pdla_rundir_lock(R->dir, &R->lock, err, sizeof err) != PDLA_OK) {
+        fprintf(stderr, "pdla: %s\n", err);
+        return EXIT_USAGE;
+    }
+    const int lrc = pdla_checkpoint_load(&R->eng, o->resume, &o->params, o->given, &R->loaded, err,
+                                         sizeof err);
+    if (lrc != PDLA_OK) {
+        fprintf(stderr, "pdla: cannot resume: %s\n", err);
+        return lrc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
+    }
+    /* Writability now, not after growth: a resume writes checkpoints,
+     * cluster.h5 and summary.txt there. (After the load, so that a resume
+     * refused for its checkpoint or parameters touches nothing, not even the
+     * directory's mtime.) */
+    const int we = probe_writable(R->dir);
+    if (we) {
+        fprintf(stderr, "pdla: cannot resume: run directory '%s' is not writable: %s\n", R->dir,
+                strerror(we));
+        return EXIT_USAGE;
+    }
+    if (R->loaded.note[0])
+        fprintf(stderr, "pdla: note: %s; resuming from %s (generation %" PRIu64 ")\n", R->loaded.note,
+                R->loaded.path, R->loaded.generation);
+    pdla_checkpoint_remove_stale(R->dir);
+    remove_stale_outputs(R->dir);
+    return GO_ON;
+}
+
+/* Steps 2 and 3 for a new run: the engine (which validates the parameters),
+ * then the run directory, made and locked. Everything that can fail on a
+ * bad name fails here, before growth. */
+static int new_run_step(run *R)
+{
+    char err[1024];
+    const int rc = pdla_engine_create(&R->eng, &R->o.params, err, sizeof err);
+    if (rc != PDLA_OK) {
+        fprintf(stderr, "pdla: %s\n", err);
+        return rc == PDLA_EINVAL ? EXIT_USAGE : EXIT_RUNTIME;
+    }
+    if (R->o.no_output) return GO_ON;
+    const int drc = make_run_dir(&R->o, R->dir, sizeof R->dir, &R->created);
+    if (drc) return drc;
+    if (pdla_rundir_lock(R->dir, &R->lock, err, sizeof err) != PDLA_OK) {
+        /* Not removed even if we made it: the pdla that holds the lock (a
+         * --force run that found it there) writes into it. */
+        fprintf(stderr, "pdla: %s\n", err);
+        return EXIT_USAGE;
+    }
+    pdla_checkpoint_remove_stale(R->dir);
+    remove_stale_outputs(R->dir);
+    if (!R->created) remove_old_checkpoints(R->dir);
+    return GO_ON;
+}
+
+/* --stats-json FILE is created before growth, so a bad path costs nothing. */
+static int open_json_step(run *R)
+{
+    if (!R->o.stats_json) return GO_ON;
+    R->json = fopen(R->o.stats_json, "w");
+    if (R->json) return GO_ON;
+    fprintf(stderr, "pdla: cannot create %s: %s\n", R->o.stats_json, strerror(errno));
+    if (R->created) rmdir(R->dir); /* still empty: leave no trace */
+    return EXIT_USAGE;
+}
+
+/* Step 4, grow: to the target, writing a checkpoint at each trigger and a
+ * final one at the end or when asked to stop. */
+static void grow_step(run *R)
+{
+    const cli_options *o = &R->o;
+    const int tty = isatty(STDERR_FILENO);
+    pdla_stats at_start;
+    pdla_engine_stats(R->eng, &at_start);
+    progress_init(&R->prog, stderr, o->progress == 1 || (o->progress == -1 && !o->quiet && tty), tty,
+                  at_start.particles);
+    grow_ctx *gc = &R->gc;
+    gc->prog = &R->prog;
+    gc->o = o;
+    gc->dir = R->dir;
+    gc->command = R->cmd;
+    gc->resumed = o->resume ? &R->loaded : NULL;
+    snprintf(gc->stop_path, sizeof gc->stop_path, "%s/STOP", R->dir);
+    gc->last_stop_check = wall_now();
+    schedule_checkpoints(gc, R->eng);
+    R->grew = 1;
+    for (;;) {
+        gc->reason = STOP_NONE;
+        R->grc = pdla_engine_grow(R->eng, pdla_engine_params(R->eng)->target, on_progress, 1000, gc,
+                                  R->gerr, sizeof R->gerr);
+        if (R->grc != PDLA_ESTOPPED || gc->reason != STOP_CHECKPOINT) break;
+        /* A trigger: the workers have stopped (joined); write, go on. */
+        if (do_checkpoint(R->eng, gc, wall_now() - gc->t_stop, R->ckwhy, sizeof R->ckwhy) &&
+            gc->failures == 1)
+            fprintf(stderr, "pdla: warning: %s; growth goes on\n", R->ckwhy);
+    }
+    progress_finish(&R->prog, R->eng);
+    /* The final checkpoint: at the end, on a signal or RUN_DIR/STOP. */
+    R->asked_stop = R->grc == PDLA_ESTOPPED && (gc->reason == STOP_SIGNAL || gc->reason == STOP_FILE);
+    if (o->checkpoint && (R->grc == PDLA_OK || R->asked_stop)) {
+        if (do_checkpoint(R->eng, gc, R->asked_stop ? wall_now() - gc->t_stop : 0.0, R->ckwhy,
+                          sizeof R->ckwhy))
+            R->ckpt_failed = 1;
+        else if (gc->reason == STOP_FILE)
+            unlink(gc->stop_path); /* honoured: a resume must not stop at once */
+    }
+}
+
+/* Step 5, write outputs: what was grown, whether growth finished or not:
+ * cluster.h5 (+ its XDMF sidecar), then summary.txt. */
+static void write_outputs_step(run *R)
+{
+    report *r = &R->r;
+    r->command = R->cmd;
+    r->P = pdla_engine_params(R->eng);
+    r->ck = &R->gc;
+    if (!R->o.no_output) {
+        snprintf(R->h5, sizeof R->h5, "%s/cluster.h5", R->dir);
+        snprintf(R->txt, sizeof R->txt, "%s/summary.txt", R->dir);
+        const pdla_run_info info = {R->cmd, wall_now() - R->t0, peak_rss_bytes()};
+        if (write_cluster(R->eng, &info, R->h5, R->dir, R->why, sizeof R->why)) R->write_failed = 1;
+        else r->h5_path = R->h5;
+    }
+    pdla_engine_stats(R->eng, &r->st);
+    r->fit = pdla_engine_fit(R->eng);
+    r->wall_seconds = wall_now() - R->t0;
+    r->peak_rss = peak_rss_bytes();
+    if (R->o.no_output || R->write_failed) return;
+    /* Beside it and renamed, as cluster.h5: a failed write (disk full)
+     * leaves the old summary.txt, or none, never a truncated one. */
+    char stmp[4300];
+    FILE *f = tools_out_open(R->txt, stmp, sizeof stmp, R->why, sizeof R->why);
+    if (!f) {
+        R->write_failed = 1;
+    } else {
+        print_summary(f, r, 1);
+        if (tools_out_commit(f, stmp, R->txt, 1, R->why, sizeof R->why)) R->write_failed = 1;
+    }
+}
+
+/* Step 6, report: the JSON statistics and the summary on stdout. */
+static void report_step(run *R)
+{
+    const char *status = R->grc == PDLA_OK                                          ? "done"
+                         : stop_signal                                              ? "stopped by signal"
+                         : R->grc == PDLA_ESTOPPED && R->gc.reason == STOP_FILE ? "stopped by STOP file"
+                                                                                    : "failed";
+    if (R->json) {
+        write_json(R->json, &R->r, status);
+        char jwhy[5000];
+        const int bad = close_checked(R->json, R->o.stats_json, jwhy, sizeof jwhy);
+        R->json = NULL;
+        if (bad && !R->write_failed) {
+            memcpy(R->why, jwhy, sizeof R->why);
+            R->write_failed = 1;
+        }
+    }
+    if (!R->o.quiet) {
+        print_summary(stdout, &R->r, 0);
+        if (fflush(stdout) || ferror(stdout)) {
+            if (!R->write_failed)
+                snprintf(R->why, sizeof R->why, "cannot write the summary to stdout: %s", strerror(errno));
+            R->write_failed = 1;
+        }
+    }
+}
+
+/* The end of a grown run: one line on stderr for whatever went wrong, and
+ * the exit status. */
+static int outcome(run *R)
+{
+    const uint64_t n = R->r.st.particles;
+    const grow_ctx *gc = &R->gc;
+    char where[5200];
+    if (R->o.no_output) snprintf(where, sizeof where, "nothing written (--no-output)");
+    else if (R->write_failed) snprintf(where, sizeof where, "%s", R->why);
+    else snprintf(where, sizeof where, "partial cluster written to %s", R->h5);
+    int code = 0;
+    if (R->o.checkpoint && R->asked_stop) {
+        const char *by = gc->reason == STOP_FILE ? gc->stop_path : "signal";
+        if (R->ckpt_failed) {
+            fprintf(stderr, "pdla: stopped by %s after %" PRIu64 " particles; %s; %s\n", by, n, R->ckwhy,
+                    where);
+            code = EXIT_RUNTIME;
+        } else {
+            fprintf(stderr, "pdla: stopped by %s after %" PRIu64 " particles; checkpoint %s (resume with "
+                            "pdla --resume %s); %s\n",
+                    by, n, gc->last_path, R->dir, where);
+            code = R->write_failed ? EXIT_RUNTIME : 0;
+        }
+        stop_signal = 0; /* handled: exit normally */
+    } else if (R->ckpt_failed) {
+        fprintf(stderr, "pdla: %s\n", R->ckwhy);
+        code = EXIT_RUNTIME;
+    } else if (R->grc == PDLA_ESTOPPED && stop_signal) {
+        fprintf(stderr, "pdla: stopped by signal after %" PRIu64 " particles; %s\n", n, where);
+        code = EXIT_RUNTIME;
+    } else if (R->grc != PDLA_OK) {
+        fprintf(stderr, "pdla: growth failed after %" PRIu64 " particles: %s; %s\n", n, R->gerr, where);
+        code = EXIT_RUNTIME;
+    } else if (R->write_failed) {
+        fprintf(stderr, "pdla: %s\n", R->why);
+        code = EXIT_RUNTIME;
+    } else if (stop_signal) {
+        fprintf(stderr, "pdla: signal received after growth had finished; output complete\n");
+    }
+    return code;
+}
+
+/* The one unwind. */
+static void run_close(run *R)
+{
+    if (R->json) fclose(R->json);
+    pdla_engine_destroy(R->eng);
+    pdla_rundir_unlock(R->lock);
+    free(R->cmd);
+}
+
 int main(int argc, char **argv)
 {
     /* HDF5 1.10 frees a file whose close failed (a write-back hit a full
@@ -672,297 +1031,29 @@ int main(int argc, char **argv)
      * our one-line message and exit 1 instead of a segfault. Must come
      * before the first HDF5 call. */
     H5dont_atexit();
-    /* The event model has its own command line and info (event_cmd.h). */
-    if (argc > 1 && strcmp(argv[1], "info") == 0 && event_info_wanted(argc - 1, argv + 1))
-        return event_info_main(argc - 1, argv + 1);
-    if (argc > 1 && strcmp(argv[1], "render") == 0 && event_info_wanted(argc - 1, argv + 1))
-        return event_render_main(argc - 1, argv + 1);
-    if (event_cmd_wanted(argc, argv)) return event_cmd_main(argc, argv);
-    /* Subcommands that read a cluster file (tools.h). */
-    if (argc > 1 && strcmp(argv[1], "info") == 0) return tool_info(argc - 1, argv + 1);
-    if (argc > 1 && strcmp(argv[1], "render") == 0) return tool_render(argc - 1, argv + 1);
-    if (argc > 1 && strcmp(argv[1], "analyze") == 0) return tool_analyze(argc - 1, argv + 1);
-    if (argc > 1 && strcmp(argv[1], "ensemble") == 0) return ens_cmd_main(argc - 1, argv + 1);
-    if (dlca_cmd_wanted(argc, argv)) return dlca_cmd_main(argc, argv); /* --model dlca */
-    if (argc > 1 && strcmp(argv[1], "export") == 0) return tool_export(argc - 1, argv + 1);
+    int code;
+    if (run_subcommand(argc, argv, &code)) return code;
 
-    const double t0 = wall_now();
-    char *cmd = command_line(argc, argv); /* before getopt reorders argv */
-    if (!cmd) {
-        fprintf(stderr, "pdla: out of memory\n");
-        return EXIT_RUNTIME;
+    /* parse -> validate + open the run directory (new or --resume) -> grow
+     * -> write outputs -> report. */
+    static run R; /* ~40 KB of paths and messages: not on the stack */
+    memset(&R, 0, sizeof R);
+    R.t0 = wall_now();
+    R.lock = -1;
+    code = parse_step(&R, argc, argv);
+    if (code == GO_ON) code = R.o.resume ? resume_step(&R) : new_run_step(&R);
+    if (code == GO_ON) code = open_json_step(&R);
+    if (code == GO_ON) {
+        grow_step(&R);
+        write_outputs_step(&R);
+        report_step(&R);
+        code = outcome(&R);
     }
+    run_close(&R);
 
-    cli_options o;
-    char err[1024];
-    const int prc = cli_parse(argc, argv, &o, err, sizeof err);
-    if (prc == CLI_PARSE_ERROR) {
-        fprintf(stderr, "pdla: %s\n", err);
-        free(cmd);
-        return EXIT_USAGE;
-    }
-    if (prc == CLI_PARSE_EXIT) {
-        free(cmd);
-        if (o.action == CLI_HELP) {
-            pdla_params d;
-            pdla_params_default(&d);
-            const size_t n = cli_help_text(NULL, 0, &d) + 1;
-            char *help = malloc(n);
-            if (!help) {
-                fprintf(stderr, "pdla: out of memory\n");
-                return EXIT_RUNTIME;
-            }
-            cli_help_text(help, n, &d);
-            fputs(help, stdout);
-            free(help);
-        } else {
-            printf("pdla %s\ncompiler %s\nbuild %s\n", pdla_version(), pdla_build_compiler(), pdla_build_flags());
-        }
-        if (fflush(stdout) || ferror(stdout)) {
-            fprintf(stderr, "pdla: cannot write to stdout: %s\n", strerror(errno));
-            return EXIT_RUNTIME;
-        }
-        return 0;
-    }
-
-    if (install_signals()) {
-        fprintf(stderr, "pdla: cannot install signal handlers: %s\n", strerror(errno));
-        free(cmd);
-        return EXIT_RUNTIME;
-    }
-
-    pdla_hdf5_quiet(); /* HDF5 never prints; our messages say what failed */
-    pdla_engine *eng = NULL;
-    char dir[4096] = "";
-    int created = 0, lock = -1;
-    pdla_checkpoint_info loaded;
-    memset(&loaded, 0, sizeof loaded);
-    if (o.resume) {
-        /* The run directory is the one given, or the checkpoint file's. */
-        struct stat st;
-        if (stat(o.resume, &st) != 0) {
-            fprintf(stderr, "pdla: cannot resume from '%s': %s\n", o.resume, strerror(errno));
-            free(cmd);
-            return EXIT_USAGE;
-        }
-        snprintf(dir, sizeof dir, "%s", o.resume);
-        if (!S_ISDIR(st.st_mode)) {
-            char *slash = strrchr(dir, '/');
-            if (!slash) snprintf(dir, sizeof dir, ".");
-            else slash[slash == dir ? 1 : 0] = '\0';
-        }
-        for (size_t len = strlen(dir); len > 1 && dir[len - 1] == '/';) dir[--len] = '\0';
-        if (strlen(o.resume) > RUN_DIR_MAX) {
-            fprintf(stderr, "pdla: cannot resume: the checkpoint path is too long (%zu bytes; at most %d)\n",
-                    strlen(o.resume), RUN_DIR_MAX);
-            free(cmd);
-            return EXIT_USAGE;
-        }
-        /* Lock first, so no other pdla writes while we read; the lock
-         * creates nothing, so a refused resume leaves the disk as it was. */
-        if (pdla_rundir_lock(dir, &lock, err, sizeof err) != PDLA_OK) {
-            fprintf(stderr, "pdla: %s\n", err);
-            free(cmd);
-            return EXIT_USAGE;
-        }
-        const int lrc = pdla_checkpoint_load(&eng, o.resume, &o.params, o.given, &loaded, err, sizeof err);
-        if (lrc != PDLA_OK) {
-            fprintf(stderr, "pdla: cannot resume: %s\n", err);
-            pdla_rundir_unlock(lock);
-            free(cmd);
-            return lrc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
-        }
-        /* Writability now, not after growth: a resume writes checkpoints,
-         * cluster.h5 and summary.txt there. (After the load, so that a
-         * resume refused for its checkpoint or parameters touches nothing,
-         * not even the directory's mtime.) */
-        const int we = probe_writable(dir);
-        if (we) {
-            fprintf(stderr, "pdla: cannot resume: run directory '%s' is not writable: %s\n", dir,
-                    strerror(we));
-            pdla_engine_destroy(eng);
-            pdla_rundir_unlock(lock);
-            free(cmd);
-            return EXIT_USAGE;
-        }
-        if (loaded.note[0])
-            fprintf(stderr, "pdla: note: %s; resuming from %s (generation %" PRIu64 ")\n", loaded.note,
-                    loaded.path, loaded.generation);
-        pdla_checkpoint_remove_stale(dir);
-        remove_stale_outputs(dir);
-    } else {
-        int rc = pdla_engine_create(&eng, &o.params, err, sizeof err);
-        if (rc != PDLA_OK) {
-            fprintf(stderr, "pdla: %s\n", err);
-            free(cmd);
-            return rc == PDLA_EINVAL ? EXIT_USAGE : EXIT_RUNTIME;
-        }
-        /* Everything that can fail on a bad name fails here, before growth. */
-        if (!o.no_output) {
-            const int drc = make_run_dir(&o, dir, sizeof dir, &created);
-            if (drc) {
-                pdla_engine_destroy(eng);
-                free(cmd);
-                return drc;
-            }
-            if (pdla_rundir_lock(dir, &lock, err, sizeof err) != PDLA_OK) {
-                /* Not removed even if we made it: the pdla that holds the
-                 * lock (a --force run that found it there) writes into it. */
-                fprintf(stderr, "pdla: %s\n", err);
-                pdla_engine_destroy(eng);
-                free(cmd);
-                return EXIT_USAGE;
-            }
-            pdla_checkpoint_remove_stale(dir);
-            remove_stale_outputs(dir);
-            if (!created) remove_old_checkpoints(dir);
-        }
-    }
-    FILE *json = NULL;
-    if (o.stats_json) {
-        json = fopen(o.stats_json, "w");
-        if (!json) {
-            fprintf(stderr, "pdla: cannot create %s: %s\n", o.stats_json, strerror(errno));
-            if (created) rmdir(dir); /* still empty: leave no trace */
-            pdla_engine_destroy(eng);
-            free(cmd);
-            return EXIT_USAGE;
-        }
-    }
-
-    progress prog;
-    const int tty = isatty(STDERR_FILENO);
-    pdla_stats at_start;
-    pdla_engine_stats(eng, &at_start);
-    progress_init(&prog, stderr, o.progress == 1 || (o.progress == -1 && !o.quiet && tty), tty,
-                  at_start.particles);
-    char gerr[512] = "";
-    grow_ctx gc;
-    memset(&gc, 0, sizeof gc);
-    gc.prog = &prog;
-    gc.o = &o;
-    gc.dir = dir;
-    gc.command = cmd;
-    gc.resumed = o.resume ? &loaded : NULL;
-    snprintf(gc.stop_path, sizeof gc.stop_path, "%s/STOP", dir);
-    gc.last_stop_check = wall_now();
-    schedule_checkpoints(&gc, eng);
-    char ckwhy[4700] = "";
-    int grc;
-    for (;;) {
-        gc.reason = STOP_NONE;
-        grc = pdla_engine_grow(eng, pdla_engine_params(eng)->target, on_progress, 1000, &gc, gerr,
-                               sizeof gerr);
-        if (grc != PDLA_ESTOPPED || gc.reason != STOP_CHECKPOINT) break;
-        /* A trigger: the workers have stopped (joined); write, go on. */
-        if (do_checkpoint(eng, &gc, wall_now() - gc.t_stop, ckwhy, sizeof ckwhy) && gc.failures == 1)
-            fprintf(stderr, "pdla: warning: %s; growth goes on\n", ckwhy);
-    }
-    progress_finish(&prog, eng);
-    /* The final checkpoint: at the end, on a signal or RUN_DIR/STOP. */
-    const int asked_stop = grc == PDLA_ESTOPPED && (gc.reason == STOP_SIGNAL || gc.reason == STOP_FILE);
-    int ckpt_failed = 0;
-    if (o.checkpoint && (grc == PDLA_OK || asked_stop)) {
-        if (do_checkpoint(eng, &gc, asked_stop ? wall_now() - gc.t_stop : 0.0, ckwhy, sizeof ckwhy))
-            ckpt_failed = 1;
-        else if (gc.reason == STOP_FILE)
-            unlink(gc.stop_path); /* honoured: a resume must not stop at once */
-    }
-
-    /* Write what was grown, whether growth finished or not. */
-    report r;
-    memset(&r, 0, sizeof r);
-    r.command = cmd;
-    r.P = pdla_engine_params(eng);
-    r.ck = &gc;
-    char h5[4200], txt[4200], why[5000] = "";
-    int write_failed = 0;
-    if (!o.no_output) {
-        snprintf(h5, sizeof h5, "%s/cluster.h5", dir);
-        snprintf(txt, sizeof txt, "%s/summary.txt", dir);
-        const pdla_run_info info = {cmd, wall_now() - t0, peak_rss_bytes()};
-        if (write_cluster(eng, &info, h5, dir, why, sizeof why)) write_failed = 1;
-        else r.h5_path = h5;
-    }
-    pdla_engine_stats(eng, &r.st);
-    r.fit = pdla_engine_fit(eng);
-    r.wall_seconds = wall_now() - t0;
-    r.peak_rss = peak_rss_bytes();
-
-    if (!o.no_output && !write_failed) {
-        /* Beside it and renamed, as cluster.h5: a failed write (disk full)
-         * leaves the old summary.txt, or none, never a truncated one. */
-        char stmp[4300];
-        FILE *f = tools_out_open(txt, stmp, sizeof stmp, why, sizeof why);
-        if (!f) {
-            write_failed = 1;
-        } else {
-            print_summary(f, &r, 1);
-            if (tools_out_commit(f, stmp, txt, 1, why, sizeof why)) write_failed = 1;
-        }
-    }
-    const char *status = grc == PDLA_OK                                       ? "done"
-                         : stop_signal                                        ? "stopped by signal"
-                         : grc == PDLA_ESTOPPED && gc.reason == STOP_FILE ? "stopped by STOP file"
-                                                                              : "failed";
-    if (json) {
-        write_json(json, &r, status);
-        char jwhy[5000];
-        if (close_checked(json, o.stats_json, jwhy, sizeof jwhy) && !write_failed) {
-            memcpy(why, jwhy, sizeof why);
-            write_failed = 1;
-        }
-    }
-    if (!o.quiet) {
-        print_summary(stdout, &r, 0);
-        if (fflush(stdout) || ferror(stdout)) {
-            if (!write_failed)
-                snprintf(why, sizeof why, "cannot write the summary to stdout: %s", strerror(errno));
-            write_failed = 1;
-        }
-    }
-
-    /* One line on stderr for whatever went wrong. */
-    const uint64_t n = r.st.particles;
-    char where[5200];
-    if (o.no_output) snprintf(where, sizeof where, "nothing written (--no-output)");
-    else if (write_failed) snprintf(where, sizeof where, "%s", why);
-    else snprintf(where, sizeof where, "partial cluster written to %s", h5);
-    int code = 0;
-    if (o.checkpoint && asked_stop) {
-        const char *by = gc.reason == STOP_FILE ? gc.stop_path : "signal";
-        if (ckpt_failed) {
-            fprintf(stderr, "pdla: stopped by %s after %" PRIu64 " particles; %s; %s\n", by, n, ckwhy, where);
-            code = EXIT_RUNTIME;
-        } else {
-            fprintf(stderr, "pdla: stopped by %s after %" PRIu64 " particles; checkpoint %s (resume with "
-                            "pdla --resume %s); %s\n",
-                    by, n, gc.last_path, dir, where);
-            code = write_failed ? EXIT_RUNTIME : 0;
-        }
-        stop_signal = 0; /* handled: exit normally */
-    } else if (ckpt_failed) {
-        fprintf(stderr, "pdla: %s\n", ckwhy);
-        code = EXIT_RUNTIME;
-    } else if (grc == PDLA_ESTOPPED && stop_signal) {
-        fprintf(stderr, "pdla: stopped by signal after %" PRIu64 " particles; %s\n", n, where);
-        code = EXIT_RUNTIME;
-    } else if (grc != PDLA_OK) {
-        fprintf(stderr, "pdla: growth failed after %" PRIu64 " particles: %s; %s\n", n, gerr, where);
-        code = EXIT_RUNTIME;
-    } else if (write_failed) {
-        fprintf(stderr, "pdla: %s\n", why);
-        code = EXIT_RUNTIME;
-    } else if (stop_signal) {
-        fprintf(stderr, "pdla: signal received after growth had finished; output complete\n");
-    }
-    pdla_engine_destroy(eng);
-    pdla_rundir_unlock(lock);
-    free(cmd);
-
-    /* Interrupted: end by the same signal (the handler was reset on
-     * delivery), so a calling shell sees it and stops its loop too. */
-    const int sig = stop_signal;
+    /* Interrupted while growing: end by the same signal (the handler was
+     * reset on delivery), so a calling shell sees it and stops its loop too. */
+    const int sig = R.grew ? stop_signal : 0;
     if (sig) {
         fflush(NULL);
         signal(sig, SIG_DFL);

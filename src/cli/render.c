@@ -254,7 +254,17 @@ static int write_png(FILE *fp, const canvas *c, char *err, size_t errlen)
     return 0;
 }
 
-int tool_render(int argc, char **argv)
+typedef struct render_opts {
+    const char *out;
+    long size, slab;
+    int mode, axis, force;
+    double zoom;
+} render_opts;
+
+/* Parses the options into o; GO_ON, or the exit status (--help, a bad
+ * option or value, not exactly one FILE, no -o). */
+#define GO_ON (-1)
+static int parse_options(int argc, char **argv, render_opts *o)
 {
     enum { O_SIZE = 256, O_COLOR, O_AXIS, O_ZOOM, O_FORCE, O_SLAB };
     static const struct option longopts[] = {
@@ -263,10 +273,7 @@ int tool_render(int argc, char **argv)
         {"axis", required_argument, NULL, O_AXIS}, {"zoom", required_argument, NULL, O_ZOOM},
         {"force", no_argument, NULL, O_FORCE}, {"slab-rows", required_argument, NULL, O_SLAB},
         {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
-    const char *out = NULL;
-    long size = 1024, slab = H5R_MAX_SLAB_ROWS;
-    int mode = COL_DENSITY, axis = 2, force = 0, c;
-    double zoom = 1;
+    int c;
     opterr = 0;
     optind = 1;
     char oerr[160];
@@ -277,28 +284,28 @@ int tool_render(int argc, char **argv)
     while ((c = getopt_long(argc, argv, "ho:", longopts, NULL)) != -1) {
         const char *bad = NULL;
         switch (c) {
-        case 'o': out = optarg; break;
+        case 'o': o->out = optarg; break;
         case O_SIZE:
-            if (cli_parse_long_in(optarg, 16, 8192, &size)) bad = "--size: want a whole number in [16, 8192]";
+            if (cli_parse_long_in(optarg, 16, 8192, &o->size)) bad = "--size: want a whole number in [16, 8192]";
             break;
         case O_COLOR:
-            if (strcmp(optarg, "density") == 0) mode = COL_DENSITY;
-            else if (strcmp(optarg, "radius") == 0) mode = COL_RADIUS;
-            else if (strcmp(optarg, "arrival") == 0) mode = COL_ARRIVAL;
-            else if (strcmp(optarg, "depth") == 0) mode = COL_DEPTH;
+            if (strcmp(optarg, "density") == 0) o->mode = COL_DENSITY;
+            else if (strcmp(optarg, "radius") == 0) o->mode = COL_RADIUS;
+            else if (strcmp(optarg, "arrival") == 0) o->mode = COL_ARRIVAL;
+            else if (strcmp(optarg, "depth") == 0) o->mode = COL_DEPTH;
             else bad = "--color: want density, radius, arrival or depth";
             break;
         case O_AXIS:
-            if (strlen(optarg) == 1 && optarg[0] >= 'x' && optarg[0] <= 'z') axis = optarg[0] - 'x';
+            if (strlen(optarg) == 1 && optarg[0] >= 'x' && optarg[0] <= 'z') o->axis = optarg[0] - 'x';
             else bad = "--axis: want x, y or z";
             break;
         case O_ZOOM:
-            if (cli_parse_real(optarg, &zoom) || !(zoom >= 1 && zoom <= 1e6))
+            if (cli_parse_real(optarg, &o->zoom) || !(o->zoom >= 1 && o->zoom <= 1e6))
                 bad = "--zoom: want a number in [1, 1e6]";
             break;
-        case O_FORCE: force = 1; break;
+        case O_FORCE: o->force = 1; break;
         case O_SLAB:
-            if (cli_parse_long_in(optarg, 1, H5R_MAX_SLAB_ROWS, &slab)) bad = "--slab-rows: want a whole number in [1, 65536]";
+            if (cli_parse_long_in(optarg, 1, H5R_MAX_SLAB_ROWS, &o->slab)) bad = "--slab-rows: want a whole number in [1, 65536]";
             break;
         case 'h': fputs(render_help, stdout); return fflush(stdout) ? TOOL_RUNTIME : TOOL_OK;
         default:
@@ -307,12 +314,66 @@ int tool_render(int argc, char **argv)
         if (bad) return tools_value_error("render", optarg, bad);
     }
     if (tools_one_file("render", optind, argc)) return TOOL_USAGE;
-    if (!out) {
+    if (!o->out) {
         fprintf(stderr, "pdla render: no output given (-o PNG)\n");
         return TOOL_USAGE;
     }
+    return GO_ON;
+}
+
+/* After the extent pass: the image axes (2D x right, y up; 3D looking down
+ * the chosen axis), the centre and the scale. The whole cluster, centred
+ * on its bounding box; zoomed, centred on the seed, and radius colours
+ * then span what the picture shows. */
+static void frame(canvas *cv, const h5r_file *f, const render_opts *o)
+{
+    if (f->n == 0)
+        for (int a = 0; a < 3; a++) cv->lo[a] = cv->hi[a] = 0;
+    static const int uv[3][3] = {{1, 2, 0}, {0, 2, 1}, {0, 1, 2}};
+    if (f->dim == 2) {
+        cv->iu = 0;
+        cv->iv = 1;
+        cv->id = 0;
+    } else {
+        cv->iu = uv[o->axis][0];
+        cv->iv = uv[o->axis][1];
+        cv->id = uv[o->axis][2];
+        cv->dlo = cv->lo[cv->id];
+        cv->dspan = cv->hi[cv->id] - cv->lo[cv->id];
+    }
+    const double D = f->diameter_units;
+    double halfw = 0.5 * fmax(cv->hi[cv->iu] - cv->lo[cv->iu], cv->hi[cv->iv] - cv->lo[cv->iv]) + D;
+    cv->rnorm = sqrt(cv->rmax2);
+    if (o->zoom > 1) {
+        halfw /= o->zoom;
+        cv->cu = cv->cv = 0;
+        cv->rnorm = fmin(cv->rnorm, halfw * sqrt(2.0));
+    } else {
+        cv->cu = 0.5 * (cv->lo[cv->iu] + cv->hi[cv->iu]);
+        cv->cv = 0.5 * (cv->lo[cv->iv] + cv->hi[cv->iv]);
+    }
+    cv->scale = 0.5 * cv->size / halfw;
+    cv->rp = 0.5 * D * cv->scale;
+}
+
+/* The pixel arrays the colour mode needs; -1: out of memory. */
+static int alloc_image(canvas *cv)
+{
+    const size_t npix = (size_t)cv->size * (size_t)cv->size;
+    cv->w = calloc(npix, sizeof *cv->w);
+    if (cv->mode != COL_DENSITY) cv->v = calloc(npix, sizeof *cv->v);
+    if (cv->dim == 3 && (cv->z = malloc(npix * sizeof *cv->z)))
+        for (size_t k = 0; k < npix; k++) cv->z[k] = -1; /* below every depth */
+    return !cv->w || (cv->mode != COL_DENSITY && !cv->v) || (cv->dim == 3 && !cv->z) ? -1 : 0;
+}
+
+int tool_render(int argc, char **argv)
+{
+    render_opts o = {NULL, 1024, H5R_MAX_SLAB_ROWS, COL_DENSITY, 2, 0, 1};
+    int rc = parse_options(argc, argv, &o);
+    if (rc != GO_ON) return rc;
     char err[1024];
-    if (tools_out_check(out, force, err, sizeof err)) {
+    if (tools_out_check(o.out, o.force, err, sizeof err)) {
         fprintf(stderr, "pdla render: %s\n", err);
         return TOOL_USAGE;
     }
@@ -321,21 +382,21 @@ int tool_render(int argc, char **argv)
         fprintf(stderr, "pdla render: %s\n", err);
         return TOOL_USAGE;
     }
-    int rc = TOOL_USAGE;
+    rc = TOOL_USAGE;
     FILE *fp = NULL;
     char tmp[4300];
     canvas cv;
     memset(&cv, 0, sizeof cv);
     cv.dim = f.dim;
-    cv.size = (int)size;
-    cv.mode = mode;
+    cv.size = (int)o.size;
+    cv.mode = o.mode;
     cv.n = f.n;
-    if (mode == COL_ARRIVAL && !f.arrival) {
+    if (o.mode == COL_ARRIVAL && !f.arrival) {
         snprintf(err, sizeof err, "%s has positions in %s order, not arrival order (grow it with --arrival)",
                  f.path, f.order);
         goto out;
     }
-    if (mode == COL_DEPTH && f.dim != 3) {
+    if (o.mode == COL_DEPTH && f.dim != 3) {
         snprintf(err, sizeof err, "--color depth needs a 3D cluster; %s is 2D", f.path);
         goto out;
     }
@@ -344,51 +405,16 @@ int tool_render(int argc, char **argv)
         cv.lo[a] = INFINITY;
         cv.hi[a] = -INFINITY;
     }
-    if (f.n > 0 && h5r_stream(&f, (size_t)slab, extent_pass, &cv, err, sizeof err)) goto out;
-    if (f.n == 0)
-        for (int a = 0; a < 3; a++) cv.lo[a] = cv.hi[a] = 0;
-    /* Image axes: 2D x right, y up; 3D looking down the chosen axis. */
-    static const int uv[3][3] = {{1, 2, 0}, {0, 2, 1}, {0, 1, 2}};
-    if (f.dim == 2) {
-        cv.iu = 0;
-        cv.iv = 1;
-        cv.id = 0;
-    } else {
-        cv.iu = uv[axis][0];
-        cv.iv = uv[axis][1];
-        cv.id = uv[axis][2];
-        cv.dlo = cv.lo[cv.id];
-        cv.dspan = cv.hi[cv.id] - cv.lo[cv.id];
-    }
-    /* The whole cluster, centred on its bounding box; zoomed, centred on
-     * the seed, and radius colours then span what the picture shows. */
-    const double D = f.diameter_units;
-    double halfw = 0.5 * fmax(cv.hi[cv.iu] - cv.lo[cv.iu], cv.hi[cv.iv] - cv.lo[cv.iv]) + D;
-    cv.rnorm = sqrt(cv.rmax2);
-    if (zoom > 1) {
-        halfw /= zoom;
-        cv.cu = cv.cv = 0;
-        cv.rnorm = fmin(cv.rnorm, halfw * sqrt(2.0));
-    } else {
-        cv.cu = 0.5 * (cv.lo[cv.iu] + cv.hi[cv.iu]);
-        cv.cv = 0.5 * (cv.lo[cv.iv] + cv.hi[cv.iv]);
-    }
-    cv.scale = 0.5 * cv.size / halfw;
-    cv.rp = 0.5 * D * cv.scale;
-
-    const size_t npix = (size_t)cv.size * (size_t)cv.size;
-    cv.w = calloc(npix, sizeof *cv.w);
-    if (mode != COL_DENSITY) cv.v = calloc(npix, sizeof *cv.v);
-    if (f.dim == 3 && (cv.z = malloc(npix * sizeof *cv.z)))
-        for (size_t k = 0; k < npix; k++) cv.z[k] = -1; /* below every depth */
-    if (!cv.w || (mode != COL_DENSITY && !cv.v) || (f.dim == 3 && !cv.z)) {
+    if (f.n > 0 && h5r_stream(&f, (size_t)o.slab, extent_pass, &cv, err, sizeof err)) goto out;
+    frame(&cv, &f, &o);
+    if (alloc_image(&cv)) {
         snprintf(err, sizeof err, "out of memory for a %dx%d image", cv.size, cv.size);
         goto out;
     }
-    if (f.n > 0 && h5r_stream(&f, (size_t)slab, splat_pass, &cv, err, sizeof err)) goto out;
-    if (!(fp = tools_out_open(out, tmp, sizeof tmp, err, sizeof err))) goto out;
+    if (f.n > 0 && h5r_stream(&f, (size_t)o.slab, splat_pass, &cv, err, sizeof err)) goto out;
+    if (!(fp = tools_out_open(o.out, tmp, sizeof tmp, err, sizeof err))) goto out;
     if (write_png(fp, &cv, err, sizeof err)) goto out;
-    const int crc = tools_out_commit(fp, tmp, out, force, err, sizeof err);
+    const int crc = tools_out_commit(fp, tmp, o.out, o.force, err, sizeof err);
     fp = NULL;
     if (crc) goto out;
     rc = TOOL_OK;

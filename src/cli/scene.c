@@ -34,6 +34,28 @@ void scene_free(scene *sc)
     memset(sc, 0, sizeof *sc);
 }
 
+/* en->key from key: lower-case letters, digits, '-' and '_' (read as '-'),
+ * as long as the option names; -1 with err naming line lineno. */
+static int set_key(scene_entry *en, const char *key, const char *name, int lineno, char *err,
+                   size_t errlen)
+{
+    const size_t kl = strlen(key);
+    int ok = kl < sizeof en->key;
+    for (size_t i = 0; ok && i < kl; i++)
+        ok = (key[i] >= 'a' && key[i] <= 'z') || (key[i] >= '0' && key[i] <= '9') ||
+             key[i] == '-' || key[i] == '_';
+    if (!ok) {
+        char shown[40];
+        snprintf(shown, sizeof shown, "%.32s%s", key, kl > 32 ? "..." : "");
+        for (char *c = shown; *c; c++)
+            if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
+        return pdla_errorf(-1, err, errlen, "%s:%d: bad key '%s' (keys are option names such as 'target')",
+                           name, lineno, shown);
+    }
+    for (size_t i = 0; i <= kl; i++) en->key[i] = key[i] == '_' ? '-' : key[i];
+    return 0;
+}
+
 int scene_read_text(const char *name, const char *text, size_t len, scene *sc, char *err,
                     size_t errlen)
 {
@@ -79,22 +101,8 @@ int scene_read_text(const char *name, const char *text, size_t len, scene *sc, c
             rc = pdla_errorf(-1, err, errlen, "%s:%d: missing key before '='", name, lineno);
             goto out;
         }
-        size_t kl = strlen(key);
-        int ok = kl < sizeof entries[n].key;
-        for (size_t i = 0; ok && i < kl; i++)
-            ok = (key[i] >= 'a' && key[i] <= 'z') || (key[i] >= '0' && key[i] <= '9') ||
-                 key[i] == '-' || key[i] == '_';
-        if (!ok) {
-            char shown[40];
-            snprintf(shown, sizeof shown, "%.32s%s", key, kl > 32 ? "..." : "");
-            for (char *c = shown; *c; c++)
-                if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
-            rc = pdla_errorf(-1, err, errlen, "%s:%d: bad key '%s' (keys are option names such as 'target')",
-                      name, lineno, shown);
-            goto out;
-        }
         scene_entry *en = &entries[n];
-        for (size_t i = 0; i <= kl; i++) en->key[i] = key[i] == '_' ? '-' : key[i];
+        if ((rc = set_key(en, key, name, lineno, err, errlen))) goto out;
         if (!*value) {
             rc = pdla_errorf(-1, err, errlen, "%s:%d: missing value for '%s'", name, lineno, en->key);
             goto out;

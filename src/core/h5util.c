@@ -1,6 +1,6 @@
 /*
  * h5util.c - the HDF5 writing helpers shared by output_h5.c (cluster.h5)
- * and checkpoint.c: one-line error messages with the most specific entry of
+ * and checkpoint_write.c: one-line error messages with the most specific entry of
  * HDF5's error stack, attributes, groups and checksummed datasets without
  * time stamps, and the crash-safety steps around a file (reserve space
  * before the close, divert a failed close, sync, publish, sync the

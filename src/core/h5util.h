@@ -1,5 +1,5 @@
 /*
- * h5util.h - HDF5 writing helpers shared by output_h5.c and checkpoint.c.
+ * h5util.h - HDF5 writing helpers shared by output_h5.c and checkpoint_write.c.
  * Internal to libpdla.
  *
  * Every helper that can fail records one line "cannot write PATH: ..." in

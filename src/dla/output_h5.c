@@ -327,6 +327,65 @@ fail:
     return h5u_close(w, rc, file, H5Fclose, tmp);
 }
 
+/* The temporary name beside path and the directory to sync after the
+ * rename (path up to its last '/'), malloc'ed; -1: out of memory. */
+static int file_names(const char *path, char **tmp, char **dir)
+{
+    const size_t len = strlen(path);
+    if (!(*tmp = malloc(len + 32)) || !(*dir = malloc(len + 2))) return -1;
+    snprintf(*tmp, len + 32, "%s.tmp.%ld", path, (long)getpid());
+    const char *const slash = strrchr(path, '/');
+    if (!slash) {
+        strcpy(*dir, ".");
+    } else {
+        const size_t dlen = slash == path ? 1 : (size_t)(slash - path);
+        memcpy(*dir, path, dlen);
+        (*dir)[dlen] = '\0';
+    }
+    return 0;
+}
+
+/* Creates the temporary file ourselves, exclusively, so we only ever
+ * remove a file this call made (*made_tmp); HDF5 then truncates it. */
+static int create_tmp(const h5u_writer *w, const char *tmp, int *made_tmp)
+{
+    const int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd < 0) return h5u_fail_msg(w, "cannot create %s: %s", tmp, strerror(errno));
+    *made_tmp = 1;
+    if (close(fd) != 0) return h5u_fail_msg(w, "cannot close %s: %s", tmp, strerror(errno));
+    return 0;
+}
+
+/* Moves the complete tmp to path (never over an existing file) and syncs
+ * the directory. PDLA_OK, PDLA_EEXIST or PDLA_EIO with the reason in w;
+ * *made_tmp drops to 0 once tmp is no longer ours to remove. */
+static int publish(const h5u_writer *w, const char *tmp, const char *path, const char *dir,
+                   int *made_tmp)
+{
+    const int prc = h5u_publish(tmp, path);
+    if (prc == PDLA_EEXIST) {
+        if (w->err && w->errlen) snprintf(w->err, w->errlen, "%s exists; not overwriting it", path);
+        return PDLA_EEXIST;
+    }
+    if (prc < 0) {
+        h5u_fail_msg(w, "cannot rename %s to it: %s", tmp, strerror(errno));
+        return PDLA_EIO;
+    }
+    *made_tmp = 0; /* it is path now (or, prc == 1, a second name of it) */
+    if (prc == 1) {
+        /* Complete and in place; only a second name of it is left over. */
+        h5u_fail_msg(w, "written, but cannot remove the link %s: %s", tmp, strerror(errno));
+        return PDLA_EIO;
+    }
+    if (h5u_fsync_dir(dir) != 0) {
+        /* The file is complete and in place, only its durability is unsure:
+         * report it, but leave the file. */
+        h5u_fail_msg(w, "written, but cannot sync directory %s: %s", dir, strerror(errno));
+        return PDLA_EIO;
+    }
+    return PDLA_OK;
+}
+
 int pdla_output_write(const pdla_engine *e, const pdla_run_info *info, const char *path,
                       char *err, size_t errlen)
 {
@@ -357,37 +416,15 @@ int pdla_output_write(const pdla_engine *e, const pdla_run_info *info, const cha
         goto fail;
     }
 
-    const size_t len = strlen(path);
-    if (!(tmp = malloc(len + 32)) || !(dir = malloc(len + 2))) {
+    if (file_names(path, &tmp, &dir) < 0) {
         h5u_fail_msg(&w, "out of memory for file names");
         rc = PDLA_ENOMEM;
         goto fail;
     }
-    snprintf(tmp, len + 32, "%s.tmp.%ld", path, (long)getpid());
-    /* The directory to sync after the rename: path up to its last '/'. */
-    const char *const slash = strrchr(path, '/');
-    if (!slash) {
-        strcpy(dir, ".");
-    } else {
-        const size_t dlen = slash == path ? 1 : (size_t)(slash - path);
-        memcpy(dir, path, dlen);
-        dir[dlen] = '\0';
-    }
 
     if (check_space(&w, e, dir) < 0) goto fail;
 
-    /* Create the temporary file ourselves, exclusively, so we only ever
-     * remove a file this call made; HDF5 then truncates it. */
-    const int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    if (fd < 0) {
-        h5u_fail_msg(&w, "cannot create %s: %s", tmp, strerror(errno));
-        goto fail;
-    }
-    made_tmp = 1;
-    if (close(fd) != 0) {
-        h5u_fail_msg(&w, "cannot close %s: %s", tmp, strerror(errno));
-        goto fail;
-    }
+    if (create_tmp(&w, tmp, &made_tmp) < 0) goto fail;
 
     /* HDF5 prints its error stack by default; the library never prints.
      * The setting is per thread in thread-safe HDF5 builds, process-wide
@@ -405,30 +442,7 @@ int pdla_output_write(const pdla_engine *e, const pdla_run_info *info, const cha
         h5u_fail_msg(&w, "cannot sync %s: %s", tmp, strerror(errno));
         goto fail;
     }
-    const int prc = h5u_publish(tmp, path);
-    if (prc == PDLA_EEXIST) {
-        if (err && errlen) snprintf(err, errlen, "%s exists; not overwriting it", path);
-        rc = PDLA_EEXIST;
-        goto fail;
-    }
-    if (prc < 0) {
-        h5u_fail_msg(&w, "cannot rename %s to it: %s", tmp, strerror(errno));
-        goto fail;
-    }
-    if (prc == 1) {
-        /* Complete and in place; only a second name of it is left over. */
-        h5u_fail_msg(&w, "written, but cannot remove the link %s: %s", tmp, strerror(errno));
-        made_tmp = 0;
-        goto fail;
-    }
-    made_tmp = 0; /* it is path now */
-    if (h5u_fsync_dir(dir) != 0) {
-        /* The file is complete and in place, only its durability is unsure:
-         * report it, but leave the file. */
-        h5u_fail_msg(&w, "written, but cannot sync directory %s: %s", dir, strerror(errno));
-        goto fail;
-    }
-    rc = PDLA_OK;
+    rc = publish(&w, tmp, path, dir, &made_tmp);
 
 fail:
     if (made_tmp && unlink(tmp) != 0 && errno != ENOENT && err && errlen) {

@@ -1,0 +1,72 @@
+/*
+ * checkpoint_fmt.h - what checkpoint_write.c and checkpoint_read.c share:
+ * the format's name and version, the file names of the generations and of
+ * the temporary file, and the sizes both sides must agree on. Internal to
+ * libpdla; the API is pdla_checkpoint_* in pdla.h.
+ *
+ * Layout (HDF5 1.10 format, no time stamps, Fletcher32 on every dataset
+ * that has rows; attributes live in object headers, which the 1.10 format
+ * checksums):
+ *
+ *   /               format = "pdla-checkpoint", format_version = 1,
+ *                   generation, particles, pause_seconds (time taken to stop
+ *                   the workers before this write), previous_write_seconds,
+ *                   compressed, record_byte_order = "little"
+ *   /parameters     every pdla_params field (as in cluster.h5)
+ *   /tree           dim, chunk_bytes, root_level, root_node, count, leaves,
+ *                   inner_records, chunk_records (attributes)
+ *   /tree/inner     u32 [inner_records][2^dim]: the inner node pool, raw
+ *   /tree/chunks_packed  u8 [chunks_packed_bytes]: the chunk pool, packed:
+ *                   per record from 11 on (0..10 are the unused null/count
+ *                   indices) its link, u32 little-endian, then axis by axis
+ *                   the `fill` relative coordinates it holds (fill = link
+ *                   when link <= 10, else 10)
+ *   /state          counters, R_ext, R_g grid position, timings (attributes)
+ *   /state/gyration u64 [4][2]: the exact 128-bit sums of x, y, z (two's
+ *                   complement) and |x|^2, as (low, high) words
+ *   /state/rng      u64 [1 + W][4]: the engine walker's xoshiro256** state,
+ *                   then the W workers' of the last parallel phase (for the
+ *                   record only: see below)
+ *   /gyration/N, /gyration/rg_diam   the R_g samples so far
+ *   /Code           provenance
+ *
+ * Dumping the pools keeps the tree's record order, so a resumed serial run
+ * is byte-identical to one never stopped. Random streams: every start of a
+ * parallel phase (the first one, and each restart after a checkpoint pause
+ * or a resume) cuts worker i's stream as the i-th rng_jump of the engine
+ * stream (worker 0: the engine stream itself), which then moves past them
+ * all, n jumps on (parallel.c). So the engine stream
+ * is the whole random state, and a resume with any --threads is as
+ * deterministic as a pause with it; the workers' last states are kept only
+ * as a record.
+ */
+#ifndef PDLA_CHECKPOINT_FMT_H
+#define PDLA_CHECKPOINT_FMT_H
+
+#include <stdio.h>
+#include <string.h>
+
+#include "pdla/pdla.h"
+
+#define FORMAT_NAME "pdla-checkpoint"
+#define FORMAT_VERSION 1
+#define TMP_PREFIX ".checkpoint.h5.tmp."
+/* Bytes per read and write of the packed chunk stream (/tree/chunks_packed). */
+#define PACK_BUF_BYTES ((size_t)1 << 22)
+
+/* Generation k's file in dir: checkpoint.h5, checkpoint.1.h5, ... */
+static inline void ckpt_gen_name(char *buf, size_t n, const char *dir, int k)
+{
+    if (k == 0) snprintf(buf, n, "%s/%s", dir, PDLA_CHECKPOINT_NAME);
+    else snprintf(buf, n, "%s/checkpoint.%d.h5", dir, k);
+}
+
+/* Whether path's base name is a writer's temporary file. */
+static inline int ckpt_is_tmp_name(const char *path)
+{
+    const char *b = strrchr(path, '/');
+    b = b ? b + 1 : path;
+    return strncmp(b, TMP_PREFIX, strlen(TMP_PREFIX)) == 0;
+}
+
+#endif

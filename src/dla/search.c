@@ -233,16 +233,41 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
         }
         const int64_t half = (int64_t)TREE_LEAF_SIDE << (e.level - 1);
         const uint64_t child_far2 = e.level > 1 ? c->far2[e.level - 1] : UINT64_MAX;
-        uint32_t own = 0;
+        uint32_t own = 0, near = 0;
         uint64_t half_d2[3][2];
         for (int a = 0; a < dim; a++) {
             const int64_t mid = e.lo[a] + half;
             if (p[a] >= mid) own |= 1u << a;
             half_d2[a][0] = axis_dist2(p[a], e.lo[a], half);
             half_d2[a][1] = axis_dist2(p[a], mid, half);
+            /* The other half on this axis: within the bound, or never (the
+             * bound only decreases), so children across it are skipped
+             * before their index is loaded. */
+            if (half_d2[a][((own >> a) & 1) ^ 1] < best2) near |= 1u << a;
         }
         const _Atomic uint32_t *ch = tree_children(t, e.node);
+        if (e.level == 1) {
+            /* Leaves: scanned at once, nearest first, in the order the
+             * stack would pop them (each pushed leaf would be popped before
+             * anything below it, and re-tested against the bound then). */
+            for (int i = nchild - 1; i >= 0; i--) {
+                if (order[i] & ~near) continue;
+                const uint32_t kidx = own ^ order[i];
+                const uint32_t child = tree_child(ch, kidx);
+                if (!child) continue;
+                uint64_t cd2 = 0;
+                for (int a = 0; a < dim; a++) cd2 += half_d2[a][(kidx >> a) & 1];
+                if (cd2 >= best2) continue;
+                (*visits)++;
+                int64_t q[3];
+                for (int a = 0; a < dim; a++)
+                    q[a] = p[a] - (e.lo[a] + (int64_t)((kidx >> a) & 1) * half);
+                best2 = scan_leaf(t, child, q, best2, dim, c->concurrent, k);
+            }
+            continue;
+        }
         for (int i = 0; i < nchild; i++) {
+            if (order[i] & ~near) continue;
             const uint32_t kidx = own ^ order[i];
             const uint32_t child = tree_child(ch, kidx);
             if (!child) continue;
@@ -360,16 +385,22 @@ lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_
         /* p lies in the own half on every axis: a sibling's distance comes
          * only from the axes where it lies in the other half. */
         uint64_t other_d2[3];
+        uint32_t near = 0;
         for (int a = 0; a < dim; a++) {
             const int64_t other_lo = path_lo[level][a] + (((path_own[level] >> a) & 1) ? 0 : half);
             other_d2[a] = axis_dist2(p[a], other_lo, half);
+            if (other_d2[a] < best2) near |= 1u << a;
         }
+        /* Only siblings that differ from the own child on near axes alone
+         * can come within the bound (it only decreases below), so the others
+         * are skipped without loading their index; the survivors are
+         * visited in the same (index) order as before. */
         const _Atomic uint32_t *ch = tree_children(t, path_node[level]);
         for (int kidx = 0; kidx < nchild; kidx++) {
-            if ((uint32_t)kidx == path_own[level]) continue;
+            const uint32_t differ = (uint32_t)kidx ^ path_own[level];
+            if (differ == 0 || (differ & ~near)) continue;
             const uint32_t child = tree_child(ch, (uint32_t)kidx);
             if (!child) continue;
-            const uint32_t differ = (uint32_t)kidx ^ path_own[level];
             uint64_t d2 = 0;
             for (int a = 0; a < dim; a++)
                 if ((differ >> a) & 1) d2 += other_d2[a];

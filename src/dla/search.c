@@ -719,8 +719,8 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
             if (near)
                 for (int o = 0; o < n; o++) {
                     int src = 0, ok = 1, mul = 1;
-                    for (int a = 0, r = o; a < dim; a++, r /= 3) {
-                        const int64_t so = r % 3 - 1 + d[a];
+                    for (int a = 0; a < dim; a++) {
+                        const int64_t so = block_off[o][a] + d[a];
                         ok &= so >= -1 && so <= 1;
                         src += (int)(so + 1) * mul;
                         mul *= 3;
@@ -741,14 +741,25 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
         k->blk_leaves = leaves;
     }
     const uint8_t *order = dim == 2 ? block_order2 : block_order3;
+    /* Squared distance from p to the leaf columns -1, 0, +1 on each axis:
+     * a leaf's box distance is a sum of three table entries. */
+    uint64_t col2[3][3];
+    for (int a = 0; a < dim; a++) {
+        const int64_t below = p[a] - lo[a] + 1, above = lo[a] + TREE_LEAF_SIDE - p[a];
+        col2[a][0] = (uint64_t)(below * below);
+        col2[a][1] = 0;
+        col2[a][2] = (uint64_t)(above * above);
+    }
     uint64_t best2 = UINT64_MAX;
     for (int i = 0; i < n; i++) {
         const int o = order[i];
         uint32_t head = k->blk_head[o];
         if (head == BLK_EMPTY) continue;
+        uint64_t bd2 = 0;
+        for (int a = 0; a < dim; a++) bd2 += col2[a][block_off[o][a] + 1];
+        if (bd2 >= best2) continue;
         int64_t nlo[3];
         for (int a = 0; a < dim; a++) nlo[a] = lo[a] + (int64_t)block_off[o][a] * TREE_LEAF_SIDE;
-        if (box_dist2(p, nlo, TREE_LEAF_SIDE, dim) >= best2) continue;
         if (head <= BLK_EMPTY) {
             int64_t nc[3];
             for (int a = 0; a < dim; a++) nc[a] = cc[a] + block_off[o][a];

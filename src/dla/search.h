@@ -17,6 +17,13 @@
  * starts from the lowest cached node that still contains the point instead
  * of the root). Reset it with search_state_reset before first use; it stays
  * valid while the tree only grows, and is dropped when the root changes. */
+/* Capacity of a walker's neighbour list (particles), its largest radius
+ * (units: the ball then spans at most three leaves per axis) and the
+ * number of distance buckets it is sorted into. */
+#define SEARCH_NB_MAX 1024
+#define SEARCH_NB_RADIUS 256
+#define SEARCH_NB_BUCKETS 64
+
 typedef struct search_state {
     uint64_t node_visits;
     uint64_t particle_checks;
@@ -33,6 +40,20 @@ typedef struct search_state {
     uint64_t blk_leaves;         /* the map's leaf count when they were cached */
     int64_t blk_c[3];
     uint32_t blk_head[27];
+    /* The walker's neighbour list (search_near2, serial): every particle
+     * centre within nb_r units of nb_c while the tree holds nb_count
+     * particles, as offsets from nb_c sorted by distance from it (in
+     * buckets); nb_rlo[j] is a lower bound on that distance for particles
+     * 8j.. (blocks of eight, the last one padded far away). */
+    int nb_valid;
+    int32_t nb_r;
+    uint32_t nb_n;               /* particles, padded to a multiple of 8 */
+    uint64_t nb_count;
+    uint64_t nb_last2;           /* the walker's last near answer (its next jump) */
+    int64_t nb_c[3];
+    uint64_t nb_made, nb_hits, nb_misses; /* lists made; queries answered; deferred */
+    int16_t nb_x[SEARCH_NB_MAX], nb_y[SEARCH_NB_MAX], nb_z[SEARCH_NB_MAX];
+    int32_t nb_rlo[SEARCH_NB_MAX / 8];
 } search_state;
 
 static inline void search_state_reset(search_state *s)
@@ -41,6 +62,8 @@ static inline void search_state_reset(search_state *s)
     s->particle_checks = 0;
     s->root = 0;
     s->blk_valid = 0;
+    s->nb_valid = 0;
+    s->nb_last2 = 0;
 }
 
 /* Per-level squared far thresholds: a non-empty node at level L whose box is
@@ -63,6 +86,17 @@ void search_config_init(search_config *c, double far_factor, int resolution, int
  * distance is at least that large. */
 uint64_t search_lower_bound2(const tree *t, const search_config *c, const int64_t *p,
                              uint64_t cap2, search_state *k);
+
+/* Exact squared distance from p to the nearest particle centre from the
+ * walker's neighbour list, or UINT64_MAX when the list cannot prove it
+ * (then search_lower_bound2 answers; an answer given here is always the
+ * one it would give, as it is below the smallest far threshold). The list
+ * is remade around p, with a radius of a few times the walker's last
+ * answer (k->nb_last2, which the caller sets after each query), when the
+ * tree has grown since or p has left its inner half; when that answer is
+ * too large for a list to pay, the tree answers. Only while the tree is
+ * not appended to concurrently. */
+uint64_t search_near2(const tree *t, const search_config *c, const int64_t *p, search_state *k);
 
 /* Exact squared distance by brute force over every particle: the reference
  * the optimised search is tested against. */

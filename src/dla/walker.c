@@ -257,11 +257,17 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
     }
     /* Near the cluster in 2D: the 3 x 3 leaves around the walker, whose
      * chunks stay cached while it moves among them. (In 3D the cut at
-     * the block's edge costs more jumps than it saves: the tree.) */
-    uint64_t d2 = dim == 2 && !P->exact_search
-                      ? search_block2(t, &e->search, &e->dmap, p, &w->ss)
-                      : UINT64_MAX;
+     * the block's edge costs more jumps than it saves: the tree, after
+     * the walker's neighbour list, which gives the tree's own answer
+     * whenever it gives one, so the walk is the same; serial only, as the
+     * list is remade whenever the tree grows.) */
+    uint64_t d2 = UINT64_MAX;
+    if (dim == 2 && !P->exact_search)
+        d2 = search_block2(t, &e->search, &e->dmap, p, &w->ss);
+    else if (dim == 3 && !conc && !P->exact_search)
+        d2 = search_near2(t, &e->search, p, &w->ss);
     if (d2 == UINT64_MAX) d2 = search_lower_bound2(t, &e->search, p, UINT64_MAX, &w->ss);
+    w->ss.nb_last2 = d2;
     if (d2 < stick2) {
         /* A particle appended since the query only makes the walker closer:
          * the insertion's exact re-check (parallel.c) sees it. */

@@ -9,7 +9,13 @@
  *    approximate the true distance is within the stated factor
  *    (1 + sqrt(dim) / far_factor) of it;
  *  - the lock-free tree_find_slot finds a slot exactly when tree_make_path
- *    would create nothing, and then the same slot.
+ *    would create nothing, and then the same slot;
+ *  - the walker's neighbour list (search_near2), along walks of short
+ *    jumps near the points: every answer it gives equals both the brute
+ *    force and the variable-precision search (so the walk is unchanged),
+ *    it does answer (the test fails if it never does), it sees a point
+ *    inserted next to a list it made, and it declines (no wrong answer)
+ *    where more points are near than a list holds.
  * Fixed seeds; any failure prints the seed, point and both values.
  */
 #include <math.h>
@@ -159,6 +165,102 @@ static void test_set(int dim, int kind, size_t n, uint64_t seed, double far_fact
     tree_free(&t);
 }
 
+/* Walks of short jumps (the walker's: by the distance less 33 units) from
+ * points near stored ones, each query checked against the brute force. */
+static void test_near_list(int dim, int kind, size_t n, uint64_t seed)
+{
+    pdla_rng r;
+    rng_seed(&r, seed);
+    tree t;
+    CHECK(tree_init(&t, dim) == 0, "tree_init");
+    pt *in = malloc((n + 64) * sizeof *in);
+    for (size_t i = 0; i < n; i++) {
+        random_point(&r, dim, kind, in[i].x);
+        CHECK(tree_insert(&t, in[i].x) == 0, "insert");
+    }
+    search_config vp;
+    search_config_init(&vp, 2.0, 32, 2);
+    search_state k, k2;
+    search_state_reset(&k);
+    search_state_reset(&k2);
+    int answered = 0, wrong = 0, missed_insert = 0;
+    for (int w = 0; w < 60; w++) {
+        int64_t p[3] = {0, 0, 0};
+        const pt *s = &in[rng_next(&r) % n];
+        for (int a = 0; a < dim; a++) p[a] = s->x[a] + rand_range(&r, -120, 120);
+        k.nb_last2 = 0;
+        for (int j = 0; j < 40; j++) {
+            const uint64_t truth = brute_list(in, n, dim, p);
+            const uint64_t nb = search_near2(&t, &vp, p, &k);
+            const uint64_t lb = search_lower_bound2(&t, &vp, p, UINT64_MAX, &k2);
+            if (nb != UINT64_MAX) {
+                answered++;
+                if (nb != truth || nb != lb) {
+                    wrong++;
+                    fprintf(stderr, "near list: dim %d seed %llu: %llu, truth %llu, tree %llu\n", dim,
+                            (unsigned long long)seed, (unsigned long long)nb,
+                            (unsigned long long)truth, (unsigned long long)lb);
+                }
+            }
+            k.nb_last2 = lb;
+            /* A point appears next to the walker now and then: the list
+             * made before must not hide it. */
+            if (j == 20 && n < (size_t)tree_count(&t) + 64 && nb != UINT64_MAX && w % 3 == 0) {
+                pt *add = &in[tree_count(&t)];
+                for (int a = 0; a < dim; a++) add->x[a] = p[a] + (a == 0 ? 40 : 0);
+                CHECK(tree_insert(&t, add->x) == 0, "insert");
+                n++;
+                const uint64_t after = search_near2(&t, &vp, p, &k);
+                if (after != UINT64_MAX && after > 1600) missed_insert++;
+            }
+            const double d = sqrt((double)lb) - 33.0;
+            if (!(d >= 1.0)) break;
+            double v[3] = {0, 0, 0}, norm = 0;
+            for (int a = 0; a < dim; a++) {
+                v[a] = (double)rand_range(&r, -1000, 1000);
+                norm += v[a] * v[a];
+            }
+            if (norm == 0) continue;
+            for (int a = 0; a < dim; a++) p[a] += (int64_t)llround(d * v[a] / sqrt(norm));
+        }
+    }
+    CHECK(wrong == 0, "dim %d kind %d: the neighbour list gave %d wrong answers", dim, kind, wrong);
+    CHECK(missed_insert == 0, "dim %d kind %d: the list missed %d inserted points", dim, kind,
+          missed_insert);
+    if (kind == 0) CHECK(answered > 100, "dim %d: the neighbour list answered only %d queries", dim, answered);
+    fprintf(stderr, "dim %d kind %d: the neighbour list answered %d queries\n", dim, kind, answered);
+    free(in);
+    tree_free(&t);
+}
+
+/* More points within the list's radius than it holds: it must decline. */
+static void test_near_list_full(int dim)
+{
+    tree t;
+    CHECK(tree_init(&t, dim) == 0, "tree_init");
+    pdla_rng r;
+    rng_seed(&r, 99);
+    const size_t n = SEARCH_NB_MAX + 400;
+    pt *in = malloc(n * sizeof *in);
+    for (size_t i = 0; i < n; i++) {
+        for (int a = 0; a < dim; a++) in[i].x[a] = rand_range(&r, dim == 2 ? -30 : -10, dim == 2 ? 30 : 10);
+        CHECK(tree_insert(&t, in[i].x) == 0, "insert");
+    }
+    search_config vp;
+    search_config_init(&vp, 2.0, 32, 2);
+    search_state k;
+    search_state_reset(&k);
+    k.nb_last2 = 40 * 40;
+    const int64_t p[3] = {60, 0, 0};
+    const uint64_t nb = search_near2(&t, &vp, p, &k);
+    CHECK(nb == UINT64_MAX || nb == brute_list(in, n, dim, p),
+          "dim %d: a full neighbour list answered %llu, truth %llu", dim, (unsigned long long)nb,
+          (unsigned long long)brute_list(in, n, dim, p));
+    CHECK(nb == UINT64_MAX, "dim %d: an overfull list answered", dim);
+    free(in);
+    tree_free(&t);
+}
+
 static void test_empty_and_single(int dim)
 {
     tree t;
@@ -219,6 +321,10 @@ int main(void)
 {
     for (int dim = 2; dim <= 3; dim++)
         for (int kind = 0; kind < 4; kind++) test_find_slot(dim, kind, 4242 + (uint64_t)kind);
+    for (int dim = 2; dim <= 3; dim++) {
+        test_near_list_full(dim);
+        for (int kind = 0; kind < 4; kind++) test_near_list(dim, kind, kind == 0 ? 3000 : 800, 555 + (uint64_t)kind);
+    }
     for (int dim = 2; dim <= 3; dim++) {
         test_empty_and_single(dim);
         for (int kind = 0; kind < 4; kind++)

@@ -44,8 +44,14 @@ struct ev_sim {
     uint32_t *count, *parent;
     uint32_t *cell, *cnext, *cprev, *chead;
     ev_evt *evt;
+    /* event queue (ev_core.c): heap of the current bucket, bucket lists */
     ev_hent *heap;
     uint32_t *hpos, hn;
+    uint32_t *qnext, *qprev, *qslot, *qhead;
+    uint32_t qn, qnlist; /* queued particles; those in bucket lists */
+    uint32_t qnb, cq;    /* buckets now, current bucket */
+    uint32_t qover;      /* slot of the overflow list (>= any qnb) */
+    double qbase, qinv;  /* bucket b covers [qbase + b / qinv, qbase + (b + 1) / qinv) */
     /* stuck particles in arrival order */
     uint32_t *stuck_idx, nstuck;
     double *stuck_t;
@@ -67,6 +73,7 @@ struct ev_sim {
 void ev_rebuild(ev_sim *s);
 double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi);
 
+void ev_queue_reset(ev_sim *s);
 void ev_heap_push(ev_sim *s, uint32_t i);
 void ev_cell_insert(ev_sim *s, uint32_t i, uint32_t c);
 void ev_predict(ev_sim *s, uint32_t i, double now);

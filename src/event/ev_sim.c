@@ -45,6 +45,10 @@ void ev_free(ev_sim *s)
     free(s->evt);
     free(s->heap);
     free(s->hpos);
+    free(s->qnext);
+    free(s->qprev);
+    free(s->qslot);
+    free(s->qhead);
     free(s->stuck_idx);
     free(s->stuck_t);
     free(s);
@@ -298,6 +302,11 @@ ev_sim *ev_create(const ev_params *p, char *err, size_t errlen)
     ALLOC(s->evt, N);
     ALLOC(s->heap, N);
     ALLOC(s->hpos, N);
+    ALLOC(s->qnext, N);
+    ALLOC(s->qprev, N);
+    ALLOC(s->qslot, N);
+    s->qover = N < 16 ? 16 : N;
+    ALLOC(s->qhead, (size_t)s->qover + 1);
     ALLOC(s->stuck_idx, N);
     ALLOC(s->stuck_t, N);
     for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
@@ -347,6 +356,7 @@ ev_sim *ev_create(const ev_params *p, char *err, size_t errlen)
     }
     s->nfree_total = s->has_seed && s->stick_p > 0;
     for (uint32_t i = 0; i < s->n; i++) ev_predict(s, i, 0);
+    ev_queue_reset(s);
     for (uint32_t i = 0; i < s->n; i++) ev_heap_push(s, i);
     return s;
 oom:
@@ -551,8 +561,7 @@ void ev_rebuild(ev_sim *s)
         for (int k = 0; k < s->dim; k++) EV_P_ANY(s, i)[k] -= s->L * floor(EV_P_ANY(s, i)[k] / s->L);
     for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
     for (uint32_t i = 0; i < s->ntot; i++) ev_cell_insert(s, i, cell_of(s, EV_P_ANY(s, i)));
-    s->hn = 0;
-    for (uint32_t i = 0; i < s->ntot; i++) s->hpos[i] = UINT32_MAX;
+    ev_queue_reset(s);
     for (uint32_t i = 0; i < s->n; i++)
         if (!s->stuck[i]) ev_predict(s, i, s->now);
     for (uint32_t i = 0; i < s->n; i++)

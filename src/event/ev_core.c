@@ -695,7 +695,11 @@ int ev_loop(ev_sim *s, double t_end, volatile const int *interrupt)
         const double next = s->heap[0].t;
         if (next == EV_INF) return EV_STOP_NO_EVENTS; /* everything free is at rest */
         if (next > t_end) return 0;
-        if (interrupt && (n & 0xffff) == 0 && *interrupt) return EV_STOP_INTERRUPT;
+        if ((n & 0xffff) == 0) {
+            if (interrupt && *interrupt) return EV_STOP_INTERRUPT;
+            /* between two events: the state is whole (progress, checkpoints) */
+            if (s->tick && s->tick(s, s->tick_user)) return EV_STOP_INTERRUPT;
+        }
         stepf(s);
     }
 }

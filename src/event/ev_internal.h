@@ -63,6 +63,11 @@ struct ev_sim {
     double ke_stuck, virial, wall_impulse, max_overlap;
     ev_trace_fn trace;
     void *trace_user;
+    ev_tick_fn tick;
+    void *tick_user;
+    /* run state kept in checkpoints: series started, the open interval */
+    int started, iv_open;
+    double iv_t0, iv_v0;
     /* species table actually used */
     int nspecies;
     ev_species sp[EV_MAX_SPECIES];
@@ -71,6 +76,7 @@ struct ev_sim {
 #define EV_P(s, i) ((s)->ps + (size_t)(i) * (size_t)(2 * D + 2))
 #define EV_P_ANY(s, i) ((s)->ps + (size_t)(i) * (size_t)(2 * (s)->dim + 2))
 void ev_rebuild(ev_sim *s);
+ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen);
 double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi);
 
 void ev_queue_reset(ev_sim *s);

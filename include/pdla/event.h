@@ -154,6 +154,8 @@ void ev_series_free(ev_series *ser);
 int ev_write_h5(const ev_sim *s, const ev_series *ser, const char *path, const char *cmdline,
                 int stop_reason, char *err, size_t errlen);
 const char *ev_stop_name(int why);
+/* ParaView sidecars of the cluster.h5 at h5_path (see ev_out.c): 0 or -1. */
+int ev_write_xdmf(const ev_sim *s, const char *h5_path, char *err, size_t errlen);
 
 /* Checkpoints: DIR/checkpoint.h5 holds the whole state (particles with
  * their local times, pending events, cells, counters, RNG, stuck list,

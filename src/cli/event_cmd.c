@@ -478,7 +478,8 @@ int event_cmd_main(int argc, char **argv)
             fprintf(stderr, "pdla: %s\n", err);
             rc = 1;
         }
-        if (ev_write_h5(s, &ser, path, cmd, why, err, sizeof err)) {
+        if (ev_write_h5(s, &ser, path, cmd, why, err, sizeof err) ||
+            ev_write_xdmf(s, path, err, sizeof err)) {
             fprintf(stderr, "pdla: %s\n", err);
             rc = 1;
         }

@@ -91,6 +91,11 @@ typedef struct ev_trace_event {
 } ev_trace_event;
 typedef void (*ev_trace_fn)(const ev_trace_event *e, void *user);
 
+/* Called between two events every 65536 events and at each series row
+ * (progress, checkpoints); non-zero stops the run as if interrupted. */
+typedef int (*ev_tick_fn)(ev_sim *s, void *user);
+void ev_set_tick(ev_sim *s, ev_tick_fn fn, void *user);
+
 /* Build the start state (placement, velocities). Returns NULL with one line
  * in err: bad parameters (exit 2) or a packing that cannot be reached. */
 ev_sim *ev_create(const ev_params *p, char *err, size_t errlen);
@@ -149,5 +154,20 @@ void ev_series_free(ev_series *ser);
 int ev_write_h5(const ev_sim *s, const ev_series *ser, const char *path, const char *cmdline,
                 int stop_reason, char *err, size_t errlen);
 const char *ev_stop_name(int why);
+/* ParaView sidecars of the cluster.h5 at h5_path (see ev_out.c): 0 or -1. */
+int ev_write_xdmf(const ev_sim *s, const char *h5_path, char *err, size_t errlen);
+
+/* Checkpoints: DIR/checkpoint.h5 holds the whole state (particles with
+ * their local times, pending events, cells, counters, RNG, stuck list,
+ * series and its open interval). Written to a temporary file, synced and
+ * renamed over the old one, which is kept as checkpoint.prev.h5. A run
+ * resumed from it takes the same events at the same times, bit for bit, as
+ * one never stopped (tests/event: resume). */
+int ev_checkpoint_write(const ev_sim *s, const ev_series *ser, const char *dir,
+                        const char *cmdline, char *err, size_t errlen);
+/* Load PATH: the simulation (NULL with one line in err) and its series.
+ * The stop conditions t_max, max_stuck, max_events may then be changed. */
+ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t errlen);
+ev_params *ev_params_of(ev_sim *s);
 
 #endif

@@ -10,6 +10,7 @@
 
 #include <errno.h>
 #include <inttypes.h>
+#include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -17,6 +18,9 @@
 #include <sys/stat.h>
 #include <time.h>
 
+#include <unistd.h>
+
+#include "parse.h"
 #include "pdla/event.h"
 #include "pdla/pdla.h"
 
@@ -115,6 +119,11 @@ typedef struct ev_cli {
     int force, quiet;
     char err[512];
     const char *scene;
+    int checkpoint;          /* --checkpoint (implied by the two below) */
+    double checkpoint_every; /* wall seconds, 0: only at the end / on a signal */
+    const char *resume;      /* run directory to continue */
+    int progress;            /* -1: when stderr is a terminal */
+    int set_tmax, set_stuck, set_events, set_other; /* given on the command line */
 } ev_cli;
 
 static int apply_scene_line(const char *key, const char *val, int line, void *u)
@@ -159,6 +168,14 @@ static int parse(int argc, char **argv, ev_cli *c)
             c->quiet = 1;
             continue;
         }
+        if (!strcmp(a, "--checkpoint")) {
+            c->checkpoint = 1;
+            continue;
+        }
+        if (!strcmp(a, "--progress") || !strcmp(a, "--no-progress")) {
+            c->progress = a[2] == 'p';
+            continue;
+        }
         if (strncmp(a, "--", 2) != 0) {
             snprintf(c->err, sizeof c->err, "unexpected argument '%s' (see pdla --model event --help)", a);
             return -1;
@@ -182,11 +199,36 @@ static int parse(int argc, char **argv, ev_cli *c)
             c->out = val;
             continue;
         }
+        if (!strcmp(name, "resume")) {
+            c->resume = val;
+            continue;
+        }
+        if (!strcmp(name, "checkpoint-every")) {
+            const char *why = cli_parse_duration(val, &c->checkpoint_every);
+            if (why) {
+                snprintf(c->err, sizeof c->err, "--checkpoint-every '%s': %s", val, why);
+                return -1;
+            }
+            c->checkpoint = 1;
+            continue;
+        }
+        if (!strcmp(name, "t-max") || !strcmp(name, "t_max")) c->set_tmax = 1;
+        else if (!strcmp(name, "max-stuck") || !strcmp(name, "max_stuck")) c->set_stuck = 1;
+        else if (!strcmp(name, "max-events") || !strcmp(name, "max_events")) c->set_events = 1;
+        else c->set_other = 1;
         char e[400];
         if (ev_param_set(&c->p, name, val, e, sizeof e)) {
             snprintf(c->err, sizeof c->err, "%s", e);
             return -1;
         }
+    }
+    if (c->resume) {
+        if (c->scene || c->set_other || c->out) {
+            snprintf(c->err, sizeof c->err, "--resume continues the checkpoint's run: only --t-max, "
+                                            "--max-stuck and --max-events may be given with it");
+            return -1;
+        }
+        return 0; /* the parameters come from the checkpoint */
     }
     char e[400];
     if (ev_params_check(&c->p, e, sizeof e)) {
@@ -256,10 +298,121 @@ static char *joined(int argc, char **argv)
     return s;
 }
 
+/* ---- progress lines and interval checkpoints (called between events) --- */
+typedef struct ev_ticker {
+    ev_cli *c;
+    ev_series *ser;
+    const char *dir, *cmd;
+    int enabled, tty, width, failed;
+    double interval, t_start, t_last, t_ckpt, rate;
+    uint64_t ev_start, ev_last;
+} ev_ticker;
+
+static void fmt_hms(char *buf, size_t n, double sec)
+{
+    if (!(sec >= 0) || sec > 1e9) {
+        snprintf(buf, n, "--");
+        return;
+    }
+    const unsigned long t = (unsigned long)(sec + 0.5);
+    snprintf(buf, n, "%lu:%02lu:%02lu", t / 3600, t % 3600 / 60, t % 60);
+}
+
+/* Fraction of the run done: the furthest of the stop conditions that apply
+ * (time, stuck count or all stuck, event count); -1 when none says. The ETA
+ * is a straight-line extrapolation of it over the wall time so far. */
+static double done_fraction(const ev_sim *s, const ev_stats *st)
+{
+    const ev_params *p = ev_params_of((ev_sim *)s);
+    double f = -1;
+    if (p->t_max > 0) f = fmax(f, st->t / p->t_max);
+    const uint64_t tgt = p->max_stuck ? p->max_stuck : (ev_has_seed(s) && p->stick_p > 0 ? ev_count(s) : 0);
+    if (tgt) f = fmax(f, (double)st->stuck / (double)tgt);
+    if (p->max_events) f = fmax(f, (double)st->events / (double)p->max_events);
+    return f > 1 ? 1 : f;
+}
+
+static void progress_line(ev_ticker *k, ev_sim *s, double now, int final)
+{
+    ev_stats st;
+    ev_get_stats(s, &st);
+    const double dt = now - k->t_last;
+    if (final || k->rate == 0) k->rate = now > k->t_start ? (double)(st.events - k->ev_start) / (now - k->t_start) : 0;
+    else if (dt > 0) k->rate += 0.3 * ((double)(st.events - k->ev_last) / dt - k->rate);
+    k->t_last = now;
+    k->ev_last = st.events;
+    const double f = done_fraction(s, &st);
+    char eta[32];
+    fmt_hms(eta, sizeof eta, final ? now - k->t_start : f > 0 ? (now - k->t_start) * (1 - f) / f : -1);
+    char line[240];
+    const int len = snprintf(line, sizeof line,
+                             "t %.4g  events %.3g (%.3g/s)  collisions %.3g  stuck %.1f%% (%" PRIu64
+                             "/%zu)  %s %s",
+                             st.t, (double)st.events, k->rate, (double)st.collisions,
+                             ev_count(s) ? 100.0 * (double)st.stuck / (double)ev_count(s) : 0.0,
+                             st.stuck, ev_count(s), final ? "time" : "ETA", eta);
+    if (k->tty) {
+        fprintf(stderr, "\r%s%*s%s", line, k->width > len ? k->width - len : 0, "", final ? "\n" : "");
+        k->width = len;
+    } else {
+        fprintf(stderr, "%s\n", line);
+    }
+    fflush(stderr);
+}
+
+static int ticker(ev_sim *s, void *u)
+{
+    ev_ticker *k = u;
+    const double now = pdla_clock_seconds();
+    if (k->enabled && now - k->t_last >= k->interval) progress_line(k, s, now, 0);
+    if (k->c->checkpoint_every > 0 && now - k->t_ckpt >= k->c->checkpoint_every) {
+        char err[512];
+        if (ev_checkpoint_write(s, k->ser, k->dir, k->cmd, err, sizeof err)) {
+            fprintf(stderr, "pdla: %s\n", err);
+            k->failed = 1;
+            return 1; /* stop: the run would go on without its safety net */
+        }
+        k->t_ckpt = pdla_clock_seconds();
+    }
+    return 0;
+}
+
+/* --resume DIR: DIR/checkpoint.h5, or the previous one if that is unusable. */
+static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
+{
+    snprintf(dir, len, "%s", c->resume);
+    char path[4200], err[600], err2[600];
+    snprintf(path, sizeof path, "%s/checkpoint.h5", dir);
+    ev_sim *s = ev_checkpoint_load(path, ser, err, sizeof err);
+    if (!s) {
+        snprintf(path, sizeof path, "%s/checkpoint.prev.h5", dir);
+        s = ev_checkpoint_load(path, ser, err2, sizeof err2);
+        if (!s) {
+            fprintf(stderr, "pdla: cannot resume: %s\n", err);
+            return NULL;
+        }
+        fprintf(stderr, "pdla: %s; resuming from the previous checkpoint\n", err);
+    }
+    ev_params *p = ev_params_of(s);
+    if (c->set_tmax) p->t_max = c->p.t_max;
+    if (c->set_stuck) p->max_stuck = c->p.max_stuck;
+    if (c->set_events) p->max_events = c->p.max_events;
+    char e[400];
+    if (ev_params_check(p, e, sizeof e)) {
+        fprintf(stderr, "pdla: %s\n", e);
+        ev_free(s);
+        ev_series_free(ser);
+        return NULL;
+    }
+    c->checkpoint = 1; /* a resumed run keeps checkpointing */
+    return s;
+}
+
 int event_cmd_main(int argc, char **argv)
 {
     ev_cli c;
     memset(&c, 0, sizeof c);
+    c.progress = -1;
     const int prc = parse(argc, argv, &c);
     if (prc < 0) {
         fprintf(stderr, "pdla: %s\n", c.err);
@@ -273,34 +426,63 @@ int event_cmd_main(int argc, char **argv)
         return fflush(stdout) ? 1 : 0;
     }
     char err[512];
-    ev_sim *s = ev_create(&c.p, err, sizeof err);
-    if (!s) {
-        fprintf(stderr, "pdla: %s\n", err);
-        return 2;
-    }
+    ev_series ser = {0};
     char dir[4096];
-    const int drc = make_dir(&c, dir, sizeof dir);
-    if (drc) {
-        ev_free(s);
-        return drc;
+    ev_sim *s = NULL;
+    if (c.resume) {
+        s = load_resume(&c, &ser, dir, sizeof dir);
+        if (!s) return 2;
+    } else {
+        s = ev_create(&c.p, err, sizeof err);
+        if (!s) {
+            fprintf(stderr, "pdla: %s\n", err);
+            return 2;
+        }
+        const int drc = make_dir(&c, dir, sizeof dir);
+        if (drc) {
+            ev_free(s);
+            return drc;
+        }
     }
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
     pdla_hdf5_quiet();
+    char *cmd = joined(argc, argv);
+    ev_ticker tk = {0};
+    tk.c = &c;
+    tk.ser = &ser;
+    tk.dir = dir;
+    tk.cmd = cmd;
+    tk.enabled = c.progress == 1 || (c.progress == -1 && !c.quiet && isatty(2));
+    tk.tty = isatty(2);
+    tk.interval = tk.tty ? 0.2 : 5.0;
+    tk.t_start = tk.t_last = tk.t_ckpt = pdla_clock_seconds();
+    {
+        ev_stats st0;
+        ev_get_stats(s, &st0);
+        tk.ev_start = tk.ev_last = st0.events;
+    }
+    ev_set_tick(s, ticker, &tk);
     const clock_t c0 = clock();
-    ev_series ser = {0};
     const int why = ev_run_series(s, &ser, &ev_stop_flag);
     const double cpu = (double)(clock() - c0) / CLOCKS_PER_SEC;
+    if (tk.enabled) progress_line(&tk, s, pdla_clock_seconds(), 1);
     char path[4200];
     snprintf(path, sizeof path, "%s/cluster.h5", dir);
-    char *cmd = joined(argc, argv);
-    int rc = 0;
+    int rc = tk.failed;
     if (why < 0) {
         fprintf(stderr, "pdla: out of memory for the series\n");
         rc = 1;
-    } else if (ev_write_h5(s, &ser, path, cmd, why, err, sizeof err)) {
-        fprintf(stderr, "pdla: %s\n", err);
-        rc = 1;
+    } else {
+        if (c.checkpoint && ev_checkpoint_write(s, &ser, dir, cmd, err, sizeof err)) {
+            fprintf(stderr, "pdla: %s\n", err);
+            rc = 1;
+        }
+        if (ev_write_h5(s, &ser, path, cmd, why, err, sizeof err) ||
+            ev_write_xdmf(s, path, err, sizeof err)) {
+            fprintf(stderr, "pdla: %s\n", err);
+            rc = 1;
+        }
     }
     ev_stats st;
     ev_get_stats(s, &st);
@@ -313,9 +495,14 @@ int event_cmd_main(int argc, char **argv)
                ev_stop_name(why), st.t, st.stuck, st.events, st.collisions, st.wall_hits, cpu,
                cpu > 0 ? (double)st.collisions / cpu : 0.0,
                st.events ? 1e6 * cpu / (double)st.events : 0.0, peak_rss() / 1e6, path);
+    if (!rc && !c.quiet && c.checkpoint)
+        printf("checkpoint %s/checkpoint.h5%s\n", dir,
+               why == EV_STOP_INTERRUPT ? " (continue with: pdla --model event --resume DIR)" : "");
     free(cmd);
     ev_series_free(&ser);
     ev_free(s);
-    if (why == EV_STOP_INTERRUPT && !rc) return 130;
+    /* Interrupted with checkpoints on: the run is saved, exit 0 (as the
+     * DLA CLI); without: 130, the state is lost but cluster.h5 written. */
+    if (why == EV_STOP_INTERRUPT && !rc && !c.checkpoint) return 130;
     return rc;
 }

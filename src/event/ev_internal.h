@@ -44,8 +44,14 @@ struct ev_sim {
     uint32_t *count, *parent;
     uint32_t *cell, *cnext, *cprev, *chead;
     ev_evt *evt;
+    /* event queue (ev_core.c): heap of the current bucket, bucket lists */
     ev_hent *heap;
     uint32_t *hpos, hn;
+    uint32_t *qnext, *qprev, *qslot, *qhead;
+    uint32_t qn, qnlist; /* queued particles; those in bucket lists */
+    uint32_t qnb, cq;    /* buckets now, current bucket */
+    uint32_t qover;      /* slot of the overflow list (>= any qnb) */
+    double qbase, qinv;  /* bucket b covers [qbase + b / qinv, qbase + (b + 1) / qinv) */
     /* stuck particles in arrival order */
     uint32_t *stuck_idx, nstuck;
     double *stuck_t;
@@ -57,6 +63,11 @@ struct ev_sim {
     double ke_stuck, virial, wall_impulse, max_overlap;
     ev_trace_fn trace;
     void *trace_user;
+    ev_tick_fn tick;
+    void *tick_user;
+    /* run state kept in checkpoints: series started, the open interval */
+    int started, iv_open;
+    double iv_t0, iv_v0;
     /* species table actually used */
     int nspecies;
     ev_species sp[EV_MAX_SPECIES];
@@ -65,8 +76,10 @@ struct ev_sim {
 #define EV_P(s, i) ((s)->ps + (size_t)(i) * (size_t)(2 * D + 2))
 #define EV_P_ANY(s, i) ((s)->ps + (size_t)(i) * (size_t)(2 * (s)->dim + 2))
 void ev_rebuild(ev_sim *s);
+ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen);
 double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi);
 
+void ev_queue_reset(ev_sim *s);
 void ev_heap_push(ev_sim *s, uint32_t i);
 void ev_cell_insert(ev_sim *s, uint32_t i, uint32_t c);
 void ev_predict(ev_sim *s, uint32_t i, double now);

@@ -21,6 +21,7 @@
 
 #include "ev_internal.h"
 #include "h5util.h"
+#include "pdla/xdmf.h"
 #include "provenance.h"
 
 static int write_ds(const h5u_writer *w, hid_t g, const char *name, hid_t ftype, hid_t mtype,
@@ -323,4 +324,50 @@ int ev_write_h5(const ev_sim *s, const ev_series *ser, const char *path, const c
     if (rc && err && errlen) h5u_one_line(err);
     free(tmp);
     return rc ? -1 : 0;
+}
+
+/* ParaView sidecars (pdla/xdmf.h) of cluster.h5 at h5_path: NAME.xdmf2 for
+ * the stuck particles (rows in arrival order: "arrival", with radius,
+ * arrival_time, species, parent) and NAME-free.xdmf2 for the free ones.
+ * Positions in the model's length units (units_per_diameter 1). A sidecar
+ * with no rows is not written and an older one removed (it would describe
+ * another file). */
+int ev_write_xdmf(const ev_sim *s, const char *h5_path, char *err, size_t errlen)
+{
+    const size_t len = strlen(h5_path) + 16;
+    char *side = malloc(len), *free_side = malloc(len);
+    int rc = 0;
+    if (!side || !free_side) {
+        snprintf(err, errlen, "out of memory for the sidecars' names");
+        rc = -1;
+    }
+    if (!rc) {
+        (void)xdmf_sidecar_path(h5_path, side, len);
+        /* NAME.xdmf2 -> NAME-free.xdmf2 */
+        const size_t b = strlen(side) - strlen(".xdmf2");
+        snprintf(free_side, len, "%.*s-free.xdmf2", (int)b, side);
+        static const xdmf_array stuck_arrays[] = {
+            {"radius", "/cluster/radii", "Float", 8},
+            {"arrival_time", "/cluster/arrival_time", "Float", 8},
+            {"species", "/cluster/species", "Int", 4},
+            {"parent", "/cluster/parent", "Int", 8},
+        };
+        static const xdmf_array free_arrays[] = {
+            {"radius", "/free/radii", "Float", 8},
+            {"species", "/free/species", "Int", 4},
+        };
+        const xdmf_points ps = {h5_path, "/cluster/positions", s->nstuck, s->dim, 1, 0, "arrival",
+                                stuck_arrays, 4};
+        const xdmf_points pf = {h5_path, "/free/positions", s->n - s->nstuck, s->dim, 1, 0, NULL,
+                                free_arrays, 2};
+        if (ps.n == 0) unlink(side);
+        else rc = xdmf_write_points(side, &ps, err, errlen);
+        if (!rc) {
+            if (pf.n == 0) unlink(free_side);
+            else rc = xdmf_write_points(free_side, &pf, err, errlen);
+        }
+    }
+    free(side);
+    free(free_side);
+    return rc;
 }

@@ -187,7 +187,13 @@ char *ev_help_text(void)
     snprintf(t + n, cap - n,
              "  --out DIR                    run directory\n"
              "  --force                      write into an existing run directory\n"
-             "  --quiet                      no progress lines\n"
+             "  --quiet                      no summary, no progress lines (unless --progress)\n"
+             "  --progress, --no-progress    progress lines on stderr (default: when a terminal)\n"
+             "  --checkpoint                 DIR/checkpoint.h5 at the end and on SIGINT/SIGTERM\n"
+             "                               (then exit 0)\n"
+             "  --checkpoint-every T         also every T of wall time (seconds, or 30s, 5m, 1h)\n"
+             "  --resume DIR                 continue DIR's checkpoint bit for bit; only --t-max,\n"
+             "                               --max-stuck, --max-events may be given with it\n"
              "  --help                       this text\n");
     return t;
 }

@@ -45,6 +45,10 @@ void ev_free(ev_sim *s)
     free(s->evt);
     free(s->heap);
     free(s->hpos);
+    free(s->qnext);
+    free(s->qprev);
+    free(s->qslot);
+    free(s->qhead);
     free(s->stuck_idx);
     free(s->stuck_t);
     free(s);
@@ -229,7 +233,9 @@ static int sort_by_cell(ev_sim *s)
         if (!(ptr)) goto oom;                                              \
     } while (0)
 
-ev_sim *ev_create(const ev_params *p, char *err, size_t errlen)
+/* The box, cells, arrays and species tables of p, with the seed placed and
+ * no particle yet (ev_create places them; a checkpoint fills them in). */
+ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen)
 {
     if (ev_params_check(p, err, errlen)) return NULL;
     ev_sim *s = calloc(1, sizeof *s);
@@ -254,6 +260,7 @@ ev_sim *ev_create(const ev_params *p, char *err, size_t errlen)
     s->n = (uint32_t)n;
     s->has_seed = p->seed_radius > 0;
     s->ntot = s->n + (s->has_seed ? 1 : 0);
+    s->nfree_total = s->has_seed && s->stick_p > 0;
     s->V = vol / p->packing;
     s->L = pow(s->V, 1.0 / D);
     s->half = 0.5 * s->L;
@@ -298,6 +305,11 @@ ev_sim *ev_create(const ev_params *p, char *err, size_t errlen)
     ALLOC(s->evt, N);
     ALLOC(s->heap, N);
     ALLOC(s->hpos, N);
+    ALLOC(s->qnext, N);
+    ALLOC(s->qprev, N);
+    ALLOC(s->qslot, N);
+    s->qover = N < 16 ? 16 : N;
+    ALLOC(s->qhead, (size_t)s->qover + 1);
     ALLOC(s->stuck_idx, N);
     ALLOC(s->stuck_t, N);
     for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
@@ -321,6 +333,22 @@ ev_sim *ev_create(const ev_params *p, char *err, size_t errlen)
         s->parent[sd] = UINT32_MAX;
         put(s, sd, x);
     }
+    return s;
+oom:
+    fail(err, errlen, "out of memory for %" PRIu64 " particles", n);
+bad:
+    ev_free(s);
+    return NULL;
+}
+
+ev_sim *ev_create(const ev_params *p, char *err, size_t errlen)
+{
+    ev_sim *s = ev_alloc(p, err, errlen);
+    if (!s) return NULL;
+    const int D = s->dim;
+    double rpmax = 0;
+    for (int k = 0; k < s->nspecies; k++)
+        if (s->sp[k].radius > rpmax) rpmax = s->sp[k].radius;
     if (p->start == EV_START_LATTICE ? place_lattice(s, rpmax, err, errlen)
                                      : place_random(s, err, errlen))
         goto bad;
@@ -345,12 +373,12 @@ ev_sim *ev_create(const ev_params *p, char *err, size_t errlen)
             for (int k = 0; k < D; k++) q[D + k] = f * u[k];
         }
     }
-    s->nfree_total = s->has_seed && s->stick_p > 0;
     for (uint32_t i = 0; i < s->n; i++) ev_predict(s, i, 0);
+    ev_queue_reset(s);
     for (uint32_t i = 0; i < s->n; i++) ev_heap_push(s, i);
     return s;
 oom:
-    fail(err, errlen, "out of memory for %" PRIu64 " particles", n);
+    fail(err, errlen, "out of memory for %" PRIu64 " particles", (uint64_t)s->n);
 bad:
     ev_free(s);
     return NULL;
@@ -510,22 +538,42 @@ void ev_series_free(ev_series *ser)
     memset(ser, 0, sizeof *ser);
 }
 
+/* The series' interval that is open (iv_t0, iv_v0: its start time and
+ * virial) is part of the state: an interrupted run leaves it open, its
+ * checkpoint keeps it, and the resumed run closes it at the same time
+ * t0 + series_dt with the same sums as a run never stopped. */
 int ev_run_series(ev_sim *s, ev_series *ser, volatile const int *interrupt)
 {
-    s->series_dt = s->par.series_dt;
-    if (series_push(ser, s, NAN)) return -1;
+    if (!s->started) {
+        s->series_dt = s->par.series_dt;
+        if (series_push(ser, s, NAN)) return -1;
+        s->started = 1;
+    }
     const double tstop = stop_time(s);
     for (;;) {
-        const double t0 = s->now, v0 = s->virial;
+        if (!s->iv_open) {
+            s->iv_t0 = s->now;
+            s->iv_v0 = s->virial;
+            s->iv_open = 1;
+        }
+        const double t0 = s->iv_t0;
         double t1 = t0 + s->series_dt;
         if (t1 > tstop) t1 = tstop;
         int why = ev_loop(s, t1, interrupt);
+        if (why == EV_STOP_INTERRUPT) return why; /* the interval stays open */
         if (!why) s->now = t1;
         const double dt = s->now - t0;
-        if (series_push(ser, s, dt > 0 ? ev_pressure(s, s->virial - v0, dt) : NAN)) return -1;
+        s->iv_open = 0;
+        if (series_push(ser, s, dt > 0 ? ev_pressure(s, s->virial - s->iv_v0, dt) : NAN)) return -1;
         if (why) return why;
         if (s->now >= tstop) return EV_STOP_TIME;
     }
+}
+
+void ev_set_tick(ev_sim *s, ev_tick_fn fn, void *user)
+{
+    s->tick = fn;
+    s->tick_user = user;
 }
 
 const char *ev_stop_name(int why)
@@ -551,8 +599,7 @@ void ev_rebuild(ev_sim *s)
         for (int k = 0; k < s->dim; k++) EV_P_ANY(s, i)[k] -= s->L * floor(EV_P_ANY(s, i)[k] / s->L);
     for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
     for (uint32_t i = 0; i < s->ntot; i++) ev_cell_insert(s, i, cell_of(s, EV_P_ANY(s, i)));
-    s->hn = 0;
-    for (uint32_t i = 0; i < s->ntot; i++) s->hpos[i] = UINT32_MAX;
+    ev_queue_reset(s);
     for (uint32_t i = 0; i < s->n; i++)
         if (!s->stuck[i]) ev_predict(s, i, s->now);
     for (uint32_t i = 0; i < s->n; i++)

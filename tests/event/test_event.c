@@ -715,10 +715,166 @@ static void test_mb(int dim)
     ev_free(s);
 }
 
+/* Sticking off, periodic, N = 1e4 (two species) until `ncoll` collisions
+ * (the issue asks 1e8: suite slow): energy and momentum to round-off and no
+ * overlap, checked at ~20 points. Bounds: 1e-10 relative (round-off of
+ * ~1e-16 per collision adds up to ~1e-12 as a random walk over 1e8, or to
+ * 1e-8 if it were systematic: the bound sits between and catches a bias). */
+static void test_conserve_long(int dim, double ncoll)
+{
+    ev_params q = base(dim, 10000, 0.3, 1, 0, 1);
+    strcpy(q.species, "6000:0.5:1,4000:0.7:2.5");
+    q.start = EV_START_LATTICE;
+    ev_sim *s = ev_create(&q, NULL, 0);
+    CHECK(s != NULL, "create");
+    if (!s) return;
+    ev_stats a, b;
+    ev_get_stats(s, &a);
+    double p0[3], p1[3], sc;
+    momentum(s, p0, &sc);
+    double worst = ev_max_overlap_now(s), t = 0, dt = 1;
+    for (int k = 0;; k++) {
+        t += dt;
+        ev_run_until(s, t);
+        ev_get_stats(s, &b);
+        const double ov = ev_max_overlap_now(s);
+        if (ov > worst) worst = ov;
+        if ((double)b.collisions >= ncoll) break;
+        if (k == 0) dt = t * (ncoll / (double)(b.collisions + 1)) / 20; /* ~20 checks */
+    }
+    momentum(s, p1, &sc);
+    const double de = fabs(b.ke_free - a.ke_free) / a.ke_free;
+    double dp = 0;
+    for (int k = 0; k < dim; k++) dp = fmax(dp, fabs(p1[k] - p0[k]) / sc);
+    fprintf(stderr, "conserve-long %dd: %llu collisions to t %.4g, dE/E %.3g, dp/sum|p| %.3g, "
+            "overlap %.3g / %.3g\n", dim, (unsigned long long)b.collisions, b.t, de, dp, worst,
+            b.max_overlap);
+    CHECK(de < 1e-10, "energy drift %g", de);
+    CHECK(dp < 1e-10, "momentum drift %g", dp);
+    CHECK(worst < TOL && b.max_overlap < TOL, "overlap %g / %g", worst, b.max_overlap);
+    ev_free(s);
+}
+
+/* ---- checkpoint and resume ---------------------------------------------- */
+/* Stop at the k-th tick (as a signal would), mid-way through a series row. */
+typedef struct tick_stop { int calls, at; } tick_stop;
+static int tick_at(ev_sim *s, void *u)
+{
+    (void)s;
+    tick_stop *t = u;
+    return ++t->calls == t->at;
+}
+
+static int same_state(const char *what, const ev_sim *a, const ev_sim *b, const ev_series *sa,
+                      const ev_series *sb)
+{
+    const size_t N = a->ntot;
+    int ok = a->ntot == b->ntot && a->nstuck == b->nstuck && sa->n == sb->n;
+    CHECK(ok, "%s: sizes differ (stuck %u/%u, rows %zu/%zu)", what, a->nstuck, b->nstuck, sa->n, sb->n);
+    if (!ok) return 0;
+    ok = !memcmp(a->ps, b->ps, N * (size_t)(2 * a->dim + 2) * sizeof(double)) &&
+         !memcmp(a->count, b->count, N * sizeof *a->count) &&
+         !memcmp(a->stuck, b->stuck, N) && !memcmp(a->parent, b->parent, N * sizeof *a->parent) &&
+         !memcmp(a->stuck_idx, b->stuck_idx, a->nstuck * sizeof *a->stuck_idx) &&
+         !memcmp(a->stuck_t, b->stuck_t, a->nstuck * sizeof *a->stuck_t) &&
+         !memcmp(&a->now, &b->now, sizeof a->now) && !memcmp(&a->virial, &b->virial, sizeof a->virial) &&
+         !memcmp(&a->ke_stuck, &b->ke_stuck, sizeof a->ke_stuck) && a->events == b->events &&
+         a->collisions == b->collisions && a->invalid == b->invalid &&
+         !memcmp(&a->rng, &b->rng, sizeof a->rng);
+    CHECK(ok, "%s: the resumed state is not bit-identical (events %llu/%llu, t %.17g/%.17g)", what,
+          (unsigned long long)a->events, (unsigned long long)b->events, a->now, b->now);
+    const int ser = !memcmp(sa->t, sb->t, sa->n * sizeof *sa->t) &&
+                    !memcmp(sa->ke, sb->ke, sa->n * sizeof *sa->ke) &&
+                    !memcmp(sa->pressure, sb->pressure, sa->n * sizeof *sa->pressure) &&
+                    !memcmp(sa->stuck, sb->stuck, sa->n * sizeof *sa->stuck) &&
+                    !memcmp(sa->collisions, sb->collisions, sa->n * sizeof *sa->collisions);
+    CHECK(ser, "%s: the resumed series differs", what);
+    return ok && ser;
+}
+
+/* A run stopped at tick `at` (mid-row), checkpointed, freed, loaded and run
+ * on must equal, bit for bit, the run never stopped; a second stop and
+ * resume of the resumed run too (the checkpoint's own round trip). */
+static void resume_case(const char *what, ev_params q, int at)
+{
+    char err[512], dir[] = "/tmp/pdla-ev-ckpt-XXXXXX";
+    CHECK(mkdtemp(dir) != NULL, "mkdtemp");
+    ev_series sa = {0}, sb = {0};
+    ev_sim *a = ev_create(&q, err, sizeof err);
+    CHECK(a != NULL, "%s: %s", what, err);
+    if (!a) return;
+    const int wa = ev_run_series(a, &sa, NULL);
+    ev_sim *b = ev_create(&q, err, sizeof err);
+    tick_stop ts = {0, at};
+    ev_set_tick(b, tick_at, &ts);
+    int wb = ev_run_series(b, &sb, NULL);
+    CHECK(wb == EV_STOP_INTERRUPT, "%s: the tick did not stop the run (%d)", what, wb);
+    CHECK(b->events < a->events && b->iv_open, "%s: stopped too late or between rows", what);
+    for (int round = 0; round < 2; round++) {
+        CHECK(ev_checkpoint_write(b, &sb, dir, "test", err, sizeof err) == 0, "%s: write: %s", what, err);
+        ev_free(b);
+        ev_series_free(&sb);
+        char path[300];
+        snprintf(path, sizeof path, "%s/checkpoint.h5", dir);
+        b = ev_checkpoint_load(path, &sb, err, sizeof err);
+        CHECK(b != NULL, "%s: load: %s", what, err);
+        if (!b) break;
+        ts.calls = 0;
+        ts.at = round == 0 ? at : 0; /* round 0: stop again later; 1: run to the end */
+        ev_set_tick(b, tick_at, &ts);
+        wb = ev_run_series(b, &sb, NULL);
+        if (round == 0) CHECK(wb == EV_STOP_INTERRUPT, "%s: second stop missed", what);
+    }
+    if (b) {
+        CHECK(wa == wb, "%s: stop reasons %d and %d", what, wa, wb);
+        same_state(what, a, b, &sa, &sb);
+    }
+    /* a damaged file is refused with one line */
+    char path[300];
+    snprintf(path, sizeof path, "%s/checkpoint.h5", dir);
+    FILE *f = fopen(path, "r+b");
+    if (f) {
+        fseek(f, 0, SEEK_END);
+        const long len = ftell(f);
+        fseek(f, len / 2, SEEK_SET);
+        for (int k = 0; k < 64; k++) fputc(0x5a, f);
+        fclose(f);
+        ev_series sc = {0};
+        ev_sim *c = ev_checkpoint_load(path, &sc, err, sizeof err);
+        CHECK(c == NULL && strchr(err, '\n') == NULL && strstr(err, "checkpoint"),
+              "%s: a damaged checkpoint was loaded (%s)", what, c ? "" : err);
+        ev_free(c);
+    }
+    snprintf(path, sizeof path, "rm -rf '%s'", dir);
+    CHECK(system(path) == 0, "cleanup");
+    ev_free(a);
+    ev_free(b);
+    ev_series_free(&sa);
+    ev_series_free(&sb);
+}
+
+static void test_resume(void)
+{
+    /* 2D sticking with p = 0.5 (the RNG is part of the state), elastic walls */
+    ev_params q = base(2, 3000, 0.1, 0, 1, 0.5);
+    q.t_max = 0;
+    q.series_dt = 3;
+    resume_case("2d stick", q, 5);
+    /* 3D periodic gas, series rows longer than a tick */
+    q = base(3, 4000, 0.3, 1, 0, 1);
+    q.t_max = 6;
+    q.series_dt = 1;
+    resume_case("3d gas", q, 3);
+}
+
 int main(int argc, char **argv)
 {
     if (argc > 4 && !strcmp(argv[1], "eos")) {
         test_eos(atoi(argv[2]), atof(argv[3]), strtoull(argv[4], NULL, 10), argc > 5 ? atof(argv[5]) : 200);
+        return check_finish();
+    }
+    if (argc > 3 && !strcmp(argv[1], "conserve-long")) {
+        test_conserve_long(atoi(argv[2]), atof(argv[3]));
         return check_finish();
     }
     if (argc > 2 && !strcmp(argv[1], "mb")) {
@@ -743,5 +899,6 @@ int main(int argc, char **argv)
     if (all || !strcmp(what, "edge")) test_edge();
     if (all || !strcmp(what, "determinism")) test_determinism();
     if (all || !strcmp(what, "params")) test_params();
+    if (all || !strcmp(what, "resume")) test_resume();
     return check_finish();
 }

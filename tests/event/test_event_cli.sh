@@ -70,5 +70,14 @@ EOS
 printf 'model = event\nstick_p = 3\n' >"$t/bad.txt"
 expect_usage "bad scene" --scene "$t/bad.txt" --out "$t/b"
 
+# --progress: lines on stderr (the final one at least), none without it
+"$pdla" --model event --dim 2 --particles 300 --packing 0.05 --seed 4 --out "$t/p" --progress >"$t/out" 2>"$t/err" ||
+    fail "--progress run"
+grep -q "^t .*events .*/s).*stuck 100.0% (300/300).*time " "$t/err" || fail "--progress line: $(cat "$t/err")"
+grep -q "events" "$t/out" && grep -q "^t " "$t/out" && fail "progress went to stdout"
+"$pdla" --model event --dim 2 --particles 300 --packing 0.05 --seed 4 --out "$t/p2" --no-progress >"$t/out" 2>"$t/err" ||
+    fail "--no-progress run"
+[ -s "$t/err" ] && fail "--no-progress wrote to stderr: $(cat "$t/err")"
+
 [ $fails -eq 0 ] && echo "event cli: all passed"
 exit $((fails > 0))

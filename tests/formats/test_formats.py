@@ -23,6 +23,13 @@
       row numbers; an exported PLY opens with N points and the same bounds;
       scripts/paraview-render draws a PNG that is not blank. A missing
       pvpython is a failure, not a skip.
+  test_formats.py event PDLA PV_CHECK
+      the event model's sidecars in the real ParaView: a 3D run stopped
+      with 150 of 400 particles stuck writes cluster.xdmf2 (stuck, arrival
+      order) and cluster-free.xdmf2 (free); each opens with ParaView's own
+      reader with one point and cell per row, bounds and sampled points equal
+      to /cluster/positions (/free/positions), "arrival" the row numbers,
+      "radius", "arrival_time" and "species" the datasets' values.
 Prints one line per failure and "N checks, N failed"; exit 1 on a failure.
 """
 import glob
@@ -354,14 +361,62 @@ def test_paraview(pdla, fix, pv_check, render, tmp):
     check(rc != 0 and "exists" in se, "paraview-render replaced c3.png without --force: %s" % se.strip())
 
 
+def test_event_paraview(pdla, pv_check, tmp):
+    if not check(shutil.which("pvpython") is not None,
+                 "pvpython not found: apt-get install paraview python3-paraview"):
+        return
+    os.chdir(tmp)
+    rc, _, se, _ = run([pdla, "--model", "event", "--dim", "3", "--particles", "400", "--packing", "0.05",
+                        "--max-stuck", "150", "--seed", "2", "--species", "300:0.5:1,100:0.8:1", "--out", "ev"])
+    if not check(rc == 0, "event run: %s" % se.strip()):
+        return
+    with h5py.File("ev/cluster.h5", "r") as f:
+        groups = {"cluster": {k: f["cluster/" + k][()] for k in ("positions", "radii", "arrival_time", "species")},
+                  "free": {k: f["free/" + k][()] for k in ("positions", "radii", "species")}}
+    for side, g, arrays in (("ev/cluster.xdmf2", "cluster", ("radius", "arrival_time", "species")),
+                            ("ev/cluster-free.xdmf2", "free", ("radius", "species"))):
+        d = groups[g]
+        pos = d["positions"]
+        n = len(pos)
+        check(n == (150 if g == "cluster" else 250), "%s: %d rows" % (g, n))
+        if not check(os.path.exists(side), "pdla wrote no %s" % side):
+            continue
+        j = pv_json(pv_check, side)
+        if j is None:
+            continue
+        check(j["reader"] == "XdmfReader", "%s: reader %s" % (side, j["reader"]))
+        check(j["points"] == n and j["cells"] == n, "%s: %d points %d cells, want %d" % (side, j["points"], j["cells"], n))
+        want_b = [v for a in range(3) for v in (pos[:, a].min(), pos[:, a].max())]
+        check(j["bounds"] == want_b, "%s: bounds %s, want %s" % (side, j["bounds"], want_b))
+        rows = j["rows"]
+        check(j["xyz"] == pos[rows].tolist(), "%s: points at rows %s differ" % (side, rows))
+        src = {"radius": d["radii"], "arrival_time": d.get("arrival_time"), "species": d["species"]}
+        for a in arrays:
+            got = j["arrays"].get(a)
+            if check(got is not None, "%s: no %s array" % (side, a)):
+                want = np.asarray(src[a], dtype=float)
+                check(got["tuples"] == n and got["range"] == [want.min(), want.max()] and
+                      got["at"] == want[rows].tolist(), "%s: %s %s" % (side, a, got))
+        arr = j["arrays"].get("arrival")
+        if g == "cluster":
+            if check(arr is not None, "%s: no arrival array" % side):
+                check(arr["range"] == [0, n - 1] and arr["at"] == rows, "%s: arrival %s" % (side, arr))
+        else:
+            check(arr is None, "%s: an arrival array for free particles" % side)
+
+
 def main():
     mode = sys.argv[1] if len(sys.argv) > 1 else ""
-    if mode not in ("export", "paraview") or len(sys.argv) < (4 if mode == "export" else 6):
-        sys.exit("usage: test_formats.py export PDLA FIXTURE | paraview PDLA FIXTURE PV_CHECK RENDER")
+    if mode not in ("export", "paraview", "event") or \
+            len(sys.argv) < (4 if mode in ("export", "event") else 6):
+        sys.exit("usage: test_formats.py export PDLA FIXTURE | paraview PDLA FIXTURE PV_CHECK RENDER"
+                 " | event PDLA PV_CHECK")
     pdla, fix = os.path.abspath(sys.argv[2]), os.path.abspath(sys.argv[3])
     tmp = tempfile.mkdtemp(prefix="pdla-formats.")
     try:
-        if mode == "export":
+        if mode == "event":
+            test_event_paraview(pdla, fix, tmp)  # argv[3] is PV_CHECK here
+        elif mode == "export":
             test_export(pdla, fix, tmp)
         else:
             test_paraview(pdla, fix, os.path.abspath(sys.argv[4]), os.path.abspath(sys.argv[5]), tmp)

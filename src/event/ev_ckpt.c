@@ -1,0 +1,452 @@
+/*
+ * ev_ckpt.c - checkpoints of the event model (see pdla/event.h).
+ *
+ * DIR/checkpoint.h5:
+ *   /            format = "pdla-event-checkpoint", format_version, model,
+ *                dim, particles, ntot
+ *   parameters   the parameter table as "name=value" lines (values as
+ *                ev_param_format writes them: doubles in %.17g, exact)
+ *   /state       ps (x, v, t_i, r per particle, as stored: lazy local
+ *                times included), species, stuck, count, parent, cell,
+ *                the pending events (t_pair, t_cell, partner, pcount,
+ *                kind, cell_what), stuck_idx, stuck_t, counters (u64),
+ *                reals (f64), rng
+ *   /series      the rows so far
+ * Everything that decides the next event is stored as it is in memory, and
+ * the queue is rebuilt from the pending events: its order is the strict
+ * (time, index) order, so the rebuilt queue pops the same events. The cell
+ * lists are rebuilt from `cell` (not from the positions: a particle on a
+ * cell face by round-off must stay in the cell its crossing events put it
+ * in); their order within a cell does not matter (ties between candidate
+ * partners are broken by index, see scan_pairs).
+ * Crash safety as in src/dla/checkpoint.c: a temporary file in DIR, synced,
+ * then the old checkpoint is kept as checkpoint.prev.h5 and the temporary
+ * renamed over checkpoint.h5, then the directory synced.
+ */
+#include <errno.h>
+#include <inttypes.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "ev_internal.h"
+#include "h5util.h"
+#include "provenance.h"
+
+#define CK_FORMAT "pdla-event-checkpoint"
+#define CK_VERSION 1
+enum { CK_NCOUNT = 13, CK_NREAL = 8 };
+
+static int wds(const h5u_writer *w, hid_t g, const char *name, hid_t ftype, hid_t mtype,
+               size_t n, const void *data)
+{
+    hid_t space = H5I_INVALID_HID;
+    const hid_t d = h5u_dataset(w, g, name, ftype, 1, n, 1, 1 << 16, &space);
+    if (d < 0) return -1;
+    int rc = 0;
+    if (n > 0 && H5Dwrite(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
+        rc = h5u_fail(w, "write dataset %s", name);
+    rc = h5u_close(w, rc, space, H5Sclose, "a dataspace");
+    return h5u_close(w, rc, d, H5Dclose, name);
+}
+
+static char *params_text(const ev_params *p)
+{
+    size_t cap = 4096, len = 0;
+    char *t = malloc(cap);
+    if (!t) return NULL;
+    t[0] = '\0';
+    for (size_t k = 0; k < ev_param_count; k++) {
+        char v[300];
+        ev_param_format(p, k, v, sizeof v);
+        const size_t need = strlen(ev_param_table[k].name) + strlen(v) + 3;
+        if (len + need >= cap) {
+            cap = 2 * cap + need;
+            char *u = realloc(t, cap);
+            if (!u) {
+                free(t);
+                return NULL;
+            }
+            t = u;
+        }
+        len += (size_t)snprintf(t + len, cap - len, "%s=%s\n", ev_param_table[k].name, v);
+    }
+    return t;
+}
+
+static int write_state(const h5u_writer *w, hid_t file, const ev_sim *s)
+{
+    const uint32_t N = s->ntot;
+    const hid_t g = h5u_group(w, file, "state");
+    if (g < 0) return -1;
+    double *tp = malloc((N ? N : 1) * sizeof *tp), *tc = malloc((N ? N : 1) * sizeof *tc);
+    uint32_t *pa = malloc((N ? N : 1) * sizeof *pa), *pc = malloc((N ? N : 1) * sizeof *pc);
+    int8_t *kd = malloc(N ? N : 1), *cw = malloc(N ? N : 1);
+    int rc = 0;
+    if (!tp || !tc || !pa || !pc || !kd || !cw) rc = h5u_fail_msg(w, "out of memory writing /state");
+    for (uint32_t i = 0; !rc && i < N; i++) {
+        tp[i] = s->evt[i].t_pair;
+        tc[i] = s->evt[i].t_cell;
+        pa[i] = s->evt[i].partner;
+        pc[i] = s->evt[i].pcount;
+        kd[i] = s->evt[i].kind;
+        cw[i] = s->evt[i].cell_what;
+    }
+    const uint64_t cnt[CK_NCOUNT] = {s->events, s->collisions, s->wall_hits, s->sticks,
+                                     s->cell_crossings, s->invalid, s->nstuck,
+                                     (uint64_t)s->started, (uint64_t)s->iv_open,
+                                     s->rng.s[0], s->rng.s[1], s->rng.s[2], s->rng.s[3]};
+    const double re[CK_NREAL] = {s->now, s->series_dt, s->ke_stuck, s->virial,
+                                 s->wall_impulse, s->max_overlap, s->iv_t0, s->iv_v0};
+    const hid_t F = H5T_IEEE_F64LE, U = H5T_STD_U32LE;
+    if (!rc) rc = wds(w, g, "ps", F, H5T_NATIVE_DOUBLE, (size_t)N * (size_t)(2 * s->dim + 2), s->ps);
+    if (!rc) rc = wds(w, g, "species", H5T_STD_U8LE, H5T_NATIVE_UINT8, N, s->species);
+    if (!rc) rc = wds(w, g, "stuck", H5T_STD_U8LE, H5T_NATIVE_UINT8, N, s->stuck);
+    if (!rc) rc = wds(w, g, "count", U, H5T_NATIVE_UINT32, N, s->count);
+    if (!rc) rc = wds(w, g, "parent", U, H5T_NATIVE_UINT32, N, s->parent);
+    if (!rc) rc = wds(w, g, "cell", U, H5T_NATIVE_UINT32, N, s->cell);
+    if (!rc) rc = wds(w, g, "t_pair", F, H5T_NATIVE_DOUBLE, N, tp);
+    if (!rc) rc = wds(w, g, "t_cell", F, H5T_NATIVE_DOUBLE, N, tc);
+    if (!rc) rc = wds(w, g, "partner", U, H5T_NATIVE_UINT32, N, pa);
+    if (!rc) rc = wds(w, g, "pcount", U, H5T_NATIVE_UINT32, N, pc);
+    if (!rc) rc = wds(w, g, "kind", H5T_STD_I8LE, H5T_NATIVE_INT8, N, kd);
+    if (!rc) rc = wds(w, g, "cell_what", H5T_STD_I8LE, H5T_NATIVE_INT8, N, cw);
+    if (!rc) rc = wds(w, g, "stuck_idx", U, H5T_NATIVE_UINT32, s->nstuck, s->stuck_idx);
+    if (!rc) rc = wds(w, g, "stuck_t", F, H5T_NATIVE_DOUBLE, s->nstuck, s->stuck_t);
+    if (!rc) rc = wds(w, g, "counters", H5T_STD_U64LE, H5T_NATIVE_UINT64, CK_NCOUNT, cnt);
+    if (!rc) rc = wds(w, g, "reals", F, H5T_NATIVE_DOUBLE, CK_NREAL, re);
+    free(tp), free(tc), free(pa), free(pc), free(kd), free(cw);
+    return h5u_close(w, rc, g, H5Gclose, "/state");
+}
+
+static int write_series(const h5u_writer *w, hid_t file, const ev_series *ser)
+{
+    const hid_t g = h5u_group(w, file, "series");
+    if (g < 0) return -1;
+    const size_t n = ser->n;
+    int rc = wds(w, g, "time", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, n, ser->t);
+    if (!rc) rc = wds(w, g, "kinetic_energy", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, n, ser->ke);
+    if (!rc) rc = wds(w, g, "pressure", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, n, ser->pressure);
+    if (!rc) rc = wds(w, g, "stuck", H5T_STD_U64LE, H5T_NATIVE_UINT64, n, ser->stuck);
+    if (!rc) rc = wds(w, g, "collisions", H5T_STD_U64LE, H5T_NATIVE_UINT64, n, ser->collisions);
+    return h5u_close(w, rc, g, H5Gclose, "/series");
+}
+
+static int write_ckpt(const h5u_writer *w, const char *tmp, const ev_sim *s,
+                      const ev_series *ser, const char *cmdline)
+{
+    const hid_t file = h5u_create_file(w, tmp);
+    if (file < 0) return -1;
+    pdla_provenance pv;
+    (void)prov_collect(&pv);
+    char *pt = params_text(&s->par);
+    int rc = pt ? 0 : h5u_fail_msg(w, "out of memory");
+    if (!rc) rc = h5u_attr_str(w, file, "format", CK_FORMAT);
+    if (!rc) rc = h5u_attr_int(w, file, "format_version", CK_VERSION);
+    if (!rc) rc = h5u_attr_str(w, file, "model", "event");
+    if (!rc) rc = h5u_attr_int(w, file, "dim", s->dim);
+    if (!rc) rc = h5u_attr_u64(w, file, "particles", s->n);
+    if (!rc) rc = h5u_attr_u64(w, file, "ntot", s->ntot);
+    if (!rc) rc = wds(w, file, "parameters", H5T_STD_U8LE, H5T_NATIVE_UINT8, strlen(pt), pt);
+    if (!rc) rc = write_state(w, file, s);
+    if (!rc) rc = write_series(w, file, ser);
+    if (!rc) rc = h5u_write_code(w, file, &pv, cmdline);
+    free(pt);
+    if (rc) h5u_divert_writes(file);
+    return h5u_close(w, rc, file, H5Fclose, tmp);
+}
+
+int ev_checkpoint_write(const ev_sim *s, const ev_series *ser, const char *dir,
+                        const char *cmdline, char *err, size_t errlen)
+{
+    char path[4200], prev[4200], tmp[4200];
+    if (strlen(dir) > 4000) {
+        snprintf(err, errlen, "checkpoint: directory name too long");
+        return -1;
+    }
+    snprintf(path, sizeof path, "%s/checkpoint.h5", dir);
+    snprintf(prev, sizeof prev, "%s/checkpoint.prev.h5", dir);
+    snprintf(tmp, sizeof tmp, "%s/.checkpoint.h5.tmp.%ld", dir, (long)getpid());
+    const h5u_writer w = {path, err, errlen};
+    h5u_quiet q;
+    if (h5u_silence(&q)) {
+        snprintf(err, errlen, "checkpoint: cannot silence HDF5");
+        return -1;
+    }
+    int rc = write_ckpt(&w, tmp, s, ser, cmdline);
+    if (!rc && h5u_trim_and_sync(tmp) != 0)
+        rc = h5u_fail_msg(&w, "cannot sync %s: %s", tmp, strerror(errno));
+    /* Keep the previous generation: every name always holds a whole file
+     * (without hard links, a moment with only checkpoint.prev.h5). */
+    if (!rc && unlink(prev) != 0 && errno != ENOENT)
+        rc = h5u_fail_msg(&w, "cannot remove %s: %s", prev, strerror(errno));
+    if (!rc && link(path, prev) != 0 && errno != ENOENT && rename(path, prev) != 0 &&
+        errno != ENOENT)
+        rc = h5u_fail_msg(&w, "cannot keep %s as %s: %s", path, prev, strerror(errno));
+    if (!rc && rename(tmp, path) != 0)
+        rc = h5u_fail_msg(&w, "cannot rename %s to %s: %s", tmp, path, strerror(errno));
+    if (!rc && h5u_fsync_dir(dir) != 0)
+        rc = h5u_fail_msg(&w, "written, but cannot sync directory %s: %s", dir, strerror(errno));
+    if (rc) unlink(tmp);
+    h5u_restore(&q);
+    if (rc) h5u_one_line(err);
+    return rc ? -1 : 0;
+}
+
+/* ---- loading ------------------------------------------------------------- */
+
+typedef struct rd {
+    hid_t file;
+    const char *path;
+    char *err;
+    size_t errlen;
+} rd;
+
+static int rfail(const rd *r, const char *fmt, const char *a)
+{
+    char m[512];
+    snprintf(m, sizeof m, fmt, a);
+    snprintf(r->err, r->errlen, "checkpoint %s: %s", r->path, m);
+    return -1;
+}
+
+/* Read dataset `name` of exactly n elements into buf (n == 0: must be empty). */
+static int rds(const rd *r, const char *name, hid_t mtype, size_t n, void *buf)
+{
+    const hid_t d = H5Dopen2(r->file, name, H5P_DEFAULT);
+    if (d < 0) return rfail(r, "no dataset %s (not an event checkpoint, or damaged)", name);
+    const hid_t sp = H5Dget_space(d);
+    const hssize_t np = sp >= 0 ? H5Sget_simple_extent_npoints(sp) : -1;
+    int rc = 0;
+    if (np < 0 || (size_t)np != n) rc = rfail(r, "dataset %s has the wrong size", name);
+    else if (n > 0 && H5Dread(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0)
+        rc = rfail(r, "cannot read %s (damaged: checksum or I/O error)", name);
+    if (sp >= 0) H5Sclose(sp);
+    H5Dclose(d);
+    return rc;
+}
+
+static hssize_t rlen(const rd *r, const char *name)
+{
+    const hid_t d = H5Dopen2(r->file, name, H5P_DEFAULT);
+    if (d < 0) return -1;
+    const hid_t sp = H5Dget_space(d);
+    const hssize_t np = sp >= 0 ? H5Sget_simple_extent_npoints(sp) : -1;
+    if (sp >= 0) H5Sclose(sp);
+    H5Dclose(d);
+    return np;
+}
+
+static int rattr_str(const rd *r, const char *name, char *buf, size_t len)
+{
+    if (H5Aexists(r->file, name) <= 0) return -1;
+    const hid_t a = H5Aopen(r->file, name, H5P_DEFAULT);
+    if (a < 0) return -1;
+    const hid_t t = H5Aget_type(a);
+    int rc = -1;
+    if (t >= 0 && H5Tget_class(t) == H5T_STRING && !H5Tis_variable_str(t)) {
+        const size_t sz = H5Tget_size(t);
+        char *tmp = calloc(sz + 1, 1);
+        if (tmp && sz < len && H5Aread(a, t, tmp) >= 0) {
+            memcpy(buf, tmp, sz);
+            buf[sz] = '\0';
+            rc = 0;
+        }
+        free(tmp);
+    }
+    if (t >= 0) H5Tclose(t);
+    H5Aclose(a);
+    return rc;
+}
+
+static int rattr_int(const rd *r, const char *name, long long *v)
+{
+    if (H5Aexists(r->file, name) <= 0) return -1;
+    const hid_t a = H5Aopen(r->file, name, H5P_DEFAULT);
+    if (a < 0) return -1;
+    const int rc = H5Aread(a, H5T_NATIVE_LLONG, v) < 0 ? -1 : 0;
+    H5Aclose(a);
+    return rc;
+}
+
+/* The parameters from their "name=value" lines. */
+static int read_params(const rd *r, ev_params *p)
+{
+    const hssize_t n = rlen(r, "parameters");
+    if (n <= 0 || n > (1 << 20)) return rfail(r, "%s", "no parameters");
+    char *t = calloc((size_t)n + 1, 1);
+    if (!t) return rfail(r, "%s", "out of memory");
+    int rc = rds(r, "parameters", H5T_NATIVE_UINT8, (size_t)n, t);
+    ev_params_default(p);
+    for (char *line = t, *nl; !rc && *line; line = nl + 1) {
+        nl = strchr(line, '\n');
+        if (!nl) break;
+        *nl = '\0';
+        char *eq = strchr(line, '=');
+        char e[400];
+        if (!eq) {
+            rc = rfail(r, "bad parameter line '%s'", line);
+            break;
+        }
+        *eq = '\0';
+        const char *v = eq + 1;
+        /* ev_param_format writes an empty string parameter as "" */
+        if (ev_param_set(p, line, v, e, sizeof e)) rc = rfail(r, "%s", e);
+    }
+    free(t);
+    return rc;
+}
+
+static int check_state(const rd *r, const ev_sim *s)
+{
+    const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (s->dim == 3 ? (uint64_t)s->nc : 1);
+    for (uint32_t i = 0; i < s->ntot; i++) {
+        if (s->cell[i] >= ncell) return rfail(r, "%s", "a cell index out of range (damaged)");
+        if (s->evt[i].kind == EV_K_PAIR && s->evt[i].partner >= s->ntot)
+            return rfail(r, "%s", "a partner index out of range (damaged)");
+        if (i < s->n && s->species[i] >= s->nspecies)
+            return rfail(r, "%s", "a species index out of range (damaged)");
+    }
+    if (s->nstuck > s->n) return rfail(r, "%s", "more stuck particles than particles (damaged)");
+    for (uint32_t a = 0; a < s->nstuck; a++)
+        if (s->stuck_idx[a] >= s->n || !s->stuck[s->stuck_idx[a]])
+            return rfail(r, "%s", "the stuck list names a free particle (damaged)");
+    return 0;
+}
+
+static int read_series(const rd *r, ev_series *ser)
+{
+    const hssize_t n = rlen(r, "series/time");
+    if (n < 0) return rfail(r, "%s", "no /series");
+    const size_t cap = n > 256 ? (size_t)n : 256;
+    ser->t = malloc(cap * sizeof *ser->t);
+    ser->ke = malloc(cap * sizeof *ser->ke);
+    ser->pressure = malloc(cap * sizeof *ser->pressure);
+    ser->stuck = malloc(cap * sizeof *ser->stuck);
+    ser->collisions = malloc(cap * sizeof *ser->collisions);
+    ser->cap = cap;
+    ser->n = (size_t)n;
+    if (!ser->t || !ser->ke || !ser->pressure || !ser->stuck || !ser->collisions)
+        return rfail(r, "%s", "out of memory");
+    const size_t m = (size_t)n;
+    if (rds(r, "series/time", H5T_NATIVE_DOUBLE, m, ser->t) ||
+        rds(r, "series/kinetic_energy", H5T_NATIVE_DOUBLE, m, ser->ke) ||
+        rds(r, "series/pressure", H5T_NATIVE_DOUBLE, m, ser->pressure) ||
+        rds(r, "series/stuck", H5T_NATIVE_UINT64, m, ser->stuck) ||
+        rds(r, "series/collisions", H5T_NATIVE_UINT64, m, ser->collisions))
+        return -1;
+    return 0;
+}
+
+static int read_state(const rd *r, ev_sim *s)
+{
+    const uint32_t N = s->ntot;
+    double *tp = malloc((N ? N : 1) * sizeof *tp), *tc = malloc((N ? N : 1) * sizeof *tc);
+    uint32_t *pa = malloc((N ? N : 1) * sizeof *pa), *pc = malloc((N ? N : 1) * sizeof *pc);
+    int8_t *kd = malloc(N ? N : 1), *cw = malloc(N ? N : 1);
+    uint64_t cnt[CK_NCOUNT];
+    double re[CK_NREAL];
+    int rc = (!tp || !tc || !pa || !pc || !kd || !cw) ? rfail(r, "%s", "out of memory") : 0;
+    if (!rc &&
+        (rds(r, "state/ps", H5T_NATIVE_DOUBLE, (size_t)N * (size_t)(2 * s->dim + 2), s->ps) ||
+         rds(r, "state/species", H5T_NATIVE_UINT8, N, s->species) ||
+         rds(r, "state/stuck", H5T_NATIVE_UINT8, N, s->stuck) ||
+         rds(r, "state/count", H5T_NATIVE_UINT32, N, s->count) ||
+         rds(r, "state/parent", H5T_NATIVE_UINT32, N, s->parent) ||
+         rds(r, "state/cell", H5T_NATIVE_UINT32, N, s->cell) ||
+         rds(r, "state/t_pair", H5T_NATIVE_DOUBLE, N, tp) ||
+         rds(r, "state/t_cell", H5T_NATIVE_DOUBLE, N, tc) ||
+         rds(r, "state/partner", H5T_NATIVE_UINT32, N, pa) ||
+         rds(r, "state/pcount", H5T_NATIVE_UINT32, N, pc) ||
+         rds(r, "state/kind", H5T_NATIVE_INT8, N, kd) ||
+         rds(r, "state/cell_what", H5T_NATIVE_INT8, N, cw) ||
+         rds(r, "state/counters", H5T_NATIVE_UINT64, CK_NCOUNT, cnt) ||
+         rds(r, "state/reals", H5T_NATIVE_DOUBLE, CK_NREAL, re)))
+        rc = -1;
+    if (!rc && cnt[6] > s->n) rc = rfail(r, "%s", "more stuck particles than particles (damaged)");
+    if (!rc) {
+        s->nstuck = (uint32_t)cnt[6];
+        rc = rds(r, "state/stuck_idx", H5T_NATIVE_UINT32, s->nstuck, s->stuck_idx);
+        if (!rc) rc = rds(r, "state/stuck_t", H5T_NATIVE_DOUBLE, s->nstuck, s->stuck_t);
+    }
+    if (!rc) {
+        for (uint32_t i = 0; i < N; i++) {
+            s->evt[i] = (ev_evt){tp[i], tc[i], pa[i], pc[i], kd[i], cw[i]};
+        }
+        s->events = cnt[0], s->collisions = cnt[1], s->wall_hits = cnt[2], s->sticks = cnt[3];
+        s->cell_crossings = cnt[4], s->invalid = cnt[5];
+        s->started = (int)cnt[7], s->iv_open = (int)cnt[8];
+        for (int k = 0; k < 4; k++) s->rng.s[k] = cnt[9 + k];
+        s->now = re[0], s->series_dt = re[1], s->ke_stuck = re[2], s->virial = re[3];
+        s->wall_impulse = re[4], s->max_overlap = re[5], s->iv_t0 = re[6], s->iv_v0 = re[7];
+    }
+    free(tp), free(tc), free(pa), free(pc), free(kd), free(cw);
+    return rc;
+}
+
+/* Masses from the species (as ev_alloc makes them), cells from `cell`,
+ * the queue from the pending events. */
+static void rebuild_derived(ev_sim *s)
+{
+    const int D = s->dim;
+    for (uint32_t i = 0; i < s->n; i++) {
+        const ev_species *sp = &s->sp[s->species[i]];
+        s->mass[i] = sp->density * ev_particle_volume(D, sp->radius);
+    }
+    const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (D == 3 ? (uint64_t)s->nc : 1);
+    for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
+    for (uint32_t i = s->ntot; i-- > 0;) ev_cell_insert(s, i, s->cell[i]);
+    ev_queue_reset(s);
+    for (uint32_t i = 0; i < s->n; i++)
+        if (!s->stuck[i]) ev_heap_push(s, i);
+}
+
+ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t errlen)
+{
+    memset(ser, 0, sizeof *ser);
+    rd r = {H5I_INVALID_HID, path, err, errlen};
+    h5u_quiet q;
+    if (h5u_silence(&q)) {
+        snprintf(err, errlen, "checkpoint: cannot silence HDF5");
+        return NULL;
+    }
+    ev_sim *s = NULL;
+    int rc = 0;
+    if (access(path, R_OK) != 0) {
+        snprintf(err, errlen, "checkpoint %s: %s", path, strerror(errno));
+        rc = -1;
+    }
+    if (!rc && (r.file = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT)) < 0)
+        rc = rfail(&r, "%s", "not an HDF5 file (or damaged)");
+    char fmt[64];
+    long long ver = 0, dim = 0, n = 0, ntot = 0;
+    if (!rc && (rattr_str(&r, "format", fmt, sizeof fmt) || strcmp(fmt, CK_FORMAT) != 0))
+        rc = rfail(&r, "%s", "not an event-model checkpoint");
+    if (!rc && (rattr_int(&r, "format_version", &ver) || ver != CK_VERSION))
+        rc = rfail(&r, "%s", "format version not 1 (made by another pdla)");
+    if (!rc && (rattr_int(&r, "dim", &dim) || rattr_int(&r, "particles", &n) ||
+                rattr_int(&r, "ntot", &ntot)))
+        rc = rfail(&r, "%s", "no dim/particles attributes");
+    ev_params p;
+    if (!rc) rc = read_params(&r, &p);
+    char e2[400];
+    if (!rc && !(s = ev_alloc(&p, e2, sizeof e2))) rc = rfail(&r, "%s", e2);
+    if (!rc && ((long long)s->dim != dim || (long long)s->n != n || (long long)s->ntot != ntot))
+        rc = rfail(&r, "%s", "its parameters do not give its particle count (damaged)");
+    if (!rc) rc = read_state(&r, s);
+    if (!rc) rc = check_state(&r, s);
+    if (!rc) rc = read_series(&r, ser);
+    if (r.file >= 0) H5Fclose(r.file);
+    h5u_restore(&q);
+    if (rc) {
+        ev_free(s);
+        ev_series_free(ser);
+        return NULL;
+    }
+    rebuild_derived(s);
+    return s;
+}
+
+ev_params *ev_params_of(ev_sim *s) { return &s->par; }

@@ -33,13 +33,13 @@ bad() { # bad NAME NEEDLE ARGS...: one line with NEEDLE, exit 2, nothing written
     local name=$1 needle=$2
     shift 2
     local before
-    before=$(ls -laR --time-style=+%s . 2>/dev/null | grep -v ' err$\| out$\| \.$\| \.\.$\|^total ')
+    before=$(ls -laR --time-style=+%s . 2>/dev/null | grep -v ' err$\| out$\| \.$\| \.\.$\|^total ' | tr -s ' ')
     run "$@"
     [ "$rc" -eq 2 ] || fail "$name: exit status $rc, want 2 ($(cat err))"
     [ "$(wc -l <err)" -eq 1 ] || fail "$name: stderr: $(cat err)"
     grep -qF -- "$needle" err || fail "$name: message '$(cat err)', want '$needle'"
     local after
-    after=$(ls -laR --time-style=+%s . 2>/dev/null | grep -v ' err$\| out$\| \.$\| \.\.$\|^total ')
+    after=$(ls -laR --time-style=+%s . 2>/dev/null | grep -v ' err$\| out$\| \.$\| \.\.$\|^total ' | tr -s ' ')
     [ "$before" = "$after" ] || fail "$name: something was written: $(diff <(echo "$before") <(echo "$after"))"
 }
 # Every dataset that must not depend on threads, order or interruptions.
@@ -72,14 +72,35 @@ run ensemble --clusters 24 --target 4000 --seed 10 --keep-positions --threads 2 
 h5diff -q t1/ensemble.h5 s10/ensemble.h5 /clusters/rg_diam /clusters/rg_diam >/dev/null 2>&1 &&
     fail "seed 10 gave seed 9's ensemble"
 
+# ---- pdla analyze of an ensemble file ---------------------------------------------
+run analyze t1/ensemble.h5
+[ "$rc" -eq 0 ] || fail "analyze: $(cat err)"
+grep -q "^ensemble .*24 clusters of 4000 particles, 2D, seeds 9..32" out || fail "analyze: $(head -1 out)"
+grep -Eq "^D_f +1\.[5-9][0-9]*, 95% interval \[1\.[0-9]+, 1\.[0-9]+\]" out || fail "analyze: no D_f line: $(cat out)"
+grep -q "^correction fit" out || fail "analyze: no correction fit line"
+[ "$(grep -c '^  N ' out)" -ge 10 ] || fail "analyze: fewer than 10 local slopes"
+run analyze t1/ensemble.h5 --json
+[ "$rc" -eq 0 ] || fail "analyze --json: $(cat err)"
+/usr/bin/python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); assert d["clusters"]==24 and d["D_f_lo"]<=d["D_f"]<=d["D_f_hi"], d' out ||
+    fail "analyze --json: $(cat out)"
+bad "analyze, cluster option" "only --json applies" analyze t1/ensemble.h5 --centre mass
+
 # ---- kill -9 at a random moment, then resume ------------------------------------
 partial=0
+size() { stat -c %s "$1" 2>/dev/null || echo 0; }
 for attempt in 1 2 3 4 5 6; do
     rm -rf k
     "$PDLA" ensemble $ARGS --threads 2 --out k -q </dev/null >/dev/null 2>&1 &
     pid=$!
-    # 20..400 ms: clusters of 4000 take a few ms to tens of ms each.
-    sleep "0.$(printf '%03d' $((20 + RANDOM % 380)))"
+    # Wait for the first record (a record holds 4000 x 2 x 4 bytes of
+    # positions; the header is under 2 kB), then kill after a random
+    # 0..150 ms more: clusters of 4000 take a few ms to tens of ms each.
+    for _ in $(seq 1 1000); do
+        [ "$(size k/clusters.journal)" -gt 20000 ] && break
+        kill -0 $pid 2>/dev/null || break
+        sleep 0.01
+    done
+    sleep "0.$(printf '%03d' $((RANDOM % 150)))"
     kill -9 $pid 2>/dev/null
     wait $pid 2>/dev/null
     [ -f k/ensemble.h5 ] && continue # finished before the kill: try again
@@ -95,15 +116,21 @@ done
 [ "$partial" -ge 1 ] || fail "no kill -9 landed between the first and the last cluster"
 
 # ---- SIGTERM ------------------------------------------------------------------------
+termed=0
 for attempt in 1 2 3 4; do
     rm -rf g
     "$PDLA" ensemble $ARGS --threads 2 --out g -q </dev/null >/dev/null 2>gerr &
     pid=$!
-    sleep "0.$((1 + attempt))"
+    for _ in $(seq 1 1000); do
+        [ "$(size g/clusters.journal)" -gt 20000 ] && break
+        kill -0 $pid 2>/dev/null || break
+        sleep 0.01
+    done
     kill -TERM $pid
     wait $pid
     grc=$?
     [ -f g/ensemble.h5 ] && continue
+    termed=1
     checks=$((checks + 1))
     [ "$grc" -eq 143 ] || fail "SIGTERM: exit status $grc, want 143"
     grep -q "resume with pdla ensemble --resume g" gerr || fail "SIGTERM: $(cat gerr)"
@@ -112,6 +139,7 @@ for attempt in 1 2 3 4; do
     same t1 g "resumed after SIGTERM"
     break
 done
+[ "$termed" -eq 1 ] || fail "no SIGTERM landed before the end of the ensemble"
 
 # A complete ensemble resumes to the same file (nothing to grow).
 run ensemble --resume t1 -q

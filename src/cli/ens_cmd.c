@@ -215,16 +215,16 @@ static int on_progress(void *user, uint64_t done, uint64_t particles)
  * when there is none. */
 static void launcher_ranks(long *size, long *rank)
 {
-    static const char *const sizes[] = {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE", "SLURM_NTASKS"};
-    static const char *const ranks[] = {"OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK", "SLURM_PROCID"};
+    static const char *const sizes[] = {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "SLURM_NTASKS"};
+    static const char *const ranks[] = {"OMPI_COMM_WORLD_RANK", "PMI_RANK", "SLURM_PROCID"};
     *size = 1;
     *rank = 0;
     /* Slurm's variables count only under a PMI/PMIx launch (srun --mpi=...):
      * a plain srun of a serial program sets them too. */
     const int pmi = getenv("PMI_RANK") || getenv("PMIX_RANK") || getenv("OMPI_COMM_WORLD_RANK");
-    for (size_t i = 0; i < 4; i++) {
+    for (size_t i = 0; i < 3; i++) {
         const char *v = getenv(sizes[i]);
-        if (!v || (i == 3 && !pmi)) continue;
+        if (!v || (i == 2 && !pmi)) continue;
         const long n = strtol(v, NULL, 10);
         if (n > 1) {
             *size = n;

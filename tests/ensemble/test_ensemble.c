@@ -229,9 +229,9 @@ static void test_journal(const char *dir)
     CHECK(back.index == 2 && back.rg_count == 3 && back.rg[2] == r.rg[2] && back.npos == 50 &&
               !memcmp(back.positions, r.positions, 50 * 2 * 4),
           "record round trip");
+    pdla_ens_record_free(&back);
     CHECK(pdla_ens_record_decode(buf, len - 1, &back, err, sizeof err) != 0, "short record decoded");
     free(buf);
-    pdla_ens_record_free(&back);
     pdla_ens_record_free(&r);
 
     pdla_ens_journal *j;

@@ -137,6 +137,9 @@ PDLA_API void pdla_params_default(pdla_params *p);
  * err (pdla_param_validate over the table, in its order). */
 PDLA_API int pdla_params_validate(const pdla_params *p, char *err, size_t errlen);
 
+/* Bins of pdla_stats.lag_hist (powers of two). */
+#define PDLA_LAG_BINS 20
+
 /* Counters of a growth run. */
 typedef struct pdla_stats {
     uint64_t particles;      /* particles in the cluster */
@@ -178,6 +181,16 @@ typedef struct pdla_stats {
                                      in mutex_hold_ns */
     double worker_cpu_seconds;
     char binding[256];       /* how workers were placed, e.g. "none" or "core: 0 1 2 3" */
+    /* PDLA lag (workers or reference walkers; this process only): for each
+     * particle they inserted, the particles appended by the others between
+     * its walker's launch and its append. Mean about P - 1 however the
+     * walkers are interleaved; the spread and the histogram show the
+     * interleaving (oversubscribed threads: most lags small, a few huge).
+     * lag_hist[0]: lag 0; lag_hist[k]: 2^(k-1) <= lag < 2^k; the last bin
+     * holds everything above. */
+    uint64_t lag_n, lag_sum;
+    double lag_sum2;
+    uint64_t lag_hist[PDLA_LAG_BINS];
 } pdla_stats;
 
 enum { PDLA_MUTEX_NODE = 0, PDLA_MUTEX_BUCKET = 1, PDLA_MUTEX_GYRATION = 2 };

@@ -1,1 +1,1 @@
-/tmp/biasbin/pdla-ref1 --dim 2 --target 1e5 --seed SEED --no-output -q --stats-json FILE --reference-walkers 16 --serial-until 1e4
+/tmp/bias2bin/pdla --dim 2 --target 1e5 --seed SEED --no-output -q --stats-json FILE --reference-walkers 16 --serial-until 1e4

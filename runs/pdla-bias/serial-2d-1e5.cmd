@@ -1,1 +1,1 @@
-/tmp/biasbin/pdla-serial --dim 2 --target 1e5 --seed SEED --no-output -q --stats-json FILE 
+/tmp/bias2bin/pdla --dim 2 --target 1e5 --seed SEED --no-output -q --stats-json FILE 

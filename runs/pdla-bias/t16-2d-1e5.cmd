@@ -1,1 +1,1 @@
-/tmp/biasbin/pdla-fix1 --dim 2 --target 1e5 --seed SEED --no-output -q --stats-json FILE --threads 16 --serial-until 1e4
+/tmp/bias2bin/pdla --dim 2 --target 1e5 --seed SEED --no-output -q --stats-json FILE --threads 16 --serial-until 1e4

@@ -448,6 +448,13 @@ static void print_summary(FILE *f, const report *r, int with_command)
     if (s->threads)
         fprintf(f, "stale reads      %" PRIu64 " jumps and %" PRIu64 " births queried again\n",
                 s->stale_jumps, s->stale_births);
+    if ((s->threads || P->reference_walkers) && s->lag_n)
+        /* How the walkers were interleaved (issue 11): about P - 1 when they
+         * ran at once; mostly 0 when workers ran one at a time. */
+        fprintf(f, "lag              mean %.2f particles stuck while a walker flew, %.1f%% of "
+                   "walks saw none\n",
+                (double)s->lag_sum / (double)s->lag_n,
+                100.0 * (double)s->lag_hist[0] / (double)s->lag_n);
     if (s->threads) {
         static const char *const names[3] = {"node", "bucket", "gyration"};
         fprintf(f, "mutex waits     ");
@@ -584,6 +591,18 @@ static void write_json(FILE *f, const report *r, const char *status)
             s->mutex_long_holds[0], s->mutex_long_holds[1], s->mutex_long_holds[2],
             s->worker_cpu_seconds);
     json_string(f, s->binding);
+    /* PDLA lag (issue 11): particles appended by the others while a walker
+     * was in flight, over the particles the workers / reference walkers
+     * inserted. */
+    const double lag_mean = s->lag_n ? (double)s->lag_sum / (double)s->lag_n : 0.0;
+    const double lag_var = s->lag_n ? s->lag_sum2 / (double)s->lag_n - lag_mean * lag_mean : 0.0;
+    fprintf(f, ",\n  \"lag_n\": %" PRIu64 ",\n  \"lag_mean\": ", s->lag_n);
+    json_real(f, lag_mean);
+    fprintf(f, ",\n  \"lag_sd\": ");
+    json_real(f, lag_var > 0 ? sqrt(lag_var) : 0.0);
+    fprintf(f, ",\n  \"lag_hist\": [");
+    for (int i = 0; i < PDLA_LAG_BINS; i++) fprintf(f, "%s%" PRIu64, i ? ", " : "", s->lag_hist[i]);
+    fprintf(f, "]");
     fprintf(f, ",\n  \"fit\": {\"df\": ");
     json_real(f, r->fit.points ? r->fit.df : NAN);
     fprintf(f, ", \"df_err\": ");

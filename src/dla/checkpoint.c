@@ -32,8 +32,9 @@
  * Dumping the pools keeps the tree's record order, so a resumed serial run
  * is byte-identical to one never stopped. Random streams: every start of a
  * parallel phase (the first one, and each restart after a checkpoint pause
- * or a resume) cuts worker i's stream as the (i+1)-th rng_jump of the engine
- * stream, which then moves past them all (parallel.c). So the engine stream
+ * or a resume) cuts worker i's stream as the i-th rng_jump of the engine
+ * stream (worker 0: the engine stream itself), which then moves past them
+ * all, n jumps on (parallel.c). So the engine stream
  * is the whole random state, and a resume with any --threads is as
  * deterministic as a pause with it; the workers' last states are kept only
  * as a record.

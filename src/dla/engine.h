@@ -35,6 +35,16 @@ typedef struct walker_ctx {
      * beyond the R_ext the birth circle was drawn from (stale_births); the
      * walker queried again instead. */
     uint64_t stale_jumps, stale_births;
+    /* Lag of the PDLA phase (issue 11): for each particle a worker or
+     * reference walker inserts, the particles appended between its walker's
+     * launch and its own append (by the others). Its mean is about P - 1 in
+     * both modes (P walkers always in flight); its spread tells how the
+     * walkers were interleaved (walker_note_lag). launched_at: the count at
+     * the launch of the walk that last stopped. */
+    uint64_t launched_at;
+    uint64_t lag_n, lag_sum;
+    double lag_sum2;
+    uint64_t lag_hist[PDLA_LAG_BINS];
     /* Acquisitions of the node, bucket and gyration mutexes (PDLA_MUTEX_*),
      * and how many found the mutex held (this process only; not saved in
      * checkpoints): the measure of lock contention as threads are added. */
@@ -47,6 +57,7 @@ typedef struct walker_ctx {
      * map grid rebuilt under the node mutex): counted apart, not in the sum. */
     uint64_t mutex_long_holds[3];
     double cpu_seconds;
+    int id;                   /* worker index (the turn hooks) */
     PDLA_CACHE_PAD(pad_); /* workers' contexts sit side by side in one array */
 } walker_ctx;
 
@@ -62,6 +73,16 @@ typedef struct engine_hooks {
     /* Particle `index` is being appended at p (bucket mutex held, before
      * the count publishes it). */
     void (*append)(void *user, uint64_t index, const int64_t *p);
+    /* A worker appended particle `index` at p; its walker flew while `lag`
+     * others were appended (tests/physics/lag_probe.c). */
+    void (*inserted)(void *user, uint64_t index, const int64_t *p, uint64_t lag);
+    /* Turns (tests/physics/test_lockstep.c): worker `id` calls turn_begin
+     * before it launches a walker and before each further step, and
+     * turn_end after a step that moved and after each insertion, so a test
+     * can make the workers take one step each in turn, as the reference
+     * mode does (reference.c). */
+    void (*turn_begin)(void *user, int id);
+    void (*turn_end)(void *user, int id);
     int take_stale; /* count stale jumps but take them (the behaviour before the check) */
     void *user;
 } engine_hooks;
@@ -134,6 +155,7 @@ int walker_run(const pdla_engine *e, walker_ctx *w, int64_t *stuck_at);
 typedef struct walk_state {
     int64_t p[3];
     uint64_t jumps;           /* since launch (for max_jumps) */
+    uint64_t launched_at;     /* particle count at launch (the lag's origin) */
     int64_t r_ext_units;      /* the R_ext the radii below were drawn from */
     double r_ext, Rb, Rout2, Rdeath;
 } walk_state;
@@ -153,6 +175,18 @@ int walker_step(const pdla_engine *e, walker_ctx *w, walk_state *s, int64_t *stu
  * if no such point exists (p unchanged). k: the walker's
  * search state (its cached tree path finds the leaves). */
 int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2, search_state *k);
+
+/* Count the lag of the particle with insertion index `index` appended by
+ * walker w (its walk began at w->launched_at). */
+static inline void walker_note_lag(walker_ctx *w, uint64_t index)
+{
+    const uint64_t lag = index > w->launched_at ? index - w->launched_at : 0;
+    w->lag_n++;
+    w->lag_sum += lag;
+    w->lag_sum2 += (double)lag * (double)lag;
+    const int bin = lag ? 64 - __builtin_clzll(lag) : 0; /* 2^(bin-1) <= lag < 2^bin */
+    w->lag_hist[bin < PDLA_LAG_BINS ? bin : PDLA_LAG_BINS - 1]++;
+}
 
 /* Add o's counters (walkers, jumps, ..., re-checks) to into's. */
 void walker_ctx_add_counts(walker_ctx *into, const walker_ctx *o);

@@ -204,6 +204,9 @@ static int insert_concurrent(worker *k, int64_t *p, int status)
         unlock_counted(&e->bucket_mu, w, PDLA_MUTEX_BUCKET, held);
         if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory appending a particle");
         if (retried) w->recheck_continued++;
+        walker_note_lag(w, count);
+        if (__builtin_expect(e->hooks != NULL, 0) && e->hooks->inserted)
+            e->hooks->inserted(e->hooks->user, count, p, count - w->launched_at);
 
         const uint64_t gheld = lock_counted(&e->gyration_mu, w, PDLA_MUTEX_GYRATION);
         const int grc = engine_gyration_add(e, p, err, sizeof err);
@@ -225,9 +228,12 @@ static void *worker_main(void *arg)
     while (!atomic_load_explicit(&e->stop, memory_order_relaxed) &&
            tree_count(&e->tree) < k->n_until) {
         atomic_store_explicit(&k->seen_epoch, distmap_epoch(&e->dmap), memory_order_release);
+        const engine_hooks *h = e->hooks;
+        if (__builtin_expect(h != NULL, 0) && h->turn_begin) h->turn_begin(h->user, k->w->id);
         int64_t p[3];
         const int status = walker_run(e, k->w, p);
         const int r = insert_concurrent(k, p, status);
+        if (__builtin_expect(h != NULL, 0) && h->turn_end) h->turn_end(h->user, k->w->id);
         if (r == TARGET_REACHED || r < 0) break;
     }
     atomic_store_explicit(&k->seen_epoch, UINT64_MAX, memory_order_release);
@@ -298,14 +304,18 @@ int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, v
         snprintf(err, errlen, "out of memory for %d workers", n);
         return PDLA_ENOMEM;
     }
-    /* Independent streams: worker i starts 2^128 (i + 1) draws after the
-     * serial stream's current state. */
+    /* Independent streams, as the reference mode's walkers (reference.c):
+     * worker 0 continues the serial stream, worker i starts 2^128 i draws
+     * after it, and the serial stream resumes 2^128 n draws after it, past
+     * every worker's. (It used to resume at the start of worker n - 1's,
+     * which a serial phase after a resume would have drawn again.) */
     pdla_rng stream = e->walker.rng;
     size_t used = (size_t)snprintf(e->binding, sizeof e->binding, "%s",
                                    P->bind == PDLA_BIND_CORE ? "core:" : "none");
     for (int i = 0; i < n; i++) {
-        rng_jump(&stream);
+        if (i > 0) rng_jump(&stream);
         ws[i].rng = stream;
+        ws[i].id = i;
         search_state_reset(&ws[i].ss);
         ks[i].e = e;
         ks[i].w = &ws[i];
@@ -327,6 +337,7 @@ int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, v
     free(e->workers);
     e->workers = NULL;
     e->nworkers = 0;
+    rng_jump(&stream);
     e->walker.rng = stream; /* the serial stream resumes past every worker's */
     atomic_store_explicit(&e->stop, 0, memory_order_relaxed);
     e->search.concurrent = 1;

@@ -13,7 +13,9 @@
  * walkers (serial vs reference-P) from the implementation with threads
  * (reference-P vs --threads P). Walker 0 is the serial walker (its stream and
  * counters), so P = 1 repeats serial DLA draw for draw; walker i > 0 draws
- * from the serial stream jumped 2^128 i ahead, as worker i - 1 does.
+ * from the serial stream jumped 2^128 i ahead, as worker i does; with the
+ * workers made to take one step each in turn (test hooks), --threads P grows
+ * this mode's cluster bit for bit (tests/physics/test_lockstep.c).
  */
 #include <stdlib.h>
 
@@ -41,8 +43,10 @@ static int reference_insert(pdla_engine *e, walker_ctx *w, int64_t *p, int statu
     } else if (P->snap_contact) {
         walker_snap_to_contact(&e->tree, p, D, stick2, &w->ss);
     }
+    const uint64_t index = tree_count(&e->tree);
     const int rc = engine_add_particle(e, p, err, errlen);
     if (rc == PDLA_OK && continued) w->recheck_continued++;
+    if (rc == PDLA_OK) walker_note_lag(w, index);
     return rc;
 }
 
@@ -91,8 +95,13 @@ int reference_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, 
     /* Counters stay cumulative in the serial walker's; walkers still in
      * flight are dropped, as workers' are. */
     for (int i = 1; i < n; i++) walker_ctx_add_counts(&e->walker, &ws[i - 1]);
-    /* The serial stream resumes past every walker's (as after workers). */
-    if (n > 1) e->walker.rng = stream;
+    /* The serial stream resumes past every walker's (as after workers):
+     * 2^128 n draws after where walker 0 began, not at walker n - 1's start
+     * (the next phase's walker 0 would draw that walker's numbers again). */
+    if (n > 1) {
+        rng_jump(&stream);
+        e->walker.rng = stream;
+    }
     free(ws);
     free(st);
     free(active);

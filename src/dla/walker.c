@@ -163,6 +163,7 @@ static inline __attribute__((always_inline)) void walk_begin_dim(const pdla_engi
     walk_set_radii(e, s, atomic_load_explicit(&e->r_ext, memory_order_relaxed));
     launch(w, s->Rb, s->p, dim);
     s->jumps = 0;
+    s->launched_at = tree_count(&e->tree);
 }
 
 /* With worker threads (conc): 1 if a particle appended since the query
@@ -216,6 +217,7 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
         w->restarts++;
         launch(w, s->Rb, p, dim);
         s->jumps = 0;
+        s->launched_at = tree_count(t);
     }
     double r2 = 0;
     for (int a = 0; a < dim; a++) r2 += (double)p[a] * (double)p[a];
@@ -229,6 +231,7 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
             if (r > s->Rdeath) {
                 w->killed++;
                 launch(w, s->Rb, p, dim);
+                s->launched_at = tree_count(t);
                 return WALK_MOVED;
             }
             jump(w, p, r - s->r_ext - D - 1.0, dim);
@@ -236,6 +239,7 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
         } else if (!return_to_birth(w, p, r, s->Rb, dim)) {
             w->lost++;
             launch(w, s->Rb, p, dim);
+            s->launched_at = tree_count(t);
         }
         return WALK_MOVED;
     }
@@ -262,6 +266,7 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
         /* A particle appended since the query only makes the walker closer:
          * the insertion's exact re-check (parallel.c) sees it. */
         for (int a = 0; a < dim; a++) stuck_at[a] = p[a];
+        w->launched_at = s->launched_at;
         /* Closer than one diameter can only mean another walker's particle
          * appeared next to this one since its last jump. */
         return d2 < (uint64_t)P->resolution * (uint64_t)P->resolution ? WALK_OVERLAP
@@ -282,6 +287,10 @@ static inline __attribute__((always_inline)) int walk_dim(const pdla_engine *e, 
     for (;;) {
         const int r = walk_step_dim(e, w, &s, stuck_at, dim, conc);
         if (r != WALK_MOVED) return r;
+        if (conc && __builtin_expect(e->hooks != NULL, 0) && e->hooks->turn_end) {
+            e->hooks->turn_end(e->hooks->user, w->id);
+            e->hooks->turn_begin(e->hooks->user, w->id);
+        }
     }
 }
 
@@ -321,6 +330,10 @@ void walker_ctx_add_counts(walker_ctx *s, const walker_ctx *o)
     s->recheck_discarded += o->recheck_discarded;
     s->stale_jumps += o->stale_jumps;
     s->stale_births += o->stale_births;
+    s->lag_n += o->lag_n;
+    s->lag_sum += o->lag_sum;
+    s->lag_sum2 += o->lag_sum2;
+    for (int i = 0; i < PDLA_LAG_BINS; i++) s->lag_hist[i] += o->lag_hist[i];
     s->cpu_seconds += o->cpu_seconds;
     for (int i = 0; i < 3; i++) {
         s->mutex_taken[i] += o->mutex_taken[i];

@@ -172,6 +172,10 @@ good "reference walkers" --reference-walkers 4 --serial-until 200 --target 2000 
 grep -q '^reference  *4 walkers in turn (one thread) after 200 serial particles$' "$tmp/out" ||
     fail "reference walkers: summary line"
 grep -q '"reference_walkers": 4' "$tmp/ref1.json" || fail "reference walkers: JSON parameter"
+# the lag (issue 11): 1800 particles, 4 walkers in flight -> a mean near 3
+grep -q '"lag_n": 1800,' "$tmp/ref1.json" || fail "reference walkers: JSON lag_n"
+grep -Eq '^lag  *mean (2\.[5-9]|3\.00)[0-9]* particles stuck while a walker flew' "$tmp/out" ||
+    fail "reference walkers: summary lag line (mean about 3)"
 good "reference walkers again" --reference-walkers 4 --serial-until 200 --target 2000 --no-output \
     --stats-json "$tmp/ref2.json"
 [ "$(grep '"rg_diam"' "$tmp/ref1.json")" = "$(grep '"rg_diam"' "$tmp/ref2.json")" ] ||

@@ -146,8 +146,14 @@ static int compare_pdla(int clusters, uint64_t n, int threads, uint64_t serial_u
     return check_finish();
 }
 
+/* The lag of a run's PDLA phase (particles appended by the others while a
+ * walker was in flight): its mean and the fraction of particles with lag 0. */
+typedef struct lag_stat {
+    double mean, zero;
+} lag_stat;
+
 static double grow_rg(int dim, uint64_t n, uint64_t serial_until, int threads, int refs,
-                      uint64_t seed)
+                      uint64_t seed, lag_stat *lag)
 {
     pdla_params p;
     pdla_params_default(&p);
@@ -168,6 +174,8 @@ static double grow_rg(int dim, uint64_t n, uint64_t serial_until, int threads, i
     pdla_stats s;
     pdla_engine_stats(e, &s);
     pdla_engine_destroy(e);
+    lag->mean = s.lag_n ? (double)s.lag_sum / (double)s.lag_n : 0;
+    lag->zero = s.lag_n ? (double)s.lag_hist[0] / (double)s.lag_n : 1;
     return s.rg_diam;
 }
 
@@ -177,14 +185,19 @@ static int compare_pairs(char **a)
     const uint64_t n = (uint64_t)atof(a[2]), serial_until = (uint64_t)atof(a[3]);
     const int ta = atoi(a[4]), ra = atoi(a[5]), tb = atoi(a[6]), rb = atoi(a[7]);
     const double tol = atof(a[8]);
-    double sum = 0, sum2 = 0;
+    double sum = 0, sum2 = 0, zero_a = 0, zero_b = 0, lag_a = 0, lag_b = 0;
     for (int i = 0; i < m; i++) {
         const uint64_t seed = 1001 + (uint64_t)i;
-        const double d = grow_rg(dim, n, serial_until, ta, ra, seed) /
-                             grow_rg(dim, n, serial_until, tb, rb, seed) -
+        lag_stat la, lb;
+        const double d = grow_rg(dim, n, serial_until, ta, ra, seed, &la) /
+                             grow_rg(dim, n, serial_until, tb, rb, seed, &lb) -
                          1;
         sum += d;
         sum2 += d * d;
+        zero_a += la.zero / m;
+        zero_b += lb.zero / m;
+        lag_a += la.mean / m;
+        lag_b += lb.mean / m;
     }
     const double mean = sum / m, sd = sqrt(fmax(0, (sum2 - m * mean * mean) / (m - 1)));
     const double se = sd / sqrt(m);
@@ -193,6 +206,21 @@ static int compare_pairs(char **a)
             "R_g(threads %d, reference %d) - 1 = %+.3f%% +- %.3f%% (pair sd %.2f%%; tolerance %.3f%%)\n",
             dim, m, (unsigned long long)n, (unsigned long long)serial_until, ta, ra, tb, rb,
             100 * mean, 100 * se, 100 * sd, 100 * tol);
+    fprintf(stderr, "lag (particles appended while a walker flew): arm A mean %.2f, %.2f%% of "
+                    "particles with lag 0; arm B mean %.2f, %.2f%% with lag 0\n",
+            lag_a, 100 * zero_a, lag_b, 100 * zero_b);
+    /* Workers are P walkers in flight at once only if they run at once: on
+     * fewer free cores than workers, most walks run alone (lag 0) and a few
+     * are frozen for thousands of particles (tests/physics/test_lockstep.c
+     * shows that the interleaving is the only difference from the
+     * reference). Comparing them with the reference then measures the
+     * machine, not the engine: skip, saying so. */
+    if (ta > 1 && rb == ta && zero_a > zero_b + 0.10) {
+        fprintf(stderr, "SKIP: the %d workers did not run concurrently (%.1f%% of walks saw no "
+                        "other stick, the reference's %.1f%%): this comparison needs %d free cores\n",
+                ta, 100 * zero_a, 100 * zero_b, ta);
+        return 77;
+    }
     CHECK(fabs(mean) <= tol, "the arms differ by %+.3f%% +- %.3f%%, tolerance %.3f%%", 100 * mean,
           100 * se, 100 * tol);
     CHECK(se <= tol / 3, "standard error %.3f%% above tolerance / 3 = %.3f%%: too few pairs to fail a "

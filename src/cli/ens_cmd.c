@@ -13,6 +13,15 @@
  * anything is written. SIGINT/SIGTERM stop the ensemble: the clusters
  * finished stay in DIR/clusters.journal (resume with --resume DIR), those in
  * flight are lost, and pdla ends by the same signal.
+ *
+ * MPI (built with PDLA_WITH_MPI; include/pdla/ensemble_mpi.h has the
+ * design): started by an MPI launcher with more than one rank (mpirun,
+ * srun --mpi=pmix: its environment says so before MPI_Init), rank 0 does
+ * everything a single process does (checks, journal, ensemble.h5, output)
+ * and the other ranks only grow clusters. Every rank parses the same argv,
+ * so a usage error is found by all and printed by rank 0 alone; after
+ * that the other ranks wait for rank 0's verdict (pdla_ens_mpi_share).
+ * With one rank, or no launcher, MPI is not initialized at all.
  */
 #include <dirent.h>
 #include <errno.h>
@@ -29,6 +38,9 @@
 #include "pdla/ensemble.h"
 #include "pdla/pdla.h"
 #include "progress.h"
+#ifdef PDLA_WITH_MPI
+#include "pdla/ensemble_mpi.h"
+#endif
 
 enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 
@@ -198,6 +210,31 @@ static int on_progress(void *user, uint64_t done, uint64_t particles)
     return 0;
 }
 
+/* The ranks and this process's rank an MPI launcher started, from the
+ * environment it sets (OpenMPI's mpirun, MPICH/Slurm PMI, PMIx); 1 and 0
+ * when there is none. */
+static void launcher_ranks(long *size, long *rank)
+{
+    static const char *const sizes[] = {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "SLURM_NTASKS"};
+    static const char *const ranks[] = {"OMPI_COMM_WORLD_RANK", "PMI_RANK", "SLURM_PROCID"};
+    *size = 1;
+    *rank = 0;
+    /* Slurm's variables count only under a PMI/PMIx launch (srun --mpi=...):
+     * a plain srun of a serial program sets them too. */
+    const int pmi = getenv("PMI_RANK") || getenv("PMIX_RANK") || getenv("OMPI_COMM_WORLD_RANK");
+    for (size_t i = 0; i < 3; i++) {
+        const char *v = getenv(sizes[i]);
+        if (!v || (i == 2 && !pmi)) continue;
+        const long n = strtol(v, NULL, 10);
+        if (n > 1) {
+            *size = n;
+            const char *r = getenv(ranks[i]);
+            *rank = r ? strtol(r, NULL, 10) : 0;
+            return;
+        }
+    }
+}
+
 static int refuse_options(const cli_options *o, char *err, size_t errlen)
 {
     if (o->no_output) return snprintf(err, errlen, "--no-output does not apply to an ensemble"), -1;
@@ -208,6 +245,30 @@ static int refuse_options(const cli_options *o, char *err, size_t errlen)
     return 0;
 }
 
+#ifdef PDLA_WITH_MPI
+/* A rank > 0: wait for rank 0's verdict, then grow what it hands out. Its
+ * errors are its own (rank 0 reports the ensemble's). */
+static int worker_rank(int threads, int rank)
+{
+    char err[1024];
+    int verdict = 0;
+    pdla_ens_config c;
+    if (pdla_ens_mpi_share(&verdict, &c, err, sizeof err)) {
+        fprintf(stderr, "pdla ensemble: rank %d: %s\n", rank, err);
+        return EXIT_RUNTIME;
+    }
+    if (verdict) return verdict;
+    prog_ctx pc;
+    memset(&pc, 0, sizeof pc);
+    progress_init(&pc.prog, stderr, 0, 0, 0);
+    const int rc = pdla_ens_mpi_run_worker(&c, threads, on_progress, &pc, err, sizeof err);
+    if (rc == PDLA_OK || rc == PDLA_ESTOPPED) return rc ? EXIT_RUNTIME : 0;
+    /* An MPI failure: pdla_ens_mpi_finalize ends the job. */
+    fprintf(stderr, "pdla ensemble: rank %d: %s\n", rank, err);
+    return EXIT_RUNTIME;
+}
+#endif
+
 int ens_cmd_main(int argc, char **argv)
 {
     const double t0 = pdla_clock_seconds();
@@ -217,7 +278,10 @@ int ens_cmd_main(int argc, char **argv)
     char *cmd = command_line(argc, argv);
     int nrest = 0, code = EXIT_USAGE;
     pdla_ens_journal *j = NULL;
-    int lock = -1;
+    int lock = -1, mpi_rank = 0, mpi_size = 1;
+#ifdef PDLA_WITH_MPI
+    int verdict_pending = 0; /* rank 0 owes the other ranks its verdict */
+#endif
     if (!rest || !cmd) {
         fprintf(stderr, "pdla ensemble: out of memory\n");
         free(rest);
@@ -230,18 +294,37 @@ int ens_cmd_main(int argc, char **argv)
         code = EXIT_RUNTIME;
         goto out;
     }
+    long launched, launched_rank;
+    launcher_ranks(&launched, &launched_rank);
+    (void)launched_rank;
+    (void)mpi_size;
+    if (launched > 1) {
+#ifdef PDLA_WITH_MPI
+        if (pdla_ens_mpi_init(&mpi_rank, &mpi_size, err, sizeof err)) {
+            fprintf(stderr, "pdla ensemble: %s\n", err);
+            code = EXIT_RUNTIME;
+            goto out;
+        }
+#else
+        if (launched_rank == 0)
+            fprintf(stderr, "pdla ensemble: started as %ld MPI ranks, but this pdla was built without MPI "
+                            "(meson setup -Dmpi=enabled with libopenmpi-dev)\n", launched);
+        goto out;
+#endif
+    }
     if (split_args(argc, argv, &a, rest, &nrest, err, sizeof err)) {
-        fprintf(stderr, "pdla ensemble: %s\n", err);
+        if (mpi_rank == 0) fprintf(stderr, "pdla ensemble: %s\n", err);
         goto out;
     }
     if (a.help) {
-        print_help();
+        if (mpi_rank == 0) print_help();
         code = fflush(stdout) ? EXIT_RUNTIME : 0;
         goto out;
     }
     cli_options o;
     if (cli_parse(nrest, rest, &o, err, sizeof err) != CLI_PARSE_OK || refuse_options(&o, err, sizeof err)) {
-        fprintf(stderr, "pdla ensemble: %s\n", o.action == CLI_VERSION ? "--version: see pdla --version" : err);
+        if (mpi_rank == 0)
+            fprintf(stderr, "pdla ensemble: %s\n", o.action == CLI_VERSION ? "--version: see pdla --version" : err);
         goto out;
     }
     pdla_ens_config asked;
@@ -253,6 +336,14 @@ int ens_cmd_main(int argc, char **argv)
     const int threads = o.params.threads;
     char dir[4096];
     pdla_hdf5_quiet();
+#ifdef PDLA_WITH_MPI
+    /* From here on only rank 0 decides; the others wait for its verdict. */
+    if (mpi_size > 1 && mpi_rank > 0) {
+        code = worker_rank(threads, mpi_rank);
+        goto out;
+    }
+    verdict_pending = mpi_size > 1;
+#endif
 
     if (o.resume) {
         snprintf(dir, sizeof dir, "%s", o.resume);
@@ -341,7 +432,21 @@ int ens_cmd_main(int argc, char **argv)
     pc.base = pdla_ens_journal_count(j);
     pc.total = cfg->clusters;
     pc.particles_total = (cfg->clusters - pc.base) * cfg->params.target;
+#ifdef PDLA_WITH_MPI
+    if (verdict_pending) {
+        int go = 0;
+        verdict_pending = 0;
+        if (pdla_ens_mpi_share(&go, (pdla_ens_config *)cfg, err, sizeof err)) {
+            fprintf(stderr, "pdla ensemble: %s\n", err);
+            code = EXIT_RUNTIME;
+            goto out;
+        }
+    }
+    const int rc = mpi_size > 1 ? pdla_ens_mpi_run_root(j, threads, on_progress, &pc, err, sizeof err)
+                                : pdla_ens_run_local(j, threads, on_progress, &pc, err, sizeof err);
+#else
     const int rc = pdla_ens_run_local(j, threads, on_progress, &pc, err, sizeof err);
+#endif
     const uint64_t have = pdla_ens_journal_count(j);
     if (rc == PDLA_OK) progress_ensemble(&pc.prog, have, cfg->clusters, pc.particles_total, pc.particles_total, 1);
     else if (pc.prog.enabled && tty) fputc('\n', stderr);
@@ -378,6 +483,17 @@ int ens_cmd_main(int argc, char **argv)
 out:
     pdla_ens_journal_close(j);
     if (lock >= 0) pdla_rundir_unlock(lock);
+#ifdef PDLA_WITH_MPI
+    if (verdict_pending) { /* rank 0 failed before the growth: tell the others */
+        int v = code ? code : EXIT_RUNTIME;
+        if (pdla_ens_mpi_share(&v, NULL, err, sizeof err)) fprintf(stderr, "pdla ensemble: %s\n", err);
+    }
+    /* After an MPI failure this aborts the job (others may wait for us). */
+    if (mpi_size > 1 && pdla_ens_mpi_finalize(code) && code == 0) {
+        fprintf(stderr, "pdla ensemble: MPI_Finalize failed\n");
+        code = EXIT_RUNTIME;
+    }
+#endif
     free(rest);
     free(cmd);
     const int sig = stop_signal;

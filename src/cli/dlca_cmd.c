@@ -374,6 +374,11 @@ static int write_file(const dlca_sim *s, const char *dir, const char *what, cons
         unlink(tmp);
         return -1;
     }
+    if (what[1] == 'l') { /* ParaView's sidecar, for the file under its final name */
+        dlca_stats st;
+        dlca_get_stats(s, &st);
+        if (dlca_write_xdmf(path, dlca_get_params(s)->dim, st.n_monomers, err, errlen)) return -1;
+    }
     return 0;
 }
 
@@ -413,7 +418,7 @@ static int run_loop(dlca_sim *s, const dlca_cli *c, const char *dir, const char 
             if (every) next_att = (att / every + 1) * every;
             if (next_time > 0) next_time = wall_now() + c->checkpoint_every;
         }
-        if (now - last_look >= 1.0) { /* a stat() a second */
+        if (now - last_look >= 0.1) { /* a stat() at most ten times a second */
             last_look = now;
             struct stat sb;
             if (stat(stop_path, &sb) == 0 && !S_ISDIR(sb.st_mode)) {

@@ -93,7 +93,8 @@ static void print_help(FILE *o)
         fprintf(o, "  %-34s %s%s%s [default %s]\n", opt, t[i].help, t[i].unit[0] ? ", in " : "", t[i].unit, def);
     }
     fprintf(o, "\nRun options:\n"
-               "  --scene FILE                       read KEY = VALUE lines (model = dlca, the keys above, out, force)\n"
+               "  --scene FILE                       read KEY = VALUE lines (model = dlca, the keys above, out, force,\n"
+               "                                     check, checkpoint, checkpoint_every, checkpoint_attempts)\n"
                "  --out DIR                          run directory (default runs/dlca-YYYYmmdd-HHMMSS-<d>d)\n"
                "  --force                            write into an existing run directory\n"
                "  --no-output                        write no files\n"
@@ -126,8 +127,19 @@ static int set_key(dlca_cli *c, const char *key, const char *val, char *err, siz
         c->out = val;
         return 0;
     }
-    if (strcmp(k, "force") == 0 || strcmp(k, "check") == 0) {
-        int *f = k[0] == 'f' ? &c->force : &c->check;
+    if (strcmp(k, "checkpoint-every") == 0 || strcmp(k, "checkpoint-attempts") == 0) {
+        const char *bad = k[11] == 'e' ? cli_parse_duration(val, &c->checkpoint_every)
+                                       : cli_parse_count(val, &c->checkpoint_attempts);
+        if (!bad && k[11] == 'a' && c->checkpoint_attempts == 0) bad = "must be at least 1";
+        if (bad) {
+            snprintf(err, errlen, "invalid value '%s' for %s: %s", val, k, bad);
+            return -1;
+        }
+        c->checkpoint = 1;
+        return 0;
+    }
+    if (strcmp(k, "force") == 0 || strcmp(k, "check") == 0 || strcmp(k, "checkpoint") == 0) {
+        int *f = k[0] == 'f' ? &c->force : strcmp(k, "checkpoint") == 0 ? &c->checkpoint : &c->check;
         if (!strcmp(val, "yes") || !strcmp(val, "true") || !strcmp(val, "1")) *f = 1;
         else if (!strcmp(val, "no") || !strcmp(val, "false") || !strcmp(val, "0")) *f = 0;
         else {
@@ -456,6 +468,15 @@ int dlca_cmd_main(int argc, char **argv)
         free(scene_buf);
         return EXIT_USAGE;
     }
+    /* From here a signal is caught: one during set-up stops the run after
+     * its first chunk, with the output written. */
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESETHAND | SA_RESTART; /* a second signal ends pdla at once */
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
     char dir[4096] = "", ckpath[4200] = "";
     dlca_sim *s = NULL;
     if (c.resume) {
@@ -504,13 +525,6 @@ int dlca_cmd_main(int argc, char **argv)
         snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
         unlink(stop_path);
     }
-    struct sigaction sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_signal;
-    sigemptyset(&sa.sa_mask);
-    sa.sa_flags = SA_RESETHAND | SA_RESTART; /* a second signal ends pdla at once */
-    sigaction(SIGINT, &sa, NULL);
-    sigaction(SIGTERM, &sa, NULL);
     char *cmd = join_args(argc, argv);
     int asked = ASKED_NONE, ck_failed = 0;
     const int stop = run_loop(s, &c, dir, cmd, &asked, &ck_failed);

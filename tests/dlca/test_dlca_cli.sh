@@ -153,6 +153,13 @@ out = $tmp/scene-run
 EOS
 "$pdla" --scene "$tmp/scene" -q || fail "scene run"
 "$pdla" info "$tmp/scene-run/cluster.h5" | grep -Eq '^  dim +3$' || fail "scene: dim is not 3"
+printf 'model = dlca\nbox = 32x32\nfill = 0.05\nuntil_clusters = 3\ncheckpoint_attempts = 100\nout = %s\n' \
+    "$tmp/scene-ck" >"$tmp/scene2"
+"$pdla" --scene "$tmp/scene2" -q || fail "scene with checkpoint_attempts"
+[ -f "$tmp/scene-ck/checkpoint.h5" ] || fail "scene: checkpoint_attempts wrote no checkpoint"
+printf 'model = dlca\ncheckpoint_every = 0\n' >"$tmp/bad-scene2"
+"$pdla" --scene "$tmp/bad-scene2" >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] && grep -q ':2: ' "$tmp/err" || fail "bad checkpoint_every in a scene: $(cat "$tmp/err")"
 printf 'model = dlca\nfill = 2\n' >"$tmp/bad-scene"
 "$pdla" --scene "$tmp/bad-scene" >/dev/null 2>"$tmp/err"
 [ $? -eq 2 ] && grep -q ':2: ' "$tmp/err" || fail "bad scene: $(cat "$tmp/err")"

@@ -54,6 +54,10 @@ static const char analyze_help[] =
     "  --slab-rows N       rows read at once, 1..65536 (default 65536)\n"
     "  -h, --help          print this help and exit\n"
     "\n"
+    "An ensemble file (pdla ensemble DIR/ensemble.h5) prints its statistics:\n"
+    "D_f with its bootstrap interval, the correction-to-scaling fit, the local\n"
+    "slope with its band (only --json applies).\n"
+    "\n"
     "Exit status: 0 done; 1 a read or write failed; 2 bad usage or input.\n";
 
 typedef struct mr_pass {
@@ -182,6 +186,7 @@ int tool_analyze(int argc, char **argv)
     opterr = 0;
     optind = 1;
     char oerr[160];
+    int cluster_only = 0; /* options that apply to a cluster file only */
     if (optcheck_exact(argc, argv, longopts, "h", oerr, sizeof oerr)) {
         fprintf(stderr, "pdla analyze: %s\n", oerr);
         return TOOL_USAGE;
@@ -216,8 +221,17 @@ int tool_analyze(int argc, char **argv)
             return tools_option_error("analyze", argv, optind, optopt);
         }
         if (bad) return tools_value_error("analyze", optarg, bad);
+        cluster_only += c != O_JSON;
     }
     if (tools_one_file("analyze", optind, argc)) return TOOL_USAGE;
+    /* An ensemble file (pdla ensemble): its stored statistics. */
+    if (ens_analyze_is_ensemble(argv[optind])) {
+        if (cluster_only) {
+            fprintf(stderr, "pdla analyze: %s is an ensemble file: only --json applies\n", argv[optind]);
+            return TOOL_USAGE;
+        }
+        return ens_analyze_main(argv[optind], o.json);
+    }
     char err[1024];
     /* A bad --csv fails before any reading. */
     if (o.csv_dir) {

@@ -28,6 +28,7 @@
 #include <hdf5.h>
 
 #include "dlca_cmd.h"
+#include "ens_cmd.h"
 #include "parse.h"
 #include "pdla/pdla.h"
 #include "progress.h"
@@ -662,6 +663,7 @@ int main(int argc, char **argv)
     if (argc > 1 && strcmp(argv[1], "info") == 0) return tool_info(argc - 1, argv + 1);
     if (argc > 1 && strcmp(argv[1], "render") == 0) return tool_render(argc - 1, argv + 1);
     if (argc > 1 && strcmp(argv[1], "analyze") == 0) return tool_analyze(argc - 1, argv + 1);
+    if (argc > 1 && strcmp(argv[1], "ensemble") == 0) return ens_cmd_main(argc - 1, argv + 1);
     if (dlca_cmd_wanted(argc, argv)) return dlca_cmd_main(argc, argv); /* --model dlca */
     if (argc > 1 && strcmp(argv[1], "export") == 0) return tool_export(argc - 1, argv + 1);
 

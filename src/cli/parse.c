@@ -717,6 +717,7 @@ size_t cli_help_text(char *buf, size_t len, const pdla_params *defaults)
         "Usage: pdla [OPTION]...\n"
         "       pdla info|render|analyze|export FILE [OPTION]...   (pdla COMMAND --help)\n"
         "       pdla --model dlca|event [OPTION]...   (pdla --model M --help)\n"
+        "       pdla ensemble --clusters M [OPTION]...   (pdla ensemble --help)\n"
         "Grow an off-lattice diffusion-limited aggregation (DLA) cluster and write it\n"
         "to RUN_DIR/cluster.h5 (HDF5), with a summary in RUN_DIR/summary.txt.\n"
         "Look at a cluster file: `info` (what it holds), `render` (a PNG picture),\n"

@@ -156,3 +156,39 @@ void progress_finish(progress *p, const pdla_engine *e)
     fputc('\n', p->out);
     fflush(p->out);
 }
+
+void progress_ensemble(progress *p, uint64_t done, uint64_t total, uint64_t particles,
+                       uint64_t particles_total, int final)
+{
+    if (!p->enabled) return;
+    const double now = progress_now();
+    if (!final && now - p->t_last < p->interval) return;
+    if (final && !p->tty) return; /* a log already has its lines */
+    const double dt = now - p->t_last;
+    if (final) {
+        p->rate = now > p->t_start ? (double)particles / (now - p->t_start) : 0;
+    } else if (dt > 0 && particles >= p->n_last) {
+        const double r = (double)(particles - p->n_last) / dt;
+        const double ema = 1.0 - exp(-dt / RATE_TAU);
+        const double mean = dt / (now - p->t_start);
+        p->rate += (mean > ema ? mean : ema) * (r - p->rate);
+    }
+    p->t_last = now;
+    p->n_last = particles;
+    char rate[16], eta[24];
+    fmt_count(rate, sizeof rate, p->rate);
+    const double left = particles < particles_total ? (double)(particles_total - particles) : 0.0;
+    fmt_eta(eta, sizeof eta, final ? now - p->t_start : p->rate > 0 ? left / p->rate : -1);
+    char line[160];
+    const int len = snprintf(line, sizeof line, "clusters %" PRIu64 "/%" PRIu64 " (%.1f%%)  %s p/s  %s %s", done,
+                             total, total ? 100.0 * (double)done / (double)total : 0.0, rate,
+                             final ? "time" : "ETA", eta);
+    if (p->tty) {
+        const int pad = p->width > len ? p->width - len : 0;
+        fprintf(p->out, "\r%s%*s%s", line, pad, "", final ? "\n" : "");
+        p->width = len;
+    } else {
+        fprintf(p->out, "%s\n", line);
+    }
+    fflush(p->out);
+}

@@ -50,4 +50,11 @@ void progress_tick(progress *p, const pdla_engine *e);
  * on a fresh line. */
 void progress_finish(progress *p, const pdla_engine *e);
 
+/* An ensemble (`pdla ensemble`): a line with clusters done of total, the
+ * rate in particles/s and the ETA, from `particles` grown so far of
+ * `particles_total` (both counted from this process's start); rate-limited
+ * like progress_tick unless final, which draws the last line and ends it. */
+void progress_ensemble(progress *p, uint64_t done, uint64_t total, uint64_t particles,
+                       uint64_t particles_total, int final);
+
 #endif /* PDLA_CLI_PROGRESS_H */

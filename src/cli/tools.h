@@ -16,5 +16,8 @@ int tool_info(int argc, char **argv);
 int tool_render(int argc, char **argv);
 int tool_analyze(int argc, char **argv);
 int tool_export(int argc, char **argv);
+/* `pdla analyze` of an ensemble file (ens_analyze.c). */
+int ens_analyze_is_ensemble(const char *path);
+int ens_analyze_main(const char *path, int json);
 
 #endif

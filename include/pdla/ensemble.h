@@ -1,0 +1,219 @@
+/*
+ * ensemble.h - many independent DLA clusters (`pdla ensemble`): growth on
+ * worker threads, a crash-safe journal of finished clusters, the ensemble
+ * file DIR/ensemble.h5 and its statistics.
+ *
+ * Reproducibility. Cluster i of an ensemble with first seed S is the serial
+ * DLA cluster of seed S + i (pdla_ens_cluster_params): its stream depends on
+ * (S, i) only, never on which thread, rank or order grew it, and it is the
+ * same cluster `pdla --seed S+i` grows with the other parameters equal.
+ *
+ * Scheduling. pdla_ens_run grows clusters on T threads and asks a
+ * pdla_ens_scheduler for work: next() hands out cluster indices one at a
+ * time (dynamic load balancing: clusters differ in time) and done() takes
+ * each finished cluster's record. The in-process scheduler
+ * (pdla_ens_run_local) serves the indices the journal lacks and appends each
+ * record to the journal. A distributed scheduler (MPI) replaces it without
+ * touching growth or output: on a worker rank next() asks the root for an
+ * index and done() ships pdla_ens_record_encode's bytes to the root, which
+ * decodes them and calls pdla_ens_journal_append.
+ *
+ * Errors follow pdla.h: 0 or a negative PDLA_E* code with one line in err.
+ */
+#ifndef PDLA_ENSEMBLE_H
+#define PDLA_ENSEMBLE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "pdla/pdla.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Files in an ensemble directory. */
+#define PDLA_ENS_JOURNAL_NAME "clusters.journal"
+#define PDLA_ENS_FILE_NAME "ensemble.h5"
+
+/* What defines an ensemble: the same config grows the same clusters. */
+typedef struct pdla_ens_config {
+    pdla_params params;  /* every cluster's growth parameters; params.seed is the
+                            first cluster's seed. threads must be 1 and bind
+                            none (one cluster grows serially on one worker). */
+    uint64_t clusters;   /* M >= 1; cluster i has seed params.seed + i */
+    int keep_positions;  /* 1: records carry the particle positions */
+} pdla_ens_config;
+
+/* 0, or PDLA_EINVAL with the first problem: M = 0, a seed range
+ * params.seed + M - 1 beyond 2^64 - 1, invalid params, threads != 1. */
+PDLA_API int pdla_ens_config_check(const pdla_ens_config *c, char *err, size_t errlen);
+
+/* The growth parameters of cluster i (seed = params.seed + i). */
+PDLA_API void pdla_ens_cluster_params(const pdla_ens_config *c, uint64_t i, pdla_params *out);
+
+/* One finished cluster. Arrays are malloc'ed (pdla_ens_record_free). */
+typedef struct pdla_ens_record {
+    uint64_t index;        /* i in [0, M) */
+    uint64_t seed;         /* its engine seed, params.seed + i */
+    uint64_t particles;
+    uint64_t walkers, jumps;
+    double rg_diam;        /* final radius of gyration, diameters */
+    double r_ext_diam;     /* final max |x| of the centres, diameters */
+    pdla_fit fit;          /* its own D_f fit (pdla_engine_fit) */
+    double cpu_seconds;    /* CPU time of the thread that grew it */
+    double wall_seconds;
+    int dim;
+    uint64_t rg_count;     /* R_g samples: the shared log grid up to particles */
+    uint64_t *rg_n;        /* N of each sample */
+    double *rg;            /* R_g at N, diameters */
+    uint64_t npos;         /* positions kept (particles with keep_positions, else 0) */
+    int32_t *positions;    /* npos * dim, units; arrival order with
+                              params.record_arrival, else tree order */
+} pdla_ens_record;
+
+PDLA_API void pdla_ens_record_free(pdla_ens_record *r);
+
+/* Grow cluster i of c on the calling thread. */
+PDLA_API int pdla_ens_grow_one(const pdla_ens_config *c, uint64_t i, pdla_ens_record *out,
+                               char *err, size_t errlen);
+
+/* A record as bytes (the journal's payload, also for sending between
+ * processes of one architecture) and back. encode: *buf is malloc'ed. */
+PDLA_API int pdla_ens_record_encode(const pdla_ens_record *r, uint8_t **buf, size_t *len);
+PDLA_API int pdla_ens_record_decode(const uint8_t *buf, size_t len, pdla_ens_record *out,
+                                    char *err, size_t errlen);
+
+/* Where work comes from and where finished clusters go. Both functions are
+ * called from the worker threads, concurrently: they must be thread-safe. */
+typedef struct pdla_ens_scheduler {
+    /* 1 and the next cluster to grow in *index, or 0: no work left. */
+    int (*next)(void *user, uint64_t *index);
+    /* Cluster rec->index is finished; rec stays the caller's. Non-zero
+     * (with err) stops the run with that error. */
+    int (*done)(void *user, const pdla_ens_record *rec, char *err, size_t errlen);
+    void *user;
+} pdla_ens_scheduler;
+
+/* Called on pdla_ens_run's thread about every 0.1 s and once at the end
+ * with the clusters finished in this call and the particles grown in it
+ * (clusters in flight included). Non-zero stops the run: the clusters in
+ * flight are dropped, pdla_ens_run returns PDLA_ESTOPPED. */
+typedef int (*pdla_ens_progress_fn)(void *user, uint64_t clusters_done, uint64_t particles);
+
+/* Threads for `asked`: itself when > 0, else the physical cores (hwloc);
+ * 0 when the topology cannot be read. */
+PDLA_API int pdla_ens_threads(int asked);
+
+/* Grow clusters on `threads` worker threads (0: physical cores) until
+ * s->next says there are none left. progress may be NULL. */
+PDLA_API int pdla_ens_run(const pdla_ens_config *c, int threads, const pdla_ens_scheduler *s,
+                          pdla_ens_progress_fn progress, void *user, char *err, size_t errlen);
+
+/* ---- the journal: finished clusters, crash-safe ------------------------- */
+
+typedef struct pdla_ens_journal pdla_ens_journal;
+
+/* A new ensemble in directory dir (which must exist): DIR/clusters.journal
+ * is created (replacing an old one) with c in its header, fsync'ed. */
+PDLA_API int pdla_ens_journal_create(const char *dir, const pdla_ens_config *c,
+                                     pdla_ens_journal **out, char *err, size_t errlen);
+/* Open dir's journal read-only: its config and every complete record
+ * (checksums verified; a torn or damaged tail, from a crash during an
+ * append, is noted and ignored). PDLA_EIO when there is none or its header
+ * is damaged. Writes nothing. */
+PDLA_API int pdla_ens_journal_open(const char *dir, pdla_ens_journal **out, char *err,
+                                   size_t errlen);
+/* Make an opened journal appendable: cut the torn tail, if any. */
+PDLA_API int pdla_ens_journal_begin_append(pdla_ens_journal *j, char *err, size_t errlen);
+PDLA_API const pdla_ens_config *pdla_ens_journal_config(const pdla_ens_journal *j);
+/* Clusters recorded, and whether cluster i is. */
+PDLA_API uint64_t pdla_ens_journal_count(const pdla_ens_journal *j);
+PDLA_API int pdla_ens_journal_has(const pdla_ens_journal *j, uint64_t i);
+/* Bytes of a torn or damaged tail found by open (0: none). */
+PDLA_API uint64_t pdla_ens_journal_torn_bytes(const pdla_ens_journal *j);
+/* Append rec (one write, then fdatasync) unless cluster rec->index is
+ * already recorded. Thread-safe. */
+PDLA_API int pdla_ens_journal_append(pdla_ens_journal *j, const pdla_ens_record *rec,
+                                     char *err, size_t errlen);
+/* Read cluster i's record back. */
+PDLA_API int pdla_ens_journal_read(const pdla_ens_journal *j, uint64_t i, pdla_ens_record *out,
+                                   char *err, size_t errlen);
+PDLA_API void pdla_ens_journal_close(pdla_ens_journal *j);
+
+/* asked vs the journal's config for a resume: every parameter named in
+ * asked_fields (PDLA_PARAM_* bits; threads and bind are not growth
+ * parameters here and are skipped), the cluster count when clusters_given
+ * and keep_positions when keep_given must be equal. 0, or PDLA_EINVAL and
+ * one line naming the first difference. */
+PDLA_API int pdla_ens_config_compare(const pdla_ens_config *stored, const pdla_ens_config *asked,
+                                     uint32_t asked_fields, int clusters_given, int keep_given,
+                                     char *err, size_t errlen);
+
+/* The in-process scheduler: grow every cluster the journal lacks on
+ * `threads` threads, each record appended to the journal as it finishes. */
+PDLA_API int pdla_ens_run_local(pdla_ens_journal *j, int threads, pdla_ens_progress_fn progress,
+                                void *user, char *err, size_t errlen);
+
+/* Write the ensemble file from a complete journal: path.tmp.<pid>, fsync'ed,
+ * renamed onto path (replacing it). PDLA_EINVAL when clusters are missing. */
+PDLA_API int pdla_ens_write(const pdla_ens_journal *j, const pdla_run_info *info,
+                            const char *path, char *err, size_t errlen);
+
+/* ---- statistics (ens_stats.c) -------------------------------------------- */
+
+/* The ensemble statistics of M R_g(N) series on a shared grid. */
+typedef struct pdla_ens_stats {
+    size_t k;                  /* grid points */
+    double *mean_rg, *se_rg;   /* [k] mean R_g over clusters and its standard
+                                  error sd / sqrt(M) (NaN when M = 1), diameters */
+    uint64_t n_lo, n_hi;       /* fit range of N (pdla_fit_default_range) */
+    /* D_f of the mean R_g (least squares of ln <R_g> on ln N over the fit
+     * range) with a 95% interval: the 2.5 and 97.5 percentiles over
+     * boot_samples resamples of the M clusters with replacement, drawn from
+     * a fixed seed (reproducible); df_boot_sd their standard deviation. */
+    double df, df_lo, df_hi, df_boot_sd, prefactor_diam;
+    int boot_samples;
+    uint64_t boot_seed;
+    /* Local slope: D_f fitted over windows of half a decade of N, centred
+     * every 0.1 decade from min(30, n_lo) to the end, with the same
+     * bootstrap band. */
+    size_t nslope;
+    double slope_window;       /* its width in decades (0.5) */
+    double *slope_n, *slope_df, *slope_lo, *slope_hi;
+    /* Correction to scaling R_g = A N^(1/D) (1 + B N^-nu) over N in
+     * [corr_n_lo = 30, n_hi] (nonlinear least squares on ln R_g; nu profiled
+     * over [0.2, 2]); the
+     * interval of D and A by bootstrap (the first corr_samples resamples). corr_ok = 0
+     * when it could not be fitted (too few points). A in diameters. */
+    int corr_ok, corr_samples;
+    uint64_t corr_n_lo;
+    double corr_A, corr_A_lo, corr_A_hi, corr_D, corr_D_lo, corr_D_hi, corr_B, corr_nu, corr_rms;
+    /* The per-cluster D_f: mean and standard deviation over clusters. */
+    double df_cluster_mean, df_cluster_sd;
+} pdla_ens_stats;
+
+#define PDLA_ENS_BOOT_SAMPLES 1000
+#define PDLA_ENS_CORR_SAMPLES 200 /* the correction fit profiles nu: 200 refits */
+#define PDLA_ENS_BOOT_SEED 20260101u
+
+/* rg: m x k, row-major (cluster i's series at rg + i * k); df_cluster: the
+ * clusters' own D_f (may be NULL); n_final: the clusters' size; the
+ * correction fit's interval uses the first min(corr_samples, boot_samples)
+ * resamples (0: no interval). */
+PDLA_API int pdla_ens_stats_compute(const uint64_t *n, size_t k, const double *rg, size_t m,
+                                    const double *df_cluster, uint64_t n_final, int boot_samples,
+                                    int corr_samples, uint64_t boot_seed, pdla_ens_stats *out,
+                                    char *err, size_t errlen);
+PDLA_API void pdla_ens_stats_free(pdla_ens_stats *s);
+
+/* The correction-to-scaling fit alone, of one series y(N) over [n_lo, n_hi]:
+ * 0 with A, D, B, nu and the rms of the ln residuals, or -1 (too few points). */
+PDLA_API int pdla_ens_corr_fit(const uint64_t *n, const double *y, size_t k, uint64_t n_lo,
+                               uint64_t n_hi, double *A, double *D, double *B, double *nu,
+                               double *rms);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* PDLA_ENSEMBLE_H */

@@ -1,0 +1,390 @@
+/*
+ * ens_cmd.c - `pdla ensemble`: M independent clusters on T threads into
+ * DIR/ensemble.h5 (include/pdla/ensemble.h does the work).
+ *
+ * Options: --clusters M and --keep-positions are this command's own; every
+ * other option is read by the growth command's parser (parse.c: the
+ * parameter table's options, --out, --force, --resume, --scene, -q,
+ * --progress), so the growth options, their checks and messages are the same
+ * as for `pdla`. --threads T is the number of clusters grown at once (0: one
+ * per physical core); each cluster grows serially.
+ *
+ * Exit status: 0 done; 1 runtime failure; 2 bad usage or input, before
+ * anything is written. SIGINT/SIGTERM stop the ensemble: the clusters
+ * finished stay in DIR/clusters.journal (resume with --resume DIR), those in
+ * flight are lost, and pdla ends by the same signal.
+ */
+#include <dirent.h>
+#include <errno.h>
+#include <inttypes.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "ens_cmd.h"
+#include "parse.h"
+#include "pdla/ensemble.h"
+#include "pdla/pdla.h"
+#include "progress.h"
+
+enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
+
+static volatile sig_atomic_t stop_signal;
+static void on_signal(int sig) { stop_signal = sig; }
+
+static int install_signals(void)
+{
+    static const int sigs[] = {SIGINT, SIGTERM};
+    for (size_t i = 0; i < 2; i++) {
+        struct sigaction old, sa;
+        if (sigaction(sigs[i], NULL, &old)) return -1;
+        if (old.sa_handler == SIG_IGN) continue;
+        memset(&sa, 0, sizeof sa);
+        sa.sa_handler = on_signal;
+        sigemptyset(&sa.sa_mask);
+        sa.sa_flags = SA_RESETHAND | SA_RESTART;
+        if (sigaction(sigs[i], &sa, NULL)) return -1;
+    }
+    return 0;
+}
+
+static void print_help(void)
+{
+    printf("Usage: pdla ensemble --clusters M --target N --out DIR [OPTION]...\n"
+           "       pdla ensemble --resume DIR [--threads T]\n"
+           "Grow M independent DLA clusters of N particles, T at a time, into DIR/ensemble.h5:\n"
+           "per cluster its R_g(N) series on a shared log grid, final R_g, R_ext, D_f fit,\n"
+           "seed and timings; the ensemble statistics (`pdla analyze DIR/ensemble.h5`).\n"
+           "Cluster i is the serial cluster of seed S + i (--seed S): the same whatever\n"
+           "the threads or the order. Finished clusters are journaled in\n"
+           "DIR/clusters.journal as they finish; after a crash or a signal\n"
+           "`pdla ensemble --resume DIR` grows only the missing ones.\n\n"
+           "  --clusters M        number of clusters (>= 1)\n"
+           "  --threads T         clusters grown at once (default 1; 0: one per physical core)\n"
+           "  --keep-positions    also store every cluster's positions\n"
+           "  --out DIR           ensemble directory (must not exist unless --force)\n"
+           "  --force             write into an existing DIR (its old ensemble is removed)\n"
+           "  --resume DIR        go on with DIR's ensemble; growth options given must match\n"
+           "  -q, --progress, --no-progress, --scene FILE: as for pdla\n"
+           "Every growth option of `pdla --help` (--dim, --target, --seed, --resolution, ...)\n"
+           "applies to each cluster; --bind, checkpoints, --stats-json and --no-output do not.\n");
+}
+
+/* argv joined with shell quoting, for provenance. */
+static char *command_line(int argc, char **argv)
+{
+    size_t len = 16;
+    for (int i = 0; i < argc; i++) len += 4 * strlen(argv[i]) + 3;
+    char *s = malloc(len), *p = s;
+    if (!s) return NULL;
+    p += sprintf(p, "pdla");
+    for (int i = 0; i < argc; i++) {
+        *p++ = ' ';
+        *p++ = '\'';
+        for (const char *c = argv[i]; *c; c++) {
+            if (*c == '\'') {
+                memcpy(p, "'\\''", 4);
+                p += 4;
+            } else {
+                *p++ = *c;
+            }
+        }
+        *p++ = '\'';
+    }
+    *p = '\0';
+    return s;
+}
+
+typedef struct ens_args {
+    uint64_t clusters;
+    int clusters_given, keep, keep_given, help;
+} ens_args;
+
+/* Take this command's own options out of argv (into a, rest into *rest with
+ * rest[0] = "pdla ensemble"); 0, or -1 with err. */
+static int split_args(int argc, char **argv, ens_args *a, char **rest, int *nrest, char *err, size_t errlen)
+{
+    memset(a, 0, sizeof *a);
+    int n = 0;
+    rest[n++] = "pdla ensemble";
+    for (int i = 1; i < argc; i++) {
+        const char *s = argv[i];
+        if (!strcmp(s, "--")) {
+            while (i < argc) rest[n++] = argv[i++];
+            break;
+        }
+        const char *v = NULL;
+        if (!strcmp(s, "--clusters")) {
+            if (i + 1 >= argc) return snprintf(err, errlen, "option --clusters needs a value (M)"), -1;
+            v = argv[++i];
+        } else if (!strncmp(s, "--clusters=", 11)) {
+            v = s + 11;
+        } else if (!strcmp(s, "--keep-positions")) {
+            a->keep = a->keep_given = 1;
+            continue;
+        } else if (!strcmp(s, "--help") || !strcmp(s, "-h")) {
+            a->help = 1;
+            continue;
+        } else {
+            rest[n++] = argv[i];
+            continue;
+        }
+        const char *why = cli_parse_count(v, &a->clusters);
+        if (why) return snprintf(err, errlen, "invalid value '%.48s' for --clusters: %s", v, why), -1;
+        if (a->clusters == 0) return snprintf(err, errlen, "invalid value '%.48s' for --clusters: must be at least 1", v), -1;
+        a->clusters_given = 1;
+    }
+    rest[n] = NULL;
+    *nrest = n;
+    return 0;
+}
+
+/* mkdir -p of dir's parents, then dir itself. 0, or an errno. */
+static int make_dir(const char *dir, int *created)
+{
+    char buf[4096];
+    snprintf(buf, sizeof buf, "%s", dir);
+    for (char *p = buf + 1; *p; p++) {
+        if (*p != '/') continue;
+        *p = '\0';
+        struct stat st;
+        if (mkdir(buf, 0777) && (stat(buf, &st) || !S_ISDIR(st.st_mode))) return errno ? errno : ENOTDIR;
+        *p = '/';
+    }
+    *created = mkdir(buf, 0777) == 0;
+    if (*created) return 0;
+    return errno;
+}
+
+/* Leftovers of an interrupted writer, only names this command makes (hold
+ * the directory's lock): the temporaries of clusters.journal and
+ * ensemble.h5, and with old_outputs (a new ensemble with --force) the old
+ * journal and file. */
+static void remove_named(const char *dir, int old_outputs)
+{
+    char p[4400];
+    if (old_outputs) {
+        snprintf(p, sizeof p, "%s/%s", dir, PDLA_ENS_JOURNAL_NAME);
+        unlink(p);
+        snprintf(p, sizeof p, "%s/%s", dir, PDLA_ENS_FILE_NAME);
+        unlink(p);
+    }
+    DIR *d = opendir(dir);
+    if (!d) return;
+    static const char *const prefixes[] = {PDLA_ENS_JOURNAL_NAME ".tmp.", PDLA_ENS_FILE_NAME ".tmp."};
+    const struct dirent *de;
+    while ((de = readdir(d)))
+        for (size_t i = 0; i < 2; i++)
+            if (!strncmp(de->d_name, prefixes[i], strlen(prefixes[i]))) {
+                snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
+                unlink(p);
+            }
+    closedir(d);
+}
+
+typedef struct prog_ctx {
+    progress prog;
+    uint64_t base, total, particles_total;
+} prog_ctx;
+
+static int on_progress(void *user, uint64_t done, uint64_t particles)
+{
+    prog_ctx *c = user;
+    if (stop_signal) return 1;
+    progress_ensemble(&c->prog, c->base + done, c->total, particles, c->particles_total, 0);
+    return 0;
+}
+
+static int refuse_options(const cli_options *o, char *err, size_t errlen)
+{
+    if (o->no_output) return snprintf(err, errlen, "--no-output does not apply to an ensemble"), -1;
+    if (o->stats_json) return snprintf(err, errlen, "--stats-json does not apply to an ensemble"), -1;
+    if (o->checkpoint_every > 0 || o->checkpoint_particles || o->checkpoint_compress || (o->checkpoint && !o->resume))
+        return snprintf(err, errlen, "checkpoints do not apply to an ensemble (its journal records finished clusters)"), -1;
+    if (o->given & PDLA_PARAM_BIND) return snprintf(err, errlen, "--bind does not apply to an ensemble"), -1;
+    return 0;
+}
+
+int ens_cmd_main(int argc, char **argv)
+{
+    const double t0 = pdla_clock_seconds();
+    char err[4600];
+    ens_args a;
+    char **rest = calloc((size_t)argc + 2, sizeof *rest);
+    char *cmd = command_line(argc, argv);
+    int nrest = 0, code = EXIT_USAGE;
+    pdla_ens_journal *j = NULL;
+    int lock = -1;
+    if (!rest || !cmd) {
+        fprintf(stderr, "pdla ensemble: out of memory\n");
+        free(rest);
+        free(cmd);
+        return EXIT_RUNTIME;
+    }
+    /* First: a signal from now on stops the ensemble in an orderly way. */
+    if (install_signals()) {
+        fprintf(stderr, "pdla ensemble: cannot install signal handlers: %s\n", strerror(errno));
+        code = EXIT_RUNTIME;
+        goto out;
+    }
+    if (split_args(argc, argv, &a, rest, &nrest, err, sizeof err)) {
+        fprintf(stderr, "pdla ensemble: %s\n", err);
+        goto out;
+    }
+    if (a.help) {
+        print_help();
+        code = fflush(stdout) ? EXIT_RUNTIME : 0;
+        goto out;
+    }
+    cli_options o;
+    if (cli_parse(nrest, rest, &o, err, sizeof err) != CLI_PARSE_OK || refuse_options(&o, err, sizeof err)) {
+        fprintf(stderr, "pdla ensemble: %s\n", o.action == CLI_VERSION ? "--version: see pdla --version" : err);
+        goto out;
+    }
+    pdla_ens_config asked;
+    asked.params = o.params;
+    asked.params.threads = 1;
+    asked.params.bind = PDLA_BIND_NONE;
+    asked.clusters = a.clusters;
+    asked.keep_positions = a.keep;
+    const int threads = o.params.threads;
+    char dir[4096];
+    pdla_hdf5_quiet();
+
+    if (o.resume) {
+        snprintf(dir, sizeof dir, "%s", o.resume);
+        for (size_t len = strlen(dir); len > 1 && dir[len - 1] == '/';) dir[--len] = '\0';
+        if (pdla_rundir_lock(dir, &lock, err, sizeof err) != PDLA_OK) {
+            fprintf(stderr, "pdla ensemble: cannot resume: %s\n", err);
+            goto out;
+        }
+        const int rc = pdla_ens_journal_open(dir, &j, err, sizeof err);
+        if (rc) {
+            fprintf(stderr, "pdla ensemble: cannot resume: %s\n", err);
+            code = rc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
+            goto out;
+        }
+        if (pdla_ens_config_compare(pdla_ens_journal_config(j), &asked, o.given, a.clusters_given, a.keep_given, err,
+                                    sizeof err)) {
+            fprintf(stderr, "pdla ensemble: %s\n", err);
+            goto out;
+        }
+        if (access(dir, W_OK)) {
+            fprintf(stderr, "pdla ensemble: cannot resume: '%s' is not writable: %s\n", dir, strerror(errno));
+            goto out;
+        }
+        if (pdla_ens_journal_torn_bytes(j))
+            fprintf(stderr, "pdla ensemble: note: cutting a torn record of %" PRIu64 " bytes (a cluster in flight)\n",
+                    pdla_ens_journal_torn_bytes(j));
+        remove_named(dir, 0);
+        if (pdla_ens_journal_begin_append(j, err, sizeof err)) {
+            fprintf(stderr, "pdla ensemble: %s\n", err);
+            code = EXIT_RUNTIME;
+            goto out;
+        }
+        if (!o.quiet)
+            fprintf(stderr, "pdla ensemble: resuming %s: %" PRIu64 " of %" PRIu64 " clusters recorded\n", dir,
+                    pdla_ens_journal_count(j), pdla_ens_journal_config(j)->clusters);
+    } else {
+        if (!a.clusters_given) {
+            fprintf(stderr, "pdla ensemble: --clusters M is required (see pdla ensemble --help)\n");
+            goto out;
+        }
+        if (!o.out_dir) {
+            fprintf(stderr, "pdla ensemble: --out DIR is required\n");
+            goto out;
+        }
+        if (pdla_ens_config_check(&asked, err, sizeof err)) {
+            fprintf(stderr, "pdla ensemble: %s\n", err);
+            goto out;
+        }
+        if (threads == 0 && pdla_ens_threads(0) <= 0) {
+            fprintf(stderr, "pdla ensemble: --threads 0: hwloc could not read the machine topology\n");
+            goto out;
+        }
+        if (strlen(o.out_dir) > 4000) {
+            fprintf(stderr, "pdla ensemble: directory name is too long\n");
+            goto out;
+        }
+        snprintf(dir, sizeof dir, "%s", o.out_dir);
+        for (size_t len = strlen(dir); len > 1 && dir[len - 1] == '/';) dir[--len] = '\0';
+        struct stat st;
+        if (!o.force && lstat(dir, &st) == 0) {
+            fprintf(stderr, "pdla ensemble: '%s' already exists (use --force to write into it)\n", dir);
+            goto out;
+        }
+        int created = 0;
+        const int e = make_dir(dir, &created);
+        if (e && !(e == EEXIST && o.force && stat(dir, &st) == 0 && S_ISDIR(st.st_mode))) {
+            fprintf(stderr, "pdla ensemble: cannot create '%s': %s\n", dir, strerror(e));
+            goto out;
+        }
+        if (pdla_rundir_lock(dir, &lock, err, sizeof err) != PDLA_OK) {
+            fprintf(stderr, "pdla ensemble: %s\n", err);
+            goto out;
+        }
+        remove_named(dir, 1);
+        if (pdla_ens_journal_create(dir, &asked, &j, err, sizeof err)) {
+            fprintf(stderr, "pdla ensemble: %s\n", err);
+            code = EXIT_RUNTIME;
+            goto out;
+        }
+    }
+
+    const pdla_ens_config *cfg = pdla_ens_journal_config(j);
+    prog_ctx pc;
+    const int tty = isatty(STDERR_FILENO);
+    progress_init(&pc.prog, stderr, o.progress == 1 || (o.progress == -1 && !o.quiet && tty), tty, 0);
+    pc.base = pdla_ens_journal_count(j);
+    pc.total = cfg->clusters;
+    pc.particles_total = (cfg->clusters - pc.base) * cfg->params.target;
+    const int rc = pdla_ens_run_local(j, threads, on_progress, &pc, err, sizeof err);
+    const uint64_t have = pdla_ens_journal_count(j);
+    if (rc == PDLA_OK) progress_ensemble(&pc.prog, have, cfg->clusters, pc.particles_total, pc.particles_total, 1);
+    else if (pc.prog.enabled && tty) fputc('\n', stderr);
+    if (rc == PDLA_ESTOPPED || (rc == PDLA_OK && stop_signal && have < cfg->clusters)) {
+        fprintf(stderr, "pdla ensemble: stopped by signal: %" PRIu64 " of %" PRIu64 " clusters recorded in %s/%s; "
+                        "resume with pdla ensemble --resume %s\n",
+                have, cfg->clusters, dir, PDLA_ENS_JOURNAL_NAME, dir);
+        code = EXIT_RUNTIME;
+        goto out;
+    }
+    if (rc) {
+        fprintf(stderr, "pdla ensemble: %s (%" PRIu64 " of %" PRIu64 " clusters recorded; resume with "
+                        "pdla ensemble --resume %s)\n",
+                err, have, cfg->clusters, dir);
+        code = EXIT_RUNTIME;
+        goto out;
+    }
+    char h5[4300];
+    snprintf(h5, sizeof h5, "%s/%s", dir, PDLA_ENS_FILE_NAME);
+    const pdla_run_info info = {cmd, pdla_clock_seconds() - t0, 0};
+    if (pdla_ens_write(j, &info, h5, err, sizeof err)) {
+        fprintf(stderr, "pdla ensemble: %s\n", err);
+        code = EXIT_RUNTIME;
+        goto out;
+    }
+    if (!o.quiet) {
+        printf("ensemble: %" PRIu64 " clusters of %" PRIu64 " particles (%dD, seeds %" PRIu64 "..%" PRIu64
+               ") in %s\n",
+               cfg->clusters, cfg->params.target, cfg->params.dim, cfg->params.seed,
+               cfg->params.seed + cfg->clusters - 1, h5);
+        printf("wall time %.3f s; statistics: pdla analyze %s\n", pdla_clock_seconds() - t0, h5);
+    }
+    code = fflush(stdout) ? EXIT_RUNTIME : 0;
+out:
+    pdla_ens_journal_close(j);
+    if (lock >= 0) pdla_rundir_unlock(lock);
+    free(rest);
+    free(cmd);
+    const int sig = stop_signal;
+    if (sig) {
+        fflush(NULL);
+        signal(sig, SIG_DFL);
+        raise(sig);
+    }
+    return code;
+}

@@ -1,0 +1,490 @@
+/*
+ * ens_journal.c - DIR/clusters.journal, the crash-safe record of the
+ * clusters an ensemble has finished (include/pdla/ensemble.h).
+ *
+ * Why an append-only journal rather than one HDF5 file per cluster: the
+ * workers append from many threads, and Debian's HDF5 is not built
+ * thread-safe, so per-cluster HDF5 files would need a global HDF5 lock
+ * around every write; a journal needs one pwrite + fdatasync per cluster
+ * under a mutex, keeps one file instead of M (1000s) in the directory, and
+ * the same bytes (pdla_ens_record_encode) are what a distributed scheduler
+ * ships between ranks. A crash can only tear the last record: each record
+ * carries its length and a checksum, so a torn or damaged tail is detected
+ * on open and cut before appending, losing only clusters in flight.
+ *
+ * Layout (native byte order, marked in the header):
+ *   "PDLAENS1", u32 0x01020304, u32 L, L bytes of text, u64 FNV-1a(text)
+ *   then records: "PDLAREC1", u64 P, P bytes (a record), u64 FNV-1a(P, bytes)
+ * The text is "key=value" lines: format, every row of the parameter table
+ * (exact values), clusters, keep_positions.
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "pdla/ensemble.h"
+#include "pdla/params.h"
+
+#define HEAD_MAGIC "PDLAENS1"
+#define REC_MAGIC "PDLAREC1"
+#define BOM UINT32_C(0x01020304)
+#define FORMAT_LINE "format=pdla-ensemble-journal 1\n"
+#define NONE UINT64_MAX
+
+struct pdla_ens_journal {
+    char path[4200];
+    pdla_ens_config cfg;
+    int fd;
+    int appendable, broken;
+    pthread_mutex_t mu;     /* appends */
+    uint64_t *offset;       /* per cluster: its record's payload offset, or NONE */
+    uint64_t *length;       /* ... and payload length */
+    uint64_t count;         /* clusters recorded */
+    uint64_t end;           /* bytes of valid journal */
+    uint64_t torn;          /* bytes after end (a torn or damaged tail) */
+};
+
+static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
+{
+    const uint8_t *p = data;
+    for (size_t i = 0; i < n; i++) {
+        h ^= p[i];
+        h *= UINT64_C(0x100000001b3);
+    }
+    return h;
+}
+#define FNV_START UINT64_C(0xcbf29ce484222325)
+
+static int write_all(int fd, const void *buf, size_t n, uint64_t off)
+{
+    const uint8_t *p = buf;
+    while (n > 0) {
+        const ssize_t w = pwrite(fd, p, n, (off_t)off);
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) return -1;
+        p += w;
+        n -= (size_t)w;
+        off += (uint64_t)w;
+    }
+    return 0;
+}
+
+/* 1 read completely, 0 short (end of file), -1 error. */
+static int read_all(int fd, void *buf, size_t n, uint64_t off)
+{
+    uint8_t *p = buf;
+    while (n > 0) {
+        const ssize_t r = pread(fd, p, n, (off_t)off);
+        if (r < 0 && errno == EINTR) continue;
+        if (r < 0) return -1;
+        if (r == 0) return 0;
+        p += r;
+        n -= (size_t)r;
+        off += (uint64_t)r;
+    }
+    return 1;
+}
+
+/* ---- the header text ---------------------------------------------------- */
+
+static char *header_text(const pdla_ens_config *c, size_t *len)
+{
+    size_t n;
+    const pdla_param_desc *t = pdla_param_table(&n);
+    size_t cap = 4096, used = 0;
+    char *s = malloc(cap);
+    if (!s) return NULL;
+    used += (size_t)snprintf(s, cap, "%s", FORMAT_LINE);
+    for (size_t i = 0; i < n; i++) {
+        char v[80];
+        pdla_param_format(&t[i], &c->params, 1, v, sizeof v);
+        used += (size_t)snprintf(s + used, cap - used, "%s=%s\n", t[i].name, v);
+        if (used + 200 >= cap) { /* never with today's ~20 rows; kept safe */
+            char *g = realloc(s, cap *= 2);
+            if (!g) {
+                free(s);
+                return NULL;
+            }
+            s = g;
+        }
+    }
+    used += (size_t)snprintf(s + used, cap - used, "clusters=%" PRIu64 "\nkeep_positions=%d\n", c->clusters,
+                             c->keep_positions);
+    *len = used;
+    return s;
+}
+
+static int parse_u64(const char *v, uint64_t *out)
+{
+    if (!*v || *v == '-') return -1;
+    char *end;
+    errno = 0;
+    const unsigned long long x = strtoull(v, &end, 10);
+    if (errno || *end) return -1;
+    *out = x;
+    return 0;
+}
+
+static int header_parse(char *text, pdla_ens_config *c, char *why, size_t whylen)
+{
+    size_t n;
+    const pdla_param_desc *t = pdla_param_table(&n);
+    memset(c, 0, sizeof *c);
+    pdla_params_default(&c->params);
+    if (strncmp(text, FORMAT_LINE, strlen(FORMAT_LINE)))
+        return snprintf(why, whylen, "not a pdla ensemble journal of format 1"), -1;
+    uint64_t seen = 0;
+    int have_m = 0, have_k = 0;
+    for (char *line = text + strlen(FORMAT_LINE), *next; *line; line = next) {
+        next = strchr(line, '\n');
+        if (!next) return snprintf(why, whylen, "an unterminated header line"), -1;
+        *next++ = '\0';
+        char *eq = strchr(line, '=');
+        if (!eq) return snprintf(why, whylen, "a header line without '='"), -1;
+        *eq = '\0';
+        const char *v = eq + 1;
+        uint64_t u;
+        if (!strcmp(line, "clusters")) {
+            if (parse_u64(v, &c->clusters)) return snprintf(why, whylen, "a bad cluster count"), -1;
+            have_m = 1;
+            continue;
+        }
+        if (!strcmp(line, "keep_positions")) {
+            if (parse_u64(v, &u) || u > 1) return snprintf(why, whylen, "a bad keep_positions"), -1;
+            c->keep_positions = (int)u;
+            have_k = 1;
+            continue;
+        }
+        const pdla_param_desc *d = pdla_param_find(t, n, line);
+        if (!d || strcmp(d->name, line)) return snprintf(why, whylen, "an unknown parameter '%.40s'", line), -1;
+        if (d->type == PDLA_PT_REAL) {
+            char *end;
+            const double x = strtod(v, &end);
+            if (!*v || *end) return snprintf(why, whylen, "a bad value of %s", d->name), -1;
+            pdla_param_set_real(d, &c->params, x);
+        } else if (d->type == PDLA_PT_CHOICE) {
+            const int k = pdla_param_choice(d, v);
+            if (k < 0) return snprintf(why, whylen, "a bad value of %s", d->name), -1;
+            pdla_param_set_u(d, &c->params, (uint64_t)k);
+        } else {
+            if (parse_u64(v, &u)) return snprintf(why, whylen, "a bad value of %s", d->name), -1;
+            pdla_param_set_u(d, &c->params, u);
+        }
+        seen |= (uint64_t)1 << (d - t);
+    }
+    for (size_t i = 0; i < n; i++)
+        if (!(seen & ((uint64_t)1 << i)) && !t[i].absent_default)
+            return snprintf(why, whylen, "parameter %s is missing", t[i].name), -1;
+    if (!have_m || !have_k) return snprintf(why, whylen, "the cluster count is missing"), -1;
+    char e[512];
+    if (pdla_ens_config_check(c, e, sizeof e)) return snprintf(why, whylen, "%s", e), -1;
+    return 0;
+}
+
+/* ---- create, open --------------------------------------------------------- */
+
+static pdla_ens_journal *journal_new(const char *dir, const pdla_ens_config *c)
+{
+    pdla_ens_journal *j = calloc(1, sizeof *j);
+    if (!j) return NULL;
+    j->fd = -1;
+    snprintf(j->path, sizeof j->path, "%s/%s", dir, PDLA_ENS_JOURNAL_NAME);
+    if (c) j->cfg = *c;
+    if (pthread_mutex_init(&j->mu, NULL)) {
+        free(j);
+        return NULL;
+    }
+    return j;
+}
+
+static int journal_alloc_index(pdla_ens_journal *j)
+{
+    const uint64_t m = j->cfg.clusters;
+    if (m > SIZE_MAX / 16) return -1;
+    j->offset = malloc((size_t)m * sizeof *j->offset);
+    j->length = malloc((size_t)m * sizeof *j->length);
+    if (!j->offset || !j->length) return -1;
+    for (uint64_t i = 0; i < m; i++) j->offset[i] = NONE;
+    return 0;
+}
+
+static int sync_dir(const char *dir)
+{
+    const int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0) return -1;
+    const int rc = fsync(fd);
+    close(fd);
+    return rc;
+}
+
+int pdla_ens_journal_create(const char *dir, const pdla_ens_config *c, pdla_ens_journal **out, char *err,
+                            size_t errlen)
+{
+    *out = NULL;
+    int rc = pdla_ens_config_check(c, err, errlen);
+    if (rc) return rc;
+    if (strlen(dir) > 4000) return pdla_errorf(PDLA_EINVAL, err, errlen, "directory name too long");
+    pdla_ens_journal *j = journal_new(dir, c);
+    if (!j || journal_alloc_index(j)) {
+        pdla_ens_journal_close(j);
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the journal");
+    }
+    size_t tl = 0;
+    char *text = header_text(c, &tl);
+    char tmp[4300];
+    snprintf(tmp, sizeof tmp, "%s.tmp.%ld", j->path, (long)getpid());
+    const int fd = text ? open(tmp, O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0666) : -1;
+    if (fd < 0) {
+        rc = text ? pdla_errorf(PDLA_EIO, err, errlen, "cannot create %s: %s", tmp, strerror(errno))
+                  : pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory");
+        free(text);
+        pdla_ens_journal_close(j);
+        return rc;
+    }
+    const uint32_t h[2] = {BOM, (uint32_t)tl};
+    const uint64_t sum = fnv1a(FNV_START, text, tl);
+    uint8_t *buf = malloc(16 + tl + 8);
+    int bad = !buf;
+    if (buf) {
+        memcpy(buf, HEAD_MAGIC, 8);
+        memcpy(buf + 8, h, 8);
+        memcpy(buf + 16, text, tl);
+        memcpy(buf + 16 + tl, &sum, 8);
+        bad = write_all(fd, buf, 24 + tl, 0) || fsync(fd);
+    }
+    free(buf);
+    free(text);
+    if (bad || rename(tmp, j->path)) {
+        const int e = errno;
+        close(fd);
+        unlink(tmp);
+        pdla_ens_journal_close(j);
+        return pdla_errorf(PDLA_EIO, err, errlen, "cannot write %s: %s", j->path, strerror(e));
+    }
+    sync_dir(dir);
+    j->fd = fd;
+    j->end = 24 + tl;
+    j->appendable = 1;
+    *out = j;
+    return PDLA_OK;
+}
+
+/* Scan the records after the header; stop at the first that is short,
+ * damaged or inconsistent (the tail a crash tore). */
+static int scan_records(pdla_ens_journal *j, uint64_t size, char *err, size_t errlen)
+{
+    uint64_t off = j->end;
+    uint8_t *buf = NULL;
+    size_t cap = 0;
+    int rc = PDLA_OK;
+    while (off + 24 <= size) {
+        uint8_t head[16];
+        if (read_all(j->fd, head, 16, off) != 1 || memcmp(head, REC_MAGIC, 8)) break;
+        uint64_t len;
+        memcpy(&len, head + 8, 8);
+        if (len > size - off - 24 || len < 16) break;
+        if (len > cap) {
+            uint8_t *g = realloc(buf, (size_t)len);
+            if (!g) {
+                rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory reading the journal");
+                break;
+            }
+            buf = g;
+            cap = (size_t)len;
+        }
+        uint64_t sum;
+        if (read_all(j->fd, buf, (size_t)len, off + 16) != 1 || read_all(j->fd, &sum, 8, off + 16 + len) != 1)
+            break;
+        if (fnv1a(fnv1a(FNV_START, head + 8, 8), buf, (size_t)len) != sum) break;
+        uint64_t idx, seed;
+        memcpy(&idx, buf, 8);
+        memcpy(&seed, buf + 8, 8);
+        if (idx >= j->cfg.clusters || seed != j->cfg.params.seed + idx) break;
+        if (j->offset[idx] == NONE) {
+            j->offset[idx] = off + 16;
+            j->length[idx] = len;
+            j->count++;
+        }
+        off += 24 + len;
+    }
+    free(buf);
+    j->torn = size - off;
+    j->end = off;
+    return rc;
+}
+
+int pdla_ens_journal_open(const char *dir, pdla_ens_journal **out, char *err, size_t errlen)
+{
+    *out = NULL;
+    if (strlen(dir) > 4000) return pdla_errorf(PDLA_EINVAL, err, errlen, "directory name too long");
+    pdla_ens_journal *j = journal_new(dir, NULL);
+    if (!j) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the journal");
+    int rc = PDLA_EIO;
+    char why[600] = "";
+    char *text = NULL;
+    struct stat st;
+    j->fd = open(j->path, O_RDONLY | O_CLOEXEC);
+    if (j->fd < 0 || fstat(j->fd, &st)) {
+        snprintf(why, sizeof why, "%s", strerror(errno));
+        goto fail;
+    }
+    uint8_t head[16];
+    uint32_t h[2];
+    if (read_all(j->fd, head, 16, 0) != 1 || memcmp(head, HEAD_MAGIC, 8)) {
+        snprintf(why, sizeof why, "not a pdla ensemble journal");
+        goto fail;
+    }
+    memcpy(h, head + 8, 8);
+    if (h[0] != BOM || h[1] > 1u << 20 || (uint64_t)st.st_size < 24 + (uint64_t)h[1]) {
+        snprintf(why, sizeof why, "damaged header (or another byte order)");
+        goto fail;
+    }
+    text = malloc((size_t)h[1] + 1);
+    uint64_t sum;
+    if (!text || read_all(j->fd, text, h[1], 16) != 1 || read_all(j->fd, &sum, 8, 16 + h[1]) != 1 ||
+        fnv1a(FNV_START, text, h[1]) != sum) {
+        snprintf(why, sizeof why, "damaged header");
+        goto fail;
+    }
+    text[h[1]] = '\0';
+    if (header_parse(text, &j->cfg, why, sizeof why)) goto fail;
+    if (journal_alloc_index(j)) {
+        rc = PDLA_ENOMEM;
+        snprintf(why, sizeof why, "out of memory");
+        goto fail;
+    }
+    j->end = 24 + h[1];
+    rc = scan_records(j, (uint64_t)st.st_size, err, errlen);
+    free(text);
+    if (rc) {
+        pdla_ens_journal_close(j);
+        return rc;
+    }
+    *out = j;
+    return PDLA_OK;
+fail:
+    free(text);
+    rc = pdla_errorf(rc, err, errlen, "cannot read %s: %s", j->path, why);
+    pdla_ens_journal_close(j);
+    return rc;
+}
+
+int pdla_ens_journal_begin_append(pdla_ens_journal *j, char *err, size_t errlen)
+{
+    if (j->appendable) return PDLA_OK;
+    const int fd = open(j->path, O_RDWR | O_CLOEXEC);
+    if (fd < 0) return pdla_errorf(PDLA_EIO, err, errlen, "cannot open %s for writing: %s", j->path, strerror(errno));
+    if (j->torn && (ftruncate(fd, (off_t)j->end) || fsync(fd))) {
+        const int e = errno;
+        close(fd);
+        return pdla_errorf(PDLA_EIO, err, errlen, "cannot cut the torn tail of %s: %s", j->path, strerror(e));
+    }
+    close(j->fd);
+    j->fd = fd;
+    j->appendable = 1;
+    return PDLA_OK;
+}
+
+const pdla_ens_config *pdla_ens_journal_config(const pdla_ens_journal *j) { return &j->cfg; }
+uint64_t pdla_ens_journal_count(const pdla_ens_journal *j) { return j->count; }
+uint64_t pdla_ens_journal_torn_bytes(const pdla_ens_journal *j) { return j->torn; }
+
+int pdla_ens_journal_has(const pdla_ens_journal *j, uint64_t i)
+{
+    return i < j->cfg.clusters && j->offset[i] != NONE;
+}
+
+int pdla_ens_journal_append(pdla_ens_journal *j, const pdla_ens_record *rec, char *err, size_t errlen)
+{
+    const pdla_ens_config *c = &j->cfg;
+    if (rec->index >= c->clusters || rec->seed != c->params.seed + rec->index || rec->dim != c->params.dim ||
+        (c->keep_positions && rec->npos != rec->particles) || (!c->keep_positions && rec->npos))
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "cluster record %llu does not belong to this ensemble",
+                           (unsigned long long)rec->index);
+    uint8_t *payload = NULL;
+    size_t len = 0;
+    if (pdla_ens_record_encode(rec, &payload, &len))
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot encode cluster record %llu", (unsigned long long)rec->index);
+    uint8_t head[16];
+    const uint64_t len64 = len;
+    memcpy(head, REC_MAGIC, 8);
+    memcpy(head + 8, &len64, 8);
+    const uint64_t sum = fnv1a(fnv1a(FNV_START, head + 8, 8), payload, len);
+    int rc = PDLA_OK;
+    pthread_mutex_lock(&j->mu);
+    if (!j->appendable || j->broken) {
+        rc = pdla_errorf(PDLA_EIO, err, errlen, "%s is not open for appending", j->path);
+    } else if (j->offset[rec->index] == NONE) {
+        /* One record, written in order, then made durable before it counts. */
+        if (write_all(j->fd, head, 16, j->end) || write_all(j->fd, payload, len, j->end + 16) ||
+            write_all(j->fd, &sum, 8, j->end + 16 + len) || fdatasync(j->fd)) {
+            j->broken = 1;
+            rc = pdla_errorf(PDLA_EIO, err, errlen, "cannot append to %s: %s", j->path, strerror(errno));
+        } else {
+            j->offset[rec->index] = j->end + 16;
+            j->length[rec->index] = len;
+            j->end += 24 + len;
+            j->count++;
+        }
+    }
+    pthread_mutex_unlock(&j->mu);
+    free(payload);
+    return rc;
+}
+
+int pdla_ens_journal_read(const pdla_ens_journal *j, uint64_t i, pdla_ens_record *out, char *err, size_t errlen)
+{
+    memset(out, 0, sizeof *out);
+    if (!pdla_ens_journal_has(j, i))
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "cluster %llu is not in the journal", (unsigned long long)i);
+    uint8_t *buf = malloc((size_t)j->length[i]);
+    if (!buf) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory reading cluster %llu", (unsigned long long)i);
+    int rc;
+    if (read_all(j->fd, buf, (size_t)j->length[i], j->offset[i]) != 1)
+        rc = pdla_errorf(PDLA_EIO, err, errlen, "cannot read cluster %llu from %s", (unsigned long long)i, j->path);
+    else
+        rc = pdla_ens_record_decode(buf, (size_t)j->length[i], out, err, errlen);
+    free(buf);
+    return rc;
+}
+
+void pdla_ens_journal_close(pdla_ens_journal *j)
+{
+    if (!j) return;
+    if (j->fd >= 0) close(j->fd);
+    pthread_mutex_destroy(&j->mu);
+    free(j->offset);
+    free(j->length);
+    free(j);
+}
+
+int pdla_ens_config_compare(const pdla_ens_config *stored, const pdla_ens_config *asked, uint32_t asked_fields,
+                            int clusters_given, int keep_given, char *err, size_t errlen)
+{
+    size_t n;
+    const pdla_param_desc *t = pdla_param_table(&n);
+    for (size_t i = 0; i < n; i++) {
+        if (!(t[i].bit & asked_fields) || (t[i].bit & (PDLA_PARAM_THREADS | PDLA_PARAM_BIND))) continue;
+        if (pdla_param_equal(&t[i], &stored->params, &asked->params)) continue;
+        char a[80], b[80];
+        pdla_param_format(&t[i], &stored->params, 0, a, sizeof a);
+        pdla_param_format(&t[i], &asked->params, 0, b, sizeof b);
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "cannot resume: the ensemble has --%s %s, asked %s "
+                                                     "(an ensemble resumes with its own growth parameters)",
+                           t[i].option, a, b);
+    }
+    if (clusters_given && stored->clusters != asked->clusters)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "cannot resume: the ensemble has --clusters %llu, asked %llu",
+                           (unsigned long long)stored->clusters, (unsigned long long)asked->clusters);
+    if (keep_given && stored->keep_positions != asked->keep_positions)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "cannot resume: the ensemble was started %s --keep-positions",
+                           stored->keep_positions ? "with" : "without");
+    return PDLA_OK;
+}

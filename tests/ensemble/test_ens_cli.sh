@@ -1,0 +1,170 @@
+#!/bin/bash
+# test_ens_cli.sh - `pdla ensemble` as a user meets it.
+# Usage: test_ens_cli.sh PDLA
+#
+#  - --threads 1, 2 and 3 give bit-identical per-cluster datasets and
+#    statistics (h5diff without tolerance; timings excepted);
+#  - kill -9 at a random moment, then --resume (with other threads): the
+#    finished file equals the uninterrupted one; likewise SIGTERM, which
+#    ends pdla by the signal with a line saying how to resume;
+#  - bad input (M = 0, N = 0, a seed range past 2^64 - 1, an existing DIR
+#    without --force, resume with other growth parameters or of a missing
+#    DIR, no --clusters, --bind, checkpoints): one line, exit 2, nothing written.
+set -u
+PDLA=${1:?usage: test_ens_cli.sh PDLA}
+case $PDLA in /*) ;; *) PDLA=$(pwd)/$PDLA ;; esac
+command -v h5diff >/dev/null || { echo "h5diff not installed: skipped"; exit 77; }
+
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/pdla-ens-cli.XXXXXX") || exit 1
+trap 'rm -rf "$tmp"' EXIT
+cd "$tmp" || exit 1
+checks=0
+fails=0
+fail() {
+    echo "FAIL: $*" >&2
+    fails=$((fails + 1))
+}
+run() {
+    checks=$((checks + 1))
+    "$PDLA" "$@" >"$tmp/out" 2>"$tmp/err" </dev/null
+    rc=$?
+}
+bad() { # bad NAME NEEDLE ARGS...: one line with NEEDLE, exit 2, nothing written
+    local name=$1 needle=$2
+    shift 2
+    local before
+    before=$(ls -laR --time-style=+%s . 2>/dev/null | grep -v ' err$\| out$\| \.$\| \.\.$\|^total ' | tr -s ' ')
+    run "$@"
+    [ "$rc" -eq 2 ] || fail "$name: exit status $rc, want 2 ($(cat err))"
+    [ "$(wc -l <err)" -eq 1 ] || fail "$name: stderr: $(cat err)"
+    grep -qF -- "$needle" err || fail "$name: message '$(cat err)', want '$needle'"
+    local after
+    after=$(ls -laR --time-style=+%s . 2>/dev/null | grep -v ' err$\| out$\| \.$\| \.\.$\|^total ' | tr -s ' ')
+    [ "$before" = "$after" ] || fail "$name: something was written: $(diff <(echo "$before") <(echo "$after"))"
+}
+# Every dataset that must not depend on threads, order or interruptions.
+DATA="/gyration/N /clusters/rg_diam /clusters/index /clusters/seed /clusters/particles /clusters/walkers
+/clusters/jumps /clusters/rg_final_diam /clusters/r_ext_diam /clusters/D_f /clusters/D_f_err
+/clusters/prefactor_diam /clusters/fit_n_lo /clusters/fit_n_hi /clusters/fit_points /clusters/positions
+/statistics"
+same() { # same A B WHAT: the datasets above are bit-identical
+    local ds
+    for ds in $DATA; do
+        checks=$((checks + 1))
+        h5diff -q "$1/ensemble.h5" "$2/ensemble.h5" "$ds" "$ds" >/dev/null 2>&1 ||
+            fail "$3: $ds differs"
+    done
+}
+ARGS="--clusters 24 --target 4000 --seed 9 --keep-positions"
+
+# ---- threads ----------------------------------------------------------------
+run ensemble $ARGS --threads 1 --out t1 -q
+[ "$rc" -eq 0 ] || fail "threads 1: $(cat err)"
+for t in 2 3; do
+    run ensemble $ARGS --threads $t --out t$t -q
+    [ "$rc" -eq 0 ] || fail "threads $t: $(cat err)"
+    same t1 t$t "--threads $t vs 1"
+done
+h5diff -q t1/ensemble.h5 t2/ensemble.h5 /clusters/cpu_seconds /clusters/cpu_seconds >/dev/null 2>&1 &&
+    fail "cpu_seconds identical: the comparison cannot see differences"
+# A different seed must change the data (the comparison can fail).
+run ensemble --clusters 24 --target 4000 --seed 10 --keep-positions --threads 2 --out s10 -q
+h5diff -q t1/ensemble.h5 s10/ensemble.h5 /clusters/rg_diam /clusters/rg_diam >/dev/null 2>&1 &&
+    fail "seed 10 gave seed 9's ensemble"
+
+# ---- pdla analyze of an ensemble file ---------------------------------------------
+run analyze t1/ensemble.h5
+[ "$rc" -eq 0 ] || fail "analyze: $(cat err)"
+grep -q "^ensemble .*24 clusters of 4000 particles, 2D, seeds 9..32" out || fail "analyze: $(head -1 out)"
+grep -Eq "^D_f +1\.[5-9][0-9]*, 95% interval \[1\.[0-9]+, 1\.[0-9]+\]" out || fail "analyze: no D_f line: $(cat out)"
+grep -q "^correction fit" out || fail "analyze: no correction fit line"
+[ "$(grep -c '^  N ' out)" -ge 10 ] || fail "analyze: fewer than 10 local slopes"
+run analyze t1/ensemble.h5 --json
+[ "$rc" -eq 0 ] || fail "analyze --json: $(cat err)"
+/usr/bin/python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); assert d["clusters"]==24 and d["D_f_lo"]<=d["D_f"]<=d["D_f_hi"], d' out ||
+    fail "analyze --json: $(cat out)"
+bad "analyze, cluster option" "only --json applies" analyze t1/ensemble.h5 --centre mass
+
+# ---- kill -9 at a random moment, then resume ------------------------------------
+partial=0
+size() { stat -c %s "$1" 2>/dev/null || echo 0; }
+for attempt in 1 2 3 4 5 6; do
+    rm -rf k
+    "$PDLA" ensemble $ARGS --threads 2 --out k -q </dev/null >/dev/null 2>&1 &
+    pid=$!
+    # Wait for the first record (a record holds 4000 x 2 x 4 bytes of
+    # positions; the header is under 2 kB), then kill after a random
+    # 0..150 ms more: clusters of 4000 take a few ms to tens of ms each.
+    for _ in $(seq 1 1000); do
+        [ "$(size k/clusters.journal)" -gt 20000 ] && break
+        kill -0 $pid 2>/dev/null || break
+        sleep 0.01
+    done
+    sleep "0.$(printf '%03d' $((RANDOM % 150)))"
+    kill -9 $pid 2>/dev/null
+    wait $pid 2>/dev/null
+    [ -f k/ensemble.h5 ] && continue # finished before the kill: try again
+    [ -f k/clusters.journal ] || continue # killed before the journal existed
+    run ensemble --resume k --threads 3
+    [ "$rc" -eq 0 ] || { fail "resume after kill -9: $(cat err)"; continue; }
+    got=$(sed -n 's/.*: \([0-9]*\) of 24 clusters recorded/\1/p' err)
+    echo "kill -9 attempt $attempt: $got of 24 clusters had been recorded"
+    [ -n "$got" ] && [ "$got" -gt 0 ] && [ "$got" -lt 24 ] && partial=$((partial + 1))
+    same t1 k "resumed after kill -9 (attempt $attempt)"
+    [ "$partial" -ge 2 ] && break
+done
+[ "$partial" -ge 1 ] || fail "no kill -9 landed between the first and the last cluster"
+
+# ---- SIGTERM ------------------------------------------------------------------------
+termed=0
+for attempt in 1 2 3 4; do
+    rm -rf g
+    "$PDLA" ensemble $ARGS --threads 2 --out g -q </dev/null >/dev/null 2>gerr &
+    pid=$!
+    for _ in $(seq 1 1000); do
+        [ "$(size g/clusters.journal)" -gt 20000 ] && break
+        kill -0 $pid 2>/dev/null || break
+        sleep 0.01
+    done
+    kill -TERM $pid
+    wait $pid
+    grc=$?
+    [ -f g/ensemble.h5 ] && continue
+    termed=1
+    checks=$((checks + 1))
+    [ "$grc" -eq 143 ] || fail "SIGTERM: exit status $grc, want 143"
+    grep -q "resume with pdla ensemble --resume g" gerr || fail "SIGTERM: $(cat gerr)"
+    run ensemble --resume g -q
+    [ "$rc" -eq 0 ] || fail "resume after SIGTERM: $(cat err)"
+    same t1 g "resumed after SIGTERM"
+    break
+done
+[ "$termed" -eq 1 ] || fail "no SIGTERM landed before the end of the ensemble"
+
+# A complete ensemble resumes to the same file (nothing to grow).
+run ensemble --resume t1 -q
+[ "$rc" -eq 0 ] || fail "resume of a complete ensemble: $(cat err)"
+same t2 t1 "resume of a complete ensemble"
+
+# ---- bad input --------------------------------------------------------------------------
+bad "M = 0" "--clusters: must be at least 1" ensemble --clusters 0 --target 100 --out b1
+bad "N = 0" "target" ensemble --clusters 2 --target 0 --out b1
+bad "seed overflow" "seed range overflows" ensemble --clusters 3 --target 100 --seed 18446744073709551614 --out b1
+bad "no --clusters" "--clusters M is required" ensemble --target 100 --out b1
+bad "no --out" "--out DIR is required" ensemble --clusters 2 --target 100
+bad "existing dir" "already exists" ensemble --clusters 2 --target 100 --out t1
+bad "resume, other target" "--target 4000, asked 5000" ensemble --resume t1 --target 5000
+bad "resume, other dim" "--dim" ensemble --resume t1 --dim 3
+bad "resume, other clusters" "--clusters 24, asked 25" ensemble --resume t1 --clusters 25
+bad "resume, missing dir" "cannot resume" ensemble --resume nowhere
+bad "resume, no journal" "cannot resume" ensemble --resume b0 2>/dev/null || true
+bad "bind" "--bind" ensemble --clusters 2 --target 100 --bind core --out b1
+bad "checkpoints" "checkpoints do not apply" ensemble --clusters 2 --target 100 --checkpoint-every 10 --out b1
+bad "unknown option" "unknown" ensemble --clusters 2 --target 100 --clusterz 3 --out b1
+# --force replaces an ensemble.
+run ensemble --clusters 3 --target 500 --out t1 --force -q
+[ "$rc" -eq 0 ] || fail "--force: $(cat err)"
+h5dump -a /ensemble/clusters t1/ensemble.h5 | grep -q "(0): 3$" || fail "--force: the old ensemble is still there"
+
+echo "$checks checks, $fails failed"
+[ "$fails" -eq 0 ]

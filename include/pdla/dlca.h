@@ -142,9 +142,15 @@ PDLA_API const dlca_row *dlca_series(const dlca_sim *s, size_t *n);
 
 /* Write path (which must not exist) as a DLCA cluster.h5: root attribute
  * model = "dlca", /parameters (from the descriptor table), /results,
- * /series, /clusters, /monomers, /Code. */
+ * /series, /clusters, /monomers (site, cluster, position [N][d]), /Code. */
 PDLA_API int dlca_write_h5(const dlca_sim *s, const char *path, const char *command_line,
                            double wall_s, char *err, size_t errlen);
+
+/* ParaView's XDMF 2 sidecar (xdmf.h) of a DLCA cluster.h5 just written
+ * with n monomers: points at /monomers/position (site coordinates, lattice
+ * units, wrapped into the box) with the arrays "cluster" and "site"; beside
+ * it as cluster.xdmf2. d = 4, 5: nothing written (0). 0 or PDLA_EIO. */
+PDLA_API int dlca_write_xdmf(const char *h5_path, int dim, uint64_t n, char *err, size_t errlen);
 
 /* Checkpoints: everything needed to go on (parameters, random state,
  * clusters, counters, series) in one HDF5 file (model = "dlca-checkpoint").

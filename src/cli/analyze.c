@@ -28,6 +28,7 @@
 #include <sys/stat.h>
 
 #include "pdla/pdla.h"
+#include "dlca_cmd.h"
 #include "h5read.h"
 #include "optcheck.h"
 #include "parse.h"
@@ -174,6 +175,7 @@ static void json_num(FILE *o, const char *name, double v, int comma)
 #define GO_ON (-1)
 static int parse_options(int argc, char **argv, analyze_opts *o)
 {
+    if (dlca_tool_file(argc, argv)) return dlca_analyze_main(argc, argv); /* model dlca: dlca_tools.c */
     enum { O_CENTRE = 256, O_FITMIN, O_FITMAX, O_PERDEC, O_CSV, O_FORCE, O_JSON, O_SLAB };
     static const struct option longopts[] = {
         {"centre", required_argument, NULL, O_CENTRE}, {"center", required_argument, NULL, O_CENTRE},

@@ -6,8 +6,11 @@
  * prints a summary on stdout.
  *
  * Exit status: 0 done; 1 runtime failure; 2 bad usage or input (one line on
- * stderr, before any work). SIGINT/SIGTERM stop the run; what was reached is
- * written, then pdla ends by the same signal.
+ * stderr, before any work). SIGINT/SIGTERM (or a file RUN_DIR/STOP) stop the
+ * run; what was reached is written. With checkpoints on (as in the DLA
+ * command: --checkpoint, --checkpoint-every T, --checkpoint-attempts N) a
+ * checkpoint is written too and pdla exits 0; without, a signal ends pdla by
+ * that signal once the output is written.
  */
 #include <errno.h>
 #include <getopt.h>
@@ -21,16 +24,22 @@
 
 #include "dlca_cmd.h"
 #include "optcheck.h"
+#include "parse.h"
 #include "pdla/dlca.h"
 
 enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 enum { OPT_MODEL = 1000, OPT_SCENE, OPT_OUT, OPT_FORCE, OPT_NO_OUTPUT, OPT_QUIET, OPT_HELP, OPT_CHECK, OPT_CKPT,
-       OPT_RESUME, OPT_TABLE = 2000 };
+       OPT_RESUME, OPT_CKPT_EVERY, OPT_CKPT_ATTEMPTS, OPT_TABLE = 2000 };
+/* Stops given on the command line (a resume keeps the checkpoint's others). */
+enum { GIVEN_UNTIL_CLUSTERS = 1, GIVEN_UNTIL_TIME = 2, GIVEN_MAX_ATTEMPTS = 4 };
 
 typedef struct dlca_cli {
     dlca_params p;
     const char *out;
     int force, no_output, quiet, check, checkpoint;
+    double checkpoint_every;      /* seconds of wall time; 0: none */
+    uint64_t checkpoint_attempts; /* 0: none */
+    int given_stops;              /* GIVEN_* */
     const char *resume;
     const char *given_model_option; /* a table option other than the stops */
 } dlca_cli;
@@ -84,14 +93,19 @@ static void print_help(FILE *o)
         fprintf(o, "  %-34s %s%s%s [default %s]\n", opt, t[i].help, t[i].unit[0] ? ", in " : "", t[i].unit, def);
     }
     fprintf(o, "\nRun options:\n"
-               "  --scene FILE                       read KEY = VALUE lines (model = dlca, the keys above, out, force)\n"
+               "  --scene FILE                       read KEY = VALUE lines (model = dlca, the keys above, out, force,\n"
+               "                                     check, checkpoint, checkpoint_every, checkpoint_attempts)\n"
                "  --out DIR                          run directory (default runs/dlca-YYYYmmdd-HHMMSS-<d>d)\n"
                "  --force                            write into an existing run directory\n"
                "  --no-output                        write no files\n"
                "  --check                            check every invariant at the end (O(N log N))\n"
-               "  --checkpoint                       write RUN_DIR/checkpoint.h5 at the end (and when stopped)\n"
-               "  --resume FILE                      go on from a checkpoint (its run directory unless --out);\n"
-               "                                     only --until-* and --max-attempts may change\n"
+               "  --checkpoint                       write RUN_DIR/checkpoint.h5 at the end, on SIGINT/SIGTERM and\n"
+               "                                     when a file RUN_DIR/STOP appears (then stop and exit 0)\n"
+               "  --checkpoint-every T               also every T of wall time: seconds, or with s, m, h (30m)\n"
+               "  --checkpoint-attempts N            also every N attempts\n"
+               "  --resume PATH                      go on from a checkpoint file or a run directory's\n"
+               "                                     checkpoint.h5 (in its run directory unless --out); only\n"
+               "                                     --until-* and --max-attempts may change (the others kept)\n"
                "  -q, --quiet                        no summary on stdout\n"
                "  --help                             this text\n");
 }
@@ -113,8 +127,19 @@ static int set_key(dlca_cli *c, const char *key, const char *val, char *err, siz
         c->out = val;
         return 0;
     }
-    if (strcmp(k, "force") == 0 || strcmp(k, "check") == 0) {
-        int *f = k[0] == 'f' ? &c->force : &c->check;
+    if (strcmp(k, "checkpoint-every") == 0 || strcmp(k, "checkpoint-attempts") == 0) {
+        const char *bad = k[11] == 'e' ? cli_parse_duration(val, &c->checkpoint_every)
+                                       : cli_parse_count(val, &c->checkpoint_attempts);
+        if (!bad && k[11] == 'a' && c->checkpoint_attempts == 0) bad = "must be at least 1";
+        if (bad) {
+            snprintf(err, errlen, "invalid value '%s' for %s: %s", val, k, bad);
+            return -1;
+        }
+        c->checkpoint = 1;
+        return 0;
+    }
+    if (strcmp(k, "force") == 0 || strcmp(k, "check") == 0 || strcmp(k, "checkpoint") == 0) {
+        int *f = k[0] == 'f' ? &c->force : strcmp(k, "checkpoint") == 0 ? &c->checkpoint : &c->check;
         if (!strcmp(val, "yes") || !strcmp(val, "true") || !strcmp(val, "1")) *f = 1;
         else if (!strcmp(val, "no") || !strcmp(val, "false") || !strcmp(val, "0")) *f = 0;
         else {
@@ -198,6 +223,8 @@ static int parse(int argc, char **argv, dlca_cli *c, char **scene_buf, char *err
         {"no-output", no_argument, NULL, OPT_NO_OUTPUT}, {"quiet", no_argument, NULL, OPT_QUIET},
         {"help", no_argument, NULL, OPT_HELP},         {"check", no_argument, NULL, OPT_CHECK},
         {"checkpoint", no_argument, NULL, OPT_CKPT},   {"resume", required_argument, NULL, OPT_RESUME},
+        {"checkpoint-every", required_argument, NULL, OPT_CKPT_EVERY},
+        {"checkpoint-attempts", required_argument, NULL, OPT_CKPT_ATTEMPTS},
         {NULL, 0, NULL, 0}};
     _Static_assert(sizeof extra / sizeof extra[0] <= 16, "extra[] outgrew lo");
     memcpy(lo + n, extra, sizeof extra);
@@ -232,6 +259,25 @@ static int parse(int argc, char **argv, dlca_cli *c, char **scene_buf, char *err
         case OPT_NO_OUTPUT: c->no_output = 1; break;
         case OPT_CHECK: c->check = 1; break;
         case OPT_CKPT: c->checkpoint = 1; break;
+        case OPT_CKPT_EVERY: {
+            const char *bad = cli_parse_duration(optarg, &c->checkpoint_every);
+            if (bad) {
+                snprintf(err, errlen, "invalid value '%s' for --checkpoint-every: %s", optarg, bad);
+                rc = -1;
+            }
+            c->checkpoint = 1;
+            break;
+        }
+        case OPT_CKPT_ATTEMPTS: {
+            const char *bad = cli_parse_count(optarg, &c->checkpoint_attempts);
+            if (!bad && c->checkpoint_attempts == 0) bad = "must be at least 1";
+            if (bad) {
+                snprintf(err, errlen, "invalid value '%s' for --checkpoint-attempts: %s", optarg, bad);
+                rc = -1;
+            }
+            c->checkpoint = 1;
+            break;
+        }
         case OPT_RESUME: c->resume = optarg; break;
         case 'q':
         case OPT_QUIET: c->quiet = 1; break;
@@ -239,7 +285,10 @@ static int parse(int argc, char **argv, dlca_cli *c, char **scene_buf, char *err
         default:
             if (opt >= OPT_TABLE && opt < OPT_TABLE + (int)n) {
                 const char *nm = t[opt - OPT_TABLE].name;
-                if (strncmp(nm, "until-", 6) && strcmp(nm, "max-attempts")) c->given_model_option = nm;
+                if (!strcmp(nm, "until-clusters")) c->given_stops |= GIVEN_UNTIL_CLUSTERS;
+                else if (!strcmp(nm, "until-time")) c->given_stops |= GIVEN_UNTIL_TIME;
+                else if (!strcmp(nm, "max-attempts")) c->given_stops |= GIVEN_MAX_ATTEMPTS;
+                else c->given_model_option = nm;
                 if (dlca_param_set(&c->p, &t[opt - OPT_TABLE], optarg, why, sizeof why)) {
                     snprintf(err, errlen, "%s", why);
                     rc = -1;
@@ -320,6 +369,78 @@ static char *join_args(int argc, char **argv)
     return s;
 }
 
+/* Write what = "cluster" or "checkpoint" as DIR/what.h5 (beside, then
+ * renamed, so that a reader never sees half a file). 0 or -1 with err. */
+static int write_file(const dlca_sim *s, const char *dir, const char *what, const char *cmd, double wall, char *err,
+                      size_t errlen)
+{
+    char path[4200], tmp[4200];
+    snprintf(path, sizeof path, "%s/%s.h5", dir, what);
+    snprintf(tmp, sizeof tmp, "%s/.%s.h5.new", dir, what);
+    unlink(tmp);
+    err[0] = '\0';
+    const int rc = what[1] == 'l' ? dlca_write_h5(s, tmp, cmd, wall, err, errlen)
+                                  : dlca_checkpoint_write(s, tmp, err, errlen);
+    if (rc || rename(tmp, path)) {
+        if (!err[0]) snprintf(err, errlen, "cannot rename %.900s: %s", tmp, strerror(errno));
+        unlink(tmp);
+        return -1;
+    }
+    if (what[1] == 'l') { /* ParaView's sidecar, for the file under its final name */
+        dlca_stats st;
+        dlca_get_stats(s, &st);
+        if (dlca_write_xdmf(path, dlca_get_params(s)->dim, st.n_monomers, err, errlen)) return -1;
+    }
+    return 0;
+}
+
+enum { ASKED_NONE = 0, ASKED_SIGNAL, ASKED_FILE };
+
+/* The run loop: chunks of attempts between which the signal flag, the
+ * checkpoint triggers and RUN_DIR/STOP are looked at. Returns the stop
+ * reason; *asked says whether a signal or the STOP file ended it. */
+static int run_loop(dlca_sim *s, const dlca_cli *c, const char *dir, const char *cmd, int *asked, int *ck_failed)
+{
+    dlca_stats st;
+    dlca_get_stats(s, &st);
+    uint64_t att = st.attempts, next_att = 0;
+    const uint64_t every = c->checkpoint_attempts;
+    if (every) next_att = (att / every + 1) * every;
+    double next_time = c->checkpoint_every > 0 ? wall_now() + c->checkpoint_every : 0, last_look = wall_now();
+    char stop_path[4200], err[1024];
+    snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
+    *asked = ASKED_NONE;
+    for (;;) {
+        uint64_t chunk = 1u << 16; /* a signal waits at most a chunk: milliseconds */
+        if (next_att && next_att - att < chunk) chunk = next_att - att;
+        const int stop = dlca_run(s, chunk);
+        if (stop != DLCA_RUNNING) return stop;
+        att += chunk;
+        if (stop_signal) {
+            *asked = ASKED_SIGNAL;
+            return stop;
+        }
+        if (!c->checkpoint) continue;
+        const double now = wall_now();
+        if ((next_att && att >= next_att) || (next_time > 0 && now >= next_time)) {
+            if (write_file(s, dir, "checkpoint", cmd, 0, err, sizeof err)) {
+                fprintf(stderr, "pdla: checkpoint failed: %s\n", err);
+                (*ck_failed)++;
+            }
+            if (every) next_att = (att / every + 1) * every;
+            if (next_time > 0) next_time = wall_now() + c->checkpoint_every;
+        }
+        if (now - last_look >= 0.1) { /* a stat() at most ten times a second */
+            last_look = now;
+            struct stat sb;
+            if (stat(stop_path, &sb) == 0 && !S_ISDIR(sb.st_mode)) {
+                *asked = ASKED_FILE;
+                return stop;
+            }
+        }
+    }
+}
+
 int dlca_cmd_main(int argc, char **argv)
 {
     dlca_cli c;
@@ -337,25 +458,46 @@ int dlca_cmd_main(int argc, char **argv)
                  c.given_model_option);
         prc = -1;
     }
+    if (prc == 0 && c.resume) c.checkpoint = 1; /* as in the DLA command: a resumed run goes on checkpointing */
+    if (prc == 0 && c.no_output && c.checkpoint) {
+        snprintf(err, sizeof err, "checkpoints need a run directory: --no-output excludes them");
+        prc = -1;
+    }
     if (prc || dlca_params_validate(&c.p, err, sizeof err)) {
         fprintf(stderr, "pdla: %s\n", err);
         free(scene_buf);
         return EXIT_USAGE;
     }
-    char dir[4096] = "";
+    /* From here a signal is caught: one during set-up stops the run after
+     * its first chunk, with the output written. */
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESETHAND | SA_RESTART; /* a second signal ends pdla at once */
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    char dir[4096] = "", ckpath[4200] = "";
     dlca_sim *s = NULL;
     if (c.resume) {
-        const int lrc = dlca_checkpoint_load(&s, c.resume, err, sizeof err);
+        struct stat sb; /* a run directory stands for its checkpoint.h5 */
+        if (stat(c.resume, &sb) == 0 && S_ISDIR(sb.st_mode)) snprintf(ckpath, sizeof ckpath, "%s/checkpoint.h5", c.resume);
+        else snprintf(ckpath, sizeof ckpath, "%s", c.resume);
+        const int lrc = dlca_checkpoint_load(&s, ckpath, err, sizeof err);
         if (lrc) {
             fprintf(stderr, "pdla: %s\n", err);
             free(scene_buf);
             return lrc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
         }
         const dlca_params *lp = dlca_get_params(s);
-        (void)dlca_set_stops(s, c.p.until_clusters, c.p.until_time, c.p.max_attempts);
+        /* The stops not given stay the checkpoint's: a resumed run ends where
+         * the interrupted one would have. */
+        (void)dlca_set_stops(s, c.given_stops & GIVEN_UNTIL_CLUSTERS ? c.p.until_clusters : lp->until_clusters,
+                             c.given_stops & GIVEN_UNTIL_TIME ? c.p.until_time : lp->until_time,
+                             c.given_stops & GIVEN_MAX_ATTEMPTS ? c.p.max_attempts : lp->max_attempts);
         c.p = *lp;
         if (!c.out) {
-            snprintf(dir, sizeof dir, "%s", c.resume);
+            snprintf(dir, sizeof dir, "%s", ckpath);
             char *sl = strrchr(dir, '/');
             if (sl) *sl = '\0';
             else snprintf(dir, sizeof dir, ".");
@@ -366,6 +508,7 @@ int dlca_cmd_main(int argc, char **argv)
     if (!c.no_output) {
         const int drc = make_dir(&c, dir, sizeof dir);
         if (drc) {
+            dlca_destroy(s);
             free(scene_buf);
             return drc;
         }
@@ -377,48 +520,36 @@ int dlca_cmd_main(int argc, char **argv)
         free(scene_buf);
         return rc == PDLA_EINVAL ? EXIT_USAGE : EXIT_RUNTIME;
     }
-    struct sigaction sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_signal;
-    sigemptyset(&sa.sa_mask);
-    sa.sa_flags = SA_RESETHAND | SA_RESTART;
-    sigaction(SIGINT, &sa, NULL);
-    sigaction(SIGTERM, &sa, NULL);
-    int stop;
-    while ((stop = dlca_run(s, 1u << 20)) == DLCA_RUNNING && !stop_signal) {
+    if (c.checkpoint) {
+        char stop_path[4200]; /* honoured before: a resume must not stop at once */
+        snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
+        unlink(stop_path);
     }
+    char *cmd = join_args(argc, argv);
+    int asked = ASKED_NONE, ck_failed = 0;
+    const int stop = run_loop(s, &c, dir, cmd, &asked, &ck_failed);
     const double wall = wall_now() - t0;
-    int status = 0;
+    int status = ck_failed ? EXIT_RUNTIME : 0, final_ck = 0;
     if (c.check && dlca_check(s, err, sizeof err)) {
         fprintf(stderr, "pdla: check failed: %s\n", err);
         status = EXIT_RUNTIME;
     }
     if (!c.no_output) {
-        char h5[4200], tmp[4200];
-        snprintf(h5, sizeof h5, "%s/cluster.h5", dir);
-        snprintf(tmp, sizeof tmp, "%s/.cluster.h5.new", dir);
-        unlink(tmp);
-        char *cmd = join_args(argc, argv);
-        if (dlca_write_h5(s, tmp, cmd, wall, err, sizeof err) || rename(tmp, h5)) {
-            fprintf(stderr, "pdla: %s\n", err[0] ? err : strerror(errno));
-            unlink(tmp);
+        if (write_file(s, dir, "cluster", cmd, wall, err, sizeof err)) {
+            fprintf(stderr, "pdla: %s\n", err);
             status = EXIT_RUNTIME;
         }
-        free(cmd);
         if (c.checkpoint) {
-            snprintf(h5, sizeof h5, "%s/checkpoint.h5", dir);
-            snprintf(tmp, sizeof tmp, "%s/.checkpoint.h5.new", dir);
-            unlink(tmp);
-            if (dlca_checkpoint_write(s, tmp, err, sizeof err) || rename(tmp, h5)) {
-                fprintf(stderr, "pdla: %s\n", err[0] ? err : strerror(errno));
-                unlink(tmp);
+            if (write_file(s, dir, "checkpoint", cmd, 0, err, sizeof err)) {
+                fprintf(stderr, "pdla: checkpoint failed: %s\n", err);
                 status = EXIT_RUNTIME;
-            }
+            } else final_ck = 1;
         }
     }
+    free(cmd);
+    dlca_stats st;
+    dlca_get_stats(s, &st);
     if (!c.quiet) {
-        dlca_stats st;
-        dlca_get_stats(s, &st);
         char box[64];
         size_t n;
         const dlca_param_desc *t = dlca_param_table(&n);
@@ -427,8 +558,9 @@ int dlca_cmd_main(int argc, char **argv)
         printf("model dlca, d = %d, box %s, N = %llu, search %s\n", c.p.dim, box,
                (unsigned long long)st.n_monomers, dlca_search_name(c.p.search));
         printf("stop: %s; t = %.6g; clusters %llu; largest %llu; weight-average size %.4g\n",
-               stop_signal ? "signal" : dlca_stop_name(st.stop), st.t, (unsigned long long)st.n_clusters,
-               (unsigned long long)st.largest, st.sum_s2 / (double)st.n_monomers);
+               asked == ASKED_SIGNAL ? "signal" : asked == ASKED_FILE ? "STOP file" : dlca_stop_name(stop), st.t,
+               (unsigned long long)st.n_clusters, (unsigned long long)st.largest,
+               st.sum_s2 / (double)st.n_monomers);
         printf("attempts %llu, moves %llu, monomer moves %llu, joins %llu\n", (unsigned long long)st.attempts,
                (unsigned long long)st.moves, (unsigned long long)st.monomer_moves, (unsigned long long)st.merges);
         printf("time %.3f s: %.1f ns/attempt, %.2f ns/monomer-move; model memory %.1f bytes/monomer\n", wall,
@@ -440,6 +572,18 @@ int dlca_cmd_main(int argc, char **argv)
     }
     dlca_destroy(s);
     free(scene_buf);
+    if (asked != ASKED_NONE && final_ck) {
+        /* Asked to stop with checkpoints on: a clean exit, as the DLA command. */
+        fprintf(stderr, "pdla: stopped by %s after %llu attempts; checkpoint %s/checkpoint.h5 (resume with "
+                        "pdla --model dlca --resume %s)\n",
+                asked == ASKED_SIGNAL ? "signal" : "RUN_DIR/STOP", (unsigned long long)st.attempts, dir, dir);
+        if (asked == ASKED_FILE) {
+            char stop_path[4200];
+            snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
+            unlink(stop_path); /* honoured */
+        }
+        return status;
+    }
     if (stop_signal) {
         signal((int)stop_signal, SIG_DFL);
         raise((int)stop_signal);

@@ -13,4 +13,9 @@ int dlca_cmd_main(int argc, char **argv);
 int dlca_info_is_dlca(const char *path);
 /* Print what the file holds (text, or JSON); returns the exit status. */
 int dlca_info_main(const char *path, int json);
+/* 1 if a non-option argument of `pdla render|analyze ...` is a DLCA file. */
+int dlca_tool_file(int argc, char **argv);
+/* `pdla render` and `pdla analyze` of a DLCA file (dlca_tools.c). */
+int dlca_render_main(int argc, char **argv);
+int dlca_analyze_main(int argc, char **argv);
 #endif

@@ -27,6 +27,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dlca_cmd.h"
 #include "h5read.h"
 #include "optcheck.h"
 #include "parse.h"
@@ -266,6 +267,7 @@ typedef struct render_opts {
 #define GO_ON (-1)
 static int parse_options(int argc, char **argv, render_opts *o)
 {
+    if (dlca_tool_file(argc, argv)) return dlca_render_main(argc, argv); /* model dlca: dlca_tools.c */
     enum { O_SIZE = 256, O_COLOR, O_AXIS, O_ZOOM, O_FORCE, O_SLAB };
     static const struct option longopts[] = {
         {"output", required_argument, NULL, 'o'}, {"size", required_argument, NULL, O_SIZE},

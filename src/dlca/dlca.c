@@ -26,8 +26,12 @@
 #include "dlca_internal.h"
 #include "rng.h"
 
+/* A cluster's sites and offsets live in one block of cap x (1 + d) words
+ * (off right after k). A monomer not yet joined (cap 0) borrows its two
+ * from the shared start pool instead: one malloc per monomer cost 64 bytes
+ * of allocator chunks (runs/dlca/memory.txt). */
 typedef struct dlca_cl {
-    uint32_t n, cap; /* monomers; 0: slot absorbed */
+    uint32_t n, cap; /* monomers (0: slot absorbed); cap 0: k, off in the pool */
     uint32_t act;    /* index in the active list */
     uint32_t *k;     /* sites */
     int32_t *off;    /* n x d offsets from the anchor */
@@ -68,7 +72,8 @@ struct dlca_sim {
     uint32_t *box_n, *box_cap;
     int32_t *brange; /* per slot: start[d], count[d] of its registered boxes */
     uint64_t candidates;
-    uint64_t *stamp, stamp_now;
+    uint32_t *stamp, stamp_now; /* "seen in this search" marks, per slot */
+    uint32_t *pool;             /* the start's k[N] then off[N d] */
     uint32_t *cand;
     contact *con;
     size_t ncon, capcon;
@@ -124,6 +129,42 @@ static int fail(char *err, size_t errlen, int code, const char *msg)
 {
     if (err && errlen) snprintf(err, errlen, "%s", msg);
     return code;
+}
+
+/* A fresh mark for the per-slot stamps; at wrap-around (after 2^32
+ * searches) every mark is cleared so that none matches by accident. */
+static inline uint32_t next_stamp(dlca_sim *s)
+{
+    if (++s->stamp_now == 0) {
+        memset(s->stamp, 0, (s->N + 1) * sizeof *s->stamp);
+        s->stamp_now = 1;
+    }
+    return s->stamp_now;
+}
+
+/* Give cluster C a block of cap entries (cap >= C->n), its n copied over. */
+static int cl_alloc(dlca_cl *C, uint32_t cap, int d)
+{
+    uint32_t *k = malloc((size_t)cap * (1 + (size_t)d) * sizeof *k);
+    if (!k) return -1;
+    int32_t *off = (int32_t *)(k + cap);
+    if (C->n) {
+        memcpy(k, C->k, (size_t)C->n * sizeof *k);
+        memcpy(off, C->off, (size_t)C->n * d * sizeof *off);
+    }
+    if (C->cap) free(C->k);
+    C->k = k;
+    C->off = off;
+    C->cap = cap;
+    return 0;
+}
+
+static void cl_release(dlca_cl *C)
+{
+    if (C->cap) free(C->k);
+    C->k = NULL;
+    C->off = NULL;
+    C->cap = 0;
 }
 
 /* ---- the series ---------------------------------------------------------- */
@@ -262,6 +303,7 @@ static int boxes_build(dlca_sim *s)
         nb *= (uint64_t)s->nb[a];
     }
     s->nboxes = nb;
+    if (!s->cand && !(s->cand = malloc(s->N * sizeof *s->cand))) return -1; /* the halo's candidates */
     s->box = calloc(nb, sizeof *s->box);
     s->box_n = calloc(nb, sizeof *s->box_n);
     s->box_cap = calloc(nb, sizeof *s->box_cap);
@@ -291,11 +333,9 @@ static void sim_free(dlca_sim *s)
 {
     if (!s) return;
     if (s->cl)
-        for (uint64_t c = 1; c <= s->N; c++) {
-            free(s->cl[c].k);
-            free(s->cl[c].off);
-        }
+        for (uint64_t c = 1; c <= s->N; c++) cl_release(&s->cl[c]);
     boxes_free(s);
+    free(s->pool);
     free(s->cl);
     free(s->geom);
     free(s->act);
@@ -350,13 +390,7 @@ static uint32_t join(dlca_sim *s, uint32_t c, uint32_t b, const int64_t *disp_in
     if (n > K->cap) {
         uint32_t cap = K->cap ? K->cap : 1;
         while (cap < n) cap *= 2;
-        uint32_t *k = realloc(K->k, (size_t)cap * sizeof *k);
-        if (!k) return 0;
-        K->k = k;
-        int32_t *off = realloc(K->off, (size_t)cap * d * sizeof *off);
-        if (!off) return 0;
-        K->off = off;
-        K->cap = cap;
+        if (cl_alloc(K, cap, d)) return 0;
     }
     if (s->search_now == DLCA_SEARCH_BOXES) {
         box_unregister(s, gone);
@@ -377,11 +411,7 @@ static uint32_t join(dlca_sim *s, uint32_t c, uint32_t b, const int64_t *disp_in
     sizes_joined(s, K->n, G->n);
     K->n = n;
     G->n = 0;
-    free(G->k);
-    free(G->off);
-    G->k = NULL;
-    G->off = NULL;
-    G->cap = 0;
+    cl_release(G);
     remove_active(s, gone);
     if (n > s->largest) s->largest = n;
     s->merges++;
@@ -437,8 +467,8 @@ static int setup(dlca_sim **out, const dlca_params *p, const uint32_t *sites, ui
     s->act = malloc(s->N * sizeof *s->act);
     s->grid = calloc(s->V, sizeof *s->grid);
     s->stamp = calloc(s->N + 1, sizeof *s->stamp);
-    s->cand = malloc(s->N * sizeof *s->cand);
-    if (!s->cl || !s->geom || !s->act || !s->grid || !s->stamp || !s->cand) goto nomem;
+    s->pool = calloc(s->N * (1 + (size_t)s->d), sizeof *s->pool);
+    if (!s->cl || !s->geom || !s->act || !s->grid || !s->stamp || !s->pool) goto nomem;
     if (p->mobility != 0) {
         s->mob = malloc((s->N + 1) * sizeof *s->mob);
         if (!s->mob) goto nomem;
@@ -468,10 +498,10 @@ static int setup(dlca_sim **out, const dlca_params *p, const uint32_t *sites, ui
         s->grid[k] = (uint32_t)j;
         placed[j - 1] = (uint32_t)k;
         dlca_cl *c = &s->cl[j];
-        c->n = c->cap = 1;
-        c->k = malloc(sizeof *c->k);
-        c->off = calloc((size_t)s->d, sizeof *c->off);
-        if (!c->k || !c->off) goto nomem;
+        c->n = 1;
+        c->cap = 0; /* borrowed from the pool */
+        c->k = s->pool + (j - 1);
+        c->off = (int32_t *)(s->pool + s->N + (j - 1) * (uint64_t)s->d);
         c->k[0] = (uint32_t)k;
         int64_t x[DLCA_MAX_DIM];
         coords(s, k, x);
@@ -600,7 +630,7 @@ static int move_lattice(dlca_sim *s, uint32_t c, int a, int sg)
         T1[b] = (int32_t)window(s, c, b, s->L[b] - 1);
     }
     s->ncon = 0;
-    const uint64_t stamp = ++s->stamp_now;
+    const uint32_t stamp = next_stamp(s);
     const int skip = 2 * a + (sg > 0); /* the way back: own old site */
     /* With sticking 1 no cluster touched the mover before, so a monomer
      * whose site ahead is its own (x + e was in the cluster) cannot touch
@@ -707,7 +737,7 @@ static int move_ref(dlca_sim *s, uint32_t c, int a, int sg)
     na[a] = (int32_t)wrap((int64_t)na[a] + sg, s->L[a]);
     size_t ncand;
     const uint32_t *cand;
-    ++s->stamp_now;
+    (void)next_stamp(s);
     if (s->search_now == DLCA_SEARCH_BOXES) {
         int32_t b0[DLCA_MAX_DIM], cnt[DLCA_MAX_DIM];
         cluster_span(s, c, na, 1, b0, cnt);
@@ -904,7 +934,8 @@ void dlca_get_stats(const dlca_sim *s, dlca_stats *o)
     o->candidates = s->candidates;
     o->digest = s->digest;
     uint64_t b = sizeof *s + (s->N + 1) * (sizeof *s->cl + 3 * (size_t)s->d * sizeof *s->geom + sizeof *s->stamp) +
-                 s->N * (sizeof *s->act + sizeof *s->cand);
+                 s->N * (sizeof *s->act + (1 + (size_t)s->d) * sizeof *s->pool);
+    if (s->cand) b += s->N * sizeof *s->cand;
     if (s->grid) b += s->V * sizeof *s->grid;
     if (s->mob) b += (s->N + 1) * sizeof *s->mob;
     if (s->size_count) b += (s->N + 1) * sizeof *s->size_count;
@@ -1225,11 +1256,8 @@ int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, size_t err
     rc = PDLA_EIO;
     s->p = p;
     for (uint64_t c = 1; c <= N; c++) {
-        free(s->cl[c].k);
-        free(s->cl[c].off);
-        s->cl[c].k = NULL;
-        s->cl[c].off = NULL;
-        s->cl[c].n = s->cl[c].cap = 0;
+        cl_release(&s->cl[c]);
+        s->cl[c].n = 0;
     }
     memset(s->grid, 0, s->V * sizeof *s->grid);
     if (ck_read(f, "rng", H5T_NATIVE_UINT64, s->rng.s, 4) ||
@@ -1247,14 +1275,12 @@ int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, size_t err
             goto done;
         }
         dlca_cl *C = &s->cl[c];
-        C->k = malloc(n * sizeof *C->k);
-        C->off = malloc((size_t)n * d * sizeof *C->off);
-        if (!C->k || !C->off) {
+        if (cl_alloc(C, n, d)) {
             rc = PDLA_ENOMEM;
             snprintf(why, sizeof why, "out of memory");
             goto done;
         }
-        C->n = C->cap = n;
+        C->n = n;
         memcpy(C->k, k + m, n * sizeof *C->k);
         memcpy(C->off, off + m * d, (size_t)n * d * sizeof *C->off);
         for (uint32_t i = 0; i < n; i++) s->grid[C->k[i]] = (uint32_t)c;

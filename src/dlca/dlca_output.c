@@ -10,6 +10,7 @@
 #include "dlca_h5.h"
 #include "h5util.h"
 #include "pdla/dlca.h"
+#include "pdla/xdmf.h"
 #include "provenance.h"
 
 int dlca_fractal_dim(const uint64_t *size, const double *rg, size_t n, uint64_t s_min, double *df,
@@ -60,15 +61,23 @@ int dlca_fractal_dim(const uint64_t *size, const double *rg, size_t n, uint64_t 
     return nb;
 }
 
-static int write_1d(const h5u_writer *w, hid_t g, const char *name, hid_t ftype, hid_t mtype, const void *data,
-                    size_t n)
+static int write_2d(const h5u_writer *w, hid_t g, const char *name, hid_t ftype, hid_t mtype, const void *data,
+                    size_t n, int cols)
 {
     hid_t space = H5I_INVALID_HID, d;
     int rc = 0;
-    if ((d = h5u_dataset(w, g, name, ftype, 1, n, 1, n > 65536 ? 65536 : (n ? n : 1), &space)) < 0) return -1;
+    if ((d = h5u_dataset(w, g, name, ftype, cols > 1 ? 2 : 1, n, (hsize_t)cols, n > 65536 ? 65536 : (n ? n : 1),
+                         &space)) < 0)
+        return -1;
     if (n > 0 && H5Dwrite(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) rc = h5u_fail(w, "write %s", name);
     rc = h5u_close(w, rc, space, H5Sclose, "a dataspace");
     return h5u_close(w, rc, d, H5Dclose, name);
+}
+
+static int write_1d(const h5u_writer *w, hid_t g, const char *name, hid_t ftype, hid_t mtype, const void *data,
+                    size_t n)
+{
+    return write_2d(w, g, name, ftype, mtype, data, n, 1);
 }
 
 /* The columns of the series, one dataset each. */
@@ -121,16 +130,25 @@ int dlca_write_h5(const dlca_sim *s, const char *path, const char *command_line,
     dlca_get_stats(s, &st);
     const dlca_params *p = dlca_get_params(s);
     const size_t N = st.n_monomers, nc = st.n_clusters;
+    const int dim = p->dim;
     uint32_t *site = malloc(N * sizeof *site), *cid = malloc(N * sizeof *cid);
+    int32_t *pos = malloc(N * (size_t)dim * sizeof *pos);
     uint64_t *size = malloc(nc * sizeof *size);
     double *rg = malloc(nc * sizeof *rg);
     hid_t file = H5I_INVALID_HID, g = H5I_INVALID_HID;
     int rc = -1;
-    if (!site || !cid || !size || !rg) {
+    if (!site || !cid || !size || !rg || !pos) {
         h5u_fail_msg(&w, "cannot write %s: out of memory", path);
         goto done;
     }
     dlca_export_sites(s, site, cid);
+    for (size_t i = 0; i < N; i++) { /* the k-index undone: x_a = (k / stride_a) mod L_a */
+        uint64_t k = site[i];
+        for (int a = 0; a < dim; a++) {
+            pos[i * dim + a] = (int32_t)(k % p->box[a]);
+            k /= p->box[a];
+        }
+    }
     dlca_cluster_table(s, size, rg);
     double df, dferr;
     dlca_fractal_dim(size, rg, nc, 8, &df, &dferr);
@@ -167,7 +185,8 @@ int dlca_write_h5(const dlca_sim *s, const char *path, const char *command_line,
     rc = -1;
     if ((g = h5u_group(&w, file, "monomers")) < 0 ||
         write_1d(&w, g, "site", H5T_STD_U32LE, H5T_NATIVE_UINT32, site, N) < 0 ||
-        write_1d(&w, g, "cluster", H5T_STD_U32LE, H5T_NATIVE_UINT32, cid, N) < 0)
+        write_1d(&w, g, "cluster", H5T_STD_U32LE, H5T_NATIVE_UINT32, cid, N) < 0 ||
+        write_2d(&w, g, "position", H5T_STD_I32LE, H5T_NATIVE_INT32, pos, N, dim) < 0)
         goto done;
     rc = h5u_close(&w, 0, g, H5Gclose, "/monomers");
     g = H5I_INVALID_HID;
@@ -176,7 +195,20 @@ int dlca_write_h5(const dlca_sim *s, const char *path, const char *command_line,
 done:
     if (g >= 0) rc = h5u_close(&w, rc, g, H5Gclose, "a group");
     if (file >= 0) rc = h5u_close(&w, rc, file, H5Fclose, path);
-    free(site), free(cid), free(size), free(rg);
+    free(site), free(cid), free(size), free(rg), free(pos);
     h5u_restore(&q);
     return rc < 0 ? PDLA_EIO : 0;
+}
+
+int dlca_write_xdmf(const char *h5_path, int dim, uint64_t n, char *err, size_t errlen)
+{
+    char xmf[4200];
+    if (xdmf_sidecar_path(h5_path, xmf, sizeof xmf)) {
+        if (err && errlen) snprintf(err, errlen, "xdmf: the path %.200s is too long", h5_path);
+        return PDLA_EINVAL;
+    }
+    if (dim != 2 && dim != 3) return 0; /* ParaView shows 2D and 3D points */
+    const xdmf_array arrays[] = {{"cluster", "/monomers/cluster", "UInt", 4}, {"site", "/monomers/site", "UInt", 4}};
+    const xdmf_points pts = {h5_path, "/monomers/position", n, dim, 1, 0, NULL, arrays, 2};
+    return xdmf_write_points(xmf, &pts, err, errlen) ? PDLA_EIO : 0;
 }

@@ -34,6 +34,10 @@ refused --mobility x
 refused --nosuch 3
 refused --grid-box 3
 refused --dim 2 --box 64x64 --fil 0.01 --until-clusters 10   # abbreviated --fill
+refused --checkpoint-every 0
+refused --checkpoint-every 5x
+refused --checkpoint-attempts 0
+refused --checkpoint --no-output
 
 d="$tmp/run"
 "$pdla" --model dlca --dim 2 --box 64x48 --fill 0.05 --until-clusters 10 --seed 3 --out "$d" --check >"$tmp/out" 2>"$tmp/err" ||
@@ -74,6 +78,69 @@ c="$tmp/ck"
 "$pdla" --model dlca --resume "$d/cluster.h5" >/dev/null 2>"$tmp/err"
 [ $? -eq 2 ] && [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "--resume from a cluster.h5: $(cat "$tmp/err")"
 
+# A real signal: SIGTERM after the first interval checkpoint (every 50000
+# attempts) of a long run (to 1 cluster: tens of millions of attempts). With
+# checkpoints on, pdla writes one and exits 0; resumed (from the run
+# directory) to a fixed attempt count past the stop, it must give the
+# history of one uninterrupted run to that count, bit for bit (digest).
+attempts_of() { "$pdla" info "$1" | awk '$1 == "attempts" {print $2}'; }
+long="--box 1024x1024 --fill 0.02 --until-clusters 1 --max-attempts 50M --seed 7"
+k="$tmp/kill"
+# shellcheck disable=SC2086
+"$pdla" --model dlca $long --out "$k" --checkpoint-attempts 50000 -q 2>"$tmp/kerr" &
+pid=$!
+i=0
+while [ ! -f "$k/checkpoint.h5" ] && [ $i -lt 1200 ]; do sleep 0.05; i=$((i + 1)); done
+kill -TERM $pid
+wait $pid
+krc=$?
+[ $krc -eq 0 ] || fail "SIGTERM with checkpoints: exit $krc, not 0 ($(cat "$tmp/kerr"))"
+grep -q 'stopped by signal after [0-9]* attempts; checkpoint .*resume with' "$tmp/kerr" ||
+    fail "SIGTERM: stderr $(cat "$tmp/kerr")"
+ka=$(attempts_of "$k/cluster.h5")
+[ -n "$ka" ] && [ "$ka" -ge 50000 ] || fail "SIGTERM: partial cluster.h5 says $ka attempts"
+x=$((ka + 100000))
+"$pdla" --model dlca --resume "$k" --max-attempts $x -q || fail "resume after SIGTERM"
+# shellcheck disable=SC2086
+"$pdla" --model dlca $long --max-attempts $x --out "$tmp/ref" -q || fail "uninterrupted reference run"
+"$pdla" info "$k/cluster.h5" >"$tmp/ik"
+"$pdla" info "$tmp/ref/cluster.h5" >"$tmp/ir"
+[ "$(attempts_of "$k/cluster.h5")" = "$x" ] || fail "resumed run ended at $(attempts_of "$k/cluster.h5"), not $x"
+[ "$(digest "$tmp/ik")" = "$(digest "$tmp/ir")" ] ||
+    fail "killed + resumed: history digest $(digest "$tmp/ik") != uninterrupted $(digest "$tmp/ir")"
+for key in n_clusters largest t merges; do
+    [ "$(grep -E "^  $key " "$tmp/ik")" = "$(grep -E "^  $key " "$tmp/ir")" ] || fail "killed + resumed: $key differs"
+done
+
+# RUN_DIR/STOP: checkpoint and exit 0 (looked for every 0.1 s at most), the
+# file removed; --checkpoint-every writes by wall time.
+k2="$tmp/stopfile"
+# shellcheck disable=SC2086
+"$pdla" --model dlca $long --out "$k2" --checkpoint-every 0.2s -q 2>"$tmp/kerr2" &
+pid=$!
+i=0
+while [ ! -f "$k2/checkpoint.h5" ] && [ $i -lt 1200 ]; do sleep 0.05; i=$((i + 1)); done
+[ -f "$k2/checkpoint.h5" ] || fail "--checkpoint-every 0.2s wrote no checkpoint"
+touch "$k2/STOP"
+wait $pid
+krc=$?
+[ $krc -eq 0 ] && grep -q 'stopped by RUN_DIR/STOP' "$tmp/kerr2" || fail "STOP file: exit $krc, $(cat "$tmp/kerr2")"
+[ ! -e "$k2/STOP" ] || fail "the honoured STOP file was left behind"
+
+# Without checkpoints a signal ends pdla by that signal, the state written.
+k3="$tmp/int"
+# shellcheck disable=SC2086
+"$pdla" --model dlca $long --out "$k3" -q 2>/dev/null &
+pid=$!
+i=0
+while [ ! -d "$k3" ] && [ $i -lt 1200 ]; do sleep 0.05; i=$((i + 1)); done
+sleep 0.2
+kill -INT $pid
+wait $pid
+krc=$?
+[ $krc -eq 130 ] || fail "SIGINT without checkpoints: exit $krc, not 130"
+[ -f "$k3/cluster.h5" ] && [ ! -e "$k3/checkpoint.h5" ] || fail "SIGINT without checkpoints: files $(ls "$k3")"
+
 cat >"$tmp/scene" <<EOS
 # a DLCA scene
 model = dlca
@@ -86,12 +153,20 @@ out = $tmp/scene-run
 EOS
 "$pdla" --scene "$tmp/scene" -q || fail "scene run"
 "$pdla" info "$tmp/scene-run/cluster.h5" | grep -Eq '^  dim +3$' || fail "scene: dim is not 3"
+printf 'model = dlca\nbox = 32x32\nfill = 0.05\nuntil_clusters = 3\ncheckpoint_attempts = 100\nout = %s\n' \
+    "$tmp/scene-ck" >"$tmp/scene2"
+"$pdla" --scene "$tmp/scene2" -q || fail "scene with checkpoint_attempts"
+[ -f "$tmp/scene-ck/checkpoint.h5" ] || fail "scene: checkpoint_attempts wrote no checkpoint"
+printf 'model = dlca\ncheckpoint_every = 0\n' >"$tmp/bad-scene2"
+"$pdla" --scene "$tmp/bad-scene2" >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] && grep -q ':2: ' "$tmp/err" || fail "bad checkpoint_every in a scene: $(cat "$tmp/err")"
 printf 'model = dlca\nfill = 2\n' >"$tmp/bad-scene"
 "$pdla" --scene "$tmp/bad-scene" >/dev/null 2>"$tmp/err"
 [ $? -eq 2 ] && grep -q ':2: ' "$tmp/err" || fail "bad scene: $(cat "$tmp/err")"
 
 "$pdla" --model dlca --help >"$tmp/help" || fail "--help"
-for o in dim box fill count mobility sticking drift until-clusters until-time max-attempts seed search grid-box; do
+for o in dim box fill count mobility sticking drift until-clusters until-time max-attempts seed search grid-box \
+    checkpoint checkpoint-every checkpoint-attempts resume; do
     grep -q -- "--$o " "$tmp/help" || fail "--help lacks --$o"
 done
 

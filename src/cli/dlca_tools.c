@@ -1,0 +1,470 @@
+/*
+ * dlca_tools.c - `pdla render` and `pdla analyze` for a DLCA cluster.h5
+ * (root attribute model = "dlca"; render.c and analyze.c hand such a file
+ * over here).
+ *
+ * render: the box seen along its third axis (2D: the plane), one lattice
+ * site a square of pixels, coloured by cluster (a golden-ratio hue per
+ * cluster number); from 3D on, the monomer with the highest third
+ * coordinate in a pixel wins and is shaded darker the deeper it lies
+ * (4D and 5D: also a projection onto the first two axes).
+ *
+ * analyze: the largest cluster's size, radius of gyration and fractal
+ * dimension from its mass-radius relation (averaged over monomers as
+ * centres, r from 2 to R_g), and D_f from R_g against size
+ * over all the file's clusters. The file's positions are wrapped into the
+ * box: the largest cluster is unwrapped by walking its face contacts
+ * (every cluster is face-connected), so its R_g matches the run's own
+ * /clusters/rg (computed from unwrapped offsets); a cluster that spans the
+ * box has no unwrapped shape and is refused with one line.
+ */
+#include <getopt.h>
+#include <hdf5.h>
+#include <math.h>
+#include <png.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "dlca_cmd.h"
+#include "optcheck.h"
+#include "parse.h"
+#include "pdla/dlca.h"
+#include "tools.h"
+
+enum { MAXD = DLCA_MAX_DIM };
+
+typedef struct dfile {
+    int dim;
+    uint64_t L[MAXD];
+    size_t n, nc;
+    int32_t *pos;   /* n x dim */
+    uint32_t *cid;  /* n */
+    uint32_t *site; /* n */
+    uint64_t *size; /* nc */
+    double *rg;     /* nc */
+    char stop[32];
+} dfile;
+
+static void dfile_free(dfile *f)
+{
+    free(f->pos), free(f->cid), free(f->site), free(f->size), free(f->rg);
+}
+
+/* The whole dataset `name` as mtype; *rows, *cols its shape. NULL if absent. */
+static void *read_ds(hid_t f, const char *name, hid_t mtype, size_t esize, size_t *rows, size_t *cols)
+{
+    const hid_t d = H5Dopen2(f, name, H5P_DEFAULT);
+    if (d < 0) return NULL;
+    const hid_t sp = H5Dget_space(d);
+    hsize_t dims[2] = {0, 1};
+    const int rank = sp >= 0 ? H5Sget_simple_extent_ndims(sp) : -1;
+    void *buf = NULL;
+    if (rank == 1 || rank == 2) {
+        H5Sget_simple_extent_dims(sp, dims, NULL);
+        if (rank == 1) dims[1] = 1;
+        *rows = (size_t)dims[0];
+        *cols = (size_t)dims[1];
+        buf = malloc((*rows ? *rows : 1) * *cols * esize);
+        if (buf && *rows && H5Dread(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) {
+            free(buf);
+            buf = NULL;
+        }
+    }
+    if (sp >= 0) H5Sclose(sp);
+    H5Dclose(d);
+    return buf;
+}
+
+static int read_attr(hid_t loc, const char *name, hid_t mtype, void *buf, hssize_t n)
+{
+    const hid_t a = H5Aopen(loc, name, H5P_DEFAULT);
+    if (a < 0) return -1;
+    const hid_t sp = H5Aget_space(a);
+    int rc = sp >= 0 && H5Sget_simple_extent_npoints(sp) == n && H5Aread(a, mtype, buf) >= 0 ? 0 : -1;
+    if (sp >= 0) H5Sclose(sp);
+    H5Aclose(a);
+    return rc;
+}
+
+/* Read what both tools need; 0, or -1 with one line in err. */
+static int dfile_read(const char *path, dfile *o, char *err, size_t errlen)
+{
+    memset(o, 0, sizeof *o);
+    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f < 0) {
+        snprintf(err, errlen, "cannot open %s", path);
+        return -1;
+    }
+    int ok = 0;
+    const hid_t g = H5Gopen2(f, "parameters", H5P_DEFAULT), r = H5Gopen2(f, "results", H5P_DEFAULT);
+    if (g >= 0 && r >= 0 && read_attr(g, "dim", H5T_NATIVE_INT, &o->dim, 1) == 0 && o->dim >= 2 && o->dim <= MAXD &&
+        read_attr(g, "box", H5T_NATIVE_UINT64, o->L, o->dim) == 0) {
+        size_t rows, cols, n2, c2, nc2, one;
+        o->pos = read_ds(f, "/monomers/position", H5T_NATIVE_INT32, 4, &rows, &cols);
+        o->cid = read_ds(f, "/monomers/cluster", H5T_NATIVE_UINT32, 4, &n2, &one);
+        o->site = read_ds(f, "/monomers/site", H5T_NATIVE_UINT32, 4, &n2, &one);
+        o->size = read_ds(f, "/clusters/size", H5T_NATIVE_UINT64, 8, &o->nc, &one);
+        o->rg = read_ds(f, "/clusters/rg", H5T_NATIVE_DOUBLE, 8, &nc2, &c2);
+        o->n = rows;
+        ok = o->pos && o->cid && o->site && o->size && o->rg && cols == (size_t)o->dim && n2 == rows &&
+             nc2 == o->nc && o->nc > 0 && rows > 0;
+        for (size_t i = 0; ok && i < o->n; i++) {
+            ok = o->cid[i] < o->nc;
+            for (int a = 0; ok && a < o->dim; a++)
+                ok = o->pos[i * o->dim + a] >= 0 && (uint64_t)o->pos[i * o->dim + a] < o->L[a];
+        }
+        const hid_t a = ok ? H5Aopen(r, "stop", H5P_DEFAULT) : -1;
+        if (a >= 0) {
+            const hid_t t = H5Aget_type(a);
+            if (t >= 0 && !H5Tis_variable_str(t) && H5Tget_size(t) < sizeof o->stop) H5Aread(a, t, o->stop);
+            if (t >= 0) H5Tclose(t);
+            H5Aclose(a);
+        }
+    }
+    if (g >= 0) H5Gclose(g);
+    if (r >= 0) H5Gclose(r);
+    H5Fclose(f);
+    if (!ok) {
+        snprintf(err, errlen, "%s: malformed DLCA file (parameters, /monomers/position or /clusters missing or bad; "
+                              "files from before /monomers/position cannot be drawn)", path);
+        dfile_free(o);
+        return -1;
+    }
+    return 0;
+}
+
+/* ---- render -------------------------------------------------------------- */
+
+static void cluster_colour(uint32_t id, double shade, unsigned char *rgb)
+{
+    const double h = fmod(id * 0.6180339887498949, 1.0) * 6, s = 0.7, v = 0.95 * shade;
+    const int i = (int)h;
+    const double f = h - i, p = v * (1 - s), q = v * (1 - s * f), t = v * (1 - s * (1 - f));
+    const double c[6][3] = {{v, t, p}, {q, v, p}, {p, v, t}, {p, q, v}, {t, p, v}, {v, p, q}};
+    for (int k = 0; k < 3; k++) rgb[k] = (unsigned char)lround(255 * c[i % 6][k]);
+}
+
+static int png_out(const char *path, int w, int h, const unsigned char *rgb)
+{
+    FILE *fp = fopen(path, "wb");
+    if (!fp) return -1;
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
+    png_infop info = png ? png_create_info_struct(png) : NULL;
+    if (!png || !info || setjmp(png_jmpbuf(png))) {
+        png_destroy_write_struct(&png, &info);
+        fclose(fp);
+        return -1;
+    }
+    png_init_io(png, fp);
+    png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_write_info(png, info);
+    for (int y = 0; y < h; y++) png_write_row(png, (png_bytep)(rgb + (size_t)y * w * 3));
+    png_write_end(png, NULL);
+    png_destroy_write_struct(&png, &info);
+    return fclose(fp) ? -1 : 0;
+}
+
+int dlca_render_main(int argc, char **argv)
+{
+    enum { O_SIZE = 256, O_FORCE };
+    static const struct option lo[] = {{"output", required_argument, NULL, 'o'},
+                                       {"size", required_argument, NULL, O_SIZE},
+                                       {"force", no_argument, NULL, O_FORCE},
+                                       {"help", no_argument, NULL, 'h'},
+                                       {NULL, 0, NULL, 0}};
+    const char *out = NULL;
+    long size = 1024;
+    int force = 0, c;
+    char err[600];
+    opterr = 0;
+    optind = 1;
+    if (optcheck_exact(argc, argv, lo, "ho:", err, sizeof err)) {
+        fprintf(stderr, "pdla render: %s\n", err);
+        return TOOL_USAGE;
+    }
+    while ((c = getopt_long(argc, argv, "ho:", lo, NULL)) != -1) {
+        if (c == 'o') out = optarg;
+        else if (c == O_SIZE) {
+            if (cli_parse_long_in(optarg, 16, 8192, &size)) {
+                fprintf(stderr, "pdla render: --size: want a whole number in [16, 8192]\n");
+                return TOOL_USAGE;
+            }
+        } else if (c == O_FORCE) force = 1;
+        else if (c == 'h') {
+            printf("Usage: pdla render DLCA_FILE -o PNG [--size N] [--force]\n"
+                   "A DLCA cluster.h5: the box along its first two axes (deeper axes projected,\n"
+                   "nearer monomers on top and brighter), each cluster its own colour.\n");
+            return fflush(stdout) ? TOOL_RUNTIME : TOOL_OK;
+        } else {
+            fprintf(stderr, "pdla render: option '%s' is not known for DLCA files (use -o PNG, --size N, --force)\n",
+                    argv[optind - 1]);
+            return TOOL_USAGE;
+        }
+    }
+    if (optind != argc - 1 || !out) {
+        fprintf(stderr, "pdla render: need one DLCA_FILE and -o PNG\n");
+        return TOOL_USAGE;
+    }
+    struct stat st;
+    if (!force && stat(out, &st) == 0) {
+        fprintf(stderr, "pdla render: %s exists; not overwriting it (use --force)\n", out);
+        return TOOL_USAGE;
+    }
+    dfile f;
+    if (dfile_read(argv[optind], &f, err, sizeof err)) {
+        fprintf(stderr, "pdla render: %s\n", err);
+        return TOOL_USAGE;
+    }
+    /* Keep the box's aspect: the longer of the first two sides is `size`. */
+    const double scale = (double)size / (double)(f.L[0] > f.L[1] ? f.L[0] : f.L[1]);
+    const int w = (int)fmax(1, lround(f.L[0] * scale)), h = (int)fmax(1, lround(f.L[1] * scale));
+    unsigned char *rgb = malloc((size_t)w * h * 3);
+    float *depth = malloc((size_t)w * h * sizeof *depth);
+    int rc = TOOL_OK;
+    if (!rgb || !depth) {
+        fprintf(stderr, "pdla render: out of memory for a %dx%d picture\n", w, h);
+        rc = TOOL_RUNTIME;
+        goto done;
+    }
+    for (size_t k = 0; k < (size_t)w * h; k++) {
+        depth[k] = -1;
+        rgb[3 * k] = 16, rgb[3 * k + 1] = 16, rgb[3 * k + 2] = 24;
+    }
+    for (size_t i = 0; i < f.n; i++) {
+        const int32_t *x = f.pos + i * f.dim;
+        const float z = f.dim > 2 ? (float)x[2] : 0;
+        const double shade = f.dim > 2 ? 0.4 + 0.6 * (f.L[2] > 1 ? z / (double)(f.L[2] - 1) : 1) : 1;
+        unsigned char col[3];
+        cluster_colour(f.cid[i], shade, col);
+        const int x0 = (int)floor(x[0] * scale), y0 = (int)floor(x[1] * scale);
+        int x1 = (int)floor((x[0] + 1) * scale), y1 = (int)floor((x[1] + 1) * scale);
+        if (x1 <= x0) x1 = x0 + 1;
+        if (y1 <= y0) y1 = y0 + 1;
+        for (int py = y0; py < y1 && py < h; py++)
+            for (int px = x0; px < x1 && px < w; px++) {
+                const size_t k = (size_t)(h - 1 - py) * w + px; /* y up */
+                if (z < depth[k]) continue;
+                depth[k] = z;
+                memcpy(rgb + 3 * k, col, 3);
+            }
+    }
+    if (png_out(out, w, h, rgb)) {
+        fprintf(stderr, "pdla render: cannot write %s\n", out);
+        rc = TOOL_RUNTIME;
+    }
+done:
+    free(rgb), free(depth);
+    dfile_free(&f);
+    return rc;
+}
+
+/* ---- analyze ------------------------------------------------------------- */
+
+static int cmp_u64(const void *a, const void *b)
+{
+    const uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Unwrapped coordinates u (m x dim) of the m monomers idx[] of one cluster,
+ * by a walk over face contacts from the first. -1 if the cluster is not
+ * face-connected or meets itself across the box (spans it). */
+static int unwrap(const dfile *f, const size_t *idx, size_t m, int64_t *u)
+{
+    const int d = f->dim;
+    uint64_t *key = malloc(m * sizeof *key); /* site << 32 | j */
+    size_t *queue = malloc(m * sizeof *queue);
+    unsigned char *seen = calloc(m, 1);
+    int rc = -1;
+    if (!key || !queue || !seen) goto done;
+    for (size_t j = 0; j < m; j++) key[j] = (uint64_t)f->site[idx[j]] << 32 | j;
+    qsort(key, m, sizeof *key, cmp_u64);
+    uint64_t stride[MAXD];
+    for (int a = 0, s = 1; a < d; a++) stride[a] = (uint64_t)s, s *= (int)f->L[a];
+    for (int a = 0; a < d; a++) u[a] = f->pos[idx[0] * d + a];
+    seen[0] = 1;
+    size_t head = 0, tail = 0, reached = 1;
+    queue[tail++] = 0;
+    while (head < tail) {
+        const size_t j = queue[head++];
+        const int32_t *x = f->pos + idx[j] * d;
+        for (int dir = 0; dir < 2 * d; dir++) {
+            const int ax = dir >> 1, sg = (dir & 1) ? -1 : 1;
+            uint64_t k = 0;
+            for (int a = 0; a < d; a++) {
+                int64_t y = x[a] + (a == ax ? sg : 0);
+                y = (y + (int64_t)f->L[a]) % (int64_t)f->L[a];
+                k += (uint64_t)y * stride[a];
+            }
+            size_t lo = 0, hi = m; /* the neighbour site among the cluster's */
+            while (lo < hi) {
+                const size_t mid = (lo + hi) / 2;
+                if ((key[mid] >> 32) < k) lo = mid + 1;
+                else hi = mid;
+            }
+            if (lo == m || (key[lo] >> 32) != k) continue;
+            const size_t q = (size_t)(key[lo] & 0xffffffffu);
+            int64_t v[MAXD];
+            for (int a = 0; a < d; a++) v[a] = u[j * d + a] + (a == ax ? sg : 0);
+            if (seen[q]) {
+                for (int a = 0; a < d; a++)
+                    if (u[q * d + a] != v[a]) goto done; /* met itself across the box */
+                continue;
+            }
+            seen[q] = 1;
+            reached++;
+            memcpy(u + q * d, v, (size_t)d * sizeof *v);
+            queue[tail++] = q;
+        }
+    }
+    rc = reached == m ? 0 : -1;
+done:
+    free(key), free(queue), free(seen);
+    return rc;
+}
+
+/* D_f from the mass-radius relation averaged over centres (the cluster's
+ * correlation integral): M(r) = mean over up to 64 monomers (evenly spaced
+ * in file order) of the monomers within r of it, at 10 radii spaced evenly
+ * in log r over [r_lo, r_hi]; least squares of log M on log r, *err its
+ * standard error. (The centre of mass itself often lies in a hole of a
+ * tenuous cluster.) -1 if the range is empty. */
+static int mass_radius(const int64_t *u, size_t m, int d, double r_lo, double r_hi, double *df, double *err)
+{
+    enum { K = 10, C = 64 };
+    if (!(r_hi > r_lo * 1.5) || m < 2) return -1;
+    double x[K], y[K] = {0}, r2[K], sx = 0, sy = 0;
+    for (int i = 0; i < K; i++) {
+        const double r = r_lo * pow(r_hi / r_lo, (double)i / (K - 1));
+        x[i] = log(r);
+        r2[i] = r * r;
+    }
+    const size_t nc = m < C ? m : C;
+    for (size_t c = 0; c < nc; c++) {
+        const int64_t *uc = u + (c * m / nc) * d;
+        for (size_t j = 0; j < m; j++) {
+            double q = 0;
+            for (int a = 0; a < d; a++) q += (double)((u[j * d + a] - uc[a]) * (u[j * d + a] - uc[a]));
+            for (int i = 0; i < K; i++) y[i] += q <= r2[i];
+        }
+    }
+    for (int i = 0; i < K; i++) {
+        y[i] = log(y[i] / (double)nc);
+        sx += x[i], sy += y[i];
+    }
+    sx /= K, sy /= K;
+    double sxx = 0, sxy = 0;
+    for (int i = 0; i < K; i++) sxx += (x[i] - sx) * (x[i] - sx), sxy += (x[i] - sx) * (y[i] - sy);
+    *df = sxy / sxx;
+    double rss = 0;
+    for (int i = 0; i < K; i++) rss += pow(y[i] - sy - *df * (x[i] - sx), 2);
+    *err = sqrt(rss / (K - 2) / sxx);
+    return 0;
+}
+
+int dlca_analyze_main(int argc, char **argv)
+{
+    static const struct option lo[] = {{"json", no_argument, NULL, 'j'}, {"help", no_argument, NULL, 'h'},
+                                       {NULL, 0, NULL, 0}};
+    int json = 0, c;
+    char err[600];
+    opterr = 0;
+    optind = 1;
+    if (optcheck_exact(argc, argv, lo, "h", err, sizeof err)) {
+        fprintf(stderr, "pdla analyze: %s\n", err);
+        return TOOL_USAGE;
+    }
+    while ((c = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
+        if (c == 'j') json = 1;
+        else if (c == 'h') {
+            printf("Usage: pdla analyze DLCA_FILE [--json]\n"
+                   "A DLCA cluster.h5: the largest cluster's size, R_g and D_f (mass-radius:\n"
+                   "monomers within r of a monomer, averaged over up to 64 of them, r from 2 to\n"
+                   "R_g, lattice units), and\n"
+                   "D_f from R_g against size over all the clusters (sizes >= 8).\n");
+            return fflush(stdout) ? TOOL_RUNTIME : TOOL_OK;
+        } else {
+            fprintf(stderr, "pdla analyze: option '%s' is not known for DLCA files (use --json)\n", argv[optind - 1]);
+            return TOOL_USAGE;
+        }
+    }
+    if (optind != argc - 1) {
+        fprintf(stderr, "pdla analyze: need one DLCA_FILE\n");
+        return TOOL_USAGE;
+    }
+    dfile f;
+    if (dfile_read(argv[optind], &f, err, sizeof err)) {
+        fprintf(stderr, "pdla analyze: %s\n", err);
+        return TOOL_USAGE;
+    }
+    const int d = f.dim;
+    size_t big = 0;
+    for (size_t j = 1; j < f.nc; j++)
+        if (f.size[j] > f.size[big]) big = j;
+    size_t m = 0;
+    for (size_t i = 0; i < f.n; i++) m += f.cid[i] == big;
+    size_t *idx = malloc((m ? m : 1) * sizeof *idx);
+    int64_t *u = malloc((m ? m : 1) * (size_t)d * sizeof *u);
+    double *r2 = malloc((m ? m : 1) * sizeof *r2);
+    int rc = TOOL_OK;
+    if (!idx || !u || !r2) {
+        fprintf(stderr, "pdla analyze: out of memory\n");
+        rc = TOOL_RUNTIME;
+        goto done;
+    }
+    m = 0;
+    for (size_t i = 0; i < f.n; i++)
+        if (f.cid[i] == big) idx[m++] = i;
+    if (m != f.size[big] || unwrap(&f, idx, m, u)) {
+        fprintf(stderr, "pdla analyze: %s: the largest cluster %s\n", argv[optind],
+                m != f.size[big] ? "has another size than /clusters/size says"
+                                 : "spans the box or is not face-connected: no unwrapped shape");
+        rc = TOOL_USAGE;
+        goto done;
+    }
+    double cm[MAXD] = {0}, rg2 = 0;
+    for (size_t j = 0; j < m; j++)
+        for (int a = 0; a < d; a++) cm[a] += (double)u[j * d + a] / (double)m;
+    for (size_t j = 0; j < m; j++) {
+        r2[j] = 0;
+        for (int a = 0; a < d; a++) r2[j] += pow((double)u[j * d + a] - cm[a], 2);
+        rg2 += r2[j] / (double)m;
+    }
+    const double rg = sqrt(rg2);
+    double dfm = NAN, dfm_err = NAN, dfe, dfe_err;
+    (void)mass_radius(u, m, d, 2, rg, &dfm, &dfm_err);
+    const int bins = dlca_fractal_dim(f.size, f.rg, f.nc, 8, &dfe, &dfe_err);
+    if (json) {
+        printf("{\"model\": \"dlca\", \"dim\": %d, \"monomers\": %zu, \"clusters\": %zu, \"largest\": {\"size\": %zu, "
+               "\"rg\": %.10g, \"rg_file\": %.10g, \"D_f\": %.6g, \"D_f_err\": %.6g}, \"clusters_D_f\": %.6g, "
+               "\"clusters_D_f_err\": %.6g, \"clusters_D_f_bins\": %d}\n",
+               d, f.n, f.nc, m, rg, f.rg[big], dfm, dfm_err, dfe, dfe_err, bins);
+    } else {
+        printf("%s: model dlca, d = %d, %zu monomers in %zu clusters (stop: %s)\n", argv[optind], d, f.n, f.nc,
+               f.stop[0] ? f.stop : "?");
+        printf("largest cluster: %zu monomers, R_g %.6g (file: %.6g), D_f %.4f +/- %.4f (mass-radius, r in [2, R_g])\n",
+               m, rg, f.rg[big], dfm, dfm_err);
+        printf("all clusters: D_f %.4f +/- %.4f (R_g against size, sizes >= 8, %d bins)\n", dfe, dfe_err, bins);
+    }
+    if (fflush(stdout)) rc = TOOL_RUNTIME;
+done:
+    free(idx), free(u), free(r2);
+    dfile_free(&f);
+    return rc;
+}
+
+int dlca_tool_file(int argc, char **argv)
+{
+    for (int i = 1; i < argc; i++) {
+        if (argv[i][0] == '-') {
+            if (!strcmp(argv[i], "-o") || !strcmp(argv[i], "--output")) i++; /* its value */
+            continue;
+        }
+        if (dlca_info_is_dlca(argv[i])) return 1;
+    }
+    return 0;
+}

@@ -116,7 +116,14 @@ static void put_body(sbuf *fp, const xdmf_points *p, const char *base)
     sb_printf(fp, "<?xml version=\"1.0\" ?>\n"
                 "<!-- pdla: particles of ");
     put_escaped(fp, base);
-    sb_printf(fp, " for ParaView's \"XDMF Reader\" (XDMF 2); positions in diameters -->\n"
+    /* "diameters" only where the file has a resolution; the event and
+     * DLCA models pass 1 and keep their own length unit (model length,
+     * lattice spacing). */
+    if (p->units_per_diameter > 1)
+        sb_printf(fp, " for ParaView's \"XDMF Reader\" (XDMF 2); positions in diameters -->\n");
+    else
+        sb_printf(fp, " for ParaView's \"XDMF Reader\" (XDMF 2); positions in the file's length unit -->\n");
+    sb_printf(fp,
                 "<Xdmf Version=\"2.0\">\n <Domain>\n  <Grid Name=\"particles\" GridType=\"Uniform\">\n"
                 "   <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%" PRIu64
                 "\" NodesPerElement=\"1\"/>\n"

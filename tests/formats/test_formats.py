@@ -319,6 +319,8 @@ def test_paraview(pdla, fix, pv_check, render, tmp):
         side = key + "/cluster.xdmf2"
         if not check(os.path.exists(side), "pdla wrote no %s" % side):
             continue
+        check("positions in diameters" in open(side, encoding="utf-8").read(),
+              "%s: its comment does not say diameters" % side)
         j = pv_json(pv_check, side)
         if j is None:
             continue
@@ -381,6 +383,11 @@ def test_event_paraview(pdla, pv_check, tmp):
         check(n == (150 if g == "cluster" else 250), "%s: %d rows" % (g, n))
         if not check(os.path.exists(side), "pdla wrote no %s" % side):
             continue
+        # Species of radius 0.5 and 0.8: the positions are in the model's
+        # length unit, and the sidecar must not call them diameters.
+        text = open(side, encoding="utf-8").read()
+        check("positions in the file's length unit" in text and "diameters" not in text,
+              "%s: its comment names the wrong unit" % side)
         j = pv_json(pv_check, side)
         if j is None:
             continue

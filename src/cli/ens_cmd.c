@@ -82,7 +82,15 @@ static void print_help(void)
            "  --resume DIR        go on with DIR's ensemble; growth options given must match\n"
            "  -q, --progress, --no-progress, --scene FILE: as for pdla\n"
            "Every growth option of `pdla --help` (--dim, --target, --seed, --resolution, ...)\n"
-           "applies to each cluster; --bind, checkpoints, --stats-json and --no-output do not.\n");
+           "applies to each cluster; --bind, checkpoints, --stats-json and --no-output do not.\n"
+#ifdef PDLA_WITH_MPI
+           "Across machines: `mpirun -n R pdla ensemble ...` (this build has MPI): rank 0\n"
+           "writes DIR, every rank grows clusters on its T threads; give each rank T cores\n"
+           "(e.g. --map-by ppr:1:node:PE=T) or --bind-to none.\n"
+#else
+           "This build has no MPI (meson option -Dmpi); under mpirun it refuses to start.\n"
+#endif
+           );
 }
 
 /* argv joined with shell quoting, for provenance. */

@@ -53,6 +53,9 @@ mpi() { # mpi N ARGS...: mpirun -n N pdla ARGS, status in rc, output in out/err
     "${MPIRUN[@]}" -n "$n" "$PDLA" "$@" >out 2>err </dev/null
     rc=$?
 }
+# --help says how to launch across machines in a build with MPI.
+checks=$((checks + 1))
+"$PDLA" ensemble --help 2>&1 | grep -q "mpirun -n R pdla ensemble" || fail "ensemble --help does not name mpirun"
 # rank_pid JOB R: pid of rank R of the job started as JOB (timeout, whose
 # child is mpirun, whose children are the ranks), from the ranks' environment.
 rank_pid() {

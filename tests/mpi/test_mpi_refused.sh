@@ -24,5 +24,6 @@ timeout 120 mpirun --oversubscribe --allow-run-as-root -n 1 "$PDLA" ensemble --c
     >out 2>err </dev/null
 rc=$?
 [ "$rc" -eq 0 ] && [ -f one/ensemble.h5 ] || { echo "FAIL: mpirun -n 1: status $rc: $(cat err)"; fails=1; }
+"$PDLA" ensemble --help 2>&1 | grep -q "This build has no MPI" || { echo "FAIL: ensemble --help does not say the build has no MPI"; fails=1; }
 [ "$fails" -eq 0 ] && echo "refused under mpirun -n 2, ran under -n 1"
 exit "$fails"

@@ -66,23 +66,7 @@ static void turn_end(void *user, int id)
     pthread_mutex_unlock(&t->mu);
 }
 
-typedef struct positions {
-    int32_t *x;
-    size_t n, cap;
-    int dim;
-} positions;
-
-static int grab(const int32_t *xyz, size_t n, void *user)
-{
-    positions *p = user;
-    if (p->n + n > p->cap) {
-        p->cap = 2 * (p->n + n);
-        p->x = realloc(p->x, p->cap * (size_t)p->dim * sizeof *p->x);
-    }
-    memcpy(p->x + p->n * (size_t)p->dim, xyz, n * (size_t)p->dim * sizeof *xyz);
-    p->n += n;
-    return 0;
-}
+#include "positions.h"
 
 typedef struct result {
     positions pos;
@@ -121,7 +105,7 @@ static result grow(int dim, uint64_t target, uint64_t serial, int P, int mode, u
     CHECK(pdla_engine_grow(e, target, NULL, 0, NULL, err, sizeof err) == PDLA_OK, "grow: %s", err);
     e->hooks = NULL;
     r.end = e->walker.rng;
-    pdla_engine_visit(e, grab, &r.pos);
+    CHECK(pdla_engine_visit(e, grab, &r.pos) == 0, "out of memory gathering the positions");
     const uint64_t *n;
     const double *rg;
     pdla_engine_rg_series(e, &n, &rg, &r.rg_count);

@@ -15,23 +15,7 @@
 #include "check.h"
 #include "pdla/pdla.h"
 
-typedef struct positions {
-    int32_t *x;
-    size_t n, cap;
-    int dim;
-} positions;
-
-static int grab(const int32_t *xyz, size_t n, void *user)
-{
-    positions *p = user;
-    if (p->n + n > p->cap) {
-        p->cap = 2 * (p->n + n);
-        p->x = realloc(p->x, p->cap * (size_t)p->dim * sizeof *p->x);
-    }
-    memcpy(p->x + p->n * (size_t)p->dim, xyz, n * (size_t)p->dim * sizeof *xyz);
-    p->n += n;
-    return 0;
-}
+#include "positions.h"
 
 typedef struct result {
     positions pos;
@@ -57,7 +41,7 @@ static result grow(int dim, uint64_t target, int refs, pdla_recheck_mode recheck
     char err[256];
     CHECK(pdla_engine_create(&e, &P, err, sizeof err) == PDLA_OK, "create: %s", err);
     CHECK(pdla_engine_grow(e, target, NULL, 0, NULL, err, sizeof err) == PDLA_OK, "grow: %s", err);
-    pdla_engine_visit(e, grab, &r.pos);
+    CHECK(pdla_engine_visit(e, grab, &r.pos) == 0, "out of memory gathering the positions");
     const uint64_t *n;
     const double *rg;
     pdla_engine_rg_series(e, &n, &rg, &r.rg_count);

@@ -28,7 +28,9 @@ extern "C" {
 #endif
 
 /* Models a parameter applies to (pdla_param_desc.models). */
-#define PDLA_MODEL_DLA (1u << 0) /* off-lattice DLA / PDLA (the engine in pdla.h) */
+#define PDLA_MODEL_DLA (1u << 0)   /* off-lattice DLA / PDLA (the engine in pdla.h) */
+#define PDLA_MODEL_DLCA (1u << 1)  /* lattice cluster-cluster aggregation (dlca.h) */
+#define PDLA_MODEL_EVENT (1u << 2) /* event-driven sticky hard spheres (event.h) */
 
 /* How a parameter is stored in its struct and written out. */
 typedef enum pdla_param_type {

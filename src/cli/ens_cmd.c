@@ -76,7 +76,11 @@ static void print_help(void)
            "`pdla ensemble --resume DIR` grows only the missing ones.\n\n"
            "  --clusters M        number of clusters (>= 1)\n"
            "  --threads T         clusters grown at once (default 1; 0: one per physical core)\n"
-           "  --keep-positions    also store every cluster's positions\n"
+           "  --keep-positions    also store every cluster's positions (/clusters/positions,\n"
+           "                      cluster i in rows i*N..i*N+N-1, chunked by cluster) and\n"
+           "                      DIR/ensemble.xdmf2 for ParaView (one block per cluster)\n"
+           "  --compress L        deflate level 0..9 of the kept positions, with shuffle\n"
+           "                      (default 4; 0: uncompressed); h5py and h5dump read both\n"
            "  --out DIR           ensemble directory (must not exist unless --force)\n"
            "  --force             write into an existing DIR (its old ensemble is removed)\n"
            "  --resume DIR        go on with DIR's ensemble; growth options given must match\n"
@@ -121,6 +125,7 @@ static char *command_line(int argc, char **argv)
 typedef struct ens_args {
     uint64_t clusters;
     int clusters_given, keep, keep_given, help;
+    int gzip; /* deflate level of the kept positions */
 } ens_args;
 
 /* Take this command's own options out of argv (into a, rest into *rest with
@@ -128,6 +133,7 @@ typedef struct ens_args {
 static int split_args(int argc, char **argv, ens_args *a, char **rest, int *nrest, char *err, size_t errlen)
 {
     memset(a, 0, sizeof *a);
+    a->gzip = PDLA_ENS_GZIP_DEFAULT;
     int n = 0;
     rest[n++] = "pdla ensemble";
     for (int i = 1; i < argc; i++) {
@@ -142,6 +148,13 @@ static int split_args(int argc, char **argv, ens_args *a, char **rest, int *nres
             v = argv[++i];
         } else if (!strncmp(s, "--clusters=", 11)) {
             v = s + 11;
+        } else if (!strcmp(s, "--compress") || !strncmp(s, "--compress=", 11)) {
+            const char *l = s[10] == '=' ? s + 11 : i + 1 < argc ? argv[++i] : NULL;
+            if (!l) return snprintf(err, errlen, "option --compress needs a value (L)"), -1;
+            if (l[0] < '0' || l[0] > '9' || l[1])
+                return snprintf(err, errlen, "invalid value '%.48s' for --compress: want a level 0..9", l), -1;
+            a->gzip = l[0] - '0';
+            continue;
         } else if (!strcmp(s, "--keep-positions")) {
             a->keep = a->keep_given = 1;
             continue;
@@ -180,8 +193,8 @@ static int make_dir(const char *dir, int *created)
 }
 
 /* Leftovers of an interrupted writer, only names this command makes (hold
- * the directory's lock): the temporaries of clusters.journal and
- * ensemble.h5, and with old_outputs (a new ensemble with --force) the old
+ * the directory's lock): the temporaries of clusters.journal,
+ * ensemble.h5 and ensemble.xdmf2, and with old_outputs (a new ensemble with --force) the old
  * journal and file. */
 static void remove_named(const char *dir, int old_outputs)
 {
@@ -191,13 +204,16 @@ static void remove_named(const char *dir, int old_outputs)
         unlink(p);
         snprintf(p, sizeof p, "%s/%s", dir, PDLA_ENS_FILE_NAME);
         unlink(p);
+        snprintf(p, sizeof p, "%s/%s", dir, PDLA_ENS_SIDECAR_NAME);
+        unlink(p);
     }
     DIR *d = opendir(dir);
     if (!d) return;
-    static const char *const prefixes[] = {PDLA_ENS_JOURNAL_NAME ".tmp.", PDLA_ENS_FILE_NAME ".tmp."};
+    static const char *const prefixes[] = {PDLA_ENS_JOURNAL_NAME ".tmp.", PDLA_ENS_FILE_NAME ".tmp.",
+                                           PDLA_ENS_SIDECAR_NAME ".tmp."};
     const struct dirent *de;
     while ((de = readdir(d)))
-        for (size_t i = 0; i < 2; i++)
+        for (size_t i = 0; i < 3; i++)
             if (!strncmp(de->d_name, prefixes[i], strlen(prefixes[i]))) {
                 snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
                 unlink(p);
@@ -475,7 +491,7 @@ int ens_cmd_main(int argc, char **argv)
     char h5[4300];
     snprintf(h5, sizeof h5, "%s/%s", dir, PDLA_ENS_FILE_NAME);
     const pdla_run_info info = {cmd, pdla_clock_seconds() - t0, 0};
-    if (pdla_ens_write(j, &info, h5, err, sizeof err)) {
+    if (pdla_ens_write_gz(j, &info, h5, a.gzip, err, sizeof err)) {
         fprintf(stderr, "pdla ensemble: %s\n", err);
         code = EXIT_RUNTIME;
         goto out;

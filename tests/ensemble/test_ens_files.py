@@ -13,7 +13,11 @@ Usage: test_ens_files.py PDLA PV_SCRIPT
    cluster's rows / D, "cluster" = i on every point, "arrival" 0..N-1,
    "distance" up to numpy's largest |x| / D;
  - the sidecar is rewritten, identically, by --resume; --force without
-   --keep-positions removes the stale one; a bad --compress is refused.
+   --keep-positions removes the stale one; a bad --compress is refused;
+ - hostile files: an ensemble whose /statistics/slope_N (for `pdla
+   analyze`) or /clusters/positions (for `pdla export`) declares 2^40 rows
+   that are not stored is refused with one line naming the dataset, exit 2,
+   at once (no allocation or loop for the declared rows).
 A missing ParaView, h5py or h5dump is a failure, not a skip.
 """
 import json
@@ -118,6 +122,31 @@ def check_ensemble(d, m, n, dim, seed, extra, level, serial):
             check("arrival" not in a, "%s block %d: an arrival array without --arrival" % (d, i))
 
 
+def hostile(src):
+    for name, cmd, ds in (("analyze", ["analyze"], "/statistics/slope_N"),
+                          ("export", ["export", "-o", "h.csv"], "/clusters/positions")):
+        path = "hostile-%s.h5" % name
+        shutil.copy(src, path)
+        with h5py.File(path, "r+") as f:
+            old = f[ds]
+            attrs = dict(old.attrs)
+            del f[ds]
+            rows = 2 ** 40 if ds.endswith("slope_N") else 3 * 2 ** 38
+            shape = (rows,) if old.ndim == 1 else (rows, old.shape[1])
+            d = f.create_dataset(ds, shape=shape, dtype=old.dtype, chunks=(1024,) + shape[1:])
+            for k, v in attrs.items():
+                d.attrs[k] = v
+            if "rows_per_cluster" in attrs:
+                d.attrs["rows_per_cluster"] = np.uint64(2 ** 38)
+        try:
+            p = subprocess.run([PDLA, cmd[0], path] + cmd[1:], capture_output=True, text=True, timeout=60)
+            rc, se = p.returncode, p.stderr
+        except subprocess.TimeoutExpired:
+            rc, se = -1, "timed out"
+        check(rc == 2 and len(se.strip().splitlines()) == 1 and ds in se and "declares" in se,
+              "hostile %s (%s of 2^40 rows, none stored): exit %d, %r" % (name, ds, rc, se.strip()))
+
+
 def main():
     for tool in ("pvpython", "h5dump"):
         if not check(shutil.which(tool) is not None, "%s not found (apt-get install paraview python3-paraview hdf5-tools)" % tool):
@@ -133,6 +162,8 @@ def main():
         if grow(["ensemble", "--dim", "3", "--clusters", "3", "--target", "1500", "--seed", "8", "--keep-positions",
                  "--compress", "0", "--out", "e3"], "3D ensemble"):
             check_ensemble("e3", 3, 1500, 3, 8, [], 0, (1,))
+        if os.path.exists("e3/ensemble.h5"):
+            hostile("e3/ensemble.h5")
         # --resume rewrites the sidecar, the same text.
         before = open("e2/ensemble.xdmf2").read() if os.path.exists("e2/ensemble.xdmf2") else None
         os.unlink("e2/ensemble.xdmf2") if before is not None else None

@@ -95,6 +95,12 @@ mpi 4 ensemble --clusters 3 --target 2000 --seed 7 --keep-positions --threads 1 
 [ "$rc" -eq 0 ] || fail "4 ranks, 3 clusters: status $rc: $(cat err)"
 same s3 r3 "4 ranks, 3 clusters"
 
+# ---- extend under mpirun: 5 clusters (one process) to 12 on 2 ranks == 12 at once ----
+"$PDLA" ensemble --clusters 5 --target 2000 --seed 5 --keep-positions --out x5 -q || fail "single process, 5 clusters"
+mpi 2 ensemble --resume x5 --clusters 12 --threads 1 -q
+[ "$rc" -eq 0 ] || fail "mpirun -n 2, extend 5 to 12: status $rc: $(cat err)"
+same s x5 "5 clusters extended to 12 on 2 ranks"
+
 # ---- bad input: rank 0 alone says it, exit 2 --------------------------------------------
 for bad in "--clusters 0 --target 100 --out b1|--clusters: must be at least 1" \
            "--clusters 2 --target 100 --out s|already exists" \

@@ -5,7 +5,8 @@
 # check-layers to fail naming it: a folder arrow upwards (core -> dla), a
 # model using another model (dlca -> event), a library file using the CLI,
 # an #include cycle between two headers, the CLI including a library-internal
-# header, a public header missing from tests/headers, an unresolvable include.
+# header, a public header missing from tests/headers, an unresolvable include,
+# a second reader of the monotonic clock.
 set -u
 src=$1
 check="$src/scripts/check-layers"
@@ -48,5 +49,7 @@ fresh; echo '#include "h5util.h"' >>"$tmp/t/src/cli/render.c"
 expect "cli include not on its path" "render.c:.*not found on its include path"
 fresh; printf '#ifndef X\n#define X\n#endif\n' >"$tmp/t/include/pdla/newmodel.h"
 expect "untested public header" "include/pdla/newmodel.h is not in tests/headers/meson.build"
+fresh; printf 'static double t(void) { struct timespec ts; clock_gettime(CLOCK_MONOTONIC, &ts); return 0; }\n' >>"$tmp/t/src/dla/grow.c"
+expect "a second monotonic clock" "src/dla/grow.c reads CLOCK_MONOTONIC itself"
 
 exit $fail

@@ -935,10 +935,20 @@ static inline __attribute__((always_inline)) int nearest_point(const tree *t, co
             leaf_idx = tree_find_leaf(t, corner, lo);
         }
         if (!leaf_idx) continue;
+        int64_t ql[3] = {0, 0, 0};
+        for (int a = 0; a < dim; a++) ql[a] = p[a] - lo[a]; /* |ql| < 512: chunk_min_d2 applies */
         for (uint32_t ci = leaf_idx;;) {
             const uint8_t *chunk = tree_chunk_at(t, ci);
             const uint32_t link = tree_chunk_link(t, chunk);
             const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+            /* A full chunk that links on is never written again, so its
+             * vector minimum may be read while workers append: when it is
+             * not below the best, the scalar pass (which keeps the first of
+             * equally near particles) would change nothing. */
+            if (link > TREE_CHUNK_CAP && chunk_min_d2(chunk, ql, m, dim) >= best2) {
+                ci = link;
+                continue;
+            }
             for (uint32_t j = 0; j < m; j++) {
                 uint64_t d2 = 0;
                 int64_t x[3];

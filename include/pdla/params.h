@@ -38,8 +38,14 @@ typedef enum pdla_param_type {
     PDLA_PT_U64,    /* uint64_t; HDF5 uint64, JSON number */
     PDLA_PT_REAL,   /* double; HDF5 float64, JSON number */
     PDLA_PT_FLAG,   /* int 0 or 1; HDF5 int32, JSON number; a CLI flag without value */
-    PDLA_PT_CHOICE  /* an enum stored as int, values 0..n-1; HDF5 and JSON: its word */
+    PDLA_PT_CHOICE, /* an enum stored as int, values 0..n-1; HDF5 and JSON: its word */
+    PDLA_PT_BOX     /* uint32_t[PDLA_PARAM_BOX_MAX] lengths, one per axis, of which the
+                       int field at count_offset (the dimension) says how many are used;
+                       each in [lo_u, hi_u]; one value (set_u, the default) fills every
+                       entry; HDF5: uint64 array of the used ones; text "L1xL2x..." */
 } pdla_param_type;
+
+#define PDLA_PARAM_BOX_MAX 5
 
 typedef struct pdla_param_desc {
     const char *name;    /* struct field, /parameters attribute and JSON key */
@@ -63,9 +69,11 @@ typedef struct pdla_param_desc {
     int flag_value;      /* FLAG: the value the CLI flag sets (the default is the other) */
     /* INT, U64, FLAG, CHOICE: default and closed range [lo, hi]. */
     uint64_t def_u, lo_u, hi_u;
-    /* REAL: default and range [lo, hi], or (lo, hi] with lo_open. */
+    /* REAL: default and range [lo, hi]; lo_open / hi_open exclude a bound. */
     double def_r, lo_r, hi_r;
     int lo_open;
+    int hi_open;
+    size_t count_offset; /* BOX: offsetof the int field giving how many lengths are used */
     const char *const *choices; /* CHOICE: the word of value 0, 1, ...; NULL-terminated */
     /* An extra rule run after the range check passed (power of two, a bound
      * that depends on another field), or NULL. Writes one line, returns non-zero
@@ -106,6 +114,17 @@ PDLA_API int pdla_param_format(const pdla_param_desc *d, const void *s, int exac
                                size_t len);
 /* The value of `word` in a CHOICE row, or -1. */
 PDLA_API int pdla_param_choice(const pdla_param_desc *d, const char *word);
+
+/* A resume's rule, for any model: every row named in `given` (a mask of
+ * bits) that is not resumable must hold in `asked` the value it has in
+ * `have` (the checkpoint's). 0, or PDLA_EINVAL with "cannot resume with a
+ * different physics parameter: LABEL is X in the checkpoint, Y asked". */
+PDLA_API int pdla_param_check_asked(const pdla_param_desc *t, size_t n, uint32_t given,
+                                    const void *have, const void *asked, char *err,
+                                    size_t errlen);
+/* Copy every resumable row named in `given` from src into dst. */
+PDLA_API void pdla_param_apply_resumable(const pdla_param_desc *t, size_t n, uint32_t given,
+                                         void *dst, const void *src);
 
 #ifdef __cplusplus
 }

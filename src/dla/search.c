@@ -143,16 +143,13 @@ static inline __attribute__((always_inline)) uint32_t chunk_min_d2(const uint8_t
 }
 
 /* Exact scan of one leaf. q = p - leaf corner. The common near case runs in
- * 16/32-bit arithmetic: |q| <= 2^14 keeps q - x in int16 and
- * dim * (2^14 + 255)^2 < 2^31. */
+ * 16/32-bit arithmetic when `small`: |q| <= 2^14 keeps q - x in int16 and
+ * dim * (2^14 + 255)^2 < 2^31 (leaf_small). */
 static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, uint32_t head,
                                                                 const int64_t *q, uint64_t best2,
-                                                                int dim, int concurrent,
+                                                                int small, int dim, int concurrent,
                                                                 search_state *k)
 {
-    int small = 1;
-    for (int a = 0; a < dim; a++)
-        if (q[a] < -(1 << 14) || q[a] > (1 << 14)) small = 0;
     for (uint32_t c = head;;) {
         const uint8_t *chunk = tree_chunk_at(t, c);
         const uint32_t link = tree_chunk_link(t, chunk);
@@ -182,10 +179,24 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
     return best2;
 }
 
-/* Children pushed farthest first so the nearest is popped first: order by
- * the number of axes on which child k differs from the query's own octant. */
-static const uint8_t push_order2[4] = {3, 1, 2, 0};
-static const uint8_t push_order3[8] = {7, 6, 5, 3, 4, 2, 1, 0};
+/* |q| <= 2^14 on every axis (scan_leaf's `small`) for a leaf whose box is
+ * nearer than best2: below (2^14 - 256)^2 that holds without a look (the
+ * box is within 2^14 - 256 of p on every axis, and q spans the box). */
+#define LEAF_SMALL_BEST2 ((uint64_t)((1 << 14) - 256) * (uint64_t)((1 << 14) - 256))
+static inline __attribute__((always_inline)) int leaf_small(const int64_t *q, uint64_t best2,
+                                                            const int dim)
+{
+    if (best2 <= LEAF_SMALL_BEST2) return 1;
+    int small = 1;
+    for (int a = 0; a < dim; a++)
+        if (q[a] < -(1 << 14) || q[a] > (1 << 14)) small = 0;
+    return small;
+}
+
+/* Children are pushed farthest first (the submasks of the axes where they
+ * may lie within the bound, in decreasing order: roughly by the number of
+ * axes on which a child differs from the query's own one) so the nearest is
+ * popped first. */
 
 /* Node corners fit in 32 bits: the root box is at most [-2^30, 2^30). */
 typedef struct stack_entry {
@@ -215,8 +226,6 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
               const int64_t *lo, uint64_t d2, uint64_t best2, uint64_t *visits, search_state *k,
               const int dim)
 {
-    const int nchild = 1 << dim;
-    const uint8_t *order = dim == 2 ? push_order2 : push_order3;
     stack_entry stack[SEARCH_STACK];
     stack[0].node = node;
     stack[0].level = level;
@@ -230,7 +239,7 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
         if (e.level == 0) {
             int64_t q[3];
             for (int a = 0; a < dim; a++) q[a] = p[a] - e.lo[a];
-            best2 = scan_leaf(t, e.node, q, best2, dim, c->concurrent, k);
+            best2 = scan_leaf(t, e.node, q, best2, leaf_small(q, best2, dim), dim, c->concurrent, k);
             continue;
         }
         if (e.d2 > c->far2[e.level]) {
@@ -253,12 +262,14 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
         }
         const _Atomic uint32_t *ch = tree_children(t, e.node);
         if (e.level == 1) {
-            /* Leaves: scanned at once, nearest first, in the order the
-             * stack would pop them (each pushed leaf would be popped before
-             * anything below it, and re-tested against the bound then). */
-            for (int i = nchild - 1; i >= 0; i--) {
-                if (order[i] & ~near) continue;
-                const uint32_t kidx = own ^ order[i];
+            /* Leaves: scanned at once, nearest first (roughly: the
+             * submasks in increasing order), as the stack would pop them
+             * (each pushed leaf would be popped before anything below it,
+             * and re-tested against the bound then). */
+            uint32_t differ = 0; /* the submasks of near, in increasing order */
+            do {
+                const uint32_t kidx = own ^ differ;
+                differ = (differ - near) & near;
                 const uint32_t child = tree_child(ch, kidx);
                 if (!child) continue;
                 uint64_t cd2 = 0;
@@ -268,13 +279,17 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
                 int64_t q[3];
                 for (int a = 0; a < dim; a++)
                     q[a] = p[a] - (e.lo[a] + (int64_t)((kidx >> a) & 1) * half);
-                best2 = scan_leaf(t, child, q, best2, dim, c->concurrent, k);
-            }
+                best2 = scan_leaf(t, child, q, best2, leaf_small(q, best2, dim), dim, c->concurrent,
+                                  k);
+            } while (differ);
             continue;
         }
-        for (int i = 0; i < nchild; i++) {
-            if (order[i] & ~near) continue;
-            const uint32_t kidx = own ^ order[i];
+        /* The submasks of near, in decreasing order (farthest first). */
+        for (uint32_t next = near, more = 1; more;) {
+            const uint32_t differ = next;
+            more = differ != 0;
+            next = (differ - 1) & near;
+            const uint32_t kidx = own ^ differ;
             const uint32_t child = tree_child(ch, kidx);
             if (!child) continue;
             uint64_t cd2 = 0;
@@ -393,7 +408,7 @@ static inline __attribute__((always_inline)) int descend_own_path(const tree *t,
         if (level == 1) {
             int64_t q[3];
             for (int a = 0; a < dim; a++) q[a] = p[a] - lo[a];
-            *best2 = scan_leaf(t, child, q, *best2, dim, c->concurrent, k);
+            *best2 = scan_leaf(t, child, q, *best2, 1, dim, c->concurrent, k); /* 0 <= q < 256 */
             (*visits)++;
             return level;
         }
@@ -839,7 +854,7 @@ static inline __attribute__((always_inline)) uint64_t blk_scan(const tree *t,
         }
         int64_t q[3];
         for (int a = 0; a < dim; a++) q[a] = p[a] - nlo[a];
-        best2 = scan_leaf(t, head, q, best2, dim, c->concurrent, k);
+        best2 = scan_leaf(t, head, q, best2, 1, dim, c->concurrent, k); /* |q| < 512 */
         k->node_visits++;
     }
     return best2;

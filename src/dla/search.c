@@ -895,7 +895,11 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
                                                               lo[2] - TREE_LEAF_SIDE},
                                          3 * TREE_LEAF_SIDE, dim);
     const uint64_t seed2 = SEARCH_SEEDED(dim) ? seed_bound2(k, p, dim) : UINT64_MAX;
-    const uint64_t best2 = blk_scan(t, c, L, p, lo, cc, seed2 < out2 ? seed2 : out2, k, dim);
+    /* 2D starts from no bound: starting from out2 saved 0.8% of Ir at 2D
+     * 1e5 but was slower in user CPU time in paired runs (runs/bench-serial/
+     * issue12-speed3-2026-11-24.md). */
+    const uint64_t start2 = SEARCH_SEEDED(dim) ? (seed2 < out2 ? seed2 : out2) : UINT64_MAX;
+    const uint64_t best2 = blk_scan(t, c, L, p, lo, cc, start2, k, dim);
     if (best2 < out2) {
         if (SEARCH_SEEDED(dim)) note_exact(k, p, best2, dim);
         return best2;
@@ -959,8 +963,9 @@ static inline __attribute__((always_inline)) int nearest_point(const tree *t, co
             /* A full chunk that links on is never written again, so its
              * vector minimum may be read while workers append: when it is
              * not below the best, the scalar pass (which keeps the first of
-             * equally near particles) would change nothing. */
-            if (link > TREE_CHUNK_CAP && chunk_min_d2(chunk, ql, m, dim) >= best2) {
+             * equally near particles) would change nothing. 3D only: in 2D
+             * it saved 0.6% of Ir but no user CPU time in paired runs. */
+            if (dim == 3 && link > TREE_CHUNK_CAP && chunk_min_d2(chunk, ql, m, dim) >= best2) {
                 ci = link;
                 continue;
             }

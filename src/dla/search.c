@@ -143,16 +143,13 @@ static inline __attribute__((always_inline)) uint32_t chunk_min_d2(const uint8_t
 }
 
 /* Exact scan of one leaf. q = p - leaf corner. The common near case runs in
- * 16/32-bit arithmetic: |q| <= 2^14 keeps q - x in int16 and
- * dim * (2^14 + 255)^2 < 2^31. */
+ * 16/32-bit arithmetic when `small`: |q| <= 2^14 keeps q - x in int16 and
+ * dim * (2^14 + 255)^2 < 2^31 (leaf_small). */
 static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, uint32_t head,
                                                                 const int64_t *q, uint64_t best2,
-                                                                int dim, int concurrent,
+                                                                int small, int dim, int concurrent,
                                                                 search_state *k)
 {
-    int small = 1;
-    for (int a = 0; a < dim; a++)
-        if (q[a] < -(1 << 14) || q[a] > (1 << 14)) small = 0;
     for (uint32_t c = head;;) {
         const uint8_t *chunk = tree_chunk_at(t, c);
         const uint32_t link = tree_chunk_link(t, chunk);
@@ -182,10 +179,24 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
     return best2;
 }
 
-/* Children pushed farthest first so the nearest is popped first: order by
- * the number of axes on which child k differs from the query's own octant. */
-static const uint8_t push_order2[4] = {3, 1, 2, 0};
-static const uint8_t push_order3[8] = {7, 6, 5, 3, 4, 2, 1, 0};
+/* |q| <= 2^14 on every axis (scan_leaf's `small`) for a leaf whose box is
+ * nearer than best2: below (2^14 - 256)^2 that holds without a look (the
+ * box is within 2^14 - 256 of p on every axis, and q spans the box). */
+#define LEAF_SMALL_BEST2 ((uint64_t)((1 << 14) - 256) * (uint64_t)((1 << 14) - 256))
+static inline __attribute__((always_inline)) int leaf_small(const int64_t *q, uint64_t best2,
+                                                            const int dim)
+{
+    if (best2 <= LEAF_SMALL_BEST2) return 1;
+    int small = 1;
+    for (int a = 0; a < dim; a++)
+        if (q[a] < -(1 << 14) || q[a] > (1 << 14)) small = 0;
+    return small;
+}
+
+/* Children are pushed farthest first (the submasks of the axes where they
+ * may lie within the bound, in decreasing order: roughly by the number of
+ * axes on which a child differs from the query's own one) so the nearest is
+ * popped first. */
 
 /* Node corners fit in 32 bits: the root box is at most [-2^30, 2^30). */
 typedef struct stack_entry {
@@ -215,8 +226,6 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
               const int64_t *lo, uint64_t d2, uint64_t best2, uint64_t *visits, search_state *k,
               const int dim)
 {
-    const int nchild = 1 << dim;
-    const uint8_t *order = dim == 2 ? push_order2 : push_order3;
     stack_entry stack[SEARCH_STACK];
     stack[0].node = node;
     stack[0].level = level;
@@ -230,7 +239,7 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
         if (e.level == 0) {
             int64_t q[3];
             for (int a = 0; a < dim; a++) q[a] = p[a] - e.lo[a];
-            best2 = scan_leaf(t, e.node, q, best2, dim, c->concurrent, k);
+            best2 = scan_leaf(t, e.node, q, best2, leaf_small(q, best2, dim), dim, c->concurrent, k);
             continue;
         }
         if (e.d2 > c->far2[e.level]) {
@@ -253,12 +262,14 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
         }
         const _Atomic uint32_t *ch = tree_children(t, e.node);
         if (e.level == 1) {
-            /* Leaves: scanned at once, nearest first, in the order the
-             * stack would pop them (each pushed leaf would be popped before
-             * anything below it, and re-tested against the bound then). */
-            for (int i = nchild - 1; i >= 0; i--) {
-                if (order[i] & ~near) continue;
-                const uint32_t kidx = own ^ order[i];
+            /* Leaves: scanned at once, nearest first (roughly: the
+             * submasks in increasing order), as the stack would pop them
+             * (each pushed leaf would be popped before anything below it,
+             * and re-tested against the bound then). */
+            uint32_t differ = 0; /* the submasks of near, in increasing order */
+            do {
+                const uint32_t kidx = own ^ differ;
+                differ = (differ - near) & near;
                 const uint32_t child = tree_child(ch, kidx);
                 if (!child) continue;
                 uint64_t cd2 = 0;
@@ -268,13 +279,17 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
                 int64_t q[3];
                 for (int a = 0; a < dim; a++)
                     q[a] = p[a] - (e.lo[a] + (int64_t)((kidx >> a) & 1) * half);
-                best2 = scan_leaf(t, child, q, best2, dim, c->concurrent, k);
-            }
+                best2 = scan_leaf(t, child, q, best2, leaf_small(q, best2, dim), dim, c->concurrent,
+                                  k);
+            } while (differ);
             continue;
         }
-        for (int i = 0; i < nchild; i++) {
-            if (order[i] & ~near) continue;
-            const uint32_t kidx = own ^ order[i];
+        /* The submasks of near, in decreasing order (farthest first). */
+        for (uint32_t next = near, more = 1; more;) {
+            const uint32_t differ = next;
+            more = differ != 0;
+            next = (differ - 1) & near;
+            const uint32_t kidx = own ^ differ;
             const uint32_t child = tree_child(ch, kidx);
             if (!child) continue;
             uint64_t cd2 = 0;
@@ -308,6 +323,40 @@ static inline __attribute__((always_inline)) uint64_t inside_margin2(const int64
         if (above < m) m = above;
     }
     return (uint64_t)m * (uint64_t)m;
+}
+
+/* A seed for a search's bound: one more than an upper bound on the squared
+ * distance from p to the nearest particle, from the walker's last exact
+ * answer (a particle at distance a from ub_p is within a + b of p, b =
+ * |p - ub_p|, and (a + b)^2 <= 2 a^2 + 2 b^2), or UINT64_MAX when there is
+ * none. Seeded with it, a search gives the same answer: the answer never
+ * exceeds the true distance, so it stays below the seed, and the element
+ * that gives it is found as before (a box is pruned only when nothing in it
+ * can go below the current bound). */
+static inline __attribute__((always_inline)) uint64_t seed_bound2(const search_state *k,
+                                                                  const int64_t *p, const int dim)
+{
+    if (k->ub_d2 >= (UINT64_C(1) << 60)) return UINT64_MAX;
+    uint64_t b2 = 0;
+    for (int a = 0; a < dim; a++) {
+        const int64_t d = p[a] - k->ub_p[a];
+        b2 += (uint64_t)(d * d);
+    }
+    if (b2 >= (UINT64_C(1) << 60)) return UINT64_MAX;
+    return 2 * (k->ub_d2 + b2) + 1;
+}
+
+/* Seeding pays in 3D (callgrind, seed 1, 3D 3e4: 4.295e9 -> 4.199e9 Ir)
+ * but not in 2D, where the block search prunes well by itself (2D 1e5:
+ * 2.651e9 -> 2.670e9 Ir with it), so there it is off. */
+#define SEARCH_SEEDED(dim) ((dim) == 3)
+
+/* Remember an exact answer (the squared distance from p to a particle). */
+static inline __attribute__((always_inline)) void note_exact(search_state *k, const int64_t *p,
+                                                             uint64_t d2, const int dim)
+{
+    k->ub_d2 = d2;
+    for (int a = 0; a < dim; a++) k->ub_p[a] = p[a];
 }
 
 /* The lowest level of the walker's cached path whose node contains p (the
@@ -359,7 +408,7 @@ static inline __attribute__((always_inline)) int descend_own_path(const tree *t,
         if (level == 1) {
             int64_t q[3];
             for (int a = 0; a < dim; a++) q[a] = p[a] - lo[a];
-            *best2 = scan_leaf(t, child, q, *best2, dim, c->concurrent, k);
+            *best2 = scan_leaf(t, child, q, *best2, 1, dim, c->concurrent, k); /* 0 <= q < 256 */
             (*visits)++;
             return level;
         }
@@ -435,10 +484,11 @@ lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_
     int64_t lo[3];
     for (int a = 0; a < dim; a++) lo[a] = -root_half;
     const uint64_t root_d2 = box_dist2(p, lo, 2 * root_half, dim);
+    const uint64_t seed2 = SEARCH_SEEDED(dim) ? seed_bound2(k, p, dim) : UINT64_MAX;
+    uint64_t best2 = seed2 < cap2 ? seed2 : cap2;
     if (root_d2 > 0) {
         /* Outside the root box: plain top-down search. */
-        const uint64_t best2 = subtree_bound(t, c, p, root.node, root.level, lo, root_d2, cap2,
-                                             &visits, k, dim);
+        best2 = subtree_bound(t, c, p, root.node, root.level, lo, root_d2, best2, &visits, k, dim);
         k->node_visits += visits;
         return best2;
     }
@@ -449,7 +499,6 @@ lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_
     const uint32_t node = level == root.level ? root.node : k->node[level];
     if (level != root.level)
         for (int a = 0; a < dim; a++) lo[a] = k->lo[level][a];
-    uint64_t best2 = cap2;
     level = descend_own_path(t, c, p, node, level, lo, &best2, &visits, k, dim);
     k->depth = level;
     for (int done = 0;; level++) {
@@ -457,6 +506,7 @@ lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_
         if (done || level == root.level) break;
     }
     k->node_visits += visits;
+    if (SEARCH_SEEDED(dim) && best2 < cap2 && best2 < c->far2[0]) note_exact(k, p, best2, dim);
     return best2;
 }
 
@@ -701,6 +751,7 @@ static inline __attribute__((always_inline)) uint64_t near_dim(const tree *t,
 #endif
     if (m > 0 && (uint64_t)best < (uint64_t)m * (uint64_t)m) {
         k->nb_hits++;
+        if (SEARCH_SEEDED(dim)) note_exact(k, p, best, dim);
         return best;
     }
     k->nb_misses++;
@@ -768,13 +819,14 @@ static inline __attribute__((always_inline)) uint32_t blk_lookup(const tree *t,
 }
 
 /* Exact scan of the block's leaves around p (own leaf corner lo, map cell
- * cc), nearest first, each pruned by its box distance. */
+ * cc), nearest first, each pruned by its box distance; best2: the bound to
+ * start from. */
 static inline __attribute__((always_inline)) uint64_t blk_scan(const tree *t,
                                                                const search_config *c,
                                                                const distmap_level *L,
                                                                const int64_t *p, const int64_t *lo,
-                                                               const int64_t *cc, search_state *k,
-                                                               const int dim)
+                                                               const int64_t *cc, uint64_t best2,
+                                                               search_state *k, const int dim)
 {
     const int n = dim == 2 ? 9 : 27;
     const uint8_t *order = dim == 2 ? block_order2 : block_order3;
@@ -787,7 +839,6 @@ static inline __attribute__((always_inline)) uint64_t blk_scan(const tree *t,
         col2[a][1] = 0;
         col2[a][2] = (uint64_t)(above * above);
     }
-    uint64_t best2 = UINT64_MAX;
     for (int i = 0; i < n; i++) {
         const int o = order[i];
         uint32_t head = k->blk_head[o];
@@ -803,7 +854,7 @@ static inline __attribute__((always_inline)) uint64_t blk_scan(const tree *t,
         }
         int64_t q[3];
         for (int a = 0; a < dim; a++) q[a] = p[a] - nlo[a];
-        best2 = scan_leaf(t, head, q, best2, dim, c->concurrent, k);
+        best2 = scan_leaf(t, head, q, best2, 1, dim, c->concurrent, k); /* |q| < 512 */
         k->node_visits++;
     }
     return best2;
@@ -837,13 +888,23 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
             if (k->blk_head[o] == BLK_EMPTY) k->blk_head[o] = BLK_UNKNOWN;
         k->blk_leaves = leaves;
     }
-    const uint64_t best2 = blk_scan(t, c, L, p, lo, cc, k, dim);
-    /* Every other particle is outside the block. */
+    /* Every other particle is outside the block: the answer is at most
+     * out2, so the scan may start from there (or from the seed, below it). */
     const uint64_t out2 = inside_margin2(p, (const int64_t[3]){lo[0] - TREE_LEAF_SIDE,
                                                               lo[1] - TREE_LEAF_SIDE,
                                                               lo[2] - TREE_LEAF_SIDE},
                                          3 * TREE_LEAF_SIDE, dim);
-    return best2 < out2 ? best2 : out2;
+    const uint64_t seed2 = SEARCH_SEEDED(dim) ? seed_bound2(k, p, dim) : UINT64_MAX;
+    /* 2D starts from no bound: starting from out2 saved 0.8% of Ir at 2D
+     * 1e5 but was slower in user CPU time in paired runs (runs/bench-serial/
+     * issue12-speed3-2026-11-24.md). */
+    const uint64_t start2 = SEARCH_SEEDED(dim) ? (seed2 < out2 ? seed2 : out2) : UINT64_MAX;
+    const uint64_t best2 = blk_scan(t, c, L, p, lo, cc, start2, k, dim);
+    if (best2 < out2) {
+        if (SEARCH_SEEDED(dim)) note_exact(k, p, best2, dim);
+        return best2;
+    }
+    return out2;
 }
 
 uint64_t search_block2(const tree *t, const search_config *c, const distmap *m, const int64_t *p,
@@ -893,10 +954,21 @@ static inline __attribute__((always_inline)) int nearest_point(const tree *t, co
             leaf_idx = tree_find_leaf(t, corner, lo);
         }
         if (!leaf_idx) continue;
+        int64_t ql[3] = {0, 0, 0};
+        for (int a = 0; a < dim; a++) ql[a] = p[a] - lo[a]; /* |ql| < 512: chunk_min_d2 applies */
         for (uint32_t ci = leaf_idx;;) {
             const uint8_t *chunk = tree_chunk_at(t, ci);
             const uint32_t link = tree_chunk_link(t, chunk);
             const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+            /* A full chunk that links on is never written again, so its
+             * vector minimum may be read while workers append: when it is
+             * not below the best, the scalar pass (which keeps the first of
+             * equally near particles) would change nothing. 3D only: in 2D
+             * it saved 0.6% of Ir but no user CPU time in paired runs. */
+            if (dim == 3 && link > TREE_CHUNK_CAP && chunk_min_d2(chunk, ql, m, dim) >= best2) {
+                ci = link;
+                continue;
+            }
             for (uint32_t j = 0; j < m; j++) {
                 uint64_t d2 = 0;
                 int64_t x[3];

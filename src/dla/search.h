@@ -54,6 +54,14 @@ typedef struct search_state {
     uint64_t nb_made, nb_hits, nb_misses; /* lists made; queries answered; deferred */
     int16_t nb_x[SEARCH_NB_MAX], nb_y[SEARCH_NB_MAX], nb_z[SEARCH_NB_MAX];
     int32_t nb_rlo[SEARCH_NB_MAX / 8];
+    /* The last exact answer (squared distance ub_d2 from ub_p to a particle
+     * of the tree, UINT64_MAX: none). Particles are never removed, so for
+     * any later p, 2 (ub_d2 + |p - ub_p|^2) bounds the squared distance to
+     * the nearest particle from above; the tree and block searches start
+     * from it (search.c: the answer stays the same, the pruning starts
+     * earlier). */
+    uint64_t ub_d2;
+    int64_t ub_p[3];
 } search_state;
 
 static inline void search_state_reset(search_state *s)
@@ -64,6 +72,7 @@ static inline void search_state_reset(search_state *s)
     s->blk_valid = 0;
     s->nb_valid = 0;
     s->nb_last2 = 0;
+    s->ub_d2 = UINT64_MAX;
 }
 
 /* Per-level squared far thresholds: a non-empty node at level L whose box is

@@ -38,7 +38,9 @@ typedef enum pdla_param_type {
     PDLA_PT_U64,    /* uint64_t; HDF5 uint64, JSON number */
     PDLA_PT_REAL,   /* double; HDF5 float64, JSON number */
     PDLA_PT_FLAG,   /* int 0 or 1; HDF5 int32, JSON number; a CLI flag without value */
-    PDLA_PT_CHOICE  /* an enum stored as int, values 0..n-1; HDF5 and JSON: its word */
+    PDLA_PT_CHOICE, /* an enum stored as int, values 0..n-1; HDF5 and JSON: its word */
+    PDLA_PT_STRING  /* char[hi_u + 1], length in [lo_u, hi_u]; HDF5: string ("(none)"
+                       when empty), JSON: string */
 } pdla_param_type;
 
 typedef struct pdla_param_desc {
@@ -71,6 +73,7 @@ typedef struct pdla_param_desc {
      * that depends on another field), or NULL. Writes one line, returns non-zero
      * when the struct fails it. */
     int (*check)(const void *params, char *err, size_t errlen);
+    const char *def_s; /* STRING: the default text */
 } pdla_param_desc;
 
 /* The DLA engine's table (pdla_params); *n gets its length. */
@@ -106,6 +109,21 @@ PDLA_API int pdla_param_format(const pdla_param_desc *d, const void *s, int exac
                                size_t len);
 /* The value of `word` in a CHOICE row, or -1. */
 PDLA_API int pdla_param_choice(const pdla_param_desc *d, const char *word);
+
+/* Text as a user (CLI, scene, a text record) writes it into row d's field:
+ * integers in decimal or as a whole number in exponent form ("1e5"), reals
+ * finite decimal, a choice's word, a flag yes|no|true|false|1|0, a string as
+ * is. The type only: the range is pdla_param_validate's. PDLA_OK, or
+ * PDLA_EINVAL with "'TEXT' is not ..." in err (the caller names the row). */
+PDLA_API int pdla_param_parse(const pdla_param_desc *d, void *s, const char *text, char *err,
+                              size_t errlen);
+
+/* A resume: the rows whose bit is in `given` were asked for (in `asked`);
+ * a resumable one takes the asked value into `stored`, any other must
+ * equal the stored one. PDLA_OK, or PDLA_EINVAL with "cannot resume with a
+ * different physics parameter: LABEL is X in the checkpoint, Y asked". */
+PDLA_API int pdla_param_resume(const pdla_param_desc *t, size_t n, void *stored,
+                               const void *asked, uint32_t given, char *err, size_t errlen);
 
 #ifdef __cplusplus
 }

@@ -1,7 +1,7 @@
 /*
  * ev_out.c - cluster.h5 of the event model. Layout:
  *   /            attributes model = "event", dim, particles
- *   /parameters  one attribute per entry of ev_param_table (typed)
+ *   /parameters  one attribute per row of ev_param_table (typed; shared writer)
  *   /cluster     positions [k x dim], radii, arrival_time, parent (particle
  *                index; -1: the seed), species, index: the stuck particles
  *                in arrival order; attributes seed_position, seed_radius
@@ -39,25 +39,9 @@ static int write_ds(const h5u_writer *w, hid_t g, const char *name, hid_t ftype,
 
 static int write_parameters(const h5u_writer *w, hid_t file, const ev_params *p)
 {
-    const hid_t g = h5u_group(w, file, "parameters");
-    if (g < 0) return -1;
-    int rc = 0;
-    for (size_t k = 0; k < ev_param_count && !rc; k++) {
-        const ev_param_desc *d = &ev_param_table[k];
-        const char *base = (const char *)p + d->offset;
-        char buf[300];
-        switch (d->type) {
-        case EV_P_INT: rc = h5u_attr_int(w, g, d->name, *(const int *)base); break;
-        case EV_P_U64: rc = h5u_attr_u64(w, g, d->name, *(const uint64_t *)base); break;
-        case EV_P_F64: rc = h5u_attr_f64(w, g, d->name, *(const double *)base); break;
-        case EV_P_STR:
-        case EV_P_ENUM:
-            ev_param_format(p, k, buf, sizeof buf);
-            rc = h5u_attr_str(w, g, d->name, buf[0] ? buf : "(none)");
-            break;
-        }
-    }
-    return h5u_close(w, rc, g, H5Gclose, "/parameters");
+    size_t n;
+    const pdla_param_desc *t = ev_param_table(&n);
+    return h5u_write_param_table(w, file, t, n, p);
 }
 
 static int write_cluster(const h5u_writer *w, hid_t file, const ev_sim *s)

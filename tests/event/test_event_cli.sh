@@ -35,6 +35,17 @@ expect_usage "bad walls" --model event --box-walls sticky --out "$t/a"
 for k in dim particles packing box-walls seed kT velocities stick-p seed-radius t-max max-stuck max-events species; do
     grep -q -- "--$k " "$t/help" || fail "--help lacks --$k"
 done
+# every row of the parameter table (test_event_table rows: OPTION EXAMPLE BAD):
+# in --help, and a bad value refused with exit 2 and one line naming it
+if [ -n "${2:-}" ]; then
+    "$2" rows >"$t/rows" || fail "test_event_table rows"
+    [ "$(wc -l <"$t/rows")" -ge 17 ] || fail "table has $(wc -l <"$t/rows") rows"
+    while read -r opt ex bad; do
+        grep -q -- "--$opt " "$t/help" || fail "--help lacks --$opt"
+        expect_usage "--$opt $bad" --model event --$opt "$bad" --out "$t/a"
+        grep -q -- "$opt" "$t/err" || fail "--$opt $bad: message does not name it: $(cat "$t/err")"
+    done <"$t/rows"
+fi
 
 "$pdla" --model event --dim 2 --particles 300 --packing 0.05 --seed 4 --out "$t/r" >"$t/out" 2>"$t/err" ||
     fail "small run: $(cat "$t/err")"

@@ -132,6 +132,16 @@ double ev_pressure(const ev_sim *s, double dvir, double dt);
 /* Largest overlap / (r_i + r_j) over all pairs now (O(N) with the cells). */
 double ev_max_overlap_now(ev_sim *s);
 
+/* Fractal dimension of a cluster from R_g(k) of its first k particles in
+ * arrival order (pos: n rows of dim coordinates): 1 / slope of log R_g
+ * against log k over k in [k_lo, k_hi], k_hi the last k with R_g < rg_max
+ * (the model uses box side / 8: farther the box shapes the cluster) and
+ * k_lo = max(20, k_hi / 30). NaN with k_lo = k_hi = 0 when k_hi < 5 k_lo.
+ * rg, when not NULL, gets R_g(k) for k = 1..n. Used for /results D_f_rg and
+ * by `pdla analyze`. */
+double ev_df_fit(const double *pos, size_t n, int dim, double rg_max, double *rg,
+                 uint64_t *k_lo, uint64_t *k_hi);
+
 /* Run with series recording and write DIR's cluster.h5 (see event_out.c). */
 typedef struct ev_series {
     size_t n, cap;

@@ -187,17 +187,16 @@ static int write_species(const h5u_writer *w, hid_t file, const ev_sim *s)
  * least squares of log R_g against log k on 40 log-spaced k in
  * [max(20, k1/30), k1], k1 the last k with R_g < L/8 (before the walls are
  * felt). NaN when the range is shorter than a factor 5. */
-double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi)
+double ev_df_fit(const double *pos, size_t n, int D, double rg_max, double *rg_out,
+                 uint64_t *k_lo, uint64_t *k_hi)
 {
-    const int D = s->dim;
-    const uint32_t n = s->nstuck;
     double sx[3] = {0, 0, 0}, sxx = 0;
-    double *rg = malloc((n ? n : 1) * sizeof *rg);
+    double *rg = rg_out ? rg_out : malloc((n ? n : 1) * sizeof *rg);
     *k_lo = *k_hi = 0;
     if (!rg) return NAN;
-    uint32_t k1 = 0;
-    for (uint32_t a = 0; a < n; a++) {
-        const double *p = EV_P(s, s->stuck_idx[a]);
+    size_t k1 = 0;
+    for (size_t a = 0; a < n; a++) {
+        const double *p = pos + a * (size_t)D;
         for (int q = 0; q < D; q++) {
             sx[q] += p[q];
             sxx += p[q] * p[q];
@@ -205,7 +204,7 @@ double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi)
         double c2 = 0;
         for (int q = 0; q < D; q++) c2 += (sx[q] / (a + 1)) * (sx[q] / (a + 1));
         rg[a] = sqrt(fmax(0, sxx / (a + 1) - c2));
-        if (rg[a] < s->L / 8) k1 = a + 1;
+        if (rg[a] < rg_max) k1 = a + 1;
     }
     const double k0 = fmax(20, k1 / 30.0);
     double res = NAN;
@@ -222,8 +221,21 @@ double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi)
         *k_lo = (uint64_t)k0;
         *k_hi = k1;
     }
-    free(rg);
+    if (!rg_out) free(rg);
     return res;
+}
+
+double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi)
+{
+    const int D = s->dim;
+    const uint32_t n = s->nstuck;
+    double *pos = malloc((n ? n : 1) * (size_t)D * sizeof *pos);
+    *k_lo = *k_hi = 0;
+    if (!pos) return NAN;
+    for (uint32_t a = 0; a < n; a++) memcpy(pos + (size_t)a * D, EV_P(s, s->stuck_idx[a]), D * sizeof *pos);
+    const double df = ev_df_fit(pos, n, D, s->L / 8, NULL, k_lo, k_hi);
+    free(pos);
+    return df;
 }
 
 /* Dilute-gas mean free path / diameter at the start density (one species:

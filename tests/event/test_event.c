@@ -605,6 +605,41 @@ static void test_determinism(void)
     CHECK(h[0] != h[2], "different seeds, same cluster");
 }
 
+/* ev_df_fit (the D_f of /results and `pdla analyze`) on clusters of known
+ * dimension, in arrival order: a line (R_g ~ k, D_f = 1) and a disk filled
+ * shell by shell (R_g ~ k^(1/2), D_f = 2). Tolerance 0.03: the lattice
+ * disk's R_g(k) wobbles by a few % at small k (whole shells), the line's
+ * R_g = sqrt((k^2 - 1) / 12) is k / sqrt(12) to 0.1% from k = 20. */
+typedef struct dpt {
+    double x, y, d;
+} dpt;
+static int dpt_cmp(const void *a, const void *b)
+{
+    const double u = ((const dpt *)a)->d, v = ((const dpt *)b)->d;
+    return u < v ? -1 : u > v;
+}
+static void test_dffit(void)
+{
+    enum { N = 4000 };
+    static double pos[2 * N];
+    uint64_t lo, hi;
+    for (int k = 0; k < N; k++) pos[2 * k] = k, pos[2 * k + 1] = 0;
+    double df = ev_df_fit(pos, N, 2, 1e9, NULL, &lo, &hi);
+    CHECK(fabs(df - 1) < 0.03 && hi == N, "line: D_f %g over %llu..%llu", df,
+          (unsigned long long)lo, (unsigned long long)hi);
+    static dpt pt[81 * 81];
+    int m = 0;
+    for (int i = -40; i <= 40; i++)
+        for (int j = -40; j <= 40; j++) pt[m++] = (dpt){i, j, hypot(i, j) + 1e-6 * (i + 41 * j)};
+    qsort(pt, (size_t)m, sizeof *pt, dpt_cmp);
+    for (int k = 0; k < N; k++) pos[2 * k] = pt[k].x, pos[2 * k + 1] = pt[k].y;
+    df = ev_df_fit(pos, N, 2, 1e9, NULL, &lo, &hi);
+    CHECK(fabs(df - 2) < 0.03, "disk: D_f %g", df);
+    /* rg_max cuts the range; too few left: NaN */
+    df = ev_df_fit(pos, N, 2, 3.0, NULL, &lo, &hi);
+    CHECK(isnan(df) && lo == 0 && hi == 0, "small rg_max: D_f %g", df);
+}
+
 static void test_params(void)
 {
     char err[256];
@@ -899,6 +934,7 @@ int main(int argc, char **argv)
     if (all || !strcmp(what, "edge")) test_edge();
     if (all || !strcmp(what, "determinism")) test_determinism();
     if (all || !strcmp(what, "params")) test_params();
+    if (all || !strcmp(what, "dffit")) test_dffit();
     if (all || !strcmp(what, "resume")) test_resume();
     return check_finish();
 }

@@ -55,6 +55,23 @@ grep -q "model *event" "$t/info" || fail "info: no model event"
 grep -q "stuck *300" "$t/info" || fail "info: not 300 stuck"
 "$pdla" info --json "$t/r/cluster.h5" >"$t/info.json" || fail "info --json exit"
 grep -q '"stuck": 300' "$t/info.json" || fail "info --json: stuck"
+# pdla analyze: the cluster's size, the same D_f as /results (one fit,
+# ev_df_fit), JSON that parses, and usage errors
+"$pdla" analyze "$t/r/cluster.h5" >"$t/an" || fail "analyze exit"
+grep -q "^cluster: 300 stuck, 0 free" "$t/an" || fail "analyze: size: $(cat "$t/an")"
+grep -q "^series: .* rows, .*stuck 0..300" "$t/an" || fail "analyze: series: $(cat "$t/an")"
+"$pdla" analyze --json "$t/r/cluster.h5" >"$t/an.json" || fail "analyze --json exit"
+python3 -c "
+import json, sys
+a = json.load(open(sys.argv[1])); i = json.load(open(sys.argv[2]))
+r = i.get('/results', i.get('results', {}))
+assert a['stuck'] == 300 and a['free'] == 0, a
+assert a['rg'] > 0 and a['max_distance_from_seed'] > a['rg'], a
+df = r.get('D_f_rg')
+assert (a['D_f'] is None and df in (None, 'NaN')) or abs(a['D_f'] - df) < 1e-9, (a['D_f'], df)
+" "$t/an.json" "$t/info.json" || fail "analyze --json disagrees with info"
+"$pdla" analyze "$t/r/cluster.h5" --bins 3 >/dev/null 2>"$t/err"
+[ $? -eq 2 ] && [ "$(wc -l <"$t/err")" -eq 1 ] || fail "analyze bad option: $(cat "$t/err")"
 "$pdla" render "$t/r/cluster.h5" -o "$t/r.png" --size 64 || fail "render"
 [ -s "$t/r.png" ] || fail "render wrote nothing"
 expect_usage "existing dir" --model event --particles 300 --packing 0.05 --out "$t/r"

@@ -37,6 +37,7 @@ typedef struct ev_params {
     uint64_t particles;      /* when species is empty: one species of this many */
     double radius, density;  /* ... with this radius and density */
     char species[256];       /* "COUNT:RADIUS:DENSITY[,...]" or "" */
+    char seeds[512];         /* file of immobile seeds (replace the central one), or "" */
     double packing;          /* volume fraction of the free particles in the box */
     int walls;               /* enum ev_walls */
     uint64_t seed;           /* random seed */

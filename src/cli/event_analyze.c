@@ -1,7 +1,7 @@
 /*
  * event_analyze.c - `pdla analyze FILE [--json]` for a cluster.h5 of the
  * event model: the stuck cluster's size, R_g (about its centre of mass)
- * and largest distance from the seed, its fractal dimension from the R_g(k)
+ * and largest distance from the (nearest) seed, its fractal dimension from the R_g(k)
  * fit (ev_df_fit, the same fit as /results D_f_rg), and a summary of the
  * series (rows, time span, stuck count, kinetic energy first and last,
  * collisions, mean pressure over the second half of the rows).
@@ -61,8 +61,7 @@ static double attr_num(hid_t f, const char *obj, const char *name)
 
 typedef struct ev_summary {
     int dim;
-    double box, seed[3];
-    int has_seed;
+    double box;
     size_t stuck, free_n;
     double rg, rmax_seed, df;
     uint64_t k_lo, k_hi;
@@ -78,22 +77,36 @@ static int cluster_summary(hid_t f, ev_summary *m, char *err, size_t errlen)
     if (!pos || (int)cols != m->dim)
         return free(pos), snprintf(err, errlen, "no readable /cluster/positions"), -1;
     m->stuck = rows;
-    static const char *const sn[3] = {"seed_x", "seed_y", "seed_z"};
-    m->has_seed = !isnan(attr_num(f, "cluster", "seed_radius"));
-    for (int q = 0; q < m->dim; q++) m->seed[q] = m->has_seed ? attr_num(f, "cluster", sn[q]) : 0;
+    /* the seeds: a --seeds file's dataset, or the one seed's attributes */
+    size_t ns = 0, nc = 0;
+    double one[3], *seeds = read_doubles(f, "/cluster/seed_positions", &ns, &nc);
+    if (!seeds || (int)nc != m->dim) {
+        static const char *const sn[3] = {"seed_x", "seed_y", "seed_z"};
+        free(seeds);
+        seeds = NULL;
+        ns = !isnan(attr_num(f, "cluster", "seed_radius"));
+        for (int q = 0; q < m->dim; q++) one[q] = ns ? attr_num(f, "cluster", sn[q]) : 0;
+    }
+    const double *sd = seeds ? seeds : one;
     double *rg = malloc((rows ? rows : 1) * sizeof *rg);
-    if (!rg) return free(pos), snprintf(err, errlen, "out of memory"), -1;
+    if (!rg) return free(pos), free(seeds), snprintf(err, errlen, "out of memory"), -1;
     m->df = ev_df_fit(pos, rows, m->dim, m->box / 8, rg, &m->k_lo, &m->k_hi);
     m->rg = rows ? rg[rows - 1] : 0;
+    /* the largest distance of a stuck particle from its nearest seed */
     m->rmax_seed = 0;
-    for (size_t a = 0; m->has_seed && a < rows; a++) {
-        double d2 = 0;
-        for (int q = 0; q < m->dim; q++) {
-            const double d = pos[a * cols + q] - m->seed[q];
-            d2 += d * d;
+    for (size_t a = 0; ns && a < rows; a++) {
+        double best = INFINITY;
+        for (size_t b = 0; b < ns; b++) {
+            double d2 = 0;
+            for (int q = 0; q < m->dim; q++) {
+                const double d = pos[a * cols + q] - sd[b * (size_t)m->dim + q];
+                d2 += d * d;
+            }
+            best = fmin(best, d2);
         }
-        if (sqrt(d2) > m->rmax_seed) m->rmax_seed = sqrt(d2);
+        m->rmax_seed = fmax(m->rmax_seed, sqrt(best));
     }
+    free(seeds);
     free(rg);
     free(pos);
     return 0;
@@ -144,7 +157,7 @@ static void print_summary(const ev_summary *m, int json)
         return;
     }
     printf("model event, %dd, box %.6g\n", m->dim, m->box);
-    printf("cluster: %zu stuck, %zu free; R_g %.6g; farthest from the seed %.6g\n", m->stuck,
+    printf("cluster: %zu stuck, %zu free; R_g %.6g; farthest from a seed %.6g\n", m->stuck,
            m->free_n, m->rg, m->rmax_seed);
     if (isfinite(m->df))
         printf("D_f %.4f (R_g(k) fit over k = %llu..%llu)\n", m->df, (unsigned long long)m->k_lo,

@@ -3,8 +3,10 @@
  *   /            attributes model = "event", dim, particles
  *   /parameters  one attribute per row of ev_param_table (typed; shared writer)
  *   /cluster     positions [k x dim], radii, arrival_time, parent (particle
- *                index; -1: the seed), species, index: the stuck particles
- *                in arrival order; attributes seed_position, seed_radius
+ *                index; -1: the seed, -1-k: seed k of a --seeds file),
+ *                species, index: the stuck particles in arrival order;
+ *                attributes seed_x, seed_y[, seed_z], seed_radius (one
+ *                seed); seed_positions, seed_radii (a --seeds file)
  *   /free        positions, velocities, radii, species of the free ones
  *   /series      time, stuck, kinetic_energy, collisions, pressure
  *   /species     count, radius, density, mass, stuck (per kind)
@@ -44,6 +46,26 @@ static int write_parameters(const h5u_writer *w, hid_t file, const ev_params *p)
     return h5u_write_param_table(w, file, t, n, p);
 }
 
+/* The seeds of a --seeds file: /cluster/seed_positions [nseeds x dim] and
+ * seed_radii, in the file's order (parent -1 - k is seed k). */
+static int write_seeds(const h5u_writer *w, hid_t g, const ev_sim *s)
+{
+    const int D = s->dim;
+    const size_t k = s->nseeds;
+    double *pos = malloc((k ? k : 1) * (size_t)D * sizeof *pos), *rad = malloc((k ? k : 1) * sizeof *rad);
+    int rc = pos && rad ? 0 : h5u_fail_msg(w, "out of memory writing the seeds");
+    for (size_t a = 0; !rc && a < k; a++) {
+        const double *p = EV_P(s, s->n + a);
+        memcpy(pos + a * (size_t)D, p, (size_t)D * sizeof *pos);
+        rad[a] = p[2 * D + 1];
+    }
+    if (!rc) rc = write_ds(w, g, "seed_positions", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 2, k, (size_t)D, pos);
+    if (!rc) rc = write_ds(w, g, "seed_radii", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 1, k, 1, rad);
+    free(pos);
+    free(rad);
+    return rc;
+}
+
 static int write_cluster(const h5u_writer *w, hid_t file, const ev_sim *s)
 {
     const int D = s->dim;
@@ -64,7 +86,8 @@ static int write_cluster(const h5u_writer *w, hid_t file, const ev_sim *s)
         const uint32_t i = s->stuck_idx[a];
         for (int q = 0; q < D; q++) pos[a * D + q] = EV_P(s, i)[q];
         rad[a] = EV_P(s, i)[2 * D + 1];
-        par[a] = s->parent[i] == s->n ? -1 : (int64_t)s->parent[i];
+        /* a seed: -1 - its number (the central seed: -1) */
+        par[a] = s->parent[i] >= s->n ? -1 - (int64_t)(s->parent[i] - s->n) : (int64_t)s->parent[i];
         spc[a] = s->species[i];
         idx[a] = i;
     }
@@ -75,7 +98,8 @@ static int write_cluster(const h5u_writer *w, hid_t file, const ev_sim *s)
     if (!rc) rc = write_ds(w, g, "parent", H5T_STD_I64LE, H5T_NATIVE_INT64, 1, k, 1, par);
     if (!rc) rc = write_ds(w, g, "species", H5T_STD_I32LE, H5T_NATIVE_INT32, 1, k, 1, spc);
     if (!rc) rc = write_ds(w, g, "index", H5T_STD_U32LE, H5T_NATIVE_UINT32, 1, k, 1, idx);
-    if (!rc && s->has_seed) {
+    if (!rc && s->par.seeds[0]) rc = write_seeds(w, g, s);
+    if (!rc && s->nseeds == 1) {
         rc = h5u_attr_f64(w, g, "seed_radius", EV_P(s, s->n)[2 * D + 1]);
         for (int q = 0; q < D && !rc; q++) {
             static const char *nm[] = {"seed_x", "seed_y", "seed_z"};

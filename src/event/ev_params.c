@@ -50,6 +50,13 @@ static const pdla_param_desc ev_rows[] = {
      .group = "Event:", .example = "100:0.5:1,50:0.3:2", .type = PDLA_PT_STRING,
      .offset = OFF(species), .bit = BIT(4), .models = EVT, .show_default = 1, .lo_u = 0,
      .hi_u = sizeof(((ev_params *)0)->species) - 1, .def_s = ""},
+    {.name = "seeds", .option = "seeds", .label = "seeds", .unit = "", .metavar = "FILE",
+     .help = "immobile seeds instead of the central one: a line per seed, x y [z] radius, in "
+             "box coordinates [0, side) (the side follows from --packing; the summary prints it); "
+             "# comments. The file must still be there for --resume",
+     .group = "Event:", .example = "seeds.txt", .type = PDLA_PT_STRING, .offset = OFF(seeds),
+     .bit = BIT(17), .models = EVT, .show_default = 1, .lo_u = 0,
+     .hi_u = sizeof(((ev_params *)0)->seeds) - 1, .def_s = ""},
     {.name = "packing", .option = "packing", .label = "packing", .unit = "", .metavar = "X",
      .help = "volume fraction of the particles in the box (sets the box side)", .group = "Event:",
      .example = "0.1", .type = PDLA_PT_REAL, .offset = OFF(packing), .bit = BIT(5),
@@ -244,14 +251,15 @@ int ev_params_check(const ev_params *p, char *err, size_t errlen)
     double rpmax = 0;
     for (int k = 0; k < nsp; k++)
         if (sp[k].radius > rpmax) rpmax = sp[k].radius;
-    if (p->seed_radius > 10 * rpmax)
+    const int seeded = p->seeds[0] || p->seed_radius > 0;
+    if (!p->seeds[0] && p->seed_radius > 10 * rpmax)
         return fail(err, errlen, "--seed-radius %g is above 10 particle radii (the cell size)",
                     p->seed_radius);
     const int endless = p->t_max == 0 && p->max_events == 0;
-    if (endless && (p->seed_radius == 0 || p->stick_p == 0))
+    if (endless && (!seeded || p->stick_p == 0))
         return fail(err, errlen, "nothing sticks (--seed-radius 0 or --stick-p 0): give --t-max or "
                                  "--max-events");
-    if (p->max_stuck && p->seed_radius == 0)
+    if (p->max_stuck && !seeded)
         return fail(err, errlen, "--max-stuck needs a seed (--seed-radius > 0)");
     return 0;
 }

@@ -32,6 +32,7 @@ static double gauss(pdla_rng *r)
 void ev_free(ev_sim *s)
 {
     if (!s) return;
+    free(s->seed_xr);
     free(s->ps);
     free(s->mass);
     free(s->species);
@@ -284,7 +285,9 @@ static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
 {
     const int D = s->dim;
     uint64_t n = 0;
-    double vol = 0, rmax = p->seed_radius, rpmax = 0;
+    double vol = 0, rmax = p->seeds[0] ? 0 : p->seed_radius, rpmax = 0;
+    for (uint32_t a = 0; a < s->nseeds && p->seeds[0]; a++)
+        rmax = fmax(rmax, s->seed_xr[(size_t)a * (size_t)(D + 1) + (size_t)D]);
     for (int k = 0; k < s->nspecies; k++) {
         n += s->sp[k].count;
         vol += (double)s->sp[k].count * ev_particle_volume(D, s->sp[k].radius);
@@ -292,15 +295,20 @@ static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
         if (s->sp[k].radius > rpmax) rpmax = s->sp[k].radius;
     }
     s->n = (uint32_t)n;
-    s->has_seed = p->seed_radius > 0;
-    s->ntot = s->n + (s->has_seed ? 1 : 0);
+    if (!p->seeds[0]) s->nseeds = p->seed_radius > 0;
+    s->has_seed = s->nseeds > 0;
+    s->ntot = s->n + s->nseeds;
     s->nfree_total = s->has_seed && s->stick_p > 0;
     s->V = vol / p->packing;
     s->L = pow(s->V, 1.0 / D);
     s->half = 0.5 * s->L;
-    if (s->L < 2 * rmax * 1.5 || (s->has_seed && s->L < 2 * p->seed_radius + 4 * rpmax))
+    if (s->L < 2 * rmax * 1.5 || (s->has_seed && !p->seeds[0] && s->L < 2 * p->seed_radius + 4 * rpmax))
         return fail(err, errlen, "box too small: side %g for particles of radius up to %g", s->L,
                     rmax);
+    if (p->seeds[0] && rmax > 10 * rpmax)
+        return fail(err, errlen, "--seeds %s: a seed of radius %g is above 10 particle radii (the "
+                    "cell size)", p->seeds, rmax);
+    if (p->seeds[0] && ev_seeds_check(s, err, errlen)) return -1;
     /* Cells no smaller than the largest contact distance (a hair more, so a
      * particle assigned by round-off to the next cell is still found), and
      * no more cells than particles at low packing (bigger cells there mean
@@ -370,16 +378,24 @@ static void fill_particles(ev_sim *s, const ev_params *p)
             s->species[i] = (uint8_t)k;
             s->parent[i] = UINT32_MAX;
         }
-    if (s->has_seed) {
-        const uint32_t sd = s->n;
-        double x[3] = {s->half, s->half, s->half};
-        EV_P(s, sd)[2 * D + 1] = p->seed_radius;
+    for (uint32_t a = 0; a < s->nseeds; a++) {
+        /* the central seed, or the file's seed a (ev_seeds.c) */
+        const uint32_t sd = s->n + a;
+        double x[3] = {s->half, s->half, s->half}, r = p->seed_radius;
+        if (p->seeds[0]) {
+            const double *q = s->seed_xr + (size_t)a * (size_t)(D + 1);
+            for (int k = 0; k < D; k++) x[k] = q[k];
+            r = q[D];
+        }
+        EV_P(s, sd)[2 * D + 1] = r;
         s->mass[sd] = INFINITY;
         s->stuck[sd] = 1;
         s->species[sd] = UINT8_MAX;
         s->parent[sd] = UINT32_MAX;
         put(s, sd, x);
     }
+    free(s->seed_xr);
+    s->seed_xr = NULL;
 }
 
 /* The box, cells, arrays and species tables of p, with the seed placed and
@@ -398,6 +414,7 @@ ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen)
     s->stick_p = p->stick_p;
     rng_seed(&s->rng, p->seed);
     ev_parse_species(p, s->sp, &s->nspecies, NULL, 0);
+    if (p->seeds[0] && ev_seeds_read(s, p->seeds, err, errlen)) goto bad;
     if (size_box(s, p, err, errlen)) goto bad;
     if (alloc_arrays(s)) {
         fail(err, errlen, "out of memory for %" PRIu64 " particles", (uint64_t)s->n);

@@ -70,6 +70,25 @@ assert a['rg'] > 0 and a['max_distance_from_seed'] > a['rg'], a
 df = r.get('D_f_rg')
 assert (a['D_f'] is None and df in (None, 'NaN')) or abs(a['D_f'] - df) < 1e-9, (a['D_f'], df)
 " "$t/an.json" "$t/info.json" || fail "analyze --json disagrees with info"
+# --seeds FILE: three seeds (box side 68.6 for 300 disks at packing 0.05),
+# all stick, /cluster holds the seeds; bad files refused with one line
+printf '# x y r\n20 20 1\n50 50 1.5\n\n20 50 0.5  # small\n' >"$t/seeds"
+"$pdla" --model event --particles 300 --packing 0.05 --seeds "$t/seeds" --out "$t/sd" >"$t/out" 2>"$t/err" ||
+    fail "seeds run: $(cat "$t/err")"
+grep -q "stopped: all stuck" "$t/out" || fail "seeds run did not end all stuck: $(cat "$t/out")"
+h5dump -d /cluster/seed_radii "$t/sd/cluster.h5" 2>/dev/null | grep -q "(0): 1, 1.5, 0.5" ||
+    fail "seeds: /cluster/seed_radii"
+"$pdla" analyze "$t/sd/cluster.h5" | grep -q "^cluster: 300 stuck" || fail "analyze of a seeds run"
+printf '20 20 1\n21 20 1\n' >"$t/ov"
+expect_usage "overlapping seeds" --model event --particles 300 --packing 0.05 --seeds "$t/ov" --out "$t/b"
+grep -q "overlap" "$t/err" || fail "overlapping seeds: $(cat "$t/err")"
+printf '20 20 1\n80 20 1\n' >"$t/outside"
+expect_usage "seed outside the box" --model event --particles 300 --packing 0.05 --seeds "$t/outside" --out "$t/b"
+grep -q "outside the box" "$t/err" || fail "seed outside: $(cat "$t/err")"
+printf '20 20\n' >"$t/short"
+expect_usage "seed line short" --model event --particles 300 --packing 0.05 --seeds "$t/short" --out "$t/b"
+expect_usage "seeds file missing" --model event --seeds "$t/nonexistent" --out "$t/b"
+[ -e "$t/b" ] && fail "run directory made for a bad seeds file"
 "$pdla" analyze "$t/r/cluster.h5" --bins 3 >/dev/null 2>"$t/err"
 [ $? -eq 2 ] && [ "$(wc -l <"$t/err")" -eq 1 ] || fail "analyze bad option: $(cat "$t/err")"
 "$pdla" render "$t/r/cluster.h5" -o "$t/r.png" --size 64 || fail "render"

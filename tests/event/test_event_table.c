@@ -140,7 +140,13 @@ static void walk_row(const pdla_param_desc *t, size_t n, size_t i, const char *d
     bad_text(d, bad, sizeof bad);
     ev_params q = def;
     const int set = ev_param_set(&q, d->option, bad, err, sizeof err);
-    const int chk = set ? set : ev_params_check(&q, err, sizeof err);
+    int chk = set ? set : ev_params_check(&q, err, sizeof err);
+    if (!chk) {
+        /* a file named by the row (--seeds) is read when the run is built */
+        ev_sim *b = ev_create(&q, err, sizeof err);
+        chk = b == NULL;
+        ev_free(b);
+    }
     CHECK(chk != 0 && strstr(err, d->option) && !strchr(err, '\n'), "%s %s: not refused: %s",
           d->option, bad, chk ? err : "accepted");
 }
@@ -152,7 +158,10 @@ int main(int argc, char **argv)
         return 0;
     }
     char dir[] = "/tmp/pdla-evtable-XXXXXX";
-    if (!mkdtemp(dir)) return 1;
+    if (!mkdtemp(dir) || chdir(dir)) return 1;
+    /* the seeds row's example file: one seed inside the base run's box */
+    FILE *sf = fopen("seeds.txt", "w");
+    if (!sf || fputs("20 20 1\n", sf) < 0 || fclose(sf)) return 1;
     H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
     size_t n;
     const pdla_param_desc *t = ev_param_table(&n);
@@ -165,6 +174,7 @@ int main(int argc, char **argv)
         walk_row(t, n, i, dir);
     }
     char cmd[600];
+    if (chdir("/")) return 1;
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
     if (system(cmd) != 0) fprintf(stderr, "could not remove %s\n", dir);
     return check_finish();

@@ -194,51 +194,6 @@ static int place_lattice(ev_sim *s, double rmax, char *err, size_t errlen)
     }
 }
 
-/* Bits of x spread to every D-th place (x < 2^21). */
-static uint64_t spread_bits(uint64_t x, int D)
-{
-    uint64_t r = 0;
-    for (int b = 0; b < 21; b++) r |= ((x >> b) & 1u) << (D * b);
-    return r;
-}
-
-typedef struct ev_mkey {
-    uint64_t key;
-    uint32_t seq, id;
-} ev_mkey;
-
-static int mkey_cmp(const void *a, const void *b)
-{
-    const ev_mkey *x = a, *y = b;
-    if (x->key != y->key) return x->key < y->key ? -1 : 1;
-    return x->seq < y->seq ? -1 : x->seq > y->seq;
-}
-
-/* The particles (not the seed) in the Morton (Z) order of their cells, a
- * cell's own particles in list order: cells that are neighbours in any
- * direction then mostly sit close in memory too (row order keeps only the
- * x neighbours close; the z neighbours of a 1e6-particle box are nc^2
- * cells, megabytes, away). 0, or -1 when out of memory. */
-static int morton_order(ev_sim *s, uint32_t *order)
-{
-    const int D = s->dim;
-    const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (D == 3 ? (uint64_t)s->nc : 1);
-    ev_mkey *k = malloc((s->n ? s->n : 1) * sizeof *k);
-    if (!k) return -1;
-    uint32_t q = 0;
-    for (uint64_t c = 0; c < ncell; c++) {
-        uint64_t key = 0, cc = c;
-        for (int d = 0; d < D; d++, cc /= (uint64_t)s->nc)
-            key |= spread_bits(cc % (uint64_t)s->nc, D) << d;
-        for (uint32_t j = s->chead[c]; j != UINT32_MAX; j = s->cnext[j])
-            if (j < s->n) k[q] = (ev_mkey){key, q, j}, q++;
-    }
-    qsort(k, q, sizeof *k, mkey_cmp);
-    for (uint32_t a = 0; a < q; a++) order[a] = k[a].id;
-    free(k);
-    return 0;
-}
-
 /* Renumber the particles (not the seed) in cell order, so that neighbours
  * sit close in memory: a collision then touches few cache lines. Called
  * after placement, before anything else refers to particle indices. */
@@ -254,10 +209,10 @@ static int sort_by_cell(ev_sim *s)
         free(order), free(ps), free(m), free(sp);
         return -1;
     }
-    if (morton_order(s, order)) {
-        free(order), free(ps), free(m), free(sp);
-        return -1;
-    }
+    uint32_t k = 0;
+    for (uint64_t c = 0; c < ncell; c++)
+        for (uint32_t j = s->chead[c]; j != UINT32_MAX; j = s->cnext[j])
+            if (j < s->n) order[k++] = j;
     for (uint32_t a = 0; a < s->n; a++) {
         memcpy(ps + (size_t)a * S, EV_P(s, order[a]), (size_t)S * sizeof *ps);
         m[a] = s->mass[order[a]];

@@ -1,4 +1,5 @@
 #!/bin/sh
+# build-old: main at 9826cca + params commit; build-new: the same with Morton order (reverted). Runs interleaved, nice 10, loaded VM.
 # interleaved old/new: dim N t_max
 for rep in 1 2; do
 for c in "3 10000 1" "3 100000 0.4" "3 1000000 0.08" "2 10000 4" "2 100000 1" "2 1000000 0.25"; do

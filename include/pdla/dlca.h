@@ -34,6 +34,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "pdla/params.h"
 #include "pdla/pdla.h"
 
 #ifdef __cplusplus
@@ -44,11 +45,28 @@ extern "C" {
 
 typedef enum { DLCA_SEARCH_LATTICE = 0, DLCA_SEARCH_BOXES = 1, DLCA_SEARCH_ALLPAIRS = 2 } dlca_search;
 
-/* Every field's unit, default and range live in one descriptor table
- * (dlca_params.c, dlca_param_table); dlca_params_default() fills them. */
+/* Each parameter's bit in "given" masks (pdla_param_desc.bit). */
+enum {
+    DLCA_PARAM_DIM = 1u << 0,
+    DLCA_PARAM_BOX = 1u << 1,
+    DLCA_PARAM_FILL = 1u << 2,
+    DLCA_PARAM_COUNT = 1u << 3,
+    DLCA_PARAM_MOBILITY = 1u << 4,
+    DLCA_PARAM_STICKING = 1u << 5,
+    DLCA_PARAM_DRIFT = 1u << 6,
+    DLCA_PARAM_UNTIL_CLUSTERS = 1u << 7,
+    DLCA_PARAM_UNTIL_TIME = 1u << 8,
+    DLCA_PARAM_MAX_ATTEMPTS = 1u << 9,
+    DLCA_PARAM_SEED = 1u << 10,
+    DLCA_PARAM_SEARCH = 1u << 11,
+    DLCA_PARAM_GRID_BOX = 1u << 12
+};
+
+/* Every field's unit, default and range live in one row of the parameter
+ * table (dlca_params.c, dlca_param_table); dlca_params_default() fills them. */
 typedef struct dlca_params {
     int dim;                  /* d, 2..5 */
-    uint32_t box[DLCA_MAX_DIM]; /* L_1..L_d, each 2..65536; product < 2^32 */
+    uint32_t box[DLCA_MAX_DIM]; /* L_1..L_d, each 2..65536; product < 2^32 (PDLA_PT_BOX) */
     double fill;              /* phi in (0, 1): N = round(phi V) when count is 0 */
     uint64_t count;           /* N (monomers); 0: from fill */
     double mobility;          /* gamma: a cluster of s monomers moves at rate s^gamma */
@@ -162,27 +180,16 @@ PDLA_API int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, s
 /* New stop conditions for a resumed run; returns the stop they give now. */
 PDLA_API int dlca_set_stops(dlca_sim *s, uint64_t until_clusters, double until_time, uint64_t max_attempts);
 
-/* ---- the parameter descriptor table ---------------------------------- */
-typedef enum { DLCA_T_INT, DLCA_T_U64, DLCA_T_F64, DLCA_T_BOX, DLCA_T_SEARCH } dlca_ptype;
-typedef struct dlca_param_desc {
-    const char *name;       /* long option, scene key (with '_' for '-') and attribute name */
-    dlca_ptype type;
-    const char *ctype;      /* the C type of the field */
-    const char *unit;
-    const char *def;        /* default, as text (parsed by the same code as the option) */
-    double min, max;        /* inclusive range for numbers (NaN: none) */
-    int min_open, max_open; /* 1: the bound itself is refused */
-    const char *meta;       /* the argument's name in --help */
-    const char *help;
-    size_t offset;          /* of the field in dlca_params */
-} dlca_param_desc;
-PDLA_API const dlca_param_desc *dlca_param_table(size_t *n);
-/* Parse text into the field of desc in *p; 0 or PDLA_EINVAL with a reason. */
-PDLA_API int dlca_param_set(dlca_params *p, const dlca_param_desc *desc, const char *text,
-                            char *err, size_t errlen);
-/* The field's value as text (for --help defaults and messages). */
-PDLA_API void dlca_param_format(const dlca_params *p, const dlca_param_desc *desc, char *buf,
-                                size_t len);
+/* ---- the parameter table ----------------------------------------------
+ * Rows of the shared machinery (pdla/params.h, models = PDLA_MODEL_DLCA): the
+ * options and scene keys are the rows' `option`, the /parameters attributes
+ * their `name`; pdla_param_format, pdla_param_validate and the rest apply. */
+PDLA_API const pdla_param_desc *dlca_param_table(size_t *n);
+/* Parse text into the field of row d in *p (numbers may end in k, M or G;
+ * a box is L1xL2[x...]), checked against the row's range: 0 or PDLA_EINVAL
+ * with a one-line reason naming the option. */
+PDLA_API int dlca_param_set(dlca_params *p, const pdla_param_desc *d, const char *text, char *err,
+                            size_t errlen);
 
 #ifdef __cplusplus
 }

@@ -35,6 +35,7 @@ extern "C" {
 /* Files in an ensemble directory. */
 #define PDLA_ENS_JOURNAL_NAME "clusters.journal"
 #define PDLA_ENS_FILE_NAME "ensemble.h5"
+#define PDLA_ENS_SIDECAR_NAME "ensemble.xdmf2" /* with kept positions: for ParaView */
 
 /* What defines an ensemble: the same config grows the same clusters. */
 typedef struct pdla_ens_config {
@@ -159,6 +160,14 @@ PDLA_API int pdla_ens_run_local(pdla_ens_journal *j, int threads, pdla_ens_progr
  * renamed onto path (replacing it). PDLA_EINVAL when clusters are missing. */
 PDLA_API int pdla_ens_write(const pdla_ens_journal *j, const pdla_run_info *info,
                             const char *path, char *err, size_t errlen);
+/* The same with kept positions compressed at deflate level gzip (0..9, with
+ * shuffle; 0: stored as they are); pdla_ens_write uses
+ * PDLA_ENS_GZIP_DEFAULT. With kept positions the ParaView sidecar
+ * path-without-.h5 + ".xdmf2" (xdmf.h) is written after the rename, also
+ * crash-safely; without, an older sidecar there is removed. */
+#define PDLA_ENS_GZIP_DEFAULT 4
+PDLA_API int pdla_ens_write_gz(const pdla_ens_journal *j, const pdla_run_info *info,
+                               const char *path, int gzip, char *err, size_t errlen);
 
 /* ---- statistics (ens_stats.c) -------------------------------------------- */
 

@@ -39,9 +39,15 @@ typedef enum pdla_param_type {
     PDLA_PT_REAL,   /* double; HDF5 float64, JSON number */
     PDLA_PT_FLAG,   /* int 0 or 1; HDF5 int32, JSON number; a CLI flag without value */
     PDLA_PT_CHOICE, /* an enum stored as int, values 0..n-1; HDF5 and JSON: its word */
-    PDLA_PT_STRING  /* char[hi_u + 1], length in [lo_u, hi_u]; HDF5: string ("(none)"
+    PDLA_PT_STRING, /* char[hi_u + 1], length in [lo_u, hi_u]; HDF5: string ("(none)"
                        when empty), JSON: string */
+    PDLA_PT_BOX     /* uint32_t[PDLA_PARAM_BOX_MAX] lengths, one per axis, of which the
+                       int field at count_offset (the dimension) says how many are used;
+                       each in [lo_u, hi_u]; one value (set_u, the default) fills every
+                       entry; HDF5: uint64 array of the used ones; text "L1xL2x..." */
 } pdla_param_type;
+
+#define PDLA_PARAM_BOX_MAX 5
 
 typedef struct pdla_param_desc {
     const char *name;    /* struct field, /parameters attribute and JSON key */
@@ -65,9 +71,11 @@ typedef struct pdla_param_desc {
     int flag_value;      /* FLAG: the value the CLI flag sets (the default is the other) */
     /* INT, U64, FLAG, CHOICE: default and closed range [lo, hi]. */
     uint64_t def_u, lo_u, hi_u;
-    /* REAL: default and range [lo, hi], or (lo, hi] with lo_open. */
+    /* REAL: default and range [lo, hi]; lo_open / hi_open exclude a bound. */
     double def_r, lo_r, hi_r;
     int lo_open;
+    int hi_open;
+    size_t count_offset; /* BOX: offsetof the int field giving how many lengths are used */
     const char *const *choices; /* CHOICE: the word of value 0, 1, ...; NULL-terminated */
     /* An extra rule run after the range check passed (power of two, a bound
      * that depends on another field), or NULL. Writes one line, returns non-zero
@@ -118,12 +126,16 @@ PDLA_API int pdla_param_choice(const pdla_param_desc *d, const char *word);
 PDLA_API int pdla_param_parse(const pdla_param_desc *d, void *s, const char *text, char *err,
                               size_t errlen);
 
-/* A resume: the rows whose bit is in `given` were asked for (in `asked`);
- * a resumable one takes the asked value into `stored`, any other must
- * equal the stored one. PDLA_OK, or PDLA_EINVAL with "cannot resume with a
+/* A resume's rule, for any model: every row named in `given` (a mask of
+ * bits) that is not resumable must hold in `asked` the value it has in
+ * `have` (the checkpoint's). 0, or PDLA_EINVAL with "cannot resume with a
  * different physics parameter: LABEL is X in the checkpoint, Y asked". */
-PDLA_API int pdla_param_resume(const pdla_param_desc *t, size_t n, void *stored,
-                               const void *asked, uint32_t given, char *err, size_t errlen);
+PDLA_API int pdla_param_check_asked(const pdla_param_desc *t, size_t n, uint32_t given,
+                                    const void *have, const void *asked, char *err,
+                                    size_t errlen);
+/* Copy every resumable row named in `given` from src into dst. */
+PDLA_API void pdla_param_apply_resumable(const pdla_param_desc *t, size_t n, uint32_t given,
+                                         void *dst, const void *src);
 
 #ifdef __cplusplus
 }

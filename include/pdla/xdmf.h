@@ -61,4 +61,23 @@ PDLA_API int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char 
 PDLA_API int xdmf_write_cluster(const char *h5_path, uint64_t n, int dim, int units_per_diameter,
                                 int arrival, char *err, size_t errlen);
 
+/* An ensemble file (`pdla ensemble --keep-positions`): positions [M * n][dim]
+ * with cluster i in rows i n .. i n + n - 1. The sidecar is a spatial
+ * Collection of M Polyvertex grids ("cluster I", one ParaView block each),
+ * each a HyperSlab of those rows, with the attributes "cluster" (I on every
+ * point), "distance" (from the seed, diameters) and, when the rows are in
+ * arrival order, "arrival" (0..n-1 within the cluster). */
+typedef struct xdmf_ensemble {
+    const char *h5_path;    /* the HDF5 file; the sidecar names its last component */
+    const char *positions;  /* integer dataset [clusters * n][dim] */
+    uint64_t clusters, n;   /* M >= 1 clusters of n >= 1 points */
+    int dim;                /* 2 or 3 */
+    int units_per_diameter; /* positions / this = diameters */
+    int arrival;            /* rows of a cluster are in arrival order */
+} xdmf_ensemble;
+
+/* Writes e's sidecar to xmf_path as xdmf_write_points does (temporary,
+ * fsync, rename; a failure removes an older xmf_path). 0 or -1 with err. */
+PDLA_API int xdmf_write_ensemble(const char *xmf_path, const xdmf_ensemble *e, char *err, size_t errlen);
+
 #endif

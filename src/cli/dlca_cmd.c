@@ -1,8 +1,8 @@
 /*
  * dlca_cmd.c - `pdla --model dlca ...`: the DLCA model's command line. Its
- * options, --help lines and checks are generated from the model's parameter
- * descriptor table (dlca_param_table); a scene file with `model = dlca`
- * takes the same keys. Writes RUN_DIR/cluster.h5 (beside, then renamed) and
+ * model options, --help lines, scene keys, checks and the resume rule come
+ * from the model's rows of the shared parameter table (dlca_param_table,
+ * pdla/params.h); a scene file with `model = dlca` takes the same keys. Writes RUN_DIR/cluster.h5 (beside, then renamed) and
  * prints a summary on stdout.
  *
  * Exit status: 0 done; 1 runtime failure; 2 bad usage or input (one line on
@@ -26,12 +26,11 @@
 #include "optcheck.h"
 #include "parse.h"
 #include "pdla/dlca.h"
+#include "pdla/params.h"
 
 enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 enum { OPT_MODEL = 1000, OPT_SCENE, OPT_OUT, OPT_FORCE, OPT_NO_OUTPUT, OPT_QUIET, OPT_HELP, OPT_CHECK, OPT_CKPT,
        OPT_RESUME, OPT_CKPT_EVERY, OPT_CKPT_ATTEMPTS, OPT_TABLE = 2000 };
-/* Stops given on the command line (a resume keeps the checkpoint's others). */
-enum { GIVEN_UNTIL_CLUSTERS = 1, GIVEN_UNTIL_TIME = 2, GIVEN_MAX_ATTEMPTS = 4 };
 
 typedef struct dlca_cli {
     dlca_params p;
@@ -39,9 +38,8 @@ typedef struct dlca_cli {
     int force, no_output, quiet, check, checkpoint;
     double checkpoint_every;      /* seconds of wall time; 0: none */
     uint64_t checkpoint_attempts; /* 0: none */
-    int given_stops;              /* GIVEN_* */
+    uint32_t given;               /* DLCA_PARAM_* bits of the rows set by options or the scene */
     const char *resume;
-    const char *given_model_option; /* a table option other than the stops */
 } dlca_cli;
 
 static volatile sig_atomic_t stop_signal;
@@ -81,16 +79,17 @@ static void print_help(FILE *o)
 {
     dlca_params d;
     dlca_params_default(&d);
+    size_t n;
+    const pdla_param_desc *t = dlca_param_table(&n);
     fprintf(o, "usage: pdla --model dlca [OPTIONS]\n"
                "Diffusion-limited cluster-cluster aggregation on a periodic lattice (d = 2..5).\n\n"
-               "Model options (also scene keys, with model = dlca):\n");
-    size_t n;
-    const dlca_param_desc *t = dlca_param_table(&n);
+               "%s\n", t[0].group);
     for (size_t i = 0; i < n; i++) {
-        char def[64], opt[96];
-        dlca_param_format(&d, &t[i], def, sizeof def);
-        snprintf(opt, sizeof opt, "--%s %s", t[i].name, t[i].meta);
-        fprintf(o, "  %-34s %s%s%s [default %s]\n", opt, t[i].help, t[i].unit[0] ? ", in " : "", t[i].unit, def);
+        char def[64] = "", opt[96];
+        if (t[i].show_default) pdla_param_format(&t[i], &d, 0, def, sizeof def);
+        snprintf(opt, sizeof opt, "--%s %s", t[i].option, t[i].metavar ? t[i].metavar : "");
+        fprintf(o, "  %-34s %s%s%s%s%s%s\n", opt, t[i].help, t[i].unit[0] ? ", in " : "", t[i].unit,
+                def[0] ? " [default " : "", def, def[0] ? "]" : "");
     }
     fprintf(o, "\nRun options:\n"
                "  --scene FILE                       read KEY = VALUE lines (model = dlca, the keys above, out, force,\n"
@@ -149,11 +148,14 @@ static int set_key(dlca_cli *c, const char *key, const char *val, char *err, siz
         return 0;
     }
     size_t n;
-    const dlca_param_desc *t = dlca_param_table(&n);
-    for (size_t i = 0; i < n; i++)
-        if (strcmp(k, t[i].name) == 0) return dlca_param_set(&c->p, &t[i], val, err, errlen) ? -1 : 0;
-    snprintf(err, errlen, "unknown key '%s' for model dlca", key);
-    return -1;
+    const pdla_param_desc *t = dlca_param_table(&n);
+    const pdla_param_desc *d = pdla_param_find(t, n, k);
+    if (!d) {
+        snprintf(err, errlen, "unknown key '%s' for model dlca", key);
+        return -1;
+    }
+    c->given |= d->bit;
+    return dlca_param_set(&c->p, d, val, err, errlen) ? -1 : 0;
 }
 
 /* Scene: KEY = VALUE lines; '#' comments. The strings are kept (out). */
@@ -210,13 +212,13 @@ static int read_scene(dlca_cli *c, const char *path, char **keep, char *err, siz
 static int parse(int argc, char **argv, dlca_cli *c, char **scene_buf, char *err, size_t errlen)
 {
     size_t n;
-    const dlca_param_desc *t = dlca_param_table(&n);
+    const pdla_param_desc *t = dlca_param_table(&n);
     struct option *lo = calloc(n + 16, sizeof *lo); /* the table, then extra[] */
     if (!lo) {
         snprintf(err, errlen, "out of memory");
         return -1;
     }
-    for (size_t i = 0; i < n; i++) lo[i] = (struct option){t[i].name, required_argument, NULL, OPT_TABLE + (int)i};
+    for (size_t i = 0; i < n; i++) lo[i] = (struct option){t[i].option, required_argument, NULL, OPT_TABLE + (int)i};
     const struct option extra[] = {
         {"model", required_argument, NULL, OPT_MODEL}, {"scene", required_argument, NULL, OPT_SCENE},
         {"out", required_argument, NULL, OPT_OUT},     {"force", no_argument, NULL, OPT_FORCE},
@@ -284,11 +286,7 @@ static int parse(int argc, char **argv, dlca_cli *c, char **scene_buf, char *err
         case OPT_SCENE: break;
         default:
             if (opt >= OPT_TABLE && opt < OPT_TABLE + (int)n) {
-                const char *nm = t[opt - OPT_TABLE].name;
-                if (!strcmp(nm, "until-clusters")) c->given_stops |= GIVEN_UNTIL_CLUSTERS;
-                else if (!strcmp(nm, "until-time")) c->given_stops |= GIVEN_UNTIL_TIME;
-                else if (!strcmp(nm, "max-attempts")) c->given_stops |= GIVEN_MAX_ATTEMPTS;
-                else c->given_model_option = nm;
+                c->given |= t[opt - OPT_TABLE].bit;
                 if (dlca_param_set(&c->p, &t[opt - OPT_TABLE], optarg, why, sizeof why)) {
                     snprintf(err, errlen, "%s", why);
                     rc = -1;
@@ -441,35 +439,34 @@ static int run_loop(dlca_sim *s, const dlca_cli *c, const char *dir, const char 
     }
 }
 
-int dlca_cmd_main(int argc, char **argv)
+/* Parse and check the command line: -1 to go on, else the exit status
+ * (0 after --help, EXIT_USAGE with the one line printed). */
+static int read_command(int argc, char **argv, dlca_cli *c, char **scene_buf)
 {
-    dlca_cli c;
-    memset(&c, 0, sizeof c);
-    dlca_params_default(&c.p);
-    char err[1024], *scene_buf = NULL;
-    int prc = parse(argc, argv, &c, &scene_buf, err, sizeof err);
+    char err[1024];
+    memset(c, 0, sizeof *c);
+    dlca_params_default(&c->p);
+    int prc = parse(argc, argv, c, scene_buf, err, sizeof err);
     if (prc == 1) {
-        free(scene_buf);
         print_help(stdout);
         return fflush(stdout) ? EXIT_RUNTIME : 0;
     }
-    if (prc == 0 && c.resume && c.given_model_option) {
-        snprintf(err, sizeof err, "--%s cannot change on --resume (only --until-* and --max-attempts)",
-                 c.given_model_option);
-        prc = -1;
-    }
-    if (prc == 0 && c.resume) c.checkpoint = 1; /* as in the DLA command: a resumed run goes on checkpointing */
-    if (prc == 0 && c.no_output && c.checkpoint) {
+    if (prc == 0 && c->resume) c->checkpoint = 1; /* as in the DLA command: a resumed run goes on checkpointing */
+    if (prc == 0 && c->no_output && c->checkpoint) {
         snprintf(err, sizeof err, "checkpoints need a run directory: --no-output excludes them");
         prc = -1;
     }
-    if (prc || dlca_params_validate(&c.p, err, sizeof err)) {
+    if (prc || dlca_params_validate(&c->p, err, sizeof err)) {
         fprintf(stderr, "pdla: %s\n", err);
-        free(scene_buf);
         return EXIT_USAGE;
     }
-    /* From here a signal is caught: one during set-up stops the run after
-     * its first chunk, with the output written. */
+    return -1;
+}
+
+/* From here a signal is caught: one during set-up stops the run after its
+ * first chunk, with the output written. */
+static void catch_signals(void)
+{
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_signal;
@@ -477,106 +474,134 @@ int dlca_cmd_main(int argc, char **argv)
     sa.sa_flags = SA_RESETHAND | SA_RESTART; /* a second signal ends pdla at once */
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
-    char dir[4096] = "", ckpath[4200] = "";
-    dlca_sim *s = NULL;
-    if (c.resume) {
-        struct stat sb; /* a run directory stands for its checkpoint.h5 */
-        if (stat(c.resume, &sb) == 0 && S_ISDIR(sb.st_mode)) snprintf(ckpath, sizeof ckpath, "%s/checkpoint.h5", c.resume);
-        else snprintf(ckpath, sizeof ckpath, "%s", c.resume);
-        const int lrc = dlca_checkpoint_load(&s, ckpath, err, sizeof err);
-        if (lrc) {
-            fprintf(stderr, "pdla: %s\n", err);
-            free(scene_buf);
-            return lrc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
-        }
-        const dlca_params *lp = dlca_get_params(s);
-        /* The stops not given stay the checkpoint's: a resumed run ends where
-         * the interrupted one would have. */
-        (void)dlca_set_stops(s, c.given_stops & GIVEN_UNTIL_CLUSTERS ? c.p.until_clusters : lp->until_clusters,
-                             c.given_stops & GIVEN_UNTIL_TIME ? c.p.until_time : lp->until_time,
-                             c.given_stops & GIVEN_MAX_ATTEMPTS ? c.p.max_attempts : lp->max_attempts);
-        c.p = *lp;
-        if (!c.out) {
-            snprintf(dir, sizeof dir, "%s", ckpath);
-            char *sl = strrchr(dir, '/');
-            if (sl) *sl = '\0';
-            else snprintf(dir, sizeof dir, ".");
-            c.out = dir;
-        }
-        c.force = 1; /* its own run directory */
+}
+
+/* --resume: load the checkpoint, hold the options given against it (the
+ * table's resume rule: only the resumable rows, the stops, may change) and
+ * apply the stops given. 0, or the exit status with the line printed. */
+static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
+{
+    char ckpath[4200], err[1024];
+    struct stat sb; /* a run directory stands for its checkpoint.h5 */
+    if (stat(c->resume, &sb) == 0 && S_ISDIR(sb.st_mode)) snprintf(ckpath, sizeof ckpath, "%s/checkpoint.h5", c->resume);
+    else snprintf(ckpath, sizeof ckpath, "%s", c->resume);
+    const int lrc = dlca_checkpoint_load(s, ckpath, err, sizeof err);
+    if (lrc) {
+        fprintf(stderr, "pdla: %s\n", err);
+        return lrc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
     }
-    if (!c.no_output) {
-        const int drc = make_dir(&c, dir, sizeof dir);
+    size_t n;
+    const pdla_param_desc *t = dlca_param_table(&n);
+    dlca_params p = *dlca_get_params(*s);
+    if (pdla_param_check_asked(t, n, c->given, &p, &c->p, err, sizeof err)) {
+        fprintf(stderr, "pdla: %s: %s\n", ckpath, err);
+        dlca_destroy(*s);
+        *s = NULL;
+        return EXIT_USAGE;
+    }
+    /* The stops not given stay the checkpoint's: a resumed run ends where
+     * the interrupted one would have. */
+    pdla_param_apply_resumable(t, n, c->given, &p, &c->p);
+    (void)dlca_set_stops(*s, p.until_clusters, p.until_time, p.max_attempts);
+    c->p = p;
+    if (!c->out) {
+        snprintf(dir, dirlen, "%.4000s", ckpath);
+        char *sl = strrchr(dir, '/');
+        if (sl) *sl = '\0';
+        else snprintf(dir, dirlen, ".");
+        c->out = dir;
+    }
+    c->force = 1; /* its own run directory */
+    return 0;
+}
+
+/* The simulation to run (resumed or new) and its run directory: 0, or the
+ * exit status with the line printed. */
+static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
+{
+    *s = NULL;
+    if (c->resume) {
+        const int rrc = resume_sim(c, dir, dirlen, s);
+        if (rrc) return rrc;
+    }
+    if (!c->no_output) {
+        const int drc = make_dir(c, dir, dirlen);
         if (drc) {
-            dlca_destroy(s);
-            free(scene_buf);
+            dlca_destroy(*s);
+            *s = NULL;
             return drc;
         }
     }
-    const double t0 = wall_now();
-    int rc = s ? 0 : dlca_create(&s, &c.p, err, sizeof err);
+    char err[1024];
+    const int rc = *s ? 0 : dlca_create(s, &c->p, err, sizeof err);
     if (rc) {
         fprintf(stderr, "pdla: %s\n", err);
-        free(scene_buf);
         return rc == PDLA_EINVAL ? EXIT_USAGE : EXIT_RUNTIME;
     }
-    if (c.checkpoint) {
+    if (c->checkpoint) {
         char stop_path[4200]; /* honoured before: a resume must not stop at once */
         snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
         unlink(stop_path);
     }
-    char *cmd = join_args(argc, argv);
-    int asked = ASKED_NONE, ck_failed = 0;
-    const int stop = run_loop(s, &c, dir, cmd, &asked, &ck_failed);
-    const double wall = wall_now() - t0;
-    int status = ck_failed ? EXIT_RUNTIME : 0, final_ck = 0;
-    if (c.check && dlca_check(s, err, sizeof err)) {
+    return 0;
+}
+
+/* After the run: the check, cluster.h5 and the final checkpoint. Returns
+ * the exit status so far; *final_ck says whether a checkpoint was written. */
+static int finish_files(const dlca_sim *s, const dlca_cli *c, const char *dir, const char *cmd, double wall,
+                        int status, int *final_ck)
+{
+    char err[1024];
+    *final_ck = 0;
+    if (c->check && dlca_check(s, err, sizeof err)) {
         fprintf(stderr, "pdla: check failed: %s\n", err);
         status = EXIT_RUNTIME;
     }
-    if (!c.no_output) {
-        if (write_file(s, dir, "cluster", cmd, wall, err, sizeof err)) {
-            fprintf(stderr, "pdla: %s\n", err);
-            status = EXIT_RUNTIME;
-        }
-        if (c.checkpoint) {
-            if (write_file(s, dir, "checkpoint", cmd, 0, err, sizeof err)) {
-                fprintf(stderr, "pdla: checkpoint failed: %s\n", err);
-                status = EXIT_RUNTIME;
-            } else final_ck = 1;
-        }
+    if (c->no_output) return status;
+    if (write_file(s, dir, "cluster", cmd, wall, err, sizeof err)) {
+        fprintf(stderr, "pdla: %s\n", err);
+        status = EXIT_RUNTIME;
     }
-    free(cmd);
+    if (c->checkpoint) {
+        if (write_file(s, dir, "checkpoint", cmd, 0, err, sizeof err)) {
+            fprintf(stderr, "pdla: checkpoint failed: %s\n", err);
+            status = EXIT_RUNTIME;
+        } else *final_ck = 1;
+    }
+    return status;
+}
+
+static void print_summary(const dlca_sim *s, const dlca_params *p, const char *dir, int stop, int asked,
+                          double wall)
+{
     dlca_stats st;
     dlca_get_stats(s, &st);
-    if (!c.quiet) {
-        char box[64];
-        size_t n;
-        const dlca_param_desc *t = dlca_param_table(&n);
-        for (size_t i = 0; i < n; i++)
-            if (t[i].type == DLCA_T_BOX) dlca_param_format(&c.p, &t[i], box, sizeof box);
-        printf("model dlca, d = %d, box %s, N = %llu, search %s\n", c.p.dim, box,
-               (unsigned long long)st.n_monomers, dlca_search_name(c.p.search));
-        printf("stop: %s; t = %.6g; clusters %llu; largest %llu; weight-average size %.4g\n",
-               asked == ASKED_SIGNAL ? "signal" : asked == ASKED_FILE ? "STOP file" : dlca_stop_name(stop), st.t,
-               (unsigned long long)st.n_clusters, (unsigned long long)st.largest,
-               st.sum_s2 / (double)st.n_monomers);
-        printf("attempts %llu, moves %llu, monomer moves %llu, joins %llu\n", (unsigned long long)st.attempts,
-               (unsigned long long)st.moves, (unsigned long long)st.monomer_moves, (unsigned long long)st.merges);
-        printf("time %.3f s: %.1f ns/attempt, %.2f ns/monomer-move; model memory %.1f bytes/monomer\n", wall,
-               st.attempts ? 1e9 * wall / (double)st.attempts : 0.0,
-               st.monomer_moves ? 1e9 * wall / (double)st.monomer_moves : 0.0,
-               (double)st.bytes / (double)st.n_monomers);
-        if (dir[0]) printf("wrote %s/cluster.h5\n", dir);
-        fflush(stdout);
-    }
-    dlca_destroy(s);
-    free(scene_buf);
+    char box[64];
+    size_t n;
+    const pdla_param_desc *t = dlca_param_table(&n);
+    pdla_param_format(pdla_param_find(t, n, "box"), p, 0, box, sizeof box);
+    printf("model dlca, d = %d, box %s, N = %llu, search %s\n", p->dim, box, (unsigned long long)st.n_monomers,
+           dlca_search_name(p->search));
+    printf("stop: %s; t = %.6g; clusters %llu; largest %llu; weight-average size %.4g\n",
+           asked == ASKED_SIGNAL ? "signal" : asked == ASKED_FILE ? "STOP file" : dlca_stop_name(stop), st.t,
+           (unsigned long long)st.n_clusters, (unsigned long long)st.largest, st.sum_s2 / (double)st.n_monomers);
+    printf("attempts %llu, moves %llu, monomer moves %llu, joins %llu\n", (unsigned long long)st.attempts,
+           (unsigned long long)st.moves, (unsigned long long)st.monomer_moves, (unsigned long long)st.merges);
+    printf("time %.3f s: %.1f ns/attempt, %.2f ns/monomer-move; model memory %.1f bytes/monomer\n", wall,
+           st.attempts ? 1e9 * wall / (double)st.attempts : 0.0,
+           st.monomer_moves ? 1e9 * wall / (double)st.monomer_moves : 0.0, (double)st.bytes / (double)st.n_monomers);
+    if (dir[0]) printf("wrote %s/cluster.h5\n", dir);
+    fflush(stdout);
+}
+
+/* The exit: a stop asked for with checkpoints on is a clean exit (as the
+ * DLA command); a signal without ends pdla by that signal. */
+static int exit_status(int status, int asked, int final_ck, uint64_t attempts, const char *dir)
+{
     if (asked != ASKED_NONE && final_ck) {
-        /* Asked to stop with checkpoints on: a clean exit, as the DLA command. */
         fprintf(stderr, "pdla: stopped by %s after %llu attempts; checkpoint %s/checkpoint.h5 (resume with "
                         "pdla --model dlca --resume %s)\n",
-                asked == ASKED_SIGNAL ? "signal" : "RUN_DIR/STOP", (unsigned long long)st.attempts, dir, dir);
+                asked == ASKED_SIGNAL ? "signal" : "RUN_DIR/STOP", (unsigned long long)attempts, dir, dir);
         if (asked == ASKED_FILE) {
             char stop_path[4200];
             snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
@@ -589,4 +614,35 @@ int dlca_cmd_main(int argc, char **argv)
         raise((int)stop_signal);
     }
     return status;
+}
+
+int dlca_cmd_main(int argc, char **argv)
+{
+    dlca_cli c;
+    char *scene_buf = NULL, dir[4096] = "";
+    const int rc = read_command(argc, argv, &c, &scene_buf);
+    dlca_sim *s = NULL;
+    if (rc >= 0) {
+        free(scene_buf);
+        return rc;
+    }
+    catch_signals();
+    const int orc = open_sim(&c, dir, sizeof dir, &s);
+    if (orc) {
+        free(scene_buf);
+        return orc;
+    }
+    const double t0 = wall_now();
+    char *cmd = join_args(argc, argv);
+    int asked = ASKED_NONE, ck_failed = 0, final_ck = 0;
+    const int stop = run_loop(s, &c, dir, cmd, &asked, &ck_failed);
+    const double wall = wall_now() - t0;
+    const int status = finish_files(s, &c, dir, cmd, wall, ck_failed ? EXIT_RUNTIME : 0, &final_ck);
+    free(cmd);
+    if (!c.quiet) print_summary(s, &c.p, dir, stop, asked, wall);
+    dlca_stats st;
+    dlca_get_stats(s, &st);
+    dlca_destroy(s);
+    free(scene_buf);
+    return exit_status(status, asked, final_ck, st.attempts, dir);
 }

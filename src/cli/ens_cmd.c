@@ -76,7 +76,11 @@ static void print_help(void)
            "`pdla ensemble --resume DIR` grows only the missing ones.\n\n"
            "  --clusters M        number of clusters (>= 1)\n"
            "  --threads T         clusters grown at once (default 1; 0: one per physical core)\n"
-           "  --keep-positions    also store every cluster's positions\n"
+           "  --keep-positions    also store every cluster's positions (/clusters/positions,\n"
+           "                      cluster i in rows i*N..i*N+N-1, chunked by cluster) and\n"
+           "                      DIR/ensemble.xdmf2 for ParaView (one block per cluster)\n"
+           "  --compress L        deflate level 0..9 of the kept positions, with shuffle\n"
+           "                      (default 4; 0: uncompressed); h5py and h5dump read both\n"
            "  --out DIR           ensemble directory (must not exist unless --force)\n"
            "  --force             write into an existing DIR (its old ensemble is removed)\n"
            "  --resume DIR        go on with DIR's ensemble; growth options given must match\n"
@@ -121,6 +125,7 @@ static char *command_line(int argc, char **argv)
 typedef struct ens_args {
     uint64_t clusters;
     int clusters_given, keep, keep_given, help;
+    int gzip; /* deflate level of the kept positions */
 } ens_args;
 
 /* Take this command's own options out of argv (into a, rest into *rest with
@@ -128,6 +133,7 @@ typedef struct ens_args {
 static int split_args(int argc, char **argv, ens_args *a, char **rest, int *nrest, char *err, size_t errlen)
 {
     memset(a, 0, sizeof *a);
+    a->gzip = PDLA_ENS_GZIP_DEFAULT;
     int n = 0;
     rest[n++] = "pdla ensemble";
     for (int i = 1; i < argc; i++) {
@@ -142,6 +148,13 @@ static int split_args(int argc, char **argv, ens_args *a, char **rest, int *nres
             v = argv[++i];
         } else if (!strncmp(s, "--clusters=", 11)) {
             v = s + 11;
+        } else if (!strcmp(s, "--compress") || !strncmp(s, "--compress=", 11)) {
+            const char *l = s[10] == '=' ? s + 11 : i + 1 < argc ? argv[++i] : NULL;
+            if (!l) return snprintf(err, errlen, "option --compress needs a value (L)"), -1;
+            if (l[0] < '0' || l[0] > '9' || l[1])
+                return snprintf(err, errlen, "invalid value '%.48s' for --compress: want a level 0..9", l), -1;
+            a->gzip = l[0] - '0';
+            continue;
         } else if (!strcmp(s, "--keep-positions")) {
             a->keep = a->keep_given = 1;
             continue;
@@ -180,8 +193,8 @@ static int make_dir(const char *dir, int *created)
 }
 
 /* Leftovers of an interrupted writer, only names this command makes (hold
- * the directory's lock): the temporaries of clusters.journal and
- * ensemble.h5, and with old_outputs (a new ensemble with --force) the old
+ * the directory's lock): the temporaries of clusters.journal,
+ * ensemble.h5 and ensemble.xdmf2, and with old_outputs (a new ensemble with --force) the old
  * journal and file. */
 static void remove_named(const char *dir, int old_outputs)
 {
@@ -191,13 +204,16 @@ static void remove_named(const char *dir, int old_outputs)
         unlink(p);
         snprintf(p, sizeof p, "%s/%s", dir, PDLA_ENS_FILE_NAME);
         unlink(p);
+        snprintf(p, sizeof p, "%s/%s", dir, PDLA_ENS_SIDECAR_NAME);
+        unlink(p);
     }
     DIR *d = opendir(dir);
     if (!d) return;
-    static const char *const prefixes[] = {PDLA_ENS_JOURNAL_NAME ".tmp.", PDLA_ENS_FILE_NAME ".tmp."};
+    static const char *const prefixes[] = {PDLA_ENS_JOURNAL_NAME ".tmp.", PDLA_ENS_FILE_NAME ".tmp.",
+                                           PDLA_ENS_SIDECAR_NAME ".tmp."};
     const struct dirent *de;
     while ((de = readdir(d)))
-        for (size_t i = 0; i < 2; i++)
+        for (size_t i = 0; i < 3; i++)
             if (!strncmp(de->d_name, prefixes[i], strlen(prefixes[i]))) {
                 snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
                 unlink(p);
@@ -277,231 +293,275 @@ static int worker_rank(int threads, int rank)
 }
 #endif
 
-int ens_cmd_main(int argc, char **argv)
-{
-    const double t0 = pdla_clock_seconds();
-    char err[4600];
+/* One `pdla ensemble` invocation: what the steps below share. */
+typedef struct ens_cmd {
     ens_args a;
-    char **rest = calloc((size_t)argc + 2, sizeof *rest);
-    char *cmd = command_line(argc, argv);
-    int nrest = 0, code = EXIT_USAGE;
-    pdla_ens_journal *j = NULL;
-    int lock = -1, mpi_rank = 0, mpi_size = 1;
-#ifdef PDLA_WITH_MPI
-    int verdict_pending = 0; /* rank 0 owes the other ranks its verdict */
-#endif
-    if (!rest || !cmd) {
-        fprintf(stderr, "pdla ensemble: out of memory\n");
-        free(rest);
-        free(cmd);
-        return EXIT_RUNTIME;
-    }
-    /* First: a signal from now on stops the ensemble in an orderly way. */
-    if (install_signals()) {
-        fprintf(stderr, "pdla ensemble: cannot install signal handlers: %s\n", strerror(errno));
-        code = EXIT_RUNTIME;
-        goto out;
-    }
+    cli_options o;
+    pdla_ens_config asked;  /* the config the options describe */
+    char dir[4096];
+    int lock, mpi_rank, mpi_size;
+    int verdict_pending;    /* MPI: rank 0 owes the other ranks its verdict */
+    pdla_ens_journal *j;
+    char err[4600];
+} ens_cmd;
+
+#define GO_ON (-1)
+
+/* Under an MPI launcher with more than one rank: MPI_Init (or, in a build
+ * without MPI, a refusal). GO_ON or the exit status. */
+static int start_mpi(ens_cmd *c)
+{
     long launched, launched_rank;
     launcher_ranks(&launched, &launched_rank);
     (void)launched_rank;
-    (void)mpi_size;
-    if (launched > 1) {
+    if (launched <= 1) return GO_ON;
 #ifdef PDLA_WITH_MPI
-        if (pdla_ens_mpi_init(&mpi_rank, &mpi_size, err, sizeof err)) {
-            fprintf(stderr, "pdla ensemble: %s\n", err);
-            code = EXIT_RUNTIME;
-            goto out;
-        }
+    if (pdla_ens_mpi_init(&c->mpi_rank, &c->mpi_size, c->err, sizeof c->err)) {
+        fprintf(stderr, "pdla ensemble: %s\n", c->err);
+        return EXIT_RUNTIME;
+    }
+    return GO_ON;
 #else
-        if (launched_rank == 0)
-            fprintf(stderr, "pdla ensemble: started as %ld MPI ranks, but this pdla was built without MPI "
-                            "(meson setup -Dmpi=enabled with libopenmpi-dev)\n", launched);
-        goto out;
+    (void)c;
+    if (launched_rank == 0)
+        fprintf(stderr, "pdla ensemble: started as %ld MPI ranks, but this pdla was built without MPI "
+                        "(meson setup -Dmpi=enabled with libopenmpi-dev)\n", launched);
+    return EXIT_USAGE;
 #endif
-    }
-    if (split_args(argc, argv, &a, rest, &nrest, err, sizeof err)) {
-        if (mpi_rank == 0) fprintf(stderr, "pdla ensemble: %s\n", err);
-        goto out;
-    }
-    if (a.help) {
-        if (mpi_rank == 0) print_help();
-        code = fflush(stdout) ? EXIT_RUNTIME : 0;
-        goto out;
-    }
-    cli_options o;
-    if (cli_parse(nrest, rest, &o, err, sizeof err) != CLI_PARSE_OK || refuse_options(&o, err, sizeof err)) {
-        if (mpi_rank == 0)
-            fprintf(stderr, "pdla ensemble: %s\n", o.action == CLI_VERSION ? "--version: see pdla --version" : err);
-        goto out;
-    }
-    pdla_ens_config asked;
-    asked.params = o.params;
-    asked.params.threads = 1;
-    asked.params.bind = PDLA_BIND_NONE;
-    asked.clusters = a.clusters;
-    asked.keep_positions = a.keep;
-    const int threads = o.params.threads;
-    char dir[4096];
-    pdla_hdf5_quiet();
-#ifdef PDLA_WITH_MPI
-    /* From here on only rank 0 decides; the others wait for its verdict. */
-    if (mpi_size > 1 && mpi_rank > 0) {
-        code = worker_rank(threads, mpi_rank);
-        goto out;
-    }
-    verdict_pending = mpi_size > 1;
-#endif
+}
 
-    if (o.resume) {
-        snprintf(dir, sizeof dir, "%s", o.resume);
-        for (size_t len = strlen(dir); len > 1 && dir[len - 1] == '/';) dir[--len] = '\0';
-        if (pdla_rundir_lock(dir, &lock, err, sizeof err) != PDLA_OK) {
-            fprintf(stderr, "pdla ensemble: cannot resume: %s\n", err);
-            goto out;
-        }
-        const int rc = pdla_ens_journal_open(dir, &j, err, sizeof err);
-        if (rc) {
-            fprintf(stderr, "pdla ensemble: cannot resume: %s\n", err);
-            code = rc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
-            goto out;
-        }
-        if (pdla_ens_config_compare(pdla_ens_journal_config(j), &asked, o.given, a.clusters_given, a.keep_given, err,
-                                    sizeof err)) {
-            fprintf(stderr, "pdla ensemble: %s\n", err);
-            goto out;
-        }
-        if (access(dir, W_OK)) {
-            fprintf(stderr, "pdla ensemble: cannot resume: '%s' is not writable: %s\n", dir, strerror(errno));
-            goto out;
-        }
-        if (pdla_ens_journal_torn_bytes(j))
-            fprintf(stderr, "pdla ensemble: note: cutting a torn record of %" PRIu64 " bytes (a cluster in flight)\n",
-                    pdla_ens_journal_torn_bytes(j));
-        remove_named(dir, 0);
-        if (pdla_ens_journal_begin_append(j, err, sizeof err)) {
-            fprintf(stderr, "pdla ensemble: %s\n", err);
-            code = EXIT_RUNTIME;
-            goto out;
-        }
-        if (!o.quiet)
-            fprintf(stderr, "pdla ensemble: resuming %s: %" PRIu64 " of %" PRIu64 " clusters recorded\n", dir,
-                    pdla_ens_journal_count(j), pdla_ens_journal_config(j)->clusters);
-    } else {
-        if (!a.clusters_given) {
-            fprintf(stderr, "pdla ensemble: --clusters M is required (see pdla ensemble --help)\n");
-            goto out;
-        }
-        if (!o.out_dir) {
-            fprintf(stderr, "pdla ensemble: --out DIR is required\n");
-            goto out;
-        }
-        if (pdla_ens_config_check(&asked, err, sizeof err)) {
-            fprintf(stderr, "pdla ensemble: %s\n", err);
-            goto out;
-        }
-        if (threads == 0 && pdla_ens_threads(0) <= 0) {
-            fprintf(stderr, "pdla ensemble: --threads 0: hwloc could not read the machine topology\n");
-            goto out;
-        }
-        if (strlen(o.out_dir) > 4000) {
-            fprintf(stderr, "pdla ensemble: directory name is too long\n");
-            goto out;
-        }
-        snprintf(dir, sizeof dir, "%s", o.out_dir);
-        for (size_t len = strlen(dir); len > 1 && dir[len - 1] == '/';) dir[--len] = '\0';
-        struct stat st;
-        if (!o.force && lstat(dir, &st) == 0) {
-            fprintf(stderr, "pdla ensemble: '%s' already exists (use --force to write into it)\n", dir);
-            goto out;
-        }
-        int created = 0;
-        const int e = make_dir(dir, &created);
-        if (e && !(e == EEXIST && o.force && stat(dir, &st) == 0 && S_ISDIR(st.st_mode))) {
-            fprintf(stderr, "pdla ensemble: cannot create '%s': %s\n", dir, strerror(e));
-            goto out;
-        }
-        if (pdla_rundir_lock(dir, &lock, err, sizeof err) != PDLA_OK) {
-            fprintf(stderr, "pdla ensemble: %s\n", err);
-            goto out;
-        }
-        remove_named(dir, 1);
-        if (pdla_ens_journal_create(dir, &asked, &j, err, sizeof err)) {
-            fprintf(stderr, "pdla ensemble: %s\n", err);
-            code = EXIT_RUNTIME;
-            goto out;
-        }
+/* argv into c->a, c->o and c->asked (every rank parses; rank 0 prints).
+ * GO_ON or the exit status (--help, a usage error). */
+static int parse_all(ens_cmd *c, int argc, char **argv, char **rest)
+{
+    int nrest = 0;
+    if (split_args(argc, argv, &c->a, rest, &nrest, c->err, sizeof c->err)) {
+        if (c->mpi_rank == 0) fprintf(stderr, "pdla ensemble: %s\n", c->err);
+        return EXIT_USAGE;
     }
+    if (c->a.help) {
+        if (c->mpi_rank == 0) print_help();
+        return fflush(stdout) ? EXIT_RUNTIME : 0;
+    }
+    if (cli_parse(nrest, rest, &c->o, c->err, sizeof c->err) != CLI_PARSE_OK ||
+        refuse_options(&c->o, c->err, sizeof c->err)) {
+        if (c->mpi_rank == 0)
+            fprintf(stderr, "pdla ensemble: %s\n",
+                    c->o.action == CLI_VERSION ? "--version: see pdla --version" : c->err);
+        return EXIT_USAGE;
+    }
+    c->asked.params = c->o.params;
+    c->asked.params.threads = 1;
+    c->asked.params.bind = PDLA_BIND_NONE;
+    c->asked.clusters = c->a.clusters;
+    c->asked.keep_positions = c->a.keep;
+    return GO_ON;
+}
 
-    const pdla_ens_config *cfg = pdla_ens_journal_config(j);
+/* --resume DIR: lock, open and check the journal, make it appendable.
+ * GO_ON or the exit status. */
+static int open_resume(ens_cmd *c)
+{
+    snprintf(c->dir, sizeof c->dir, "%s", c->o.resume);
+    for (size_t len = strlen(c->dir); len > 1 && c->dir[len - 1] == '/';) c->dir[--len] = '\0';
+    if (pdla_rundir_lock(c->dir, &c->lock, c->err, sizeof c->err) != PDLA_OK) {
+        fprintf(stderr, "pdla ensemble: cannot resume: %s\n", c->err);
+        return EXIT_USAGE;
+    }
+    const int rc = pdla_ens_journal_open(c->dir, &c->j, c->err, sizeof c->err);
+    if (rc) {
+        fprintf(stderr, "pdla ensemble: cannot resume: %s\n", c->err);
+        return rc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
+    }
+    if (pdla_ens_config_compare(pdla_ens_journal_config(c->j), &c->asked, c->o.given, c->a.clusters_given,
+                                c->a.keep_given, c->err, sizeof c->err)) {
+        fprintf(stderr, "pdla ensemble: %s\n", c->err);
+        return EXIT_USAGE;
+    }
+    if (access(c->dir, W_OK)) {
+        fprintf(stderr, "pdla ensemble: cannot resume: '%s' is not writable: %s\n", c->dir, strerror(errno));
+        return EXIT_USAGE;
+    }
+    if (pdla_ens_journal_torn_bytes(c->j))
+        fprintf(stderr, "pdla ensemble: note: cutting a torn record of %" PRIu64 " bytes (a cluster in flight)\n",
+                pdla_ens_journal_torn_bytes(c->j));
+    remove_named(c->dir, 0);
+    if (pdla_ens_journal_begin_append(c->j, c->err, sizeof c->err)) {
+        fprintf(stderr, "pdla ensemble: %s\n", c->err);
+        return EXIT_RUNTIME;
+    }
+    if (!c->o.quiet)
+        fprintf(stderr, "pdla ensemble: resuming %s: %" PRIu64 " of %" PRIu64 " clusters recorded\n", c->dir,
+                pdla_ens_journal_count(c->j), pdla_ens_journal_config(c->j)->clusters);
+    return GO_ON;
+}
+
+/* A new ensemble: check, make DIR, lock it, create the journal. GO_ON or
+ * the exit status. */
+static int open_new(ens_cmd *c, int threads)
+{
+    const cli_options *const o = &c->o;
+    if (!c->a.clusters_given) {
+        fprintf(stderr, "pdla ensemble: --clusters M is required (see pdla ensemble --help)\n");
+        return EXIT_USAGE;
+    }
+    if (!o->out_dir) {
+        fprintf(stderr, "pdla ensemble: --out DIR is required\n");
+        return EXIT_USAGE;
+    }
+    if (pdla_ens_config_check(&c->asked, c->err, sizeof c->err)) {
+        fprintf(stderr, "pdla ensemble: %s\n", c->err);
+        return EXIT_USAGE;
+    }
+    if (threads == 0 && pdla_ens_threads(0) <= 0) {
+        fprintf(stderr, "pdla ensemble: --threads 0: hwloc could not read the machine topology\n");
+        return EXIT_USAGE;
+    }
+    if (strlen(o->out_dir) > 4000) {
+        fprintf(stderr, "pdla ensemble: directory name is too long\n");
+        return EXIT_USAGE;
+    }
+    snprintf(c->dir, sizeof c->dir, "%s", o->out_dir);
+    for (size_t len = strlen(c->dir); len > 1 && c->dir[len - 1] == '/';) c->dir[--len] = '\0';
+    struct stat st;
+    if (!o->force && lstat(c->dir, &st) == 0) {
+        fprintf(stderr, "pdla ensemble: '%s' already exists (use --force to write into it)\n", c->dir);
+        return EXIT_USAGE;
+    }
+    int created = 0;
+    const int e = make_dir(c->dir, &created);
+    if (e && !(e == EEXIST && o->force && stat(c->dir, &st) == 0 && S_ISDIR(st.st_mode))) {
+        fprintf(stderr, "pdla ensemble: cannot create '%s': %s\n", c->dir, strerror(e));
+        return EXIT_USAGE;
+    }
+    if (pdla_rundir_lock(c->dir, &c->lock, c->err, sizeof c->err) != PDLA_OK) {
+        fprintf(stderr, "pdla ensemble: %s\n", c->err);
+        return EXIT_USAGE;
+    }
+    remove_named(c->dir, 1);
+    if (pdla_ens_journal_create(c->dir, &c->asked, &c->j, c->err, sizeof c->err)) {
+        fprintf(stderr, "pdla ensemble: %s\n", c->err);
+        return EXIT_RUNTIME;
+    }
+    return GO_ON;
+}
+
+/* Grow the clusters the journal lacks (on this process, or over the MPI
+ * ranks), then write ensemble.h5. The exit status. */
+static int grow_and_write(ens_cmd *c, int threads, const char *cmd, double t0)
+{
+    const pdla_ens_config *cfg = pdla_ens_journal_config(c->j);
+    char *const err = c->err;
+    const size_t errlen = sizeof c->err;
     prog_ctx pc;
     const int tty = isatty(STDERR_FILENO);
-    progress_init(&pc.prog, stderr, o.progress == 1 || (o.progress == -1 && !o.quiet && tty), tty, 0);
-    pc.base = pdla_ens_journal_count(j);
+    progress_init(&pc.prog, stderr, c->o.progress == 1 || (c->o.progress == -1 && !c->o.quiet && tty), tty, 0);
+    pc.base = pdla_ens_journal_count(c->j);
     pc.total = cfg->clusters;
     pc.particles_total = (cfg->clusters - pc.base) * cfg->params.target;
 #ifdef PDLA_WITH_MPI
-    if (verdict_pending) {
+    if (c->verdict_pending) {
         int go = 0;
-        verdict_pending = 0;
-        if (pdla_ens_mpi_share(&go, (pdla_ens_config *)cfg, err, sizeof err)) {
+        c->verdict_pending = 0;
+        if (pdla_ens_mpi_share(&go, (pdla_ens_config *)cfg, err, errlen)) {
             fprintf(stderr, "pdla ensemble: %s\n", err);
-            code = EXIT_RUNTIME;
-            goto out;
+            return EXIT_RUNTIME;
         }
     }
-    const int rc = mpi_size > 1 ? pdla_ens_mpi_run_root(j, threads, on_progress, &pc, err, sizeof err)
-                                : pdla_ens_run_local(j, threads, on_progress, &pc, err, sizeof err);
+    const int rc = c->mpi_size > 1 ? pdla_ens_mpi_run_root(c->j, threads, on_progress, &pc, err, errlen)
+                                   : pdla_ens_run_local(c->j, threads, on_progress, &pc, err, errlen);
 #else
-    const int rc = pdla_ens_run_local(j, threads, on_progress, &pc, err, sizeof err);
+    const int rc = pdla_ens_run_local(c->j, threads, on_progress, &pc, err, errlen);
 #endif
-    const uint64_t have = pdla_ens_journal_count(j);
+    const uint64_t have = pdla_ens_journal_count(c->j);
     if (rc == PDLA_OK) progress_ensemble(&pc.prog, have, cfg->clusters, pc.particles_total, pc.particles_total, 1);
     else if (pc.prog.enabled && tty) fputc('\n', stderr);
     if (rc == PDLA_ESTOPPED || (rc == PDLA_OK && stop_signal && have < cfg->clusters)) {
         fprintf(stderr, "pdla ensemble: stopped by signal: %" PRIu64 " of %" PRIu64 " clusters recorded in %s/%s; "
                         "resume with pdla ensemble --resume %s\n",
-                have, cfg->clusters, dir, PDLA_ENS_JOURNAL_NAME, dir);
-        code = EXIT_RUNTIME;
-        goto out;
+                have, cfg->clusters, c->dir, PDLA_ENS_JOURNAL_NAME, c->dir);
+        return EXIT_RUNTIME;
     }
     if (rc) {
         fprintf(stderr, "pdla ensemble: %s (%" PRIu64 " of %" PRIu64 " clusters recorded; resume with "
                         "pdla ensemble --resume %s)\n",
-                err, have, cfg->clusters, dir);
-        code = EXIT_RUNTIME;
-        goto out;
+                err, have, cfg->clusters, c->dir);
+        return EXIT_RUNTIME;
     }
     char h5[4300];
-    snprintf(h5, sizeof h5, "%s/%s", dir, PDLA_ENS_FILE_NAME);
+    snprintf(h5, sizeof h5, "%s/%s", c->dir, PDLA_ENS_FILE_NAME);
     const pdla_run_info info = {cmd, pdla_clock_seconds() - t0, 0};
-    if (pdla_ens_write(j, &info, h5, err, sizeof err)) {
+    if (pdla_ens_write_gz(c->j, &info, h5, c->a.gzip, err, errlen)) {
         fprintf(stderr, "pdla ensemble: %s\n", err);
-        code = EXIT_RUNTIME;
-        goto out;
+        return EXIT_RUNTIME;
     }
-    if (!o.quiet) {
+    if (!c->o.quiet) {
         printf("ensemble: %" PRIu64 " clusters of %" PRIu64 " particles (%dD, seeds %" PRIu64 "..%" PRIu64
                ") in %s\n",
                cfg->clusters, cfg->params.target, cfg->params.dim, cfg->params.seed,
                cfg->params.seed + cfg->clusters - 1, h5);
         printf("wall time %.3f s; statistics: pdla analyze %s\n", pdla_clock_seconds() - t0, h5);
     }
-    code = fflush(stdout) ? EXIT_RUNTIME : 0;
-out:
-    pdla_ens_journal_close(j);
-    if (lock >= 0) pdla_rundir_unlock(lock);
+    return fflush(stdout) ? EXIT_RUNTIME : 0;
+}
+
+/* Everything the steps above may leave open; MPI's end. The exit status. */
+static int finish(ens_cmd *c, int code)
+{
+    pdla_ens_journal_close(c->j);
+    if (c->lock >= 0) pdla_rundir_unlock(c->lock);
 #ifdef PDLA_WITH_MPI
-    if (verdict_pending) { /* rank 0 failed before the growth: tell the others */
+    if (c->verdict_pending) { /* rank 0 failed before the growth: tell the others */
         int v = code ? code : EXIT_RUNTIME;
-        if (pdla_ens_mpi_share(&v, NULL, err, sizeof err)) fprintf(stderr, "pdla ensemble: %s\n", err);
+        if (pdla_ens_mpi_share(&v, NULL, c->err, sizeof c->err)) fprintf(stderr, "pdla ensemble: %s\n", c->err);
     }
     /* After an MPI failure this aborts the job (others may wait for us). */
-    if (mpi_size > 1 && pdla_ens_mpi_finalize(code) && code == 0) {
+    if (c->mpi_size > 1 && pdla_ens_mpi_finalize(code) && code == 0) {
         fprintf(stderr, "pdla ensemble: MPI_Finalize failed\n");
         code = EXIT_RUNTIME;
     }
 #endif
+    return code;
+}
+
+/* The steps in order; the exit status. */
+static int run_steps(ens_cmd *c, int argc, char **argv, char **rest, const char *cmd, double t0)
+{
+    /* First: a signal from now on stops the ensemble in an orderly way. */
+    if (install_signals()) {
+        fprintf(stderr, "pdla ensemble: cannot install signal handlers: %s\n", strerror(errno));
+        return EXIT_RUNTIME;
+    }
+    int code = start_mpi(c);
+    if (code == GO_ON) code = parse_all(c, argc, argv, rest);
+    if (code != GO_ON) return code;
+    const int threads = c->o.params.threads;
+    pdla_hdf5_quiet();
+#ifdef PDLA_WITH_MPI
+    /* From here on only rank 0 decides; the others wait for its verdict. */
+    if (c->mpi_size > 1 && c->mpi_rank > 0) return worker_rank(threads, c->mpi_rank);
+    c->verdict_pending = c->mpi_size > 1;
+#endif
+    code = c->o.resume ? open_resume(c) : open_new(c, threads);
+    if (code != GO_ON) return code;
+    return grow_and_write(c, threads, cmd, t0);
+}
+
+int ens_cmd_main(int argc, char **argv)
+{
+    const double t0 = pdla_clock_seconds();
+    ens_cmd *const c = calloc(1, sizeof *c);
+    char **rest = calloc((size_t)argc + 2, sizeof *rest);
+    char *cmd = command_line(argc, argv);
+    int code = EXIT_RUNTIME;
+    if (!c || !rest || !cmd) {
+        fprintf(stderr, "pdla ensemble: out of memory\n");
+    } else {
+        c->lock = -1;
+        c->mpi_size = 1;
+        code = finish(c, run_steps(c, argc, argv, rest, cmd, t0));
+    }
+    free(c);
     free(rest);
     free(cmd);
     const int sig = stop_signal;

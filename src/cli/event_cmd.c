@@ -402,8 +402,9 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
     size_t np;
     const pdla_param_desc *t = ev_param_table(&np);
     char e[400];
-    if (pdla_param_resume(t, np, p, &c->p, c->given, e, sizeof e) ||
-        ev_params_check(p, e, sizeof e)) {
+    int bad = pdla_param_check_asked(t, np, c->given, p, &c->p, e, sizeof e);
+    if (!bad) pdla_param_apply_resumable(t, np, c->given, p, &c->p);
+    if (bad || ev_params_check(p, e, sizeof e)) {
         fprintf(stderr, "pdla: %s\n", e);
         ev_free(s);
         ev_series_free(ser);

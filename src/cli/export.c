@@ -1,22 +1,30 @@
 /*
- * export.c - `pdla export FILE --format ply|csv|xyz -o OUT`: a cluster file
- * for tools that do not read HDF5.
+ * export.c - `pdla export FILE --format ply|csv|xyz -o OUT`: the particles
+ * of any pdla output for tools that do not read HDF5. FILE is a DLA
+ * cluster.h5, an ensemble.h5 with kept positions (all clusters with a
+ * cluster column, or one with --cluster I), or a DLCA or event-driven
+ * cluster.h5 (export_src.h says what is read from each).
  *
  *   ply  binary little-endian PLY (Blender, MeshLab, ParaView): one vertex
- *        per particle, float x y z and radius in diameters (z = 0 in 2D),
- *        uchar red green blue from the inferno map of the arrival index / N
- *        (files grown with --arrival) or of the distance from the seed / the
- *        largest such distance. Floats hold x / D exactly while |x| < 2^24
- *        units (D is a power of two): 5e5 diameters at D = 32.
- *   csv  a header line, then x,y[,z],distance[,arrival] per particle
- *        (pandas, numpy): lengths in diameters in fixed point with as many
- *        decimals as make x / D exact (5 at D = 32).
+ *        per particle, float x y z and radius (z = 0 in 2D), uchar red green
+ *        blue from the inferno map of the arrival index / (N - 1) (rows in
+ *        arrival order), of the cluster id / the largest (DLCA), else of the
+ *        distance from the seed / the largest such distance; `uint cluster`
+ *        when the file has clusters. Floats hold x / D exactly while
+ *        |x| < 2^24 units (D is a power of two): 5e5 diameters at D = 32.
+ *   csv  a header line, then x,y[,z][,distance][,radius][,arrival][,cluster]
+ *        per particle (pandas, numpy): integer lengths in fixed point with as
+ *        many decimals as make x / D exact (5 at D = 32), real ones (event)
+ *        with 17 significant digits (exact as doubles).
  *   xyz  extended XYZ (OVITO, VMD, ASE): the count, a comment line with
- *        Properties=species:S:1:pos:R:3:radius:R:1, then "X x y z 0.5".
+ *        Properties=species:S:1:pos:R:3:radius:R:1[:cluster:I:1], then
+ *        "X x y z radius[ cluster]".
+ * Lengths: diameters (DLA, ensemble), lattice sites (DLCA), the model's
+ * length (event); the header or comment says which.
  *
- * Memory: positions stream in slabs (h5r_stream) and each slab is formatted
+ * Memory: rows stream in slabs (exp_src_stream) and each slab is formatted
  * in batches of EXP_BATCH rows into one buffer, so memory does not grow with
- * N; PLY colours by distance read the file twice (the largest distance
+ * N; PLY colours by distance or cluster read the file twice (the largest
  * first). OUT is written beside itself and renamed into place on success
  * only (tools_out_*), so a failed export leaves no partial OUT.
  */
@@ -28,6 +36,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "export_src.h"
 #include "h5read.h"
 #include "optcheck.h"
 #include "parse.h"
@@ -35,17 +44,23 @@
 
 static const char export_help[] =
     "Usage: pdla export FILE --format ply|csv|xyz -o OUT [OPTION]...\n"
-    "Write the particles of a pdla cluster file for other programs; lengths in\n"
-    "diameters, the seed at the origin, rows in the file's order.\n"
+    "Write the particles of a pdla file for other programs, rows in the file's\n"
+    "order: a DLA cluster.h5 (lengths in diameters, the seed at the origin), an\n"
+    "ensemble.h5 grown with --keep-positions (every cluster, with a cluster\n"
+    "column, or one with --cluster I), a DLCA cluster.h5 (lattice sites, with\n"
+    "the cluster of each monomer) or an event-model cluster.h5 (the stuck\n"
+    "particles in the model's length, with their radii).\n"
     "\n"
     "  --format ply          binary PLY: float x y z radius, uchar red green blue\n"
     "                        (inferno map of the arrival index, or of the\n"
     "                        distance from the seed) for Blender, MeshLab\n"
-    "  --format csv          header x,y[,z],distance[,arrival], one row a particle\n"
+    "  --format csv          header x,y[,z][,distance][,radius][,arrival][,cluster],\n"
+    "                        one row a particle\n"
     "  --format xyz          extended XYZ for OVITO, VMD, ASE (z = 0 in 2D)\n"
     "                        (without --format: taken from OUT's .ply/.csv/.xyz)\n"
     "  -o, --output OUT      the file to write (required; refused if it exists)\n"
     "  --force               replace an existing OUT\n"
+    "  --cluster I           ensemble files: only cluster I (0..M-1)\n"
     "  --slab-rows N         rows read at once, 1..65536 (default 65536)\n"
     "  -h, --help            print this help and exit\n"
     "\n"
@@ -57,7 +72,7 @@ enum { FMT_NONE, FMT_PLY, FMT_CSV, FMT_XYZ };
 
 /* Rows formatted at once: the text buffer is EXP_BATCH * EXP_LINE bytes. */
 #define EXP_BATCH 4096u
-#define EXP_LINE 160u
+#define EXP_LINE 256u
 
 /* Same map as `pdla render` (inferno, 33 entries, linear in between). */
 static const unsigned char inferno[33][3] = {
@@ -80,10 +95,14 @@ static void colormap(double t, unsigned char rgb[3])
 }
 
 typedef struct exporter {
-    int fmt, dim, arrival;
-    uint64_t n;
-    double d;           /* units per diameter */
-    double rmax;        /* largest distance from the seed, units (PLY colours) */
+    int fmt, dim;
+    const exp_src *src;
+    uint64_t n;         /* rows exported */
+    uint64_t span;      /* arrival indices run 0..span-1 (rows per cluster) */
+    double d;           /* file units per output length unit */
+    double rmax;        /* largest distance from the seed, file units (PLY colours) */
+    uint64_t cmax;      /* largest cluster id (PLY colours of DLCA) */
+    int colour;         /* COL_* */
     int decimals;       /* CSV/XYZ fixed-point decimals */
     int64_t pow10;      /* 10^decimals */
     FILE *fp;
@@ -93,14 +112,20 @@ typedef struct exporter {
     size_t errlen;
 } exporter;
 
-static int max_pass(const int32_t *xyz, size_t rows, uint64_t first, void *user)
+enum { COL_ARRIVAL, COL_CLUSTER, COL_DISTANCE };
+
+static int max_pass(const exp_slab *sl, void *user)
 {
-    (void)first;
     exporter *const x = user;
-    for (size_t i = 0; i < rows; i++) {
+    const size_t dim = (size_t)x->dim;
+    for (size_t i = 0; i < sl->rows; i++) {
         double r2 = 0;
-        for (int a = 0; a < x->dim; a++) r2 += (double)xyz[i * (size_t)x->dim + (size_t)a] * xyz[i * (size_t)x->dim + (size_t)a];
+        for (size_t a = 0; a < dim; a++) {
+            const double v = sl->q ? (double)sl->q[i * dim + a] : sl->f[i * dim + a];
+            r2 += v * v;
+        }
         if (r2 > x->rmax * x->rmax) x->rmax = sqrt(r2);
+        if (sl->cluster && sl->cluster[i] > x->cmax) x->cmax = sl->cluster[i];
     }
     return 0;
 }
@@ -150,47 +175,73 @@ static void put_lef(unsigned char *p, float f)
     put_le32(p, v);
 }
 
-/* One row into p; returns the end. */
-static char *format_row(const exporter *x, const int32_t *q, uint64_t index, char *p)
+/* Coordinate a of row i: fixed point of the units (int positions) or
+ * %.17g of the real ones. */
+static char *put_coord(const exporter *x, const exp_slab *sl, size_t i, int a, char *p)
 {
+    if (a >= x->dim) return sl->q ? put_fixed(p, 0, x->decimals) : p + sprintf(p, "0");
+    if (sl->q) return put_fixed(p, units_fixed(x, sl->q[i * (size_t)x->dim + (size_t)a]), x->decimals);
+    return p + sprintf(p, "%.17g", sl->f[i * (size_t)x->dim + (size_t)a]);
+}
+
+static double coord(const exporter *x, const exp_slab *sl, size_t i, int a)
+{
+    return sl->q ? (double)sl->q[i * (size_t)x->dim + (size_t)a] : sl->f[i * (size_t)x->dim + (size_t)a];
+}
+
+/* Row i of the slab into p; returns the end. */
+static char *format_row(const exporter *x, const exp_slab *sl, size_t i, char *p)
+{
+    const exp_src *const s = x->src;
     double r2 = 0;
-    for (int a = 0; a < x->dim; a++) r2 += (double)q[a] * q[a];
+    for (int a = 0; a < x->dim; a++) r2 += coord(x, sl, i, a) * coord(x, sl, i, a);
     const double r = sqrt(r2);
     if (x->fmt == FMT_PLY) {
         unsigned char *const b = (unsigned char *)p;
-        for (int a = 0; a < 3; a++) put_lef(b + 4 * a, a < x->dim ? (float)(q[a] / x->d) : 0.0f);
-        put_lef(b + 12, 0.5f);
-        const double t = x->arrival ? (x->n > 1 ? (double)index / (double)(x->n - 1) : 0)
-                                    : (x->rmax > 0 ? r / x->rmax : 0);
+        for (int a = 0; a < 3; a++) put_lef(b + 4 * a, a < x->dim ? (float)(coord(x, sl, i, a) / x->d) : 0.0f);
+        put_lef(b + 12, sl->radius ? (float)sl->radius[i] : 0.5f);
+        const double t = x->colour == COL_ARRIVAL ? (x->span > 1 ? (double)sl->index[i] / (double)(x->span - 1) : 0)
+                         : x->colour == COL_CLUSTER ? (x->cmax > 0 ? (double)sl->cluster[i] / (double)x->cmax : 0)
+                                                    : (x->rmax > 0 ? r / x->rmax : 0);
         colormap(t, b + 16);
-        return p + 19;
+        if (!s->cluster_col) return p + 19;
+        put_le32(b + 19, (uint32_t)sl->cluster[i]);
+        return p + 23;
     }
     if (x->fmt == FMT_XYZ) {
         *p++ = 'X';
         for (int a = 0; a < 3; a++) {
             *p++ = ' ';
-            p = put_fixed(p, a < x->dim ? units_fixed(x, q[a]) : 0, x->decimals);
+            p = put_coord(x, sl, i, a, p);
         }
-        memcpy(p, " 0.5\n", 5);
-        return p + 5;
+        if (sl->radius) p += sprintf(p, " %.17g", sl->radius[i]);
+        else p += sprintf(p, " 0.5");
+        if (s->cluster_col) p += sprintf(p, " %" PRIu64, sl->cluster[i]);
+        *p++ = '\n';
+        return p;
     }
     for (int a = 0; a < x->dim; a++) {
-        p = put_fixed(p, units_fixed(x, q[a]), x->decimals);
-        *p++ = ',';
+        if (a) *p++ = ',';
+        p = put_coord(x, sl, i, a, p);
     }
-    p = put_fixed(p, llround(r / x->d * (double)x->pow10), x->decimals);
-    if (x->arrival) p += sprintf(p, ",%" PRIu64, index);
+    if (s->distance) {
+        *p++ = ',';
+        p = put_fixed(p, llround(r / x->d * (double)x->pow10), x->decimals);
+    }
+    if (sl->radius) p += sprintf(p, ",%.17g", sl->radius[i]);
+    if (s->arrival) p += sprintf(p, ",%" PRIu64, sl->index[i]);
+    if (s->cluster_col) p += sprintf(p, ",%" PRIu64, sl->cluster[i]);
     *p++ = '\n';
     return p;
 }
 
-static int write_pass(const int32_t *xyz, size_t rows, uint64_t first, void *user)
+static int write_pass(const exp_slab *sl, void *user)
 {
     exporter *const x = user;
-    for (size_t i0 = 0; i0 < rows; i0 += EXP_BATCH) {
-        const size_t m = rows - i0 < EXP_BATCH ? rows - i0 : EXP_BATCH;
+    for (size_t i0 = 0; i0 < sl->rows; i0 += EXP_BATCH) {
+        const size_t m = sl->rows - i0 < EXP_BATCH ? sl->rows - i0 : EXP_BATCH;
         char *p = x->buf;
-        for (size_t i = i0; i < i0 + m; i++) p = format_row(x, xyz + i * (size_t)x->dim, first + i, p);
+        for (size_t i = i0; i < i0 + m; i++) p = format_row(x, sl, i, p);
         const size_t len = (size_t)(p - x->buf);
         if (fwrite(x->buf, 1, len, x->fp) != len) {
             snprintf(x->err, x->errlen, "cannot write %s: %s", x->out, strerror(errno));
@@ -202,6 +253,7 @@ static int write_pass(const int32_t *xyz, size_t rows, uint64_t first, void *use
 
 static int write_header(exporter *x, const char *src)
 {
+    const exp_src *const s = x->src;
     const char *const slash = strrchr(src, '/');
     const char *const base = slash ? slash + 1 : src;
     int w = 0;
@@ -211,18 +263,24 @@ static int write_header(exporter *x, const char *src)
         snprintf(name, sizeof name, "%s", base);
         for (char *c = name; *c; c++)
             if (*c == '\n' || *c == '\r') *c = '?';
+        const char *const by = x->colour == COL_ARRIVAL   ? "arrival index / N"
+                               : x->colour == COL_CLUSTER ? "cluster id / largest"
+                                                          : "distance from the seed / largest";
         w = fprintf(x->fp,
                     "ply\nformat binary_little_endian 1.0\n"
-                    "comment pdla export of %s: x y z radius in diameters, colour = inferno(%s)\n"
+                    "comment pdla export of %s: x y z radius in %s, colour = inferno(%s)\n"
                     "element vertex %" PRIu64 "\n"
                     "property float x\nproperty float y\nproperty float z\nproperty float radius\n"
-                    "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n",
-                    name, x->arrival ? "arrival index / N" : "distance from the seed / largest", x->n);
+                    "property uchar red\nproperty uchar green\nproperty uchar blue\n%send_header\n",
+                    name, s->unit_name, by, x->n, s->cluster_col ? "property uint cluster\n" : "");
     } else if (x->fmt == FMT_XYZ) {
-        w = fprintf(x->fp, "%" PRIu64 "\nProperties=species:S:1:pos:R:3:radius:R:1 units=diameters dim=%d\n",
-                    x->n, x->dim);
+        const int q = strchr(s->unit_name, ' ') != NULL;
+        w = fprintf(x->fp, "%" PRIu64 "\nProperties=species:S:1:pos:R:3:radius:R:1%s units=%s%s%s dim=%d\n", x->n,
+                    s->cluster_col ? ":cluster:I:1" : "", q ? "\"" : "", s->unit_name, q ? "\"" : "", x->dim);
     } else {
-        w = fprintf(x->fp, "%s,distance%s\n", x->dim == 3 ? "x,y,z" : "x,y", x->arrival ? ",arrival" : "");
+        w = fprintf(x->fp, "%s%s%s%s%s\n", x->dim == 3 ? "x,y,z" : "x,y", s->distance ? ",distance" : "",
+                    s->radius.id >= 0 ? ",radius" : "", s->arrival ? ",arrival" : "",
+                    s->cluster_col ? ",cluster" : "");
     }
     if (w < 0) {
         snprintf(x->err, x->errlen, "cannot write %s: %s", x->out, strerror(errno));
@@ -243,6 +301,7 @@ typedef struct export_opts {
     const char *out;
     long slab;
     int fmt, force;
+    long cluster; /* --cluster I, or -1 */
 } export_opts;
 
 /* Parses the options into o (the format from --format or the output's
@@ -250,11 +309,12 @@ typedef struct export_opts {
 #define GO_ON (-1)
 static int parse_options(int argc, char **argv, export_opts *o)
 {
-    enum { O_FORMAT = 256, O_FORCE, O_SLAB };
+    enum { O_FORMAT = 256, O_FORCE, O_SLAB, O_CLUSTER };
     static const struct option longopts[] = {
         {"output", required_argument, NULL, 'o'}, {"format", required_argument, NULL, O_FORMAT},
         {"force", no_argument, NULL, O_FORCE}, {"slab-rows", required_argument, NULL, O_SLAB},
-        {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
+        {"cluster", required_argument, NULL, O_CLUSTER}, {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0}};
     int c;
     opterr = 0;
     optind = 1;
@@ -274,6 +334,10 @@ static int parse_options(int argc, char **argv, export_opts *o)
         case O_SLAB:
             if (cli_parse_long_in(optarg, 1, H5R_MAX_SLAB_ROWS, &o->slab))
                 bad = "--slab-rows: want a whole number in [1, 65536]";
+            break;
+        case O_CLUSTER:
+            if (cli_parse_long_in(optarg, 0, INT32_MAX, &o->cluster))
+                bad = "--cluster: want a cluster index 0..M-1";
             break;
         case 'h': fputs(export_help, stdout); return fflush(stdout) ? TOOL_RUNTIME : TOOL_OK;
         default:
@@ -296,62 +360,72 @@ static int parse_options(int argc, char **argv, export_opts *o)
     return GO_ON;
 }
 
+/* The fewest decimals that make x / d exact, else 6 (rounded). */
+static void set_decimals(exporter *x, int64_t d)
+{
+    x->decimals = 6;
+    x->pow10 = 1000000;
+    for (int64_t k = 0, p = 1; k <= 9; k++, p *= 10)
+        if (p % d == 0) {
+            x->decimals = (int)k;
+            x->pow10 = p;
+            return;
+        }
+}
+
+/* The rows of src into out (opened here, committed on success). */
+static int export_rows(exporter *x, exp_src *src, long slab, int force)
+{
+    char tmp[4300];
+    if (!(x->buf = malloc((size_t)EXP_BATCH * EXP_LINE))) {
+        snprintf(x->err, x->errlen, "out of memory for the text buffer");
+        return -1;
+    }
+    if (x->fmt == FMT_PLY && x->colour != COL_ARRIVAL &&
+        exp_src_stream(src, (size_t)slab, max_pass, x, x->err, x->errlen))
+        return -1;
+    if (!(x->fp = tools_out_open(x->out, tmp, sizeof tmp, x->err, x->errlen))) return -1;
+    if (write_header(x, src->path) || exp_src_stream(src, (size_t)slab, write_pass, x, x->err, x->errlen)) {
+        tools_out_abort(x->fp, tmp);
+        x->fp = NULL;
+        return -1;
+    }
+    const int crc = tools_out_commit(x->fp, tmp, x->out, force, x->err, x->errlen);
+    x->fp = NULL;
+    return crc ? -1 : 0;
+}
+
 int tool_export(int argc, char **argv)
 {
-    export_opts o = {NULL, H5R_MAX_SLAB_ROWS, FMT_NONE, 0};
+    export_opts o = {NULL, H5R_MAX_SLAB_ROWS, FMT_NONE, 0, -1};
     const int prc = parse_options(argc, argv, &o);
     if (prc != GO_ON) return prc;
-    const char *const out = o.out;
-    const long slab = o.slab;
-    const int fmt = o.fmt, force = o.force;
     char err[1024];
-    if (tools_out_check(out, force, err, sizeof err)) {
+    if (tools_out_check(o.out, o.force, err, sizeof err)) {
         fprintf(stderr, "pdla export: %s\n", err);
         return TOOL_USAGE;
     }
-    h5r_file f;
-    if (h5r_open(&f, argv[optind], err, sizeof err)) {
+    exp_src src;
+    if (exp_src_open(&src, argv[optind], o.cluster, err, sizeof err)) {
         fprintf(stderr, "pdla export: %s\n", err);
         return TOOL_USAGE;
     }
     exporter x;
     memset(&x, 0, sizeof x);
-    x.fmt = fmt;
-    x.dim = f.dim;
-    x.arrival = f.arrival;
-    x.n = f.n;
-    x.d = f.diameter_units;
-    x.out = out;
+    x.fmt = o.fmt;
+    x.src = &src;
+    x.dim = src.dim;
+    x.n = src.n;
+    x.span = src.per_cluster ? src.per_cluster : src.n;
+    x.d = src.units;
+    x.colour = src.arrival ? COL_ARRIVAL : src.kind == EXP_DLCA ? COL_CLUSTER : COL_DISTANCE;
+    x.out = o.out;
     x.err = err;
     x.errlen = sizeof err;
-    /* Fewest decimals that make x / D exact, else 6 (rounded). */
-    x.decimals = 6;
-    x.pow10 = 1000000;
-    for (int64_t k = 0, p = 1; k <= 9; k++, p *= 10)
-        if (p % f.diameter_units == 0) {
-            x.decimals = (int)k;
-            x.pow10 = p;
-            break;
-        }
-    int rc = TOOL_RUNTIME;
-    char tmp[4300];
-    if (!(x.buf = malloc((size_t)EXP_BATCH * EXP_LINE))) {
-        snprintf(err, sizeof err, "out of memory for the text buffer");
-        goto out;
-    }
-    if (fmt == FMT_PLY && !x.arrival && h5r_stream(&f, (size_t)slab, max_pass, &x, err, sizeof err))
-        goto out;
-    if (!(x.fp = tools_out_open(out, tmp, sizeof tmp, err, sizeof err))) goto out;
-    if (write_header(&x, f.path) || h5r_stream(&f, (size_t)slab, write_pass, &x, err, sizeof err))
-        goto out;
-    const int crc = tools_out_commit(x.fp, tmp, out, force, err, sizeof err);
-    x.fp = NULL;
-    if (crc) goto out;
-    rc = TOOL_OK;
-out:
-    if (x.fp) tools_out_abort(x.fp, tmp);
+    set_decimals(&x, src.units);
+    const int rc = export_rows(&x, &src, o.slab, o.force) ? TOOL_RUNTIME : TOOL_OK;
     if (rc != TOOL_OK) fprintf(stderr, "pdla export: %s\n", err);
     free(x.buf);
-    h5r_close(&f);
+    exp_src_close(&src);
     return rc;
 }

@@ -286,6 +286,13 @@ static int write_param(const h5u_writer *w, hid_t g, const pdla_param_desc *d, c
         const char *v = (const char *)s + d->offset;
         return h5u_attr_str(w, g, d->name, v[0] ? v : "(none)");
     }
+    case PDLA_PT_BOX: { /* the lengths in use: as many as the row's count field says */
+        const int n = *(const int *)((const char *)s + d->count_offset);
+        uint64_t L[PDLA_PARAM_BOX_MAX];
+        if (n < 1 || n > PDLA_PARAM_BOX_MAX) return h5u_fail(w, "parameter %s: %d lengths", d->name, n);
+        for (int i = 0; i < n; i++) L[i] = ((const uint32_t *)((const char *)s + d->offset))[i];
+        return h5u_attr_u64_array(w, g, d->name, L, (size_t)n);
+    }
     default: return h5u_attr_int(w, g, d->name, (int)pdla_param_get_i(d, s));
     }
 }

@@ -236,9 +236,17 @@ static const void *cfield(const pdla_param_desc *d, const void *s)
     return (const char *)s + d->offset;
 }
 
+/* BOX: how many lengths the row uses (its dimension field, clamped). */
+static int box_count(const pdla_param_desc *d, const void *s)
+{
+    const int n = *(const int *)((const char *)s + d->count_offset);
+    return n < 1 ? 1 : n > PDLA_PARAM_BOX_MAX ? PDLA_PARAM_BOX_MAX : n;
+}
+
 int64_t pdla_param_get_i(const pdla_param_desc *d, const void *s)
 {
     switch (d->type) {
+    case PDLA_PT_BOX: return *(const uint32_t *)cfield(d, s); /* the first length */
     case PDLA_PT_U64: return (int64_t) * (const uint64_t *)cfield(d, s);
     case PDLA_PT_REAL: return (int64_t) * (const double *)cfield(d, s);
     default: return *(const int *)cfield(d, s);
@@ -255,6 +263,7 @@ double pdla_param_get_real(const pdla_param_desc *d, const void *s)
 {
     if (d->type == PDLA_PT_REAL) return *(const double *)cfield(d, s);
     if (d->type == PDLA_PT_U64) return (double)*(const uint64_t *)cfield(d, s);
+    if (d->type == PDLA_PT_BOX) return (double)*(const uint32_t *)cfield(d, s);
     return (double)*(const int *)cfield(d, s);
 }
 
@@ -263,6 +272,9 @@ void pdla_param_set_u(const pdla_param_desc *d, void *s, uint64_t v)
     switch (d->type) {
     case PDLA_PT_U64: *(uint64_t *)field(d, s) = v; break;
     case PDLA_PT_REAL: *(double *)field(d, s) = (double)v; break;
+    case PDLA_PT_BOX: /* one length: the same on every axis */
+        for (int i = 0; i < PDLA_PARAM_BOX_MAX; i++) ((uint32_t *)field(d, s))[i] = (uint32_t)v;
+        break;
     default: *(int *)field(d, s) = (int)v; break;
     }
 }
@@ -278,6 +290,7 @@ int pdla_param_equal(const pdla_param_desc *d, const void *a, const void *b)
     if (d->type == PDLA_PT_STRING) return strcmp(cfield(d, a), cfield(d, b)) == 0;
     const size_t size = d->type == PDLA_PT_U64 ? sizeof(uint64_t)
                         : d->type == PDLA_PT_REAL ? sizeof(double)
+                        : d->type == PDLA_PT_BOX  ? (size_t)box_count(d, a) * sizeof(uint32_t)
                                                   : sizeof(int);
     return memcmp(cfield(d, a), cfield(d, b), size) == 0;
 }
@@ -310,6 +323,16 @@ int pdla_param_format(const pdla_param_desc *d, const void *s, int exact, char *
         return snprintf(buf, len, "%s", v >= 0 && (uint64_t)v <= d->hi_u ? d->choices[v] : "invalid");
     }
     case PDLA_PT_STRING: return snprintf(buf, len, "%s", (const char *)cfield(d, s));
+    case PDLA_PT_BOX: {
+        const uint32_t *L = cfield(d, s);
+        int o = 0;
+        if (len) buf[0] = '\0';
+        for (int i = 0; i < box_count(d, s); i++) {
+            const int w = snprintf(buf + (size_t)o, (size_t)o < len ? len - (size_t)o : 0, i ? "x%u" : "%u", L[i]);
+            o += w;
+        }
+        return o;
+    }
     default: return snprintf(buf, len, "%" PRId64, pdla_param_get_i(d, s));
     }
 }
@@ -342,11 +365,28 @@ static int check_range(const pdla_param_desc *d, const void *s, char *err, size_
     case PDLA_PT_REAL: {
         const double v = pdla_param_get_real(d, s);
         const int low = d->lo_open ? !(v > d->lo_r) : !(v >= d->lo_r);
+        const int high = d->hi_open ? !(v < d->hi_r) : !(v <= d->hi_r);
         char lo[32], hi[32];
-        if (low || !(v <= d->hi_r))
-            return pdla_errorf(PDLA_EINVAL, err, errlen, "%s must be in %c%s, %s]%s%s, got %g", d->label,
+        if (low || high)
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "%s must be in %c%s, %s%c%s%s, got %g", d->label,
                               d->lo_open ? '(' : '[', bound_text(lo, d->lo_r),
-                              bound_text(hi, d->hi_r), sp, d->unit, v);
+                              bound_text(hi, d->hi_r), d->hi_open ? ')' : ']', sp, d->unit, v);
+        return 0;
+    }
+    case PDLA_PT_BOX: {
+        const uint32_t *L = cfield(d, s);
+        const int n = box_count(d, s);
+        for (int i = 0; i < PDLA_PARAM_BOX_MAX; i++) {
+            if (i < n && L[i] == 0)
+                return pdla_errorf(PDLA_EINVAL, err, errlen, "%s gives %d lengths for %d axes", d->label, i, n);
+            if (i < n && (L[i] < d->lo_u || L[i] > d->hi_u))
+                return pdla_errorf(PDLA_EINVAL, err, errlen,
+                                   "%s needs %d lengths in [%" PRIu64 ", %" PRIu64 "]%s%s, length %d is %u",
+                                   d->label, n, d->lo_u, d->hi_u, sp, d->unit, i + 1, L[i]);
+            /* Beyond the dimension: unset, or the one length given for all axes. */
+            if (i >= n && L[i] && L[i] != L[0])
+                return pdla_errorf(PDLA_EINVAL, err, errlen, "%s has more lengths than the %d axes", d->label, n);
+        }
         return 0;
     }
     case PDLA_PT_FLAG:
@@ -470,6 +510,25 @@ int pdla_param_parse(const pdla_param_desc *d, void *s, const char *text, char *
         else pdla_param_set_u(d, s, (uint64_t)v);
         break;
     }
+    case PDLA_PT_BOX: {
+        /* "L" (every axis) or "L1xL2x...": as many as the row's count field */
+        const int n = *(const int *)((const char *)s + d->count_offset);
+        uint32_t L[PDLA_PARAM_BOX_MAX];
+        int k = 0;
+        char buf[128];
+        snprintf(buf, sizeof buf, "%s", text);
+        for (char *c = buf, *xp; !why && c; c = xp ? xp + 1 : NULL, k++) {
+            xp = strchr(c, 'x');
+            if (xp) *xp = '\0';
+            if (k == PDLA_PARAM_BOX_MAX) why = "has too many lengths";
+            else if (!(why = parse_whole(c, &u)) && u > UINT32_MAX) why = "is too large";
+            else if (!why) L[k] = (uint32_t)u;
+        }
+        if (!why && k != 1 && k != n) why = "has not one length per axis";
+        if (!why && k == 1) pdla_param_set_u(d, s, L[0]);
+        else if (!why) memcpy(field(d, s), L, (size_t)k * sizeof *L);
+        break;
+    }
     case PDLA_PT_STRING:
         if (strlen(text) > d->hi_u) why = "is too long";
         else snprintf(field(d, s), d->hi_u + 1, "%s", text);
@@ -486,24 +545,31 @@ int pdla_param_parse(const pdla_param_desc *d, void *s, const char *text, char *
     return PDLA_OK;
 }
 
-int pdla_param_resume(const pdla_param_desc *t, size_t n, void *stored, const void *asked,
-                      uint32_t given, char *err, size_t errlen)
+int pdla_param_check_asked(const pdla_param_desc *t, size_t n, uint32_t given, const void *have,
+                           const void *asked, char *err, size_t errlen)
 {
     for (size_t i = 0; i < n; i++) {
         const pdla_param_desc *d = &t[i];
-        if (!(given & d->bit) || d->resumable || pdla_param_equal(d, asked, stored)) continue;
-        char have[64], want[64];
-        pdla_param_format(d, stored, 0, have, sizeof have);
-        pdla_param_format(d, asked, 0, want, sizeof want);
-        return pdla_errorf(PDLA_EINVAL, err, errlen, "cannot resume with a different physics "
-                           "parameter: %s is %s in the checkpoint, %s asked", d->label, have, want);
+        if (!(given & d->bit) || d->resumable || pdla_param_equal(d, asked, have)) continue;
+        char h[64], a[64];
+        pdla_param_format(d, have, 0, h, sizeof h);
+        pdla_param_format(d, asked, 0, a, sizeof a);
+        return pdla_errorf(PDLA_EINVAL, err, errlen,
+                           "cannot resume with a different physics parameter: %s is %s in the checkpoint, %s asked",
+                           d->label, h, a);
     }
+    return PDLA_OK;
+}
+
+void pdla_param_apply_resumable(const pdla_param_desc *t, size_t n, uint32_t given, void *dst,
+                                const void *src)
+{
     for (size_t i = 0; i < n; i++) {
         const pdla_param_desc *d = &t[i];
         if (!(given & d->bit) || !d->resumable) continue;
-        if (d->type == PDLA_PT_REAL) pdla_param_set_real(d, stored, pdla_param_get_real(d, asked));
-        else if (d->type == PDLA_PT_STRING) memcpy(field(d, stored), cfield(d, asked), d->hi_u + 1);
-        else pdla_param_set_u(d, stored, pdla_param_get_u(d, asked));
+        if (d->type == PDLA_PT_REAL) pdla_param_set_real(d, dst, pdla_param_get_real(d, src));
+        else if (d->type == PDLA_PT_BOX) memcpy(field(d, dst), cfield(d, src), PDLA_PARAM_BOX_MAX * sizeof(uint32_t));
+        else if (d->type == PDLA_PT_STRING) memcpy(field(d, dst), cfield(d, src), d->hi_u + 1);
+        else pdla_param_set_u(d, dst, pdla_param_get_u(d, src));
     }
-    return PDLA_OK;
 }

@@ -187,18 +187,14 @@ static int check(const xdmf_points *p, char *err, size_t errlen)
     return 0;
 }
 
-int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, size_t errlen)
+/* text into xmf_path: into xmf_path.tmp.<pid>, fsync'ed, renamed, the
+ * folder fsync'ed; on a failure before the rename an older xmf_path is
+ * removed (it would describe another file). 0 or -1 with err. */
+static int write_text(const char *xmf_path, const sbuf *text, char *err, size_t errlen)
 {
-    if (check(p, err, errlen) < 0) return -1;
-    if (!xmf_path || !xmf_path[0]) return fail(err, errlen, "xdmf: no sidecar path given");
-    if (p->n == 0) return 0;
-    const char *const slash = strrchr(p->h5_path, '/');
-    const char *const base = slash ? slash + 1 : p->h5_path;
-
     const size_t len = strlen(xmf_path);
     char *const tmp = malloc(len + 32), *const dir = malloc(len + 2);
     int rc = -1, renamed = 0;
-    sbuf text = {NULL, 0, 0, 0};
     if (!tmp || !dir) {
         fail(err, errlen, "out of memory for the sidecar's name");
         goto out;
@@ -211,8 +207,7 @@ int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, siz
         memcpy(dir, xmf_path, dl);
         dir[dl] = '\0';
     }
-    put_body(&text, p, base);
-    if (text.oom) {
+    if (text->oom) {
         fail(err, errlen, "out of memory for the sidecar %s", xmf_path);
         goto out;
     }
@@ -222,8 +217,8 @@ int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, siz
         goto out;
     }
     int bad = 0;
-    for (size_t done = 0; done < text.n && !bad;) {
-        const ssize_t w = write(fd, text.p + done, text.n - done);
+    for (size_t done = 0; done < text->n && !bad;) {
+        const ssize_t w = write(fd, text->p + done, text->n - done);
         if (w < 0 && errno == EINTR) continue;
         if (w <= 0) bad = w < 0 ? errno : EIO;
         else done += (size_t)w;
@@ -253,9 +248,22 @@ out:
         const size_t used = strlen(err);
         snprintf(err + used, errlen - used, "; the old %s is left", xmf_path);
     }
-    free(text.p);
     free(tmp);
     free(dir);
+    return rc;
+}
+
+int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, size_t errlen)
+{
+    if (check(p, err, errlen) < 0) return -1;
+    if (!xmf_path || !xmf_path[0]) return fail(err, errlen, "xdmf: no sidecar path given");
+    if (p->n == 0) return 0;
+    const char *const slash = strrchr(p->h5_path, '/');
+    const char *const base = slash ? slash + 1 : p->h5_path;
+    sbuf text = {NULL, 0, 0, 0};
+    put_body(&text, p, base);
+    const int rc = write_text(xmf_path, &text, err, errlen);
+    free(text.p);
     return rc;
 }
 
@@ -270,5 +278,85 @@ int xdmf_write_cluster(const char *h5_path, uint64_t n, int dim, int units_per_d
                            arrival ? "arrival" : NULL, NULL, 0};
     const int rc = xdmf_write_points(xmf, &p, err, errlen);
     free(xmf);
+    return rc;
+}
+
+/* ---- ensembles --------------------------------------------------------------- */
+
+/* Columns [col, col + ncols) of rows [row0, row0 + n) of the [rows][dim]
+ * positions dataset, as a HyperSlab item (start, stride, count). */
+static void put_slab(sbuf *fp, const char *base, const char *dataset, uint64_t rows, int dim, uint64_t row0,
+                     uint64_t n, int col, int ncols, const char *indent)
+{
+    sb_printf(fp, "%s<DataItem ItemType=\"HyperSlab\" Type=\"HyperSlab\" Dimensions=\"%" PRIu64 " %d\">\n"
+                  "%s <DataItem Dimensions=\"3 2\" Format=\"XML\">%" PRIu64 " %d 1 1 %" PRIu64 " %d</DataItem>\n"
+                  "%s <DataItem Dimensions=\"%" PRIu64 " %d\" NumberType=\"Float\" Precision=\"8\" "
+                  "Format=\"HDF\">",
+              indent, n, ncols, indent, row0, col, n, ncols, indent, rows, dim);
+    put_ref(fp, base, dataset);
+    sb_printf(fp, "</DataItem>\n%s</DataItem>\n", indent);
+}
+
+/* One cluster's grid: rows [i n, i n + n). */
+static void put_cluster(sbuf *fp, const xdmf_ensemble *e, const char *base, uint64_t i)
+{
+    const uint64_t rows = e->clusters * e->n, row0 = i * e->n;
+    const int d = e->units_per_diameter;
+    sb_printf(fp, "   <Grid Name=\"cluster %" PRIu64 "\" GridType=\"Uniform\">\n"
+                  "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%" PRIu64
+                  "\" NodesPerElement=\"1\"/>\n"
+                  "    <Geometry GeometryType=\"%s\">\n"
+                  "     <DataItem ItemType=\"Function\" Function=\"$0 / %d\" Dimensions=\"%" PRIu64 " %d\">\n",
+              i, e->n, e->dim == 3 ? "XYZ" : "XY", d, e->n, e->dim);
+    put_slab(fp, base, e->positions, rows, e->dim, row0, e->n, 0, e->dim, "      ");
+    sb_printf(fp, "     </DataItem>\n    </Geometry>\n");
+    /* The cluster id on every point, so that the merged blocks can still be
+     * told apart (colour by it, or Threshold it). */
+    sb_printf(fp, "    <Attribute Name=\"cluster\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+                  "     <DataItem ItemType=\"Function\" Function=\"0 * $0 + %" PRIu64 "\" Dimensions=\"%" PRIu64
+                  "\">\n",
+              i, e->n);
+    put_slab(fp, base, e->positions, rows, e->dim, row0, e->n, 0, 1, "      ");
+    sb_printf(fp, "     </DataItem>\n    </Attribute>\n");
+    sb_printf(fp, "    <Attribute Name=\"distance\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+                  "     <DataItem ItemType=\"Function\" Function=\"sqrt(%s) / %d\" Dimensions=\"%" PRIu64 "\">\n",
+              e->dim == 3 ? "$0 * $0 + $1 * $1 + $2 * $2" : "$0 * $0 + $1 * $1", d, e->n);
+    for (int c = 0; c < e->dim; c++) put_slab(fp, base, e->positions, rows, e->dim, row0, e->n, c, 1, "      ");
+    sb_printf(fp, "     </DataItem>\n    </Attribute>\n");
+    if (e->arrival) {
+        /* 0..n-1 within the cluster: WHERE over a test every row passes. */
+        sb_printf(fp, "    <Attribute Name=\"arrival\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+                      "     <DataItem ItemType=\"Function\" Function=\"WHERE($0 * $0 &gt;= 0)\" "
+                      "Dimensions=\"%" PRIu64 "\">\n",
+                  e->n);
+        put_slab(fp, base, e->positions, rows, e->dim, row0, e->n, 0, 1, "      ");
+        sb_printf(fp, "     </DataItem>\n    </Attribute>\n");
+    }
+    sb_printf(fp, "   </Grid>\n");
+}
+
+int xdmf_write_ensemble(const char *xmf_path, const xdmf_ensemble *e, char *err, size_t errlen)
+{
+    if (!xmf_path || !xmf_path[0] || !e || !e->h5_path || !e->positions || e->positions[0] != '/')
+        return fail(err, errlen, "xdmf: no sidecar, HDF5 file or absolute positions dataset given");
+    if (e->dim != 2 && e->dim != 3) return fail(err, errlen, "xdmf: dim %d, want 2 or 3", e->dim);
+    if (e->units_per_diameter < 1)
+        return fail(err, errlen, "xdmf: units per diameter %d, want >= 1", e->units_per_diameter);
+    if (e->clusters == 0 || e->n == 0 || e->n > UINT64_MAX / e->clusters)
+        return fail(err, errlen, "xdmf: %" PRIu64 " clusters of %" PRIu64 " points: nothing to show",
+                    e->clusters, e->n);
+    const char *const slash = strrchr(e->h5_path, '/');
+    const char *const base = slash ? slash + 1 : e->h5_path;
+    sbuf text = {NULL, 0, 0, 0};
+    sb_printf(&text, "<?xml version=\"1.0\" ?>\n<!-- pdla: the clusters of ");
+    put_escaped(&text, base);
+    sb_printf(&text, " for ParaView's \"XDMF Reader\" (XDMF 2): one block per cluster, positions in %s -->\n"
+                     "<Xdmf Version=\"2.0\">\n <Domain>\n"
+                     "  <Grid Name=\"clusters\" GridType=\"Collection\" CollectionType=\"Spatial\">\n",
+              e->units_per_diameter > 1 ? "diameters" : "the file's length unit");
+    for (uint64_t i = 0; i < e->clusters && !text.oom; i++) put_cluster(&text, e, base, i);
+    sb_printf(&text, "  </Grid>\n </Domain>\n</Xdmf>\n");
+    const int rc = write_text(xmf_path, &text, err, errlen);
+    free(text.p);
     return rc;
 }

@@ -21,6 +21,7 @@
 #include "checkpoint_fmt.h"
 #include "engine.h"
 #include "h5util.h"
+#include "params_h5.h"
 #include "pdla/h5check.h"
 
 typedef struct reader {
@@ -87,38 +88,6 @@ static int read_array(const reader *r, hid_t loc, const char *name, pdla_h5_type
     return rc;
 }
 
-/* One row of the parameter table from its /parameters attribute. */
-static int read_param(hid_t g, const pdla_param_desc *d, pdla_params *p)
-{
-    switch (d->type) {
-    case PDLA_PT_U64: {
-        uint64_t v;
-        if (pdla_h5_attr_exact(g, d->name, PDLA_H5_U64, &v) < 0) return -1;
-        pdla_param_set_u(d, p, v);
-        return 0;
-    }
-    case PDLA_PT_REAL: {
-        double v;
-        if (pdla_h5_attr_exact(g, d->name, PDLA_H5_F64, &v) < 0) return -1;
-        pdla_param_set_real(d, p, v);
-        return 0;
-    }
-    case PDLA_PT_CHOICE: {
-        char word[32];
-        const int v = pdla_h5_attr_str(g, d->name, word, sizeof word) != 0 ? -1 : pdla_param_choice(d, word);
-        if (v < 0) return -1;
-        pdla_param_set_u(d, p, (uint64_t)v);
-        return 0;
-    }
-    default: {
-        int32_t v;
-        if (pdla_h5_attr_exact(g, d->name, PDLA_H5_I32, &v) < 0) return -1;
-        pdla_param_set_u(d, p, (uint64_t)(int64_t)v);
-        return 0;
-    }
-    }
-}
-
 static int read_params(const reader *r, hid_t file, pdla_params *p)
 {
     if (H5Lexists(file, "parameters", H5P_DEFAULT) <= 0) return damaged(r, "no /parameters");
@@ -128,12 +97,7 @@ static int read_params(const reader *r, hid_t file, pdla_params *p)
     const pdla_param_desc *t = pdla_param_table(&n);
     int rc = PDLA_OK;
     for (size_t i = 0; i < n && rc == PDLA_OK; i++) {
-        if (t[i].absent_default && H5Aexists(g, t[i].name) == 0) {
-            if (t[i].type == PDLA_PT_REAL) pdla_param_set_real(&t[i], p, t[i].def_r);
-            else pdla_param_set_u(&t[i], p, t[i].def_u);
-            continue;
-        }
-        if (read_param(g, &t[i], p) < 0) {
+        if (pdla_param_read_h5(g, &t[i], p) < 0) {
             char what[96];
             snprintf(what, sizeof what, "parameter %s", t[i].name);
             rc = damaged(r, what);
@@ -158,15 +122,9 @@ static int apply_asked(const reader *r, pdla_params *p, const pdla_params *a, ui
 {
     size_t n;
     const pdla_param_desc *t = pdla_param_table(&n);
-    for (size_t i = 0; i < n; i++) {
-        const pdla_param_desc *d = &t[i];
-        if (!(f & d->bit) || d->resumable || pdla_param_equal(d, a, p)) continue;
-        char have[64], asked[64];
-        pdla_param_format(d, p, 0, have, sizeof have);
-        pdla_param_format(d, a, 0, asked, sizeof asked);
-        if (r->err && r->errlen)
-            snprintf(r->err, r->errlen, "%s: cannot resume with a different physics parameter: "
-                     "%s is %s in the checkpoint, %s asked", r->path, d->label, have, asked);
+    char why[256];
+    if (pdla_param_check_asked(t, n, f, p, a, why, sizeof why) != PDLA_OK) {
+        if (r->err && r->errlen) snprintf(r->err, r->errlen, "%s: %s", r->path, why);
         return PDLA_EINVAL;
     }
     if ((f & PDLA_PARAM_TARGET) && a->target < particles) {
@@ -175,14 +133,7 @@ static int apply_asked(const reader *r, pdla_params *p, const pdla_params *a, ui
                      r->path, (unsigned long long)a->target, (unsigned long long)particles);
         return PDLA_EINVAL;
     }
-    for (size_t i = 0; i < n; i++) {
-        const pdla_param_desc *d = &t[i];
-        if ((f & d->bit) && d->resumable) {
-            if (d->type == PDLA_PT_REAL) pdla_param_set_real(d, p, pdla_param_get_real(d, a));
-            else pdla_param_set_u(d, p, pdla_param_get_u(d, a));
-        }
-    }
-    char why[256];
+    pdla_param_apply_resumable(t, n, f, p, a);
     if (pdla_params_validate(p, why, sizeof why) != PDLA_OK) {
         if (r->err && r->errlen) snprintf(r->err, r->errlen, "%s: %s", r->path, why);
         return PDLA_EINVAL;

@@ -310,6 +310,114 @@ static inline __attribute__((always_inline)) uint64_t inside_margin2(const int64
     return (uint64_t)m * (uint64_t)m;
 }
 
+/* The lowest level of the walker's cached path whose node contains p (the
+ * descent restarts there), or the root's level when the cache is empty, was
+ * made under another root, or no cached node contains p. Re-keys the cache
+ * to the current root. */
+static inline __attribute__((always_inline)) int cached_start_level(const search_state *k,
+                                                                    const tree_root root,
+                                                                    const int64_t *p,
+                                                                    const int dim)
+{
+    int level = root.level;
+    if (k->root == root.node && k->root_level == root.level) {
+        for (level = k->depth; level < root.level; level++) {
+            const int64_t side = (int64_t)TREE_LEAF_SIDE << level;
+            int inside = 1;
+            for (int a = 0; a < dim; a++)
+                inside &= (p[a] >= k->lo[level][a]) & (p[a] < k->lo[level][a] + side);
+            if (inside) break;
+        }
+    }
+    return level;
+}
+
+/* Descent of lower_bound_dim: from node (at level, corner lo) along p's own
+ * path to the deepest existing node, recording each node, its own child and
+ * its corner in the cache; scans p's own leaf when it exists. Returns the
+ * level reached (the cache's new depth); *best2 holds the leaf's bound. */
+static inline __attribute__((always_inline)) int descend_own_path(const tree *t,
+                                                                  const search_config *c,
+                                                                  const int64_t *p, uint32_t node,
+                                                                  int level, int64_t *lo,
+                                                                  uint64_t *best2,
+                                                                  uint64_t *visits,
+                                                                  search_state *k, const int dim)
+{
+    for (;;) {
+        const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
+        uint32_t own = 0;
+        for (int a = 0; a < dim; a++)
+            if (p[a] >= lo[a] + half) own |= 1u << a;
+        k->node[level] = node;
+        k->own[level] = own;
+        for (int a = 0; a < dim; a++) k->lo[level][a] = lo[a];
+        const uint32_t child = tree_child(tree_children(t, node), own);
+        (*visits)++;
+        if (!child) return level;
+        for (int a = 0; a < dim; a++) lo[a] += (int64_t)((own >> a) & 1) * half;
+        if (level == 1) {
+            int64_t q[3];
+            for (int a = 0; a < dim; a++) q[a] = p[a] - lo[a];
+            *best2 = scan_leaf(t, child, q, *best2, dim, c->concurrent, k);
+            (*visits)++;
+            return level;
+        }
+        node = child;
+        level--;
+    }
+}
+
+/* One step of the climb at `level` of the cached path: searches the
+ * siblings of p's own child that can come within the bound. Returns the
+ * new bound, or sets *done when the ball of the bound already lies inside
+ * the own child's box (nothing outside it can lower the bound). */
+static inline __attribute__((always_inline)) uint64_t climb_level(const tree *t,
+                                                                  const search_config *c,
+                                                                  const int64_t *p, int level,
+                                                                  uint64_t best2, int *done,
+                                                                  uint64_t *visits,
+                                                                  search_state *k, const int dim)
+{
+    const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
+    const int64_t *plo = k->lo[level];
+    const uint32_t pown = k->own[level];
+    int64_t own_lo[3];
+    for (int a = 0; a < dim; a++) own_lo[a] = plo[a] + (int64_t)((pown >> a) & 1) * half;
+    if (inside_margin2(p, own_lo, half, dim) >= best2) {
+        *done = 1;
+        return best2;
+    }
+    /* p lies in the own half on every axis: a sibling's distance comes
+     * only from the axes where it lies in the other half. */
+    uint64_t other_d2[3];
+    uint32_t near = 0;
+    for (int a = 0; a < dim; a++) {
+        const int64_t other_lo = plo[a] + (((pown >> a) & 1) ? 0 : half);
+        other_d2[a] = axis_dist2(p[a], other_lo, half);
+        if (other_d2[a] < best2) near |= 1u << a;
+    }
+    /* Only siblings that differ from the own child on near axes alone
+     * can come within the bound (it only decreases below), so only
+     * those are enumerated (submasks of `near`), without loading the
+     * others' indices. The order does not change the answer (see the
+     * top of the file). */
+    const _Atomic uint32_t *ch = tree_children(t, k->node[level]);
+    for (uint32_t differ = near; differ; differ = (differ - 1) & near) {
+        const uint32_t kidx = differ ^ pown;
+        const uint32_t child = tree_child(ch, kidx);
+        if (!child) continue;
+        uint64_t d2 = 0;
+        for (int a = 0; a < dim; a++)
+            if ((differ >> a) & 1) d2 += other_d2[a];
+        if (d2 >= best2) continue;
+        int64_t clo[3];
+        for (int a = 0; a < dim; a++) clo[a] = plo[a] + (int64_t)((kidx >> a) & 1) * half;
+        best2 = subtree_bound(t, c, p, child, level - 1, clo, d2, best2, visits, k, dim);
+    }
+    return best2;
+}
+
 /* Bottom-up search: descend once along the query's own path to the deepest
  * existing node, search there, then climb, searching the siblings of each
  * node on the path, until the ball of the current bound lies inside the
@@ -334,88 +442,19 @@ lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_
         k->node_visits += visits;
         return best2;
     }
-
-    /* Descend along p's own path, remembering each node and its corner,
-     * from the lowest node of the previous query's path that contains p. */
-    uint32_t *path_node = k->node, *path_own = k->own;
-    int64_t(*path_lo)[3] = k->lo;
-    uint64_t best2 = cap2;
-    int level = root.level;
-    if (k->root == root.node && k->root_level == root.level) {
-        for (level = k->depth; level < root.level; level++) {
-            const int64_t side = (int64_t)TREE_LEAF_SIDE << level;
-            int inside = 1;
-            for (int a = 0; a < dim; a++)
-                inside &= (p[a] >= path_lo[level][a]) & (p[a] < path_lo[level][a] + side);
-            if (inside) break;
-        }
-    }
+    /* From the lowest node of the previous query's path that contains p. */
+    int level = cached_start_level(k, root, p, dim);
     k->root = root.node;
     k->root_level = root.level;
-    uint32_t node = level == root.level ? root.node : path_node[level];
+    const uint32_t node = level == root.level ? root.node : k->node[level];
     if (level != root.level)
-        for (int a = 0; a < dim; a++) lo[a] = path_lo[level][a];
-    for (;;) {
-        const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
-        uint32_t own = 0;
-        for (int a = 0; a < dim; a++)
-            if (p[a] >= lo[a] + half) own |= 1u << a;
-        path_node[level] = node;
-        path_own[level] = own;
-        for (int a = 0; a < dim; a++) path_lo[level][a] = lo[a];
-        const uint32_t child = tree_child(tree_children(t, node), own);
-        visits++;
-        if (!child) break;
-        for (int a = 0; a < dim; a++) lo[a] += (int64_t)((own >> a) & 1) * half;
-        if (level == 1) {
-            int64_t q[3];
-            for (int a = 0; a < dim; a++) q[a] = p[a] - lo[a];
-            best2 = scan_leaf(t, child, q, best2, dim, c->concurrent, k);
-            visits++;
-            break;
-        }
-        node = child;
-        level--;
-    }
+        for (int a = 0; a < dim; a++) lo[a] = k->lo[level][a];
+    uint64_t best2 = cap2;
+    level = descend_own_path(t, c, p, node, level, lo, &best2, &visits, k, dim);
     k->depth = level;
-
-    /* Climb: stop as soon as the ball of the bound lies inside the own child's
-     * box, else search that child's siblings and go one level up. */
-    for (;; level++) {
-        const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
-        int64_t own_lo[3];
-        for (int a = 0; a < dim; a++)
-            own_lo[a] = path_lo[level][a] + (int64_t)((path_own[level] >> a) & 1) * half;
-        if (inside_margin2(p, own_lo, half, dim) >= best2) break;
-        /* p lies in the own half on every axis: a sibling's distance comes
-         * only from the axes where it lies in the other half. */
-        uint64_t other_d2[3];
-        uint32_t near = 0;
-        for (int a = 0; a < dim; a++) {
-            const int64_t other_lo = path_lo[level][a] + (((path_own[level] >> a) & 1) ? 0 : half);
-            other_d2[a] = axis_dist2(p[a], other_lo, half);
-            if (other_d2[a] < best2) near |= 1u << a;
-        }
-        /* Only siblings that differ from the own child on near axes alone
-         * can come within the bound (it only decreases below), so only
-         * those are enumerated (submasks of `near`), without loading the
-         * others' indices. The order does not change the answer (see the
-         * top of the file). */
-        const _Atomic uint32_t *ch = tree_children(t, path_node[level]);
-        for (uint32_t differ = near; differ; differ = (differ - 1) & near) {
-            const uint32_t kidx = differ ^ path_own[level];
-            const uint32_t child = tree_child(ch, kidx);
-            if (!child) continue;
-            uint64_t d2 = 0;
-            for (int a = 0; a < dim; a++)
-                if ((differ >> a) & 1) d2 += other_d2[a];
-            if (d2 >= best2) continue;
-            int64_t clo[3];
-            for (int a = 0; a < dim; a++)
-                clo[a] = path_lo[level][a] + (int64_t)((kidx >> a) & 1) * half;
-            best2 = subtree_bound(t, c, p, child, level - 1, clo, d2, best2, &visits, k, dim);
-        }
-        if (level == root.level) break;
+    for (int done = 0;; level++) {
+        best2 = climb_level(t, c, p, level, best2, &done, &visits, k, dim);
+        if (done || level == root.level) break;
     }
     k->node_visits += visits;
     return best2;
@@ -453,16 +492,7 @@ static inline __attribute__((always_inline)) uint32_t find_leaf_cached(const tre
     const int64_t root_half = tree_root_half(root.level);
     for (int a = 0; a < dim; a++)
         if (p[a] < -root_half || p[a] >= root_half) return 0;
-    int level = root.level;
-    if (k->root == root.node && k->root_level == root.level) {
-        for (level = k->depth; level < root.level; level++) {
-            const int64_t side = (int64_t)TREE_LEAF_SIDE << level;
-            int inside = 1;
-            for (int a = 0; a < dim; a++)
-                inside &= (p[a] >= k->lo[level][a]) & (p[a] < k->lo[level][a] + side);
-            if (inside) break;
-        }
-    }
+    int level = cached_start_level(k, root, p, dim);
     k->root = root.node;
     k->root_level = root.level;
     uint32_t node = level == root.level ? root.node : k->node[level];
@@ -682,64 +712,71 @@ uint64_t search_near2(const tree *t, const search_config *c, const int64_t *p, s
     return t->dim == 2 ? near_dim(t, c, p, k, 2) : near_dim(t, c, p, k, 3);
 }
 
-static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
-                                                                const search_config *c,
-                                                                const distmap *m, const int64_t *p,
-                                                                search_state *k, const int dim)
+/* Re-centre the block cache on the leaf with low corner lo, keeping what is
+ * known of the leaves both blocks share. A head is a leaf's first chunk,
+ * BLK_UNKNOWN or BLK_EMPTY. */
+static inline __attribute__((always_inline)) void blk_recentre(search_state *k, const int64_t *lo,
+                                                               const int dim)
 {
-    const distmap_grid *g = atomic_load_explicit(&m->grid, memory_order_acquire);
-    if (!g) return UINT64_MAX;
-    const distmap_level *L = &g->lv[0];
-    if (L->bits != TREE_LEAF_BITS) return UINT64_MAX; /* coarsened: not the leaves */
-    const int64_t w = L->width;
-    int64_t cc[3];
-    for (int a = 0; a < dim; a++) {
-        cc[a] = (p[a] + g->half) >> TREE_LEAF_BITS;
-        if (p[a] + g->half < 0 || cc[a] < 1 || cc[a] >= w - 1) return UINT64_MAX;
-    }
-    /* The cache is keyed by the own leaf's absolute corner, not by grid
-     * cells: the grid's origin moves when it grows. */
-    int64_t lo[3];
-    for (int a = 0; a < dim; a++) lo[a] = p[a] & ~(int64_t)(TREE_LEAF_SIDE - 1);
-    /* Re-centre the cache: keep what is known of the leaves both blocks
-     * share. A head is a leaf's first chunk, BLK_UNKNOWN or BLK_EMPTY. */
     const int n = dim == 2 ? 9 : 27;
     int same = k->blk_valid;
     for (int a = 0; a < dim; a++) same &= k->blk_c[a] == lo[a];
-    if (!same) {
-        uint32_t nh[27];
-        for (int o = 0; o < n; o++) nh[o] = BLK_UNKNOWN;
-        if (k->blk_valid) {
-            int64_t d[3];
-            int near = 1;
-            for (int a = 0; a < dim; a++) {
-                d[a] = (lo[a] - k->blk_c[a]) / TREE_LEAF_SIDE;
-                near &= d[a] >= -2 && d[a] <= 2;
-            }
-            if (near)
-                for (int o = 0; o < n; o++) {
-                    int src = 0, ok = 1, mul = 1;
-                    for (int a = 0; a < dim; a++) {
-                        const int64_t so = block_off[o][a] + d[a];
-                        ok &= so >= -1 && so <= 1;
-                        src += (int)(so + 1) * mul;
-                        mul *= 3;
-                    }
-                    if (ok) nh[o] = k->blk_head[src];
-                }
+    if (same) return;
+    uint32_t nh[27];
+    for (int o = 0; o < n; o++) nh[o] = BLK_UNKNOWN;
+    if (k->blk_valid) {
+        int64_t d[3];
+        int near = 1;
+        for (int a = 0; a < dim; a++) {
+            d[a] = (lo[a] - k->blk_c[a]) / TREE_LEAF_SIDE;
+            near &= d[a] >= -2 && d[a] <= 2;
         }
-        for (int o = 0; o < n; o++) k->blk_head[o] = nh[o];
-        for (int a = 0; a < dim; a++) k->blk_c[a] = lo[a];
-        k->blk_valid = 1;
+        if (near)
+            for (int o = 0; o < n; o++) {
+                int src = 0, ok = 1, mul = 1;
+                for (int a = 0; a < dim; a++) {
+                    const int64_t so = block_off[o][a] + d[a];
+                    ok &= so >= -1 && so <= 1;
+                    src += (int)(so + 1) * mul;
+                    mul *= 3;
+                }
+                if (ok) nh[o] = k->blk_head[src];
+            }
     }
-    /* A leaf made since (by an earlier walker's particle) may be one seen
-     * empty: look at those again. */
-    const uint64_t leaves = atomic_load_explicit(&m->leaves, memory_order_acquire);
-    if (leaves != k->blk_leaves) {
-        for (int o = 0; o < n; o++)
-            if (k->blk_head[o] == BLK_EMPTY) k->blk_head[o] = BLK_UNKNOWN;
-        k->blk_leaves = leaves;
-    }
+    for (int o = 0; o < n; o++) k->blk_head[o] = nh[o];
+    for (int a = 0; a < dim; a++) k->blk_c[a] = lo[a];
+    k->blk_valid = 1;
+}
+
+/* The first chunk of block leaf o (corner nlo, map cell nc), looked up when
+ * the cache does not know it: BLK_EMPTY when the map's fine cell is not
+ * marked; BLK_UNKNOWN (look again next time) when it is marked but the leaf
+ * is not in the tree yet, as a worker is between the two (the map goes
+ * first): the particle counts as not there yet, as for any query that
+ * precedes an insertion. */
+static inline __attribute__((always_inline)) uint32_t blk_lookup(const tree *t,
+                                                                 const distmap_level *L,
+                                                                 const int64_t *cc, int o,
+                                                                 const int64_t *nlo,
+                                                                 search_state *k, const int dim)
+{
+    int64_t nc[3];
+    for (int a = 0; a < dim; a++) nc[a] = cc[a] + block_off[o][a];
+    if (distmap_level_value(L, nc, dim) != 0) return k->blk_head[o] = BLK_EMPTY;
+    const uint32_t head = find_leaf_cached(t, nlo, k, dim);
+    return k->blk_head[o] = head ? head : BLK_UNKNOWN;
+}
+
+/* Exact scan of the block's leaves around p (own leaf corner lo, map cell
+ * cc), nearest first, each pruned by its box distance. */
+static inline __attribute__((always_inline)) uint64_t blk_scan(const tree *t,
+                                                               const search_config *c,
+                                                               const distmap_level *L,
+                                                               const int64_t *p, const int64_t *lo,
+                                                               const int64_t *cc, search_state *k,
+                                                               const int dim)
+{
+    const int n = dim == 2 ? 9 : 27;
     const uint8_t *order = dim == 2 ? block_order2 : block_order3;
     /* Squared distance from p to the leaf columns -1, 0, +1 on each axis:
      * a leaf's box distance is a sum of three table entries. */
@@ -761,25 +798,46 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
         int64_t nlo[3];
         for (int a = 0; a < dim; a++) nlo[a] = lo[a] + (int64_t)block_off[o][a] * TREE_LEAF_SIDE;
         if (head <= BLK_EMPTY) {
-            int64_t nc[3];
-            for (int a = 0; a < dim; a++) nc[a] = cc[a] + block_off[o][a];
-            if (distmap_level_value(L, nc, dim) != 0) {
-                k->blk_head[o] = BLK_EMPTY;
-                continue;
-            }
-            head = find_leaf_cached(t, nlo, k, dim);
-            /* Marked in the map but not yet in the tree: a worker is between
-             * the two (the map goes first). Look again next time; the
-             * particle counts as not there yet, as for any query that
-             * precedes an insertion. */
-            k->blk_head[o] = head ? head : BLK_UNKNOWN;
-            if (!head) continue;
+            head = blk_lookup(t, L, cc, o, nlo, k, dim);
+            if (head <= BLK_EMPTY) continue;
         }
         int64_t q[3];
         for (int a = 0; a < dim; a++) q[a] = p[a] - nlo[a];
         best2 = scan_leaf(t, head, q, best2, dim, c->concurrent, k);
         k->node_visits++;
     }
+    return best2;
+}
+
+static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
+                                                                const search_config *c,
+                                                                const distmap *m, const int64_t *p,
+                                                                search_state *k, const int dim)
+{
+    const distmap_grid *g = atomic_load_explicit(&m->grid, memory_order_acquire);
+    if (!g) return UINT64_MAX;
+    const distmap_level *L = &g->lv[0];
+    if (L->bits != TREE_LEAF_BITS) return UINT64_MAX; /* coarsened: not the leaves */
+    const int64_t w = L->width;
+    int64_t cc[3];
+    for (int a = 0; a < dim; a++) {
+        cc[a] = (p[a] + g->half) >> TREE_LEAF_BITS;
+        if (p[a] + g->half < 0 || cc[a] < 1 || cc[a] >= w - 1) return UINT64_MAX;
+    }
+    /* The cache is keyed by the own leaf's absolute corner, not by grid
+     * cells: the grid's origin moves when it grows. */
+    int64_t lo[3];
+    for (int a = 0; a < dim; a++) lo[a] = p[a] & ~(int64_t)(TREE_LEAF_SIDE - 1);
+    blk_recentre(k, lo, dim);
+    /* A leaf made since (by an earlier walker's particle) may be one seen
+     * empty: look at those again. */
+    const uint64_t leaves = atomic_load_explicit(&m->leaves, memory_order_acquire);
+    if (leaves != k->blk_leaves) {
+        for (int o = 0; o < (dim == 2 ? 9 : 27); o++)
+            if (k->blk_head[o] == BLK_EMPTY) k->blk_head[o] = BLK_UNKNOWN;
+        k->blk_leaves = leaves;
+    }
+    const uint64_t best2 = blk_scan(t, c, L, p, lo, cc, k, dim);
     /* Every other particle is outside the block. */
     const uint64_t out2 = inside_margin2(p, (const int64_t[3]){lo[0] - TREE_LEAF_SIDE,
                                                               lo[1] - TREE_LEAF_SIDE,

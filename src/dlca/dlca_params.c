@@ -1,9 +1,12 @@
 /*
- * dlca_params.c - the DLCA model's parameters as ONE descriptor table (name,
- * C type, unit, default, range, help, scene key = name) from which the CLI
- * options, the --help lines, validation and the /parameters attributes are
- * all generated. Self-contained so that it can join the engine-wide
- * parameter table.
+ * dlca_params.c - the DLCA model's parameters as rows of the shared
+ * parameter table machinery (include/pdla/params.h, models = PDLA_MODEL_DLCA):
+ * defaults, range checks and their one-line errors, the CLI options, --help
+ * lines and scene keys (src/cli/dlca_cmd.c), the /parameters attributes
+ * (h5u_write_param_table) and their reading back (pdla_param_read_h5), and
+ * the resume rule (pdla_param_check_asked) all come from these rows, through
+ * the same code as the DLA engine's. What a row cannot say (the box's volume,
+ * N against V, the machine's memory) is in dlca_params_validate.
  */
 #include <errno.h>
 #include <math.h>
@@ -15,55 +18,106 @@
 
 #include "pdla/dlca.h"
 
-#define OFF(f) offsetof(dlca_params, f)
-#define NONE NAN
+/* ---- rules that a range cannot say ------------------------------------- */
 
-static const dlca_param_desc table[] = {
-    {"dim", DLCA_T_INT, "int", "", "2", 2, 5, 0, 0, "D", "lattice dimension d", OFF(dim)},
-    {"box", DLCA_T_BOX, "uint32_t[5]", "sites", "256x256", 2, 65536, 0, 0, "L1xL2[x..]",
-     "box lengths, one per axis (one number: the same on every axis)", OFF(box)},
-    {"fill", DLCA_T_F64, "double", "", "0.01", 0, 1, 1, 1, "PHI",
-     "fill fraction: N = round(PHI V) monomers (unless --count)", OFF(fill)},
-    {"count", DLCA_T_U64, "uint64_t", "monomers", "0", 0, 4294967295.0, 0, 0, "N",
-     "number of monomers (0: from --fill)", OFF(count)},
-    {"mobility", DLCA_T_F64, "double", "", "0", -10, 10, 0, 0, "GAMMA",
-     "a cluster of s monomers moves at rate s^GAMMA (0: all equal, as in the seed)", OFF(mobility)},
-    {"sticking", DLCA_T_F64, "double", "", "1", 0, 1, 1, 0, "P",
-     "probability that face-adjacent clusters join after a move", OFF(sticking)},
-    {"drift", DLCA_T_F64, "double", "", "0", 0, 1, 0, 1, "G",
-     "probability that a move is one step down the last axis (gravity)", OFF(drift)},
-    {"until-clusters", DLCA_T_U64, "uint64_t", "clusters", "1", 1, 4294967295.0, 0, 0, "K",
-     "stop when K clusters are left", OFF(until_clusters)},
-    {"until-time", DLCA_T_F64, "double", "monomer moves", "0", 0, 1e300, 0, 0, "T",
-     "stop at time T (0: never)", OFF(until_time)},
-    {"max-attempts", DLCA_T_U64, "uint64_t", "attempts", "0", 0, 1.8e19, 0, 0, "M",
-     "stop after M attempted moves (0: never)", OFF(max_attempts)},
-    {"seed", DLCA_T_U64, "uint64_t", "", "1", 0, 1.8e19, 0, 0, "S", "random seed", OFF(seed)},
-    {"search", DLCA_T_SEARCH, "int", "", "lattice", 0, 2, 0, 0, "lattice|boxes|allpairs",
-     "collision search: id lattice (fastest), the seed's grid-boxing, or all pairs", OFF(search)},
-    {"grid-box", DLCA_T_INT, "int", "sites", "4", 1, 65536, 0, 0, "A",
-     "first grid-box side of --search boxes (a power of two; doubles as clusters grow)",
-     OFF(grid_box)},
+static int check_grid_box(const void *s, char *err, size_t errlen)
+{
+    const int A = ((const dlca_params *)s)->grid_box;
+    if (A > 0 && (A & (A - 1)))
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "grid box must be a power of two, got %d", A);
+    return 0;
+}
+
+/* ---- the table ---------------------------------------------------------- */
+
+static const char *const search_words[] = {"lattice", "boxes", "allpairs", NULL};
+
+#define AT(f) offsetof(dlca_params, f)
+#define M PDLA_MODEL_DLCA
+#define G "Model (also scene keys, with model = dlca):"
+
+/* Order: the --help order; validation runs in it too, so box (which reads
+ * dim) comes after dim. The names are the /parameters attributes of every
+ * DLCA file written so far. */
+static const pdla_param_desc table[] = {
+    {.name = "dim", .option = "dim", .label = "dim", .unit = "", .metavar = "D",
+     .help = "lattice dimension d", .group = G, .example = "3", .type = PDLA_PT_INT,
+     .offset = AT(dim), .bit = DLCA_PARAM_DIM, .models = M, .show_default = 1, .def_u = 2,
+     .lo_u = 2, .hi_u = DLCA_MAX_DIM},
+    {.name = "box", .option = "box", .label = "box", .unit = "sites", .metavar = "L1xL2[x..]",
+     .help = "box lengths, one per axis (one number: the same on every axis)", .group = G,
+     .example = "64x48", .type = PDLA_PT_BOX, .offset = AT(box), .count_offset = AT(dim),
+     .bit = DLCA_PARAM_BOX, .models = M, .show_default = 1, .def_u = 256, .lo_u = 2,
+     .hi_u = 65536},
+    {.name = "fill", .option = "fill", .label = "fill fraction", .unit = "", .metavar = "PHI",
+     .help = "fill fraction: N = round(PHI V) monomers (unless --count)", .group = G,
+     .example = "0.05", .type = PDLA_PT_REAL, .offset = AT(fill), .bit = DLCA_PARAM_FILL,
+     .models = M, .show_default = 1, .def_r = 0.01, .lo_r = 0, .hi_r = 1, .lo_open = 1,
+     .hi_open = 1},
+    {.name = "count", .option = "count", .label = "count", .unit = "monomers", .metavar = "N",
+     .help = "number of monomers (0: from --fill)", .group = G, .example = "100",
+     .type = PDLA_PT_U64, .offset = AT(count), .bit = DLCA_PARAM_COUNT, .models = M,
+     .show_default = 1, .def_u = 0, .lo_u = 0, .hi_u = UINT32_MAX},
+    {.name = "mobility", .option = "mobility", .label = "mobility", .unit = "", .metavar = "GAMMA",
+     .help = "a cluster of s monomers moves at rate s^GAMMA (0: all equal, as in the seed)",
+     .group = G, .example = "-0.5", .type = PDLA_PT_REAL, .offset = AT(mobility),
+     .bit = DLCA_PARAM_MOBILITY, .models = M, .show_default = 1, .def_r = 0, .lo_r = -10,
+     .hi_r = 10},
+    {.name = "sticking", .option = "sticking", .label = "sticking probability", .unit = "",
+     .metavar = "P", .help = "probability that face-adjacent clusters join after a move",
+     .group = G, .example = "0.5", .type = PDLA_PT_REAL, .offset = AT(sticking),
+     .bit = DLCA_PARAM_STICKING, .models = M, .show_default = 1, .def_r = 1, .lo_r = 0,
+     .hi_r = 1, .lo_open = 1},
+    {.name = "drift", .option = "drift", .label = "drift", .unit = "", .metavar = "G",
+     .help = "probability that a move is one step down the last axis (gravity)", .group = G,
+     .example = "0.1", .type = PDLA_PT_REAL, .offset = AT(drift), .bit = DLCA_PARAM_DRIFT,
+     .models = M, .show_default = 1, .def_r = 0, .lo_r = 0, .hi_r = 1, .hi_open = 1},
+    {.name = "until_clusters", .option = "until-clusters", .label = "until-clusters",
+     .unit = "clusters", .metavar = "K", .help = "stop when K clusters are left", .group = G,
+     .example = "10", .type = PDLA_PT_U64, .offset = AT(until_clusters),
+     .bit = DLCA_PARAM_UNTIL_CLUSTERS, .models = M, .resumable = 1, .show_default = 1,
+     .def_u = 1, .lo_u = 1, .hi_u = UINT32_MAX},
+    {.name = "until_time", .option = "until-time", .label = "until-time", .unit = "monomer moves",
+     .metavar = "T", .help = "stop at time T (0: never)", .group = G, .example = "100",
+     .type = PDLA_PT_REAL, .offset = AT(until_time), .bit = DLCA_PARAM_UNTIL_TIME, .models = M,
+     .resumable = 1, .show_default = 1, .def_r = 0, .lo_r = 0, .hi_r = 1e300},
+    {.name = "max_attempts", .option = "max-attempts", .label = "max-attempts", .unit = "attempts",
+     .metavar = "M", .help = "stop after M attempted moves (0: never)", .group = G,
+     .example = "100000", .type = PDLA_PT_U64, .offset = AT(max_attempts),
+     .bit = DLCA_PARAM_MAX_ATTEMPTS, .models = M, .resumable = 1, .show_default = 1, .def_u = 0,
+     .lo_u = 0, .hi_u = UINT64_MAX},
+    {.name = "seed", .option = "seed", .label = "seed", .unit = "", .metavar = "S",
+     .help = "random seed", .group = G, .example = "12345", .type = PDLA_PT_U64,
+     .offset = AT(seed), .bit = DLCA_PARAM_SEED, .models = M, .show_default = 1, .def_u = 1,
+     .lo_u = 0, .hi_u = UINT64_MAX},
+    {.name = "search", .option = "search", .label = "search", .unit = "",
+     .metavar = "lattice|boxes|allpairs",
+     .help = "collision search: id lattice (fastest), the seed's grid-boxing, or all pairs",
+     .group = G, .example = "boxes", .type = PDLA_PT_CHOICE, .offset = AT(search),
+     .bit = DLCA_PARAM_SEARCH, .models = M, .show_default = 1, .def_u = DLCA_SEARCH_LATTICE,
+     .lo_u = 0, .hi_u = 2, .choices = search_words},
+    {.name = "grid_box", .option = "grid-box", .label = "grid box", .unit = "sites", .metavar = "A",
+     .help = "first grid-box side of --search boxes (a power of two; doubles as clusters grow)",
+     .group = G, .example = "8", .type = PDLA_PT_INT, .offset = AT(grid_box),
+     .bit = DLCA_PARAM_GRID_BOX, .models = M, .show_default = 1, .def_u = 4, .lo_u = 1,
+     .hi_u = 65536, .check = check_grid_box},
 };
+#undef AT
+#undef M
+#undef G
 
-const dlca_param_desc *dlca_param_table(size_t *n)
+const pdla_param_desc *dlca_param_table(size_t *n)
 {
     *n = sizeof table / sizeof table[0];
     return table;
 }
 
-static int fail(char *err, size_t errlen, const char *fmt, const char *a, const char *b)
-{
-    if (err && errlen) snprintf(err, errlen, fmt, a, b);
-    return PDLA_EINVAL;
-}
-
-static const char *search_names[] = {"lattice", "boxes", "allpairs"};
-
 const char *dlca_search_name(int search)
 {
-    return search >= 0 && search <= 2 ? search_names[search] : "unknown";
+    return search >= 0 && search <= 2 ? search_words[search] : "unknown";
 }
+
+/* ---- text -> value ------------------------------------------------------ */
 
 /* A number with an optional k/M/G suffix (10M = 1e7), whole text used. */
 static int parse_num(const char *s, double *out)
@@ -71,7 +125,7 @@ static int parse_num(const char *s, double *out)
     char *end;
     errno = 0;
     double v = strtod(s, &end);
-    if (end == s || errno == ERANGE) return -1;
+    if (end == s || errno == ERANGE || s[strspn(s, "0123456789.eE+-kMG")]) return -1;
     if (*end == 'k' || *end == 'K') v *= 1e3, end++;
     else if (*end == 'M') v *= 1e6, end++;
     else if (*end == 'G') v *= 1e9, end++;
@@ -80,99 +134,71 @@ static int parse_num(const char *s, double *out)
     return 0;
 }
 
-static int in_range(const dlca_param_desc *d, double v)
+/* "L1xL2x...": each an integer in the row's range, at most 5; one length
+ * stands for every axis. */
+static int parse_box(const pdla_param_desc *d, dlca_params *p, const char *text, char *err, size_t errlen)
 {
-    if (!isnan(d->min) && (d->min_open ? v <= d->min : v < d->min)) return 0;
-    if (!isnan(d->max) && (d->max_open ? v >= d->max : v > d->max)) return 0;
-    return 1;
-}
-
-static void range_text(const dlca_param_desc *d, char *buf, size_t len)
-{
-    snprintf(buf, len, "%c%g, %g%c", d->min_open ? '(' : '[', d->min, d->max, d->max_open ? ')' : ']');
-}
-
-int dlca_param_set(dlca_params *p, const dlca_param_desc *d, const char *text, char *err,
-                   size_t errlen)
-{
-    char *field = (char *)p + d->offset;
-    char rng[96];
-    range_text(d, rng, sizeof rng);
-    if (d->type == DLCA_T_SEARCH) {
-        for (int i = 0; i < 3; i++)
-            if (strcmp(text, search_names[i]) == 0) {
-                *(int *)field = i;
-                return 0;
-            }
-        return fail(err, errlen, "invalid --search '%s' (lattice, boxes or allpairs)%s", text, "");
+    uint32_t L[PDLA_PARAM_BOX_MAX] = {0};
+    int n = 0;
+    for (const char *s = text;;) {
+        char *end;
+        errno = 0;
+        const unsigned long long v = strtoull(s, &end, 10);
+        if (end == s || errno || v < d->lo_u || v > d->hi_u || *s == '-' || *s == '+')
+            return pdla_errorf(PDLA_EINVAL, err, errlen,
+                               "invalid --box '%s' (each length an integer in [2, 65536], written L1xL2[x...])",
+                               text);
+        if (n == PDLA_PARAM_BOX_MAX)
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "invalid --box '%s' (at most 5 lengths)", text);
+        L[n++] = (uint32_t)v;
+        if (*end == '\0') break;
+        if (*end != 'x')
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "invalid --box '%s' (lengths are joined by 'x')", text);
+        s = end + 1;
     }
-    if (d->type == DLCA_T_BOX) {
-        uint32_t L[DLCA_MAX_DIM] = {0};
-        int n = 0;
-        const char *s = text;
-        while (1) {
-            char *end;
-            errno = 0;
-            const unsigned long long v = strtoull(s, &end, 10);
-            if (end == s || errno || v < 2 || v > 65536 || *s == '-' || *s == '+')
-                return fail(err, errlen, "invalid --box '%s' (each length an integer in [2, 65536], "
-                            "written L1xL2[x...])%s", text, "");
-            if (n == DLCA_MAX_DIM)
-                return fail(err, errlen, "invalid --box '%s' (at most 5 lengths)%s", text, "");
-            L[n++] = (uint32_t)v;
-            if (*end == '\0') break;
-            if (*end != 'x') return fail(err, errlen, "invalid --box '%s' (lengths are joined by 'x')%s", text, "");
-            s = end + 1;
-        }
-        /* One length: the same on every axis. */
-        for (int i = n; i < DLCA_MAX_DIM; i++) L[i] = n == 1 ? L[0] : 0;
-        memcpy(field, L, sizeof L);
+    for (int i = n; i < PDLA_PARAM_BOX_MAX; i++) L[i] = n == 1 ? L[0] : 0;
+    memcpy((char *)p + d->offset, L, sizeof L);
+    return 0;
+}
+
+int dlca_param_set(dlca_params *p, const pdla_param_desc *d, const char *text, char *err, size_t errlen)
+{
+    if (d->type == PDLA_PT_BOX) return parse_box(d, p, text, err, errlen);
+    if (d->type == PDLA_PT_CHOICE) {
+        const int c = pdla_param_choice(d, text);
+        if (c < 0) return pdla_errorf(PDLA_EINVAL, err, errlen, "invalid --%s '%s' (%s)", d->option, text, d->metavar);
+        pdla_param_set_u(d, p, (uint64_t)c);
         return 0;
     }
     double v;
-    if (parse_num(text, &v) || !in_range(d, v) ||
-        ((d->type == DLCA_T_INT || d->type == DLCA_T_U64) && v != floor(v))) {
-        char msg[160];
-        snprintf(msg, sizeof msg, "%s%s", d->type == DLCA_T_F64 ? "a number in " : "an integer in ", rng);
-        if (err && errlen) snprintf(err, errlen, "invalid --%s '%s' (%s)", d->name, text, msg);
-        return PDLA_EINVAL;
-    }
-    if (d->type == DLCA_T_INT) *(int *)field = (int)v;
-    else if (d->type == DLCA_T_U64) {
+    const int integer = d->type != PDLA_PT_REAL;
+    if (parse_num(text, &v) || (integer && (v != floor(v) || v < 0)))
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "invalid --%s '%s' (%s)", d->option, text,
+                           integer ? "not a whole number of at least 0" : "not a number");
+    if (d->type == PDLA_PT_REAL) pdla_param_set_real(d, p, v);
+    else {
         /* Exact for integers written out in full (seeds above 2^53). */
         char *end;
         errno = 0;
         const unsigned long long u = strtoull(text, &end, 10);
-        *(uint64_t *)field = (*end == '\0' && !errno) ? (uint64_t)u : (uint64_t)v;
-    } else *(double *)field = v;
+        if (v >= 18446744073709551616.0 || (d->type == PDLA_PT_INT && v > (double)d->hi_u))
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "invalid --%s '%s' (at most %llu)", d->option, text,
+                               (unsigned long long)d->hi_u);
+        pdla_param_set_u(d, p, (*end == '\0' && !errno) ? (uint64_t)u : (uint64_t)v);
+    }
+    /* The row's own range and rule, now, so that a scene names its line. */
+    char why[256];
+    if (pdla_param_validate(d, 1, p, NULL, why, sizeof why))
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "invalid --%s '%s': %s", d->option, text, why);
     return 0;
 }
 
-void dlca_param_format(const dlca_params *p, const dlca_param_desc *d, char *buf, size_t len)
-{
-    const char *field = (const char *)p + d->offset;
-    switch (d->type) {
-    case DLCA_T_INT: snprintf(buf, len, "%d", *(const int *)field); break;
-    case DLCA_T_U64: snprintf(buf, len, "%llu", (unsigned long long)*(const uint64_t *)field); break;
-    case DLCA_T_F64: snprintf(buf, len, "%.17g", *(const double *)field); break;
-    case DLCA_T_SEARCH: snprintf(buf, len, "%s", dlca_search_name(*(const int *)field)); break;
-    case DLCA_T_BOX: {
-        const uint32_t *L = (const uint32_t *)field;
-        size_t o = 0;
-        buf[0] = '\0';
-        for (int i = 0; i < p->dim && i < DLCA_MAX_DIM && o < len; i++)
-            o += (size_t)snprintf(buf + o, len - o, i ? "x%u" : "%u", L[i]);
-        break;
-    }
-    }
-}
+/* ---- defaults and the model's own rules ----------------------------------- */
 
 void dlca_params_default(dlca_params *p)
 {
     memset(p, 0, sizeof *p);
-    size_t n;
-    const dlca_param_desc *t = dlca_param_table(&n);
-    for (size_t i = 0; i < n; i++) (void)dlca_param_set(p, &t[i], t[i].def, NULL, 0);
+    pdla_param_defaults(table, sizeof table / sizeof table[0], p);
 }
 
 uint64_t dlca_params_monomers(const dlca_params *p)
@@ -185,67 +211,29 @@ uint64_t dlca_params_monomers(const dlca_params *p)
 
 int dlca_params_validate(const dlca_params *p, char *err, size_t errlen)
 {
-    size_t n;
-    const dlca_param_desc *t = dlca_param_table(&n);
-    char buf[64];
-    for (size_t i = 0; i < n; i++) {
-        const char *f = (const char *)p + t[i].offset;
-        double v;
-        if (t[i].type == DLCA_T_INT) v = *(const int *)f;
-        else if (t[i].type == DLCA_T_U64) v = (double)*(const uint64_t *)f;
-        else if (t[i].type == DLCA_T_F64) v = *(const double *)f;
-        else if (t[i].type == DLCA_T_SEARCH) v = *(const int *)f;
-        else continue;
-        if (!in_range(&t[i], v) || isnan(v)) {
-            char rng[96];
-            range_text(&t[i], rng, sizeof rng);
-            dlca_param_format(p, &t[i], buf, sizeof buf);
-            if (err && errlen) snprintf(err, errlen, "--%s %s is outside %s", t[i].name, buf, rng);
-            return PDLA_EINVAL;
-        }
-    }
-    if (p->grid_box & (p->grid_box - 1)) {
-        if (err && errlen) snprintf(err, errlen, "--grid-box %d is not a power of two", p->grid_box);
-        return PDLA_EINVAL;
-    }
+    const pdla_param_desc *bad = NULL;
+    char why[256];
+    if (pdla_param_validate(table, sizeof table / sizeof table[0], p, &bad, why, sizeof why))
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "--%s: %s", bad ? bad->option : "?", why);
     double V = 1;
-    for (int i = 0; i < p->dim; i++) {
-        if (p->box[i] < 2 || p->box[i] > 65536) {
-            if (err && errlen)
-                snprintf(err, errlen, "--box gives %d lengths in [2, 65536] for --dim %d", i, p->dim);
-            return PDLA_EINVAL;
-        }
-        V *= p->box[i];
-    }
-    for (int i = p->dim; i < DLCA_MAX_DIM; i++)
-        if (p->box[i] && p->box[i] != p->box[0]) {
-            if (err && errlen) snprintf(err, errlen, "--box has more lengths than --dim %d", p->dim);
-            return PDLA_EINVAL;
-        }
-    if (V >= 4294967295.0) {
-        if (err && errlen) snprintf(err, errlen, "--box has %.3g sites (at most 2^32 - 1)", V);
-        return PDLA_EINVAL;
-    }
+    for (int i = 0; i < p->dim; i++) V *= p->box[i];
+    if (V >= 4294967295.0)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "--box has %.3g sites (at most 2^32 - 1)", V);
     /* The id lattice: 4 bytes a site; refuse what cannot fit in memory. */
     const long pages = sysconf(_SC_PHYS_PAGES), psz = sysconf(_SC_PAGESIZE);
-    if (pages > 0 && psz > 0 && 4.0 * V > 0.5 * (double)pages * (double)psz) {
-        if (err && errlen)
-            snprintf(err, errlen, "--box needs %.3g GiB for its lattice, more than half of this machine's memory",
-                     4.0 * V / 1073741824.0);
-        return PDLA_EINVAL;
-    }
+    if (pages > 0 && psz > 0 && 4.0 * V > 0.5 * (double)pages * (double)psz)
+        return pdla_errorf(PDLA_EINVAL, err, errlen,
+                           "--box needs %.3g GiB for its lattice, more than half of this machine's memory",
+                           4.0 * V / 1073741824.0);
     const uint64_t N = dlca_params_monomers(p);
-    if (N < 1 || (double)N >= V) {
-        if (err && errlen)
-            snprintf(err, errlen, "the box of %.0f sites cannot hold %llu monomers (need 1 <= N < V)", V,
-                     (unsigned long long)N);
-        return PDLA_EINVAL;
-    }
-    if (p->until_clusters > N && p->until_clusters != 1) {
-        if (err && errlen)
-            snprintf(err, errlen, "--until-clusters %llu is more than the %llu monomers",
-                     (unsigned long long)p->until_clusters, (unsigned long long)N);
-        return PDLA_EINVAL;
-    }
+    if (N < 1 || (double)N >= V)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "the box of %.0f sites cannot hold %llu monomers (need 1 <= N < V)",
+                           V, (unsigned long long)N);
+    if (p->until_clusters > N && p->until_clusters != 1)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "--until-clusters %llu is more than the %llu monomers",
+                           (unsigned long long)p->until_clusters, (unsigned long long)N);
     return 0;
 }
+
+_Static_assert(DLCA_MAX_DIM == PDLA_PARAM_BOX_MAX, "the box row holds DLCA_MAX_DIM lengths");
+_Static_assert(sizeof(((dlca_params *)0)->box) == PDLA_PARAM_BOX_MAX * sizeof(uint32_t), "box field");

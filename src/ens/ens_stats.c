@@ -235,6 +235,119 @@ static void slope_range(double centre, uint64_t *lo, uint64_t *hi)
     *hi = (uint64_t)floor(pow(10.0, centre + SLOPE_HALF) + 1e-9);
 }
 
+/* The bootstrap's scratch arrays: B resamples, BC of them also refit
+ * with the correction term, nw slope windows centred at centre[]. */
+typedef struct boot_work {
+    size_t B, BC, nw;
+    const double *centre;
+    size_t *pick;
+    double *mean, *df, *sl, *A, *D;
+} boot_work;
+
+static void boot_free(boot_work *w)
+{
+    free(w->pick), free(w->mean), free(w->df), free(w->sl), free(w->A), free(w->D);
+}
+
+/* s's arrays and w's; 0, or -1 (out of memory). */
+static int stats_alloc(pdla_ens_stats *s, boot_work *w, size_t m, size_t k)
+{
+    const size_t nw = w->nw, B = w->B, BC = w->BC;
+    s->mean_rg = malloc((k ? k : 1) * 8);
+    s->se_rg = malloc((k ? k : 1) * 8);
+    s->slope_n = malloc((nw ? nw : 1) * 8), s->slope_df = malloc((nw ? nw : 1) * 8);
+    s->slope_lo = malloc((nw ? nw : 1) * 8), s->slope_hi = malloc((nw ? nw : 1) * 8);
+    w->pick = malloc(m * sizeof *w->pick);
+    w->mean = malloc((k ? k : 1) * 8), w->df = malloc((B ? B : 1) * 8);
+    w->sl = malloc((B * nw > 0 ? B * nw : 1) * 8), w->A = malloc((BC ? BC : 1) * 8);
+    w->D = malloc((BC ? BC : 1) * 8);
+    return !s->mean_rg || !s->se_rg || !s->slope_n || !s->slope_df || !s->slope_lo || !s->slope_hi || !w->pick ||
+                   !w->mean || !w->df || !w->sl || !w->A || !w->D
+               ? -1
+               : 0;
+}
+
+/* The estimates from all m clusters: mean R_g and its standard error, the
+ * D_f fit, the local slopes and the correction-to-scaling fit. */
+static void point_estimates(pdla_ens_stats *s, const boot_work *w, const uint64_t *n, size_t k, const double *rg,
+                            size_t m)
+{
+    for (size_t j = 0; j < k; j++) {
+        double sum = 0, sq = 0;
+        for (size_t i = 0; i < m; i++) sum += rg[i * k + j];
+        const double mu = sum / (double)m;
+        for (size_t i = 0; i < m; i++) sq += (rg[i * k + j] - mu) * (rg[i * k + j] - mu);
+        s->mean_rg[j] = mu;
+        s->se_rg[j] = m > 1 ? sqrt(sq / (double)(m - 1) / (double)m) : NAN;
+    }
+    const pdla_fit f = fit_powerlaw(n, s->mean_rg, k, s->n_lo, s->n_hi);
+    s->df = f.df;
+    s->prefactor_diam = f.prefactor_diam;
+    s->nslope = w->nw;
+    for (size_t v = 0; v < w->nw; v++) {
+        uint64_t lo, hi;
+        slope_range(w->centre[v], &lo, &hi);
+        s->slope_n[v] = pow(10.0, w->centre[v]);
+        s->slope_df[v] = fit_powerlaw(n, s->mean_rg, k, lo, hi).df;
+    }
+    s->corr_samples = (int)w->BC;
+    /* The correction term describes the approach to scaling: it needs the
+     * small clusters the power-law fit leaves out. */
+    s->corr_n_lo = CORR_N_LO;
+    s->corr_ok = pdla_ens_corr_fit(n, s->mean_rg, k, s->corr_n_lo, s->n_hi, &s->corr_A, &s->corr_D, &s->corr_B,
+                                   &s->corr_nu, &s->corr_rms) == 0;
+    if (!s->corr_ok) s->corr_A = s->corr_D = s->corr_B = s->corr_nu = s->corr_rms = NAN;
+}
+
+/* The bootstrap: the resamples are drawn in turn from one stream seeded
+ * with boot_seed, so the interval is reproducible. Fills w's samples. */
+static void bootstrap(const pdla_ens_stats *s, boot_work *w, const uint64_t *n, size_t k, const double *rg,
+                      size_t m, uint64_t boot_seed)
+{
+    pdla_rng r;
+    rng_seed(&r, boot_seed);
+    for (size_t b = 0; b < w->B; b++) {
+        for (size_t i = 0; i < m; i++) {
+            const size_t q = (size_t)(rng_uniform(&r) * (double)m);
+            w->pick[i] = q < m ? q : m - 1; /* u * m may round up to m */
+        }
+        mean_of(rg, k, w->pick, m, w->mean);
+        w->df[b] = fit_powerlaw(n, w->mean, k, s->n_lo, s->n_hi).df;
+        for (size_t v = 0; v < w->nw; v++) {
+            uint64_t lo, hi;
+            slope_range(w->centre[v], &lo, &hi);
+            w->sl[v * w->B + b] = fit_powerlaw(n, w->mean, k, lo, hi).df;
+        }
+        if (b < w->BC && s->corr_ok) {
+            double a, d, bb, nu, rms;
+            if (pdla_ens_corr_fit(n, w->mean, k, s->corr_n_lo, s->n_hi, &a, &d, &bb, &nu, &rms)) a = d = NAN;
+            w->A[b] = a;
+            w->D[b] = d;
+        }
+    }
+}
+
+/* The 95% intervals from the bootstrap samples. */
+static void intervals(pdla_ens_stats *s, boot_work *w)
+{
+    const size_t B = w->B, BC = w->BC;
+    double unused;
+    mean_sd(w->df, B, &unused, &s->df_boot_sd);
+    s->df_lo = quantile(w->df, B, 0.025);
+    s->df_hi = quantile(w->df, B, 0.975);
+    for (size_t v = 0; v < w->nw; v++) {
+        s->slope_lo[v] = quantile(w->sl + v * B, B, 0.025);
+        s->slope_hi[v] = quantile(w->sl + v * B, B, 0.975);
+    }
+    s->corr_A_lo = s->corr_A_hi = s->corr_D_lo = s->corr_D_hi = NAN;
+    if (s->corr_ok && BC) {
+        s->corr_A_lo = quantile(w->A, BC, 0.025);
+        s->corr_A_hi = quantile(w->A, BC, 0.975);
+        s->corr_D_lo = quantile(w->D, BC, 0.025);
+        s->corr_D_hi = quantile(w->D, BC, 0.975);
+    }
+}
+
 int pdla_ens_stats_compute(const uint64_t *n, size_t k, const double *rg, size_t m, const double *df_cluster,
                            uint64_t n_final, int boot_samples, int corr_samples, uint64_t boot_seed,
                            pdla_ens_stats *s, char *err, size_t errlen)
@@ -248,91 +361,23 @@ int pdla_ens_stats_compute(const uint64_t *n, size_t k, const double *rg, size_t
     s->boot_seed = boot_seed;
     fit_default_range(n_final, &s->n_lo, &s->n_hi);
     double centre[256];
-    const size_t nw = slope_windows(CORR_N_LO < s->n_lo ? CORR_N_LO : s->n_lo, n_final, centre, 256);
-    const size_t B = (size_t)boot_samples, BC = B < (size_t)corr_samples ? B : (size_t)corr_samples;
-    s->mean_rg = malloc((k ? k : 1) * 8);
-    s->se_rg = malloc((k ? k : 1) * 8);
-    s->slope_n = malloc((nw ? nw : 1) * 8), s->slope_df = malloc((nw ? nw : 1) * 8);
-    s->slope_lo = malloc((nw ? nw : 1) * 8), s->slope_hi = malloc((nw ? nw : 1) * 8);
-    size_t *pick = malloc(m * sizeof *pick);
-    double *mean = malloc((k ? k : 1) * 8), *boot_df = malloc((B ? B : 1) * 8);
-    double *boot_sl = malloc((B * nw > 0 ? B * nw : 1) * 8), *boot_A = malloc((BC ? BC : 1) * 8);
-    double *boot_D = malloc((BC ? BC : 1) * 8);
+    boot_work w;
+    memset(&w, 0, sizeof w);
+    w.nw = slope_windows(CORR_N_LO < s->n_lo ? CORR_N_LO : s->n_lo, n_final, centre, 256);
+    w.centre = centre;
+    w.B = (size_t)boot_samples;
+    w.BC = w.B < (size_t)corr_samples ? w.B : (size_t)corr_samples;
     int rc = PDLA_OK;
-    if (!s->mean_rg || !s->se_rg || !s->slope_n || !s->slope_df || !s->slope_lo || !s->slope_hi || !pick || !mean ||
-        !boot_df || !boot_sl || !boot_A || !boot_D) {
+    if (stats_alloc(s, &w, m, k)) {
         rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the ensemble statistics");
-        goto done;
+    } else {
+        point_estimates(s, &w, n, k, rg, m);
+        bootstrap(s, &w, n, k, rg, m, boot_seed);
+        intervals(s, &w);
+        s->df_cluster_mean = s->df_cluster_sd = NAN;
+        if (df_cluster) mean_sd(df_cluster, m, &s->df_cluster_mean, &s->df_cluster_sd);
     }
-    /* Mean and standard error at each N. */
-    for (size_t j = 0; j < k; j++) {
-        double sum = 0, sq = 0;
-        for (size_t i = 0; i < m; i++) sum += rg[i * k + j];
-        const double mu = sum / (double)m;
-        for (size_t i = 0; i < m; i++) sq += (rg[i * k + j] - mu) * (rg[i * k + j] - mu);
-        s->mean_rg[j] = mu;
-        s->se_rg[j] = m > 1 ? sqrt(sq / (double)(m - 1) / (double)m) : NAN;
-    }
-    const pdla_fit f = fit_powerlaw(n, s->mean_rg, k, s->n_lo, s->n_hi);
-    s->df = f.df;
-    s->prefactor_diam = f.prefactor_diam;
-    s->nslope = nw;
-    for (size_t w = 0; w < nw; w++) {
-        uint64_t lo, hi;
-        slope_range(centre[w], &lo, &hi);
-        s->slope_n[w] = pow(10.0, centre[w]);
-        s->slope_df[w] = fit_powerlaw(n, s->mean_rg, k, lo, hi).df;
-    }
-    s->corr_samples = (int)BC;
-    /* The correction term describes the approach to scaling: it needs the
-     * small clusters the power-law fit leaves out. */
-    s->corr_n_lo = CORR_N_LO;
-    s->corr_ok = pdla_ens_corr_fit(n, s->mean_rg, k, s->corr_n_lo, s->n_hi, &s->corr_A, &s->corr_D, &s->corr_B,
-                                   &s->corr_nu, &s->corr_rms) == 0;
-    if (!s->corr_ok) s->corr_A = s->corr_D = s->corr_B = s->corr_nu = s->corr_rms = NAN;
-
-    /* The bootstrap: the resamples are drawn in turn from one stream seeded
-     * with boot_seed, so the interval is reproducible. */
-    pdla_rng r;
-    rng_seed(&r, boot_seed);
-    for (size_t b = 0; b < B; b++) {
-        for (size_t i = 0; i < m; i++) {
-            const size_t q = (size_t)(rng_uniform(&r) * (double)m);
-            pick[i] = q < m ? q : m - 1; /* u * m may round up to m */
-        }
-        mean_of(rg, k, pick, m, mean);
-        boot_df[b] = fit_powerlaw(n, mean, k, s->n_lo, s->n_hi).df;
-        for (size_t w = 0; w < nw; w++) {
-            uint64_t lo, hi;
-            slope_range(centre[w], &lo, &hi);
-            boot_sl[w * B + b] = fit_powerlaw(n, mean, k, lo, hi).df;
-        }
-        if (b < BC && s->corr_ok) {
-            double a, d, bb, nu, rms;
-            if (pdla_ens_corr_fit(n, mean, k, s->corr_n_lo, s->n_hi, &a, &d, &bb, &nu, &rms)) a = d = NAN;
-            boot_A[b] = a;
-            boot_D[b] = d;
-        }
-    }
-    double unused;
-    mean_sd(boot_df, B, &unused, &s->df_boot_sd);
-    s->df_lo = quantile(boot_df, B, 0.025);
-    s->df_hi = quantile(boot_df, B, 0.975);
-    for (size_t w = 0; w < nw; w++) {
-        s->slope_lo[w] = quantile(boot_sl + w * B, B, 0.025);
-        s->slope_hi[w] = quantile(boot_sl + w * B, B, 0.975);
-    }
-    s->corr_A_lo = s->corr_A_hi = s->corr_D_lo = s->corr_D_hi = NAN;
-    if (s->corr_ok && BC) {
-        s->corr_A_lo = quantile(boot_A, BC, 0.025);
-        s->corr_A_hi = quantile(boot_A, BC, 0.975);
-        s->corr_D_lo = quantile(boot_D, BC, 0.025);
-        s->corr_D_hi = quantile(boot_D, BC, 0.975);
-    }
-    s->df_cluster_mean = s->df_cluster_sd = NAN;
-    if (df_cluster) mean_sd(df_cluster, m, &s->df_cluster_mean, &s->df_cluster_sd);
-done:
-    free(pick), free(mean), free(boot_df), free(boot_sl), free(boot_A), free(boot_D);
+    boot_free(&w);
     if (rc) pdla_ens_stats_free(s);
     return rc;
 }

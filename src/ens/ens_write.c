@@ -13,7 +13,14 @@
  *            fit_n_lo, fit_n_hi (u64 [M]), fit_points (i32 [M]),
  *            cpu_seconds, wall_seconds (f64 [M]; timings, not reproducible)
  *   /clusters/positions   i32 [M*N][dim] with --keep-positions: rows
- *                         i*N .. i*N+N-1 are cluster i (attr rows_per_cluster)
+ *                         i*N .. i*N+N-1 are cluster i (attr rows_per_cluster);
+ *                         chunks of min(N, 65536) rows, so reading cluster i
+ *                         touches only its own chunks (one when N <= 65536,
+ *                         at most ceil(N / 65536) + 1 else), shuffle + deflate
+ *                         at the level asked (attr deflate_level; 0: none)
+ *                         and Fletcher32 like every dataset
+ *   DIR/ensemble.xdmf2    with positions: the ParaView sidecar (xdmf.h), one
+ *                         block per cluster
  *   /statistics           ensemble statistics (pdla_ens_stats_compute, ens_stats.c)
  *   /Code                 provenance, as in cluster.h5
  * Every per-cluster dataset is in cluster index order, so two runs of the
@@ -32,6 +39,7 @@
 #include <hdf5.h>
 
 #include "pdla/ensemble.h"
+#include "pdla/xdmf.h"
 #include "h5util.h"
 #include "provenance.h"
 
@@ -198,7 +206,8 @@ fail:
 }
 
 /* /clusters/positions, one cluster's rows at a time from the journal. */
-static int write_positions(const h5u_writer *w, hid_t file, const pdla_ens_journal *j, const columns *c)
+static int write_positions(const h5u_writer *w, hid_t file, const pdla_ens_journal *j, const columns *c,
+                           int gzip)
 {
     const pdla_ens_config *cfg = pdla_ens_journal_config(j);
     const hsize_t n = cfg->params.target, dim = (hsize_t)cfg->params.dim;
@@ -215,9 +224,10 @@ static int write_positions(const h5u_writer *w, hid_t file, const pdla_ens_journ
         goto fail;
     }
     const hsize_t chunk = n < 65536 ? n : 65536;
-    if ((d = h5u_dataset(w, g, "positions", H5T_STD_I32LE, 2, (hsize_t)c->m * n, dim, chunk, &space)) < 0)
+    if ((d = h5u_dataset_z(w, g, "positions", H5T_STD_I32LE, 2, (hsize_t)c->m * n, dim, chunk, gzip, &space)) <
+        0)
         goto fail;
-    if (h5u_attr_str(w, d, "units", "lattice units") < 0 ||
+    if (h5u_attr_str(w, d, "units", "lattice units") < 0 || h5u_attr_int(w, d, "deflate_level", gzip) < 0 ||
         h5u_attr_int(w, d, "diameter_units", cfg->params.resolution) < 0 ||
         h5u_attr_u64(w, d, "rows_per_cluster", n) < 0 ||
         h5u_attr_str(w, d, "order", cfg->params.record_arrival ? "arrival" : "tree (not arrival)") < 0)
@@ -274,7 +284,7 @@ static const char units_text[] =
     "/parameters resolution units. Names ending in _diam are in diameters.";
 
 static int write_file(const h5u_writer *w, const char *tmp, const pdla_ens_journal *j, const columns *c,
-                      const pdla_run_info *info, const pdla_provenance *pv)
+                      const pdla_run_info *info, const pdla_provenance *pv, int gzip)
 {
     const pdla_ens_config *cfg = pdla_ens_journal_config(j);
     hid_t file = H5I_INVALID_HID;
@@ -283,7 +293,7 @@ static int write_file(const h5u_writer *w, const char *tmp, const pdla_ens_journ
     if (h5u_attr_str(w, file, "format", "pdla-ensemble") < 0 || h5u_attr_int(w, file, "format_version", 1) < 0 ||
         h5u_attr_str(w, file, "units", units_text) < 0 || h5u_write_parameters(w, file, &cfg->params) < 0 ||
         write_ensemble(w, file, cfg, c) < 0 || write_clusters(w, file, c) < 0 ||
-        (cfg->keep_positions && write_positions(w, file, j, c) < 0) ||
+        (cfg->keep_positions && write_positions(w, file, j, c, gzip) < 0) ||
         write_statistics(w, file, c->grid, c->k, c->rg, c->m, c->df, cfg->params.target) < 0 ||
         h5u_write_code(w, file, pv, info ? info->command_line : NULL) < 0)
         goto fail;
@@ -294,10 +304,37 @@ fail:
     return h5u_close(w, rc, file, H5Fclose, tmp);
 }
 
+/* The sidecar beside path when positions are kept; without positions an
+ * older one (of a replaced ensemble) is removed: it would point at rows
+ * that are no longer there. */
+static int write_sidecar(const pdla_ens_config *cfg, const char *path, char *err, size_t errlen)
+{
+    char xmf[4400];
+    if (xdmf_sidecar_path(path, xmf, sizeof xmf))
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "the path %.200s is too long for its sidecar", path);
+    if (!cfg->keep_positions || cfg->params.target == 0) {
+        if (unlink(xmf) && errno != ENOENT)
+            return pdla_errorf(PDLA_EIO, err, errlen, "cannot remove the stale %s: %s", xmf, strerror(errno));
+        return PDLA_OK;
+    }
+    const xdmf_ensemble e = {path, "/clusters/positions", cfg->clusters, cfg->params.target, cfg->params.dim,
+                             cfg->params.resolution, cfg->params.record_arrival};
+    if (xdmf_write_ensemble(xmf, &e, err, errlen)) return PDLA_EIO;
+    return PDLA_OK;
+}
+
 int pdla_ens_write(const pdla_ens_journal *j, const pdla_run_info *info, const char *path, char *err,
                    size_t errlen)
 {
+    return pdla_ens_write_gz(j, info, path, PDLA_ENS_GZIP_DEFAULT, err, errlen);
+}
+
+int pdla_ens_write_gz(const pdla_ens_journal *j, const pdla_run_info *info, const char *path, int gzip,
+                      char *err, size_t errlen)
+{
     const pdla_ens_config *cfg = pdla_ens_journal_config(j);
+    if (gzip < 0 || gzip > 9)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "deflate level %d, want 0..9", gzip);
     if (pdla_ens_journal_count(j) != cfg->clusters)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "the ensemble is incomplete: %llu of %llu clusters",
                            (unsigned long long)pdla_ens_journal_count(j), (unsigned long long)cfg->clusters);
@@ -321,7 +358,7 @@ int pdla_ens_write(const pdla_ens_journal *j, const pdla_run_info *info, const c
     (void)prov_collect(&pv);
     rc = PDLA_EIO;
     if (h5u_silence(&q) == 0) {
-        if (write_file(&w, tmp, j, &c, info, &pv) == 0) rc = PDLA_OK;
+        if (write_file(&w, tmp, j, &c, info, &pv, gzip) == 0) rc = PDLA_OK;
         h5u_restore(&q);
     } else {
         h5u_fail_msg(&w, "cannot silence the HDF5 error stack");
@@ -340,5 +377,5 @@ int pdla_ens_write(const pdla_ens_journal *j, const pdla_run_info *info, const c
     if (slash) slash[slash == dir ? 1 : 0] = '\0';
     else snprintf(dir, sizeof dir, ".");
     h5u_fsync_dir(dir);
-    return PDLA_OK;
+    return write_sidecar(cfg, path, err, errlen);
 }

@@ -30,12 +30,12 @@ int main(int argc, char **argv)
     dlca_params p;
     dlca_params_default(&p);
     size_t n;
-    const dlca_param_desc *t = dlca_param_table(&n);
+    const pdla_param_desc *t = dlca_param_table(&n);
     const char *keys[] = {"dim", "box", "fill", "until-clusters", "seed", "search"};
     char err[512];
     for (int i = 0; i < 6; i++)
         for (size_t j = 0; j < n; j++)
-            if (!strcmp(t[j].name, keys[i]) && dlca_param_set(&p, &t[j], argv[1 + i], err, sizeof err)) {
+            if (!strcmp(t[j].option, keys[i]) && dlca_param_set(&p, &t[j], argv[1 + i], err, sizeof err)) {
                 fprintf(stderr, "%s\n", err);
                 return 2;
             }

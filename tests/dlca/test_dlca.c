@@ -240,7 +240,7 @@ static void refusals(void)
     /* The table's own text round-trips through the parser. */
     dlca_params_default(&p);
     size_t n;
-    const dlca_param_desc *t = dlca_param_table(&n);
+    const pdla_param_desc *t = dlca_param_table(&n);
     CHECK(dlca_param_set(&p, &t[1], "1024x512", err, sizeof err) == 0 && p.box[0] == 1024 && p.box[1] == 512,
           "--box 1024x512: %s", err);
     CHECK(dlca_param_set(&p, &t[1], "10x0", err, sizeof err) == PDLA_EINVAL, "--box 10x0 accepted");

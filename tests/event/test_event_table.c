@@ -127,7 +127,8 @@ static void walk_row(const pdla_param_desc *t, size_t n, size_t i, const char *d
     for (size_t k = 0; k < n; k++)
         CHECK(pdla_param_equal(&t[k], got, &p), "%s: checkpoint's %s differs", d->option, t[k].name);
     /* asking the checkpoint's run for the default of this row */
-    const int rc = pdla_param_resume(t, n, got, &def, d->bit, err, sizeof err);
+    const int rc = pdla_param_check_asked(t, n, d->bit, got, &def, err, sizeof err);
+    if (!rc) pdla_param_apply_resumable(t, n, d->bit, got, &def);
     if (d->resumable)
         CHECK(rc == 0 && pdla_param_equal(d, got, &def), "%s: resumable, not taken", d->option);
     else

@@ -45,6 +45,9 @@ same() { # same A B WHAT: the datasets above are bit-identical
         checks=$((checks + 1))
         h5diff -q "$1/ensemble.h5" "$2/ensemble.h5" "$ds" "$ds" >/dev/null 2>&1 || fail "$3: $ds differs"
     done
+    # The ParaView sidecar (kept positions): the same text.
+    checks=$((checks + 1))
+    cmp -s "$1/ensemble.xdmf2" "$2/ensemble.xdmf2" || fail "$3: ensemble.xdmf2 differs or is missing"
 }
 mpi() { # mpi N ARGS...: mpirun -n N pdla ARGS, status in rc, output in out/err
     local n=$1

@@ -1,0 +1,224 @@
+/*
+ * export_src.c - the particles of any pdla output for `pdla export` (see
+ * export_src.h): every dataset is opened and checked through h5check.h
+ * (type, shape, and that the rows it declares are stored) before a row is
+ * read, and rows stream in slabs of bounded size.
+ */
+#include "export_src.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "pdla/pdla.h"
+#include "tools.h"
+
+static int fail(char *err, size_t errlen, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    pdla_verrorf(-1, err, errlen, fmt, ap);
+    va_end(ap);
+    return -1;
+}
+
+void exp_src_close(exp_src *s)
+{
+    if (s->kind == EXP_DLA) {
+        h5r_close(&s->dla);
+        return;
+    }
+    pdla_h5_dset_close(&s->pos);
+    pdla_h5_dset_close(&s->radius);
+    pdla_h5_dset_close(&s->cid);
+    if (s->file >= 0) H5Fclose(s->file);
+    s->file = H5I_INVALID_HID;
+}
+
+/* name: a dataset of `rank` with rows rows (0: any) whose declared
+ * elements (esize bytes each in memory) are stored; kind 'i' (integer) or
+ * 'f' (real). */
+static int open_checked(exp_src *s, const char *name, pdla_h5_dset *d, int rank, uint64_t rows, char kind,
+                        size_t esize, char *err, size_t errlen)
+{
+    if (H5Lexists(s->file, name, H5P_DEFAULT) <= 0 || pdla_h5_dset_open(s->file, name, d) < 0)
+        return fail(err, errlen, "%s has no %s dataset", s->path, name);
+    const int is_int = d->kind == 'i' || d->kind == 'u';
+    if ((kind == 'i' && !is_int) || (kind == 'f' && d->kind != 'f'))
+        return fail(err, errlen, "%s: %s is not %s dataset", s->path, name, kind == 'i' ? "an integer" : "a real");
+    if (d->rank != rank)
+        return fail(err, errlen, "%s: %s has rank %d, want %d", s->path, name, d->rank, rank);
+    if (rows && d->dims[0] != rows)
+        return fail(err, errlen, "%s: %s has %llu rows, want %llu", s->path, name,
+                    (unsigned long long)d->dims[0], (unsigned long long)rows);
+    if (rank == 2 && d->dims[1] != 2 && d->dims[1] != 3)
+        return fail(err, errlen, "%s: %s has %llu columns; export writes 2D and 3D positions", s->path, name,
+                    (unsigned long long)d->dims[1]);
+    switch (pdla_h5_dset_stored(d, esize)) {
+    case PDLA_H5_STORED: return 0;
+    case PDLA_H5_TOO_LARGE:
+        return fail(err, errlen, "%s: %s declares %llu elements, more than this machine can address", s->path,
+                    name, (unsigned long long)d->elems);
+    default:
+        return fail(err, errlen,
+                    "%s: %s declares %llu elements but the file stores only %llu bytes of it "
+                    "(damaged or not written by pdla)",
+                    s->path, name, (unsigned long long)d->elems, (unsigned long long)d->stored);
+    }
+}
+
+static int open_ensemble(exp_src *s, int64_t cluster, char *err, size_t errlen)
+{
+    const char *const name = "/clusters/positions";
+    int64_t v = 0;
+    if (pdla_h5_attr_number(s->file, "format_version", PDLA_H5_I64, &v) != 0 || v != 1)
+        return fail(err, errlen, "%s: unsupported format_version (this pdla reads version 1)", s->path);
+    if (H5Lexists(s->file, "/ensemble", H5P_DEFAULT) <= 0)
+        return fail(err, errlen, "%s: no /ensemble group", s->path);
+    const hid_t g = H5Oopen(s->file, "/ensemble", H5P_DEFAULT);
+    const int ok = g >= 0 && pdla_h5_attr_number(g, "clusters", PDLA_H5_U64, &s->clusters) == 0;
+    if (g >= 0) H5Oclose(g);
+    if (!ok || s->clusters == 0) return fail(err, errlen, "%s: no valid /ensemble clusters attribute", s->path);
+    if (H5Lexists(s->file, "/clusters", H5P_DEFAULT) <= 0 || H5Lexists(s->file, name, H5P_DEFAULT) <= 0)
+        return fail(err, errlen, "%s holds no positions (grown without --keep-positions)", s->path);
+    if (open_checked(s, name, &s->pos, 2, 0, 'i', sizeof(int32_t), err, errlen)) return -1;
+    if (pdla_h5_attr_number(s->pos.id, "rows_per_cluster", PDLA_H5_U64, &s->per_cluster) != 0 ||
+        s->per_cluster == 0 || s->per_cluster > UINT64_MAX / s->clusters ||
+        s->per_cluster * s->clusters != s->pos.dims[0])
+        return fail(err, errlen, "%s: %s has %llu rows, not /ensemble clusters x rows_per_cluster", s->path, name,
+                    (unsigned long long)s->pos.dims[0]);
+    if (pdla_h5_attr_number(s->pos.id, "diameter_units", PDLA_H5_I64, &v) != 0 || v < 1 || v > 1 << 20)
+        return fail(err, errlen, "%s: no valid diameter_units attribute on %s", s->path, name);
+    s->units = (int)v;
+    char order[64];
+    s->arrival = pdla_h5_attr_str(s->pos.id, "order", order, sizeof order) == 0 && !strcmp(order, "arrival");
+    if (cluster >= 0 && (uint64_t)cluster >= s->clusters)
+        return fail(err, errlen, "--cluster %lld: %s has clusters 0..%llu", (long long)cluster, s->path,
+                    (unsigned long long)(s->clusters - 1));
+    s->cluster = cluster;
+    s->row0 = cluster >= 0 ? (uint64_t)cluster * s->per_cluster : 0;
+    s->n = cluster >= 0 ? s->per_cluster : s->pos.dims[0];
+    s->cluster_col = cluster < 0;
+    s->distance = 1;
+    s->unit_name = "diameters";
+    return 0;
+}
+
+static int open_dlca(exp_src *s, char *err, size_t errlen)
+{
+    pdla_h5_dset probe;
+    if (pdla_h5_dset_open(s->file, "/monomers/position", &probe) == 0) {
+        const int rank = probe.rank;
+        const uint64_t cols = rank == 2 ? probe.dims[1] : 1;
+        pdla_h5_dset_close(&probe);
+        if (rank != 2 || cols < 2 || cols > 3)
+            return fail(err, errlen, "%s: a %lluD DLCA lattice; export writes 2D and 3D positions", s->path,
+                        (unsigned long long)cols);
+    }
+    if (open_checked(s, "/monomers/position", &s->pos, 2, 0, 'i', sizeof(int32_t), err, errlen) ||
+        open_checked(s, "/monomers/cluster", &s->cid, 1, s->pos.dims[0], 'i', sizeof(uint64_t), err, errlen))
+        return -1;
+    s->n = s->pos.dims[0];
+    s->units = 1;
+    s->cluster_col = 1;
+    s->unit_name = "lattice sites";
+    return 0;
+}
+
+static int open_event(exp_src *s, char *err, size_t errlen)
+{
+    if (open_checked(s, "/cluster/positions", &s->pos, 2, 0, 'f', sizeof(double), err, errlen) ||
+        open_checked(s, "/cluster/radii", &s->radius, 1, s->pos.dims[0], 'f', sizeof(double), err, errlen))
+        return -1;
+    s->n = s->pos.dims[0];
+    s->real = 1;
+    s->units = 1;
+    s->arrival = 1; /* the stuck particles, in arrival order */
+    s->unit_name = "model lengths";
+    return 0;
+}
+
+int exp_src_open(exp_src *s, const char *path, int64_t cluster, char *err, size_t errlen)
+{
+    memset(s, 0, sizeof *s);
+    s->path = path;
+    s->file = s->pos.id = s->radius.id = s->cid.id = H5I_INVALID_HID;
+    s->dla.file = s->dla.pos.id = H5I_INVALID_HID;
+    s->cluster = -1;
+    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    char model[64];
+    const int has_model = pdla_h5_file_model(path, model, sizeof model) == 0;
+    const int ens = !has_model && ens_analyze_is_ensemble(path);
+    if (!has_model && !ens) {
+        /* A DLA cluster file, or h5read.c says what it is not. */
+        s->kind = EXP_DLA;
+        if (cluster >= 0) {
+            if (h5r_open(&s->dla, path, err, errlen)) return -1;
+            h5r_close(&s->dla);
+            return fail(err, errlen, "--cluster applies to ensemble files; %s is one cluster", path);
+        }
+        if (h5r_open(&s->dla, path, err, errlen)) return -1;
+        s->pos = s->dla.pos;
+        s->dim = s->dla.dim;
+        s->n = s->dla.n;
+        s->units = s->dla.diameter_units;
+        s->arrival = s->dla.arrival;
+        s->distance = 1;
+        s->unit_name = "diameters";
+        return 0;
+    }
+    s->kind = ens ? EXP_ENSEMBLE : !strcmp(model, "dlca") ? EXP_DLCA : !strcmp(model, "event") ? EXP_EVENT : -1;
+    if (s->kind < 0) return fail(err, errlen, "%s: model \"%s\" holds no particles export knows", path, model);
+    if (cluster >= 0 && s->kind != EXP_ENSEMBLE)
+        return fail(err, errlen, "--cluster applies to ensemble files; %s is a %s file", path, model);
+    if ((s->file = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT)) < 0)
+        return fail(err, errlen, "%s: HDF5 cannot open it (damaged?)", path);
+    const int rc = s->kind == EXP_ENSEMBLE ? open_ensemble(s, cluster, err, errlen)
+                   : s->kind == EXP_DLCA   ? open_dlca(s, err, errlen)
+                                           : open_event(s, err, errlen);
+    if (rc) {
+        exp_src_close(s);
+        return -1;
+    }
+    s->dim = (int)s->pos.dims[1];
+    return 0;
+}
+
+int exp_src_stream(exp_src *s, size_t slab_rows, exp_fn fn, void *user, char *err, size_t errlen)
+{
+    if (slab_rows < 1 || slab_rows > H5R_MAX_SLAB_ROWS) slab_rows = H5R_MAX_SLAB_ROWS;
+    if (s->n == 0) return 0;
+    if (s->n < slab_rows) slab_rows = (size_t)s->n;
+    const size_t dim = (size_t)s->dim;
+    void *pos = malloc(slab_rows * dim * (s->real ? sizeof(double) : sizeof(int32_t)));
+    double *radius = s->radius.id >= 0 ? malloc(slab_rows * sizeof *radius) : NULL;
+    uint64_t *cl = s->cluster_col ? malloc(slab_rows * sizeof *cl) : NULL;
+    uint64_t *index = malloc(slab_rows * sizeof *index);
+    int rc = 0;
+    if (!pos || !index || (s->radius.id >= 0 && !radius) || (s->cluster_col && !cl))
+        rc = fail(err, errlen, "out of memory for %zu rows", slab_rows);
+    for (uint64_t first = 0; first < s->n && rc == 0; first += slab_rows) {
+        const uint64_t left = s->n - first, row = s->row0 + first;
+        const size_t rows = left < slab_rows ? (size_t)left : slab_rows;
+        const char *bad = NULL;
+        if (pdla_h5_dset_read(&s->pos, s->real ? PDLA_H5_F64 : PDLA_H5_I32, row, rows, pos) < 0) bad = "positions";
+        else if (radius && pdla_h5_dset_read(&s->radius, PDLA_H5_F64, row, rows, radius) < 0) bad = "radii";
+        else if (cl && s->cid.id >= 0 && pdla_h5_dset_read(&s->cid, PDLA_H5_U64, row, rows, cl) < 0)
+            bad = "cluster ids";
+        if (bad) {
+            rc = fail(err, errlen, "%s: cannot read rows %llu..%llu of the %s (damaged?)", s->path,
+                      (unsigned long long)row, (unsigned long long)(row + rows - 1), bad);
+            break;
+        }
+        for (size_t i = 0; i < rows; i++) {
+            const uint64_t r = row + i;
+            index[i] = s->per_cluster ? r % s->per_cluster : r;
+            if (cl && s->cid.id < 0) cl[i] = r / s->per_cluster;
+        }
+        const exp_slab slab = {rows, first, s->real ? NULL : pos, s->real ? pos : NULL, radius, cl, index};
+        rc = fn(&slab, user);
+    }
+    free(pos), free(radius), free(cl), free(index);
+    return rc;
+}

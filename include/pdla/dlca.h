@@ -111,6 +111,24 @@ PDLA_API void dlca_destroy(dlca_sim *s);
 /* Run up to `attempts` more attempts (0: no limit) or until a stop
  * condition; returns the stop reason (DLCA_RUNNING if only `attempts` ran). */
 PDLA_API int dlca_run(dlca_sim *s, uint64_t attempts);
+/* The same, pausing (DLCA_RUNNING) before the first attempt at which the
+ * time is t_pause or later (t_pause <= 0: no pause). Pausing does not
+ * change the history. */
+PDLA_API int dlca_run_to(dlca_sim *s, uint64_t attempts, double t_pause);
+/* The time and the attempts so far (cheap, unlike dlca_get_stats). */
+PDLA_API double dlca_time(const dlca_sim *s);
+PDLA_API uint64_t dlca_attempts(const dlca_sim *s);
+
+/* The monomers of a start file (`--start`): a text file of one monomer a
+ * line, d integer coordinates (0 <= x_a < L_a) separated by blanks ('#'
+ * comments), or an HDF5 file with /monomers/position [N][d] (a DLCA
+ * cluster.h5). *sites (malloc'd, the caller frees) gets their k-indices in
+ * file order. 0, or PDLA_EINVAL with one line naming the file and the line
+ * or monomer: a coordinate outside the box, two monomers on one site, a
+ * wrong count of coordinates, no monomers. Start a run from them with
+ * dlca_create_sites. */
+PDLA_API int dlca_read_start(const char *path, const dlca_params *p, uint32_t **sites, uint64_t *n, char *err,
+                             size_t errlen);
 
 typedef struct dlca_stats {
     double t;              /* physical time, monomer-move units */
@@ -163,6 +181,18 @@ PDLA_API const dlca_row *dlca_series(const dlca_sim *s, size_t *n);
  * /series, /clusters, /monomers (site, cluster, position [N][d]), /Code. */
 PDLA_API int dlca_write_h5(const dlca_sim *s, const char *path, const char *command_line,
                            double wall_s, char *err, size_t errlen);
+
+/* Snapshots (`--snapshot-every T`): the sites and cluster numbers (as
+ * dlca_export_sites) at a time. Added to an existing DLCA cluster.h5 as
+ * /snapshots/<i> (i = 0, 1, ...), each with datasets site [N] and cluster
+ * [N] and attributes t, attempts, n_clusters. 0 or PDLA_EIO. */
+typedef struct dlca_snapshot {
+    double t;
+    uint64_t attempts, n_clusters;
+    uint32_t *site, *cluster;
+} dlca_snapshot;
+PDLA_API int dlca_write_snapshots_h5(const char *path, const dlca_snapshot *snaps, size_t n, uint64_t n_monomers,
+                                     char *err, size_t errlen);
 
 /* ParaView's XDMF 2 sidecar (xdmf.h) of a DLCA cluster.h5 just written
  * with n monomers: points at /monomers/position (site coordinates, lattice

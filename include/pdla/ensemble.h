@@ -127,6 +127,16 @@ PDLA_API int pdla_ens_journal_open(const char *dir, pdla_ens_journal **out, char
                                    size_t errlen);
 /* Make an opened journal appendable: cut the torn tail, if any. */
 PDLA_API int pdla_ens_journal_begin_append(pdla_ens_journal *j, char *err, size_t errlen);
+/* Extend the ensemble of opened journal j to `clusters` (> its M): the
+ * journal is rewritten with the new count in its header and its complete
+ * records (a torn tail is dropped) into a temporary file, fsync'ed and
+ * renamed over it, so a crash leaves the old or the new journal whole. The
+ * recorded clusters stay valid because cluster i is seed S + i whatever M.
+ * j is closed in every case; the reopened journal (read-only, as after
+ * pdla_ens_journal_open) is returned in *out on success. PDLA_EINVAL:
+ * clusters <= M or a seed range past 2^64 - 1 (nothing written). */
+PDLA_API int pdla_ens_journal_extend(pdla_ens_journal *j, uint64_t clusters, pdla_ens_journal **out,
+                                     char *err, size_t errlen);
 PDLA_API const pdla_ens_config *pdla_ens_journal_config(const pdla_ens_journal *j);
 /* Clusters recorded, and whether cluster i is. */
 PDLA_API uint64_t pdla_ens_journal_count(const pdla_ens_journal *j);

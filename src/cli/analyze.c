@@ -30,7 +30,6 @@
 #include "pdla/pdla.h"
 #include "dlca_cmd.h"
 #include "h5read.h"
-#include "optcheck.h"
 #include "parse.h"
 #include "tools.h"
 
@@ -186,13 +185,7 @@ static int parse_options(int argc, char **argv, analyze_opts *o)
         {NULL, 0, NULL, 0}};
     int c;
     long v;
-    opterr = 0;
-    optind = 1;
-    char oerr[160];
-    if (optcheck_exact(argc, argv, longopts, "h", oerr, sizeof oerr)) {
-        fprintf(stderr, "pdla analyze: %s\n", oerr);
-        return TOOL_USAGE;
-    }
+    if (tools_options_begin("analyze", argc, argv, longopts, "h")) return TOOL_USAGE;
     while ((c = getopt_long(argc, argv, "h", longopts, NULL)) != -1) {
         const char *bad = NULL;
         switch (c) {

@@ -14,6 +14,7 @@
  */
 #include <errno.h>
 #include <getopt.h>
+#include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -30,7 +31,7 @@
 
 enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 enum { OPT_MODEL = 1000, OPT_SCENE, OPT_OUT, OPT_FORCE, OPT_NO_OUTPUT, OPT_QUIET, OPT_HELP, OPT_CHECK, OPT_CKPT,
-       OPT_RESUME, OPT_CKPT_EVERY, OPT_CKPT_ATTEMPTS, OPT_TABLE = 2000 };
+       OPT_RESUME, OPT_CKPT_EVERY, OPT_CKPT_ATTEMPTS, OPT_START, OPT_SNAPSHOT_EVERY, OPT_TABLE = 2000 };
 
 typedef struct dlca_cli {
     dlca_params p;
@@ -40,6 +41,11 @@ typedef struct dlca_cli {
     uint64_t checkpoint_attempts; /* 0: none */
     uint32_t given;               /* DLCA_PARAM_* bits of the rows set by options or the scene */
     const char *resume;
+    const char *start;            /* --start FILE: the monomers' sites */
+    double snapshot_every;        /* --snapshot-every T (model time); 0: none */
+    dlca_snapshot *snaps;         /* taken so far */
+    size_t nsnaps;
+    uint64_t n_monomers;          /* of the run (set when it starts) */
 } dlca_cli;
 
 static volatile sig_atomic_t stop_signal;
@@ -92,8 +98,16 @@ static void print_help(FILE *o)
                 def[0] ? " [default " : "", def, def[0] ? "]" : "");
     }
     fprintf(o, "\nRun options:\n"
-               "  --scene FILE                       read KEY = VALUE lines (model = dlca, the keys above, out, force,\n"
-               "                                     check, checkpoint, checkpoint_every, checkpoint_attempts)\n"
+               "  --scene FILE                       read KEY = VALUE lines (model = dlca, the keys above and the run\n"
+               "                                     options' long names with '_' or '-')\n"
+               "  --start FILE                       start from the monomers in FILE instead of at random: a text file\n"
+               "                                     of one monomer a line, D integer coordinates 0 <= x < L ('#'\n"
+               "                                     comments), or an HDF5 file with /monomers/position (a DLCA\n"
+               "                                     cluster.h5); --fill and --count are then not used\n"
+               "  --snapshot-every T                 also store the sites and cluster ids at times T, 2T, ... in\n"
+               "                                     cluster.h5 (/snapshots/0, 1, ...; kept in memory until written,\n"
+               "                                     8 bytes per monomer each; those of a run before --resume are not\n"
+               "                                     carried over)\n"
                "  --out DIR                          run directory (default runs/dlca-YYYYmmdd-HHMMSS-<d>d)\n"
                "  --force                            write into an existing run directory\n"
                "  --no-output                        write no files\n"
@@ -109,6 +123,41 @@ static void print_help(FILE *o)
                "  --help                             this text\n");
 }
 
+/* yes/no into *f: 0, or -1 with the message. */
+static int set_flag(int *f, const char *k, const char *val, char *err, size_t errlen)
+{
+    if (!strcmp(val, "yes") || !strcmp(val, "true") || !strcmp(val, "1")) *f = 1;
+    else if (!strcmp(val, "no") || !strcmp(val, "false") || !strcmp(val, "0")) *f = 0;
+    else {
+        snprintf(err, errlen, "invalid %s '%s' (yes or no)", k, val);
+        return -1;
+    }
+    return 0;
+}
+
+/* A run option with a value: 0, 1 (not one of them) or -1 with the message. */
+static int set_run_value(dlca_cli *c, const char *k, const char *val, char *err, size_t errlen)
+{
+    const char *bad = NULL;
+    if (!strcmp(k, "out")) c->out = val;
+    else if (!strcmp(k, "resume")) c->resume = val;
+    else if (!strcmp(k, "start")) c->start = val;
+    else if (!strcmp(k, "checkpoint-every")) {
+        bad = cli_parse_duration(val, &c->checkpoint_every);
+        c->checkpoint = 1;
+    } else if (!strcmp(k, "checkpoint-attempts")) {
+        bad = cli_parse_count(val, &c->checkpoint_attempts);
+        if (!bad && c->checkpoint_attempts == 0) bad = "must be at least 1";
+        c->checkpoint = 1;
+    } else if (!strcmp(k, "snapshot-every")) {
+        bad = cli_parse_real(val, &c->snapshot_every);
+        if (!bad && !(c->snapshot_every > 0)) bad = "must be above 0 (a time in monomer moves)";
+    } else return 1;
+    if (!bad) return 0;
+    snprintf(err, errlen, "invalid value '%s' for %s: %s", val, k, bad);
+    return -1;
+}
+
 static int set_key(dlca_cli *c, const char *key, const char *val, char *err, size_t errlen)
 {
     char k[64];
@@ -122,31 +171,12 @@ static int set_key(dlca_cli *c, const char *key, const char *val, char *err, siz
         }
         return 0;
     }
-    if (strcmp(k, "out") == 0) {
-        c->out = val;
-        return 0;
-    }
-    if (strcmp(k, "checkpoint-every") == 0 || strcmp(k, "checkpoint-attempts") == 0) {
-        const char *bad = k[11] == 'e' ? cli_parse_duration(val, &c->checkpoint_every)
-                                       : cli_parse_count(val, &c->checkpoint_attempts);
-        if (!bad && k[11] == 'a' && c->checkpoint_attempts == 0) bad = "must be at least 1";
-        if (bad) {
-            snprintf(err, errlen, "invalid value '%s' for %s: %s", val, k, bad);
-            return -1;
-        }
-        c->checkpoint = 1;
-        return 0;
-    }
-    if (strcmp(k, "force") == 0 || strcmp(k, "check") == 0 || strcmp(k, "checkpoint") == 0) {
-        int *f = k[0] == 'f' ? &c->force : strcmp(k, "checkpoint") == 0 ? &c->checkpoint : &c->check;
-        if (!strcmp(val, "yes") || !strcmp(val, "true") || !strcmp(val, "1")) *f = 1;
-        else if (!strcmp(val, "no") || !strcmp(val, "false") || !strcmp(val, "0")) *f = 0;
-        else {
-            snprintf(err, errlen, "invalid %s '%s' (yes or no)", k, val);
-            return -1;
-        }
-        return 0;
-    }
+    const int rv = set_run_value(c, k, val, err, errlen);
+    if (rv <= 0) return rv;
+    int *flag = !strcmp(k, "force") ? &c->force : !strcmp(k, "check") ? &c->check
+              : !strcmp(k, "checkpoint") ? &c->checkpoint : !strcmp(k, "no-output") ? &c->no_output
+              : !strcmp(k, "quiet") ? &c->quiet : NULL;
+    if (flag) return set_flag(flag, k, val, err, errlen);
     size_t n;
     const pdla_param_desc *t = dlca_param_table(&n);
     const pdla_param_desc *d = pdla_param_find(t, n, k);
@@ -227,6 +257,8 @@ static int parse(int argc, char **argv, dlca_cli *c, char **scene_buf, char *err
         {"checkpoint", no_argument, NULL, OPT_CKPT},   {"resume", required_argument, NULL, OPT_RESUME},
         {"checkpoint-every", required_argument, NULL, OPT_CKPT_EVERY},
         {"checkpoint-attempts", required_argument, NULL, OPT_CKPT_ATTEMPTS},
+        {"start", required_argument, NULL, OPT_START},
+        {"snapshot-every", required_argument, NULL, OPT_SNAPSHOT_EVERY},
         {NULL, 0, NULL, 0}};
     _Static_assert(sizeof extra / sizeof extra[0] <= 16, "extra[] outgrew lo");
     memcpy(lo + n, extra, sizeof extra);
@@ -251,48 +283,13 @@ static int parse(int argc, char **argv, dlca_cli *c, char **scene_buf, char *err
         snprintf(err, errlen, "unexpected argument '%s'", argv[optind]);
         rc = -1;
     }
+    /* Pass 2: the options in order, each through the scene's keys. */
     optind = 1;
-    while (rc == 0 && (opt = getopt_long(argc, argv, ":q", lo, NULL)) != -1) {
-        char why[512];
-        switch (opt) {
-        case OPT_MODEL: rc = set_key(c, "model", optarg, err, errlen); break;
-        case OPT_OUT: c->out = optarg; break;
-        case OPT_FORCE: c->force = 1; break;
-        case OPT_NO_OUTPUT: c->no_output = 1; break;
-        case OPT_CHECK: c->check = 1; break;
-        case OPT_CKPT: c->checkpoint = 1; break;
-        case OPT_CKPT_EVERY: {
-            const char *bad = cli_parse_duration(optarg, &c->checkpoint_every);
-            if (bad) {
-                snprintf(err, errlen, "invalid value '%s' for --checkpoint-every: %s", optarg, bad);
-                rc = -1;
-            }
-            c->checkpoint = 1;
-            break;
-        }
-        case OPT_CKPT_ATTEMPTS: {
-            const char *bad = cli_parse_count(optarg, &c->checkpoint_attempts);
-            if (!bad && c->checkpoint_attempts == 0) bad = "must be at least 1";
-            if (bad) {
-                snprintf(err, errlen, "invalid value '%s' for --checkpoint-attempts: %s", optarg, bad);
-                rc = -1;
-            }
-            c->checkpoint = 1;
-            break;
-        }
-        case OPT_RESUME: c->resume = optarg; break;
-        case 'q':
-        case OPT_QUIET: c->quiet = 1; break;
-        case OPT_SCENE: break;
-        default:
-            if (opt >= OPT_TABLE && opt < OPT_TABLE + (int)n) {
-                c->given |= t[opt - OPT_TABLE].bit;
-                if (dlca_param_set(&c->p, &t[opt - OPT_TABLE], optarg, why, sizeof why)) {
-                    snprintf(err, errlen, "%s", why);
-                    rc = -1;
-                }
-            }
-        }
+    int li = 0;
+    while (rc == 0 && (opt = getopt_long(argc, argv, ":q", lo, &li)) != -1) {
+        if (opt == 'q') c->quiet = 1;
+        else if (opt != OPT_HELP && opt != OPT_SCENE)
+            rc = set_key(c, lo[li].name, lo[li].has_arg ? optarg : "yes", err, errlen);
     }
     free(lo);
     return rc;
@@ -369,16 +366,18 @@ static char *join_args(int argc, char **argv)
 
 /* Write what = "cluster" or "checkpoint" as DIR/what.h5 (beside, then
  * renamed, so that a reader never sees half a file). 0 or -1 with err. */
-static int write_file(const dlca_sim *s, const char *dir, const char *what, const char *cmd, double wall, char *err,
-                      size_t errlen)
+static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, const char *what, const char *cmd,
+                      double wall, char *err, size_t errlen)
 {
     char path[4200], tmp[4200];
     snprintf(path, sizeof path, "%s/%s.h5", dir, what);
     snprintf(tmp, sizeof tmp, "%s/.%s.h5.new", dir, what);
     unlink(tmp);
     err[0] = '\0';
-    const int rc = what[1] == 'l' ? dlca_write_h5(s, tmp, cmd, wall, err, errlen)
-                                  : dlca_checkpoint_write(s, tmp, err, errlen);
+    int rc = what[1] == 'l' ? dlca_write_h5(s, tmp, cmd, wall, err, errlen)
+                            : dlca_checkpoint_write(s, tmp, err, errlen);
+    if (rc == 0 && what[1] == 'l' && c->nsnaps)
+        rc = dlca_write_snapshots_h5(tmp, c->snaps, c->nsnaps, c->n_monomers, err, errlen);
     if (rc || rename(tmp, path)) {
         if (!err[0]) snprintf(err, errlen, "cannot rename %.900s: %s", tmp, strerror(errno));
         unlink(tmp);
@@ -397,23 +396,68 @@ enum { ASKED_NONE = 0, ASKED_SIGNAL, ASKED_FILE };
 /* The run loop: chunks of attempts between which the signal flag, the
  * checkpoint triggers and RUN_DIR/STOP are looked at. Returns the stop
  * reason; *asked says whether a signal or the STOP file ended it. */
-static int run_loop(dlca_sim *s, const dlca_cli *c, const char *dir, const char *cmd, int *asked, int *ck_failed)
+/* A snapshot of the state now (sites and cluster numbers); -1 on no memory. */
+static int take_snapshot(const dlca_sim *s, dlca_cli *c)
 {
-    dlca_stats st;
-    dlca_get_stats(s, &st);
-    uint64_t att = st.attempts, next_att = 0;
+    dlca_snapshot *sn = realloc(c->snaps, (c->nsnaps + 1) * sizeof *sn);
+    if (!sn) return -1;
+    c->snaps = sn;
+    sn += c->nsnaps;
+    sn->site = malloc(c->n_monomers * sizeof *sn->site);
+    sn->cluster = malloc(c->n_monomers * sizeof *sn->cluster);
+    if (!sn->site || !sn->cluster) {
+        free(sn->site), free(sn->cluster);
+        return -1;
+    }
+    dlca_export_sites(s, sn->site, sn->cluster);
+    sn->t = dlca_time(s);
+    sn->attempts = dlca_attempts(s);
+    sn->n_clusters = 0;
+    for (uint64_t i = 0; i < c->n_monomers; i++)
+        if (sn->cluster[i] + 1 > sn->n_clusters) sn->n_clusters = sn->cluster[i] + 1;
+    c->nsnaps++;
+    return 0;
+}
+
+static void free_snapshots(dlca_cli *c)
+{
+    for (size_t i = 0; i < c->nsnaps; i++) free(c->snaps[i].site), free(c->snaps[i].cluster);
+    free(c->snaps);
+    c->snaps = NULL;
+    c->nsnaps = 0;
+}
+
+/* Is it time for a snapshot (the first attempt at or after the next
+ * multiple of T)? Then take it; *next becomes the multiple after now. */
+static int snapshot_due(const dlca_sim *s, dlca_cli *c, double *next)
+{
+    if (!(*next > 0) || dlca_time(s) < *next) return 0;
+    *next = (floor(dlca_time(s) / c->snapshot_every) + 1) * c->snapshot_every;
+    if (take_snapshot(s, c) == 0) return 0;
+    fprintf(stderr, "pdla: out of memory for a snapshot at t = %g\n", dlca_time(s));
+    return -1;
+}
+
+/* The run loop: chunks of attempts between which the signal flag, the
+ * checkpoint triggers, snapshots and RUN_DIR/STOP are looked at. Returns
+ * the stop reason; *asked says whether a signal or the STOP file ended it. */
+static int run_loop(dlca_sim *s, dlca_cli *c, const char *dir, const char *cmd, int *asked, int *ck_failed)
+{
+    uint64_t att = dlca_attempts(s), next_att = 0;
     const uint64_t every = c->checkpoint_attempts;
     if (every) next_att = (att / every + 1) * every;
     double next_time = c->checkpoint_every > 0 ? wall_now() + c->checkpoint_every : 0, last_look = wall_now();
+    double next_snap = c->snapshot_every > 0 ? (floor(dlca_time(s) / c->snapshot_every) + 1) * c->snapshot_every : 0;
     char stop_path[4200], err[1024];
     snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
     *asked = ASKED_NONE;
     for (;;) {
         uint64_t chunk = 1u << 16; /* a signal waits at most a chunk: milliseconds */
         if (next_att && next_att - att < chunk) chunk = next_att - att;
-        const int stop = dlca_run(s, chunk);
+        const int stop = dlca_run_to(s, chunk, next_snap);
+        if (snapshot_due(s, c, &next_snap)) (*ck_failed)++;
         if (stop != DLCA_RUNNING) return stop;
-        att += chunk;
+        att = dlca_attempts(s);
         if (stop_signal) {
             *asked = ASKED_SIGNAL;
             return stop;
@@ -421,7 +465,7 @@ static int run_loop(dlca_sim *s, const dlca_cli *c, const char *dir, const char 
         if (!c->checkpoint) continue;
         const double now = wall_now();
         if ((next_att && att >= next_att) || (next_time > 0 && now >= next_time)) {
-            if (write_file(s, dir, "checkpoint", cmd, 0, err, sizeof err)) {
+            if (write_file(s, c, dir, "checkpoint", cmd, 0, err, sizeof err)) {
                 fprintf(stderr, "pdla: checkpoint failed: %s\n", err);
                 (*ck_failed)++;
             }
@@ -450,6 +494,10 @@ static int read_command(int argc, char **argv, dlca_cli *c, char **scene_buf)
     if (prc == 1) {
         print_help(stdout);
         return fflush(stdout) ? EXIT_RUNTIME : 0;
+    }
+    if (prc == 0 && c->resume && c->start) {
+        snprintf(err, sizeof err, "--start and --resume exclude each other (a resumed run starts from its checkpoint)");
+        prc = -1;
     }
     if (prc == 0 && c->resume) c->checkpoint = 1; /* as in the DLA command: a resumed run goes on checkpointing */
     if (prc == 0 && c->no_output && c->checkpoint) {
@@ -515,14 +563,34 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
     return 0;
 }
 
+/* A new simulation: at random, or from the --start file. */
+static int new_sim(const dlca_cli *c, dlca_sim **s, char *err, size_t errlen)
+{
+    if (!c->start) return dlca_create(s, &c->p, err, errlen);
+    uint32_t *sites;
+    uint64_t n;
+    const int rc = dlca_read_start(c->start, &c->p, &sites, &n, err, errlen);
+    if (rc) return rc;
+    const int crc = dlca_create_sites(s, &c->p, sites, n, err, errlen);
+    free(sites);
+    return crc;
+}
+
 /* The simulation to run (resumed or new) and its run directory: 0, or the
  * exit status with the line printed. */
 static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
 {
     *s = NULL;
+    char err[1024];
     if (c->resume) {
         const int rrc = resume_sim(c, dir, dirlen, s);
         if (rrc) return rrc;
+    } else {
+        const int rc = new_sim(c, s, err, sizeof err); /* before the directory: a bad start file makes none */
+        if (rc) {
+            fprintf(stderr, "pdla: %s\n", err);
+            return rc == PDLA_EINVAL ? EXIT_USAGE : EXIT_RUNTIME;
+        }
     }
     if (!c->no_output) {
         const int drc = make_dir(c, dir, dirlen);
@@ -532,12 +600,9 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
             return drc;
         }
     }
-    char err[1024];
-    const int rc = *s ? 0 : dlca_create(s, &c->p, err, sizeof err);
-    if (rc) {
-        fprintf(stderr, "pdla: %s\n", err);
-        return rc == PDLA_EINVAL ? EXIT_USAGE : EXIT_RUNTIME;
-    }
+    dlca_stats st;
+    dlca_get_stats(*s, &st);
+    c->n_monomers = st.n_monomers;
     if (c->checkpoint) {
         char stop_path[4200]; /* honoured before: a resume must not stop at once */
         snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
@@ -558,12 +623,12 @@ static int finish_files(const dlca_sim *s, const dlca_cli *c, const char *dir, c
         status = EXIT_RUNTIME;
     }
     if (c->no_output) return status;
-    if (write_file(s, dir, "cluster", cmd, wall, err, sizeof err)) {
+    if (write_file(s, c, dir, "cluster", cmd, wall, err, sizeof err)) {
         fprintf(stderr, "pdla: %s\n", err);
         status = EXIT_RUNTIME;
     }
     if (c->checkpoint) {
-        if (write_file(s, dir, "checkpoint", cmd, 0, err, sizeof err)) {
+        if (write_file(s, c, dir, "checkpoint", cmd, 0, err, sizeof err)) {
             fprintf(stderr, "pdla: checkpoint failed: %s\n", err);
             status = EXIT_RUNTIME;
         } else *final_ck = 1;
@@ -644,5 +709,6 @@ int dlca_cmd_main(int argc, char **argv)
     dlca_get_stats(s, &st);
     dlca_destroy(s);
     free(scene_buf);
+    free_snapshots(&c);
     return exit_status(status, asked, final_ck, st.attempts, dir);
 }

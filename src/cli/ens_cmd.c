@@ -66,7 +66,7 @@ static int install_signals(void)
 static void print_help(void)
 {
     printf("Usage: pdla ensemble --clusters M --target N --out DIR [OPTION]...\n"
-           "       pdla ensemble --resume DIR [--threads T]\n"
+           "       pdla ensemble --resume DIR [--threads T] [--clusters M2]\n"
            "Grow M independent DLA clusters of N particles, T at a time, into DIR/ensemble.h5:\n"
            "per cluster its R_g(N) series on a shared log grid, final R_g, R_ext, D_f fit,\n"
            "seed and timings; the ensemble statistics (`pdla analyze DIR/ensemble.h5`).\n"
@@ -83,7 +83,8 @@ static void print_help(void)
            "                      (default 4; 0: uncompressed); h5py and h5dump read both\n"
            "  --out DIR           ensemble directory (must not exist unless --force)\n"
            "  --force             write into an existing DIR (its old ensemble is removed)\n"
-           "  --resume DIR        go on with DIR's ensemble; growth options given must match\n"
+           "  --resume DIR        go on with DIR's ensemble; growth options given must match;\n"
+           "                      --clusters M2 larger than its M extends it to M2 clusters\n"
            "  -q, --progress, --no-progress, --scene FILE: as for pdla\n"
            "Every growth option of `pdla --help` (--dim, --target, --seed, --resolution, ...)\n"
            "applies to each cluster; --bind, checkpoints, --stats-json and --no-output do not.\n"
@@ -373,9 +374,25 @@ static int open_resume(ens_cmd *c)
         fprintf(stderr, "pdla ensemble: cannot resume: %s\n", c->err);
         return rc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
     }
-    if (pdla_ens_config_compare(pdla_ens_journal_config(c->j), &c->asked, c->o.given, c->a.clusters_given,
-                                c->a.keep_given, c->err, sizeof c->err)) {
+    /* --clusters M2 > M extends the ensemble (cluster i is seed S + i
+     * whatever M, so the recorded clusters stay valid); fewer would drop
+     * finished clusters. */
+    const uint64_t had = pdla_ens_journal_config(c->j)->clusters;
+    const int extend = c->a.clusters_given && c->a.clusters > had;
+    if (c->a.clusters_given && c->a.clusters < had) {
+        fprintf(stderr, "pdla ensemble: cannot resume: the ensemble has --clusters %" PRIu64 ", asked %" PRIu64
+                        " (an ensemble can be extended, not shrunk)\n", had, c->a.clusters);
+        return EXIT_USAGE;
+    }
+    if (pdla_ens_config_compare(pdla_ens_journal_config(c->j), &c->asked, c->o.given, 0, c->a.keep_given, c->err,
+                                sizeof c->err)) {
         fprintf(stderr, "pdla ensemble: %s\n", c->err);
+        return EXIT_USAGE;
+    }
+    pdla_ens_config wider = *pdla_ens_journal_config(c->j);
+    wider.clusters = c->a.clusters;
+    if (extend && pdla_ens_config_check(&wider, c->err, sizeof c->err)) {
+        fprintf(stderr, "pdla ensemble: cannot extend to --clusters %" PRIu64 ": %s\n", c->a.clusters, c->err);
         return EXIT_USAGE;
     }
     if (access(c->dir, W_OK)) {
@@ -386,13 +403,23 @@ static int open_resume(ens_cmd *c)
         fprintf(stderr, "pdla ensemble: note: cutting a torn record of %" PRIu64 " bytes (a cluster in flight)\n",
                 pdla_ens_journal_torn_bytes(c->j));
     remove_named(c->dir, 0);
+    if (extend) {
+        pdla_ens_journal *wide = NULL;
+        const int rc2 = pdla_ens_journal_extend(c->j, c->a.clusters, &wide, c->err, sizeof c->err);
+        c->j = wide; /* the old one is closed either way */
+        if (rc2) {
+            fprintf(stderr, "pdla ensemble: %s\n", c->err);
+            return EXIT_RUNTIME;
+        }
+    }
     if (pdla_ens_journal_begin_append(c->j, c->err, sizeof c->err)) {
         fprintf(stderr, "pdla ensemble: %s\n", c->err);
         return EXIT_RUNTIME;
     }
     if (!c->o.quiet)
-        fprintf(stderr, "pdla ensemble: resuming %s: %" PRIu64 " of %" PRIu64 " clusters recorded\n", c->dir,
-                pdla_ens_journal_count(c->j), pdla_ens_journal_config(c->j)->clusters);
+        fprintf(stderr, "pdla ensemble: resuming %s: %" PRIu64 " of %" PRIu64 " clusters recorded%s\n", c->dir,
+                pdla_ens_journal_count(c->j), pdla_ens_journal_config(c->j)->clusters,
+                extend ? " (extended)" : "");
     return GO_ON;
 }
 

@@ -3,27 +3,18 @@
  * and the tools' safe output files.
  */
 #include "h5read.h"
+#include "optcheck.h"
 
 #include "pdla/pdla.h"
 
 #include <errno.h>
 #include <fcntl.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
-
-static int fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    pdla_verrorf(-1, err, errlen, fmt, ap);
-    va_end(ap);
-    return -1;
-}
 
 /* Whether dataset d really stores its elements (each esize bytes in
  * memory) rather than merely declaring them (pdla_h5_dset_stored). 0, or
@@ -34,10 +25,10 @@ static int h5r_stored(const pdla_h5_dset *d, size_t esize, const char *path, con
     switch (pdla_h5_dset_stored(d, esize)) {
     case PDLA_H5_STORED: return 0;
     case PDLA_H5_TOO_LARGE:
-        return fail(err, errlen, "%s: %s declares %llu elements, more than this machine can address",
+        return pdla_errorf(-1, err, errlen, "%s: %s declares %llu elements, more than this machine can address",
                     path, name, (unsigned long long)d->elems);
     default:
-        return fail(err, errlen,
+        return pdla_errorf(-1, err, errlen,
                     "%s: %s declares %llu elements (%.0f bytes) but the file stores only %llu bytes "
                     "of it (damaged or not written by pdla)",
                     path, name, (unsigned long long)d->elems, (double)d->elems * (double)d->size,
@@ -57,16 +48,16 @@ static int open_file(h5r_file *f, char *err, size_t errlen)
 {
     const char *const path = f->path;
     struct stat st;
-    if (stat(path, &st) != 0) return fail(err, errlen, "cannot open %s: %s", path, strerror(errno));
-    if (S_ISDIR(st.st_mode)) return fail(err, errlen, "%s is a directory, not a cluster file", path);
+    if (stat(path, &st) != 0) return pdla_errorf(-1, err, errlen, "cannot open %s: %s", path, strerror(errno));
+    if (S_ISDIR(st.st_mode)) return pdla_errorf(-1, err, errlen, "%s is a directory, not a cluster file", path);
     /* A FIFO or device would block or never end. */
-    if (!S_ISREG(st.st_mode)) return fail(err, errlen, "%s is not a regular file, not a cluster file", path);
+    if (!S_ISREG(st.st_mode)) return pdla_errorf(-1, err, errlen, "%s is not a regular file, not a cluster file", path);
     const int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0) return fail(err, errlen, "cannot open %s: %s", path, strerror(errno));
+    if (fd < 0) return pdla_errorf(-1, err, errlen, "cannot open %s: %s", path, strerror(errno));
     close(fd);
-    if (H5Fis_hdf5(path) <= 0) return fail(err, errlen, "%s is not an HDF5 file", path);
+    if (H5Fis_hdf5(path) <= 0) return pdla_errorf(-1, err, errlen, "%s is not an HDF5 file", path);
     if ((f->file = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT)) < 0)
-        return fail(err, errlen, "%s: HDF5 cannot open it (damaged?)", path);
+        return pdla_errorf(-1, err, errlen, "%s: HDF5 cannot open it (damaged?)", path);
     return 0;
 }
 
@@ -75,13 +66,13 @@ static int check_format(h5r_file *f, char *err, size_t errlen)
 {
     char fmt[64];
     if (pdla_h5_attr_str(f->file, "format", fmt, sizeof fmt) < 0)
-        return fail(err, errlen, "%s is not a pdla cluster file (no format = \"pdla-cluster\" attribute)",
+        return pdla_errorf(-1, err, errlen, "%s is not a pdla cluster file (no format = \"pdla-cluster\" attribute)",
                     f->path);
     if (strcmp(fmt, "pdla-cluster") != 0)
-        return fail(err, errlen, "%s is not a pdla cluster file (format = \"%s\")", f->path, fmt);
+        return pdla_errorf(-1, err, errlen, "%s is not a pdla cluster file (format = \"%s\")", f->path, fmt);
     int64_t v = 0;
     if (pdla_h5_attr_number(f->file, "format_version", PDLA_H5_I64, &v) != 0 || v != 1)
-        return fail(err, errlen, "%s: unsupported format_version (this pdla reads version 1)", f->path);
+        return pdla_errorf(-1, err, errlen, "%s: unsupported format_version (this pdla reads version 1)", f->path);
     f->format_version = (int)v;
     return 0;
 }
@@ -93,15 +84,15 @@ static int open_positions(h5r_file *f, char *err, size_t errlen)
     if (H5Lexists(f->file, "/cluster", H5P_DEFAULT) <= 0 ||
         H5Lexists(f->file, "/cluster/positions", H5P_DEFAULT) <= 0 ||
         pdla_h5_dset_open(f->file, "/cluster/positions", &f->pos) < 0)
-        return fail(err, errlen, "%s has no /cluster/positions dataset", path);
+        return pdla_errorf(-1, err, errlen, "%s has no /cluster/positions dataset", path);
     const pdla_h5_dset *d = &f->pos;
     if (d->kind != 'i' && d->kind != 'u')
-        return fail(err, errlen, "%s: /cluster/positions is not an integer dataset", path);
+        return pdla_errorf(-1, err, errlen, "%s: /cluster/positions is not an integer dataset", path);
     if (d->rank != 2)
-        return fail(err, errlen, "%s: /cluster/positions has rank %d; want [N][2] or [N][3]", path,
+        return pdla_errorf(-1, err, errlen, "%s: /cluster/positions has rank %d; want [N][2] or [N][3]", path,
                     d->rank);
     if (d->dims[1] != 2 && d->dims[1] != 3)
-        return fail(err, errlen, "%s: /cluster/positions has %llu columns; want 2 or 3", path,
+        return pdla_errorf(-1, err, errlen, "%s: /cluster/positions has %llu columns; want 2 or 3", path,
                     (unsigned long long)d->dims[1]);
     f->n = d->dims[0];
     f->dim = (int)d->dims[1];
@@ -122,7 +113,7 @@ static int read_units(h5r_file *f, char *err, size_t errlen)
                 f->diameter_units = res >= 1 && res <= 1 << 20 ? (int)res : -1;
             H5Oclose(g);
             if (have && pd != f->dim)
-                return fail(err, errlen,
+                return pdla_errorf(-1, err, errlen,
                             "%s: /cluster/positions has %d columns but /parameters dim = %lld", f->path,
                             f->dim, (long long)pd);
         }
@@ -132,7 +123,7 @@ static int read_units(h5r_file *f, char *err, size_t errlen)
     if (pdla_h5_attr_number(f->pos.id, "diameter_units", PDLA_H5_I64, &v) == 0)
         f->diameter_units = v >= 1 && v <= 1 << 20 ? (int)v : -1;
     if (f->diameter_units < 1 || f->diameter_units > 1 << 20)
-        return fail(err, errlen, "%s: no valid diameter_units attribute on /cluster/positions", f->path);
+        return pdla_errorf(-1, err, errlen, "%s: no valid diameter_units attribute on /cluster/positions", f->path);
     return 0;
 }
 
@@ -161,13 +152,13 @@ int h5r_stream(h5r_file *f, size_t slab_rows, h5r_rows_fn fn, void *user, char *
     if (f->n < slab_rows) slab_rows = (size_t)f->n;
     const size_t dim = (size_t)f->dim;
     int32_t *buf = malloc(slab_rows * dim * sizeof *buf);
-    if (!buf) return fail(err, errlen, "out of memory for %zu rows", slab_rows);
+    if (!buf) return pdla_errorf(-1, err, errlen, "out of memory for %zu rows", slab_rows);
     int rc = 0;
     for (uint64_t first = 0; first < f->n && rc == 0; first += slab_rows) {
         const uint64_t left = f->n - first;
         const size_t rows = left < slab_rows ? (size_t)left : slab_rows;
         if (pdla_h5_dset_read(&f->pos, PDLA_H5_I32, first, rows, buf) < 0) {
-            rc = fail(err, errlen, "%s: cannot read rows %llu..%llu of /cluster/positions (damaged?)",
+            rc = pdla_errorf(-1, err, errlen, "%s: cannot read rows %llu..%llu of /cluster/positions (damaged?)",
                       f->path, (unsigned long long)first, (unsigned long long)(first + rows - 1));
         } else {
             rc = fn(buf, rows, first, user);
@@ -188,22 +179,22 @@ static int read_1d(h5r_file *f, const char *name, pdla_h5_type mt, size_t esize,
     const htri_t hn = hg > 0 ? H5Lexists(f->file, name, H5P_DEFAULT) : 0;
     if (hg < 0 || hn < 0 || (hg > 0 && H5Oexists_by_name(f->file, "/gyration", H5P_DEFAULT) <= 0) ||
         (hn > 0 && H5Oexists_by_name(f->file, name, H5P_DEFAULT) <= 0))
-        return fail(err, errlen, "%s: cannot follow the link to %s (damaged?)", f->path, name);
+        return pdla_errorf(-1, err, errlen, "%s: cannot follow the link to %s (damaged?)", f->path, name);
     if (hn <= 0) return 0;
     pdla_h5_dset d;
-    if (pdla_h5_dset_open(f->file, name, &d) < 0) return fail(err, errlen, "%s: cannot open %s", f->path, name);
+    if (pdla_h5_dset_open(f->file, name, &d) < 0) return pdla_errorf(-1, err, errlen, "%s: cannot open %s", f->path, name);
     const uint64_t rows = d.dims[0];
     int rc = 0;
     if (d.rank != 1) {
-        rc = fail(err, errlen, "%s: %s is not one-dimensional", f->path, name);
+        rc = pdla_errorf(-1, err, errlen, "%s: %s is not one-dimensional", f->path, name);
     } else if (rows > 0 && h5r_stored(&d, esize, f->path, name, err, errlen)) {
         rc = -1;
     } else if (rows > 0) {
         void *buf = malloc((size_t)rows * esize);
-        if (!buf) rc = fail(err, errlen, "out of memory reading %s", name);
+        if (!buf) rc = pdla_errorf(-1, err, errlen, "out of memory reading %s", name);
         else if (pdla_h5_dset_read(&d, mt, 0, rows, buf) < 0) {
             free(buf);
-            rc = fail(err, errlen, "%s: cannot read %s (damaged?)", f->path, name);
+            rc = pdla_errorf(-1, err, errlen, "%s: cannot read %s (damaged?)", f->path, name);
         } else {
             *out = buf;
             *k = (size_t)rows;
@@ -229,7 +220,7 @@ int h5r_read_series(h5r_file *f, uint64_t **n, double **rg_diam, size_t *k, char
     if (kn != kr) {
         free(pn);
         free(pr);
-        return fail(err, errlen, "%s: /gyration/N has %zu rows but /gyration/rg_diam %zu", f->path,
+        return pdla_errorf(-1, err, errlen, "%s: /gyration/N has %zu rows but /gyration/rg_diam %zu", f->path,
                     kn, kr);
     }
     *n = pn;
@@ -274,13 +265,13 @@ int h5r_read_attrs(h5r_file *f, const char *where, h5r_attrs *out, char *err, si
     memset(out, 0, sizeof *out);
     if (strcmp(where, "/") != 0 && H5Lexists(f->file, where, H5P_DEFAULT) <= 0) return 0;
     const hid_t o = H5Oopen(f->file, where, H5P_DEFAULT);
-    if (o < 0) return fail(err, errlen, "%s: cannot open %s", f->path, where);
+    if (o < 0) return pdla_errorf(-1, err, errlen, "%s: cannot open %s", f->path, where);
     hsize_t idx = 0;
     const herr_t r = H5Aiterate2(o, H5_INDEX_NAME, H5_ITER_INC, &idx, attr_cb, out);
     H5Oclose(o);
     if (r < 0) {
         h5r_attrs_free(out);
-        return fail(err, errlen, "%s: cannot read the attributes of %s", f->path, where);
+        return pdla_errorf(-1, err, errlen, "%s: cannot read the attributes of %s", f->path, where);
     }
     return 0;
 }
@@ -310,16 +301,16 @@ double h5r_attr_num(const h5r_attrs *a, const char *name)
 int tools_out_check(const char *path, int force, char *err, size_t errlen)
 {
     struct stat st;
-    if (!path || !path[0]) return fail(err, errlen, "no output path given");
+    if (!path || !path[0]) return pdla_errorf(-1, err, errlen, "no output path given");
     if (lstat(path, &st) == 0) {
-        if (S_ISDIR(st.st_mode)) return fail(err, errlen, "%s is a directory", path);
-        if (!force) return fail(err, errlen, "%s exists; not overwriting it (use --force)", path);
+        if (S_ISDIR(st.st_mode)) return pdla_errorf(-1, err, errlen, "%s is a directory", path);
+        if (!force) return pdla_errorf(-1, err, errlen, "%s exists; not overwriting it (use --force)", path);
     } else if (errno != ENOENT) {
-        return fail(err, errlen, "cannot check %s: %s", path, strerror(errno));
+        return pdla_errorf(-1, err, errlen, "cannot check %s: %s", path, strerror(errno));
     }
     /* The directory it goes into must exist and take new files. */
     char *dir = strdup(path);
-    if (!dir) return fail(err, errlen, "out of memory");
+    if (!dir) return pdla_errorf(-1, err, errlen, "out of memory");
     char *const slash = strrchr(dir, '/');
     const char *d = ".";
     if (slash == dir) d = "/";
@@ -330,7 +321,7 @@ int tools_out_check(const char *path, int force, char *err, size_t errlen)
     const int ok = access(d, W_OK | X_OK) == 0;
     const int e = errno;
     free(dir);
-    if (!ok) return fail(err, errlen, "cannot write %s: %s", path, strerror(e));
+    if (!ok) return pdla_errorf(-1, err, errlen, "cannot write %s: %s", path, strerror(e));
     return 0;
 }
 
@@ -339,12 +330,12 @@ FILE *tools_out_open(const char *path, char *tmp, size_t tmplen, char *err, size
     snprintf(tmp, tmplen, "%s.tmp.%ld", path, (long)getpid());
     const int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd < 0) {
-        fail(err, errlen, "cannot write %s: %s", path, strerror(errno));
+        pdla_errorf(-1, err, errlen, "cannot write %s: %s", path, strerror(errno));
         return NULL;
     }
     FILE *fp = fdopen(fd, "wb");
     if (!fp) {
-        fail(err, errlen, "cannot write %s: %s", path, strerror(errno));
+        pdla_errorf(-1, err, errlen, "cannot write %s: %s", path, strerror(errno));
         close(fd);
         unlink(tmp);
     }
@@ -364,13 +355,13 @@ int tools_out_commit(FILE *fp, const char *tmp, const char *path, int force, cha
     const int e = errno;
     if (fclose(fp) != 0 || bad) {
         unlink(tmp);
-        return fail(err, errlen, "cannot write %s: %s", path, strerror(bad ? e : errno));
+        return pdla_errorf(-1, err, errlen, "cannot write %s: %s", path, strerror(bad ? e : errno));
     }
     if (force) {
         if (rename(tmp, path) != 0) {
             const int re = errno;
             unlink(tmp);
-            return fail(err, errlen, "cannot rename %s to %s: %s", tmp, path, strerror(re));
+            return pdla_errorf(-1, err, errlen, "cannot rename %s to %s: %s", tmp, path, strerror(re));
         }
         return 0;
     }
@@ -382,17 +373,17 @@ int tools_out_commit(FILE *fp, const char *tmp, const char *path, int force, cha
     const int le = errno;
     if (le == EEXIST) {
         unlink(tmp);
-        return fail(err, errlen, "%s exists; not overwriting it (use --force)", path);
+        return pdla_errorf(-1, err, errlen, "%s exists; not overwriting it (use --force)", path);
     }
     struct stat st;
     if (lstat(path, &st) == 0) {
         unlink(tmp);
-        return fail(err, errlen, "%s exists; not overwriting it (use --force)", path);
+        return pdla_errorf(-1, err, errlen, "%s exists; not overwriting it (use --force)", path);
     }
     if (rename(tmp, path) != 0) {
         const int re = errno;
         unlink(tmp);
-        return fail(err, errlen, "cannot rename %s to %s: %s", tmp, path, strerror(re));
+        return pdla_errorf(-1, err, errlen, "cannot rename %s to %s: %s", tmp, path, strerror(re));
     }
     return 0;
 }
@@ -405,6 +396,17 @@ int tools_option_error(const char *tool, char *const *argv, int optind_now, int 
     else
         fprintf(stderr, "pdla %s: unknown option '%s' (see pdla %s --help)\n", tool,
                 argv[optind_now - 1], tool);
+    return 2;
+}
+
+int tools_options_begin(const char *tool, int argc, char *const *argv,
+                        const struct option *longopts, const char *shortopts)
+{
+    opterr = 0;
+    optind = 1;
+    char oerr[160];
+    if (!optcheck_exact(argc, argv, longopts, shortopts, oerr, sizeof oerr)) return 0;
+    fprintf(stderr, "pdla %s: %s\n", tool, oerr);
     return 2;
 }
 

@@ -84,6 +84,12 @@ int tools_out_check(const char *path, int force, char *err, size_t errlen);
  * than one (returns 0 when exactly one FILE follows the options). */
 int tools_option_error(const char *tool, char *const *argv, int optind_now, int optopt_now);
 int tools_value_error(const char *tool, const char *value, const char *what);
+/* Before a tool's getopt_long loop: resets getopt (opterr = 0, optind = 1)
+ * and refuses an abbreviated long option (optcheck_exact), naming the tool.
+ * 0, or 2 = TOOL_USAGE after the one line on stderr. */
+struct option;
+int tools_options_begin(const char *tool, int argc, char *const *argv,
+                        const struct option *longopts, const char *shortopts);
 int tools_one_file(const char *tool, int optind_now, int argc);
 /* Returns a FILE* on path.tmp.<pid>; tools_out_commit closes, syncs and
  * renames it (removing it on failure). */

@@ -13,7 +13,6 @@
 
 #include "h5read.h"
 #include "dlca_cmd.h"
-#include "optcheck.h"
 #include "tools.h"
 
 static const char info_help[] =
@@ -200,13 +199,7 @@ int tool_info(int argc, char **argv)
     static const struct option longopts[] = {
         {"json", no_argument, NULL, 'j'}, {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
     int json = 0, c;
-    opterr = 0;
-    optind = 1;
-    char oerr[160];
-    if (optcheck_exact(argc, argv, longopts, "h", oerr, sizeof oerr)) {
-        fprintf(stderr, "pdla info: %s\n", oerr);
-        return TOOL_USAGE;
-    }
+    if (tools_options_begin("info", argc, argv, longopts, "h")) return TOOL_USAGE;
     while ((c = getopt_long(argc, argv, "h", longopts, NULL)) != -1) {
         switch (c) {
         case 'j': json = 1; break;

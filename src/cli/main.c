@@ -424,21 +424,12 @@ static void print_parameters(FILE *f, const pdla_params *P)
     }
 }
 
-/* The human summary; summary.txt adds the command line and the parameters. */
-static void print_summary(FILE *f, const report *r, int with_command)
+/* The summary's lines on the workers or reference walkers: how the spots
+ * were re-checked, how the walkers were interleaved, the mutexes. */
+static void print_concurrency(FILE *f, const report *r)
 {
     const pdla_stats *s = &r->st;
     const pdla_params *P = r->P;
-    const double n = (double)s->particles;
-    char b1[32], b2[32];
-    fprintf(f, "pdla %s: %dD %s\n", pdla_version(), P->dim, s->threads ? "PDLA" : "DLA");
-    if (with_command) fprintf(f, "command          %s\n", r->command ? r->command : "?");
-    fprintf(f, "particles        %" PRIu64 " of %" PRIu64 "%s\n", s->particles, P->target,
-            s->particles < P->target ? " (stopped early)" : "");
-    fprintf(f, "resolution       D = %d units per diameter, eps = %d units, seed %" PRIu64 "\n",
-            P->resolution, P->eps, P->seed);
-    fprintf(f, "return           %s, birth margin %g diameters\n", return_word(P->return_mode),
-            P->birth_margin);
     if (s->threads)
         fprintf(f, "threads          %d after %" PRIu64 " serial particles (%.3f s parallel, binding %s)\n",
                 s->threads, P->serial_until, s->parallel_seconds, s->binding);
@@ -473,6 +464,39 @@ static void print_summary(FILE *f, const report *r, int with_command)
                         : 0.0,
                     i < 2 ? "," : " (mean per acquisition)\n");
     }
+}
+
+/* The summary's lines on the resume and the checkpoints written. */
+static void print_checkpoints(FILE *f, const grow_ctx *c)
+{
+    if (c && c->resumed)
+        fprintf(f, "resumed from     %s (generation %" PRIu64 ", %" PRIu64 " particles, loaded in %.3f s)\n",
+                c->resumed->path, c->resumed->generation, c->resumed->particles, c->resumed->seconds);
+    if (c && c->written)
+        fprintf(f, "checkpoints      %d written (%d failed), last %s (generation %" PRIu64 ", %.1f MB); "
+                   "write %.3f s, pause %.3f s in total (longest pause %.3f s)\n",
+                c->written, c->failures, c->last_path, c->generation, c->bytes / 1e6, c->write_seconds,
+                c->pause_seconds, c->max_pause);
+    else if (c && c->o->checkpoint)
+        fprintf(f, "checkpoints      none written (%d failed)\n", c->failures);
+}
+
+/* The human summary; summary.txt adds the command line and the parameters. */
+static void print_summary(FILE *f, const report *r, int with_command)
+{
+    const pdla_stats *s = &r->st;
+    const pdla_params *P = r->P;
+    const double n = (double)s->particles;
+    char b1[32], b2[32];
+    fprintf(f, "pdla %s: %dD %s\n", pdla_version(), P->dim, s->threads ? "PDLA" : "DLA");
+    if (with_command) fprintf(f, "command          %s\n", r->command ? r->command : "?");
+    fprintf(f, "particles        %" PRIu64 " of %" PRIu64 "%s\n", s->particles, P->target,
+            s->particles < P->target ? " (stopped early)" : "");
+    fprintf(f, "resolution       D = %d units per diameter, eps = %d units, seed %" PRIu64 "\n",
+            P->resolution, P->eps, P->seed);
+    fprintf(f, "return           %s, birth margin %g diameters\n", return_word(P->return_mode),
+            P->birth_margin);
+    print_concurrency(f, r);
     fprintf(f, "wall time        %.3f s (growth %.3f s)\n", r->wall_seconds, s->grow_seconds);
     fprintf(f, "rate             %.0f particles/s\n", s->grow_seconds > 0 ? n / s->grow_seconds : 0.0);
     fprintf(f, "jumps/particle   %.2f\n", n > 0 ? (double)s->jumps / n : 0.0);
@@ -493,17 +517,7 @@ static void print_summary(FILE *f, const report *r, int with_command)
     progress_fmt_bytes(b2, sizeof b2, (double)r->peak_rss);
     fprintf(f, "peak RSS         %s\n", b2);
     fprintf(f, "output           %s\n", r->h5_path ? r->h5_path : "none");
-    const grow_ctx *c = r->ck;
-    if (c && c->resumed)
-        fprintf(f, "resumed from     %s (generation %" PRIu64 ", %" PRIu64 " particles, loaded in %.3f s)\n",
-                c->resumed->path, c->resumed->generation, c->resumed->particles, c->resumed->seconds);
-    if (c && c->written)
-        fprintf(f, "checkpoints      %d written (%d failed), last %s (generation %" PRIu64 ", %.1f MB); "
-                   "write %.3f s, pause %.3f s in total (longest pause %.3f s)\n",
-                c->written, c->failures, c->last_path, c->generation, c->bytes / 1e6, c->write_seconds,
-                c->pause_seconds, c->max_pause);
-    else if (c && c->o->checkpoint)
-        fprintf(f, "checkpoints      none written (%d failed)\n", c->failures);
+    print_checkpoints(f, r->ck);
     if (with_command) print_parameters(f, P);
 }
 

@@ -29,7 +29,6 @@
 
 #include "dlca_cmd.h"
 #include "h5read.h"
-#include "optcheck.h"
 #include "parse.h"
 #include "tools.h"
 
@@ -276,13 +275,7 @@ static int parse_options(int argc, char **argv, render_opts *o)
         {"force", no_argument, NULL, O_FORCE}, {"slab-rows", required_argument, NULL, O_SLAB},
         {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
     int c;
-    opterr = 0;
-    optind = 1;
-    char oerr[160];
-    if (optcheck_exact(argc, argv, longopts, "ho:", oerr, sizeof oerr)) {
-        fprintf(stderr, "pdla render: %s\n", oerr);
-        return TOOL_USAGE;
-    }
+    if (tools_options_begin("render", argc, argv, longopts, "ho:")) return TOOL_USAGE;
     while ((c = getopt_long(argc, argv, "ho:", longopts, NULL)) != -1) {
         const char *bad = NULL;
         switch (c) {

@@ -86,13 +86,6 @@ static inline uint64_t ticks(void)
 #endif
 }
 
-static double now_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return 1e9 * (double)ts.tv_sec + (double)ts.tv_nsec;
-}
-
 /* Lock mu, counting the acquisition, whether it had to wait and how long.
  * Returns the time it was acquired (for unlock_counted). */
 static inline uint64_t lock_counted(pthread_mutex_t *mu, walker_ctx *w, int which)
@@ -121,98 +114,143 @@ static inline void unlock_counted(pthread_mutex_t *mu, walker_ctx *w, int which,
     pthread_mutex_unlock(mu);
 }
 
-/* Insert the particle where walker w stopped; see the file comment. The exact
- * re-check is split in two: against the live tree as of `seen` particles
- * without a lock, then against those appended since under the bucket mutex.
- * Together they cover every particle present when the particle is appended,
- * exactly as one check under the lock would. */
-static int insert_concurrent(worker *k, int64_t *p, int status)
+/* insert_concurrent's steps below return these (errors are negative
+ * PDLA_E* codes, already recorded by worker_fail). RETRY: another walker took
+ * the spot since this one's last check; re-check as an overlap. */
+enum { RETRY = 3 };
+
+/* Step 1, for an overlap: snap p onto contact with the particle that took
+ * its spot, once, unless --recheck discard. Otherwise the snap of
+ * --snap-contact. Returns 1 when the snap has just checked p's new spot
+ * against every particle within D (the lock-free half of the re-check is
+ * then done), 0 when that check is still to do, DISCARDED when the walker
+ * is given up. */
+static int snap_spot(worker *k, int64_t *p, int status, int *retried)
+{
+    walker_ctx *w = k->w;
+    const tree *t = &k->e->tree;
+    const pdla_params *P = &k->e->params;
+    const int64_t D = P->resolution;
+    const uint64_t stick2 = (uint64_t)(D + P->eps) * (uint64_t)(D + P->eps);
+    if (status == WALK_OVERLAP) {
+        w->recheck_overlaps++;
+        if (P->recheck == PDLA_RECHECK_DISCARD || *retried ||
+            !walker_snap_to_contact(t, p, D, stick2, &w->ss)) {
+            w->recheck_discarded++;
+            return DISCARDED;
+        }
+        *retried = 1;
+        return 1;
+    }
+    return P->snap_contact && walker_snap_to_contact(t, p, D, stick2, &w->ss);
+}
+
+/* Step 2: the tree's nodes down to p's leaf and p's cells in the distance
+ * map, under the node mutex and only when missing (for about one particle in
+ * ten: a new leaf). The map is updated before the particle is published in
+ * the tree, so a walker that sees the particle also sees its cells; if the
+ * re-check of step 3 then turns the spot down, the cells stay marked, which
+ * only makes the map's bounds more conservative there. Fills *slot; 0 or
+ * PDLA_ENOMEM. */
+static int make_path(worker *k, const int64_t *p, uint64_t seen, tree_slot *slot)
+{
+    pdla_engine *e = k->e;
+    const int have_path = tree_find_slot(&e->tree, p, slot);
+    if (have_path && !distmap_needs_add(&e->dmap, p)) return 0;
+    const uint64_t held = lock_counted(&e->node_mu, k->w, PDLA_MUTEX_NODE);
+    const int rc = have_path ? 0 : tree_make_path(&e->tree, p, slot);
+    if (rc == 0) distmap_add(&e->dmap, p, seen + 1, 1);
+    unlock_counted(&e->node_mu, k->w, PDLA_MUTEX_NODE, held);
+    if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory (or tree index space) creating nodes");
+    return 0;
+}
+
+/* Step 3, under the bucket mutex: the exact target check, the re-check
+ * against the particles appended since `seen` (the ring), and the append.
+ * INSERTED with p's index in *index, TARGET_REACHED, RETRY, or PDLA_ENOMEM. */
+static int append_locked(worker *k, const int64_t *p, uint64_t seen, tree_slot *slot,
+                         uint64_t *index)
+{
+    pdla_engine *e = k->e;
+    tree *t = &e->tree;
+    const uint64_t D = (uint64_t)e->params.resolution;
+    const uint64_t held = lock_counted(&e->bucket_mu, k->w, PDLA_MUTEX_BUCKET);
+    const uint64_t count = atomic_load_explicit(&t->count, memory_order_relaxed);
+    if (count >= k->n_until) {
+        unlock_counted(&e->bucket_mu, k->w, PDLA_MUTEX_BUCKET, held);
+        return TARGET_REACHED;
+    }
+    if (recent_overlap(k->recent, t, seen, p, D * D)) {
+        unlock_counted(&e->bucket_mu, k->w, PDLA_MUTEX_BUCKET, held);
+        return RETRY;
+    }
+    /* Before the count publishes p: the ring slot and R_ext, which
+     * walkers read without a lock once they have acquired the count
+     * (their stale-read check, walker.c). A failed append leaves a slot
+     * for an index not yet published; the next append rewrites it. */
+    recent_put(k->recent, count, p, t->dim);
+    engine_raise_r_ext(e, p);
+    if (__builtin_expect(e->hooks != NULL, 0) && e->hooks->append)
+        e->hooks->append(e->hooks->user, count, p);
+    const int rc = tree_append(t, slot, p);
+    unlock_counted(&e->bucket_mu, k->w, PDLA_MUTEX_BUCKET, held);
+    if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory appending a particle");
+    *index = count;
+    return INSERTED;
+}
+
+/* Step 4, after the append: counters, the inserted hook, and the R_g sums
+ * and samples under the gyration mutex (kept apart from the bucket mutex so
+ * appends do not wait for the sums). INSERTED or the sums' error. */
+static int account_insert(worker *k, const int64_t *p, uint64_t count, int retried)
 {
     pdla_engine *e = k->e;
     walker_ctx *w = k->w;
-    tree *t = &e->tree;
-    const pdla_params *P = &e->params;
-    const int64_t D = P->resolution;
-    const uint64_t D2 = (uint64_t)(D * D);
-    const uint64_t stick2 = (uint64_t)(D + P->eps) * (uint64_t)(D + P->eps);
+    if (retried) w->recheck_continued++;
+    walker_note_lag(w, count);
+    if (__builtin_expect(e->hooks != NULL, 0) && e->hooks->inserted)
+        e->hooks->inserted(e->hooks->user, count, p, count - w->launched_at);
+    char err[256];
+    const uint64_t held = lock_counted(&e->gyration_mu, w, PDLA_MUTEX_GYRATION);
+    const int rc = engine_gyration_add(e, p, err, sizeof err);
+    unlock_counted(&e->gyration_mu, w, PDLA_MUTEX_GYRATION, held);
+    if (rc) return worker_fail(k, rc, err);
+    return INSERTED;
+}
+
+/* Insert the particle where walker w stopped; see the file comment. The exact
+ * re-check is split in two: against the live tree as of `seen` particles
+ * without a lock (the snap, or the nearest-point query), then against those
+ * appended since under the bucket mutex (append_locked). Together they cover
+ * every particle present when the particle is appended, exactly as one check
+ * under the lock would. An overlap found by either restarts the steps with
+ * the spot treated as taken. */
+static int insert_concurrent(worker *k, int64_t *p, int status)
+{
+    pdla_engine *e = k->e;
+    const uint64_t D2 = (uint64_t)e->params.resolution * (uint64_t)e->params.resolution;
     int retried = 0;
     for (;;) {
         /* Every particle below `seen` is visible to the searches that follow
          * (acquire on the count the bucket mutex's holder released). */
-        const uint64_t seen = tree_count(t);
-        /* A snap that moved p has just checked its new spot against every
-         * particle within D: the lock-free half of the re-check. */
-        int checked = 0;
-        if (status == WALK_OVERLAP) {
-            w->recheck_overlaps++;
-            if (P->recheck == PDLA_RECHECK_DISCARD || retried ||
-                !walker_snap_to_contact(t, p, D, stick2, &w->ss)) {
-                w->recheck_discarded++;
-                return DISCARDED;
-            }
-            retried = 1;
-            checked = 1;
-        } else if (P->snap_contact) {
-            checked = walker_snap_to_contact(t, p, D, stick2, &w->ss);
-        }
+        const uint64_t seen = tree_count(&e->tree);
+        const int checked = snap_spot(k, p, status, &retried);
+        if (checked == DISCARDED) return DISCARDED;
         char err[256];
         if (engine_check_range(e, p, err, sizeof err)) return worker_fail(k, PDLA_ERANGE, err);
-
         int64_t q[3];
         uint64_t d2;
-        if (!checked && search_nearest_point_cached(t, p, D2, q, &d2, &w->ss)) {
-            status = WALK_OVERLAP; /* someone stuck here since the last query */
-            continue;
-        }
-        /* Structure: the tree's nodes down to p's leaf and p's cells in the
-         * distance map, under the node mutex and only when missing (for about
-         * one particle in ten: a new leaf). The map is updated before the
-         * particle is published in the tree, so a walker that sees the
-         * particle also sees its cells; if the re-check below then turns the
-         * spot down, the cells stay marked, which only makes the map's
-         * bounds more conservative there. */
+        status = WALK_OVERLAP; /* for the next turn, if there is one */
+        if (!checked && search_nearest_point_cached(&e->tree, p, D2, q, &d2, &k->w->ss))
+            continue; /* someone stuck here since the last query */
         tree_slot slot;
-        const int have_path = tree_find_slot(t, p, &slot);
-        if (!have_path || distmap_needs_add(&e->dmap, p)) {
-            const uint64_t held = lock_counted(&e->node_mu, w, PDLA_MUTEX_NODE);
-            const int rc = have_path ? 0 : tree_make_path(t, p, &slot);
-            if (rc == 0) distmap_add(&e->dmap, p, seen + 1, 1);
-            unlock_counted(&e->node_mu, w, PDLA_MUTEX_NODE, held);
-            if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory (or tree index space) creating nodes");
-        }
-
-        const uint64_t held = lock_counted(&e->bucket_mu, w, PDLA_MUTEX_BUCKET);
-        const uint64_t count = atomic_load_explicit(&t->count, memory_order_relaxed);
-        if (count >= k->n_until) {
-            unlock_counted(&e->bucket_mu, w, PDLA_MUTEX_BUCKET, held);
-            return TARGET_REACHED;
-        }
-        if (recent_overlap(k->recent, t, seen, p, D2)) {
-            unlock_counted(&e->bucket_mu, w, PDLA_MUTEX_BUCKET, held);
-            status = WALK_OVERLAP;
-            continue;
-        }
-        /* Before the count publishes p: the ring slot and R_ext, which
-         * walkers read without a lock once they have acquired the count
-         * (their stale-read check, walker.c). A failed append leaves a slot
-         * for an index not yet published; the next append rewrites it. */
-        recent_put(k->recent, count, p, t->dim);
-        engine_raise_r_ext(e, p);
-        if (__builtin_expect(e->hooks != NULL, 0) && e->hooks->append)
-            e->hooks->append(e->hooks->user, count, p);
-        const int rc = tree_append(t, &slot, p);
-        unlock_counted(&e->bucket_mu, w, PDLA_MUTEX_BUCKET, held);
-        if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory appending a particle");
-        if (retried) w->recheck_continued++;
-        walker_note_lag(w, count);
-        if (__builtin_expect(e->hooks != NULL, 0) && e->hooks->inserted)
-            e->hooks->inserted(e->hooks->user, count, p, count - w->launched_at);
-
-        const uint64_t gheld = lock_counted(&e->gyration_mu, w, PDLA_MUTEX_GYRATION);
-        const int grc = engine_gyration_add(e, p, err, sizeof err);
-        unlock_counted(&e->gyration_mu, w, PDLA_MUTEX_GYRATION, gheld);
-        if (grc) return worker_fail(k, grc, err);
-        return INSERTED;
+        int rc = make_path(k, p, seen, &slot);
+        if (rc) return rc;
+        uint64_t index = 0;
+        rc = append_locked(k, p, seen, &slot, &index);
+        if (rc == RETRY) continue;
+        if (rc != INSERTED) return rc;
+        return account_insert(k, p, index, retried);
     }
 }
 
@@ -277,110 +315,156 @@ static int load_topology(hwloc_topology_t *topo)
     return cores > 0 ? cores : hwloc_get_nbobjs_by_type(*topo, HWLOC_OBJ_PU);
 }
 
-int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, void *user,
-                  char *err, size_t errlen)
+/* One PDLA phase: its workers and what they share. */
+typedef struct phase {
+    hwloc_topology_t topo; /* NULL unless threads = 0 or binding */
+    int cores;             /* physical cores (with topo) */
+    int n;                 /* workers */
+    int started;           /* threads created */
+    walker_ctx *ws;        /* the workers' walkers: kept by the engine after */
+    worker *ks;
+    recent_ring recent;
+} phase;
+
+static void phase_free(phase *ph)
+{
+    free(ph->ws);
+    free(ph->ks);
+    recent_free(&ph->recent);
+    if (ph->topo) hwloc_topology_destroy(ph->topo);
+}
+
+/* Step 1: how many workers (reading the topology when threads = 0 or when
+ * binding), and their memory. PDLA_OK, or an error with err (nothing held). */
+static int phase_alloc(const pdla_params *P, phase *ph, char *err, size_t errlen)
+{
+    if (P->threads == 0 || P->bind == PDLA_BIND_CORE) {
+        ph->cores = load_topology(&ph->topo);
+        if (ph->cores <= 0)
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "hwloc could not read the machine topology");
+    }
+    ph->n = P->threads > 0 ? P->threads : ph->cores;
+    ph->ws = calloc((size_t)ph->n, sizeof *ph->ws);
+    ph->ks = calloc((size_t)ph->n, sizeof *ph->ks);
+    const int ring_rc = recent_init(&ph->recent, RECENT_CAP);
+    if (!ph->ws || !ph->ks || ring_rc) {
+        phase_free(ph);
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for %d workers", ph->n);
+    }
+    return PDLA_OK;
+}
+
+/* Step 2: each worker's random stream, target and core, and e->binding.
+ * Independent streams, as the reference mode's walkers (reference.c):
+ * worker 0 continues the serial stream, worker i starts 2^128 i draws
+ * after it, and the serial stream resumes 2^128 n draws after it, past
+ * every worker's. (It used to resume at the start of worker n - 1's,
+ * which a serial phase after a resume would have drawn again.) */
+static void phase_setup_workers(pdla_engine *e, phase *ph, uint64_t n_until)
 {
     const pdla_params *P = &e->params;
-    hwloc_topology_t topo = NULL;
-    int cores = 0;
-    if (P->threads == 0 || P->bind == PDLA_BIND_CORE) {
-        cores = load_topology(&topo);
-        if (cores <= 0) {
-            snprintf(err, errlen, "hwloc could not read the machine topology");
-            return PDLA_EINVAL;
-        }
-    }
-    const int n = P->threads > 0 ? P->threads : cores;
-
-    walker_ctx *ws = calloc((size_t)n, sizeof *ws);
-    worker *ks = calloc((size_t)n, sizeof *ks);
-    recent_ring recent;
-    const int ring_rc = recent_init(&recent, RECENT_CAP);
-    if (!ws || !ks || ring_rc) {
-        free(ws);
-        free(ks);
-        recent_free(&recent);
-        if (topo) hwloc_topology_destroy(topo);
-        snprintf(err, errlen, "out of memory for %d workers", n);
-        return PDLA_ENOMEM;
-    }
-    /* Independent streams, as the reference mode's walkers (reference.c):
-     * worker 0 continues the serial stream, worker i starts 2^128 i draws
-     * after it, and the serial stream resumes 2^128 n draws after it, past
-     * every worker's. (It used to resume at the start of worker n - 1's,
-     * which a serial phase after a resume would have drawn again.) */
     pdla_rng stream = e->walker.rng;
     size_t used = (size_t)snprintf(e->binding, sizeof e->binding, "%s",
                                    P->bind == PDLA_BIND_CORE ? "core:" : "none");
-    for (int i = 0; i < n; i++) {
+    for (int i = 0; i < ph->n; i++) {
+        worker *k = &ph->ks[i];
         if (i > 0) rng_jump(&stream);
-        ws[i].rng = stream;
-        ws[i].id = i;
-        search_state_reset(&ws[i].ss);
-        ks[i].e = e;
-        ks[i].w = &ws[i];
-        ks[i].n_until = n_until;
-        atomic_init(&ks[i].seen_epoch, 0); /* not started: holds anything */
-        ks[i].recent = &recent;
+        ph->ws[i].rng = stream;
+        ph->ws[i].id = i;
+        search_state_reset(&ph->ws[i].ss);
+        k->e = e;
+        k->w = &ph->ws[i];
+        k->n_until = n_until;
+        atomic_init(&k->seen_epoch, 0); /* not started: holds anything */
+        k->recent = &ph->recent;
         if (P->bind == PDLA_BIND_CORE) {
-            ks[i].topo = topo;
-            ks[i].core = hwloc_get_obj_by_type(topo, HWLOC_OBJ_CORE, (unsigned)(i % cores));
-            if (!ks[i].core) ks[i].core = hwloc_get_obj_by_type(topo, HWLOC_OBJ_PU, (unsigned)(i % cores));
+            k->topo = ph->topo;
+            k->core = hwloc_get_obj_by_type(ph->topo, HWLOC_OBJ_CORE, (unsigned)(i % ph->cores));
+            if (!k->core) k->core = hwloc_get_obj_by_type(ph->topo, HWLOC_OBJ_PU, (unsigned)(i % ph->cores));
             if (used < sizeof e->binding)
                 used += (size_t)snprintf(e->binding + used, sizeof e->binding - used, " %u",
-                                         ks[i].core ? ks[i].core->logical_index : 0u);
+                                         k->core ? k->core->logical_index : 0u);
         }
     }
-    /* Counters of an earlier parallel phase are folded into the serial
-     * walker so stats stay cumulative. */
+    rng_jump(&stream);
+    e->walker.rng = stream; /* the serial stream resumes past every worker's */
+}
+
+/* Step 3: the engine enters the concurrent phase. Counters of an earlier
+ * parallel phase are folded into the serial walker so stats stay
+ * cumulative; the walkers check their jumps against the shared ring. */
+static void phase_begin(pdla_engine *e, phase *ph)
+{
     for (int i = 0; i < e->nworkers; i++) walker_ctx_add_counts(&e->walker, &e->workers[i]);
     free(e->workers);
     e->workers = NULL;
     e->nworkers = 0;
-    rng_jump(&stream);
-    e->walker.rng = stream; /* the serial stream resumes past every worker's */
     atomic_store_explicit(&e->stop, 0, memory_order_relaxed);
     e->search.concurrent = 1;
-    e->recent = &recent; /* walkers check their jumps against it */
+    e->recent = &ph->recent;
+}
 
-    /* Calibrate the timestamp ticks against the clock over the phase. */
-    const uint64_t tick0 = ticks();
-    const double ns0 = now_ns();
-    int started = 0, rc = PDLA_OK;
-    for (; started < n; started++)
-        if (pthread_create(&ks[started].thread, NULL, worker_main, &ks[started])) {
+/* Step 4: start the threads, then report progress, relay a stop request and
+ * free retired map grids from this thread until the target or a stop; join.
+ * PDLA_OK, or the first failure of this thread (the workers' own come in
+ * step 5). */
+static int phase_run(pdla_engine *e, phase *ph, uint64_t n_until, pdla_progress_fn progress,
+                     void *user, char *err, size_t errlen)
+{
+    int rc = PDLA_OK;
+    for (; ph->started < ph->n; ph->started++)
+        if (pthread_create(&ph->ks[ph->started].thread, NULL, worker_main, &ph->ks[ph->started])) {
             atomic_store_explicit(&e->stop, 1, memory_order_relaxed);
-            snprintf(err, errlen, "cannot start worker thread %d of %d", started + 1, n);
-            rc = PDLA_ENOMEM;
+            rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot start worker thread %d of %d",
+                             ph->started + 1, ph->n);
             break;
         }
-    /* The calling thread reports progress and relays a stop request. */
     while (rc == PDLA_OK && !atomic_load_explicit(&e->stop, memory_order_relaxed) &&
            tree_count(&e->tree) < n_until) {
         sleep_ms(20);
-        reclaim_grids(e, ks, started);
+        reclaim_grids(e, ph->ks, ph->started);
         if (progress && progress(e, user)) {
             atomic_store_explicit(&e->stop, 1, memory_order_relaxed);
-            snprintf(err, errlen, "stopped at %llu particles",
-                     (unsigned long long)tree_count(&e->tree));
-            rc = PDLA_ESTOPPED;
+            rc = pdla_errorf(PDLA_ESTOPPED, err, errlen, "stopped at %llu particles",
+                             (unsigned long long)tree_count(&e->tree));
         }
     }
-    for (int i = 0; i < started; i++) pthread_join(ks[i].thread, NULL);
-    const uint64_t dt = ticks() - tick0;
-    if (dt > 0) e->tick_ns = (now_ns() - ns0) / (double)dt;
+    for (int i = 0; i < ph->started; i++)
+        if (pthread_join(ph->ks[i].thread, NULL) && rc == PDLA_OK)
+            rc = pdla_errorf(PDLA_EINVAL, err, errlen, "cannot join worker thread %d", i);
+    return rc;
+}
+
+/* Step 5: back to one thread: no concurrent readers, the map's retired
+ * grids freed, the first worker error (if this thread had none) in err; the
+ * engine keeps the workers' walkers for the stats. */
+static int phase_end(pdla_engine *e, phase *ph, int rc, char *err, size_t errlen)
+{
     distmap_quiesce(&e->dmap);
     e->search.concurrent = 0;
     e->recent = NULL;
-    for (int i = 0; i < started; i++)
-        if (ks[i].rc && rc == PDLA_OK) {
-            snprintf(err, errlen, "worker %d: %s", i, ks[i].err);
-            rc = ks[i].rc;
-        }
-    e->workers = ws;
-    e->nworkers = n;
-    free(ks);
-    recent_free(&recent);
-    if (topo) hwloc_topology_destroy(topo);
+    for (int i = 0; i < ph->started && rc == PDLA_OK; i++)
+        if (ph->ks[i].rc) rc = pdla_errorf(ph->ks[i].rc, err, errlen, "worker %d: %s", i, ph->ks[i].err);
+    e->workers = ph->ws;
+    e->nworkers = ph->n;
+    ph->ws = NULL;
+    phase_free(ph);
     return rc;
+}
+
+int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, void *user,
+                  char *err, size_t errlen)
+{
+    phase ph = {0};
+    int rc = phase_alloc(&e->params, &ph, err, errlen);
+    if (rc) return rc;
+    phase_setup_workers(e, &ph, n_until);
+    phase_begin(e, &ph);
+    /* Calibrate the timestamp ticks against the clock over the phase. */
+    const uint64_t tick0 = ticks();
+    const double s0 = pdla_clock_seconds();
+    rc = phase_run(e, &ph, n_until, progress, user, err, errlen);
+    const uint64_t dt = ticks() - tick0;
+    if (dt > 0) e->tick_ns = 1e9 * (pdla_clock_seconds() - s0) / (double)dt;
+    return phase_end(e, &ph, rc, err, errlen);
 }

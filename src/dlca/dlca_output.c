@@ -4,6 +4,7 @@
  * fractal-dimension fit of R_g against cluster size.
  */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -211,4 +212,53 @@ int dlca_write_xdmf(const char *h5_path, int dim, uint64_t n, char *err, size_t 
     const xdmf_array arrays[] = {{"cluster", "/monomers/cluster", "UInt", 4}, {"site", "/monomers/site", "UInt", 4}};
     const xdmf_points pts = {h5_path, "/monomers/position", n, dim, 1, 0, NULL, arrays, 2};
     return xdmf_write_points(xmf, &pts, err, errlen) ? PDLA_EIO : 0;
+}
+
+/* One snapshot as group name under g. */
+static int write_snapshot(const h5u_writer *w, hid_t g, const char *name, const dlca_snapshot *sn, uint64_t N)
+{
+    hid_t sg = h5u_group(w, g, name), sp = H5I_INVALID_HID, d;
+    if (sg < 0) return -1;
+    int rc = h5u_attr_f64(w, sg, "t", sn->t) < 0 || h5u_attr_u64(w, sg, "attempts", sn->attempts) < 0 ||
+                     h5u_attr_u64(w, sg, "n_clusters", sn->n_clusters) < 0
+                 ? -1
+                 : 0;
+    const char *names[2] = {"site", "cluster"};
+    const uint32_t *data[2] = {sn->site, sn->cluster};
+    const hsize_t chunk = N > 65536 ? 65536 : (N ? N : 1);
+    for (int i = 0; i < 2 && rc == 0; i++) {
+        if ((d = h5u_dataset(w, sg, names[i], H5T_STD_U32LE, 1, N, 1, chunk, &sp)) < 0) {
+            rc = -1;
+            break;
+        }
+        if (N && H5Dwrite(d, H5T_NATIVE_UINT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, data[i]) < 0)
+            rc = h5u_fail(w, "write snapshot %s/%s", name, names[i]);
+        rc = h5u_close(w, rc, sp, H5Sclose, "a dataspace");
+        rc = h5u_close(w, rc, d, H5Dclose, names[i]);
+    }
+    return h5u_close(w, rc, sg, H5Gclose, name);
+}
+
+int dlca_write_snapshots_h5(const char *path, const dlca_snapshot *snaps, size_t n, uint64_t n_monomers, char *err,
+                            size_t errlen)
+{
+    h5u_writer w = {path, err, errlen};
+    h5u_quiet q;
+    if (h5u_silence(&q)) return pdla_errorf(PDLA_EIO, err, errlen, "cannot write %s: cannot silence HDF5", path);
+    int rc = -1;
+    const hid_t f = H5Fopen(path, H5F_ACC_RDWR, H5P_DEFAULT);
+    hid_t g = H5I_INVALID_HID;
+    if (f < 0) h5u_fail_msg(&w, "cannot open %s to add snapshots", path);
+    else if ((g = h5u_group(&w, f, "snapshots")) >= 0) {
+        rc = h5u_attr_u64(&w, g, "count", n) < 0 ? -1 : 0;
+        for (size_t i = 0; i < n && rc == 0; i++) {
+            char name[32];
+            snprintf(name, sizeof name, "%zu", i);
+            rc = write_snapshot(&w, g, name, &snaps[i], n_monomers);
+        }
+        rc = h5u_close(&w, rc, g, H5Gclose, "/snapshots");
+    }
+    if (f >= 0) rc = h5u_close(&w, rc, f, H5Fclose, path);
+    h5u_restore(&q);
+    return rc < 0 ? PDLA_EIO : 0;
 }

@@ -47,6 +47,7 @@ struct pdla_ens_journal {
     uint64_t *offset;       /* per cluster: its record's payload offset, or NONE */
     uint64_t *length;       /* ... and payload length */
     uint64_t count;         /* clusters recorded */
+    uint64_t head_end;      /* bytes of the header: the records start here */
     uint64_t end;           /* bytes of valid journal */
     uint64_t torn;          /* bytes after end (a torn or damaged tail) */
 };
@@ -270,7 +271,7 @@ int pdla_ens_journal_create(const char *dir, const pdla_ens_config *c, pdla_ens_
     }
     sync_dir(dir);
     j->fd = fd;
-    j->end = 24 + tl;
+    j->head_end = j->end = 24 + tl;
     j->appendable = 1;
     *out = j;
     return PDLA_OK;
@@ -360,7 +361,7 @@ int pdla_ens_journal_open(const char *dir, pdla_ens_journal **out, char *err, si
         snprintf(why, sizeof why, "out of memory");
         goto fail;
     }
-    j->end = 24 + h[1];
+    j->head_end = j->end = 24 + h[1];
     rc = scan_records(j, (uint64_t)st.st_size, err, errlen);
     free(text);
     if (rc) {
@@ -390,6 +391,89 @@ int pdla_ens_journal_begin_append(pdla_ens_journal *j, char *err, size_t errlen)
     j->fd = fd;
     j->appendable = 1;
     return PDLA_OK;
+}
+
+/* The header of c: "PDLAENS1", BOM, length, text, checksum. malloc'ed,
+ * *len bytes; NULL when out of memory. */
+static uint8_t *header_bytes(const pdla_ens_config *c, size_t *len)
+{
+    size_t tl = 0;
+    char *text = header_text(c, &tl);
+    uint8_t *buf = text ? malloc(24 + tl) : NULL;
+    if (buf) {
+        const uint32_t h[2] = {BOM, (uint32_t)tl};
+        const uint64_t sum = fnv1a(FNV_START, text, tl);
+        memcpy(buf, HEAD_MAGIC, 8);
+        memcpy(buf + 8, h, 8);
+        memcpy(buf + 16, text, tl);
+        memcpy(buf + 16 + tl, &sum, 8);
+        *len = 24 + tl;
+    }
+    free(text);
+    return buf;
+}
+
+/* The records [from, to) of fd appended to out at offset at. */
+static int copy_range(int fd, uint64_t from, uint64_t to, int out, uint64_t at)
+{
+    enum { CHUNK = 1 << 20 };
+    uint8_t *buf = malloc(CHUNK);
+    int bad = !buf;
+    for (uint64_t off = from; off < to && !bad; off += CHUNK) {
+        const size_t n = to - off < CHUNK ? (size_t)(to - off) : CHUNK;
+        bad = read_all(fd, buf, n, off) != 1 || write_all(out, buf, n, at + (off - from));
+    }
+    free(buf);
+    return bad ? -1 : 0;
+}
+
+/* pdla_ens_journal_extend's rewrite of j's file. */
+static int journal_extend_file(pdla_ens_journal *j, uint64_t clusters, char *err, size_t errlen)
+{
+    pdla_ens_config c = j->cfg;
+    if (clusters <= c.clusters)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "cannot extend %s from %llu to %llu clusters", j->path,
+                           (unsigned long long)c.clusters, (unsigned long long)clusters);
+    c.clusters = clusters;
+    int rc = pdla_ens_config_check(&c, err, errlen);
+    if (rc) return rc;
+    char dir[4200], tmp[4300];
+    snprintf(dir, sizeof dir, "%s", j->path);
+    char *slash = strrchr(dir, '/');
+    if (slash) *slash = '\0';
+    snprintf(tmp, sizeof tmp, "%s.tmp.%ld", j->path, (long)getpid());
+    size_t hl = 0;
+    uint8_t *head = header_bytes(&c, &hl);
+    if (!head) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the journal header");
+    const int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    /* The valid records only: a torn tail is left behind. */
+    const int bad = fd < 0 || write_all(fd, head, hl, 0) || copy_range(j->fd, j->head_end, j->end, fd, hl) ||
+                    fsync(fd);
+    const int e = errno;
+    free(head);
+    if (fd >= 0 && close(fd) && !bad) rc = PDLA_EIO;
+    if (bad || rc || rename(tmp, j->path)) {
+        const int e2 = bad ? e : errno;
+        unlink(tmp);
+        return pdla_errorf(PDLA_EIO, err, errlen, "cannot rewrite %s for %llu clusters: %s", j->path,
+                           (unsigned long long)clusters, strerror(e2));
+    }
+    sync_dir(dir);
+    return PDLA_OK;
+}
+
+
+int pdla_ens_journal_extend(pdla_ens_journal *j, uint64_t clusters, pdla_ens_journal **out, char *err,
+                            size_t errlen)
+{
+    *out = NULL;
+    const int rc0 = journal_extend_file(j, clusters, err, errlen);
+    char dir[4200];
+    snprintf(dir, sizeof dir, "%s", j->path);
+    char *slash = strrchr(dir, '/');
+    if (slash) *slash = '\0';
+    pdla_ens_journal_close(j);
+    return rc0 ? rc0 : pdla_ens_journal_open(dir, out, err, errlen);
 }
 
 const pdla_ens_config *pdla_ens_journal_config(const pdla_ens_journal *j) { return &j->cfg; }

@@ -166,7 +166,7 @@ printf 'model = dlca\nfill = 2\n' >"$tmp/bad-scene"
 
 "$pdla" --model dlca --help >"$tmp/help" || fail "--help"
 for o in dim box fill count mobility sticking drift until-clusters until-time max-attempts seed search grid-box \
-    checkpoint checkpoint-every checkpoint-attempts resume; do
+    checkpoint checkpoint-every checkpoint-attempts resume start snapshot-every; do
     grep -q -- "--$o " "$tmp/help" || fail "--help lacks --$o"
 done
 

@@ -1,0 +1,156 @@
+/*
+ * dlca_sim.h - the DLCA simulation's state, shared by the model (dlca.c)
+ * and its consistency check and checkpoints (dlca_state.c). Internal to
+ * libpdla.
+ *
+ * Memory (runs/dlca/memory.txt). A cluster is named by a slot 1..N (slot j
+ * starts as the j-th monomer placed). Per slot there are three 32-bit words
+ * (size, place in the active list, and `ref`) plus the active list's word:
+ * 16 bytes. A monomer alone (size 1) needs nothing more: `ref` is its site
+ * and its geometry is implied (anchor = its coordinates, offset and bounding
+ * box 0). A cluster of 2 or more owns a record (`ref` is its index): one
+ * block of cap sites and cap x d offsets from the anchor, and its anchor and
+ * bounding box. Records of absorbed clusters are reused. The id lattice
+ * (4 bytes a site) is the collision structure of --search lattice; the
+ * "seen" stamps and the box lists exist only for the seed's searches.
+ */
+#ifndef PDLA_DLCA_SIM_H
+#define PDLA_DLCA_SIM_H
+
+#include <stdint.h>
+
+#include "pdla/dlca.h"
+#include "rng.h"
+
+/* A cluster of 2 or more monomers (a free record: k NULL, cap = next free). */
+typedef struct dlca_rec {
+    uint32_t *k;  /* sites [cap], then offsets [cap][d] (at k + cap) */
+    uint32_t cap; /* room in the block, in monomers */
+} dlca_rec;
+
+/* A cluster as the moves see it: for a lone monomer the anchor is in the
+ * view itself (g), the sites are its `ref` word and offset and bounding box
+ * are dlca_zero, so that the same code serves both. Fill with view_of();
+ * never copy one. */
+typedef struct dlca_view {
+    uint32_t n;
+    uint32_t *k;
+    int32_t *off, *anc, *lo, *hi;
+    int32_t g[DLCA_MAX_DIM];    /* a lone monomer's anchor */
+} dlca_view;
+
+/* A lone monomer's offset and bounding box (never written through). */
+extern const int32_t dlca_zero[DLCA_MAX_DIM];
+
+typedef struct dlca_contact {
+    uint32_t b;                  /* the other cluster */
+    uint32_t i;                  /* first mover monomer touching it */
+    int dir;                     /* 2 axis + (sign < 0) */
+    int32_t xw[DLCA_MAX_DIM];    /* wrapped coordinates of mover monomer i */
+} dlca_contact;
+
+struct dlca_sim {
+    dlca_params p;
+    int d;
+    int64_t L[DLCA_MAX_DIM];
+    int64_t stride[DLCA_MAX_DIM];
+    uint64_t V, N;
+    uint32_t *n;    /* per slot 0..N: monomers (0: absorbed) */
+    uint32_t *pos;  /* per slot: index in act */
+    uint32_t *ref;  /* per slot: n == 1 its site, n >= 2 its record */
+    uint32_t *act;  /* active slots */
+    uint64_t nc;
+    dlca_rec *rec;  /* records of clusters of 2 or more */
+    int32_t *rgeom; /* per record: anchor[d], lo[d], hi[d] */
+    uint32_t nrec, caprec, free_rec;
+    uint32_t *grid; /* LATTICE: slot id per site, 0 empty */
+    pdla_rng rng;
+    double t;
+    uint64_t attempts, moves, monomer_moves, merges, largest;
+    double sum_s2;
+    int stop, spanning, search_now, oom;
+    /* mobility thinning: s^gamma cached for s < nmob */
+    double *mob;
+    uint64_t nmob;
+    uint32_t *size_count;
+    uint64_t smin;
+    /* grid boxes (BOXES) */
+    int A;
+    int64_t nb[DLCA_MAX_DIM], bstride[DLCA_MAX_DIM];
+    uint64_t nboxes;
+    uint32_t **box;
+    uint32_t *box_n, *box_cap;
+    int32_t *brange; /* per slot: start[d], count[d] of its registered boxes */
+    uint64_t candidates;
+    uint32_t *stamp, stamp_now; /* BOXES, ALLPAIRS: "seen in this search" marks, per slot */
+    uint32_t *cand;
+    dlca_contact *con;
+    size_t ncon, capcon;
+    uint64_t digest;
+    dlca_row *rows;
+    size_t nrows, caprows;
+    uint64_t row_nc;
+};
+
+#define DLCA_NO_REC UINT32_MAX
+
+static inline int64_t dlca_wrap(int64_t v, int64_t L)
+{
+    int64_t r = v % L;
+    return r < 0 ? r + L : r;
+}
+
+static inline void dlca_coords(const dlca_sim *s, uint64_t k, int64_t *x)
+{
+    /* one division per axis but the last (quotient and remainder together) */
+    for (int a = 0; a < s->d - 1; a++) {
+        const uint64_t L = (uint64_t)s->L[a];
+        x[a] = (int64_t)(k % L);
+        k /= L;
+    }
+    x[s->d - 1] = (int64_t)k;
+}
+
+static inline int32_t *dlca_rgeom(const dlca_sim *s, uint32_t r) { return s->rgeom + (size_t)r * 3 * s->d; }
+
+/* Fill v for record r holding n monomers. */
+static inline void view_rec(const dlca_sim *s, uint32_t r, uint32_t n, dlca_view *v)
+{
+    v->n = n;
+    v->k = s->rec[r].k;
+    v->off = (int32_t *)(s->rec[r].k + s->rec[r].cap);
+    v->anc = dlca_rgeom(s, r);
+    v->lo = v->anc + s->d;
+    v->hi = v->anc + 2 * s->d;
+}
+
+/* Fill v for slot c (size >= 1). */
+static inline void view_of(const dlca_sim *s, uint32_t c, dlca_view *v)
+{
+    if (s->n[c] >= 2) {
+        view_rec(s, s->ref[c], s->n[c], v);
+        return;
+    }
+    v->n = s->n[c];
+    int64_t x[DLCA_MAX_DIM];
+    dlca_coords(s, s->ref[c], x);
+    for (int a = 0; a < s->d; a++) v->g[a] = (int32_t)x[a];
+    v->k = &s->ref[c];
+    v->off = v->lo = v->hi = (int32_t *)dlca_zero;
+    v->anc = v->g;
+}
+
+/* Shared between dlca.c and dlca_state.c. */
+void dlca_sim_free(dlca_sim *s);
+/* The arrays of a simulation of p with N monomers, nothing placed. */
+int dlca_sim_alloc(dlca_sim **out, const dlca_params *p, uint64_t N);
+/* A record with room for cap monomers (its index), or DLCA_NO_REC. */
+uint32_t dlca_rec_new(dlca_sim *s, uint32_t cap);
+/* The seed's search structures from the state (after a start or a load). */
+int dlca_search_init(dlca_sim *s, int search, int A);
+int dlca_boxes_build(dlca_sim *s);
+void dlca_cluster_span(const dlca_sim *s, const dlca_view *v, const int32_t *anchor, int margin, int32_t *b0,
+                       int32_t *cnt);
+static inline int32_t *dlca_brange(const dlca_sim *s, uint32_t c) { return s->brange + (size_t)c * 2 * s->d; }
+int dlca_check_stop(dlca_sim *s);
+#endif

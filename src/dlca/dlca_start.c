@@ -1,0 +1,170 @@
+/*
+ * dlca_start.c - a DLCA start from a file (`--start FILE`): the monomers'
+ * lattice coordinates from a text file (one monomer a line, d integers
+ * separated by blanks, '#' starts a comment) or from an HDF5 file holding
+ * /monomers/position [N][d] (a DLCA cluster.h5). Every coordinate must lie
+ * in the box and no two monomers on one site; the first fault is refused
+ * with one line naming the file and the line (or monomer).
+ */
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dlca_h5.h"
+#include "pdla/dlca.h"
+
+typedef struct start_buf {
+    uint32_t *site;
+    uint64_t *where; /* the line (text) or monomer number (HDF5) of each */
+    uint64_t n, cap;
+} start_buf;
+
+static int push(start_buf *b, uint32_t k, uint64_t where)
+{
+    if (b->n == b->cap) {
+        const uint64_t cap = b->cap ? 2 * b->cap : 1024;
+        uint32_t *s = realloc(b->site, cap * sizeof *s);
+        if (s) b->site = s;
+        uint64_t *w = s ? realloc(b->where, cap * sizeof *w) : NULL;
+        if (!w) return -1;
+        b->where = w;
+        b->cap = cap;
+    }
+    b->site[b->n] = k;
+    b->where[b->n++] = where;
+    return 0;
+}
+
+/* The site of coordinates x, or PDLA_EINVAL naming the axis outside. */
+static int site_of(const dlca_params *p, const long long *x, uint32_t *k, const char *path, const char *unit,
+                   uint64_t where, char *err, size_t errlen)
+{
+    uint64_t s = 0, stride = 1;
+    for (int a = 0; a < p->dim; a++) {
+        if (x[a] < 0 || x[a] >= (long long)p->box[a])
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: %s %llu: coordinate %lld on axis %d is outside the box [0, %u)",
+                               path, unit, (unsigned long long)where, x[a], a + 1, p->box[a]);
+        s += (uint64_t)x[a] * stride;
+        stride *= p->box[a];
+    }
+    *k = (uint32_t)s;
+    return 0;
+}
+
+static int read_text(FILE *f, const char *path, const dlca_params *p, start_buf *b, char *err, size_t errlen)
+{
+    char line[4096];
+    for (uint64_t ln = 1; fgets(line, sizeof line, f); ln++) {
+        char *h = strchr(line, '#');
+        if (h) *h = '\0';
+        long long x[DLCA_MAX_DIM + 1];
+        int n = 0;
+        char *q = line, *end;
+        for (;;) {
+            while (*q == ' ' || *q == '\t' || *q == '\r' || *q == '\n' || *q == ',') q++;
+            if (!*q) break;
+            errno = 0;
+            const long long v = strtoll(q, &end, 10);
+            if (end == q || errno || n > DLCA_MAX_DIM)
+                return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: line %llu: expected %d integer coordinates",
+                                   path, (unsigned long long)ln, p->dim);
+            x[n++] = v;
+            q = end;
+        }
+        if (n == 0) continue;
+        if (n != p->dim)
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: line %llu: %d coordinates, --dim %d needs %d", path,
+                               (unsigned long long)ln, n, p->dim, p->dim);
+        uint32_t k = 0;
+        if (site_of(p, x, &k, path, "line", ln, err, errlen)) return PDLA_EINVAL;
+        if (push(b, k, ln)) return pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", path);
+    }
+    if (ferror(f)) return pdla_errorf(PDLA_EIO, err, errlen, "%s: read error", path);
+    return 0;
+}
+
+static int read_h5(const char *path, const dlca_params *p, start_buf *b, char *err, size_t errlen)
+{
+    h5u_quiet q;
+    if (h5u_silence(&q)) return pdla_errorf(PDLA_EIO, err, errlen, "cannot silence HDF5");
+    int32_t *pos = NULL;
+    int rc = PDLA_EINVAL;
+    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    const hid_t d = f >= 0 ? H5Dopen2(f, "monomers/position", H5P_DEFAULT) : H5I_INVALID_HID;
+    const hid_t sp = d >= 0 ? H5Dget_space(d) : H5I_INVALID_HID;
+    hsize_t dims[2] = {0, 0};
+    if (sp < 0 || H5Sget_simple_extent_ndims(sp) != 2 || H5Sget_simple_extent_dims(sp, dims, NULL) < 0)
+        pdla_errorf(PDLA_EINVAL, err, errlen, "%s: no /monomers/position [N][d] to start from", path);
+    else if (dims[1] != (hsize_t)p->dim)
+        pdla_errorf(PDLA_EINVAL, err, errlen, "%s: its monomers have %llu coordinates, --dim %d needs %d", path,
+                    (unsigned long long)dims[1], p->dim, p->dim);
+    else if (dims[0] && !(pos = malloc(dims[0] * dims[1] * sizeof *pos)))
+        rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", path);
+    else if (dims[0] && H5Dread(d, H5T_NATIVE_INT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, pos) < 0)
+        rc = pdla_errorf(PDLA_EIO, err, errlen, "%s: cannot read /monomers/position", path);
+    else {
+        rc = 0;
+        for (hsize_t i = 0; i < dims[0] && rc == 0; i++) {
+            long long x[DLCA_MAX_DIM];
+            for (int a = 0; a < p->dim; a++) x[a] = pos[i * dims[1] + (hsize_t)a];
+            uint32_t k = 0;
+            rc = site_of(p, x, &k, path, "monomer", i + 1, err, errlen);
+            if (rc == 0 && push(b, k, i + 1)) rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", path);
+        }
+    }
+    free(pos);
+    if (sp >= 0) H5Sclose(sp);
+    if (d >= 0) H5Dclose(d);
+    if (f >= 0) H5Fclose(f);
+    h5u_restore(&q);
+    return rc;
+}
+
+static int cmp_pair(const void *a, const void *b)
+{
+    const uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* No two monomers on one site: sorted (site, index) pairs. */
+static int check_distinct(const start_buf *b, const char *path, const char *unit, char *err, size_t errlen)
+{
+    uint64_t *kv = malloc(b->n * sizeof *kv);
+    if (!kv) return pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", path);
+    for (uint64_t i = 0; i < b->n; i++) kv[i] = (uint64_t)b->site[i] << 32 | (uint32_t)i;
+    qsort(kv, b->n, sizeof *kv, cmp_pair);
+    int rc = 0;
+    for (uint64_t i = 1; i < b->n && rc == 0; i++)
+        if (kv[i] >> 32 == kv[i - 1] >> 32)
+            rc = pdla_errorf(PDLA_EINVAL, err, errlen, "%s: %ss %llu and %llu put two monomers on one site", path, unit,
+                             (unsigned long long)b->where[kv[i - 1] & 0xffffffffu],
+                             (unsigned long long)b->where[kv[i] & 0xffffffffu]);
+    free(kv);
+    return rc;
+}
+
+int dlca_read_start(const char *path, const dlca_params *p, uint32_t **sites, uint64_t *n, char *err, size_t errlen)
+{
+    *sites = NULL;
+    *n = 0;
+    FILE *f = fopen(path, "rb");
+    if (!f) return pdla_errorf(PDLA_EINVAL, err, errlen, "cannot read start file %s: %s", path, strerror(errno));
+    unsigned char magic[8] = {0};
+    const int is_h5 = fread(magic, 1, 8, f) == 8 && memcmp(magic, "\x89HDF\r\n\x1a\n", 8) == 0;
+    rewind(f);
+    start_buf b = {0};
+    int rc = is_h5 ? read_h5(path, p, &b, err, errlen) : read_text(f, path, p, &b, err, errlen);
+    fclose(f);
+    if (rc == 0 && b.n == 0) rc = pdla_errorf(PDLA_EINVAL, err, errlen, "%s: no monomers in it", path);
+    if (rc == 0 && b.n >= UINT32_MAX) rc = pdla_errorf(PDLA_EINVAL, err, errlen, "%s: too many monomers", path);
+    if (rc == 0) rc = check_distinct(&b, path, is_h5 ? "monomer" : "line", err, errlen);
+    free(b.where);
+    if (rc) {
+        free(b.site);
+        return rc;
+    }
+    *sites = b.site;
+    *n = b.n;
+    return 0;
+}

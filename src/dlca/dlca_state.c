@@ -1,0 +1,422 @@
+/*
+ * dlca_state.c - the DLCA simulation's state as a whole: the full
+ * consistency check (dlca_check) and checkpoints (write, load). Split from
+ * dlca.c, which holds the dynamics; both see the state through dlca_sim.h.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dlca_h5.h"
+#include "dlca_internal.h"
+#include "dlca_sim.h"
+
+/* ---- the consistency check ----------------------------------------------- */
+
+static int cmp_u64(const void *a, const void *b)
+{
+    const uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+#define BAD(...) return pdla_errorf(PDLA_EINVAL, err, errlen, __VA_ARGS__)
+
+/* One cluster: active-list entry, sites against offsets and anchor, the id
+ * lattice, the bounding box. Appends (site << 32 | slot) to ks. */
+static int check_cluster(const dlca_sim *s, uint32_t c, uint64_t *ks, uint64_t *m, char *err, size_t errlen)
+{
+    const int d = s->d;
+    if (s->pos[c] >= s->nc || s->act[s->pos[c]] != c) BAD("cluster %u is not in the active list", c);
+    if (*m + s->n[c] > s->N) BAD("cluster sizes add up to more than N = %llu", (unsigned long long)s->N);
+    if (s->n[c] >= 2 && (s->ref[c] >= s->nrec || !s->rec[s->ref[c]].k || s->rec[s->ref[c]].cap < s->n[c]))
+        BAD("cluster %u has no record of its %u monomers", c, s->n[c]);
+    if (s->n[c] == 1 && s->ref[c] >= s->V) BAD("monomer %u lies outside the box", c);
+    dlca_view v;
+    view_of(s, c, &v);
+    int32_t tlo[DLCA_MAX_DIM], thi[DLCA_MAX_DIM];
+    for (int a = 0; a < d; a++) tlo[a] = thi[a] = v.off[a];
+    for (uint32_t i = 0; i < v.n; i++) {
+        int64_t x[DLCA_MAX_DIM];
+        for (int a = 0; a < d; a++) {
+            const int32_t o = v.off[(size_t)i * d + a];
+            x[a] = (int64_t)v.anc[a] + o;
+            if (o < tlo[a]) tlo[a] = o;
+            if (o > thi[a]) thi[a] = o;
+        }
+        if (dlca_site(s, x) != v.k[i]) BAD("cluster %u monomer %u: site %u does not match its offset", c, i, v.k[i]);
+        if (s->grid && s->grid[v.k[i]] != c) BAD("site %u holds id %u, not its cluster %u", v.k[i], s->grid[v.k[i]], c);
+        ks[(*m)++] = (uint64_t)v.k[i] << 32 | c;
+    }
+    for (int a = 0; a < d; a++) {
+        if (tlo[a] != v.lo[a] || thi[a] != v.hi[a]) BAD("cluster %u: bounding box is stale", c);
+        if (!s->spanning && (int64_t)v.hi[a] - v.lo[a] + 1 >= s->L[a])
+            BAD("cluster %u spans axis %d but the run did not stop", c, a);
+    }
+    return 0;
+}
+
+/* The counters against the clusters: N_c, largest, sum of s^2, smallest. */
+static int check_counts(const dlca_sim *s, uint64_t m, char *err, size_t errlen)
+{
+    uint64_t active = 0, largest = 0, smin = s->N;
+    double s2 = 0;
+    for (uint64_t c = 1; c <= s->N; c++) {
+        if (!s->n[c]) continue;
+        active++;
+        if (s->n[c] > largest) largest = s->n[c];
+        if (s->n[c] < smin) smin = s->n[c];
+        s2 += (double)s->n[c] * s->n[c];
+    }
+    if (m != s->N) BAD("cluster sizes add up to %llu, not N = %llu", (unsigned long long)m, (unsigned long long)s->N);
+    if (active != s->nc)
+        BAD("%llu clusters hold monomers, N_c says %llu", (unsigned long long)active, (unsigned long long)s->nc);
+    if (largest != s->largest)
+        BAD("largest cluster %llu, recorded %llu", (unsigned long long)largest, (unsigned long long)s->largest);
+    if (s2 != s->sum_s2) BAD("sum of s^2 %.0f, recorded %.0f", s2, s->sum_s2);
+    if (s->size_count && smin != s->smin)
+        BAD("smallest cluster %llu, recorded %llu", (unsigned long long)smin, (unsigned long long)s->smin);
+    return 0;
+}
+
+/* Sorted (site << 32 | slot): no site twice; the lattice holds N sites;
+ * with sticking 1 no two clusters face-adjacent. */
+static int check_sites(const dlca_sim *s, const uint64_t *ks, uint64_t m, char *err, size_t errlen)
+{
+    for (uint64_t j = 1; j < m; j++)
+        if (ks[j] >> 32 == ks[j - 1] >> 32) BAD("two monomers on site %llu", (unsigned long long)(ks[j] >> 32));
+    if (s->grid) {
+        uint64_t filled = 0;
+        for (uint64_t k = 0; k < s->V; k++) filled += s->grid[k] != 0;
+        if (filled != s->N)
+            BAD("the id lattice holds %llu sites, N = %llu", (unsigned long long)filled, (unsigned long long)s->N);
+    }
+    if (s->p.sticking < 1 || s->spanning) return 0;
+    for (uint64_t j = 0; j < m; j++) {
+        int64_t x[DLCA_MAX_DIM];
+        dlca_coords(s, ks[j] >> 32, x);
+        for (int dir = 0; dir < 2 * s->d; dir++) {
+            int64_t y[DLCA_MAX_DIM];
+            memcpy(y, x, sizeof y);
+            y[dir >> 1] += (dir & 1) ? -1 : 1;
+            const uint64_t key = (uint64_t)dlca_site(s, y) << 32;
+            uint64_t lo = 0, hi = m; /* binary search for the site */
+            while (lo < hi) {
+                const uint64_t mid = (lo + hi) / 2;
+                if (ks[mid] < key) lo = mid + 1;
+                else hi = mid;
+            }
+            if (lo < m && ks[lo] >> 32 == key >> 32 && (ks[lo] & 0xffffffffu) != (ks[j] & 0xffffffffu))
+                BAD("clusters %llu and %llu touch but did not join", (unsigned long long)(ks[j] & 0xffffffffu),
+                    (unsigned long long)(ks[lo] & 0xffffffffu));
+        }
+    }
+    return 0;
+}
+
+/* The grid boxes list every cluster where its bounding box lies. */
+static int check_boxes(const dlca_sim *s, char *err, size_t errlen)
+{
+    if (s->search_now != DLCA_SEARCH_BOXES || s->spanning) return 0; /* a spanning join stops the bookkeeping */
+    const int d = s->d;
+    uint64_t listed = 0, expect = 0;
+    for (uint64_t b = 0; b < s->nboxes; b++) listed += s->box_n[b];
+    for (uint64_t j = 0; j < s->nc; j++) {
+        const uint32_t c = s->act[j];
+        dlca_view v;
+        view_of(s, c, &v);
+        int32_t b0[DLCA_MAX_DIM], cnt[DLCA_MAX_DIM];
+        dlca_cluster_span(s, &v, v.anc, 0, b0, cnt);
+        const int32_t *r = dlca_brange(s, c);
+        if (memcmp(b0, r, (size_t)d * sizeof *b0) || memcmp(cnt, r + d, (size_t)d * sizeof *cnt))
+            BAD("cluster %u is registered in stale boxes", c);
+        uint64_t e = 1;
+        for (int a = 0; a < d; a++) {
+            e *= (uint64_t)cnt[a];
+            if ((int64_t)v.hi[a] - v.lo[a] + 1 > s->A) BAD("cluster %u is wider than A = %d", c, s->A);
+        }
+        expect += e;
+    }
+    if (listed != expect)
+        BAD("boxes list %llu entries, expected %llu", (unsigned long long)listed, (unsigned long long)expect);
+    return 0;
+}
+#undef BAD
+
+int dlca_check(const dlca_sim *s, char *err, size_t errlen)
+{
+    uint64_t *ks = malloc(s->N * sizeof *ks); /* (site << 32) | slot */
+    if (!ks) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory");
+    uint64_t m = 0;
+    int rc = 0;
+    for (uint64_t c = 1; c <= s->N && rc == 0; c++)
+        if (s->n[c]) rc = check_cluster(s, (uint32_t)c, ks, &m, err, errlen);
+    if (rc == 0) rc = check_counts(s, m, err, errlen);
+    if (rc == 0) {
+        qsort(ks, m, sizeof *ks, cmp_u64);
+        rc = check_sites(s, ks, m, err, errlen);
+    }
+    if (rc == 0) rc = check_boxes(s, err, errlen);
+    free(ks);
+    return rc;
+}
+
+/* ---- checkpoints ---------------------------------------------------------- */
+
+/* The scalars of the state, in one array of doubles and one of u64. */
+enum { CK_U_ATT, CK_U_MOV, CK_U_MMOV, CK_U_MRG, CK_U_LARGE, CK_U_CAND, CK_U_DIG, CK_U_NC, CK_U_ROWNC, CK_U_SMIN,
+       CK_U_A, CK_U_SEARCH, CK_U_SPAN, CK_U_STOP, CK_U_N, CK_NU };
+enum { CK_D_T, CK_D_S2, CK_ND };
+
+static int ck_write(const h5u_writer *w, hid_t loc, const char *name, hid_t ftype, hid_t mtype, const void *data,
+                    size_t n)
+{
+    hid_t space = H5I_INVALID_HID, d;
+    int rc = 0;
+    if ((d = h5u_dataset(w, loc, name, ftype, 1, n, 1, n > 65536 ? 65536 : (n ? n : 1), &space)) < 0) return -1;
+    if (n > 0 && H5Dwrite(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) rc = h5u_fail(w, "write %s", name);
+    rc = h5u_close(w, rc, space, H5Sclose, "a dataspace");
+    return h5u_close(w, rc, d, H5Dclose, name);
+}
+
+/* The state as the checkpoint format (version 1) lays it out: per slot its
+ * size and anchor + bounding box, per monomer (slot order) site and offset,
+ * the series as two arrays. */
+typedef struct ck_arrays {
+    uint32_t *slot_n, *k;
+    int32_t *off, *geom;
+    double *rt;
+    uint64_t *ru;
+} ck_arrays;
+
+static void ck_free(ck_arrays *a) { free(a->slot_n), free(a->k), free(a->off), free(a->geom), free(a->rt), free(a->ru); }
+
+static int ck_alloc(ck_arrays *a, uint64_t N, int d, size_t nrows)
+{
+    a->slot_n = malloc((N + 1) * sizeof *a->slot_n);
+    a->k = malloc(N * sizeof *a->k);
+    a->off = malloc(N * (size_t)d * sizeof *a->off);
+    a->geom = calloc((N + 1) * 3 * (size_t)d, sizeof *a->geom);
+    a->rt = malloc((nrows + 1) * 3 * sizeof *a->rt);
+    a->ru = malloc((nrows + 1) * 3 * sizeof *a->ru);
+    return a->slot_n && a->k && a->off && a->geom && a->rt && a->ru ? 0 : -1;
+}
+
+static void ck_gather(const dlca_sim *s, ck_arrays *a)
+{
+    const int d = s->d;
+    uint64_t m = 0;
+    a->slot_n[0] = 0;
+    for (uint64_t c = 1; c <= s->N; c++) {
+        a->slot_n[c] = s->n[c];
+        if (!s->n[c]) continue;
+        dlca_view v;
+        view_of(s, (uint32_t)c, &v);
+        int32_t *g = a->geom + c * 3 * (size_t)d;
+        memcpy(g, v.anc, (size_t)d * sizeof *g);
+        memcpy(g + d, v.lo, (size_t)d * sizeof *g);
+        memcpy(g + 2 * d, v.hi, (size_t)d * sizeof *g);
+        memcpy(a->k + m, v.k, v.n * sizeof *a->k);
+        memcpy(a->off + m * d, v.off, (size_t)v.n * d * sizeof *a->off);
+        m += v.n;
+    }
+    for (size_t r = 0; r < s->nrows; r++) {
+        const dlca_row *w = &s->rows[r];
+        a->rt[3 * r] = w->t, a->rt[3 * r + 1] = w->mean_size, a->rt[3 * r + 2] = w->weight_size;
+        a->ru[3 * r] = w->attempts, a->ru[3 * r + 1] = w->n_clusters, a->ru[3 * r + 2] = w->largest;
+    }
+}
+
+int dlca_checkpoint_write(const dlca_sim *s, const char *path, char *err, size_t errlen)
+{
+    h5u_writer w = {path, err, errlen};
+    h5u_quiet q;
+    if (h5u_silence(&q)) return pdla_errorf(PDLA_EIO, err, errlen, "cannot silence HDF5");
+    const int d = s->d;
+    const uint64_t u[CK_NU] = {s->attempts, s->moves, s->monomer_moves, s->merges, s->largest, s->candidates,
+                               s->digest, s->nc, s->row_nc, s->smin, (uint64_t)s->A, (uint64_t)s->search_now,
+                               (uint64_t)s->spanning, (uint64_t)s->stop, s->N};
+    const double dv[CK_ND] = {s->t, s->sum_s2};
+    ck_arrays a = {0};
+    hid_t file = H5I_INVALID_HID;
+    int rc = -1;
+    if (ck_alloc(&a, s->N, d, s->nrows)) {
+        h5u_fail_msg(&w, "cannot write %s: out of memory", path);
+        goto done;
+    }
+    ck_gather(s, &a);
+    if ((file = h5u_create_file(&w, path)) < 0) goto done;
+    if (h5u_attr_str(&w, file, "model", "dlca-checkpoint") < 0 || h5u_attr_int(&w, file, "format_version", 1) < 0 ||
+        dlca_write_parameters_h5(&w, file, &s->p) < 0 ||
+        ck_write(&w, file, "rng", H5T_STD_U64LE, H5T_NATIVE_UINT64, s->rng.s, 4) < 0 ||
+        ck_write(&w, file, "u64", H5T_STD_U64LE, H5T_NATIVE_UINT64, u, CK_NU) < 0 ||
+        ck_write(&w, file, "f64", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dv, CK_ND) < 0 ||
+        ck_write(&w, file, "slot_n", H5T_STD_U32LE, H5T_NATIVE_UINT32, a.slot_n, s->N + 1) < 0 ||
+        ck_write(&w, file, "geom", H5T_STD_I32LE, H5T_NATIVE_INT32, a.geom, (s->N + 1) * 3 * (size_t)d) < 0 ||
+        ck_write(&w, file, "active", H5T_STD_U32LE, H5T_NATIVE_UINT32, s->act, s->nc) < 0 ||
+        ck_write(&w, file, "site", H5T_STD_U32LE, H5T_NATIVE_UINT32, a.k, s->N) < 0 ||
+        ck_write(&w, file, "offset", H5T_STD_I32LE, H5T_NATIVE_INT32, a.off, s->N * (size_t)d) < 0 ||
+        ck_write(&w, file, "rows_f64", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, a.rt, 3 * s->nrows) < 0 ||
+        ck_write(&w, file, "rows_u64", H5T_STD_U64LE, H5T_NATIVE_UINT64, a.ru, 3 * s->nrows) < 0)
+        goto done;
+    rc = 0;
+done:
+    if (file >= 0) rc = h5u_close(&w, rc, file, H5Fclose, path);
+    ck_free(&a);
+    h5u_restore(&q);
+    return rc < 0 ? PDLA_EIO : 0;
+}
+
+/* Read dataset name of exactly n elements. */
+static int ck_read(hid_t f, const char *name, hid_t mtype, void *buf, size_t n)
+{
+    const hid_t d = H5Dopen2(f, name, H5P_DEFAULT);
+    if (d < 0) return -1;
+    const hid_t sp = H5Dget_space(d);
+    const hssize_t have = sp >= 0 ? H5Sget_simple_extent_npoints(sp) : -1;
+    int rc = have == (hssize_t)n ? 0 : -1;
+    if (rc == 0 && n && H5Dread(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) rc = -1;
+    if (sp >= 0) H5Sclose(sp);
+    H5Dclose(d);
+    return rc;
+}
+
+/* Elements in dataset name / per (0 if it is missing). */
+static size_t ck_rows(hid_t f, const char *name, size_t per)
+{
+    const hid_t dr = H5Dopen2(f, name, H5P_DEFAULT);
+    if (dr < 0) return 0;
+    const hid_t sp = H5Dget_space(dr);
+    const hssize_t n = sp >= 0 ? H5Sget_simple_extent_npoints(sp) : 0;
+    if (sp >= 0) H5Sclose(sp);
+    H5Dclose(dr);
+    return n > 0 ? (size_t)n / per : 0;
+}
+
+/* What a load failed on: the return code and the reason. */
+#define LOAD_FAIL(code, ...)                         \
+    do {                                             \
+        snprintf(why, whylen, __VA_ARGS__);          \
+        return (code);                               \
+    } while (0)
+
+/* The clusters from the arrays: sizes, records, sites, offsets, lattice. */
+static int load_clusters(dlca_sim *s, const ck_arrays *a, char *why, size_t whylen)
+{
+    const int d = s->d;
+    uint64_t m = 0;
+    for (uint64_t c = 1; c <= s->N; c++) {
+        const uint32_t n = a->slot_n[c];
+        if (!n) continue;
+        if (m + n > s->N) LOAD_FAIL(PDLA_EIO, "its cluster sizes add up to more than N");
+        const int32_t *g = a->geom + c * 3 * (size_t)d;
+        s->n[c] = n;
+        if (n == 1) s->ref[c] = a->k[m];
+        else {
+            const uint32_t r = dlca_rec_new(s, n);
+            if (r == DLCA_NO_REC) LOAD_FAIL(PDLA_ENOMEM, "out of memory");
+            s->ref[c] = r;
+            memcpy(s->rec[r].k, a->k + m, n * sizeof *a->k);
+            memcpy(s->rec[r].k + n, a->off + m * d, (size_t)n * d * sizeof *a->off);
+            memcpy(dlca_rgeom(s, r), g, 3 * (size_t)d * sizeof *g);
+        }
+        for (uint32_t i = 0; i < n; i++) {
+            if (a->k[m + i] >= s->V || s->grid[a->k[m + i]]) LOAD_FAIL(PDLA_EIO, "a site is outside the box or taken twice");
+            s->grid[a->k[m + i]] = (uint32_t)c;
+        }
+        m += n;
+    }
+    return 0;
+}
+
+/* The counters, the active list and the series. */
+static int load_counters(dlca_sim *s, hid_t f, const uint64_t *u, const double *dv, char *why, size_t whylen)
+{
+    if (ck_read(f, "rng", H5T_NATIVE_UINT64, s->rng.s, 4) || u[CK_U_NC] > s->N ||
+        ck_read(f, "active", H5T_NATIVE_UINT32, s->act, u[CK_U_NC]))
+        LOAD_FAIL(PDLA_EIO, "its state arrays are missing or have the wrong length");
+    s->nc = u[CK_U_NC];
+    for (uint64_t j = 0; j < s->nc; j++) {
+        if (s->act[j] < 1 || s->act[j] > s->N || !s->n[s->act[j]]) LOAD_FAIL(PDLA_EIO, "its active list names an empty cluster");
+        s->pos[s->act[j]] = (uint32_t)j;
+    }
+    s->attempts = u[CK_U_ATT], s->moves = u[CK_U_MOV], s->monomer_moves = u[CK_U_MMOV];
+    s->merges = u[CK_U_MRG], s->largest = u[CK_U_LARGE], s->candidates = u[CK_U_CAND];
+    s->digest = u[CK_U_DIG], s->row_nc = u[CK_U_ROWNC], s->smin = u[CK_U_SMIN];
+    s->spanning = (int)u[CK_U_SPAN], s->stop = (int)u[CK_U_STOP];
+    s->t = dv[CK_D_T], s->sum_s2 = dv[CK_D_S2];
+    if (s->size_count)
+        for (uint64_t j = 0; j < s->nc; j++) s->size_count[s->n[s->act[j]]]++;
+    const size_t nr = ck_rows(f, "rows_u64", 3);
+    double *rt = malloc((nr + 1) * 3 * sizeof *rt);
+    uint64_t *ru = malloc((nr + 1) * 3 * sizeof *ru);
+    s->rows = malloc((nr + 1) * sizeof *s->rows);
+    int rc = 0;
+    if (!rt || !ru || !s->rows) rc = PDLA_ENOMEM, snprintf(why, whylen, "out of memory");
+    else if (ck_read(f, "rows_f64", H5T_NATIVE_DOUBLE, rt, 3 * nr) || ck_read(f, "rows_u64", H5T_NATIVE_UINT64, ru, 3 * nr))
+        rc = PDLA_EIO, snprintf(why, whylen, "its series is damaged");
+    for (size_t r = 0; rc == 0 && r < nr; r++)
+        s->rows[r] = (dlca_row){rt[3 * r], ru[3 * r], ru[3 * r + 1], ru[3 * r + 2], rt[3 * r + 1], rt[3 * r + 2]};
+    s->nrows = rc ? 0 : nr;
+    s->caprows = s->rows ? nr + 1 : 0;
+    free(rt), free(ru);
+    return rc;
+}
+
+/* The whole state from an open checkpoint file. */
+static int load_state(dlca_sim **out, hid_t f, char *why, size_t whylen)
+{
+    dlca_params p; /* the parameters, through the table: every field the writer wrote */
+    dlca_params_default(&p);
+    if (dlca_read_parameters_h5(f, &p)) LOAD_FAIL(PDLA_EIO, "not a DLCA checkpoint (no readable /parameters)");
+    uint64_t u[CK_NU];
+    double dv[CK_ND];
+    if (ck_read(f, "u64", H5T_NATIVE_UINT64, u, CK_NU) || ck_read(f, "f64", H5T_NATIVE_DOUBLE, dv, CK_ND))
+        LOAD_FAIL(PDLA_EIO, "not a DLCA checkpoint (no state)");
+    p.count = u[CK_U_N];
+    if (dlca_params_validate(&p, why, whylen)) return PDLA_EIO;
+    const int d = p.dim;
+    ck_arrays a = {0};
+    int rc = PDLA_EIO;
+    if (dlca_sim_alloc(out, &p, p.count) || ck_alloc(&a, p.count, d, 0)) rc = PDLA_ENOMEM, snprintf(why, whylen, "out of memory");
+    else if (ck_read(f, "slot_n", H5T_NATIVE_UINT32, a.slot_n, p.count + 1) ||
+             ck_read(f, "site", H5T_NATIVE_UINT32, a.k, p.count) ||
+             ck_read(f, "offset", H5T_NATIVE_INT32, a.off, p.count * (size_t)d) ||
+             ck_read(f, "geom", H5T_NATIVE_INT32, a.geom, (p.count + 1) * 3 * (size_t)d))
+        snprintf(why, whylen, "its monomer arrays are missing or have the wrong length");
+    else if (!(rc = load_clusters(*out, &a, why, whylen)) && !(rc = load_counters(*out, f, u, dv, why, whylen))) {
+        /* The search structures from the state, boxes of the saved side. */
+        rc = dlca_search_init(*out, p.search, (int)u[CK_U_A]) ? PDLA_ENOMEM : 0;
+        if (rc) snprintf(why, whylen, "out of memory");
+        if (!rc && (*out)->search_now != (int)u[CK_U_SEARCH]) rc = PDLA_EIO, snprintf(why, whylen, "its search state is inconsistent");
+    }
+    ck_free(&a);
+    return rc;
+}
+#undef LOAD_FAIL
+
+int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, size_t errlen)
+{
+    *out = NULL;
+    h5u_quiet q;
+    if (h5u_silence(&q)) return pdla_errorf(PDLA_EIO, err, errlen, "cannot silence HDF5");
+    dlca_sim *s = NULL;
+    char why[256] = "";
+    int rc = PDLA_EIO;
+    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f < 0) snprintf(why, sizeof why, "cannot open it as HDF5");
+    else if ((rc = load_state(&s, f, why, sizeof why)) == 0) {
+        char cerr[160];
+        if (dlca_check(s, cerr, sizeof cerr)) {
+            snprintf(why, sizeof why, "its state is inconsistent: %s", cerr);
+            rc = PDLA_EIO;
+        }
+    }
+    if (f >= 0) H5Fclose(f);
+    h5u_restore(&q);
+    if (rc) {
+        dlca_sim_free(s);
+        return pdla_errorf(rc, err, errlen, "cannot resume from %s: %s", path, why);
+    }
+    *out = s;
+    return 0;
+}

@@ -1,0 +1,135 @@
+#!/usr/bin/env python3
+"""test_dlca_start.py PDLA - `pdla --model dlca --start FILE` and
+`--snapshot-every T`.
+
+--start: monomers from a text file land where the file says (slot order =
+file order); face-adjacent ones start joined; an HDF5 cluster.h5 restarts
+from its /monomers/position; bad files (two monomers on one site, outside
+the box, wrong number of coordinates, empty, missing) and --start with
+--resume are refused with one line, exit 2 and no run directory.
+
+--snapshot-every: /snapshots/i holds the state at the first attempt at or
+after (i+1) T: the same sites and cluster numbers as a run stopped by
+--until-time (i+1) T; snapshots do not change the history (digest).
+"""
+import os
+import subprocess
+import sys
+import tempfile
+
+import h5py
+import numpy as np
+
+pdla = sys.argv[1]
+fails = 0
+
+
+def check(cond, msg):
+    global fails
+    if not cond:
+        fails += 1
+        print("FAIL:", msg)
+
+
+def run(*args):
+    p = subprocess.run([pdla, "--model", "dlca", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                       stdin=subprocess.DEVNULL)
+    return p.returncode, p.stderr.decode(errors="replace")
+
+
+tmp = tempfile.mkdtemp()
+
+
+def path(name):
+    return os.path.join(tmp, name)
+
+
+def write(name, text):
+    with open(path(name), "w") as f:
+        f.write(text)
+    return path(name)
+
+
+# A text start, no two adjacent: already 3 clusters, so the run stops at once
+# and the positions are the file's, in its order.
+ok = write("ok.txt", "# x y\n1 1\n5 1\n\n10 20  # a comment\n")
+rc, err = run("--box", "32", "--start", ok, "--until-clusters", "3", "--out", path("r1"), "--check", "-q")
+check(rc == 0, f"text start: exit {rc} {err}")
+if rc == 0:
+    with h5py.File(path("r1/cluster.h5"), "r") as f:
+        pos = f["monomers/position"][()]
+        check(pos.tolist() == [[1, 1], [5, 1], [10, 20]], f"text start positions {pos.tolist()}")
+        check(int(f["parameters"].attrs["count"]) == 3, "count is not the file's 3 monomers")
+
+# Face-adjacent monomers of the file start joined (across the periodic edge).
+adj = write("adj.txt", "0 3\n31 3\n")
+rc, err = run("--box", "32", "--start", adj, "--until-clusters", "1", "--max-attempts", "1", "--out", path("r2"), "-q")
+check(rc == 0, f"adjacent start: exit {rc} {err}")
+if rc == 0:
+    with h5py.File(path("r2/cluster.h5"), "r") as f:
+        check(int(f["results"].attrs["n_clusters"]) == 1 and int(f["results"].attrs["attempts"]) == 0,
+              "adjacent monomers across the edge did not start joined")
+
+# An HDF5 start: a random run's end state, restarted: the same sites.
+rc, err = run("--box", "64x48", "--fill", "0.05", "--until-clusters", "10", "--seed", "3", "--out", path("r3"), "-q")
+check(rc == 0, f"random run: exit {rc} {err}")
+rc, err = run("--box", "64x48", "--start", path("r3/cluster.h5"), "--until-clusters", "10", "--out", path("r4"), "-q")
+check(rc == 0, f"HDF5 start: exit {rc} {err}")
+if rc == 0:
+    with h5py.File(path("r3/cluster.h5"), "r") as a, h5py.File(path("r4/cluster.h5"), "r") as b:
+        sa, sb = sorted(a["monomers/site"][()].tolist()), sorted(b["monomers/site"][()].tolist())
+        check(sa == sb, "HDF5 start: the sites differ from the file's")
+        check(int(b["results"].attrs["n_clusters"]) == 10, "HDF5 start: the 10 clusters did not start joined")
+
+# Refused: one line, exit 2, no run directory.
+bad = {
+    "dup": write("dup.txt", "1 1\n2 2\n1 1\n"),
+    "outside": write("out.txt", "1 1\n32 0\n"),
+    "negative": write("neg.txt", "-1 0\n"),
+    "coords": write("dim.txt", "1 1 1\n"),
+    "junk": write("junk.txt", "1 x\n"),
+    "empty": write("empty.txt", "# nothing\n"),
+    "missing": path("nosuch.txt"),
+}
+for what, f in bad.items():
+    rc, err = run("--box", "32", "--start", f, "--out", path("bad"))
+    check(rc == 2 and err.count("\n") == 1 and err.startswith("pdla: ") and not os.path.exists(path("bad")),
+          f"--start {what}: exit {rc}, stderr {err!r}")
+rc, err = run("--resume", path("r3"), "--start", ok)
+check(rc == 2 and err.count("\n") == 1, f"--start with --resume: exit {rc} {err!r}")
+for v in ("0", "-1", "x"):
+    rc, err = run("--snapshot-every", v, "--out", path("bad"))
+    check(rc == 2 and err.count("\n") == 1 and not os.path.exists(path("bad")), f"--snapshot-every {v}: exit {rc}")
+
+# Snapshots: each equals a run stopped by --until-time at its multiple of T.
+T = 40.0
+base = ["--box", "64", "--fill", "0.05", "--until-clusters", "5", "--seed", "4"]
+rc, err = run(*base, "--snapshot-every", str(T), "--out", path("sn"), "-q")
+check(rc == 0, f"--snapshot-every: exit {rc} {err}")
+rc2, err2 = run(*base, "--out", path("plain"), "-q")
+with h5py.File(path("sn/cluster.h5"), "r") as f, h5py.File(path("plain/cluster.h5"), "r") as g:
+    check(f["results"].attrs["history_digest"] == g["results"].attrs["history_digest"],
+          "snapshots changed the history")
+    n = int(f["snapshots"].attrs["count"])
+    t_end = float(f["results"].attrs["t"])
+    check(n == int(t_end // T) or n == int(t_end // T) + 1 and t_end % T == 0, f"{n} snapshots up to t = {t_end}")
+    N = int(f["results"].attrs["n_monomers"])
+    for i in range(n):
+        s = f[f"snapshots/{i}"]
+        t, site, cl = float(s.attrs["t"]), s["site"][()], s["cluster"][()]
+        check(t >= (i + 1) * T and (i == 0 or t > float(f[f"snapshots/{i - 1}"].attrs["t"])), f"snapshot {i} at t {t}")
+        check(len(site) == N and len(np.unique(site)) == N and cl.max() + 1 == s.attrs["n_clusters"],
+              f"snapshot {i}: not N distinct sites with numbered clusters")
+    for i in sorted({0, n // 2, n - 1}) if n else []:
+        s = f[f"snapshots/{i}"]
+        d = path(f"until{i}")
+        rc, err = run(*base, "--until-time", str((i + 1) * T), "--out", d, "-q")
+        with h5py.File(os.path.join(d, "cluster.h5"), "r") as h:
+            check(rc == 0 and float(h["results"].attrs["t"]) == float(s.attrs["t"]) and
+                  np.array_equal(h["monomers/site"][()], s["site"][()]) and
+                  np.array_equal(h["monomers/cluster"][()], s["cluster"][()]),
+                  f"snapshot {i} differs from the run stopped at t = {(i + 1) * T}")
+
+subprocess.run(["rm", "-rf", tmp])
+print("dlca start/snapshots:", "all passed" if fails == 0 else f"{fails} failed")
+sys.exit(1 if fails else 0)

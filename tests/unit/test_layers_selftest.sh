@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# test_layers_selftest.sh SOURCE_DIR: scripts/check-layers must catch each
+# kind of layering fault. On a copy of src/, include/ and the header list it
+# checks the clean tree passes, then injects one fault at a time and expects
+# check-layers to fail naming it: a folder arrow upwards (core -> dla), a
+# model using another model (dlca -> event), a library file using the CLI,
+# an #include cycle between two headers, the CLI including a library-internal
+# header, a public header missing from tests/headers, an unresolvable include,
+# a second reader of the monotonic clock.
+set -u
+src=$1
+check="$src/scripts/check-layers"
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fail=0
+
+fresh() {
+    rm -rf "$tmp/t" && mkdir -p "$tmp/t/tests/headers"
+    cp -r "$src/src" "$src/include" "$tmp/t/"
+    cp "$src/tests/headers/meson.build" "$tmp/t/tests/headers/"
+}
+
+# expect NAME PATTERN: check-layers on the copy fails and prints PATTERN.
+expect() {
+    local out
+    if out=$(python3 "$check" --sources-only "$tmp/t" 2>&1); then
+        echo "FAIL $1: check-layers passed"; fail=1
+    elif ! grep -q -- "$2" <<<"$out"; then
+        echo "FAIL $1: no '$2' in: $out"; fail=1
+    else
+        echo "ok   $1"
+    fi
+}
+
+fresh
+if ! python3 "$check" --sources-only "$tmp/t"; then echo "FAIL the clean copy"; fail=1; fi
+
+fresh; echo '#include "engine.h"' >>"$tmp/t/src/core/util.c"
+expect "core uses dla" "include src/core/util.c -> src/dla/engine.h: folder core may not use folder dla"
+fresh; echo '#include "ev_internal.h"' >>"$tmp/t/src/dlca/dlca.c"
+expect "model uses model" "src/dlca/dlca.c -> src/event/ev_internal.h: folder dlca may not use folder event"
+fresh; echo '#include "../cli/parse.h"' >>"$tmp/t/src/dla/engine.c"
+expect "library uses cli" "folder dla may not use folder cli"
+fresh; echo '#include "recent.h"' >>"$tmp/t/src/dla/parallel.h"; echo '#include "parallel.h"' >>"$tmp/t/src/dla/recent.h"
+expect "header cycle" "#include cycle among src/dla/parallel.h, src/dla/recent.h"
+fresh; echo '#include "../core/h5util.h"' >>"$tmp/t/src/cli/info.c"
+expect "cli includes src/core" "info.c:.*from outside src/cli/"
+fresh; echo '#include "h5util.h"' >>"$tmp/t/src/cli/render.c"
+expect "cli include not on its path" "render.c:.*not found on its include path"
+fresh; printf '#ifndef X\n#define X\n#endif\n' >"$tmp/t/include/pdla/newmodel.h"
+expect "untested public header" "include/pdla/newmodel.h is not in tests/headers/meson.build"
+fresh; printf 'static double t(void) { struct timespec ts; clock_gettime(CLOCK_MONOTONIC, &ts); return 0; }\n' >>"$tmp/t/src/dla/grow.c"
+expect "a second monotonic clock" "src/dla/grow.c reads CLOCK_MONOTONIC itself"
+
+exit $fail

@@ -8,15 +8,17 @@
  * Units: lengths as given (radii), masses = density * volume of the particle
  * (pi r^2 in 2D, 4/3 pi r^3 in 3D), energies in k_B T as given, time derived.
  *
- * Parameters live in one descriptor table (ev_param_table): the CLI's
- * parsing, --help, validation and the output's /parameters attributes are
- * all generated from it.
+ * Parameters are rows of the shared parameter table (ev_param_table,
+ * pdla/params.h): the CLI's parsing, --help, validation, the output's
+ * /parameters attributes and the resume rule are all generated from it.
  */
 #ifndef PDLA_EVENT_H
 #define PDLA_EVENT_H
 
 #include <stddef.h>
 #include <stdint.h>
+
+#include "pdla/params.h"
 
 #define EV_MAX_SPECIES 8
 
@@ -35,6 +37,7 @@ typedef struct ev_params {
     uint64_t particles;      /* when species is empty: one species of this many */
     double radius, density;  /* ... with this radius and density */
     char species[256];       /* "COUNT:RADIUS:DENSITY[,...]" or "" */
+    char seeds[512];         /* file of immobile seeds (replace the central one), or "" */
     double packing;          /* volume fraction of the free particles in the box */
     int walls;               /* enum ev_walls */
     uint64_t seed;           /* random seed */
@@ -49,32 +52,19 @@ typedef struct ev_params {
     double series_dt;        /* time between rows of the series */
 } ev_params;
 
-/* The descriptor table. */
-typedef enum ev_ptype { EV_P_INT, EV_P_U64, EV_P_F64, EV_P_STR, EV_P_ENUM } ev_ptype;
-typedef struct ev_param_desc {
-    const char *name;    /* CLI option without "--", scene key with '-' -> '_' */
-    ev_ptype type;
-    size_t offset;       /* into ev_params */
-    const char *unit;    /* "" when dimensionless */
-    const char *defval;  /* default, parsed like user input */
-    double min, max;     /* numeric bounds (inclusive) */
-    int min_open;        /* 1: min itself is refused */
-    const char *choices; /* EV_P_ENUM: "a|b|c", index = value */
-    const char *help;
-} ev_param_desc;
-
-extern const ev_param_desc ev_param_table[];
-extern const size_t ev_param_count;
+/* The model's rows of the parameter table (pdla/params.h, models =
+ * PDLA_MODEL_EVENT) over ev_params; *n gets its length. Validation, the
+ * /parameters attributes, the checkpoint's resume rule and the CLI options
+ * are generated from it by the shared code (pdla_param_*). */
+const pdla_param_desc *ev_param_table(size_t *n);
 
 /* Defaults from the table. */
 void ev_params_default(ev_params *p);
-/* Set one parameter from text (validated against the table): 0, or -1 with
- * one line in err. */
+/* Set one parameter (its option or scene key, '_' = '-') from text, checked
+ * against its row: 0, or -1 with one line in err naming the option. */
 int ev_param_set(ev_params *p, const char *name, const char *value, char *err, size_t errlen);
 /* Cross-field validation (species, packing, box vs cell size): 0 or -1. */
 int ev_params_check(const ev_params *p, char *err, size_t errlen);
-/* Value of parameter k as text (for --help and /parameters). */
-void ev_param_format(const ev_params *p, size_t k, char *buf, size_t len);
 /* The --help text (allocated; caller frees). */
 char *ev_help_text(void);
 
@@ -142,6 +132,16 @@ size_t ev_stuck_list(const ev_sim *s, const uint32_t **idx, const double **t);
 double ev_pressure(const ev_sim *s, double dvir, double dt);
 /* Largest overlap / (r_i + r_j) over all pairs now (O(N) with the cells). */
 double ev_max_overlap_now(ev_sim *s);
+
+/* Fractal dimension of a cluster from R_g(k) of its first k particles in
+ * arrival order (pos: n rows of dim coordinates): 1 / slope of log R_g
+ * against log k over k in [k_lo, k_hi], k_hi the last k with R_g < rg_max
+ * (the model uses box side / 8: farther the box shapes the cluster) and
+ * k_lo = max(20, k_hi / 30). NaN with k_lo = k_hi = 0 when k_hi < 5 k_lo.
+ * rg, when not NULL, gets R_g(k) for k = 1..n. Used for /results D_f_rg and
+ * by `pdla analyze`. */
+double ev_df_fit(const double *pos, size_t n, int dim, double rg_max, double *rg,
+                 uint64_t *k_lo, uint64_t *k_hi);
 
 /* Run with series recording and write DIR's cluster.h5 (see event_out.c). */
 typedef struct ev_series {

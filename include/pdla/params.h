@@ -39,6 +39,8 @@ typedef enum pdla_param_type {
     PDLA_PT_REAL,   /* double; HDF5 float64, JSON number */
     PDLA_PT_FLAG,   /* int 0 or 1; HDF5 int32, JSON number; a CLI flag without value */
     PDLA_PT_CHOICE, /* an enum stored as int, values 0..n-1; HDF5 and JSON: its word */
+    PDLA_PT_STRING, /* char[hi_u + 1], length in [lo_u, hi_u]; HDF5: string ("(none)"
+                       when empty), JSON: string */
     PDLA_PT_BOX     /* uint32_t[PDLA_PARAM_BOX_MAX] lengths, one per axis, of which the
                        int field at count_offset (the dimension) says how many are used;
                        each in [lo_u, hi_u]; one value (set_u, the default) fills every
@@ -79,6 +81,7 @@ typedef struct pdla_param_desc {
      * that depends on another field), or NULL. Writes one line, returns non-zero
      * when the struct fails it. */
     int (*check)(const void *params, char *err, size_t errlen);
+    const char *def_s; /* STRING: the default text */
 } pdla_param_desc;
 
 /* The DLA engine's table (pdla_params); *n gets its length. */
@@ -114,6 +117,14 @@ PDLA_API int pdla_param_format(const pdla_param_desc *d, const void *s, int exac
                                size_t len);
 /* The value of `word` in a CHOICE row, or -1. */
 PDLA_API int pdla_param_choice(const pdla_param_desc *d, const char *word);
+
+/* Text as a user (CLI, scene, a text record) writes it into row d's field:
+ * integers in decimal or as a whole number in exponent form ("1e5"), reals
+ * finite decimal, a choice's word, a flag yes|no|true|false|1|0, a string as
+ * is. The type only: the range is pdla_param_validate's. PDLA_OK, or
+ * PDLA_EINVAL with "'TEXT' is not ..." in err (the caller names the row). */
+PDLA_API int pdla_param_parse(const pdla_param_desc *d, void *s, const char *text, char *err,
+                              size_t errlen);
 
 /* A resume's rule, for any model: every row named in `given` (a mask of
  * bits) that is not resumable must hold in `asked` the value it has in

@@ -1,6 +1,7 @@
 /*
  * event_cmd.c - `pdla --model event ...`: the event model's command line.
- * Options, --help and validation all come from ev_param_table (pdla/event.h);
+ * Options, --help and validation all come from the model's rows of the
+ * parameter table (ev_param_table, pdla/params.h);
  * a scene file (`--scene FILE` holding `model = event`) uses the same keys.
  * Makes the run directory (new, or existing with --force), runs, writes
  * DIR/cluster.h5 (beside as .tmp, then renamed) and prints a summary.
@@ -123,7 +124,7 @@ typedef struct ev_cli {
     double checkpoint_every; /* wall seconds, 0: only at the end / on a signal */
     const char *resume;      /* run directory to continue */
     int progress;            /* -1: when stderr is a terminal */
-    int set_tmax, set_stuck, set_events, set_other; /* given on the command line */
+    uint32_t given;          /* bits of the table rows given on the command line */
 } ev_cli;
 
 static int apply_scene_line(const char *key, const char *val, int line, void *u)
@@ -150,6 +151,50 @@ static int apply_scene_line(const char *key, const char *val, int line, void *u)
     return 0;
 }
 
+/* A flag without value: 1 when `a` is one (and taken into c), else 0. */
+static int parse_flag(const char *a, ev_cli *c)
+{
+    if (!strcmp(a, "--force")) c->force = 1;
+    else if (!strcmp(a, "--quiet")) c->quiet = 1;
+    else if (!strcmp(a, "--checkpoint")) c->checkpoint = 1;
+    else if (!strcmp(a, "--progress") || !strcmp(a, "--no-progress")) c->progress = a[2] == 'p';
+    else return 0;
+    return 1;
+}
+
+/* --NAME VALUE: the CLI's own options, else a row of the parameter table
+ * (its bit into c->given). 0, or -1 with the line in c->err. */
+static int parse_value(ev_cli *c, const char *name, const char *val)
+{
+    if (!strcmp(name, "model") || !strcmp(name, "scene")) return 0;
+    if (!strcmp(name, "out")) {
+        c->out = val;
+        return 0;
+    }
+    if (!strcmp(name, "resume")) {
+        c->resume = val;
+        return 0;
+    }
+    if (!strcmp(name, "checkpoint-every")) {
+        const char *why = cli_parse_duration(val, &c->checkpoint_every);
+        if (why) {
+            snprintf(c->err, sizeof c->err, "--checkpoint-every '%s': %s", val, why);
+            return -1;
+        }
+        c->checkpoint = 1;
+        return 0;
+    }
+    char e[400];
+    if (ev_param_set(&c->p, name, val, e, sizeof e)) {
+        snprintf(c->err, sizeof c->err, "%s", e);
+        return -1;
+    }
+    size_t np;
+    const pdla_param_desc *t = ev_param_table(&np);
+    c->given |= pdla_param_find(t, np, name)->bit; /* found: ev_param_set took it */
+    return 0;
+}
+
 /* 0 run, 1 help printed, -1 error in c->err. */
 static int parse(int argc, char **argv, ev_cli *c)
 {
@@ -160,22 +205,7 @@ static int parse(int argc, char **argv, ev_cli *c)
     for (int k = 1; k < argc; k++) {
         const char *a = argv[k];
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) return 1;
-        if (!strcmp(a, "--force")) {
-            c->force = 1;
-            continue;
-        }
-        if (!strcmp(a, "--quiet")) {
-            c->quiet = 1;
-            continue;
-        }
-        if (!strcmp(a, "--checkpoint")) {
-            c->checkpoint = 1;
-            continue;
-        }
-        if (!strcmp(a, "--progress") || !strcmp(a, "--no-progress")) {
-            c->progress = a[2] == 'p';
-            continue;
-        }
+        if (parse_flag(a, c)) continue;
         if (strncmp(a, "--", 2) != 0) {
             snprintf(c->err, sizeof c->err, "unexpected argument '%s' (see pdla --model event --help)", a);
             return -1;
@@ -194,38 +224,12 @@ static int parse(int argc, char **argv, ev_cli *c)
             }
             val = argv[++k];
         }
-        if (!strcmp(name, "model") || !strcmp(name, "scene")) continue;
-        if (!strcmp(name, "out")) {
-            c->out = val;
-            continue;
-        }
-        if (!strcmp(name, "resume")) {
-            c->resume = val;
-            continue;
-        }
-        if (!strcmp(name, "checkpoint-every")) {
-            const char *why = cli_parse_duration(val, &c->checkpoint_every);
-            if (why) {
-                snprintf(c->err, sizeof c->err, "--checkpoint-every '%s': %s", val, why);
-                return -1;
-            }
-            c->checkpoint = 1;
-            continue;
-        }
-        if (!strcmp(name, "t-max") || !strcmp(name, "t_max")) c->set_tmax = 1;
-        else if (!strcmp(name, "max-stuck") || !strcmp(name, "max_stuck")) c->set_stuck = 1;
-        else if (!strcmp(name, "max-events") || !strcmp(name, "max_events")) c->set_events = 1;
-        else c->set_other = 1;
-        char e[400];
-        if (ev_param_set(&c->p, name, val, e, sizeof e)) {
-            snprintf(c->err, sizeof c->err, "%s", e);
-            return -1;
-        }
+        if (parse_value(c, name, val)) return -1;
     }
     if (c->resume) {
-        if (c->scene || c->set_other || c->out) {
-            snprintf(c->err, sizeof c->err, "--resume continues the checkpoint's run: only --t-max, "
-                                            "--max-stuck and --max-events may be given with it");
+        if (c->scene || c->out) {
+            snprintf(c->err, sizeof c->err, "--resume continues the checkpoint's run in its own "
+                                            "directory: --scene and --out may not be given with it");
             return -1;
         }
         return 0; /* the parameters come from the checkpoint */
@@ -393,12 +397,14 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
         }
         fprintf(stderr, "pdla: %s; resuming from the previous checkpoint\n", err);
     }
+    /* the table's resume rule: stop conditions may change, the rest must match */
     ev_params *p = ev_params_of(s);
-    if (c->set_tmax) p->t_max = c->p.t_max;
-    if (c->set_stuck) p->max_stuck = c->p.max_stuck;
-    if (c->set_events) p->max_events = c->p.max_events;
+    size_t np;
+    const pdla_param_desc *t = ev_param_table(&np);
     char e[400];
-    if (ev_params_check(p, e, sizeof e)) {
+    int bad = pdla_param_check_asked(t, np, c->given, p, &c->p, e, sizeof e);
+    if (!bad) pdla_param_apply_resumable(t, np, c->given, p, &c->p);
+    if (bad || ev_params_check(p, e, sizeof e)) {
         fprintf(stderr, "pdla: %s\n", e);
         ev_free(s);
         ev_series_free(ser);
@@ -406,6 +412,93 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
     }
     c->checkpoint = 1; /* a resumed run keeps checkpointing */
     return s;
+}
+
+/* Help printed: 0, or 1 when stdout failed. */
+static int print_help(void)
+{
+    char *h = ev_help_text();
+    if (!h) return 1;
+    fputs(h, stdout);
+    free(h);
+    return fflush(stdout) ? 1 : 0;
+}
+
+/* The simulation to run: resumed from c->resume, or new with its run
+ * directory made. NULL with *rc the exit code (the message printed). */
+static ev_sim *start_sim(ev_cli *c, ev_series *ser, char *dir, size_t len, int *rc)
+{
+    *rc = 2;
+    if (c->resume) return load_resume(c, ser, dir, len);
+    char err[512];
+    ev_sim *s = ev_create(&c->p, err, sizeof err);
+    if (!s) {
+        fprintf(stderr, "pdla: %s\n", err);
+        return NULL;
+    }
+    const int drc = make_dir(c, dir, len);
+    if (drc) {
+        ev_free(s);
+        *rc = drc;
+        return NULL;
+    }
+    return s;
+}
+
+/* The checkpoint (when asked), cluster.h5 and its sidecars: 0 or 1. */
+static int write_outputs(const ev_cli *c, ev_sim *s, const ev_series *ser, const char *dir,
+                         const char *cmd, int why)
+{
+    char path[4200], err[512];
+    snprintf(path, sizeof path, "%s/cluster.h5", dir);
+    int rc = 0;
+    if (c->checkpoint && ev_checkpoint_write(s, ser, dir, cmd, err, sizeof err)) {
+        fprintf(stderr, "pdla: %s\n", err);
+        rc = 1;
+    }
+    if (ev_write_h5(s, ser, path, cmd, why, err, sizeof err) ||
+        ev_write_xdmf(s, path, err, sizeof err)) {
+        fprintf(stderr, "pdla: %s\n", err);
+        rc = 1;
+    }
+    return rc;
+}
+
+static void print_summary(const ev_cli *c, ev_sim *s, const char *dir, int why, double cpu)
+{
+    ev_stats st;
+    ev_get_stats(s, &st);
+    printf("model event, %dd, %zu particles, box %.6g (%s walls)\n"
+           "stopped: %s at time %.6g\n"
+           "stuck %" PRIu64 ", events %" PRIu64 ", collisions %" PRIu64 ", wall hits %" PRIu64
+           "\ncpu %.3f s, %.3g collisions/s, %.3g us/event, peak RSS %.1f MB\nwrote %s/cluster.h5\n",
+           ev_dim(s), ev_count(s), st.box,
+           ev_params_of(s)->walls == EV_WALLS_PERIODIC ? "periodic" : "elastic",
+           ev_stop_name(why), st.t, st.stuck, st.events, st.collisions, st.wall_hits, cpu,
+           cpu > 0 ? (double)st.collisions / cpu : 0.0,
+           st.events ? 1e6 * cpu / (double)st.events : 0.0, peak_rss() / 1e6, dir);
+    if (c->checkpoint)
+        printf("checkpoint %s/checkpoint.h5%s\n", dir,
+               why == EV_STOP_INTERRUPT ? " (continue with: pdla --model event --resume DIR)" : "");
+}
+
+/* The ticker of the run: progress lines and interval checkpoints. */
+static void ticker_init(ev_ticker *tk, ev_cli *c, ev_series *ser, ev_sim *s, const char *dir,
+                        const char *cmd)
+{
+    memset(tk, 0, sizeof *tk);
+    tk->c = c;
+    tk->ser = ser;
+    tk->dir = dir;
+    tk->cmd = cmd;
+    tk->enabled = c->progress == 1 || (c->progress == -1 && !c->quiet && isatty(2));
+    tk->tty = isatty(2);
+    tk->interval = tk->tty ? 0.2 : 5.0;
+    tk->t_start = tk->t_last = tk->t_ckpt = pdla_clock_seconds();
+    ev_stats st0;
+    ev_get_stats(s, &st0);
+    tk->ev_start = tk->ev_last = st0.events;
+    ev_set_tick(s, ticker, tk);
 }
 
 int event_cmd_main(int argc, char **argv)
@@ -418,86 +511,30 @@ int event_cmd_main(int argc, char **argv)
         fprintf(stderr, "pdla: %s\n", c.err);
         return 2;
     }
-    if (prc == 1) {
-        char *h = ev_help_text();
-        if (!h) return 1;
-        fputs(h, stdout);
-        free(h);
-        return fflush(stdout) ? 1 : 0;
-    }
-    char err[512];
+    if (prc == 1) return print_help();
     ev_series ser = {0};
     char dir[4096];
-    ev_sim *s = NULL;
-    if (c.resume) {
-        s = load_resume(&c, &ser, dir, sizeof dir);
-        if (!s) return 2;
-    } else {
-        s = ev_create(&c.p, err, sizeof err);
-        if (!s) {
-            fprintf(stderr, "pdla: %s\n", err);
-            return 2;
-        }
-        const int drc = make_dir(&c, dir, sizeof dir);
-        if (drc) {
-            ev_free(s);
-            return drc;
-        }
-    }
+    int rc;
+    ev_sim *s = start_sim(&c, &ser, dir, sizeof dir, &rc);
+    if (!s) return rc;
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
     pdla_hdf5_quiet();
     char *cmd = joined(argc, argv);
-    ev_ticker tk = {0};
-    tk.c = &c;
-    tk.ser = &ser;
-    tk.dir = dir;
-    tk.cmd = cmd;
-    tk.enabled = c.progress == 1 || (c.progress == -1 && !c.quiet && isatty(2));
-    tk.tty = isatty(2);
-    tk.interval = tk.tty ? 0.2 : 5.0;
-    tk.t_start = tk.t_last = tk.t_ckpt = pdla_clock_seconds();
-    {
-        ev_stats st0;
-        ev_get_stats(s, &st0);
-        tk.ev_start = tk.ev_last = st0.events;
-    }
-    ev_set_tick(s, ticker, &tk);
+    ev_ticker tk;
+    ticker_init(&tk, &c, &ser, s, dir, cmd);
     const clock_t c0 = clock();
     const int why = ev_run_series(s, &ser, &ev_stop_flag);
     const double cpu = (double)(clock() - c0) / CLOCKS_PER_SEC;
     if (tk.enabled) progress_line(&tk, s, pdla_clock_seconds(), 1);
-    char path[4200];
-    snprintf(path, sizeof path, "%s/cluster.h5", dir);
-    int rc = tk.failed;
+    rc = tk.failed;
     if (why < 0) {
         fprintf(stderr, "pdla: out of memory for the series\n");
         rc = 1;
-    } else {
-        if (c.checkpoint && ev_checkpoint_write(s, &ser, dir, cmd, err, sizeof err)) {
-            fprintf(stderr, "pdla: %s\n", err);
-            rc = 1;
-        }
-        if (ev_write_h5(s, &ser, path, cmd, why, err, sizeof err) ||
-            ev_write_xdmf(s, path, err, sizeof err)) {
-            fprintf(stderr, "pdla: %s\n", err);
-            rc = 1;
-        }
+    } else if (write_outputs(&c, s, &ser, dir, cmd, why)) {
+        rc = 1;
     }
-    ev_stats st;
-    ev_get_stats(s, &st);
-    if (!rc && !c.quiet)
-        printf("model event, %dd, %zu particles, box %.6g (%s walls)\n"
-               "stopped: %s at time %.6g\n"
-               "stuck %" PRIu64 ", events %" PRIu64 ", collisions %" PRIu64 ", wall hits %" PRIu64
-               "\ncpu %.3f s, %.3g collisions/s, %.3g us/event, peak RSS %.1f MB\nwrote %s\n",
-               ev_dim(s), ev_count(s), st.box, c.p.walls ? "periodic" : "elastic",
-               ev_stop_name(why), st.t, st.stuck, st.events, st.collisions, st.wall_hits, cpu,
-               cpu > 0 ? (double)st.collisions / cpu : 0.0,
-               st.events ? 1e6 * cpu / (double)st.events : 0.0, peak_rss() / 1e6, path);
-    if (!rc && !c.quiet && c.checkpoint)
-        printf("checkpoint %s/checkpoint.h5%s\n", dir,
-               why == EV_STOP_INTERRUPT ? " (continue with: pdla --model event --resume DIR)" : "");
+    if (!rc && !c.quiet) print_summary(&c, s, dir, why, cpu);
     free(cmd);
     ev_series_free(&ser);
     ev_free(s);

@@ -15,5 +15,7 @@ int event_info_wanted(int argc, char **argv);
 int event_info_main(int argc, char **argv);
 /* `pdla render` for event files (argv[0] = "render"). */
 int event_render_main(int argc, char **argv);
+/* `pdla analyze` for event files (argv[0] = "analyze", event_analyze.c). */
+int event_analyze_main(int argc, char **argv);
 
 #endif

@@ -717,6 +717,8 @@ static int run_subcommand(int argc, char **argv, int *code)
         *code = event_info_main(argc - 1, argv + 1);
     else if (strcmp(sub, "render") == 0 && event_info_wanted(argc - 1, argv + 1))
         *code = event_render_main(argc - 1, argv + 1);
+    else if (strcmp(sub, "analyze") == 0 && event_info_wanted(argc - 1, argv + 1))
+        *code = event_analyze_main(argc - 1, argv + 1);
     else if (event_cmd_wanted(argc, argv))
         *code = event_cmd_main(argc, argv);
     /* Subcommands that read a cluster file (tools.h). */

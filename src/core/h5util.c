@@ -281,6 +281,11 @@ static int write_param(const h5u_writer *w, hid_t g, const pdla_param_desc *d, c
         pdla_param_format(d, s, 0, word, sizeof word);
         return h5u_attr_str(w, g, d->name, word);
     }
+    case PDLA_PT_STRING: {
+        /* "(none)" for empty: what the event model's files have always held */
+        const char *v = (const char *)s + d->offset;
+        return h5u_attr_str(w, g, d->name, v[0] ? v : "(none)");
+    }
     case PDLA_PT_BOX: { /* the lengths in use: as many as the row's count field says */
         const int n = *(const int *)((const char *)s + d->count_offset);
         uint64_t L[PDLA_PARAM_BOX_MAX];

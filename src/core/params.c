@@ -7,9 +7,12 @@
  */
 #include "pdla/params.h"
 
+#include <errno.h>
 #include <inttypes.h>
 #include <limits.h>
+#include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* Enums are stored and read as int (CHOICE rows). */
@@ -284,6 +287,7 @@ void pdla_param_set_real(const pdla_param_desc *d, void *s, double v)
 
 int pdla_param_equal(const pdla_param_desc *d, const void *a, const void *b)
 {
+    if (d->type == PDLA_PT_STRING) return strcmp(cfield(d, a), cfield(d, b)) == 0;
     const size_t size = d->type == PDLA_PT_U64 ? sizeof(uint64_t)
                         : d->type == PDLA_PT_REAL ? sizeof(double)
                         : d->type == PDLA_PT_BOX  ? (size_t)box_count(d, a) * sizeof(uint32_t)
@@ -295,6 +299,8 @@ void pdla_param_defaults(const pdla_param_desc *t, size_t n, void *s)
 {
     for (size_t i = 0; i < n; i++) {
         if (t[i].type == PDLA_PT_REAL) pdla_param_set_real(&t[i], s, t[i].def_r);
+        else if (t[i].type == PDLA_PT_STRING)
+            snprintf(field(&t[i], s), t[i].hi_u + 1, "%s", t[i].def_s ? t[i].def_s : "");
         else pdla_param_set_u(&t[i], s, t[i].def_u);
     }
 }
@@ -316,6 +322,7 @@ int pdla_param_format(const pdla_param_desc *d, const void *s, int exact, char *
         const int64_t v = pdla_param_get_i(d, s);
         return snprintf(buf, len, "%s", v >= 0 && (uint64_t)v <= d->hi_u ? d->choices[v] : "invalid");
     }
+    case PDLA_PT_STRING: return snprintf(buf, len, "%s", (const char *)cfield(d, s));
     case PDLA_PT_BOX: {
         const uint32_t *L = cfield(d, s);
         int o = 0;
@@ -400,6 +407,12 @@ static int check_range(const pdla_param_desc *d, const void *s, char *err, size_
         return pdla_errorf(PDLA_EINVAL, err, errlen, "%s must be in [%" PRIu64 ", %" PRIu64 "]%s%s, got %" PRIu64,
                           d->label, d->lo_u, d->hi_u, sp, d->unit, v);
     }
+    case PDLA_PT_STRING: {
+        const size_t v = strnlen(cfield(d, s), d->hi_u + 1);
+        if (v >= d->lo_u && v <= d->hi_u) return 0;
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "%s must be %" PRIu64 " to %" PRIu64
+                           " characters long", d->label, d->lo_u, d->hi_u);
+    }
     case PDLA_PT_INT: {
         const int64_t v = pdla_param_get_i(d, s);
         if (v >= (int64_t)d->lo_u && v <= (int64_t)d->hi_u) return 0;
@@ -427,6 +440,111 @@ int pdla_param_validate(const pdla_param_desc *t, size_t n, const void *s,
     return PDLA_OK;
 }
 
+/* ---- text in, and the resume rule --------------------------------------- */
+
+/* A whole number >= 0: digits, or a decimal/exponent form that is whole
+ * ("1e5", "2.5e3"); NULL or why not. */
+static const char *parse_whole(const char *t, uint64_t *out)
+{
+    if (!*t || !strchr("0123456789.", *t)) return "is not a number";
+    if (t[strspn(t, "0123456789")] == '\0') {
+        errno = 0;
+        const unsigned long long v = strtoull(t, NULL, 10);
+        if (errno == ERANGE) return "is too large";
+        *out = v;
+        return NULL;
+    }
+    if (t[strspn(t, "0123456789.eE+-")]) return "is not a number";
+    errno = 0;
+    char *end;
+    const double x = strtod(t, &end);
+    if (*end || errno == ERANGE || !isfinite(x)) return "is not a number";
+    if (x != floor(x)) return "is not a whole number";
+    if (x >= 18446744073709551616.0) return "is too large";
+    *out = (uint64_t)x;
+    return NULL;
+}
+
+static const char *parse_real(const char *t, double *out)
+{
+    /* strtod also reads blanks, inf, nan and hexadecimal: not for us */
+    if (!*t || t[strspn(t, "0123456789.eE+-")]) return "is not a number";
+    errno = 0;
+    char *end;
+    const double x = strtod(t, &end);
+    if (end == t || *end || errno == ERANGE || !isfinite(x)) return "is not a number";
+    *out = x;
+    return NULL;
+}
+
+int pdla_param_parse(const pdla_param_desc *d, void *s, const char *text, char *err,
+                     size_t errlen)
+{
+    const char *why = NULL;
+    uint64_t u = 0;
+    double x = 0;
+    switch (d->type) {
+    case PDLA_PT_REAL:
+        if (!(why = parse_real(text, &x))) pdla_param_set_real(d, s, x);
+        break;
+    case PDLA_PT_CHOICE: {
+        const int k = pdla_param_choice(d, text);
+        if (k < 0) {
+            char list[128] = "";
+            for (int i = 0; d->choices[i]; i++)
+                snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s", i ? "|" : "",
+                         d->choices[i]);
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "'%s' is not one of %s", text, list);
+        }
+        pdla_param_set_u(d, s, (uint64_t)k);
+        break;
+    }
+    case PDLA_PT_FLAG: {
+        static const char *const yes[] = {"yes", "true", "1"}, *const no[] = {"no", "false", "0"};
+        int v = -1;
+        for (int i = 0; i < 3; i++) {
+            if (!strcmp(text, yes[i])) v = 1;
+            if (!strcmp(text, no[i])) v = 0;
+        }
+        if (v < 0) why = "is not yes or no";
+        else pdla_param_set_u(d, s, (uint64_t)v);
+        break;
+    }
+    case PDLA_PT_BOX: {
+        /* "L" (every axis) or "L1xL2x...": as many as the row's count field */
+        const int n = *(const int *)((const char *)s + d->count_offset);
+        uint32_t L[PDLA_PARAM_BOX_MAX];
+        int k = 0;
+        char buf[128];
+        snprintf(buf, sizeof buf, "%s", text);
+        for (char *c = buf, *xp; !why && c; c = xp ? xp + 1 : NULL, k++) {
+            xp = strchr(c, 'x');
+            if (xp) *xp = '\0';
+            if (k == PDLA_PARAM_BOX_MAX) why = "has too many lengths";
+            else if (!(why = parse_whole(c, &u)) && u > UINT32_MAX) why = "is too large";
+            else if (!why) L[k] = (uint32_t)u;
+        }
+        if (!why && k != 1 && k != n) why = "has not one length per axis";
+        if (!why && k == 1) pdla_param_set_u(d, s, L[0]);
+        else if (!why) memcpy(field(d, s), L, (size_t)k * sizeof *L);
+        break;
+    }
+    case PDLA_PT_STRING:
+        if (strlen(text) > d->hi_u) why = "is too long";
+        else snprintf(field(d, s), d->hi_u + 1, "%s", text);
+        break;
+    case PDLA_PT_INT:
+        if (!(why = parse_whole(text, &u)) && u > INT_MAX) why = "is too large";
+        if (!why) pdla_param_set_u(d, s, u);
+        break;
+    case PDLA_PT_U64:
+        if (!(why = parse_whole(text, &u))) pdla_param_set_u(d, s, u);
+        break;
+    }
+    if (why) return pdla_errorf(PDLA_EINVAL, err, errlen, "'%s' %s", text, why);
+    return PDLA_OK;
+}
+
 int pdla_param_check_asked(const pdla_param_desc *t, size_t n, uint32_t given, const void *have,
                            const void *asked, char *err, size_t errlen)
 {
@@ -451,6 +569,7 @@ void pdla_param_apply_resumable(const pdla_param_desc *t, size_t n, uint32_t giv
         if (!(given & d->bit) || !d->resumable) continue;
         if (d->type == PDLA_PT_REAL) pdla_param_set_real(d, dst, pdla_param_get_real(d, src));
         else if (d->type == PDLA_PT_BOX) memcpy(field(d, dst), cfield(d, src), PDLA_PARAM_BOX_MAX * sizeof(uint32_t));
+        else if (d->type == PDLA_PT_STRING) memcpy(field(d, dst), cfield(d, src), d->hi_u + 1);
         else pdla_param_set_u(d, dst, pdla_param_get_u(d, src));
     }
 }

@@ -5,7 +5,7 @@
  *   /            format = "pdla-event-checkpoint", format_version, model,
  *                dim, particles, ntot
  *   parameters   the parameter table as "name=value" lines (values as
- *                ev_param_format writes them: doubles in %.17g, exact)
+ *                pdla_param_format writes them exact: doubles in %.17g)
  *   /state       ps (x, v, t_i, r per particle, as stored: lazy local
  *                times included), species, stuck, count, parent, cell,
  *                the pending events (t_pair, t_cell, partner, pcount,
@@ -58,10 +58,12 @@ static char *params_text(const ev_params *p)
     char *t = malloc(cap);
     if (!t) return NULL;
     t[0] = '\0';
-    for (size_t k = 0; k < ev_param_count; k++) {
+    size_t np;
+    const pdla_param_desc *pt = ev_param_table(&np);
+    for (size_t k = 0; k < np; k++) {
         char v[300];
-        ev_param_format(p, k, v, sizeof v);
-        const size_t need = strlen(ev_param_table[k].name) + strlen(v) + 3;
+        pdla_param_format(&pt[k], p, 1, v, sizeof v);
+        const size_t need = strlen(pt[k].name) + strlen(v) + 3;
         if (len + need >= cap) {
             cap = 2 * cap + need;
             char *u = realloc(t, cap);
@@ -71,7 +73,7 @@ static char *params_text(const ev_params *p)
             }
             t = u;
         }
-        len += (size_t)snprintf(t + len, cap - len, "%s=%s\n", ev_param_table[k].name, v);
+        len += (size_t)snprintf(t + len, cap - len, "%s=%s\n", pt[k].name, v);
     }
     return t;
 }
@@ -292,7 +294,7 @@ static int read_params(const rd *r, ev_params *p)
         }
         *eq = '\0';
         const char *v = eq + 1;
-        /* ev_param_format writes an empty string parameter as "" */
+        /* an empty string parameter is written as "" */
         if (ev_param_set(p, line, v, e, sizeof e)) rc = rfail(r, "%s", e);
     }
     free(t);

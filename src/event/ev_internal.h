@@ -31,7 +31,9 @@ struct ev_sim {
     int dim, periodic;
     uint32_t n;           /* particles without the seed */
     uint32_t ntot;        /* n + (seed ? 1 : 0) */
-    int has_seed;
+    int has_seed;         /* 1 when there are seeds (indices n .. ntot - 1) */
+    uint32_t nseeds;      /* ntot - n: 1 for the central seed, or the file's count */
+    double *seed_xr;      /* while building: the file's seeds, D + 1 per seed (ev_seeds.c) */
     int nfree_total;      /* 1 when there are particles that can stick */
     double L, half, V;    /* box side, L/2, volume */
     int nc;               /* cells per dimension */
@@ -87,5 +89,9 @@ int ev_loop(ev_sim *s, double t_end, volatile const int *interrupt);
 /* Species list from p (the string, or one species): 0 or -1 with err. */
 int ev_parse_species(const ev_params *p, ev_species *sp, int *nsp, char *err, size_t errlen);
 double ev_particle_volume(int dim, double r);
+/* --seeds FILE into s->seed_xr / s->nseeds (box not yet known): 0 or -1. */
+int ev_seeds_read(ev_sim *s, const char *path, char *err, size_t errlen);
+/* The file's seeds against the box: inside it, no two overlapping. */
+int ev_seeds_check(const ev_sim *s, char *err, size_t errlen);
 
 #endif

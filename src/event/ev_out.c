@@ -1,10 +1,12 @@
 /*
  * ev_out.c - cluster.h5 of the event model. Layout:
  *   /            attributes model = "event", dim, particles
- *   /parameters  one attribute per entry of ev_param_table (typed)
+ *   /parameters  one attribute per row of ev_param_table (typed; shared writer)
  *   /cluster     positions [k x dim], radii, arrival_time, parent (particle
- *                index; -1: the seed), species, index: the stuck particles
- *                in arrival order; attributes seed_position, seed_radius
+ *                index; -1: the seed, -1-k: seed k of a --seeds file),
+ *                species, index: the stuck particles in arrival order;
+ *                attributes seed_x, seed_y[, seed_z], seed_radius (one
+ *                seed); seed_positions, seed_radii (a --seeds file)
  *   /free        positions, velocities, radii, species of the free ones
  *   /series      time, stuck, kinetic_energy, collisions, pressure
  *   /species     count, radius, density, mass, stuck (per kind)
@@ -39,25 +41,29 @@ static int write_ds(const h5u_writer *w, hid_t g, const char *name, hid_t ftype,
 
 static int write_parameters(const h5u_writer *w, hid_t file, const ev_params *p)
 {
-    const hid_t g = h5u_group(w, file, "parameters");
-    if (g < 0) return -1;
-    int rc = 0;
-    for (size_t k = 0; k < ev_param_count && !rc; k++) {
-        const ev_param_desc *d = &ev_param_table[k];
-        const char *base = (const char *)p + d->offset;
-        char buf[300];
-        switch (d->type) {
-        case EV_P_INT: rc = h5u_attr_int(w, g, d->name, *(const int *)base); break;
-        case EV_P_U64: rc = h5u_attr_u64(w, g, d->name, *(const uint64_t *)base); break;
-        case EV_P_F64: rc = h5u_attr_f64(w, g, d->name, *(const double *)base); break;
-        case EV_P_STR:
-        case EV_P_ENUM:
-            ev_param_format(p, k, buf, sizeof buf);
-            rc = h5u_attr_str(w, g, d->name, buf[0] ? buf : "(none)");
-            break;
-        }
+    size_t n;
+    const pdla_param_desc *t = ev_param_table(&n);
+    return h5u_write_param_table(w, file, t, n, p);
+}
+
+/* The seeds of a --seeds file: /cluster/seed_positions [nseeds x dim] and
+ * seed_radii, in the file's order (parent -1 - k is seed k). */
+static int write_seeds(const h5u_writer *w, hid_t g, const ev_sim *s)
+{
+    const int D = s->dim;
+    const size_t k = s->nseeds;
+    double *pos = malloc((k ? k : 1) * (size_t)D * sizeof *pos), *rad = malloc((k ? k : 1) * sizeof *rad);
+    int rc = pos && rad ? 0 : h5u_fail_msg(w, "out of memory writing the seeds");
+    for (size_t a = 0; !rc && a < k; a++) {
+        const double *p = EV_P(s, s->n + a);
+        memcpy(pos + a * (size_t)D, p, (size_t)D * sizeof *pos);
+        rad[a] = p[2 * D + 1];
     }
-    return h5u_close(w, rc, g, H5Gclose, "/parameters");
+    if (!rc) rc = write_ds(w, g, "seed_positions", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 2, k, (size_t)D, pos);
+    if (!rc) rc = write_ds(w, g, "seed_radii", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 1, k, 1, rad);
+    free(pos);
+    free(rad);
+    return rc;
 }
 
 static int write_cluster(const h5u_writer *w, hid_t file, const ev_sim *s)
@@ -80,7 +86,8 @@ static int write_cluster(const h5u_writer *w, hid_t file, const ev_sim *s)
         const uint32_t i = s->stuck_idx[a];
         for (int q = 0; q < D; q++) pos[a * D + q] = EV_P(s, i)[q];
         rad[a] = EV_P(s, i)[2 * D + 1];
-        par[a] = s->parent[i] == s->n ? -1 : (int64_t)s->parent[i];
+        /* a seed: -1 - its number (the central seed: -1) */
+        par[a] = s->parent[i] >= s->n ? -1 - (int64_t)(s->parent[i] - s->n) : (int64_t)s->parent[i];
         spc[a] = s->species[i];
         idx[a] = i;
     }
@@ -91,7 +98,8 @@ static int write_cluster(const h5u_writer *w, hid_t file, const ev_sim *s)
     if (!rc) rc = write_ds(w, g, "parent", H5T_STD_I64LE, H5T_NATIVE_INT64, 1, k, 1, par);
     if (!rc) rc = write_ds(w, g, "species", H5T_STD_I32LE, H5T_NATIVE_INT32, 1, k, 1, spc);
     if (!rc) rc = write_ds(w, g, "index", H5T_STD_U32LE, H5T_NATIVE_UINT32, 1, k, 1, idx);
-    if (!rc && s->has_seed) {
+    if (!rc && s->par.seeds[0]) rc = write_seeds(w, g, s);
+    if (!rc && s->nseeds == 1) {
         rc = h5u_attr_f64(w, g, "seed_radius", EV_P(s, s->n)[2 * D + 1]);
         for (int q = 0; q < D && !rc; q++) {
             static const char *nm[] = {"seed_x", "seed_y", "seed_z"};
@@ -203,17 +211,16 @@ static int write_species(const h5u_writer *w, hid_t file, const ev_sim *s)
  * least squares of log R_g against log k on 40 log-spaced k in
  * [max(20, k1/30), k1], k1 the last k with R_g < L/8 (before the walls are
  * felt). NaN when the range is shorter than a factor 5. */
-double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi)
+double ev_df_fit(const double *pos, size_t n, int D, double rg_max, double *rg_out,
+                 uint64_t *k_lo, uint64_t *k_hi)
 {
-    const int D = s->dim;
-    const uint32_t n = s->nstuck;
     double sx[3] = {0, 0, 0}, sxx = 0;
-    double *rg = malloc((n ? n : 1) * sizeof *rg);
+    double *rg = rg_out ? rg_out : malloc((n ? n : 1) * sizeof *rg);
     *k_lo = *k_hi = 0;
     if (!rg) return NAN;
-    uint32_t k1 = 0;
-    for (uint32_t a = 0; a < n; a++) {
-        const double *p = EV_P(s, s->stuck_idx[a]);
+    size_t k1 = 0;
+    for (size_t a = 0; a < n; a++) {
+        const double *p = pos + a * (size_t)D;
         for (int q = 0; q < D; q++) {
             sx[q] += p[q];
             sxx += p[q] * p[q];
@@ -221,7 +228,7 @@ double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi)
         double c2 = 0;
         for (int q = 0; q < D; q++) c2 += (sx[q] / (a + 1)) * (sx[q] / (a + 1));
         rg[a] = sqrt(fmax(0, sxx / (a + 1) - c2));
-        if (rg[a] < s->L / 8) k1 = a + 1;
+        if (rg[a] < rg_max) k1 = a + 1;
     }
     const double k0 = fmax(20, k1 / 30.0);
     double res = NAN;
@@ -238,8 +245,21 @@ double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi)
         *k_lo = (uint64_t)k0;
         *k_hi = k1;
     }
-    free(rg);
+    if (!rg_out) free(rg);
     return res;
+}
+
+double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi)
+{
+    const int D = s->dim;
+    const uint32_t n = s->nstuck;
+    double *pos = malloc((n ? n : 1) * (size_t)D * sizeof *pos);
+    *k_lo = *k_hi = 0;
+    if (!pos) return NAN;
+    for (uint32_t a = 0; a < n; a++) memcpy(pos + (size_t)a * D, EV_P(s, s->stuck_idx[a]), D * sizeof *pos);
+    const double df = ev_df_fit(pos, n, D, s->L / 8, NULL, k_lo, k_hi);
+    free(pos);
+    return df;
 }
 
 /* Dilute-gas mean free path / diameter at the start density (one species:

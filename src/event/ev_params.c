@@ -1,7 +1,9 @@
 /*
- * ev_params.c - the event model's parameter table and everything generated
- * from it: defaults, text -> value with bounds, value -> text, --help. Kept
- * self-contained so it can be folded into the engine-wide table.
+ * ev_params.c - the event model's rows of the parameter table (pdla/params.h,
+ * models = PDLA_MODEL_EVENT) and what the model adds to the shared machinery:
+ * the --help text, the species list and the checks across fields. Defaults,
+ * text -> value, ranges, /parameters and the resume rule are the shared
+ * code's (src/core/params.c, h5util.c).
  */
 #include <errno.h>
 #include <inttypes.h>
@@ -14,40 +16,116 @@
 #include "ev_internal.h"
 
 #define OFF(f) offsetof(ev_params, f)
+#define EVT PDLA_MODEL_EVENT
+#define BIT(k) (1u << (k))
 
-const ev_param_desc ev_param_table[] = {
-    {"dim", EV_P_INT, OFF(dim), "", "2", 2, 3, 0, NULL, "2: hard disks, 3: hard spheres"},
-    {"particles", EV_P_U64, OFF(particles), "", "1000", 1, 4e9, 0, NULL,
-     "number of particles (one species; see --species)"},
-    {"radius", EV_P_F64, OFF(radius), "length", "0.5", 0, 1e6, 1, NULL,
-     "particle radius (one species)"},
-    {"density", EV_P_F64, OFF(density), "mass/length^dim", "1", 0, 1e12, 1, NULL,
-     "mass density: mass = density * (pi r^2 | 4/3 pi r^3)"},
-    {"species", EV_P_STR, OFF(species), "", "", 0, 0, 0, NULL,
-     "COUNT:RADIUS:DENSITY[,...] up to 8 kinds (replaces --particles/--radius/--density)"},
-    {"packing", EV_P_F64, OFF(packing), "", "0.05", 0, 0.7, 1, NULL,
-     "volume fraction of the particles in the box (sets the box side)"},
-    {"box-walls", EV_P_ENUM, OFF(walls), "", "elastic", 0, 1, 0, "elastic|periodic",
-     "box boundaries"},
-    {"seed", EV_P_U64, OFF(seed), "", "1", 0, 1.8446744073709552e19, 0, NULL, "random seed"},
-    {"kT", EV_P_F64, OFF(kT), "energy", "1", 0, 1e12, 1, NULL, "k_B T of the start velocities"},
-    {"velocities", EV_P_ENUM, OFF(velocities), "", "maxwell", 0, 1, 0, "maxwell|fixed",
-     "maxwell: Maxwell-Boltzmann at kT; fixed: speed sqrt(2 kT/m), random direction (seed 001)"},
-    {"start", EV_P_ENUM, OFF(start), "", "random", 0, 1, 0, "random|lattice",
-     "random: random sequential placement; lattice: shuffled grid sites"},
-    {"seed-radius", EV_P_F64, OFF(seed_radius), "length", "0.5", 0, 1e6, 0, NULL,
-     "radius of the immobile central seed; 0: no seed (a plain hard-sphere gas)"},
-    {"stick-p", EV_P_F64, OFF(stick_p), "", "1", 0, 1, 0, NULL,
-     "probability that a contact with the seed or a stuck particle sticks"},
-    {"t-max", EV_P_F64, OFF(t_max), "time", "0", 0, 1e300, 0, NULL, "stop at this time (0: none)"},
-    {"max-stuck", EV_P_U64, OFF(max_stuck), "", "0", 0, 4e9, 0, NULL,
-     "stop at this many stuck particles (0: none)"},
-    {"max-events", EV_P_U64, OFF(max_events), "", "0", 0, 1.8446744073709552e19, 0, NULL,
-     "stop after this many events (0: none)"},
-    {"series-dt", EV_P_F64, OFF(series_dt), "time", "1", 0, 1e300, 1, NULL,
-     "time between rows of the series (time, stuck, energy, collisions, pressure)"},
+static const char *const walls_words[] = {"elastic", "periodic", NULL};
+static const char *const vel_words[] = {"maxwell", "fixed", NULL};
+static const char *const start_words[] = {"random", "lattice", NULL};
+
+/* The event model's rows of the parameter table (pdla/params.h). `name` is
+ * the /parameters attribute and the checkpoint's key as the files have
+ * always had them (the option's spelling); `label` names a row in messages.
+ * Only the stop conditions may change on --resume. Order: the --help order. */
+static const pdla_param_desc ev_rows[] = {
+    {.name = "dim", .option = "dim", .label = "dim", .unit = "", .metavar = "X",
+     .help = "2: hard disks, 3: hard spheres", .group = "Event:", .example = "3",
+     .type = PDLA_PT_INT, .offset = OFF(dim), .bit = BIT(0), .models = EVT, .show_default = 1,
+     .def_u = 2, .lo_u = 2, .hi_u = 3},
+    {.name = "particles", .option = "particles", .label = "particles", .unit = "", .metavar = "X",
+     .help = "number of particles (one species; see --species)", .group = "Event:",
+     .example = "500", .type = PDLA_PT_U64, .offset = OFF(particles), .bit = BIT(1),
+     .models = EVT, .show_default = 1, .def_u = 1000, .lo_u = 1, .hi_u = 4000000000u},
+    {.name = "radius", .option = "radius", .label = "radius", .unit = "length", .metavar = "X",
+     .help = "particle radius (one species)", .group = "Event:", .example = "0.4",
+     .type = PDLA_PT_REAL, .offset = OFF(radius), .bit = BIT(2), .models = EVT,
+     .show_default = 1, .def_r = 0.5, .lo_r = 0, .hi_r = 1e6, .lo_open = 1},
+    {.name = "density", .option = "density", .label = "density", .unit = "mass/length^dim",
+     .metavar = "X", .help = "mass density: mass = density * (pi r^2 | 4/3 pi r^3)",
+     .group = "Event:", .example = "2", .type = PDLA_PT_REAL, .offset = OFF(density),
+     .bit = BIT(3), .models = EVT, .show_default = 1, .def_r = 1, .lo_r = 0, .hi_r = 1e12,
+     .lo_open = 1},
+    {.name = "species", .option = "species", .label = "species", .unit = "", .metavar = "LIST",
+     .help = "COUNT:RADIUS:DENSITY[,...] up to 8 kinds (replaces --particles/--radius/--density)",
+     .group = "Event:", .example = "100:0.5:1,50:0.3:2", .type = PDLA_PT_STRING,
+     .offset = OFF(species), .bit = BIT(4), .models = EVT, .show_default = 1, .lo_u = 0,
+     .hi_u = sizeof(((ev_params *)0)->species) - 1, .def_s = ""},
+    {.name = "seeds", .option = "seeds", .label = "seeds", .unit = "", .metavar = "FILE",
+     .help = "immobile seeds instead of the central one: a line per seed, x y [z] radius, in "
+             "box coordinates [0, side) (the side follows from --packing; the summary prints it); "
+             "# comments. The file must still be there for --resume",
+     .group = "Event:", .example = "seeds.txt", .type = PDLA_PT_STRING, .offset = OFF(seeds),
+     .bit = BIT(17), .models = EVT, .show_default = 1, .lo_u = 0,
+     .hi_u = sizeof(((ev_params *)0)->seeds) - 1, .def_s = ""},
+    {.name = "packing", .option = "packing", .label = "packing", .unit = "", .metavar = "X",
+     .help = "volume fraction of the particles in the box (sets the box side)", .group = "Event:",
+     .example = "0.1", .type = PDLA_PT_REAL, .offset = OFF(packing), .bit = BIT(5),
+     .models = EVT, .show_default = 1, .def_r = 0.05, .lo_r = 0, .hi_r = 0.7, .lo_open = 1},
+    {.name = "box-walls", .option = "box-walls", .label = "box-walls", .unit = "",
+     .metavar = "elastic|periodic", .help = "box boundaries", .group = "Event:",
+     .example = "periodic", .type = PDLA_PT_CHOICE, .offset = OFF(walls), .bit = BIT(6),
+     .models = EVT, .show_default = 1, .def_u = EV_WALLS_ELASTIC, .lo_u = 0, .hi_u = 1,
+     .choices = walls_words},
+    {.name = "seed", .option = "seed", .label = "seed", .unit = "", .metavar = "X",
+     .help = "random seed", .group = "Event:", .example = "12345", .type = PDLA_PT_U64,
+     .offset = OFF(seed), .bit = BIT(7), .models = EVT, .show_default = 1, .def_u = 1,
+     .lo_u = 0, .hi_u = UINT64_MAX},
+    {.name = "kT", .option = "kT", .label = "kT", .unit = "energy", .metavar = "X",
+     .help = "k_B T of the start velocities", .group = "Event:", .example = "2",
+     .type = PDLA_PT_REAL, .offset = OFF(kT), .bit = BIT(8), .models = EVT, .show_default = 1,
+     .def_r = 1, .lo_r = 0, .hi_r = 1e12, .lo_open = 1},
+    {.name = "velocities", .option = "velocities", .label = "velocities", .unit = "",
+     .metavar = "maxwell|fixed",
+     .help = "maxwell: Maxwell-Boltzmann at kT; fixed: speed sqrt(2 kT/m), random direction "
+             "(seed 001)",
+     .group = "Event:", .example = "fixed", .type = PDLA_PT_CHOICE, .offset = OFF(velocities),
+     .bit = BIT(9), .models = EVT, .show_default = 1, .def_u = EV_VEL_MAXWELL, .lo_u = 0,
+     .hi_u = 1, .choices = vel_words},
+    {.name = "start", .option = "start", .label = "start", .unit = "", .metavar = "random|lattice",
+     .help = "random: random sequential placement; lattice: shuffled grid sites",
+     .group = "Event:", .example = "lattice", .type = PDLA_PT_CHOICE, .offset = OFF(start),
+     .bit = BIT(10), .models = EVT, .show_default = 1, .def_u = EV_START_RANDOM, .lo_u = 0,
+     .hi_u = 1, .choices = start_words},
+    {.name = "seed-radius", .option = "seed-radius", .label = "seed-radius", .unit = "length",
+     .metavar = "X",
+     .help = "radius of the immobile central seed; 0: no seed (a plain hard-sphere gas)",
+     .group = "Event:", .example = "1", .type = PDLA_PT_REAL, .offset = OFF(seed_radius),
+     .bit = BIT(11), .models = EVT, .show_default = 1, .def_r = 0.5, .lo_r = 0, .hi_r = 1e6},
+    {.name = "stick-p", .option = "stick-p", .label = "stick-p", .unit = "", .metavar = "X",
+     .help = "probability that a contact with the seed or a stuck particle sticks",
+     .group = "Event:", .example = "0.5", .type = PDLA_PT_REAL, .offset = OFF(stick_p),
+     .bit = BIT(12), .models = EVT, .show_default = 1, .def_r = 1, .lo_r = 0, .hi_r = 1},
+    {.name = "t-max", .option = "t-max", .label = "t-max", .unit = "time", .metavar = "X",
+     .help = "stop at this time (0: none)", .group = "Event:", .example = "10",
+     .type = PDLA_PT_REAL, .offset = OFF(t_max), .bit = BIT(13), .models = EVT, .resumable = 1,
+     .show_default = 1, .def_r = 0, .lo_r = 0, .hi_r = 1e300},
+    {.name = "max-stuck", .option = "max-stuck", .label = "max-stuck", .unit = "", .metavar = "X",
+     .help = "stop at this many stuck particles (0: none)", .group = "Event:", .example = "10",
+     .type = PDLA_PT_U64, .offset = OFF(max_stuck), .bit = BIT(14), .models = EVT,
+     .resumable = 1, .show_default = 1, .def_u = 0, .lo_u = 0, .hi_u = 4000000000u},
+    {.name = "max-events", .option = "max-events", .label = "max-events", .unit = "",
+     .metavar = "X", .help = "stop after this many events (0: none)", .group = "Event:",
+     .example = "1000", .type = PDLA_PT_U64, .offset = OFF(max_events), .bit = BIT(15),
+     .models = EVT, .resumable = 1, .show_default = 1, .def_u = 0, .lo_u = 0,
+     .hi_u = UINT64_MAX},
+    {.name = "series-dt", .option = "series-dt", .label = "series-dt", .unit = "time",
+     .metavar = "X",
+     .help = "time between rows of the series (time, stuck, energy, collisions, pressure)",
+     .group = "Event:", .example = "0.5", .type = PDLA_PT_REAL, .offset = OFF(series_dt),
+     .bit = BIT(16), .models = EVT, .show_default = 1, .def_r = 1, .lo_r = 0, .hi_r = 1e300,
+     .lo_open = 1},
 };
-const size_t ev_param_count = sizeof ev_param_table / sizeof ev_param_table[0];
+#undef BIT
+#undef EVT
+#undef OFF
+
+#define N_EV_ROWS (sizeof ev_rows / sizeof ev_rows[0])
+
+const pdla_param_desc *ev_param_table(size_t *n)
+{
+    *n = N_EV_ROWS;
+    return ev_rows;
+}
 
 static int fail(char *err, size_t errlen, const char *fmt, ...)
 {
@@ -60,106 +138,24 @@ static int fail(char *err, size_t errlen, const char *fmt, ...)
     return -1;
 }
 
-static const ev_param_desc *find(const char *name)
-{
-    for (size_t k = 0; k < ev_param_count; k++) {
-        const char *a = ev_param_table[k].name, *b = name;
-        /* scene keys write '_' for '-' */
-        while (*a && (*a == *b || (*a == '-' && *b == '_'))) a++, b++;
-        if (!*a && !*b) return &ev_param_table[k];
-    }
-    return NULL;
-}
-
-/* The k-th choice of "a|b|c" equal to v, or -1. */
-static int choice_index(const char *choices, const char *v)
-{
-    int k = 0;
-    for (const char *c = choices;; k++) {
-        const char *bar = strchr(c, '|');
-        const size_t len = bar ? (size_t)(bar - c) : strlen(c);
-        if (strlen(v) == len && strncmp(c, v, len) == 0) return k;
-        if (!bar) return -1;
-        c = bar + 1;
-    }
-}
-
-static void choice_name(const char *choices, int k, char *buf, size_t len)
-{
-    const char *c = choices;
-    for (int q = 0; q < k && c; q++) {
-        c = strchr(c, '|');
-        if (c) c++;
-    }
-    if (!c) c = "?";
-    const char *bar = strchr(c, '|');
-    const size_t n = bar ? (size_t)(bar - c) : strlen(c);
-    snprintf(buf, len, "%.*s", (int)n, c);
-}
-
-static int set_desc(ev_params *p, const ev_param_desc *d, const char *v, char *err, size_t errlen)
-{
-    char *base = (char *)p + d->offset;
-    if (d->type == EV_P_STR) {
-        if (strlen(v) >= sizeof p->species) return fail(err, errlen, "--%s: value too long", d->name);
-        snprintf(base, sizeof p->species, "%s", v);
-        return 0;
-    }
-    if (d->type == EV_P_ENUM) {
-        const int k = choice_index(d->choices, v);
-        if (k < 0) return fail(err, errlen, "--%s: '%s' is not one of %s", d->name, v, d->choices);
-        *(int *)base = k;
-        return 0;
-    }
-    errno = 0;
-    char *end;
-    const double x = strtod(v, &end);
-    if (end == v || *end || errno == ERANGE || !isfinite(x))
-        return fail(err, errlen, "--%s: '%s' is not a number", d->name, v);
-    if (x < d->min || (d->min_open && x == d->min) || x > d->max)
-        return fail(err, errlen, "--%s: %s is outside %s%g, %g]", d->name, v,
-                    d->min_open ? "(" : "[", d->min, d->max);
-    if (d->type == EV_P_F64) {
-        *(double *)base = x;
-        return 0;
-    }
-    if (x != floor(x)) return fail(err, errlen, "--%s: '%s' is not a whole number", d->name, v);
-    if (d->type == EV_P_INT) *(int *)base = (int)x;
-    else {
-        /* exact for integers written out in full, 1e5-style otherwise */
-        const int plain = strspn(v, "0123456789") == strlen(v);
-        *(uint64_t *)base = plain ? strtoull(v, NULL, 10) : (uint64_t)x;
-    }
-    return 0;
-}
-
 int ev_param_set(ev_params *p, const char *name, const char *value, char *err, size_t errlen)
 {
-    const ev_param_desc *d = find(name);
+    const pdla_param_desc *d = pdla_param_find(ev_rows, N_EV_ROWS, name);
     if (!d) return fail(err, errlen, "unknown parameter '%s' for model event", name);
-    return set_desc(p, d, value, err, errlen);
+    char e[300];
+    ev_params q = *p;
+    /* a value that is no value of its type: "--OPT: 'x' is not ..."; out of
+     * range: the row's own line, which names it */
+    if (pdla_param_parse(d, &q, value, e, sizeof e)) return fail(err, errlen, "--%s: %s", d->option, e);
+    if (pdla_param_validate(d, 1, &q, NULL, err, errlen)) return -1;
+    *p = q;
+    return 0;
 }
 
 void ev_params_default(ev_params *p)
 {
     memset(p, 0, sizeof *p);
-    for (size_t k = 0; k < ev_param_count; k++) {
-        const int rc = set_desc(p, &ev_param_table[k], ev_param_table[k].defval, NULL, 0);
-        (void)rc; /* the table's own defaults are valid (tested) */
-    }
-}
-
-void ev_param_format(const ev_params *p, size_t k, char *buf, size_t len)
-{
-    const ev_param_desc *d = &ev_param_table[k];
-    const char *base = (const char *)p + d->offset;
-    switch (d->type) {
-    case EV_P_INT: snprintf(buf, len, "%d", *(const int *)base); break;
-    case EV_P_U64: snprintf(buf, len, "%" PRIu64, *(const uint64_t *)base); break;
-    case EV_P_F64: snprintf(buf, len, "%.17g", *(const double *)base); break;
-    case EV_P_STR: snprintf(buf, len, "%s", base); break;
-    case EV_P_ENUM: choice_name(d->choices, *(const int *)base, buf, len); break;
-    }
+    pdla_param_defaults(ev_rows, N_EV_ROWS, p);
 }
 
 char *ev_help_text(void)
@@ -167,20 +163,22 @@ char *ev_help_text(void)
     size_t cap = 8192, n = 0;
     char *t = malloc(cap);
     if (!t) return NULL;
+    ev_params def;
+    ev_params_default(&def);
     n += (size_t)snprintf(t + n, cap - n,
                           "usage: pdla --model event [OPTIONS] [--out DIR] [--force]\n"
                           "Event-driven hard disks (2D) or spheres (3D) in a box around an "
                           "immobile seed;\nparticles touching the seed or a stuck particle stick "
                           "with probability --stick-p.\nWrites DIR/cluster.h5 (default DIR: "
                           "runs/event-<time>). Options (scene key: name with _):\n");
-    for (size_t k = 0; k < ev_param_count; k++) {
-        const ev_param_desc *d = &ev_param_table[k];
-        char opt[64];
-        snprintf(opt, sizeof opt, "--%s %s", d->name,
-                 d->type == EV_P_ENUM ? d->choices : d->type == EV_P_STR ? "LIST" : "X");
+    for (size_t k = 0; k < N_EV_ROWS; k++) {
+        const pdla_param_desc *d = &ev_rows[k];
+        char opt[64], dv[300];
+        snprintf(opt, sizeof opt, "--%s %s", d->option, d->metavar);
+        pdla_param_format(d, &def, 0, dv, sizeof dv);
         const int w = snprintf(t + n, cap - n, "  %-28s %s%s%s%s (default %s)\n", opt, d->help,
                                *d->unit ? " [" : "", d->unit, *d->unit ? "]" : "",
-                               *d->defval ? d->defval : "none");
+                               *dv ? dv : "none");
         if (w < 0 || (size_t)w >= cap - n) break;
         n += (size_t)w;
     }
@@ -192,8 +190,9 @@ char *ev_help_text(void)
              "  --checkpoint                 DIR/checkpoint.h5 at the end and on SIGINT/SIGTERM\n"
              "                               (then exit 0)\n"
              "  --checkpoint-every T         also every T of wall time (seconds, or 30s, 5m, 1h)\n"
-             "  --resume DIR                 continue DIR's checkpoint bit for bit; only --t-max,\n"
-             "                               --max-stuck, --max-events may be given with it\n"
+             "  --resume DIR                 continue DIR's checkpoint bit for bit; --t-max,\n"
+             "                               --max-stuck, --max-events may change, any other\n"
+             "                               parameter given must equal the checkpoint's\n"
              "  --help                       this text\n");
     return t;
 }
@@ -237,12 +236,8 @@ int ev_parse_species(const ev_params *p, ev_species *sp, int *nsp, char *err, si
 
 int ev_params_check(const ev_params *p, char *err, size_t errlen)
 {
-    for (size_t k = 0; k < ev_param_count; k++) {
-        char buf[300];
-        ev_param_format(p, k, buf, sizeof buf);
-        ev_params q = *p;
-        if (set_desc(&q, &ev_param_table[k], buf, err, errlen)) return -1;
-    }
+    const pdla_param_desc *bad;
+    if (pdla_param_validate(ev_rows, N_EV_ROWS, p, &bad, err, errlen)) return -1;
     ev_species sp[EV_MAX_SPECIES];
     int nsp;
     if (ev_parse_species(p, sp, &nsp, err, errlen)) return -1;
@@ -256,14 +251,15 @@ int ev_params_check(const ev_params *p, char *err, size_t errlen)
     double rpmax = 0;
     for (int k = 0; k < nsp; k++)
         if (sp[k].radius > rpmax) rpmax = sp[k].radius;
-    if (p->seed_radius > 10 * rpmax)
+    const int seeded = p->seeds[0] || p->seed_radius > 0;
+    if (!p->seeds[0] && p->seed_radius > 10 * rpmax)
         return fail(err, errlen, "--seed-radius %g is above 10 particle radii (the cell size)",
                     p->seed_radius);
     const int endless = p->t_max == 0 && p->max_events == 0;
-    if (endless && (p->seed_radius == 0 || p->stick_p == 0))
+    if (endless && (!seeded || p->stick_p == 0))
         return fail(err, errlen, "nothing sticks (--seed-radius 0 or --stick-p 0): give --t-max or "
                                  "--max-events");
-    if (p->max_stuck && p->seed_radius == 0)
+    if (p->max_stuck && !seeded)
         return fail(err, errlen, "--max-stuck needs a seed (--seed-radius > 0)");
     return 0;
 }

@@ -32,6 +32,7 @@ static double gauss(pdla_rng *r)
 void ev_free(ev_sim *s)
 {
     if (!s) return;
+    free(s->seed_xr);
     free(s->ps);
     free(s->mass);
     free(s->species);
@@ -233,24 +234,15 @@ static int sort_by_cell(ev_sim *s)
         if (!(ptr)) goto oom;                                              \
     } while (0)
 
-/* The box, cells, arrays and species tables of p, with the seed placed and
- * no particle yet (ev_create places them; a checkpoint fills them in). */
-ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen)
+/* The particle count, the box (side from the packing) and the cells of p:
+ * 0, or -1 with one line in err when the box is too small. */
+static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
 {
-    if (ev_params_check(p, err, errlen)) return NULL;
-    ev_sim *s = calloc(1, sizeof *s);
-    if (!s) {
-        fail(err, errlen, "out of memory");
-        return NULL;
-    }
-    s->par = *p;
-    const int D = s->dim = p->dim;
-    s->periodic = p->walls == EV_WALLS_PERIODIC;
-    s->stick_p = p->stick_p;
-    rng_seed(&s->rng, p->seed);
-    ev_parse_species(p, s->sp, &s->nspecies, NULL, 0);
+    const int D = s->dim;
     uint64_t n = 0;
-    double vol = 0, rmax = p->seed_radius, rpmax = 0;
+    double vol = 0, rmax = p->seeds[0] ? 0 : p->seed_radius, rpmax = 0;
+    for (uint32_t a = 0; a < s->nseeds && p->seeds[0]; a++)
+        rmax = fmax(rmax, s->seed_xr[(size_t)a * (size_t)(D + 1) + (size_t)D]);
     for (int k = 0; k < s->nspecies; k++) {
         n += s->sp[k].count;
         vol += (double)s->sp[k].count * ev_particle_volume(D, s->sp[k].radius);
@@ -258,16 +250,20 @@ ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen)
         if (s->sp[k].radius > rpmax) rpmax = s->sp[k].radius;
     }
     s->n = (uint32_t)n;
-    s->has_seed = p->seed_radius > 0;
-    s->ntot = s->n + (s->has_seed ? 1 : 0);
+    if (!p->seeds[0]) s->nseeds = p->seed_radius > 0;
+    s->has_seed = s->nseeds > 0;
+    s->ntot = s->n + s->nseeds;
     s->nfree_total = s->has_seed && s->stick_p > 0;
     s->V = vol / p->packing;
     s->L = pow(s->V, 1.0 / D);
     s->half = 0.5 * s->L;
-    if (s->L < 2 * rmax * 1.5 || (s->has_seed && s->L < 2 * p->seed_radius + 4 * rpmax)) {
-        fail(err, errlen, "box too small: side %g for particles of radius up to %g", s->L, rmax);
-        goto bad;
-    }
+    if (s->L < 2 * rmax * 1.5 || (s->has_seed && !p->seeds[0] && s->L < 2 * p->seed_radius + 4 * rpmax))
+        return fail(err, errlen, "box too small: side %g for particles of radius up to %g", s->L,
+                    rmax);
+    if (p->seeds[0] && rmax > 10 * rpmax)
+        return fail(err, errlen, "--seeds %s: a seed of radius %g is above 10 particle radii (the "
+                    "cell size)", p->seeds, rmax);
+    if (p->seeds[0] && ev_seeds_check(s, err, errlen)) return -1;
     /* Cells no smaller than the largest contact distance (a hair more, so a
      * particle assigned by round-off to the next cell is still found), and
      * no more cells than particles at low packing (bigger cells there mean
@@ -279,11 +275,17 @@ ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen)
     if (ncd < 1) ncd = 1;
     s->nc = (int)ncd;
     s->w = s->L / s->nc;
-    if (s->periodic && s->nc < 3) {
-        fail(err, errlen, "box too small for periodic walls: side %g is under 3 cells of %g", s->L,
-             cmin);
-        goto bad;
-    }
+    if (s->periodic && s->nc < 3)
+        return fail(err, errlen, "box too small for periodic walls: side %g is under 3 cells of %g",
+                    s->L, cmin);
+    return 0;
+}
+
+/* Every per-particle and per-cell array, zeroed (cell heads empty): 0 or
+ * -1 when out of memory. */
+static int alloc_arrays(ev_sim *s)
+{
+    const int D = s->dim;
     const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (D == 3 ? (uint64_t)s->nc : 1);
     const uint32_t N = s->ntot;
     {
@@ -313,29 +315,68 @@ ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen)
     ALLOC(s->stuck_idx, N);
     ALLOC(s->stuck_t, N);
     for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
-    {
-        uint32_t i = 0;
-        for (int k = 0; k < s->nspecies; k++)
-            for (uint64_t q = 0; q < s->sp[k].count; q++, i++) {
-                EV_P(s, i)[2 * D + 1] = s->sp[k].radius;
-                s->mass[i] = s->sp[k].density * ev_particle_volume(D, s->sp[k].radius);
-                s->species[i] = (uint8_t)k;
-                s->parent[i] = UINT32_MAX;
-            }
-    }
-    if (s->has_seed) {
-        const uint32_t sd = s->n;
-        double x[3] = {s->half, s->half, s->half};
-        EV_P(s, sd)[2 * D + 1] = p->seed_radius;
+    return 0;
+oom:
+    return -1;
+}
+
+/* Radii, masses and species of the particles, species by species, and the
+ * seed (infinite mass, stuck) placed at the centre. */
+static void fill_particles(ev_sim *s, const ev_params *p)
+{
+    const int D = s->dim;
+    uint32_t i = 0;
+    for (int k = 0; k < s->nspecies; k++)
+        for (uint64_t q = 0; q < s->sp[k].count; q++, i++) {
+            EV_P(s, i)[2 * D + 1] = s->sp[k].radius;
+            s->mass[i] = s->sp[k].density * ev_particle_volume(D, s->sp[k].radius);
+            s->species[i] = (uint8_t)k;
+            s->parent[i] = UINT32_MAX;
+        }
+    for (uint32_t a = 0; a < s->nseeds; a++) {
+        /* the central seed, or the file's seed a (ev_seeds.c) */
+        const uint32_t sd = s->n + a;
+        double x[3] = {s->half, s->half, s->half}, r = p->seed_radius;
+        if (p->seeds[0]) {
+            const double *q = s->seed_xr + (size_t)a * (size_t)(D + 1);
+            for (int k = 0; k < D; k++) x[k] = q[k];
+            r = q[D];
+        }
+        EV_P(s, sd)[2 * D + 1] = r;
         s->mass[sd] = INFINITY;
         s->stuck[sd] = 1;
         s->species[sd] = UINT8_MAX;
         s->parent[sd] = UINT32_MAX;
         put(s, sd, x);
     }
+    free(s->seed_xr);
+    s->seed_xr = NULL;
+}
+
+/* The box, cells, arrays and species tables of p, with the seed placed and
+ * no particle yet (ev_create places them; a checkpoint fills them in). */
+ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen)
+{
+    if (ev_params_check(p, err, errlen)) return NULL;
+    ev_sim *s = calloc(1, sizeof *s);
+    if (!s) {
+        fail(err, errlen, "out of memory");
+        return NULL;
+    }
+    s->par = *p;
+    s->dim = p->dim;
+    s->periodic = p->walls == EV_WALLS_PERIODIC;
+    s->stick_p = p->stick_p;
+    rng_seed(&s->rng, p->seed);
+    ev_parse_species(p, s->sp, &s->nspecies, NULL, 0);
+    if (p->seeds[0] && ev_seeds_read(s, p->seeds, err, errlen)) goto bad;
+    if (size_box(s, p, err, errlen)) goto bad;
+    if (alloc_arrays(s)) {
+        fail(err, errlen, "out of memory for %" PRIu64 " particles", (uint64_t)s->n);
+        goto bad;
+    }
+    fill_particles(s, p);
     return s;
-oom:
-    fail(err, errlen, "out of memory for %" PRIu64 " particles", n);
 bad:
     ev_free(s);
     return NULL;

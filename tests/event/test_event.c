@@ -377,10 +377,14 @@ static void test_conserve(int dim, int periodic, double packing, double tend)
 }
 
 /* Sticking on: energy bookkeeping, contacts, overlaps. */
+/* A --seeds file for test_stick (NULL: the central seed). */
+static const char *stick_seeds;
+
 static void test_stick(int dim, double packing, double p)
 {
     ev_params q = base(dim, dim == 2 ? 2000 : 1500, packing, 0, 0.5, p);
     strcpy(q.species, dim == 2 ? "1500:0.5:1,500:0.3:2" : "1000:0.5:1,500:0.35:2");
+    if (stick_seeds) snprintf(q.seeds, sizeof q.seeds, "%s", stick_seeds);
     q.t_max = 0;
     q.velocities = EV_VEL_FIXED;
     ev_sim *s = ev_create(&q, NULL, 0);
@@ -412,7 +416,8 @@ static void test_stick(int dim, double packing, double p)
         const double sig = EV_P_ANY(s, i)[2 * D + 1] + EV_P_ANY(s, j)[2 * D + 1];
         const double gap = fabs(sqrt(rr) - sig) / sig;
         if (gap > worst_touch) worst_touch = gap;
-        CHECK(j == s->n || (s->stuck[j] && j != i), "parent of %u not stuck", i);
+        CHECK(j >= s->n || (s->stuck[j] && j != i), "parent of %u not stuck", i);
+        CHECK(j < s->ntot, "parent of %u is %u, no particle or seed", i, j);
     }
     fprintf(stderr, "stick %dd eta %.3f p %.1f: stuck %llu of %u (%s), dE/E %.3g, contact gap %.3g, "
             "overlap %.3g\n", dim, packing, p, (unsigned long long)b.stuck, s->n,
@@ -603,6 +608,41 @@ static void test_determinism(void)
     }
     CHECK(h[0] == h[1], "same seed, different clusters");
     CHECK(h[0] != h[2], "different seeds, same cluster");
+}
+
+/* ev_df_fit (the D_f of /results and `pdla analyze`) on clusters of known
+ * dimension, in arrival order: a line (R_g ~ k, D_f = 1) and a disk filled
+ * shell by shell (R_g ~ k^(1/2), D_f = 2). Tolerance 0.03: the lattice
+ * disk's R_g(k) wobbles by a few % at small k (whole shells), the line's
+ * R_g = sqrt((k^2 - 1) / 12) is k / sqrt(12) to 0.1% from k = 20. */
+typedef struct dpt {
+    double x, y, d;
+} dpt;
+static int dpt_cmp(const void *a, const void *b)
+{
+    const double u = ((const dpt *)a)->d, v = ((const dpt *)b)->d;
+    return u < v ? -1 : u > v;
+}
+static void test_dffit(void)
+{
+    enum { N = 4000 };
+    static double pos[2 * N];
+    uint64_t lo, hi;
+    for (int k = 0; k < N; k++) pos[2 * k] = k, pos[2 * k + 1] = 0;
+    double df = ev_df_fit(pos, N, 2, 1e9, NULL, &lo, &hi);
+    CHECK(fabs(df - 1) < 0.03 && hi == N, "line: D_f %g over %llu..%llu", df,
+          (unsigned long long)lo, (unsigned long long)hi);
+    static dpt pt[81 * 81];
+    int m = 0;
+    for (int i = -40; i <= 40; i++)
+        for (int j = -40; j <= 40; j++) pt[m++] = (dpt){i, j, hypot(i, j) + 1e-6 * (i + 41 * j)};
+    qsort(pt, (size_t)m, sizeof *pt, dpt_cmp);
+    for (int k = 0; k < N; k++) pos[2 * k] = pt[k].x, pos[2 * k + 1] = pt[k].y;
+    df = ev_df_fit(pos, N, 2, 1e9, NULL, &lo, &hi);
+    CHECK(fabs(df - 2) < 0.03, "disk: D_f %g", df);
+    /* rg_max cuts the range; too few left: NaN */
+    df = ev_df_fit(pos, N, 2, 3.0, NULL, &lo, &hi);
+    CHECK(isnan(df) && lo == 0 && hi == 0, "small rg_max: D_f %g", df);
 }
 
 static void test_params(void)
@@ -853,6 +893,52 @@ static void resume_case(const char *what, ev_params q, int at)
     ev_series_free(&sb);
 }
 
+/* Seeds from a file (2D and 3D, three seeds each, one touching a wall):
+ * the sticking checks of test_stick (every stuck particle touches its
+ * parent, a seed or a stuck particle; energy bookkeeping; no overlap),
+ * every seed of the file got particles, and a checkpoint resumes bit for bit. */
+static void test_seeds(void)
+{
+    char dir[] = "/tmp/pdla-ev-seeds-XXXXXX";
+    CHECK(mkdtemp(dir) != NULL, "mkdtemp");
+    char path[300];
+    for (int dim = 2; dim <= 3; dim++) {
+        snprintf(path, sizeof path, "%s/seeds%d.txt", dir, dim);
+        FILE *f = fopen(path, "w");
+        if (!f) abort();
+        if (dim == 2) fputs("# x y r\n40 40 1\n80 80 2\n0.5 80 0.5\n", f);
+        else fputs("6 6 6 1\n13 13 13 1.5\n6 13 0.5 0.5  # on the z = 0 wall\n", f);
+        fclose(f);
+        stick_seeds = path;
+        test_stick(dim, 0.05, 1);
+        stick_seeds = NULL;
+        ev_params q = base(dim, 600, 0.05, 0, 0.5, 1);
+        snprintf(q.seeds, sizeof q.seeds, "%s", path);
+        q.t_max = 0;
+        char err[300];
+        ev_sim *s = ev_create(&q, err, sizeof err);
+        CHECK(s && s->nseeds == 3 && s->ntot == s->n + 3, "%dd: seeds: %s", dim, s ? "count" : err);
+        if (!s) continue;
+        CHECK(ev_run(s, NULL) == EV_STOP_ALL_STUCK, "%dd seeds: not all stuck", dim);
+        int used[3] = {0, 0, 0};
+        for (uint32_t k = 0; k < s->nstuck; k++) {
+            uint32_t j = s->stuck_idx[k];
+            for (uint32_t hop = 0; j < s->n && hop <= s->n; hop++) j = s->parent[j];
+            if (j >= s->n && j < s->ntot) used[j - s->n] = 1;
+        }
+        CHECK(used[0] && used[1] && used[2], "%dd: a seed got no particle (%d %d %d)", dim, used[0],
+              used[1], used[2]);
+        ev_free(s);
+        if (dim == 2) {
+            q.series_dt = 3;
+            q.stick_p = 0.5;
+            resume_case("2d seeds", q, 5);
+        }
+    }
+    snprintf(path, sizeof path, "rm -rf '%s'", dir);
+    CHECK(system(path) == 0, "cleanup");
+}
+
 static void test_resume(void)
 {
     /* 2D sticking with p = 0.5 (the RNG is part of the state), elastic walls */
@@ -899,6 +985,8 @@ int main(int argc, char **argv)
     if (all || !strcmp(what, "edge")) test_edge();
     if (all || !strcmp(what, "determinism")) test_determinism();
     if (all || !strcmp(what, "params")) test_params();
+    if (all || !strcmp(what, "dffit")) test_dffit();
+    if (all || !strcmp(what, "seeds")) test_seeds();
     if (all || !strcmp(what, "resume")) test_resume();
     return check_finish();
 }

@@ -35,6 +35,17 @@ expect_usage "bad walls" --model event --box-walls sticky --out "$t/a"
 for k in dim particles packing box-walls seed kT velocities stick-p seed-radius t-max max-stuck max-events species; do
     grep -q -- "--$k " "$t/help" || fail "--help lacks --$k"
 done
+# every row of the parameter table (test_event_table rows: OPTION EXAMPLE BAD):
+# in --help, and a bad value refused with exit 2 and one line naming it
+if [ -n "${2:-}" ]; then
+    "$2" rows >"$t/rows" || fail "test_event_table rows"
+    [ "$(wc -l <"$t/rows")" -ge 17 ] || fail "table has $(wc -l <"$t/rows") rows"
+    while read -r opt ex bad; do
+        grep -q -- "--$opt " "$t/help" || fail "--help lacks --$opt"
+        expect_usage "--$opt $bad" --model event --$opt "$bad" --out "$t/a"
+        grep -q -- "$opt" "$t/err" || fail "--$opt $bad: message does not name it: $(cat "$t/err")"
+    done <"$t/rows"
+fi
 
 "$pdla" --model event --dim 2 --particles 300 --packing 0.05 --seed 4 --out "$t/r" >"$t/out" 2>"$t/err" ||
     fail "small run: $(cat "$t/err")"
@@ -44,6 +55,42 @@ grep -q "model *event" "$t/info" || fail "info: no model event"
 grep -q "stuck *300" "$t/info" || fail "info: not 300 stuck"
 "$pdla" info --json "$t/r/cluster.h5" >"$t/info.json" || fail "info --json exit"
 grep -q '"stuck": 300' "$t/info.json" || fail "info --json: stuck"
+# pdla analyze: the cluster's size, the same D_f as /results (one fit,
+# ev_df_fit), JSON that parses, and usage errors
+"$pdla" analyze "$t/r/cluster.h5" >"$t/an" || fail "analyze exit"
+grep -q "^cluster: 300 stuck, 0 free" "$t/an" || fail "analyze: size: $(cat "$t/an")"
+grep -q "^series: .* rows, .*stuck 0..300" "$t/an" || fail "analyze: series: $(cat "$t/an")"
+"$pdla" analyze --json "$t/r/cluster.h5" >"$t/an.json" || fail "analyze --json exit"
+python3 -c "
+import json, sys
+a = json.load(open(sys.argv[1])); i = json.load(open(sys.argv[2]))
+r = i.get('/results', i.get('results', {}))
+assert a['stuck'] == 300 and a['free'] == 0, a
+assert a['rg'] > 0 and a['max_distance_from_seed'] > a['rg'], a
+df = r.get('D_f_rg')
+assert (a['D_f'] is None and df in (None, 'NaN')) or abs(a['D_f'] - df) < 1e-9, (a['D_f'], df)
+" "$t/an.json" "$t/info.json" || fail "analyze --json disagrees with info"
+# --seeds FILE: three seeds (box side 68.6 for 300 disks at packing 0.05),
+# all stick, /cluster holds the seeds; bad files refused with one line
+printf '# x y r\n20 20 1\n50 50 1.5\n\n20 50 0.5  # small\n' >"$t/seeds"
+"$pdla" --model event --particles 300 --packing 0.05 --seeds "$t/seeds" --out "$t/sd" >"$t/out" 2>"$t/err" ||
+    fail "seeds run: $(cat "$t/err")"
+grep -q "stopped: all stuck" "$t/out" || fail "seeds run did not end all stuck: $(cat "$t/out")"
+h5dump -d /cluster/seed_radii "$t/sd/cluster.h5" 2>/dev/null | grep -q "(0): 1, 1.5, 0.5" ||
+    fail "seeds: /cluster/seed_radii"
+"$pdla" analyze "$t/sd/cluster.h5" | grep -q "^cluster: 300 stuck" || fail "analyze of a seeds run"
+printf '20 20 1\n21 20 1\n' >"$t/ov"
+expect_usage "overlapping seeds" --model event --particles 300 --packing 0.05 --seeds "$t/ov" --out "$t/b"
+grep -q "overlap" "$t/err" || fail "overlapping seeds: $(cat "$t/err")"
+printf '20 20 1\n80 20 1\n' >"$t/outside"
+expect_usage "seed outside the box" --model event --particles 300 --packing 0.05 --seeds "$t/outside" --out "$t/b"
+grep -q "outside the box" "$t/err" || fail "seed outside: $(cat "$t/err")"
+printf '20 20\n' >"$t/short"
+expect_usage "seed line short" --model event --particles 300 --packing 0.05 --seeds "$t/short" --out "$t/b"
+expect_usage "seeds file missing" --model event --seeds "$t/nonexistent" --out "$t/b"
+[ -e "$t/b" ] && fail "run directory made for a bad seeds file"
+"$pdla" analyze "$t/r/cluster.h5" --bins 3 >/dev/null 2>"$t/err"
+[ $? -eq 2 ] && [ "$(wc -l <"$t/err")" -eq 1 ] || fail "analyze bad option: $(cat "$t/err")"
 "$pdla" render "$t/r/cluster.h5" -o "$t/r.png" --size 64 || fail "render"
 [ -s "$t/r.png" ] || fail "render wrote nothing"
 expect_usage "existing dir" --model event --particles 300 --packing 0.05 --out "$t/r"

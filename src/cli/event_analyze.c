@@ -1,0 +1,212 @@
+/*
+ * event_analyze.c - `pdla analyze FILE [--json]` for a cluster.h5 of the
+ * event model: the stuck cluster's size, R_g (about its centre of mass)
+ * and largest distance from the (nearest) seed, its fractal dimension from the R_g(k)
+ * fit (ev_df_fit, the same fit as /results D_f_rg), and a summary of the
+ * series (rows, time span, stuck count, kinetic energy first and last,
+ * collisions, mean pressure over the second half of the rows).
+ * Exit: 0, 1 when the file cannot be read as an event cluster.h5, 2 usage.
+ */
+#include <hdf5.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "event_cmd.h"
+#include "pdla/event.h"
+#include "pdla/pdla.h"
+
+/* Dataset PATH of f as doubles (rows x cols; cols 1 for a vector): the
+ * array (caller frees), or NULL. An empty dataset gives a 1-element array
+ * and *rows = 0. */
+static double *read_doubles(hid_t f, const char *path, size_t *rows, size_t *cols)
+{
+    *rows = 0;
+    if (cols) *cols = 1;
+    if (H5Lexists(f, path[0] == '/' ? path + 1 : path, H5P_DEFAULT) <= 0) return NULL;
+    const hid_t d = H5Dopen2(f, path, H5P_DEFAULT);
+    if (d < 0) return NULL;
+    const hid_t sp = H5Dget_space(d);
+    hsize_t dims[2] = {0, 1};
+    const int rank = sp < 0 ? -1 : H5Sget_simple_extent_ndims(sp);
+    double *buf = NULL;
+    if (rank >= 1 && rank <= 2 && H5Sget_simple_extent_dims(sp, dims, NULL) == rank) {
+        const size_t n = (size_t)dims[0] * (size_t)(rank == 2 ? dims[1] : 1);
+        buf = malloc((n ? n : 1) * sizeof *buf);
+        if (buf && n && H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) {
+            free(buf);
+            buf = NULL;
+        }
+        *rows = (size_t)dims[0];
+        if (cols) *cols = rank == 2 ? (size_t)dims[1] : 1;
+    }
+    if (sp >= 0) H5Sclose(sp);
+    H5Dclose(d);
+    return buf;
+}
+
+/* Attribute NAME of object OBJ as a double, or NaN. */
+static double attr_num(hid_t f, const char *obj, const char *name)
+{
+    double v = NAN;
+    if (H5Aexists_by_name(f, obj, name, H5P_DEFAULT) <= 0) return v;
+    const hid_t a = H5Aopen_by_name(f, obj, name, H5P_DEFAULT, H5P_DEFAULT);
+    if (a < 0) return v;
+    if (H5Aread(a, H5T_NATIVE_DOUBLE, &v) < 0) v = NAN;
+    H5Aclose(a);
+    return v;
+}
+
+typedef struct ev_summary {
+    int dim;
+    double box;
+    size_t stuck, free_n;
+    double rg, rmax_seed, df;
+    uint64_t k_lo, k_hi;
+    size_t rows;
+    double t0, t1, stuck0, stuck1, ke0, ke1, coll1, p_mean;
+} ev_summary;
+
+/* The cluster part: size, R_g, extent from the seed, the D_f fit. */
+static int cluster_summary(hid_t f, ev_summary *m, char *err, size_t errlen)
+{
+    size_t rows, cols;
+    double *pos = read_doubles(f, "/cluster/positions", &rows, &cols);
+    if (!pos || (int)cols != m->dim)
+        return free(pos), snprintf(err, errlen, "no readable /cluster/positions"), -1;
+    m->stuck = rows;
+    /* the seeds: a --seeds file's dataset, or the one seed's attributes */
+    size_t ns = 0, nc = 0;
+    double one[3], *seeds = read_doubles(f, "/cluster/seed_positions", &ns, &nc);
+    if (!seeds || (int)nc != m->dim) {
+        static const char *const sn[3] = {"seed_x", "seed_y", "seed_z"};
+        free(seeds);
+        seeds = NULL;
+        ns = !isnan(attr_num(f, "cluster", "seed_radius"));
+        for (int q = 0; q < m->dim; q++) one[q] = ns ? attr_num(f, "cluster", sn[q]) : 0;
+    }
+    const double *sd = seeds ? seeds : one;
+    double *rg = malloc((rows ? rows : 1) * sizeof *rg);
+    if (!rg) return free(pos), free(seeds), snprintf(err, errlen, "out of memory"), -1;
+    m->df = ev_df_fit(pos, rows, m->dim, m->box / 8, rg, &m->k_lo, &m->k_hi);
+    m->rg = rows ? rg[rows - 1] : 0;
+    /* the largest distance of a stuck particle from its nearest seed */
+    m->rmax_seed = 0;
+    for (size_t a = 0; ns && a < rows; a++) {
+        double best = INFINITY;
+        for (size_t b = 0; b < ns; b++) {
+            double d2 = 0;
+            for (int q = 0; q < m->dim; q++) {
+                const double d = pos[a * cols + q] - sd[b * (size_t)m->dim + q];
+                d2 += d * d;
+            }
+            best = fmin(best, d2);
+        }
+        m->rmax_seed = fmax(m->rmax_seed, sqrt(best));
+    }
+    free(seeds);
+    free(rg);
+    free(pos);
+    return 0;
+}
+
+/* The series part: first and last rows, the pressure of the second half. */
+static int series_summary(hid_t f, ev_summary *m, char *err, size_t errlen)
+{
+    size_t n[5];
+    double *t = read_doubles(f, "/series/time", &n[0], NULL);
+    double *st = read_doubles(f, "/series/stuck", &n[1], NULL);
+    double *ke = read_doubles(f, "/series/kinetic_energy", &n[2], NULL);
+    double *co = read_doubles(f, "/series/collisions", &n[3], NULL);
+    double *pr = read_doubles(f, "/series/pressure", &n[4], NULL);
+    int rc = 0;
+    if (!t || !st || !ke || !co || !pr || n[1] != n[0] || n[2] != n[0] || n[3] != n[0] || n[4] != n[0]) {
+        snprintf(err, errlen, "no readable /series (time, stuck, kinetic_energy, collisions, pressure)");
+        rc = -1;
+    } else if ((m->rows = n[0]) > 0) {
+        const size_t L = n[0] - 1;
+        m->t0 = t[0], m->t1 = t[L], m->stuck0 = st[0], m->stuck1 = st[L];
+        m->ke0 = ke[0], m->ke1 = ke[L], m->coll1 = co[L];
+        double sum = 0;
+        size_t k = 0;
+        for (size_t a = n[0] / 2; a < n[0]; a++)
+            if (isfinite(pr[a])) sum += pr[a], k++;
+        m->p_mean = k ? sum / (double)k : NAN;
+    }
+    free(t), free(st), free(ke), free(co), free(pr);
+    return rc;
+}
+
+static void print_summary(const ev_summary *m, int json)
+{
+    if (json) {
+        printf("{\n  \"model\": \"event\",\n  \"dim\": %d,\n  \"stuck\": %zu,\n  \"free\": %zu,\n"
+               "  \"rg\": %.10g,\n  \"max_distance_from_seed\": %.10g,\n",
+               m->dim, m->stuck, m->free_n, m->rg, m->rmax_seed);
+        if (isfinite(m->df)) printf("  \"D_f\": %.10g,\n", m->df);
+        else printf("  \"D_f\": null,\n");
+        printf("  \"D_f_k_lo\": %llu,\n  \"D_f_k_hi\": %llu,\n  \"series_rows\": %zu,\n"
+               "  \"time\": %.10g,\n  \"kinetic_energy_first\": %.10g,\n"
+               "  \"kinetic_energy_last\": %.10g,\n  \"collisions\": %.17g,\n",
+               (unsigned long long)m->k_lo, (unsigned long long)m->k_hi, m->rows, m->t1, m->ke0,
+               m->ke1, m->coll1);
+        if (isfinite(m->p_mean)) printf("  \"pressure_mean_second_half\": %.10g\n}\n", m->p_mean);
+        else printf("  \"pressure_mean_second_half\": null\n}\n");
+        return;
+    }
+    printf("model event, %dd, box %.6g\n", m->dim, m->box);
+    printf("cluster: %zu stuck, %zu free; R_g %.6g; farthest from a seed %.6g\n", m->stuck,
+           m->free_n, m->rg, m->rmax_seed);
+    if (isfinite(m->df))
+        printf("D_f %.4f (R_g(k) fit over k = %llu..%llu)\n", m->df, (unsigned long long)m->k_lo,
+               (unsigned long long)m->k_hi);
+    else
+        printf("D_f -- (too few stuck particles inside box/8 for the R_g(k) fit)\n");
+    if (m->rows)
+        printf("series: %zu rows, t %.6g..%.6g, stuck %.0f..%.0f, kinetic energy %.6g..%.6g, "
+               "collisions %.0f, mean pressure (second half) %.6g\n",
+               m->rows, m->t0, m->t1, m->stuck0, m->stuck1, m->ke0, m->ke1, m->coll1, m->p_mean);
+    else
+        printf("series: no rows\n");
+}
+
+int event_analyze_main(int argc, char **argv)
+{
+    const char *path = NULL;
+    int json = 0;
+    for (int k = 1; k < argc; k++) {
+        if (!strcmp(argv[k], "--json")) json = 1;
+        else if (argv[k][0] == '-' || path) {
+            fprintf(stderr, "pdla analyze: an event cluster.h5 takes only FILE [--json], not '%s'\n",
+                    argv[k]);
+            return 2;
+        } else path = argv[k];
+    }
+    pdla_hdf5_quiet();
+    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f < 0) {
+        fprintf(stderr, "pdla analyze: cannot open %s as HDF5\n", path);
+        return 1;
+    }
+    ev_summary m;
+    memset(&m, 0, sizeof m);
+    m.dim = (int)attr_num(f, "/", "dim");
+    m.box = attr_num(f, "results", "box_side");
+    size_t fr, fc;
+    free(read_doubles(f, "/free/positions", &fr, &fc));
+    m.free_n = fr;
+    char err[256];
+    int rc = (m.dim == 2 || m.dim == 3) && isfinite(m.box) ? 0 : -1;
+    if (rc) snprintf(err, sizeof err, "no dim (2 or 3) or /results box_side");
+    if (!rc) rc = cluster_summary(f, &m, err, sizeof err);
+    if (!rc) rc = series_summary(f, &m, err, sizeof err);
+    H5Fclose(f);
+    if (rc) {
+        fprintf(stderr, "pdla analyze: %s: %s\n", path, err);
+        return 1;
+    }
+    print_summary(&m, json);
+    return fflush(stdout) ? 1 : 0;
+}

@@ -1,0 +1,130 @@
+/*
+ * ev_seeds.c - immobile seeds from a file (--seeds FILE) instead of the
+ * central one. A line per seed: x y [z] radius (dim coordinates, then the
+ * radius), in box coordinates; blank lines and # comments are skipped.
+ * Refused with one line naming the file and line: a line that is not
+ * dim + 1 finite numbers, a radius <= 0, more than EV_MAX_SEEDS seeds, no
+ * seed at all; once the box is known (ev_seeds_check): a seed not inside
+ * the box (elastic walls: the whole disk/sphere; periodic: its centre in
+ * [0, side)) or two seeds that overlap (distance < sum of radii; periodic:
+ * nearest image).
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "ev_internal.h"
+
+/* The overlap check is over all pairs. */
+#define EV_MAX_SEEDS 100000
+
+static int fail(char *err, size_t errlen, const char *fmt, ...)
+{
+    if (err && errlen) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, errlen, fmt, ap);
+        va_end(ap);
+    }
+    return -1;
+}
+
+/* One seed line into xr[0 .. D]: 0, 1 (blank or comment), -1 (bad). */
+static int parse_line(char *line, int D, double *xr)
+{
+    char *hash = strchr(line, '#');
+    if (hash) *hash = '\0';
+    char *c = line;
+    while (*c == ' ' || *c == '\t' || *c == '\r' || *c == '\n') c++;
+    if (!*c) return 1;
+    for (int k = 0; k <= D; k++) {
+        char *end;
+        errno = 0;
+        xr[k] = strtod(c, &end);
+        if (end == c || errno == ERANGE || !isfinite(xr[k])) return -1;
+        c = end;
+    }
+    while (*c == ' ' || *c == '\t' || *c == '\r' || *c == '\n') c++;
+    return *c ? -1 : 0;
+}
+
+static int read_lines(ev_sim *s, FILE *f, const char *path, char *err, size_t errlen)
+{
+    const int D = s->dim;
+    char buf[1024];
+    size_t cap = 0;
+    int line = 0;
+    while (fgets(buf, sizeof buf, f)) {
+        line++;
+        double xr[4];
+        const int r = parse_line(buf, D, xr);
+        if (r == 1) continue;
+        if (r < 0) return fail(err, errlen, "--seeds %s:%d: want %d numbers (x y%s radius)", path, line, D + 1, D == 3 ? " z" : "");
+        if (!(xr[D] > 0)) return fail(err, errlen, "--seeds %s:%d: radius must be > 0", path, line);
+        if (s->nseeds == EV_MAX_SEEDS)
+            return fail(err, errlen, "--seeds %s: more than %d seeds", path, EV_MAX_SEEDS);
+        if (s->nseeds == cap) {
+            cap = cap ? 2 * cap : 64;
+            double *t = realloc(s->seed_xr, cap * (size_t)(D + 1) * sizeof *t);
+            if (!t) return fail(err, errlen, "--seeds %s: out of memory", path);
+            s->seed_xr = t;
+        }
+        memcpy(s->seed_xr + (size_t)s->nseeds * (size_t)(D + 1), xr, (size_t)(D + 1) * sizeof *xr);
+        s->nseeds++;
+    }
+    if (ferror(f)) return fail(err, errlen, "--seeds %s: read error", path);
+    if (!s->nseeds) return fail(err, errlen, "--seeds %s: no seed in the file", path);
+    return 0;
+}
+
+int ev_seeds_read(ev_sim *s, const char *path, char *err, size_t errlen)
+{
+    /* Regular files only: opening a FIFO would block. */
+    struct stat st;
+    if (stat(path, &st) != 0 || !S_ISREG(st.st_mode))
+        return fail(err, errlen, "--seeds %s: not a readable regular file", path);
+    FILE *f = fopen(path, "r");
+    if (!f) return fail(err, errlen, "--seeds %s: %s", path, strerror(errno));
+    s->nseeds = 0;
+    const int rc = read_lines(s, f, path, err, errlen);
+    fclose(f);
+    return rc;
+}
+
+int ev_seeds_check(const ev_sim *s, char *err, size_t errlen)
+{
+    const int D = s->dim;
+    const char *path = s->par.seeds;
+    for (uint32_t a = 0; a < s->nseeds; a++) {
+        const double *p = s->seed_xr + (size_t)a * (size_t)(D + 1);
+        for (int k = 0; k < D; k++) {
+            const double lo = s->periodic ? 0 : p[D], hi = s->periodic ? s->L : s->L - p[D];
+            if (!(p[k] >= lo && (s->periodic ? p[k] < hi : p[k] <= hi)))
+                return fail(err, errlen, "--seeds %s: seed %u (radius %g) is outside the box of side %g",
+                            path, a + 1, p[D], s->L);
+        }
+    }
+    for (uint32_t a = 0; a < s->nseeds; a++) {
+        const double *p = s->seed_xr + (size_t)a * (size_t)(D + 1);
+        for (uint32_t b = a + 1; b < s->nseeds; b++) {
+            const double *q = s->seed_xr + (size_t)b * (size_t)(D + 1);
+            double rr = 0;
+            for (int k = 0; k < D; k++) {
+                double d = q[k] - p[k];
+                if (s->periodic) {
+                    if (d > s->half) d -= s->L;
+                    else if (d < -s->half) d += s->L;
+                }
+                rr += d * d;
+            }
+            const double sig = p[D] + q[D];
+            if (rr < sig * sig)
+                return fail(err, errlen, "--seeds %s: seeds %u and %u overlap", path, a + 1, b + 1);
+        }
+    }
+    return 0;
+}

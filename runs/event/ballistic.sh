@@ -19,7 +19,7 @@ nseeds=${4:-4}
 b=build/pdla
 o=runs/event/out
 mkdir -p "$o"
-cc -O2 -Wall -Wextra -std=c11 -D_GNU_SOURCE -Iinclude runs/event/ballistic.c build/libpdla.a \
+cc -O2 -Wall -Wextra -std=c11 -D_GNU_SOURCE -Iinclude -Itests/event runs/event/ballistic.c build/libpdla.a \
     $(pkg-config --libs hdf5 hwloc) -lm -lpthread -o build/ballistic
 r=build/ballistic
 for d in $dims; do

@@ -18,6 +18,7 @@
 
 #include "ev_internal.h"
 #include "check.h"
+#include "bpca.h"
 
 #define TOL 1e-10 /* the stated overlap tolerance, in units of r_i + r_j */
 
@@ -795,6 +796,53 @@ static void test_conserve_long(int dim, double ncoll)
     ev_free(s);
 }
 
+/* The limit of a long mean free path (issue 15's physics record,
+ * runs/event/README.md): the event model's cluster against ballistic
+ * particle-cluster aggregation (bpca.h) of the same N, by the mass-radius
+ * D_f (bpca_mass_radius). The event model at packing 1e-3 (mean free path
+ * 278 diameters in 2D, 118 in 3D, against a cluster 20-50 across), nev runs;
+ * BPCA nb runs. Passes when the event mean is within tol of BPCA's and
+ * beyond pdla's DLA value (dla) by more than gap: ballistic-like, not
+ * diffusion-limited. Tolerances from the measured spread (see the caller). */
+static double ev_mass_df(int dim, uint64_t n, double packing, uint64_t seed)
+{
+    ev_params q = base(dim, n, packing, 0, 0.5, 1);
+    q.t_max = 0;
+    q.seed = seed;
+    ev_sim *s = ev_create(&q, NULL, 0);
+    CHECK(s != NULL, "create");
+    if (!s) return NAN;
+    CHECK(ev_run(s, NULL) == EV_STOP_ALL_STUCK, "not all stuck");
+    double *pos = malloc((size_t)s->nstuck * dim * sizeof *pos), c[3], rmax;
+    if (!pos) abort();
+    for (uint32_t k = 0; k < s->nstuck; k++) memcpy(pos + (size_t)k * dim, EV_P_ANY(s, s->stuck_idx[k]), dim * sizeof *pos);
+    memcpy(c, ev_pos(s, ev_count(s)), dim * sizeof *c);
+    const double df = bpca_mass_radius(pos, s->nstuck, dim, c, s->L / 4, &rmax);
+    free(pos);
+    ev_free(s);
+    return df;
+}
+static void test_ballistic(int dim, uint64_t n, int nev, int nb, double tol, double dla, double gap)
+{
+    double be = 0, bb = 0, bb2 = 0, e[16], b[64];
+    double *pos = malloc(n * dim * sizeof *pos), rmax;
+    if (!pos || nev > 16 || nb > 64) abort();
+    const double zero[3] = {0, 0, 0};
+    for (int k = 0; k < nb; k++) {
+        bpca_grow(dim, n, 1000 + k, pos);
+        b[k] = bpca_mass_radius(pos, n, dim, zero, INFINITY, &rmax);
+        bb += b[k] / nb, bb2 += b[k] * b[k] / nb;
+    }
+    free(pos);
+    for (int k = 0; k < nev; k++) be += (e[k] = ev_mass_df(dim, n, 1e-3, 1 + k)) / nev;
+    fprintf(stderr, "ballistic %dd N %llu: event (packing 1e-3) mass-radius D_f", dim, (unsigned long long)n);
+    for (int k = 0; k < nev; k++) fprintf(stderr, " %.4f", e[k]);
+    fprintf(stderr, ", mean %.4f; BPCA mean %.4f sd %.4f (%d runs); DLA %.2f\n", be, bb,
+            sqrt(fmax(0, bb2 - bb * bb)), nb, dla);
+    CHECK(fabs(be - bb) < tol, "event %.4f vs BPCA %.4f: not ballistic", be, bb);
+    CHECK(be - dla > gap, "event %.4f within %.2f of DLA %.2f", be, gap, dla);
+}
+
 /* ---- checkpoint and resume ---------------------------------------------- */
 /* Stop at the k-th tick (as a signal would), mid-way through a series row. */
 typedef struct tick_stop { int calls, at; } tick_stop;
@@ -961,6 +1009,11 @@ int main(int argc, char **argv)
     }
     if (argc > 3 && !strcmp(argv[1], "conserve-long")) {
         test_conserve_long(atoi(argv[2]), atof(argv[3]));
+        return check_finish();
+    }
+    if (argc > 8 && !strcmp(argv[1], "ballistic")) {
+        test_ballistic(atoi(argv[2]), strtoull(argv[3], NULL, 10), atoi(argv[4]), atoi(argv[5]), atof(argv[6]),
+                       atof(argv[7]), atof(argv[8]));
         return check_finish();
     }
     if (argc > 2 && !strcmp(argv[1], "mb")) {

@@ -168,7 +168,16 @@ static int png_out(const char *path, int w, int h, const unsigned char *rgb)
     return fclose(fp) ? -1 : 0;
 }
 
-int dlca_render_main(int argc, char **argv)
+/* The parsed command line of `pdla render`. */
+typedef struct render_args {
+    const char *out;
+    long size;
+    int force;
+} render_args;
+
+/* Step 1 of render: the options, kept apart from the drawing so each reads
+ * on its own. -1 to go on (a->out and argv[optind] set), else the exit code. */
+static int render_parse(int argc, char **argv, render_args *a)
 {
     enum { O_SIZE = 256, O_FORCE };
     static const struct option lo[] = {{"output", required_argument, NULL, 'o'},
@@ -176,10 +185,9 @@ int dlca_render_main(int argc, char **argv)
                                        {"force", no_argument, NULL, O_FORCE},
                                        {"help", no_argument, NULL, 'h'},
                                        {NULL, 0, NULL, 0}};
-    const char *out = NULL;
-    long size = 1024;
-    int force = 0, c;
+    int c;
     char err[600];
+    a->out = NULL, a->size = 1024, a->force = 0;
     opterr = 0;
     optind = 1;
     if (optcheck_exact(argc, argv, lo, "ho:", err, sizeof err)) {
@@ -187,13 +195,13 @@ int dlca_render_main(int argc, char **argv)
         return TOOL_USAGE;
     }
     while ((c = getopt_long(argc, argv, "ho:", lo, NULL)) != -1) {
-        if (c == 'o') out = optarg;
+        if (c == 'o') a->out = optarg;
         else if (c == O_SIZE) {
-            if (cli_parse_long_in(optarg, 16, 8192, &size)) {
+            if (cli_parse_long_in(optarg, 16, 8192, &a->size)) {
                 fprintf(stderr, "pdla render: --size: want a whole number in [16, 8192]\n");
                 return TOOL_USAGE;
             }
-        } else if (c == O_FORCE) force = 1;
+        } else if (c == O_FORCE) a->force = 1;
         else if (c == 'h') {
             printf("Usage: pdla render DLCA_FILE -o PNG [--size N] [--force]\n"
                    "A DLCA cluster.h5: the box along its first two axes (deeper axes projected,\n"
@@ -205,41 +213,28 @@ int dlca_render_main(int argc, char **argv)
             return TOOL_USAGE;
         }
     }
-    if (optind != argc - 1 || !out) {
+    if (optind != argc - 1 || !a->out) {
         fprintf(stderr, "pdla render: need one DLCA_FILE and -o PNG\n");
         return TOOL_USAGE;
     }
-    struct stat st;
-    if (!force && stat(out, &st) == 0) {
-        fprintf(stderr, "pdla render: %s exists; not overwriting it (use --force)\n", out);
-        return TOOL_USAGE;
-    }
-    dfile f;
-    if (dfile_read(argv[optind], &f, err, sizeof err)) {
-        fprintf(stderr, "pdla render: %s\n", err);
-        return TOOL_USAGE;
-    }
-    /* Keep the box's aspect: the longer of the first two sides is `size`. */
-    const double scale = (double)size / (double)(f.L[0] > f.L[1] ? f.L[0] : f.L[1]);
-    const int w = (int)fmax(1, lround(f.L[0] * scale)), h = (int)fmax(1, lround(f.L[1] * scale));
-    unsigned char *rgb = malloc((size_t)w * h * 3);
-    float *depth = malloc((size_t)w * h * sizeof *depth);
-    int rc = TOOL_OK;
-    if (!rgb || !depth) {
-        fprintf(stderr, "pdla render: out of memory for a %dx%d picture\n", w, h);
-        rc = TOOL_RUNTIME;
-        goto done;
-    }
+    return -1;
+}
+
+/* Step 2 of render: paint every monomer's site into rgb (w x h, y up), the
+ * one highest along the third axis winning a pixel (depth), so the drawing
+ * can be read apart from the file and PNG handling around it. */
+static void render_paint(const dfile *f, double scale, int w, int h, unsigned char *rgb, float *depth)
+{
     for (size_t k = 0; k < (size_t)w * h; k++) {
         depth[k] = -1;
         rgb[3 * k] = 16, rgb[3 * k + 1] = 16, rgb[3 * k + 2] = 24;
     }
-    for (size_t i = 0; i < f.n; i++) {
-        const int32_t *x = f.pos + i * f.dim;
-        const float z = f.dim > 2 ? (float)x[2] : 0;
-        const double shade = f.dim > 2 ? 0.4 + 0.6 * (f.L[2] > 1 ? z / (double)(f.L[2] - 1) : 1) : 1;
+    for (size_t i = 0; i < f->n; i++) {
+        const int32_t *x = f->pos + i * f->dim;
+        const float z = f->dim > 2 ? (float)x[2] : 0;
+        const double shade = f->dim > 2 ? 0.4 + 0.6 * (f->L[2] > 1 ? z / (double)(f->L[2] - 1) : 1) : 1;
         unsigned char col[3];
-        cluster_colour(f.cid[i], shade, col);
+        cluster_colour(f->cid[i], shade, col);
         const int x0 = (int)floor(x[0] * scale), y0 = (int)floor(x[1] * scale);
         int x1 = (int)floor((x[0] + 1) * scale), y1 = (int)floor((x[1] + 1) * scale);
         if (x1 <= x0) x1 = x0 + 1;
@@ -252,6 +247,37 @@ int dlca_render_main(int argc, char **argv)
                 memcpy(rgb + 3 * k, col, 3);
             }
     }
+}
+
+int dlca_render_main(int argc, char **argv)
+{
+    render_args a;
+    char err[600];
+    const int prc = render_parse(argc, argv, &a);
+    if (prc >= 0) return prc;
+    const char *out = a.out;
+    struct stat st;
+    if (!a.force && stat(out, &st) == 0) {
+        fprintf(stderr, "pdla render: %s exists; not overwriting it (use --force)\n", out);
+        return TOOL_USAGE;
+    }
+    dfile f;
+    if (dfile_read(argv[optind], &f, err, sizeof err)) {
+        fprintf(stderr, "pdla render: %s\n", err);
+        return TOOL_USAGE;
+    }
+    /* Keep the box's aspect: the longer of the first two sides is `size`. */
+    const double scale = (double)a.size / (double)(f.L[0] > f.L[1] ? f.L[0] : f.L[1]);
+    const int w = (int)fmax(1, lround(f.L[0] * scale)), h = (int)fmax(1, lround(f.L[1] * scale));
+    unsigned char *rgb = malloc((size_t)w * h * 3);
+    float *depth = malloc((size_t)w * h * sizeof *depth);
+    int rc = TOOL_OK;
+    if (!rgb || !depth) {
+        fprintf(stderr, "pdla render: out of memory for a %dx%d picture\n", w, h);
+        rc = TOOL_RUNTIME;
+        goto done;
+    }
+    render_paint(&f, scale, w, h, rgb, depth);
     if (png_out(out, w, h, rgb)) {
         fprintf(stderr, "pdla render: cannot write %s\n", out);
         rc = TOOL_RUNTIME;
@@ -366,12 +392,15 @@ static int mass_radius(const int64_t *u, size_t m, int d, double r_lo, double r_
     return 0;
 }
 
-int dlca_analyze_main(int argc, char **argv)
+/* Step 1 of analyze: the options, kept apart from the analysis so each reads
+ * on its own. -1 to go on (*json and argv[optind] set), else the exit code. */
+static int analyze_parse(int argc, char **argv, int *json)
 {
     static const struct option lo[] = {{"json", no_argument, NULL, 'j'}, {"help", no_argument, NULL, 'h'},
                                        {NULL, 0, NULL, 0}};
-    int json = 0, c;
+    int c;
     char err[600];
+    *json = 0;
     opterr = 0;
     optind = 1;
     if (optcheck_exact(argc, argv, lo, "h", err, sizeof err)) {
@@ -379,7 +408,7 @@ int dlca_analyze_main(int argc, char **argv)
         return TOOL_USAGE;
     }
     while ((c = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
-        if (c == 'j') json = 1;
+        if (c == 'j') *json = 1;
         else if (c == 'h') {
             printf("Usage: pdla analyze DLCA_FILE [--json]\n"
                    "A DLCA cluster.h5: the largest cluster's size, R_g and D_f (mass-radius:\n"
@@ -396,6 +425,31 @@ int dlca_analyze_main(int argc, char **argv)
         fprintf(stderr, "pdla analyze: need one DLCA_FILE\n");
         return TOOL_USAGE;
     }
+    return -1;
+}
+
+/* Step 2 of analyze: R_g of the unwrapped cluster u (m x d) about its centre
+ * of mass (r2, m entries, is scratch); the same sums in the same order as
+ * before the split, so the printed digits do not move. */
+static double analyze_rg(const int64_t *u, size_t m, int d, double *r2)
+{
+    double cm[MAXD] = {0}, rg2 = 0;
+    for (size_t j = 0; j < m; j++)
+        for (int a = 0; a < d; a++) cm[a] += (double)u[j * d + a] / (double)m;
+    for (size_t j = 0; j < m; j++) {
+        r2[j] = 0;
+        for (int a = 0; a < d; a++) r2[j] += pow((double)u[j * d + a] - cm[a], 2);
+        rg2 += r2[j] / (double)m;
+    }
+    return sqrt(rg2);
+}
+
+int dlca_analyze_main(int argc, char **argv)
+{
+    int json;
+    char err[600];
+    const int prc = analyze_parse(argc, argv, &json);
+    if (prc >= 0) return prc;
     dfile f;
     if (dfile_read(argv[optind], &f, err, sizeof err)) {
         fprintf(stderr, "pdla analyze: %s\n", err);
@@ -426,15 +480,7 @@ int dlca_analyze_main(int argc, char **argv)
         rc = TOOL_USAGE;
         goto done;
     }
-    double cm[MAXD] = {0}, rg2 = 0;
-    for (size_t j = 0; j < m; j++)
-        for (int a = 0; a < d; a++) cm[a] += (double)u[j * d + a] / (double)m;
-    for (size_t j = 0; j < m; j++) {
-        r2[j] = 0;
-        for (int a = 0; a < d; a++) r2[j] += pow((double)u[j * d + a] - cm[a], 2);
-        rg2 += r2[j] / (double)m;
-    }
-    const double rg = sqrt(rg2);
+    const double rg = analyze_rg(u, m, d, r2);
     double dfm = NAN, dfm_err = NAN, dfe, dfe_err;
     (void)mass_radius(u, m, d, 2, rg, &dfm, &dfm_err);
     const int bins = dlca_fractal_dim(f.size, f.rg, f.nc, 8, &dfe, &dfe_err);

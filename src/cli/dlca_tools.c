@@ -31,6 +31,7 @@
 #include "optcheck.h"
 #include "parse.h"
 #include "pdla/dlca.h"
+#include "pdla/h5check.h"
 #include "tools.h"
 
 enum { MAXD = DLCA_MAX_DIM };
@@ -52,84 +53,102 @@ static void dfile_free(dfile *f)
     free(f->pos), free(f->cid), free(f->site), free(f->size), free(f->rg);
 }
 
-/* The whole dataset `name` as mtype; *rows, *cols its shape. NULL if absent. */
-static void *read_ds(hid_t f, const char *name, hid_t mtype, size_t esize, size_t *rows, size_t *cols)
+/* The whole dataset `name` of element type t (esize bytes in memory), rank 1
+ * or 2, through the checked reader (pdla/h5check.h): what it declares is
+ * checked against what the file stores before anything is allocated, so a
+ * forged declaration of 2^61 rows is refused, not allocated. *rows, *cols
+ * its shape. NULL with one line in err, naming the dataset, when it is
+ * missing, of another type or rank, not stored or unreadable. */
+static void *read_ds(hid_t f, const char *path, const char *name, pdla_h5_type t, size_t esize, size_t *rows,
+                     size_t *cols, char *err, size_t errlen)
 {
-    const hid_t d = H5Dopen2(f, name, H5P_DEFAULT);
-    if (d < 0) return NULL;
-    const hid_t sp = H5Dget_space(d);
-    hsize_t dims[2] = {0, 1};
-    const int rank = sp >= 0 ? H5Sget_simple_extent_ndims(sp) : -1;
+    pdla_h5_dset d;
+    if (pdla_h5_dset_open(f, name, &d) < 0) {
+        pdla_errorf(-1, err, errlen, "%s: no dataset %s (not a DLCA cluster.h5, or from before it was written)",
+                    path, name);
+        return NULL;
+    }
     void *buf = NULL;
-    if (rank == 1 || rank == 2) {
-        H5Sget_simple_extent_dims(sp, dims, NULL);
-        if (rank == 1) dims[1] = 1;
-        *rows = (size_t)dims[0];
-        *cols = (size_t)dims[1];
+    const int stored = pdla_h5_dset_stored(&d, esize);
+    if (!pdla_h5_dset_is(&d, t) || d.rank < 1 || d.rank > 2)
+        pdla_errorf(-1, err, errlen, "%s: %s is not a rank 1 or 2 dataset of the element type pdla writes", path,
+                    name);
+    else if (stored != PDLA_H5_STORED)
+        pdla_errorf(-1, err, errlen, "%s: %s declares %llu elements, %s", path, name, (unsigned long long)d.elems,
+                    stored == PDLA_H5_TOO_LARGE ? "more than this machine can address"
+                                                : "more than the file stores (damaged or forged)");
+    else {
+        *rows = (size_t)d.dims[0];
+        *cols = d.rank == 2 ? (size_t)d.dims[1] : 1;
         buf = malloc((*rows ? *rows : 1) * *cols * esize);
-        if (buf && *rows && H5Dread(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) {
+        if (!buf) pdla_errorf(-1, err, errlen, "%s: out of memory for %s", path, name);
+        else if (*rows && pdla_h5_dset_read(&d, t, 0, *rows, buf) < 0) {
+            pdla_errorf(-1, err, errlen, "%s: cannot read %s (damaged?)", path, name);
             free(buf);
             buf = NULL;
         }
     }
-    if (sp >= 0) H5Sclose(sp);
-    H5Dclose(d);
+    pdla_h5_dset_close(&d);
     return buf;
 }
 
-static int read_attr(hid_t loc, const char *name, hid_t mtype, void *buf, hssize_t n)
+/* /parameters dim and box through the checked readers: 0, or -1 with one
+ * line in err. */
+static int read_box(hid_t f, const char *path, dfile *o, char *err, size_t errlen)
 {
-    const hid_t a = H5Aopen(loc, name, H5P_DEFAULT);
-    if (a < 0) return -1;
-    const hid_t sp = H5Aget_space(a);
-    int rc = sp >= 0 && H5Sget_simple_extent_npoints(sp) == n && H5Aread(a, mtype, buf) >= 0 ? 0 : -1;
-    if (sp >= 0) H5Sclose(sp);
-    H5Aclose(a);
-    return rc;
+    const hid_t g = H5Gopen2(f, "parameters", H5P_DEFAULT);
+    pdla_h5_value box;
+    int ok = g >= 0 && pdla_h5_attr_number(g, "dim", PDLA_H5_I32, &o->dim) == 0 && o->dim >= 2 && o->dim <= MAXD &&
+             pdla_h5_attr_value(g, "box", &box) == 0 && box.read && box.kind == 'u' && box.n == o->dim;
+    for (int a = 0; ok && a < o->dim; a++) {
+        o->L[a] = box.u[a];
+        ok = o->L[a] >= 1 && o->L[a] <= UINT32_MAX;
+    }
+    if (g >= 0) H5Gclose(g);
+    if (ok) return 0;
+    return pdla_errorf(-1, err, errlen, "%s: /parameters dim (2 to %d) or box (dim lengths of 1 to 2^32-1) "
+                       "missing or bad", path, MAXD);
+}
+
+/* The contents' checks, after the shapes: every cluster id names a row of
+ * /clusters, every position lies in the box. */
+static int dfile_consistent(const dfile *o)
+{
+    for (size_t i = 0; i < o->n; i++) {
+        if (o->cid[i] >= o->nc) return 0;
+        for (int a = 0; a < o->dim; a++)
+            if (o->pos[i * o->dim + a] < 0 || (uint64_t)o->pos[i * o->dim + a] >= o->L[a]) return 0;
+    }
+    return 1;
 }
 
 /* Read what both tools need; 0, or -1 with one line in err. */
 static int dfile_read(const char *path, dfile *o, char *err, size_t errlen)
 {
     memset(o, 0, sizeof *o);
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    pdla_hdf5_quiet();
     const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
-    if (f < 0) {
-        snprintf(err, errlen, "cannot open %s", path);
-        return -1;
+    if (f < 0) return pdla_errorf(-1, err, errlen, "cannot open %s", path);
+    size_t cols = 0, n2 = 0, n3 = 0, nc2 = 0, one;
+    int ok = read_box(f, path, o, err, errlen) == 0 &&
+             (o->pos = read_ds(f, path, "/monomers/position", PDLA_H5_I32, 4, &o->n, &cols, err, errlen)) &&
+             (o->cid = read_ds(f, path, "/monomers/cluster", PDLA_H5_U32, 4, &n2, &one, err, errlen)) &&
+             (o->site = read_ds(f, path, "/monomers/site", PDLA_H5_U32, 4, &n3, &one, err, errlen)) &&
+             (o->size = read_ds(f, path, "/clusters/size", PDLA_H5_U64, 8, &o->nc, &one, err, errlen)) &&
+             (o->rg = read_ds(f, path, "/clusters/rg", PDLA_H5_F64, 8, &nc2, &one, err, errlen));
+    if (ok && !(cols == (size_t)o->dim && n2 == o->n && n3 == o->n && nc2 == o->nc && o->nc > 0 && o->n > 0 &&
+                dfile_consistent(o))) {
+        pdla_errorf(-1, err, errlen, "%s: malformed DLCA file (/monomers and /clusters do not agree in shape, "
+                    "or a position or cluster id is out of range)", path);
+        ok = 0;
     }
-    int ok = 0;
-    const hid_t g = H5Gopen2(f, "parameters", H5P_DEFAULT), r = H5Gopen2(f, "results", H5P_DEFAULT);
-    if (g >= 0 && r >= 0 && read_attr(g, "dim", H5T_NATIVE_INT, &o->dim, 1) == 0 && o->dim >= 2 && o->dim <= MAXD &&
-        read_attr(g, "box", H5T_NATIVE_UINT64, o->L, o->dim) == 0) {
-        size_t rows, cols, n2, c2, nc2, one;
-        o->pos = read_ds(f, "/monomers/position", H5T_NATIVE_INT32, 4, &rows, &cols);
-        o->cid = read_ds(f, "/monomers/cluster", H5T_NATIVE_UINT32, 4, &n2, &one);
-        o->site = read_ds(f, "/monomers/site", H5T_NATIVE_UINT32, 4, &n2, &one);
-        o->size = read_ds(f, "/clusters/size", H5T_NATIVE_UINT64, 8, &o->nc, &one);
-        o->rg = read_ds(f, "/clusters/rg", H5T_NATIVE_DOUBLE, 8, &nc2, &c2);
-        o->n = rows;
-        ok = o->pos && o->cid && o->site && o->size && o->rg && cols == (size_t)o->dim && n2 == rows &&
-             nc2 == o->nc && o->nc > 0 && rows > 0;
-        for (size_t i = 0; ok && i < o->n; i++) {
-            ok = o->cid[i] < o->nc;
-            for (int a = 0; ok && a < o->dim; a++)
-                ok = o->pos[i * o->dim + a] >= 0 && (uint64_t)o->pos[i * o->dim + a] < o->L[a];
-        }
-        const hid_t a = ok ? H5Aopen(r, "stop", H5P_DEFAULT) : -1;
-        if (a >= 0) {
-            const hid_t t = H5Aget_type(a);
-            if (t >= 0 && !H5Tis_variable_str(t) && H5Tget_size(t) < sizeof o->stop) H5Aread(a, t, o->stop);
-            if (t >= 0) H5Tclose(t);
-            H5Aclose(a);
-        }
+    if (ok) { /* the stop reason is for the record only: absent or odd, it stays empty */
+        const hid_t r = H5Gopen2(f, "results", H5P_DEFAULT);
+        if (r < 0 || pdla_h5_attr_str(r, "stop", o->stop, sizeof o->stop) < 0) o->stop[0] = '\0';
+        if (r >= 0) H5Gclose(r);
     }
-    if (g >= 0) H5Gclose(g);
-    if (r >= 0) H5Gclose(r);
     H5Fclose(f);
     if (!ok) {
-        snprintf(err, errlen, "%s: malformed DLCA file (parameters, /monomers/position or /clusters missing or bad; "
-                              "files from before /monomers/position cannot be drawn)", path);
         dfile_free(o);
         return -1;
     }

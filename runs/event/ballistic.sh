@@ -8,7 +8,8 @@
 # Maxwell-Boltzmann kT = 1, run until all stuck. Run from the repository root
 # after `ninja -C build`:
 #   nice -n 10 runs/event/ballistic.sh > runs/event/ballistic.txt
-#   nice -n 10 runs/event/ballistic.sh 100000 2 "0.001 0.01 0.05 0.3" 2 > runs/event/ballistic-1e5.txt
+#   nice -n 10 runs/event/ballistic.sh 100000 2 "0.001 0.01 0.05 0.3" 2   (N = 1e5: started on
+#   2026-11-24, stopped for lack of CPU after BPCA and DLA; no record)
 # Arguments: N (default 10000), the dimensions ("2 3"), the event model's
 # packings ("0.0001 0.001 0.01 0.05 0.3"), the BPCA and DLA seeds (4).
 set -eu

@@ -4,23 +4,11 @@
  */
 #include <inttypes.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "ev_internal.h"
-
-static int fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return -1;
-}
 
 static double gauss(pdla_rng *r)
 {
@@ -140,7 +128,7 @@ static int place_random(ev_sim *s, char *err, size_t errlen)
             }
         }
         if (!placed)
-            return fail(err, errlen,
+            return pdla_errorf(-1, err, errlen,
                         "cannot place particle %" PRIu32 " of %" PRIu32 " without overlap at packing "
                         "%g after %d tries (random placement jams near 0.55 in 2D, 0.38 in 3D): "
                         "lower --packing or use --start lattice",
@@ -158,13 +146,13 @@ static int place_lattice(ev_sim *s, double rmax, char *err, size_t errlen)
     for (;; m++) {
         const double a = s->L / m;
         if (a < 2 * rmax * (1 + 1e-9))
-            return fail(err, errlen, "cannot place %" PRIu32 " particles on a grid at packing %g "
+            return pdla_errorf(-1, err, errlen, "cannot place %" PRIu32 " particles on a grid at packing %g "
                                      "(sites closer than a diameter): lower --packing",
                         s->n, s->par.packing);
         const uint64_t nsites = (uint64_t)m * (uint64_t)m * (D == 3 ? (uint64_t)m : 1);
         if (nsites > 4ull * s->n + 64) continue;
         uint32_t *ok = malloc(nsites * sizeof *ok);
-        if (!ok) return fail(err, errlen, "out of memory");
+        if (!ok) return pdla_errorf(-1, err, errlen, "out of memory");
         uint64_t nok = 0;
         for (uint64_t q = 0; q < nsites; q++) {
             double x[3];
@@ -276,10 +264,10 @@ static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
     s->L = pow(s->V, 1.0 / D);
     s->half = 0.5 * s->L;
     if (s->L < 2 * rmax * 1.5 || (s->has_seed && !p->seeds[0] && s->L < 2 * p->seed_radius + 4 * rpmax))
-        return fail(err, errlen, "box too small: side %g for particles of radius up to %g", s->L,
+        return pdla_errorf(-1, err, errlen, "box too small: side %g for particles of radius up to %g", s->L,
                     rmax);
     if (p->seeds[0] && rmax > 10 * rpmax)
-        return fail(err, errlen, "--seeds %s: a seed of radius %g is above 10 particle radii (the "
+        return pdla_errorf(-1, err, errlen, "--seeds %s: a seed of radius %g is above 10 particle radii (the "
                     "cell size)", p->seeds, rmax);
     if (p->seeds[0] && ev_seeds_check(s, err, errlen)) return -1;
     /* Cells no smaller than the largest contact distance (a hair more, so a
@@ -302,7 +290,7 @@ static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
     s->nc = (int)ncd;
     s->w = s->L / s->nc;
     if (s->periodic && s->nc < 3)
-        return fail(err, errlen, "box too small for periodic walls: side %g is under 3 cells of %g",
+        return pdla_errorf(-1, err, errlen, "box too small for periodic walls: side %g is under 3 cells of %g",
                     s->L, cmin);
     return 0;
 }
@@ -386,7 +374,7 @@ ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen)
     if (ev_params_check(p, err, errlen)) return NULL;
     ev_sim *s = calloc(1, sizeof *s);
     if (!s) {
-        fail(err, errlen, "out of memory");
+        pdla_errorf(-1, err, errlen, "out of memory");
         return NULL;
     }
     s->par = *p;
@@ -398,7 +386,7 @@ ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen)
     if (p->seeds[0] && ev_seeds_read(s, p->seeds, err, errlen)) goto bad;
     if (size_box(s, p, err, errlen)) goto bad;
     if (alloc_arrays(s)) {
-        fail(err, errlen, "out of memory for %" PRIu64 " particles", (uint64_t)s->n);
+        pdla_errorf(-1, err, errlen, "out of memory for %" PRIu64 " particles", (uint64_t)s->n);
         goto bad;
     }
     fill_particles(s, p);
@@ -445,7 +433,7 @@ ev_sim *ev_create(const ev_params *p, char *err, size_t errlen)
     for (uint32_t i = 0; i < s->n; i++) ev_heap_push(s, i);
     return s;
 oom:
-    fail(err, errlen, "out of memory for %" PRIu64 " particles", (uint64_t)s->n);
+    pdla_errorf(-1, err, errlen, "out of memory for %" PRIu64 " particles", (uint64_t)s->n);
 bad:
     ev_free(s);
     return NULL;

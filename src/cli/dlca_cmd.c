@@ -343,13 +343,6 @@ static int make_dir(const dlca_cli *c, char *dir, size_t len)
     return 0;
 }
 
-static double wall_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 static char *join_args(int argc, char **argv)
 {
     size_t len = 1;
@@ -448,7 +441,8 @@ static int run_loop(dlca_sim *s, dlca_cli *c, const char *dir, const char *cmd, 
     uint64_t att = dlca_attempts(s), next_att = 0;
     const uint64_t every = c->checkpoint_attempts;
     if (every) next_att = (att / every + 1) * every;
-    double next_time = c->checkpoint_every > 0 ? wall_now() + c->checkpoint_every : 0, last_look = wall_now();
+    double last_look = pdla_clock_seconds();
+    double next_time = c->checkpoint_every > 0 ? last_look + c->checkpoint_every : 0;
     double next_snap = c->snapshot_every > 0 ? (floor(dlca_time(s) / c->snapshot_every) + 1) * c->snapshot_every : 0;
     char stop_path[4200], err[1024];
     snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
@@ -465,14 +459,14 @@ static int run_loop(dlca_sim *s, dlca_cli *c, const char *dir, const char *cmd, 
             return stop;
         }
         if (!c->checkpoint) continue;
-        const double now = wall_now();
+        const double now = pdla_clock_seconds();
         if ((next_att && att >= next_att) || (next_time > 0 && now >= next_time)) {
             if (write_file(s, c, dir, "checkpoint", cmd, 0, err, sizeof err)) {
                 fprintf(stderr, "pdla: checkpoint failed: %s\n", err);
                 (*ck_failed)++;
             }
             if (every) next_att = (att / every + 1) * every;
-            if (next_time > 0) next_time = wall_now() + c->checkpoint_every;
+            if (next_time > 0) next_time = pdla_clock_seconds() + c->checkpoint_every;
         }
         if (now - last_look >= 0.1) { /* a stat() at most ten times a second */
             last_look = now;
@@ -711,11 +705,11 @@ int dlca_cmd_main(int argc, char **argv)
         free(scene_buf);
         return orc;
     }
-    const double t0 = wall_now();
+    const double t0 = pdla_clock_seconds();
     char *cmd = join_args(argc, argv);
     int asked = ASKED_NONE, ck_failed = 0, final_ck = 0;
     const int stop = run_loop(s, &c, dir, cmd, &asked, &ck_failed);
-    const double wall = wall_now() - t0;
+    const double wall = pdla_clock_seconds() - t0;
     const int status = finish_files(s, &c, dir, cmd, wall, ck_failed ? EXIT_RUNTIME : 0, &final_ck);
     free(cmd);
     if (!c.quiet) print_summary(s, &c.p, dir, stop, asked, wall);

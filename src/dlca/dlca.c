@@ -63,12 +63,6 @@ static inline void digest_add(dlca_sim *s, uint64_t v)
     s->digest ^= s->digest >> 29;
 }
 
-static int fail(char *err, size_t errlen, int code, const char *msg)
-{
-    if (err && errlen) snprintf(err, errlen, "%s", msg);
-    return code;
-}
-
 /* s^gamma: cached for the small sizes (nearly every pick), pow() above;
  * the same double either way. */
 static inline double mob_of(const dlca_sim *s, uint64_t size)
@@ -528,7 +522,7 @@ static int place(dlca_sim *s, const uint32_t *sites, uint32_t *placed, char *err
         if (sites) {
             k = sites[j - 1];
             if (k >= s->V || s->grid[k])
-                return fail(err, errlen, PDLA_EINVAL, k >= s->V ? "a site is outside the box" : "two monomers on one site");
+                return pdla_errorf(PDLA_EINVAL, err, errlen, k >= s->V ? "a site is outside the box" : "two monomers on one site");
         } else {
             do k = rng_below(&s->rng, s->V);
             while (s->grid[k]);
@@ -597,7 +591,7 @@ static int setup(dlca_sim **out, const dlca_params *p, const uint32_t *sites, ui
 nomem:
     free(placed);
     dlca_sim_free(s);
-    return fail(err, errlen, PDLA_ENOMEM, "out of memory for the DLCA lattice and clusters");
+    return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the DLCA lattice and clusters");
 }
 
 int dlca_create(dlca_sim **out, const dlca_params *p, char *err, size_t errlen)
@@ -608,7 +602,7 @@ int dlca_create(dlca_sim **out, const dlca_params *p, char *err, size_t errlen)
 int dlca_create_sites(dlca_sim **out, const dlca_params *p, const uint32_t *sites, uint64_t n,
                       char *err, size_t errlen)
 {
-    if (!sites || n == 0) return fail(err, errlen, PDLA_EINVAL, "no sites given");
+    if (!sites || n == 0) return pdla_errorf(PDLA_EINVAL, err, errlen, "no sites given");
     dlca_params q = *p;
     q.count = n; /* so that validation counts these monomers */
     return setup(out, &q, sites, n, err, errlen);

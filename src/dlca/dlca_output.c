@@ -119,6 +119,30 @@ done:
     return g < 0 ? rc : h5u_close(w, rc, g, H5Gclose, "/series");
 }
 
+/* The /results group of dlca_write_h5: the run's totals as attributes, in a
+ * step of its own so the writer reads group by group. -1 on failure (err set
+ * by the h5u call that failed), the group closed either way. */
+static int write_results(const h5u_writer *w, hid_t file, const dlca_stats *st, double df, double dferr,
+                         double wall_s)
+{
+    const size_t N = st->n_monomers, nc = st->n_clusters;
+    const hid_t g = h5u_group(w, file, "results");
+    if (g < 0) return -1;
+    if (h5u_attr_f64(w, g, "t", st->t) < 0 || h5u_attr_u64(w, g, "attempts", st->attempts) < 0 ||
+        h5u_attr_u64(w, g, "moves", st->moves) < 0 || h5u_attr_u64(w, g, "monomer_moves", st->monomer_moves) < 0 ||
+        h5u_attr_u64(w, g, "merges", st->merges) < 0 || h5u_attr_u64(w, g, "n_monomers", st->n_monomers) < 0 ||
+        h5u_attr_u64(w, g, "n_clusters", st->n_clusters) < 0 || h5u_attr_u64(w, g, "largest", st->largest) < 0 ||
+        h5u_attr_f64(w, g, "mean_size", (double)N / (double)nc) < 0 ||
+        h5u_attr_f64(w, g, "weight_average_size", st->sum_s2 / (double)N) < 0 ||
+        h5u_attr_str(w, g, "stop", dlca_stop_name(st->stop)) < 0 ||
+        h5u_attr_str(w, g, "search_used", dlca_search_name(st->search_now)) < 0 ||
+        h5u_attr_f64(w, g, "D_f", df) < 0 || h5u_attr_f64(w, g, "D_f_err", dferr) < 0 ||
+        h5u_attr_u64(w, g, "history_digest", st->digest) < 0 || h5u_attr_u64(w, g, "model_bytes", st->bytes) < 0 ||
+        h5u_attr_f64(w, g, "wall_s", wall_s) < 0)
+        return h5u_close(w, -1, g, H5Gclose, "a group");
+    return h5u_close(w, 0, g, H5Gclose, "/results");
+}
+
 int dlca_write_h5(const dlca_sim *s, const char *path, const char *command_line, double wall_s, char *err,
                   size_t errlen)
 {
@@ -160,23 +184,7 @@ int dlca_write_h5(const dlca_sim *s, const char *path, const char *command_line,
     if (h5u_attr_str(&w, file, "model", "dlca") < 0 || h5u_attr_int(&w, file, "format_version", 1) < 0 ||
         dlca_write_parameters_h5(&w, file, p) < 0 || write_series(&w, file, s) < 0)
         goto done;
-    if ((g = h5u_group(&w, file, "results")) < 0) goto done;
-    if (h5u_attr_f64(&w, g, "t", st.t) < 0 || h5u_attr_u64(&w, g, "attempts", st.attempts) < 0 ||
-        h5u_attr_u64(&w, g, "moves", st.moves) < 0 || h5u_attr_u64(&w, g, "monomer_moves", st.monomer_moves) < 0 ||
-        h5u_attr_u64(&w, g, "merges", st.merges) < 0 || h5u_attr_u64(&w, g, "n_monomers", st.n_monomers) < 0 ||
-        h5u_attr_u64(&w, g, "n_clusters", st.n_clusters) < 0 || h5u_attr_u64(&w, g, "largest", st.largest) < 0 ||
-        h5u_attr_f64(&w, g, "mean_size", (double)N / (double)nc) < 0 ||
-        h5u_attr_f64(&w, g, "weight_average_size", st.sum_s2 / (double)N) < 0 ||
-        h5u_attr_str(&w, g, "stop", dlca_stop_name(st.stop)) < 0 ||
-        h5u_attr_str(&w, g, "search_used", dlca_search_name(st.search_now)) < 0 ||
-        h5u_attr_f64(&w, g, "D_f", df) < 0 || h5u_attr_f64(&w, g, "D_f_err", dferr) < 0 ||
-        h5u_attr_u64(&w, g, "history_digest", st.digest) < 0 || h5u_attr_u64(&w, g, "model_bytes", st.bytes) < 0 ||
-        h5u_attr_f64(&w, g, "wall_s", wall_s) < 0)
-        goto done;
-    rc = h5u_close(&w, 0, g, H5Gclose, "/results");
-    g = H5I_INVALID_HID;
-    if (rc < 0) goto done;
-    rc = -1;
+    if (write_results(&w, file, &st, df, dferr, wall_s) < 0) goto done;
     if ((g = h5u_group(&w, file, "clusters")) < 0 ||
         write_1d(&w, g, "size", H5T_STD_U64LE, H5T_NATIVE_UINT64, size, nc) < 0 ||
         write_1d(&w, g, "rg", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, rg, nc) < 0)

@@ -199,9 +199,9 @@ typedef struct dlca_snapshot {
 PDLA_API int dlca_write_snapshots_h5(const char *path, const dlca_params *p, const dlca_snapshot *snaps, size_t n,
                                      uint64_t n_monomers, double every, char *err, size_t errlen);
 /* The snapshots of a file so written (a checkpoint: a resumed run keeps
- * them): *snaps (malloc'ed, *n of them, each with its arrays; the caller
- * frees them, also after a failure) and *every; none (0) if the file has no
- * /snapshots. 0 or PDLA_EIO. */
+ * them): *snaps (malloc'ed, *n of them, each with its arrays, for the
+ * caller to free) and *every; none (0) if the file has no /snapshots.
+ * 0, or PDLA_EIO with nothing left allocated. */
 PDLA_API int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot **snaps, size_t *n,
                                     double *every, char *err, size_t errlen);
 

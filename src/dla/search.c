@@ -224,16 +224,6 @@ typedef struct stack_entry {
 
 #define SEARCH_STACK (TREE_MAX_LEVEL * 8 + 16)
 
-/* Squared distance from coordinate x to the integer interval [lo, lo + len - 1]. */
-static inline __attribute__((always_inline)) uint64_t axis_dist2(int64_t x, int64_t lo, int64_t len)
-{
-    int64_t d = lo - x;
-    const int64_t above = x - (lo + len - 1);
-    if (above > d) d = above;
-    if (d < 0) d = 0;
-    return (uint64_t)d * (uint64_t)d;
-}
-
 /* Top-down branch and bound inside the subtree of one node, seeded with the
  * best bound found so far. A child's squared box distance is the sum over
  * axes of the distance to its lower or upper half, computed once per axis. */
@@ -267,14 +257,21 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
         uint32_t own = 0, near = 0;
         uint64_t half_d2[3][2];
         for (int a = 0; a < dim; a++) {
-            const int64_t mid = e.lo[a] + half;
-            if (p[a] >= mid) own |= 1u << a;
-            half_d2[a][0] = axis_dist2(p[a], e.lo[a], half);
-            half_d2[a][1] = axis_dist2(p[a], mid, half);
+            /* The distances to the two halves [lo, mid) and [mid, mid +
+             * half) from off = p - mid: p's own half (0 when p is in it)
+             * and the other one, across mid. */
+            const int64_t off = p[a] - (e.lo[a] + half);
+            const uint32_t up = off >= 0;
+            own |= up << a;
+            int64_t d_own = up ? off - half + 1 : -off - half;
+            if (d_own < 0) d_own = 0;
+            const int64_t d_other = up ? off + 1 : -off;
+            half_d2[a][up] = (uint64_t)(d_own * d_own);
+            half_d2[a][up ^ 1] = (uint64_t)(d_other * d_other);
             /* The other half on this axis: within the bound, or never (the
              * bound only decreases), so children across it are skipped
              * before their index is loaded. */
-            if (half_d2[a][((own >> a) & 1) ^ 1] < best2) near |= 1u << a;
+            if (half_d2[a][up ^ 1] < best2) near |= 1u << a;
         }
         const _Atomic uint32_t *ch = tree_children(t, e.node);
         if (e.level == 1) {
@@ -458,8 +455,10 @@ static inline __attribute__((always_inline)) uint64_t climb_level(const tree *t,
     uint64_t other_d2[3];
     uint32_t near = 0;
     for (int a = 0; a < dim; a++) {
-        const int64_t other_lo = plo[a] + (((pown >> a) & 1) ? 0 : half);
-        other_d2[a] = axis_dist2(p[a], other_lo, half);
+        /* Across mid: p in the upper half is p - mid + 1 from the lower. */
+        const int64_t off = p[a] - (plo[a] + half);
+        const int64_t d = ((pown >> a) & 1) ? off + 1 : -off;
+        other_d2[a] = (uint64_t)(d * d);
         if (other_d2[a] < best2) near |= 1u << a;
     }
     /* Only siblings that differ from the own child on near axes alone

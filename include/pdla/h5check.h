@@ -34,7 +34,8 @@ typedef enum pdla_h5_type {
     PDLA_H5_U32,
     PDLA_H5_I64,
     PDLA_H5_U64,
-    PDLA_H5_F64
+    PDLA_H5_F64,
+    PDLA_H5_I8 /* last: the values above keep their numbers */
 } pdla_h5_type;
 
 /* ---- attributes: 0 when read, -1 when missing or not as wanted ---------- */

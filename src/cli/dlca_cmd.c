@@ -106,8 +106,8 @@ static void print_help(FILE *o)
                "                                     cluster.h5); --fill and --count are then not used\n"
                "  --snapshot-every T                 also store the sites and cluster ids at times T, 2T, ... in\n"
                "                                     cluster.h5 (/snapshots/0, 1, ...; kept in memory until written,\n"
-               "                                     8 bytes per monomer each; those of a run before --resume are not\n"
-               "                                     carried over)\n"
+               "                                     8 bytes per monomer each; checkpoints keep them for --resume, and\n"
+               "                                     cluster.xdmf2 shows them as ParaView time steps)\n"
                "  --out DIR                          run directory (default runs/dlca-YYYYmmdd-HHMMSS-<d>d)\n"
                "  --force                            write into an existing run directory\n"
                "  --no-output                        write no files\n"
@@ -343,13 +343,6 @@ static int make_dir(const dlca_cli *c, char *dir, size_t len)
     return 0;
 }
 
-static double wall_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 static char *join_args(int argc, char **argv)
 {
     size_t len = 1;
@@ -376,8 +369,9 @@ static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, con
     err[0] = '\0';
     int rc = what[1] == 'l' ? dlca_write_h5(s, tmp, cmd, wall, err, errlen)
                             : dlca_checkpoint_write(s, tmp, err, errlen);
-    if (rc == 0 && what[1] == 'l' && c->nsnaps)
-        rc = dlca_write_snapshots_h5(tmp, c->snaps, c->nsnaps, c->n_monomers, err, errlen);
+    if (rc == 0 && c->snapshot_every > 0) /* the checkpoint too: a resumed run keeps them */
+        rc = dlca_write_snapshots_h5(tmp, dlca_get_params(s), c->snaps, c->nsnaps, c->n_monomers, c->snapshot_every,
+                                     err, errlen);
     if (rc || rename(tmp, path)) {
         if (!err[0]) snprintf(err, errlen, "cannot rename %.900s: %s", tmp, strerror(errno));
         unlink(tmp);
@@ -386,7 +380,8 @@ static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, con
     if (what[1] == 'l') { /* ParaView's sidecar, for the file under its final name */
         dlca_stats st;
         dlca_get_stats(s, &st);
-        if (dlca_write_xdmf(path, dlca_get_params(s)->dim, st.n_monomers, err, errlen)) return -1;
+        if (dlca_write_xdmf(path, dlca_get_params(s)->dim, st.n_monomers, c->snaps, c->nsnaps, st.t, err, errlen))
+            return -1;
     }
     return 0;
 }
@@ -446,7 +441,8 @@ static int run_loop(dlca_sim *s, dlca_cli *c, const char *dir, const char *cmd, 
     uint64_t att = dlca_attempts(s), next_att = 0;
     const uint64_t every = c->checkpoint_attempts;
     if (every) next_att = (att / every + 1) * every;
-    double next_time = c->checkpoint_every > 0 ? wall_now() + c->checkpoint_every : 0, last_look = wall_now();
+    double last_look = pdla_clock_seconds();
+    double next_time = c->checkpoint_every > 0 ? last_look + c->checkpoint_every : 0;
     double next_snap = c->snapshot_every > 0 ? (floor(dlca_time(s) / c->snapshot_every) + 1) * c->snapshot_every : 0;
     char stop_path[4200], err[1024];
     snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
@@ -463,14 +459,14 @@ static int run_loop(dlca_sim *s, dlca_cli *c, const char *dir, const char *cmd, 
             return stop;
         }
         if (!c->checkpoint) continue;
-        const double now = wall_now();
+        const double now = pdla_clock_seconds();
         if ((next_att && att >= next_att) || (next_time > 0 && now >= next_time)) {
             if (write_file(s, c, dir, "checkpoint", cmd, 0, err, sizeof err)) {
                 fprintf(stderr, "pdla: checkpoint failed: %s\n", err);
                 (*ck_failed)++;
             }
             if (every) next_att = (att / every + 1) * every;
-            if (next_time > 0) next_time = wall_now() + c->checkpoint_every;
+            if (next_time > 0) next_time = pdla_clock_seconds() + c->checkpoint_every;
         }
         if (now - last_look >= 0.1) { /* a stat() at most ten times a second */
             last_look = now;
@@ -547,6 +543,18 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
         *s = NULL;
         return EXIT_USAGE;
     }
+    /* The snapshots taken before the checkpoint, and its period unless
+     * --snapshot-every is given again. */
+    dlca_stats st;
+    dlca_get_stats(*s, &st);
+    double every = 0;
+    if (dlca_read_snapshots_h5(ckpath, st.n_monomers, &c->snaps, &c->nsnaps, &every, err, sizeof err)) {
+        fprintf(stderr, "pdla: %s\n", err);
+        dlca_destroy(*s);
+        *s = NULL;
+        return EXIT_USAGE;
+    }
+    if (!(c->snapshot_every > 0)) c->snapshot_every = every;
     /* The stops not given stay the checkpoint's: a resumed run ends where
      * the interrupted one would have. */
     pdla_param_apply_resumable(t, n, c->given, &p, &c->p);
@@ -697,11 +705,11 @@ int dlca_cmd_main(int argc, char **argv)
         free(scene_buf);
         return orc;
     }
-    const double t0 = wall_now();
+    const double t0 = pdla_clock_seconds();
     char *cmd = join_args(argc, argv);
     int asked = ASKED_NONE, ck_failed = 0, final_ck = 0;
     const int stop = run_loop(s, &c, dir, cmd, &asked, &ck_failed);
-    const double wall = wall_now() - t0;
+    const double wall = pdla_clock_seconds() - t0;
     const int status = finish_files(s, &c, dir, cmd, wall, ck_failed ? EXIT_RUNTIME : 0, &final_ck);
     free(cmd);
     if (!c.quiet) print_summary(s, &c.p, dir, stop, asked, wall);

@@ -31,6 +31,7 @@
 #include "optcheck.h"
 #include "parse.h"
 #include "pdla/dlca.h"
+#include "pdla/h5check.h"
 #include "tools.h"
 
 enum { MAXD = DLCA_MAX_DIM };
@@ -52,84 +53,102 @@ static void dfile_free(dfile *f)
     free(f->pos), free(f->cid), free(f->site), free(f->size), free(f->rg);
 }
 
-/* The whole dataset `name` as mtype; *rows, *cols its shape. NULL if absent. */
-static void *read_ds(hid_t f, const char *name, hid_t mtype, size_t esize, size_t *rows, size_t *cols)
+/* The whole dataset `name` of element type t (esize bytes in memory), rank 1
+ * or 2, through the checked reader (pdla/h5check.h): what it declares is
+ * checked against what the file stores before anything is allocated, so a
+ * forged declaration of 2^61 rows is refused, not allocated. *rows, *cols
+ * its shape. NULL with one line in err, naming the dataset, when it is
+ * missing, of another type or rank, not stored or unreadable. */
+static void *read_ds(hid_t f, const char *path, const char *name, pdla_h5_type t, size_t esize, size_t *rows,
+                     size_t *cols, char *err, size_t errlen)
 {
-    const hid_t d = H5Dopen2(f, name, H5P_DEFAULT);
-    if (d < 0) return NULL;
-    const hid_t sp = H5Dget_space(d);
-    hsize_t dims[2] = {0, 1};
-    const int rank = sp >= 0 ? H5Sget_simple_extent_ndims(sp) : -1;
+    pdla_h5_dset d;
+    if (pdla_h5_dset_open(f, name, &d) < 0) {
+        pdla_errorf(-1, err, errlen, "%s: no dataset %s (not a DLCA cluster.h5, or from before it was written)",
+                    path, name);
+        return NULL;
+    }
     void *buf = NULL;
-    if (rank == 1 || rank == 2) {
-        H5Sget_simple_extent_dims(sp, dims, NULL);
-        if (rank == 1) dims[1] = 1;
-        *rows = (size_t)dims[0];
-        *cols = (size_t)dims[1];
+    const int stored = pdla_h5_dset_stored(&d, esize);
+    if (!pdla_h5_dset_is(&d, t) || d.rank < 1 || d.rank > 2)
+        pdla_errorf(-1, err, errlen, "%s: %s is not a rank 1 or 2 dataset of the element type pdla writes", path,
+                    name);
+    else if (stored != PDLA_H5_STORED)
+        pdla_errorf(-1, err, errlen, "%s: %s declares %llu elements, %s", path, name, (unsigned long long)d.elems,
+                    stored == PDLA_H5_TOO_LARGE ? "more than this machine can address"
+                                                : "more than the file stores (damaged or forged)");
+    else {
+        *rows = (size_t)d.dims[0];
+        *cols = d.rank == 2 ? (size_t)d.dims[1] : 1;
         buf = malloc((*rows ? *rows : 1) * *cols * esize);
-        if (buf && *rows && H5Dread(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) {
+        if (!buf) pdla_errorf(-1, err, errlen, "%s: out of memory for %s", path, name);
+        else if (*rows && pdla_h5_dset_read(&d, t, 0, *rows, buf) < 0) {
+            pdla_errorf(-1, err, errlen, "%s: cannot read %s (damaged?)", path, name);
             free(buf);
             buf = NULL;
         }
     }
-    if (sp >= 0) H5Sclose(sp);
-    H5Dclose(d);
+    pdla_h5_dset_close(&d);
     return buf;
 }
 
-static int read_attr(hid_t loc, const char *name, hid_t mtype, void *buf, hssize_t n)
+/* /parameters dim and box through the checked readers: 0, or -1 with one
+ * line in err. */
+static int read_box(hid_t f, const char *path, dfile *o, char *err, size_t errlen)
 {
-    const hid_t a = H5Aopen(loc, name, H5P_DEFAULT);
-    if (a < 0) return -1;
-    const hid_t sp = H5Aget_space(a);
-    int rc = sp >= 0 && H5Sget_simple_extent_npoints(sp) == n && H5Aread(a, mtype, buf) >= 0 ? 0 : -1;
-    if (sp >= 0) H5Sclose(sp);
-    H5Aclose(a);
-    return rc;
+    const hid_t g = H5Gopen2(f, "parameters", H5P_DEFAULT);
+    pdla_h5_value box;
+    int ok = g >= 0 && pdla_h5_attr_number(g, "dim", PDLA_H5_I32, &o->dim) == 0 && o->dim >= 2 && o->dim <= MAXD &&
+             pdla_h5_attr_value(g, "box", &box) == 0 && box.read && box.kind == 'u' && box.n == o->dim;
+    for (int a = 0; ok && a < o->dim; a++) {
+        o->L[a] = box.u[a];
+        ok = o->L[a] >= 1 && o->L[a] <= UINT32_MAX;
+    }
+    if (g >= 0) H5Gclose(g);
+    if (ok) return 0;
+    return pdla_errorf(-1, err, errlen, "%s: /parameters dim (2 to %d) or box (dim lengths of 1 to 2^32-1) "
+                       "missing or bad", path, MAXD);
+}
+
+/* The contents' checks, after the shapes: every cluster id names a row of
+ * /clusters, every position lies in the box. */
+static int dfile_consistent(const dfile *o)
+{
+    for (size_t i = 0; i < o->n; i++) {
+        if (o->cid[i] >= o->nc) return 0;
+        for (int a = 0; a < o->dim; a++)
+            if (o->pos[i * o->dim + a] < 0 || (uint64_t)o->pos[i * o->dim + a] >= o->L[a]) return 0;
+    }
+    return 1;
 }
 
 /* Read what both tools need; 0, or -1 with one line in err. */
 static int dfile_read(const char *path, dfile *o, char *err, size_t errlen)
 {
     memset(o, 0, sizeof *o);
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    pdla_hdf5_quiet();
     const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
-    if (f < 0) {
-        snprintf(err, errlen, "cannot open %s", path);
-        return -1;
+    if (f < 0) return pdla_errorf(-1, err, errlen, "cannot open %s", path);
+    size_t cols = 0, n2 = 0, n3 = 0, nc2 = 0, one;
+    int ok = read_box(f, path, o, err, errlen) == 0 &&
+             (o->pos = read_ds(f, path, "/monomers/position", PDLA_H5_I32, 4, &o->n, &cols, err, errlen)) &&
+             (o->cid = read_ds(f, path, "/monomers/cluster", PDLA_H5_U32, 4, &n2, &one, err, errlen)) &&
+             (o->site = read_ds(f, path, "/monomers/site", PDLA_H5_U32, 4, &n3, &one, err, errlen)) &&
+             (o->size = read_ds(f, path, "/clusters/size", PDLA_H5_U64, 8, &o->nc, &one, err, errlen)) &&
+             (o->rg = read_ds(f, path, "/clusters/rg", PDLA_H5_F64, 8, &nc2, &one, err, errlen));
+    if (ok && !(cols == (size_t)o->dim && n2 == o->n && n3 == o->n && nc2 == o->nc && o->nc > 0 && o->n > 0 &&
+                dfile_consistent(o))) {
+        pdla_errorf(-1, err, errlen, "%s: malformed DLCA file (/monomers and /clusters do not agree in shape, "
+                    "or a position or cluster id is out of range)", path);
+        ok = 0;
     }
-    int ok = 0;
-    const hid_t g = H5Gopen2(f, "parameters", H5P_DEFAULT), r = H5Gopen2(f, "results", H5P_DEFAULT);
-    if (g >= 0 && r >= 0 && read_attr(g, "dim", H5T_NATIVE_INT, &o->dim, 1) == 0 && o->dim >= 2 && o->dim <= MAXD &&
-        read_attr(g, "box", H5T_NATIVE_UINT64, o->L, o->dim) == 0) {
-        size_t rows, cols, n2, c2, nc2, one;
-        o->pos = read_ds(f, "/monomers/position", H5T_NATIVE_INT32, 4, &rows, &cols);
-        o->cid = read_ds(f, "/monomers/cluster", H5T_NATIVE_UINT32, 4, &n2, &one);
-        o->site = read_ds(f, "/monomers/site", H5T_NATIVE_UINT32, 4, &n2, &one);
-        o->size = read_ds(f, "/clusters/size", H5T_NATIVE_UINT64, 8, &o->nc, &one);
-        o->rg = read_ds(f, "/clusters/rg", H5T_NATIVE_DOUBLE, 8, &nc2, &c2);
-        o->n = rows;
-        ok = o->pos && o->cid && o->site && o->size && o->rg && cols == (size_t)o->dim && n2 == rows &&
-             nc2 == o->nc && o->nc > 0 && rows > 0;
-        for (size_t i = 0; ok && i < o->n; i++) {
-            ok = o->cid[i] < o->nc;
-            for (int a = 0; ok && a < o->dim; a++)
-                ok = o->pos[i * o->dim + a] >= 0 && (uint64_t)o->pos[i * o->dim + a] < o->L[a];
-        }
-        const hid_t a = ok ? H5Aopen(r, "stop", H5P_DEFAULT) : -1;
-        if (a >= 0) {
-            const hid_t t = H5Aget_type(a);
-            if (t >= 0 && !H5Tis_variable_str(t) && H5Tget_size(t) < sizeof o->stop) H5Aread(a, t, o->stop);
-            if (t >= 0) H5Tclose(t);
-            H5Aclose(a);
-        }
+    if (ok) { /* the stop reason is for the record only: absent or odd, it stays empty */
+        const hid_t r = H5Gopen2(f, "results", H5P_DEFAULT);
+        if (r < 0 || pdla_h5_attr_str(r, "stop", o->stop, sizeof o->stop) < 0) o->stop[0] = '\0';
+        if (r >= 0) H5Gclose(r);
     }
-    if (g >= 0) H5Gclose(g);
-    if (r >= 0) H5Gclose(r);
     H5Fclose(f);
     if (!ok) {
-        snprintf(err, errlen, "%s: malformed DLCA file (parameters, /monomers/position or /clusters missing or bad; "
-                              "files from before /monomers/position cannot be drawn)", path);
         dfile_free(o);
         return -1;
     }
@@ -168,7 +187,16 @@ static int png_out(const char *path, int w, int h, const unsigned char *rgb)
     return fclose(fp) ? -1 : 0;
 }
 
-int dlca_render_main(int argc, char **argv)
+/* The parsed command line of `pdla render`. */
+typedef struct render_args {
+    const char *out;
+    long size;
+    int force;
+} render_args;
+
+/* Step 1 of render: the options, kept apart from the drawing so each reads
+ * on its own. -1 to go on (a->out and argv[optind] set), else the exit code. */
+static int render_parse(int argc, char **argv, render_args *a)
 {
     enum { O_SIZE = 256, O_FORCE };
     static const struct option lo[] = {{"output", required_argument, NULL, 'o'},
@@ -176,10 +204,9 @@ int dlca_render_main(int argc, char **argv)
                                        {"force", no_argument, NULL, O_FORCE},
                                        {"help", no_argument, NULL, 'h'},
                                        {NULL, 0, NULL, 0}};
-    const char *out = NULL;
-    long size = 1024;
-    int force = 0, c;
+    int c;
     char err[600];
+    a->out = NULL, a->size = 1024, a->force = 0;
     opterr = 0;
     optind = 1;
     if (optcheck_exact(argc, argv, lo, "ho:", err, sizeof err)) {
@@ -187,13 +214,13 @@ int dlca_render_main(int argc, char **argv)
         return TOOL_USAGE;
     }
     while ((c = getopt_long(argc, argv, "ho:", lo, NULL)) != -1) {
-        if (c == 'o') out = optarg;
+        if (c == 'o') a->out = optarg;
         else if (c == O_SIZE) {
-            if (cli_parse_long_in(optarg, 16, 8192, &size)) {
+            if (cli_parse_long_in(optarg, 16, 8192, &a->size)) {
                 fprintf(stderr, "pdla render: --size: want a whole number in [16, 8192]\n");
                 return TOOL_USAGE;
             }
-        } else if (c == O_FORCE) force = 1;
+        } else if (c == O_FORCE) a->force = 1;
         else if (c == 'h') {
             printf("Usage: pdla render DLCA_FILE -o PNG [--size N] [--force]\n"
                    "A DLCA cluster.h5: the box along its first two axes (deeper axes projected,\n"
@@ -205,41 +232,28 @@ int dlca_render_main(int argc, char **argv)
             return TOOL_USAGE;
         }
     }
-    if (optind != argc - 1 || !out) {
+    if (optind != argc - 1 || !a->out) {
         fprintf(stderr, "pdla render: need one DLCA_FILE and -o PNG\n");
         return TOOL_USAGE;
     }
-    struct stat st;
-    if (!force && stat(out, &st) == 0) {
-        fprintf(stderr, "pdla render: %s exists; not overwriting it (use --force)\n", out);
-        return TOOL_USAGE;
-    }
-    dfile f;
-    if (dfile_read(argv[optind], &f, err, sizeof err)) {
-        fprintf(stderr, "pdla render: %s\n", err);
-        return TOOL_USAGE;
-    }
-    /* Keep the box's aspect: the longer of the first two sides is `size`. */
-    const double scale = (double)size / (double)(f.L[0] > f.L[1] ? f.L[0] : f.L[1]);
-    const int w = (int)fmax(1, lround(f.L[0] * scale)), h = (int)fmax(1, lround(f.L[1] * scale));
-    unsigned char *rgb = malloc((size_t)w * h * 3);
-    float *depth = malloc((size_t)w * h * sizeof *depth);
-    int rc = TOOL_OK;
-    if (!rgb || !depth) {
-        fprintf(stderr, "pdla render: out of memory for a %dx%d picture\n", w, h);
-        rc = TOOL_RUNTIME;
-        goto done;
-    }
+    return -1;
+}
+
+/* Step 2 of render: paint every monomer's site into rgb (w x h, y up), the
+ * one highest along the third axis winning a pixel (depth), so the drawing
+ * can be read apart from the file and PNG handling around it. */
+static void render_paint(const dfile *f, double scale, int w, int h, unsigned char *rgb, float *depth)
+{
     for (size_t k = 0; k < (size_t)w * h; k++) {
         depth[k] = -1;
         rgb[3 * k] = 16, rgb[3 * k + 1] = 16, rgb[3 * k + 2] = 24;
     }
-    for (size_t i = 0; i < f.n; i++) {
-        const int32_t *x = f.pos + i * f.dim;
-        const float z = f.dim > 2 ? (float)x[2] : 0;
-        const double shade = f.dim > 2 ? 0.4 + 0.6 * (f.L[2] > 1 ? z / (double)(f.L[2] - 1) : 1) : 1;
+    for (size_t i = 0; i < f->n; i++) {
+        const int32_t *x = f->pos + i * f->dim;
+        const float z = f->dim > 2 ? (float)x[2] : 0;
+        const double shade = f->dim > 2 ? 0.4 + 0.6 * (f->L[2] > 1 ? z / (double)(f->L[2] - 1) : 1) : 1;
         unsigned char col[3];
-        cluster_colour(f.cid[i], shade, col);
+        cluster_colour(f->cid[i], shade, col);
         const int x0 = (int)floor(x[0] * scale), y0 = (int)floor(x[1] * scale);
         int x1 = (int)floor((x[0] + 1) * scale), y1 = (int)floor((x[1] + 1) * scale);
         if (x1 <= x0) x1 = x0 + 1;
@@ -252,6 +266,37 @@ int dlca_render_main(int argc, char **argv)
                 memcpy(rgb + 3 * k, col, 3);
             }
     }
+}
+
+int dlca_render_main(int argc, char **argv)
+{
+    render_args a;
+    char err[600];
+    const int prc = render_parse(argc, argv, &a);
+    if (prc >= 0) return prc;
+    const char *out = a.out;
+    struct stat st;
+    if (!a.force && stat(out, &st) == 0) {
+        fprintf(stderr, "pdla render: %s exists; not overwriting it (use --force)\n", out);
+        return TOOL_USAGE;
+    }
+    dfile f;
+    if (dfile_read(argv[optind], &f, err, sizeof err)) {
+        fprintf(stderr, "pdla render: %s\n", err);
+        return TOOL_USAGE;
+    }
+    /* Keep the box's aspect: the longer of the first two sides is `size`. */
+    const double scale = (double)a.size / (double)(f.L[0] > f.L[1] ? f.L[0] : f.L[1]);
+    const int w = (int)fmax(1, lround(f.L[0] * scale)), h = (int)fmax(1, lround(f.L[1] * scale));
+    unsigned char *rgb = malloc((size_t)w * h * 3);
+    float *depth = malloc((size_t)w * h * sizeof *depth);
+    int rc = TOOL_OK;
+    if (!rgb || !depth) {
+        fprintf(stderr, "pdla render: out of memory for a %dx%d picture\n", w, h);
+        rc = TOOL_RUNTIME;
+        goto done;
+    }
+    render_paint(&f, scale, w, h, rgb, depth);
     if (png_out(out, w, h, rgb)) {
         fprintf(stderr, "pdla render: cannot write %s\n", out);
         rc = TOOL_RUNTIME;
@@ -366,12 +411,15 @@ static int mass_radius(const int64_t *u, size_t m, int d, double r_lo, double r_
     return 0;
 }
 
-int dlca_analyze_main(int argc, char **argv)
+/* Step 1 of analyze: the options, kept apart from the analysis so each reads
+ * on its own. -1 to go on (*json and argv[optind] set), else the exit code. */
+static int analyze_parse(int argc, char **argv, int *json)
 {
     static const struct option lo[] = {{"json", no_argument, NULL, 'j'}, {"help", no_argument, NULL, 'h'},
                                        {NULL, 0, NULL, 0}};
-    int json = 0, c;
+    int c;
     char err[600];
+    *json = 0;
     opterr = 0;
     optind = 1;
     if (optcheck_exact(argc, argv, lo, "h", err, sizeof err)) {
@@ -379,7 +427,7 @@ int dlca_analyze_main(int argc, char **argv)
         return TOOL_USAGE;
     }
     while ((c = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
-        if (c == 'j') json = 1;
+        if (c == 'j') *json = 1;
         else if (c == 'h') {
             printf("Usage: pdla analyze DLCA_FILE [--json]\n"
                    "A DLCA cluster.h5: the largest cluster's size, R_g and D_f (mass-radius:\n"
@@ -396,6 +444,31 @@ int dlca_analyze_main(int argc, char **argv)
         fprintf(stderr, "pdla analyze: need one DLCA_FILE\n");
         return TOOL_USAGE;
     }
+    return -1;
+}
+
+/* Step 2 of analyze: R_g of the unwrapped cluster u (m x d) about its centre
+ * of mass (r2, m entries, is scratch); the same sums in the same order as
+ * before the split, so the printed digits do not move. */
+static double analyze_rg(const int64_t *u, size_t m, int d, double *r2)
+{
+    double cm[MAXD] = {0}, rg2 = 0;
+    for (size_t j = 0; j < m; j++)
+        for (int a = 0; a < d; a++) cm[a] += (double)u[j * d + a] / (double)m;
+    for (size_t j = 0; j < m; j++) {
+        r2[j] = 0;
+        for (int a = 0; a < d; a++) r2[j] += pow((double)u[j * d + a] - cm[a], 2);
+        rg2 += r2[j] / (double)m;
+    }
+    return sqrt(rg2);
+}
+
+int dlca_analyze_main(int argc, char **argv)
+{
+    int json;
+    char err[600];
+    const int prc = analyze_parse(argc, argv, &json);
+    if (prc >= 0) return prc;
     dfile f;
     if (dfile_read(argv[optind], &f, err, sizeof err)) {
         fprintf(stderr, "pdla analyze: %s\n", err);
@@ -426,15 +499,7 @@ int dlca_analyze_main(int argc, char **argv)
         rc = TOOL_USAGE;
         goto done;
     }
-    double cm[MAXD] = {0}, rg2 = 0;
-    for (size_t j = 0; j < m; j++)
-        for (int a = 0; a < d; a++) cm[a] += (double)u[j * d + a] / (double)m;
-    for (size_t j = 0; j < m; j++) {
-        r2[j] = 0;
-        for (int a = 0; a < d; a++) r2[j] += pow((double)u[j * d + a] - cm[a], 2);
-        rg2 += r2[j] / (double)m;
-    }
-    const double rg = sqrt(rg2);
+    const double rg = analyze_rg(u, m, d, r2);
     double dfm = NAN, dfm_err = NAN, dfe, dfe_err;
     (void)mass_radius(u, m, d, 2, rg, &dfm, &dfm_err);
     const int bins = dlca_fractal_dim(f.size, f.rg, f.nc, 8, &dfe, &dfe_err);

@@ -6,22 +6,12 @@
  */
 #include "export_src.h"
 
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "pdla/pdla.h"
 #include "tools.h"
-
-static int fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    pdla_verrorf(-1, err, errlen, fmt, ap);
-    va_end(ap);
-    return -1;
-}
 
 void exp_src_close(exp_src *s)
 {
@@ -43,25 +33,25 @@ static int open_checked(exp_src *s, const char *name, pdla_h5_dset *d, int rank,
                         size_t esize, char *err, size_t errlen)
 {
     if (H5Lexists(s->file, name, H5P_DEFAULT) <= 0 || pdla_h5_dset_open(s->file, name, d) < 0)
-        return fail(err, errlen, "%s has no %s dataset", s->path, name);
+        return pdla_errorf(-1, err, errlen, "%s has no %s dataset", s->path, name);
     const int is_int = d->kind == 'i' || d->kind == 'u';
     if ((kind == 'i' && !is_int) || (kind == 'f' && d->kind != 'f'))
-        return fail(err, errlen, "%s: %s is not %s dataset", s->path, name, kind == 'i' ? "an integer" : "a real");
+        return pdla_errorf(-1, err, errlen, "%s: %s is not %s dataset", s->path, name, kind == 'i' ? "an integer" : "a real");
     if (d->rank != rank)
-        return fail(err, errlen, "%s: %s has rank %d, want %d", s->path, name, d->rank, rank);
+        return pdla_errorf(-1, err, errlen, "%s: %s has rank %d, want %d", s->path, name, d->rank, rank);
     if (rows && d->dims[0] != rows)
-        return fail(err, errlen, "%s: %s has %llu rows, want %llu", s->path, name,
+        return pdla_errorf(-1, err, errlen, "%s: %s has %llu rows, want %llu", s->path, name,
                     (unsigned long long)d->dims[0], (unsigned long long)rows);
     if (rank == 2 && d->dims[1] != 2 && d->dims[1] != 3)
-        return fail(err, errlen, "%s: %s has %llu columns; export writes 2D and 3D positions", s->path, name,
+        return pdla_errorf(-1, err, errlen, "%s: %s has %llu columns; export writes 2D and 3D positions", s->path, name,
                     (unsigned long long)d->dims[1]);
     switch (pdla_h5_dset_stored(d, esize)) {
     case PDLA_H5_STORED: return 0;
     case PDLA_H5_TOO_LARGE:
-        return fail(err, errlen, "%s: %s declares %llu elements, more than this machine can address", s->path,
+        return pdla_errorf(-1, err, errlen, "%s: %s declares %llu elements, more than this machine can address", s->path,
                     name, (unsigned long long)d->elems);
     default:
-        return fail(err, errlen,
+        return pdla_errorf(-1, err, errlen,
                     "%s: %s declares %llu elements but the file stores only %llu bytes of it "
                     "(damaged or not written by pdla)",
                     s->path, name, (unsigned long long)d->elems, (unsigned long long)d->stored);
@@ -73,28 +63,28 @@ static int open_ensemble(exp_src *s, int64_t cluster, char *err, size_t errlen)
     const char *const name = "/clusters/positions";
     int64_t v = 0;
     if (pdla_h5_attr_number(s->file, "format_version", PDLA_H5_I64, &v) != 0 || v != 1)
-        return fail(err, errlen, "%s: unsupported format_version (this pdla reads version 1)", s->path);
+        return pdla_errorf(-1, err, errlen, "%s: unsupported format_version (this pdla reads version 1)", s->path);
     if (H5Lexists(s->file, "/ensemble", H5P_DEFAULT) <= 0)
-        return fail(err, errlen, "%s: no /ensemble group", s->path);
+        return pdla_errorf(-1, err, errlen, "%s: no /ensemble group", s->path);
     const hid_t g = H5Oopen(s->file, "/ensemble", H5P_DEFAULT);
     const int ok = g >= 0 && pdla_h5_attr_number(g, "clusters", PDLA_H5_U64, &s->clusters) == 0;
     if (g >= 0) H5Oclose(g);
-    if (!ok || s->clusters == 0) return fail(err, errlen, "%s: no valid /ensemble clusters attribute", s->path);
+    if (!ok || s->clusters == 0) return pdla_errorf(-1, err, errlen, "%s: no valid /ensemble clusters attribute", s->path);
     if (H5Lexists(s->file, "/clusters", H5P_DEFAULT) <= 0 || H5Lexists(s->file, name, H5P_DEFAULT) <= 0)
-        return fail(err, errlen, "%s holds no positions (grown without --keep-positions)", s->path);
+        return pdla_errorf(-1, err, errlen, "%s holds no positions (grown without --keep-positions)", s->path);
     if (open_checked(s, name, &s->pos, 2, 0, 'i', sizeof(int32_t), err, errlen)) return -1;
     if (pdla_h5_attr_number(s->pos.id, "rows_per_cluster", PDLA_H5_U64, &s->per_cluster) != 0 ||
         s->per_cluster == 0 || s->per_cluster > UINT64_MAX / s->clusters ||
         s->per_cluster * s->clusters != s->pos.dims[0])
-        return fail(err, errlen, "%s: %s has %llu rows, not /ensemble clusters x rows_per_cluster", s->path, name,
+        return pdla_errorf(-1, err, errlen, "%s: %s has %llu rows, not /ensemble clusters x rows_per_cluster", s->path, name,
                     (unsigned long long)s->pos.dims[0]);
     if (pdla_h5_attr_number(s->pos.id, "diameter_units", PDLA_H5_I64, &v) != 0 || v < 1 || v > 1 << 20)
-        return fail(err, errlen, "%s: no valid diameter_units attribute on %s", s->path, name);
+        return pdla_errorf(-1, err, errlen, "%s: no valid diameter_units attribute on %s", s->path, name);
     s->units = (int)v;
     char order[64];
     s->arrival = pdla_h5_attr_str(s->pos.id, "order", order, sizeof order) == 0 && !strcmp(order, "arrival");
     if (cluster >= 0 && (uint64_t)cluster >= s->clusters)
-        return fail(err, errlen, "--cluster %lld: %s has clusters 0..%llu", (long long)cluster, s->path,
+        return pdla_errorf(-1, err, errlen, "--cluster %lld: %s has clusters 0..%llu", (long long)cluster, s->path,
                     (unsigned long long)(s->clusters - 1));
     s->cluster = cluster;
     s->row0 = cluster >= 0 ? (uint64_t)cluster * s->per_cluster : 0;
@@ -113,7 +103,7 @@ static int open_dlca(exp_src *s, char *err, size_t errlen)
         const uint64_t cols = rank == 2 ? probe.dims[1] : 1;
         pdla_h5_dset_close(&probe);
         if (rank != 2 || cols < 2 || cols > 3)
-            return fail(err, errlen, "%s: a %lluD DLCA lattice; export writes 2D and 3D positions", s->path,
+            return pdla_errorf(-1, err, errlen, "%s: a %lluD DLCA lattice; export writes 2D and 3D positions", s->path,
                         (unsigned long long)cols);
     }
     if (open_checked(s, "/monomers/position", &s->pos, 2, 0, 'i', sizeof(int32_t), err, errlen) ||
@@ -156,7 +146,7 @@ int exp_src_open(exp_src *s, const char *path, int64_t cluster, char *err, size_
         if (cluster >= 0) {
             if (h5r_open(&s->dla, path, err, errlen)) return -1;
             h5r_close(&s->dla);
-            return fail(err, errlen, "--cluster applies to ensemble files; %s is one cluster", path);
+            return pdla_errorf(-1, err, errlen, "--cluster applies to ensemble files; %s is one cluster", path);
         }
         if (h5r_open(&s->dla, path, err, errlen)) return -1;
         s->pos = s->dla.pos;
@@ -169,11 +159,11 @@ int exp_src_open(exp_src *s, const char *path, int64_t cluster, char *err, size_
         return 0;
     }
     s->kind = ens ? EXP_ENSEMBLE : !strcmp(model, "dlca") ? EXP_DLCA : !strcmp(model, "event") ? EXP_EVENT : -1;
-    if (s->kind < 0) return fail(err, errlen, "%s: model \"%s\" holds no particles export knows", path, model);
+    if (s->kind < 0) return pdla_errorf(-1, err, errlen, "%s: model \"%s\" holds no particles export knows", path, model);
     if (cluster >= 0 && s->kind != EXP_ENSEMBLE)
-        return fail(err, errlen, "--cluster applies to ensemble files; %s is a %s file", path, model);
+        return pdla_errorf(-1, err, errlen, "--cluster applies to ensemble files; %s is a %s file", path, model);
     if ((s->file = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT)) < 0)
-        return fail(err, errlen, "%s: HDF5 cannot open it (damaged?)", path);
+        return pdla_errorf(-1, err, errlen, "%s: HDF5 cannot open it (damaged?)", path);
     const int rc = s->kind == EXP_ENSEMBLE ? open_ensemble(s, cluster, err, errlen)
                    : s->kind == EXP_DLCA   ? open_dlca(s, err, errlen)
                                            : open_event(s, err, errlen);
@@ -197,7 +187,7 @@ int exp_src_stream(exp_src *s, size_t slab_rows, exp_fn fn, void *user, char *er
     uint64_t *index = malloc(slab_rows * sizeof *index);
     int rc = 0;
     if (!pos || !index || (s->radius.id >= 0 && !radius) || (s->cluster_col && !cl))
-        rc = fail(err, errlen, "out of memory for %zu rows", slab_rows);
+        rc = pdla_errorf(-1, err, errlen, "out of memory for %zu rows", slab_rows);
     for (uint64_t first = 0; first < s->n && rc == 0; first += slab_rows) {
         const uint64_t left = s->n - first, row = s->row0 + first;
         const size_t rows = left < slab_rows ? (size_t)left : slab_rows;
@@ -207,7 +197,7 @@ int exp_src_stream(exp_src *s, size_t slab_rows, exp_fn fn, void *user, char *er
         else if (cl && s->cid.id >= 0 && pdla_h5_dset_read(&s->cid, PDLA_H5_U64, row, rows, cl) < 0)
             bad = "cluster ids";
         if (bad) {
-            rc = fail(err, errlen, "%s: cannot read rows %llu..%llu of the %s (damaged?)", s->path,
+            rc = pdla_errorf(-1, err, errlen, "%s: cannot read rows %llu..%llu of the %s (damaged?)", s->path,
                       (unsigned long long)row, (unsigned long long)(row + rows - 1), bad);
             break;
         }

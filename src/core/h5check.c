@@ -23,6 +23,7 @@ static hid_t native(pdla_h5_type t)
     case PDLA_H5_U32: return H5T_NATIVE_UINT32;
     case PDLA_H5_I64: return H5T_NATIVE_INT64;
     case PDLA_H5_U64: return H5T_NATIVE_UINT64;
+    case PDLA_H5_I8: return H5T_NATIVE_INT8;
     default: return H5T_NATIVE_DOUBLE;
     }
 }

@@ -32,14 +32,13 @@ void h5u_one_line(char *s)
 /* Records a non-HDF5 failure; returns -1 for `return h5u_fail_msg(...)`. */
 int h5u_fail_msg(const h5u_writer *w, const char *fmt, ...)
 {
-    if (w->err && w->errlen) {
+    if (w->err && w->errlen) { /* the library's one formatter (util.c): one line */
         char what[1024];
         va_list ap;
         va_start(ap, fmt);
-        vsnprintf(what, sizeof what, fmt, ap);
+        pdla_verrorf(-1, what, sizeof what, fmt, ap);
         va_end(ap);
-        snprintf(w->err, w->errlen, "cannot write %s: %s", w->path, what);
-        h5u_one_line(w->err);
+        pdla_errorf(-1, w->err, w->errlen, "cannot write %s: %s", w->path, what);
     }
     return -1;
 }

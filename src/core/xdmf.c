@@ -15,18 +15,6 @@
 
 #include "h5util.h"
 
-static int fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-        h5u_one_line(err);
-    }
-    return -1;
-}
-
 int xdmf_sidecar_path(const char *h5_path, char *out, size_t len)
 {
     const size_t n = strlen(h5_path);
@@ -173,16 +161,16 @@ static void put_body(sbuf *fp, const xdmf_points *p, const char *base)
 static int check(const xdmf_points *p, char *err, size_t errlen)
 {
     if (!p || !p->h5_path || !p->positions || p->positions[0] != '/')
-        return fail(err, errlen, "xdmf: no HDF5 file or no absolute positions dataset given");
-    if (p->dim != 2 && p->dim != 3) return fail(err, errlen, "xdmf: dim %d, want 2 or 3", p->dim);
+        return pdla_errorf(-1, err, errlen, "xdmf: no HDF5 file or no absolute positions dataset given");
+    if (p->dim != 2 && p->dim != 3) return pdla_errorf(-1, err, errlen, "xdmf: dim %d, want 2 or 3", p->dim);
     if (p->units_per_diameter < 1)
-        return fail(err, errlen, "xdmf: units per diameter %d, want >= 1", p->units_per_diameter);
+        return pdla_errorf(-1, err, errlen, "xdmf: units per diameter %d, want >= 1", p->units_per_diameter);
     for (size_t i = 0; i < p->narrays; i++) {
         const xdmf_array *const a = &p->arrays[i];
         const int pr = a->precision;
         if (!a->name || !a->dataset || a->dataset[0] != '/' || !a->number_type ||
             (pr != 1 && pr != 2 && pr != 4 && pr != 8))
-            return fail(err, errlen, "xdmf: array %zu is incomplete", i);
+            return pdla_errorf(-1, err, errlen, "xdmf: array %zu is incomplete", i);
     }
     return 0;
 }
@@ -196,7 +184,7 @@ static int write_text(const char *xmf_path, const sbuf *text, char *err, size_t 
     char *const tmp = malloc(len + 32), *const dir = malloc(len + 2);
     int rc = -1, renamed = 0;
     if (!tmp || !dir) {
-        fail(err, errlen, "out of memory for the sidecar's name");
+        pdla_errorf(-1, err, errlen, "out of memory for the sidecar's name");
         goto out;
     }
     snprintf(tmp, len + 32, "%s.tmp.%ld", xmf_path, (long)getpid());
@@ -208,12 +196,12 @@ static int write_text(const char *xmf_path, const sbuf *text, char *err, size_t 
         dir[dl] = '\0';
     }
     if (text->oom) {
-        fail(err, errlen, "out of memory for the sidecar %s", xmf_path);
+        pdla_errorf(-1, err, errlen, "out of memory for the sidecar %s", xmf_path);
         goto out;
     }
     const int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd < 0) {
-        fail(err, errlen, "cannot create %s: %s", tmp, strerror(errno));
+        pdla_errorf(-1, err, errlen, "cannot create %s: %s", tmp, strerror(errno));
         goto out;
     }
     int bad = 0;
@@ -226,18 +214,18 @@ static int write_text(const char *xmf_path, const sbuf *text, char *err, size_t 
     if (!bad && fsync(fd) != 0) bad = errno;
     if (close(fd) != 0 && !bad) bad = errno;
     if (bad) {
-        fail(err, errlen, "cannot write %s: %s", tmp, strerror(bad));
+        pdla_errorf(-1, err, errlen, "cannot write %s: %s", tmp, strerror(bad));
         unlink(tmp);
         goto out;
     }
     if (rename(tmp, xmf_path) != 0) {
-        fail(err, errlen, "cannot rename %s to %s: %s", tmp, xmf_path, strerror(errno));
+        pdla_errorf(-1, err, errlen, "cannot rename %s to %s: %s", tmp, xmf_path, strerror(errno));
         unlink(tmp);
         goto out;
     }
     renamed = 1;
     if (h5u_fsync_dir(dir) != 0) {
-        fail(err, errlen, "written, but cannot sync directory %s: %s", dir, strerror(errno));
+        pdla_errorf(-1, err, errlen, "written, but cannot sync directory %s: %s", dir, strerror(errno));
         goto out;
     }
     rc = 0;
@@ -256,7 +244,7 @@ out:
 int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, size_t errlen)
 {
     if (check(p, err, errlen) < 0) return -1;
-    if (!xmf_path || !xmf_path[0]) return fail(err, errlen, "xdmf: no sidecar path given");
+    if (!xmf_path || !xmf_path[0]) return pdla_errorf(-1, err, errlen, "xdmf: no sidecar path given");
     if (p->n == 0) return 0;
     const char *const slash = strrchr(p->h5_path, '/');
     const char *const base = slash ? slash + 1 : p->h5_path;
@@ -272,7 +260,7 @@ int xdmf_write_cluster(const char *h5_path, uint64_t n, int dim, int units_per_d
 {
     const size_t len = strlen(h5_path) + 8;
     char *const xmf = malloc(len);
-    if (!xmf) return fail(err, errlen, "out of memory for the sidecar's name");
+    if (!xmf) return pdla_errorf(-1, err, errlen, "out of memory for the sidecar's name");
     (void)xdmf_sidecar_path(h5_path, xmf, len); /* len always fits */
     const xdmf_points p = {h5_path, "/cluster/positions", n, dim, units_per_diameter, 1,
                            arrival ? "arrival" : NULL, NULL, 0};
@@ -338,12 +326,12 @@ static void put_cluster(sbuf *fp, const xdmf_ensemble *e, const char *base, uint
 int xdmf_write_ensemble(const char *xmf_path, const xdmf_ensemble *e, char *err, size_t errlen)
 {
     if (!xmf_path || !xmf_path[0] || !e || !e->h5_path || !e->positions || e->positions[0] != '/')
-        return fail(err, errlen, "xdmf: no sidecar, HDF5 file or absolute positions dataset given");
-    if (e->dim != 2 && e->dim != 3) return fail(err, errlen, "xdmf: dim %d, want 2 or 3", e->dim);
+        return pdla_errorf(-1, err, errlen, "xdmf: no sidecar, HDF5 file or absolute positions dataset given");
+    if (e->dim != 2 && e->dim != 3) return pdla_errorf(-1, err, errlen, "xdmf: dim %d, want 2 or 3", e->dim);
     if (e->units_per_diameter < 1)
-        return fail(err, errlen, "xdmf: units per diameter %d, want >= 1", e->units_per_diameter);
+        return pdla_errorf(-1, err, errlen, "xdmf: units per diameter %d, want >= 1", e->units_per_diameter);
     if (e->clusters == 0 || e->n == 0 || e->n > UINT64_MAX / e->clusters)
-        return fail(err, errlen, "xdmf: %" PRIu64 " clusters of %" PRIu64 " points: nothing to show",
+        return pdla_errorf(-1, err, errlen, "xdmf: %" PRIu64 " clusters of %" PRIu64 " points: nothing to show",
                     e->clusters, e->n);
     const char *const slash = strrchr(e->h5_path, '/');
     const char *const base = slash ? slash + 1 : e->h5_path;

@@ -13,6 +13,7 @@
 
 #include "dlca_h5.h"
 #include "pdla/dlca.h"
+#include "pdla/h5check.h"
 
 typedef struct start_buf {
     uint32_t *site;
@@ -90,32 +91,37 @@ static int read_h5(const char *path, const dlca_params *p, start_buf *b, char *e
     if (h5u_silence(&q)) return pdla_errorf(PDLA_EIO, err, errlen, "cannot silence HDF5");
     int32_t *pos = NULL;
     int rc = PDLA_EINVAL;
+    /* Through the checked reader (pdla/h5check.h): the shape and type first,
+     * then whether the file stores what it declares, before anything is sized. */
+    pdla_h5_dset d = {.id = H5I_INVALID_HID};
     const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
-    const hid_t d = f >= 0 ? H5Dopen2(f, "monomers/position", H5P_DEFAULT) : H5I_INVALID_HID;
-    const hid_t sp = d >= 0 ? H5Dget_space(d) : H5I_INVALID_HID;
-    hsize_t dims[2] = {0, 0};
-    if (sp < 0 || H5Sget_simple_extent_ndims(sp) != 2 || H5Sget_simple_extent_dims(sp, dims, NULL) < 0)
-        pdla_errorf(PDLA_EINVAL, err, errlen, "%s: no /monomers/position [N][d] to start from", path);
-    else if (dims[1] != (hsize_t)p->dim)
+    const int stored = f >= 0 && pdla_h5_dset_open(f, "monomers/position", &d) == 0 && d.rank == 2
+                           ? pdla_h5_dset_stored(&d, sizeof *pos)
+                           : -1;
+    if (stored < 0 || !pdla_h5_dset_is(&d, PDLA_H5_I32))
+        pdla_errorf(PDLA_EINVAL, err, errlen, "%s: no /monomers/position [N][d] of 32-bit integers to start from", path);
+    else if (d.dims[1] != (uint64_t)p->dim)
         pdla_errorf(PDLA_EINVAL, err, errlen, "%s: its monomers have %llu coordinates, --dim %d needs %d", path,
-                    (unsigned long long)dims[1], p->dim, p->dim);
-    else if (dims[0] && !(pos = malloc(dims[0] * dims[1] * sizeof *pos)))
+                    (unsigned long long)d.dims[1], p->dim, p->dim);
+    else if (stored != PDLA_H5_STORED)
+        pdla_errorf(PDLA_EINVAL, err, errlen, "%s: /monomers/position declares %llu rows, more than the file stores",
+                    path, (unsigned long long)d.dims[0]);
+    else if (d.dims[0] && !(pos = malloc(d.dims[0] * d.dims[1] * sizeof *pos)))
         rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", path);
-    else if (dims[0] && H5Dread(d, H5T_NATIVE_INT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, pos) < 0)
+    else if (pdla_h5_dset_read(&d, PDLA_H5_I32, 0, d.dims[0], pos) < 0)
         rc = pdla_errorf(PDLA_EIO, err, errlen, "%s: cannot read /monomers/position", path);
     else {
         rc = 0;
-        for (hsize_t i = 0; i < dims[0] && rc == 0; i++) {
+        for (uint64_t i = 0; i < d.dims[0] && rc == 0; i++) {
             long long x[DLCA_MAX_DIM];
-            for (int a = 0; a < p->dim; a++) x[a] = pos[i * dims[1] + (hsize_t)a];
+            for (int a = 0; a < p->dim; a++) x[a] = pos[i * d.dims[1] + (uint64_t)a];
             uint32_t k = 0;
             rc = site_of(p, x, &k, path, "monomer", i + 1, err, errlen);
             if (rc == 0 && push(b, k, i + 1)) rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", path);
         }
     }
     free(pos);
-    if (sp >= 0) H5Sclose(sp);
-    if (d >= 0) H5Dclose(d);
+    if (d.id >= 0) pdla_h5_dset_close(&d);
     if (f >= 0) H5Fclose(f);
     h5u_restore(&q);
     return rc;

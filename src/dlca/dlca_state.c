@@ -10,6 +10,7 @@
 #include "dlca_h5.h"
 #include "dlca_internal.h"
 #include "dlca_sim.h"
+#include "pdla/h5check.h"
 
 /* ---- the consistency check ----------------------------------------------- */
 
@@ -28,7 +29,8 @@ static int check_cluster(const dlca_sim *s, uint32_t c, uint64_t *ks, uint64_t *
     const int d = s->d;
     if (s->pos[c] >= s->nc || s->act[s->pos[c]] != c) BAD("cluster %u is not in the active list", c);
     if (*m + s->n[c] > s->N) BAD("cluster sizes add up to more than N = %llu", (unsigned long long)s->N);
-    if (s->n[c] >= 2 && (s->ref[c] >= s->nrec || !s->rec[s->ref[c]].k || s->rec[s->ref[c]].cap < s->n[c]))
+    if (s->n[c] >= 2 && (s->ref[c] >= s->nrec || !dlca_rec_live(&s->rec[s->ref[c]]) ||
+                         dlca_rec_cap(s, s->ref[c]) < s->n[c]))
         BAD("cluster %u has no record of its %u monomers", c, s->n[c]);
     if (s->n[c] == 1 && s->ref[c] >= s->V) BAD("monomer %u lies outside the box", c);
     dlca_view v;
@@ -266,30 +268,39 @@ done:
     return rc < 0 ? PDLA_EIO : 0;
 }
 
-/* Read dataset name of exactly n elements. */
-static int ck_read(hid_t f, const char *name, hid_t mtype, void *buf, size_t n)
+/* Opens dataset name through the checked reader (pdla/h5check.h): rank 1,
+ * elements of t's class and size, and the bytes it declares stored in the
+ * file, so a forged checkpoint declaring 2^61 rows in a few KB is refused
+ * before anything is sized by it. 0, or -1 (d closed). */
+static int ck_open(hid_t f, const char *name, pdla_h5_type t, pdla_h5_dset *d)
 {
-    const hid_t d = H5Dopen2(f, name, H5P_DEFAULT);
-    if (d < 0) return -1;
-    const hid_t sp = H5Dget_space(d);
-    const hssize_t have = sp >= 0 ? H5Sget_simple_extent_npoints(sp) : -1;
-    int rc = have == (hssize_t)n ? 0 : -1;
-    if (rc == 0 && n && H5Dread(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) rc = -1;
-    if (sp >= 0) H5Sclose(sp);
-    H5Dclose(d);
+    const size_t esize = t == PDLA_H5_U64 || t == PDLA_H5_I64 || t == PDLA_H5_F64 ? 8 : t == PDLA_H5_U8 ? 1 : 4;
+    if (pdla_h5_dset_open(f, name, d) == 0 && d->rank == 1 && pdla_h5_dset_is(d, t) &&
+        pdla_h5_dset_stored(d, esize) == PDLA_H5_STORED)
+        return 0;
+    pdla_h5_dset_close(d);
+    return -1;
+}
+
+/* Read dataset name of exactly n elements of type t. */
+static int ck_read(hid_t f, const char *name, pdla_h5_type t, void *buf, size_t n)
+{
+    pdla_h5_dset d;
+    if (ck_open(f, name, t, &d)) return -1;
+    const int rc = d.elems == n && pdla_h5_dset_read(&d, t, 0, n, buf) == 0 ? 0 : -1;
+    pdla_h5_dset_close(&d);
     return rc;
 }
 
-/* Elements in dataset name / per (0 if it is missing). */
-static size_t ck_rows(hid_t f, const char *name, size_t per)
+/* Elements in dataset name (of type t) / per (0 if it is missing or not
+ * stored). */
+static size_t ck_rows(hid_t f, const char *name, pdla_h5_type t, size_t per)
 {
-    const hid_t dr = H5Dopen2(f, name, H5P_DEFAULT);
-    if (dr < 0) return 0;
-    const hid_t sp = H5Dget_space(dr);
-    const hssize_t n = sp >= 0 ? H5Sget_simple_extent_npoints(sp) : 0;
-    if (sp >= 0) H5Sclose(sp);
-    H5Dclose(dr);
-    return n > 0 ? (size_t)n / per : 0;
+    pdla_h5_dset d;
+    if (ck_open(f, name, t, &d)) return 0;
+    const size_t n = (size_t)(d.elems / per);
+    pdla_h5_dset_close(&d);
+    return n;
 }
 
 /* What a load failed on: the return code and the reason. */
@@ -315,8 +326,8 @@ static int load_clusters(dlca_sim *s, const ck_arrays *a, char *why, size_t whyl
             const uint32_t r = dlca_rec_new(s, n);
             if (r == DLCA_NO_REC) LOAD_FAIL(PDLA_ENOMEM, "out of memory");
             s->ref[c] = r;
-            memcpy(s->rec[r].k, a->k + m, n * sizeof *a->k);
-            memcpy(s->rec[r].k + n, a->off + m * d, (size_t)n * d * sizeof *a->off);
+            memcpy(dlca_rsites(s, r), a->k + m, n * sizeof *a->k); /* cap n: offsets follow */
+            memcpy(dlca_rsites(s, r) + n, a->off + m * d, (size_t)n * d * sizeof *a->off);
             memcpy(dlca_rgeom(s, r), g, 3 * (size_t)d * sizeof *g);
         }
         for (uint32_t i = 0; i < n; i++) {
@@ -331,8 +342,8 @@ static int load_clusters(dlca_sim *s, const ck_arrays *a, char *why, size_t whyl
 /* The counters, the active list and the series. */
 static int load_counters(dlca_sim *s, hid_t f, const uint64_t *u, const double *dv, char *why, size_t whylen)
 {
-    if (ck_read(f, "rng", H5T_NATIVE_UINT64, s->rng.s, 4) || u[CK_U_NC] > s->N ||
-        ck_read(f, "active", H5T_NATIVE_UINT32, s->act, u[CK_U_NC]))
+    if (ck_read(f, "rng", PDLA_H5_U64, s->rng.s, 4) || u[CK_U_NC] > s->N ||
+        ck_read(f, "active", PDLA_H5_U32, s->act, u[CK_U_NC]))
         LOAD_FAIL(PDLA_EIO, "its state arrays are missing or have the wrong length");
     s->nc = u[CK_U_NC];
     for (uint64_t j = 0; j < s->nc; j++) {
@@ -346,13 +357,13 @@ static int load_counters(dlca_sim *s, hid_t f, const uint64_t *u, const double *
     s->t = dv[CK_D_T], s->sum_s2 = dv[CK_D_S2];
     if (s->size_count)
         for (uint64_t j = 0; j < s->nc; j++) s->size_count[s->n[s->act[j]]]++;
-    const size_t nr = ck_rows(f, "rows_u64", 3);
+    const size_t nr = ck_rows(f, "rows_u64", PDLA_H5_U64, 3);
     double *rt = malloc((nr + 1) * 3 * sizeof *rt);
     uint64_t *ru = malloc((nr + 1) * 3 * sizeof *ru);
     s->rows = malloc((nr + 1) * sizeof *s->rows);
     int rc = 0;
     if (!rt || !ru || !s->rows) rc = PDLA_ENOMEM, snprintf(why, whylen, "out of memory");
-    else if (ck_read(f, "rows_f64", H5T_NATIVE_DOUBLE, rt, 3 * nr) || ck_read(f, "rows_u64", H5T_NATIVE_UINT64, ru, 3 * nr))
+    else if (ck_read(f, "rows_f64", PDLA_H5_F64, rt, 3 * nr) || ck_read(f, "rows_u64", PDLA_H5_U64, ru, 3 * nr))
         rc = PDLA_EIO, snprintf(why, whylen, "its series is damaged");
     for (size_t r = 0; rc == 0 && r < nr; r++)
         s->rows[r] = (dlca_row){rt[3 * r], ru[3 * r], ru[3 * r + 1], ru[3 * r + 2], rt[3 * r + 1], rt[3 * r + 2]};
@@ -370,7 +381,7 @@ static int load_state(dlca_sim **out, hid_t f, char *why, size_t whylen)
     if (dlca_read_parameters_h5(f, &p)) LOAD_FAIL(PDLA_EIO, "not a DLCA checkpoint (no readable /parameters)");
     uint64_t u[CK_NU];
     double dv[CK_ND];
-    if (ck_read(f, "u64", H5T_NATIVE_UINT64, u, CK_NU) || ck_read(f, "f64", H5T_NATIVE_DOUBLE, dv, CK_ND))
+    if (ck_read(f, "u64", PDLA_H5_U64, u, CK_NU) || ck_read(f, "f64", PDLA_H5_F64, dv, CK_ND))
         LOAD_FAIL(PDLA_EIO, "not a DLCA checkpoint (no state)");
     p.count = u[CK_U_N];
     if (dlca_params_validate(&p, why, whylen)) return PDLA_EIO;
@@ -378,10 +389,10 @@ static int load_state(dlca_sim **out, hid_t f, char *why, size_t whylen)
     ck_arrays a = {0};
     int rc = PDLA_EIO;
     if (dlca_sim_alloc(out, &p, p.count) || ck_alloc(&a, p.count, d, 0)) rc = PDLA_ENOMEM, snprintf(why, whylen, "out of memory");
-    else if (ck_read(f, "slot_n", H5T_NATIVE_UINT32, a.slot_n, p.count + 1) ||
-             ck_read(f, "site", H5T_NATIVE_UINT32, a.k, p.count) ||
-             ck_read(f, "offset", H5T_NATIVE_INT32, a.off, p.count * (size_t)d) ||
-             ck_read(f, "geom", H5T_NATIVE_INT32, a.geom, (p.count + 1) * 3 * (size_t)d))
+    else if (ck_read(f, "slot_n", PDLA_H5_U32, a.slot_n, p.count + 1) ||
+             ck_read(f, "site", PDLA_H5_U32, a.k, p.count) ||
+             ck_read(f, "offset", PDLA_H5_I32, a.off, p.count * (size_t)d) ||
+             ck_read(f, "geom", PDLA_H5_I32, a.geom, (p.count + 1) * 3 * (size_t)d))
         snprintf(why, whylen, "its monomer arrays are missing or have the wrong length");
     else if (!(rc = load_clusters(*out, &a, why, whylen)) && !(rc = load_counters(*out, f, u, dv, why, whylen))) {
         /* The search structures from the state, boxes of the saved side. */

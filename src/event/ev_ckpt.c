@@ -33,10 +33,13 @@
 
 #include "ev_internal.h"
 #include "h5util.h"
+#include "pdla/h5check.h"
 #include "provenance.h"
 
 #define CK_FORMAT "pdla-event-checkpoint"
-#define CK_VERSION 1
+/* 2: the cell grid changed (finer cells, event4); a version 1 state names
+ * cells of another grid, so it is refused. */
+#define CK_VERSION 2
 enum { CK_NCOUNT = 13, CK_NREAL = 8 };
 
 static int wds(const h5u_writer *w, hid_t g, const char *name, hid_t ftype, hid_t mtype,
@@ -214,63 +217,50 @@ static int rfail(const rd *r, const char *fmt, const char *a)
     return -1;
 }
 
-/* Read dataset `name` of exactly n elements into buf (n == 0: must be empty). */
-static int rds(const rd *r, const char *name, hid_t mtype, size_t n, void *buf)
+/* Read dataset `name` of exactly n elements of type t into buf (n == 0: must
+ * be empty), through the checked reader (pdla/h5check.h): its type and size
+ * are checked, and whether the file stores what it declares, before it is
+ * read. */
+static int rds(const rd *r, const char *name, pdla_h5_type t, size_t n, void *buf)
 {
-    const hid_t d = H5Dopen2(r->file, name, H5P_DEFAULT);
-    if (d < 0) return rfail(r, "no dataset %s (not an event checkpoint, or damaged)", name);
-    const hid_t sp = H5Dget_space(d);
-    const hssize_t np = sp >= 0 ? H5Sget_simple_extent_npoints(sp) : -1;
+    pdla_h5_dset d;
+    if (pdla_h5_dset_open(r->file, name, &d) < 0)
+        return rfail(r, "no dataset %s (not an event checkpoint, or damaged)", name);
     int rc = 0;
-    if (np < 0 || (size_t)np != n) rc = rfail(r, "dataset %s has the wrong size", name);
-    else if (n > 0 && H5Dread(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0)
+    if (d.rank != 1 || !pdla_h5_dset_is(&d, t) || d.elems != n)
+        rc = rfail(r, "dataset %s has the wrong type or size", name);
+    else if (pdla_h5_dset_stored(&d, d.size) != PDLA_H5_STORED)
+        rc = rfail(r, "dataset %s declares more than the file stores (damaged)", name);
+    else if (pdla_h5_dset_read(&d, t, 0, n, buf) < 0)
         rc = rfail(r, "cannot read %s (damaged: checksum or I/O error)", name);
-    if (sp >= 0) H5Sclose(sp);
-    H5Dclose(d);
+    pdla_h5_dset_close(&d);
     return rc;
 }
 
+/* Elements of dataset name; -1 when it is missing, not rank 1 or declares
+ * more than the file stores (a forged length must not size an allocation). */
 static hssize_t rlen(const rd *r, const char *name)
 {
-    const hid_t d = H5Dopen2(r->file, name, H5P_DEFAULT);
-    if (d < 0) return -1;
-    const hid_t sp = H5Dget_space(d);
-    const hssize_t np = sp >= 0 ? H5Sget_simple_extent_npoints(sp) : -1;
-    if (sp >= 0) H5Sclose(sp);
-    H5Dclose(d);
+    pdla_h5_dset d;
+    if (pdla_h5_dset_open(r->file, name, &d) < 0) return -1;
+    const hssize_t np = d.rank == 1 && pdla_h5_dset_stored(&d, d.size) == PDLA_H5_STORED ? (hssize_t)d.elems : -1;
+    pdla_h5_dset_close(&d);
     return np;
 }
 
+/* A string attribute of the file, whole (checked reader). */
 static int rattr_str(const rd *r, const char *name, char *buf, size_t len)
 {
-    if (H5Aexists(r->file, name) <= 0) return -1;
-    const hid_t a = H5Aopen(r->file, name, H5P_DEFAULT);
-    if (a < 0) return -1;
-    const hid_t t = H5Aget_type(a);
-    int rc = -1;
-    if (t >= 0 && H5Tget_class(t) == H5T_STRING && !H5Tis_variable_str(t)) {
-        const size_t sz = H5Tget_size(t);
-        char *tmp = calloc(sz + 1, 1);
-        if (tmp && sz < len && H5Aread(a, t, tmp) >= 0) {
-            memcpy(buf, tmp, sz);
-            buf[sz] = '\0';
-            rc = 0;
-        }
-        free(tmp);
-    }
-    if (t >= 0) H5Tclose(t);
-    H5Aclose(a);
-    return rc;
+    return pdla_h5_attr_str(r->file, name, buf, len) == 0 ? 0 : -1;
 }
 
+/* A one-element integer attribute of the file (checked reader). */
 static int rattr_int(const rd *r, const char *name, long long *v)
 {
-    if (H5Aexists(r->file, name) <= 0) return -1;
-    const hid_t a = H5Aopen(r->file, name, H5P_DEFAULT);
-    if (a < 0) return -1;
-    const int rc = H5Aread(a, H5T_NATIVE_LLONG, v) < 0 ? -1 : 0;
-    H5Aclose(a);
-    return rc;
+    int64_t x;
+    if (pdla_h5_attr_number(r->file, name, PDLA_H5_I64, &x) < 0) return -1;
+    *v = x;
+    return 0;
 }
 
 /* The parameters from their "name=value" lines. */
@@ -280,7 +270,7 @@ static int read_params(const rd *r, ev_params *p)
     if (n <= 0 || n > (1 << 20)) return rfail(r, "%s", "no parameters");
     char *t = calloc((size_t)n + 1, 1);
     if (!t) return rfail(r, "%s", "out of memory");
-    int rc = rds(r, "parameters", H5T_NATIVE_UINT8, (size_t)n, t);
+    int rc = rds(r, "parameters", PDLA_H5_U8, (size_t)n, t);
     ev_params_default(p);
     for (char *line = t, *nl; !rc && *line; line = nl + 1) {
         nl = strchr(line, '\n');
@@ -333,11 +323,11 @@ static int read_series(const rd *r, ev_series *ser)
     if (!ser->t || !ser->ke || !ser->pressure || !ser->stuck || !ser->collisions)
         return rfail(r, "%s", "out of memory");
     const size_t m = (size_t)n;
-    if (rds(r, "series/time", H5T_NATIVE_DOUBLE, m, ser->t) ||
-        rds(r, "series/kinetic_energy", H5T_NATIVE_DOUBLE, m, ser->ke) ||
-        rds(r, "series/pressure", H5T_NATIVE_DOUBLE, m, ser->pressure) ||
-        rds(r, "series/stuck", H5T_NATIVE_UINT64, m, ser->stuck) ||
-        rds(r, "series/collisions", H5T_NATIVE_UINT64, m, ser->collisions))
+    if (rds(r, "series/time", PDLA_H5_F64, m, ser->t) ||
+        rds(r, "series/kinetic_energy", PDLA_H5_F64, m, ser->ke) ||
+        rds(r, "series/pressure", PDLA_H5_F64, m, ser->pressure) ||
+        rds(r, "series/stuck", PDLA_H5_U64, m, ser->stuck) ||
+        rds(r, "series/collisions", PDLA_H5_U64, m, ser->collisions))
         return -1;
     return 0;
 }
@@ -352,26 +342,26 @@ static int read_state(const rd *r, ev_sim *s)
     double re[CK_NREAL];
     int rc = (!tp || !tc || !pa || !pc || !kd || !cw) ? rfail(r, "%s", "out of memory") : 0;
     if (!rc &&
-        (rds(r, "state/ps", H5T_NATIVE_DOUBLE, (size_t)N * (size_t)(2 * s->dim + 2), s->ps) ||
-         rds(r, "state/species", H5T_NATIVE_UINT8, N, s->species) ||
-         rds(r, "state/stuck", H5T_NATIVE_UINT8, N, s->stuck) ||
-         rds(r, "state/count", H5T_NATIVE_UINT32, N, s->count) ||
-         rds(r, "state/parent", H5T_NATIVE_UINT32, N, s->parent) ||
-         rds(r, "state/cell", H5T_NATIVE_UINT32, N, s->cell) ||
-         rds(r, "state/t_pair", H5T_NATIVE_DOUBLE, N, tp) ||
-         rds(r, "state/t_cell", H5T_NATIVE_DOUBLE, N, tc) ||
-         rds(r, "state/partner", H5T_NATIVE_UINT32, N, pa) ||
-         rds(r, "state/pcount", H5T_NATIVE_UINT32, N, pc) ||
-         rds(r, "state/kind", H5T_NATIVE_INT8, N, kd) ||
-         rds(r, "state/cell_what", H5T_NATIVE_INT8, N, cw) ||
-         rds(r, "state/counters", H5T_NATIVE_UINT64, CK_NCOUNT, cnt) ||
-         rds(r, "state/reals", H5T_NATIVE_DOUBLE, CK_NREAL, re)))
+        (rds(r, "state/ps", PDLA_H5_F64, (size_t)N * (size_t)(2 * s->dim + 2), s->ps) ||
+         rds(r, "state/species", PDLA_H5_U8, N, s->species) ||
+         rds(r, "state/stuck", PDLA_H5_U8, N, s->stuck) ||
+         rds(r, "state/count", PDLA_H5_U32, N, s->count) ||
+         rds(r, "state/parent", PDLA_H5_U32, N, s->parent) ||
+         rds(r, "state/cell", PDLA_H5_U32, N, s->cell) ||
+         rds(r, "state/t_pair", PDLA_H5_F64, N, tp) ||
+         rds(r, "state/t_cell", PDLA_H5_F64, N, tc) ||
+         rds(r, "state/partner", PDLA_H5_U32, N, pa) ||
+         rds(r, "state/pcount", PDLA_H5_U32, N, pc) ||
+         rds(r, "state/kind", PDLA_H5_I8, N, kd) ||
+         rds(r, "state/cell_what", PDLA_H5_I8, N, cw) ||
+         rds(r, "state/counters", PDLA_H5_U64, CK_NCOUNT, cnt) ||
+         rds(r, "state/reals", PDLA_H5_F64, CK_NREAL, re)))
         rc = -1;
     if (!rc && cnt[6] > s->n) rc = rfail(r, "%s", "more stuck particles than particles (damaged)");
     if (!rc) {
         s->nstuck = (uint32_t)cnt[6];
-        rc = rds(r, "state/stuck_idx", H5T_NATIVE_UINT32, s->nstuck, s->stuck_idx);
-        if (!rc) rc = rds(r, "state/stuck_t", H5T_NATIVE_DOUBLE, s->nstuck, s->stuck_t);
+        rc = rds(r, "state/stuck_idx", PDLA_H5_U32, s->nstuck, s->stuck_idx);
+        if (!rc) rc = rds(r, "state/stuck_t", PDLA_H5_F64, s->nstuck, s->stuck_t);
     }
     if (!rc) {
         for (uint32_t i = 0; i < N; i++) {
@@ -426,8 +416,11 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     long long ver = 0, dim = 0, n = 0, ntot = 0;
     if (!rc && (rattr_str(&r, "format", fmt, sizeof fmt) || strcmp(fmt, CK_FORMAT) != 0))
         rc = rfail(&r, "%s", "not an event-model checkpoint");
-    if (!rc && (rattr_int(&r, "format_version", &ver) || ver != CK_VERSION))
-        rc = rfail(&r, "%s", "format version not 1 (made by another pdla)");
+    if (!rc && (rattr_int(&r, "format_version", &ver) || ver != CK_VERSION)) {
+        char vm[96];
+        snprintf(vm, sizeof vm, "format version %lld, not %d", ver, CK_VERSION);
+        rc = rfail(&r, "%s (made by another pdla)", vm);
+    }
     if (!rc && (rattr_int(&r, "dim", &dim) || rattr_int(&r, "particles", &n) ||
                 rattr_int(&r, "ntot", &ntot)))
         rc = rfail(&r, "%s", "no dim/particles attributes");

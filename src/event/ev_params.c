@@ -8,7 +8,6 @@
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -127,26 +126,15 @@ const pdla_param_desc *ev_param_table(size_t *n)
     return ev_rows;
 }
 
-static int fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return -1;
-}
-
 int ev_param_set(ev_params *p, const char *name, const char *value, char *err, size_t errlen)
 {
     const pdla_param_desc *d = pdla_param_find(ev_rows, N_EV_ROWS, name);
-    if (!d) return fail(err, errlen, "unknown parameter '%s' for model event", name);
+    if (!d) return pdla_errorf(-1, err, errlen, "unknown parameter '%s' for model event", name);
     char e[300];
     ev_params q = *p;
     /* a value that is no value of its type: "--OPT: 'x' is not ..."; out of
      * range: the row's own line, which names it */
-    if (pdla_param_parse(d, &q, value, e, sizeof e)) return fail(err, errlen, "--%s: %s", d->option, e);
+    if (pdla_param_parse(d, &q, value, e, sizeof e)) return pdla_errorf(-1, err, errlen, "--%s: %s", d->option, e);
     if (pdla_param_validate(d, 1, &q, NULL, err, errlen)) return -1;
     *p = q;
     return 0;
@@ -212,24 +200,24 @@ int ev_parse_species(const ev_params *p, ev_species *sp, int *nsp, char *err, si
     int n = 0;
     const char *c = p->species;
     while (*c) {
-        if (n == EV_MAX_SPECIES) return fail(err, errlen, "--species: more than %d kinds", EV_MAX_SPECIES);
+        if (n == EV_MAX_SPECIES) return pdla_errorf(-1, err, errlen, "--species: more than %d kinds", EV_MAX_SPECIES);
         char *end;
         errno = 0;
         const double cnt = strtod(c, &end);
         if (end == c || *end != ':' || cnt < 1 || cnt != floor(cnt) || cnt > 4e9)
-            return fail(err, errlen, "--species: kind %d: bad COUNT (want COUNT:RADIUS:DENSITY)", n + 1);
+            return pdla_errorf(-1, err, errlen, "--species: kind %d: bad COUNT (want COUNT:RADIUS:DENSITY)", n + 1);
         c = end + 1;
         const double r = strtod(c, &end);
         if (end == c || *end != ':' || !(r > 0) || !isfinite(r))
-            return fail(err, errlen, "--species: kind %d: RADIUS must be > 0", n + 1);
+            return pdla_errorf(-1, err, errlen, "--species: kind %d: RADIUS must be > 0", n + 1);
         c = end + 1;
         const double rho = strtod(c, &end);
         if (end == c || (*end != ',' && *end) || !(rho > 0) || !isfinite(rho))
-            return fail(err, errlen, "--species: kind %d: DENSITY must be > 0", n + 1);
+            return pdla_errorf(-1, err, errlen, "--species: kind %d: DENSITY must be > 0", n + 1);
         sp[n++] = (ev_species){(uint64_t)cnt, r, rho};
         c = *end ? end + 1 : end;
     }
-    if (!n) return fail(err, errlen, "--species: empty list");
+    if (!n) return pdla_errorf(-1, err, errlen, "--species: empty list");
     *nsp = n;
     return 0;
 }
@@ -247,19 +235,19 @@ int ev_params_check(const ev_params *p, char *err, size_t errlen)
         total += sp[k].count;
         if (sp[k].radius > rmax) rmax = sp[k].radius;
     }
-    if (total >= UINT32_MAX - 1) return fail(err, errlen, "too many particles (%" PRIu64 ")", total);
+    if (total >= UINT32_MAX - 1) return pdla_errorf(-1, err, errlen, "too many particles (%" PRIu64 ")", total);
     double rpmax = 0;
     for (int k = 0; k < nsp; k++)
         if (sp[k].radius > rpmax) rpmax = sp[k].radius;
     const int seeded = p->seeds[0] || p->seed_radius > 0;
     if (!p->seeds[0] && p->seed_radius > 10 * rpmax)
-        return fail(err, errlen, "--seed-radius %g is above 10 particle radii (the cell size)",
+        return pdla_errorf(-1, err, errlen, "--seed-radius %g is above 10 particle radii (the cell size)",
                     p->seed_radius);
     const int endless = p->t_max == 0 && p->max_events == 0;
     if (endless && (!seeded || p->stick_p == 0))
-        return fail(err, errlen, "nothing sticks (--seed-radius 0 or --stick-p 0): give --t-max or "
+        return pdla_errorf(-1, err, errlen, "nothing sticks (--seed-radius 0 or --stick-p 0): give --t-max or "
                                  "--max-events");
     if (p->max_stuck && !seeded)
-        return fail(err, errlen, "--max-stuck needs a seed (--seed-radius > 0)");
+        return pdla_errorf(-1, err, errlen, "--max-stuck needs a seed (--seed-radius > 0)");
     return 0;
 }

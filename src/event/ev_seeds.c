@@ -11,7 +11,6 @@
  */
 #include <errno.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -21,17 +20,6 @@
 
 /* The overlap check is over all pairs. */
 #define EV_MAX_SEEDS 100000
-
-static int fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return -1;
-}
 
 /* One seed line into xr[0 .. D]: 0, 1 (blank or comment), -1 (bad). */
 static int parse_line(char *line, int D, double *xr)
@@ -63,21 +51,21 @@ static int read_lines(ev_sim *s, FILE *f, const char *path, char *err, size_t er
         double xr[4];
         const int r = parse_line(buf, D, xr);
         if (r == 1) continue;
-        if (r < 0) return fail(err, errlen, "--seeds %s:%d: want %d numbers (x y%s radius)", path, line, D + 1, D == 3 ? " z" : "");
-        if (!(xr[D] > 0)) return fail(err, errlen, "--seeds %s:%d: radius must be > 0", path, line);
+        if (r < 0) return pdla_errorf(-1, err, errlen, "--seeds %s:%d: want %d numbers (x y%s radius)", path, line, D + 1, D == 3 ? " z" : "");
+        if (!(xr[D] > 0)) return pdla_errorf(-1, err, errlen, "--seeds %s:%d: radius must be > 0", path, line);
         if (s->nseeds == EV_MAX_SEEDS)
-            return fail(err, errlen, "--seeds %s: more than %d seeds", path, EV_MAX_SEEDS);
+            return pdla_errorf(-1, err, errlen, "--seeds %s: more than %d seeds", path, EV_MAX_SEEDS);
         if (s->nseeds == cap) {
             cap = cap ? 2 * cap : 64;
             double *t = realloc(s->seed_xr, cap * (size_t)(D + 1) * sizeof *t);
-            if (!t) return fail(err, errlen, "--seeds %s: out of memory", path);
+            if (!t) return pdla_errorf(-1, err, errlen, "--seeds %s: out of memory", path);
             s->seed_xr = t;
         }
         memcpy(s->seed_xr + (size_t)s->nseeds * (size_t)(D + 1), xr, (size_t)(D + 1) * sizeof *xr);
         s->nseeds++;
     }
-    if (ferror(f)) return fail(err, errlen, "--seeds %s: read error", path);
-    if (!s->nseeds) return fail(err, errlen, "--seeds %s: no seed in the file", path);
+    if (ferror(f)) return pdla_errorf(-1, err, errlen, "--seeds %s: read error", path);
+    if (!s->nseeds) return pdla_errorf(-1, err, errlen, "--seeds %s: no seed in the file", path);
     return 0;
 }
 
@@ -86,9 +74,9 @@ int ev_seeds_read(ev_sim *s, const char *path, char *err, size_t errlen)
     /* Regular files only: opening a FIFO would block. */
     struct stat st;
     if (stat(path, &st) != 0 || !S_ISREG(st.st_mode))
-        return fail(err, errlen, "--seeds %s: not a readable regular file", path);
+        return pdla_errorf(-1, err, errlen, "--seeds %s: not a readable regular file", path);
     FILE *f = fopen(path, "r");
-    if (!f) return fail(err, errlen, "--seeds %s: %s", path, strerror(errno));
+    if (!f) return pdla_errorf(-1, err, errlen, "--seeds %s: %s", path, strerror(errno));
     s->nseeds = 0;
     const int rc = read_lines(s, f, path, err, errlen);
     fclose(f);
@@ -104,7 +92,7 @@ int ev_seeds_check(const ev_sim *s, char *err, size_t errlen)
         for (int k = 0; k < D; k++) {
             const double lo = s->periodic ? 0 : p[D], hi = s->periodic ? s->L : s->L - p[D];
             if (!(p[k] >= lo && (s->periodic ? p[k] < hi : p[k] <= hi)))
-                return fail(err, errlen, "--seeds %s: seed %u (radius %g) is outside the box of side %g",
+                return pdla_errorf(-1, err, errlen, "--seeds %s: seed %u (radius %g) is outside the box of side %g",
                             path, a + 1, p[D], s->L);
         }
     }
@@ -123,7 +111,7 @@ int ev_seeds_check(const ev_sim *s, char *err, size_t errlen)
             }
             const double sig = p[D] + q[D];
             if (rr < sig * sig)
-                return fail(err, errlen, "--seeds %s: seeds %u and %u overlap", path, a + 1, b + 1);
+                return pdla_errorf(-1, err, errlen, "--seeds %s: seeds %u and %u overlap", path, a + 1, b + 1);
         }
     }
     return 0;

@@ -4,23 +4,11 @@
  */
 #include <inttypes.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "ev_internal.h"
-
-static int fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return -1;
-}
 
 static double gauss(pdla_rng *r)
 {
@@ -55,19 +43,22 @@ void ev_free(ev_sim *s)
     free(s);
 }
 
-static uint32_t cell_of(const ev_sim *s, const double *x)
+/* Cell of x in a grid of nc cells of side w per dimension. */
+static uint32_t cell_in(const ev_sim *s, const double *x, int nc, double w)
 {
     uint32_t c = 0;
     for (int k = s->dim - 1; k >= 0; k--) {
         double y = x[k];
         if (s->periodic) y -= s->L * floor(y / s->L);
-        int q = (int)(y / s->w);
+        int q = (int)(y / w);
         if (q < 0) q = 0;
-        if (q >= s->nc) q = s->nc - 1;
-        c = c * (uint32_t)s->nc + (uint32_t)q;
+        if (q >= nc) q = nc - 1;
+        c = c * (uint32_t)nc + (uint32_t)q;
     }
     return c;
 }
+
+static uint32_t cell_of(const ev_sim *s, const double *x) { return cell_in(s, x, s->nc, s->w); }
 
 /* Does a particle of radius r at x overlap anything placed (cells)? */
 static int overlaps(const ev_sim *s, const double *x, double r)
@@ -137,7 +128,7 @@ static int place_random(ev_sim *s, char *err, size_t errlen)
             }
         }
         if (!placed)
-            return fail(err, errlen,
+            return pdla_errorf(-1, err, errlen,
                         "cannot place particle %" PRIu32 " of %" PRIu32 " without overlap at packing "
                         "%g after %d tries (random placement jams near 0.55 in 2D, 0.38 in 3D): "
                         "lower --packing or use --start lattice",
@@ -155,13 +146,13 @@ static int place_lattice(ev_sim *s, double rmax, char *err, size_t errlen)
     for (;; m++) {
         const double a = s->L / m;
         if (a < 2 * rmax * (1 + 1e-9))
-            return fail(err, errlen, "cannot place %" PRIu32 " particles on a grid at packing %g "
+            return pdla_errorf(-1, err, errlen, "cannot place %" PRIu32 " particles on a grid at packing %g "
                                      "(sites closer than a diameter): lower --packing",
                         s->n, s->par.packing);
         const uint64_t nsites = (uint64_t)m * (uint64_t)m * (D == 3 ? (uint64_t)m : 1);
         if (nsites > 4ull * s->n + 64) continue;
         uint32_t *ok = malloc(nsites * sizeof *ok);
-        if (!ok) return fail(err, errlen, "out of memory");
+        if (!ok) return pdla_errorf(-1, err, errlen, "out of memory");
         uint64_t nok = 0;
         for (uint64_t q = 0; q < nsites; q++) {
             double x[3];
@@ -196,23 +187,34 @@ static int place_lattice(ev_sim *s, double rmax, char *err, size_t errlen)
 
 /* Renumber the particles (not the seed) in cell order, so that neighbours
  * sit close in memory: a collision then touches few cache lines. Called
- * after placement, before anything else refers to particle indices. */
+ * after placement, before anything else refers to particle indices. The
+ * order is that of the numbering grid (nc_order cells per side, the event
+ * grid of before event4: about one particle per cell), cell by cell, the
+ * higher index first within a cell, so the numbering, and with it every
+ * run's realisation, does not depend on the event grid's cell size. */
 static int sort_by_cell(ev_sim *s)
 {
-    const int D = s->dim, S = 2 * D + 2;
-    const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (D == 3 ? (uint64_t)s->nc : 1);
-    uint32_t *order = malloc((s->n ? s->n : 1) * sizeof *order);
-    double *ps = malloc((size_t)(s->n ? s->n : 1) * (size_t)S * sizeof *ps);
-    double *m = malloc((s->n ? s->n : 1) * sizeof *m);
-    uint8_t *sp = malloc(s->n ? s->n : 1);
-    if (!order || !ps || !m || !sp) {
-        free(order), free(ps), free(m), free(sp);
+    const int D = s->dim, S = 2 * D + 2, nco = s->nc_order;
+    const double wo = s->L / nco;
+    const uint64_t ncell = (uint64_t)nco * (uint64_t)nco * (D == 3 ? (uint64_t)nco : 1);
+    const size_t n1 = s->n ? s->n : 1;
+    uint32_t *order = malloc(n1 * sizeof *order), *key = malloc(n1 * sizeof *key);
+    uint32_t *start = calloc((size_t)ncell + 1, sizeof *start);
+    double *ps = malloc(n1 * (size_t)S * sizeof *ps);
+    double *m = malloc(n1 * sizeof *m);
+    uint8_t *sp = malloc(n1);
+    if (!order || !key || !start || !ps || !m || !sp) {
+        free(order), free(key), free(start), free(ps), free(m), free(sp);
         return -1;
     }
-    uint32_t k = 0;
-    for (uint64_t c = 0; c < ncell; c++)
-        for (uint32_t j = s->chead[c]; j != UINT32_MAX; j = s->cnext[j])
-            if (j < s->n) order[k++] = j;
+    /* counting sort by cell; filling from the highest index down gives the
+     * higher index first within a cell */
+    for (uint32_t j = 0; j < s->n; j++) {
+        key[j] = cell_in(s, EV_P(s, j), nco, wo);
+        start[key[j] + 1]++;
+    }
+    for (uint64_t c = 0; c < ncell; c++) start[c + 1] += start[c];
+    for (uint32_t j = s->n; j-- > 0;) order[start[key[j]]++] = j;
     for (uint32_t a = 0; a < s->n; a++) {
         memcpy(ps + (size_t)a * S, EV_P(s, order[a]), (size_t)S * sizeof *ps);
         m[a] = s->mass[order[a]];
@@ -221,11 +223,15 @@ static int sort_by_cell(ev_sim *s)
     memcpy(s->ps, ps, (size_t)s->n * (size_t)S * sizeof *ps);
     memcpy(s->mass, m, s->n * sizeof *m);
     memcpy(s->species, sp, s->n);
-    free(order), free(ps), free(m), free(sp);
-    for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
+    free(order), free(key), free(start), free(ps), free(m), free(sp);
+    const uint64_t nce = (uint64_t)s->nc * (uint64_t)s->nc * (D == 3 ? (uint64_t)s->nc : 1);
+    for (uint64_t c = 0; c < nce; c++) s->chead[c] = UINT32_MAX;
     for (uint32_t i = 0; i < s->ntot; i++) ev_cell_insert(s, i, cell_of(s, EV_P(s, i)));
     return 0;
 }
+
+/* Cells per particle at most (see size_box). */
+#define EV_CELLS_PER_PARTICLE(D) ((D) == 3 ? 4.0 : 2.0)
 
 #define ALLOC(ptr, n)                                                      \
     do {                                                                   \
@@ -258,25 +264,33 @@ static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
     s->L = pow(s->V, 1.0 / D);
     s->half = 0.5 * s->L;
     if (s->L < 2 * rmax * 1.5 || (s->has_seed && !p->seeds[0] && s->L < 2 * p->seed_radius + 4 * rpmax))
-        return fail(err, errlen, "box too small: side %g for particles of radius up to %g", s->L,
+        return pdla_errorf(-1, err, errlen, "box too small: side %g for particles of radius up to %g", s->L,
                     rmax);
     if (p->seeds[0] && rmax > 10 * rpmax)
-        return fail(err, errlen, "--seeds %s: a seed of radius %g is above 10 particle radii (the "
+        return pdla_errorf(-1, err, errlen, "--seeds %s: a seed of radius %g is above 10 particle radii (the "
                     "cell size)", p->seeds, rmax);
     if (p->seeds[0] && ev_seeds_check(s, err, errlen)) return -1;
     /* Cells no smaller than the largest contact distance (a hair more, so a
      * particle assigned by round-off to the next cell is still found), and
-     * no more cells than particles at low packing (bigger cells there mean
-     * fewer crossing events, and still about one particle per cell). */
+     * at low packing no more than EV_CELLS_PER_PARTICLE(D) cells per particle
+     * (bigger cells there mean fewer crossing events). The smaller the cells,
+     * the fewer candidates a scan tests (a full scan covers 3^D cells) but
+     * the more crossing events: callgrind of the event loop (N = 1e4,
+     * periodic, runs/event/speed.md, 2026-11-24 event4) has 3D cheapest
+     * with the smallest cells at every packing tried (0.05 .. 0.3: 4 cells
+     * per particle -44% instructions at 0.05, -30% at 0.3 against 1) and 2D
+     * cheapest at about 2 per particle (0.05, 0.15; at 0.3 the smallest). */
     const double cmin = 2 * rmax * (1 + 1e-9);
     double ncd = floor(s->L / cmin);
-    const double cap = floor(pow((double)s->ntot + 27, 1.0 / D));
+    const double cap = floor(pow(EV_CELLS_PER_PARTICLE(D) * (double)s->ntot + 27, 1.0 / D));
+    const double cap1 = floor(pow((double)s->ntot + 27, 1.0 / D));
+    s->nc_order = (int)fmax(1, fmin(ncd, cap1));
     if (ncd > cap) ncd = cap;
     if (ncd < 1) ncd = 1;
     s->nc = (int)ncd;
     s->w = s->L / s->nc;
     if (s->periodic && s->nc < 3)
-        return fail(err, errlen, "box too small for periodic walls: side %g is under 3 cells of %g",
+        return pdla_errorf(-1, err, errlen, "box too small for periodic walls: side %g is under 3 cells of %g",
                     s->L, cmin);
     return 0;
 }
@@ -360,7 +374,7 @@ ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen)
     if (ev_params_check(p, err, errlen)) return NULL;
     ev_sim *s = calloc(1, sizeof *s);
     if (!s) {
-        fail(err, errlen, "out of memory");
+        pdla_errorf(-1, err, errlen, "out of memory");
         return NULL;
     }
     s->par = *p;
@@ -372,7 +386,7 @@ ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen)
     if (p->seeds[0] && ev_seeds_read(s, p->seeds, err, errlen)) goto bad;
     if (size_box(s, p, err, errlen)) goto bad;
     if (alloc_arrays(s)) {
-        fail(err, errlen, "out of memory for %" PRIu64 " particles", (uint64_t)s->n);
+        pdla_errorf(-1, err, errlen, "out of memory for %" PRIu64 " particles", (uint64_t)s->n);
         goto bad;
     }
     fill_particles(s, p);
@@ -419,7 +433,7 @@ ev_sim *ev_create(const ev_params *p, char *err, size_t errlen)
     for (uint32_t i = 0; i < s->n; i++) ev_heap_push(s, i);
     return s;
 oom:
-    fail(err, errlen, "out of memory for %" PRIu64 " particles", (uint64_t)s->n);
+    pdla_errorf(-1, err, errlen, "out of memory for %" PRIu64 " particles", (uint64_t)s->n);
 bad:
     ev_free(s);
     return NULL;

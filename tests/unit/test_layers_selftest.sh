@@ -6,7 +6,8 @@
 # model using another model (dlca -> event), a library file using the CLI,
 # an #include cycle between two headers, the CLI including a library-internal
 # header, a public header missing from tests/headers, an unresolvable include,
-# a second reader of the monotonic clock.
+# a second reader of the monotonic clock, a private copy of the error
+# formatter (both shapes the old fail()s had).
 set -u
 src=$1
 check="$src/scripts/check-layers"
@@ -51,5 +52,9 @@ fresh; printf '#ifndef X\n#define X\n#endif\n' >"$tmp/t/include/pdla/newmodel.h"
 expect "untested public header" "include/pdla/newmodel.h is not in tests/headers/meson.build"
 fresh; printf 'static double t(void) { struct timespec ts; clock_gettime(CLOCK_MONOTONIC, &ts); return 0; }\n' >>"$tmp/t/src/dla/grow.c"
 expect "a second monotonic clock" "src/dla/grow.c reads CLOCK_MONOTONIC itself"
+fresh; printf 'static int fail(char *err, size_t errlen, const char *fmt, ...)\n{\n    return -1;\n}\n' >>"$tmp/t/src/event/ev_sim.c"
+expect "a private error formatter" "src/event/ev_sim.c:.*fail() formats an error message itself"
+fresh; printf 'static int oops(char *err, size_t errlen, int code, const char *msg)\n{\n    return code;\n}\n' >>"$tmp/t/src/dlca/dlca.c"
+expect "a private error formatter (code, message)" "src/dlca/dlca.c:.*oops() formats an error message itself"
 
 exit $fail

@@ -1,0 +1,215 @@
+#!/usr/bin/python3
+"""hostile_models.py PDLA WORKDIR - forged and damaged files through the
+readers of the DLCA and event models (issue 9: every HDF5 read goes through
+the checked reader, pdla/h5check.h).
+
+Makes one small DLCA run (cluster.h5 + checkpoint.h5) and one small event
+run (checkpoint.h5), then damaged copies of them with h5py (nothing binary
+is committed): a dataset that declares 2^61 or 10^8 rows but stores none,
+one of the wrong element type or rank, an attribute that is an array where
+one value is wanted, and the file cut in half. Each reader that reads the
+damaged part - `pdla render` and `pdla analyze` of a DLCA file,
+`pdla --model dlca --start FILE`, `--model dlca --resume`, `--model event
+--resume` - must refuse it: exit 1 or 2 with exactly one line on stderr,
+never a signal, within a time limit and a peak-RSS bound (the forged
+declarations ask for GBs). The undamaged copies must be read (exit 0), so
+the test cannot pass by refusing everything. hostile.py does the same for
+the DLA files.
+"""
+import os
+import shutil
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+
+PDLA, WORK = sys.argv[1], sys.argv[2]
+RSS_LIMIT_KB = 400 * 1024  # a clean read takes a few MB (tens under ASan)
+TIME_LIMIT = 60
+HUGE = 2**61 + 2**16
+failures = []
+
+
+def check(ok, what):
+    if not ok:
+        failures.append(what)
+        print("FAIL:", what, flush=True)
+
+
+def run(args):
+    """(exit status or -signal, stderr lines, peak RSS in KB of this run), or
+    (None, [], None) when it did not end within TIME_LIMIT."""
+    with open(os.path.join(WORK, "stderr"), "w+b") as errf:
+        pid = os.fork()
+        if pid == 0:
+            try:
+                os.dup2(errf.fileno(), 2)
+                devnull = os.open(os.devnull, os.O_RDWR)
+                os.dup2(devnull, 0)
+                os.dup2(devnull, 1)
+                os.execv(PDLA, [PDLA] + args)
+            finally:
+                os._exit(127)
+        import time
+        t0 = time.monotonic()
+        while True:
+            wpid, status, ru = os.wait4(pid, os.WNOHANG)
+            if wpid == pid:
+                break
+            if time.monotonic() - t0 > TIME_LIMIT:
+                os.kill(pid, 9)
+                os.wait4(pid, 0)
+                return None, [], None
+            time.sleep(0.01)
+        errf.seek(0)
+        err = errf.read().decode("utf-8", "replace").rstrip("\n")
+    rc = os.WEXITSTATUS(status) if os.WIFEXITED(status) else -os.WTERMSIG(status)
+    return rc, err.split("\n") if err else [], ru.ru_maxrss
+
+
+def expect(tag, args, want):
+    """want 'fail': refused with one line; 'pass': exit 0."""
+    rc, lines, rss = run(args)
+    if rc is None:
+        check(False, tag + ": did not end within %d s" % TIME_LIMIT)
+        return
+    check(rc >= 0, tag + ": killed by signal %d" % -rc)
+    check(rss < RSS_LIMIT_KB, tag + ": peak RSS %d KB" % rss)
+    if want == "fail":
+        check(rc in (1, 2), tag + ": exit %d, want 1 or 2 (refused): %r" % (rc, lines[:3]))
+        check(len(lines) == 1, tag + ": %d lines on stderr, want 1: %r" % (len(lines), lines[:3]))
+    else:
+        check(rc == 0, tag + ": exit %d, want 0: %r" % (rc, lines[:3]))
+
+
+def replace_dset(f, name, shape, dtype, chunks=None, maxshape=None):
+    """Replace dataset `name` by one that declares `shape` and stores nothing."""
+    if name in f:
+        del f[name]
+    return f.create_dataset(name, shape=shape, dtype=dtype, chunks=chunks, maxshape=maxshape)
+
+
+def retype(f, name, dtype):
+    """Dataset `name` with the same values as another element type."""
+    v = f[name][()].astype(dtype)
+    del f[name]
+    f[name] = v
+
+
+def forged(src, tag, fn):
+    """A copy of src damaged by fn(h5py file), or cut in half (fn None)."""
+    d = os.path.join(WORK, tag)
+    os.makedirs(d)
+    path = os.path.join(d, os.path.basename(src))
+    shutil.copy(src, path)
+    if fn is None:
+        with open(path, "r+b") as fh:
+            fh.truncate(os.path.getsize(path) // 2)
+    else:
+        with h5py.File(path, "r+") as f:
+            fn(f)
+    return d, path
+
+
+shutil.rmtree(WORK, ignore_errors=True)
+os.makedirs(WORK)
+
+# ---- DLCA: cluster.h5 through render / analyze / --start ------------------
+base = os.path.join(WORK, "dlca")
+rc, lines, _ = run(["--model", "dlca", "--dim", "2", "--box", "48", "--fill", "0.05", "--until-clusters", "20",
+                    "--seed", "4", "--out", base, "--checkpoint", "-q"])
+if rc != 0:
+    sys.exit("the DLCA base run failed: %r" % lines)
+CL, CK = os.path.join(base, "cluster.h5"), os.path.join(base, "checkpoint.h5")
+START = ["--model", "dlca", "--dim", "2", "--box", "48", "--until-clusters", "20", "--no-output", "--start"]
+
+
+def dlca_readers(d, path):
+    return {"render": ["render", path, "-o", os.path.join(d, "x.png")],
+            "analyze": ["analyze", path],
+            "start": START + [path]}
+
+
+for reader, args in dlca_readers(WORK, CL).items():
+    expect("dlca-clean/" + reader, args, "pass")
+
+POS = "/monomers/position"
+dlca_cases = {
+    "position_2^61_rows": lambda f: replace_dset(f, POS, (HUGE, 2), "i4", chunks=(65536, 2), maxshape=(None, 2)),
+    "position_1e8_rows": lambda f: replace_dset(f, POS, (10**8, 2), "i4", chunks=(65536, 2)),
+    "position_float": lambda f: retype(f, POS, "f8"),
+    "position_rank3": lambda f: replace_dset(f, POS, (3, 2, 2), "i4"),
+    "position_dangling": lambda f: (f.__delitem__(POS), f.__setitem__(POS, h5py.SoftLink("/nowhere"))),
+    "truncated": None,
+}
+for name, fn in dlca_cases.items():
+    d, path = forged(CL, "dlca-" + name.replace("^", ""), fn)
+    for reader, args in dlca_readers(d, path).items():
+        expect("dlca-%s/%s" % (name, reader), args, "fail")
+# What only the tools read: /clusters, and /parameters box.
+tool_cases = {
+    "clusters_size_2^61_rows": lambda f: replace_dset(f, "/clusters/size", (HUGE,), "u8", chunks=(65536,),
+                                                      maxshape=(None,)),
+    "clusters_rg_strings": lambda f: (f.__delitem__("/clusters/rg"),
+                                      f.create_dataset("/clusters/rg", data=np.array([b"x"] * 4, dtype="S8"))),
+    "box_array_1000": lambda f: f["/parameters"].attrs.__setitem__("box", np.ones(1000, dtype="u8")),
+    "box_float": lambda f: f["/parameters"].attrs.__setitem__("box", np.array([48.0, 48.0])),
+}
+for name, fn in tool_cases.items():
+    d, path = forged(CL, "dlca-" + name.replace("^", ""), fn)
+    for reader in ("render", "analyze"):
+        expect("dlca-%s/%s" % (name, reader), dlca_readers(d, path)[reader], "fail")
+
+# ---- DLCA checkpoint through --resume -------------------------------------
+expect("dlca-ckpt-clean/resume", ["--model", "dlca", "--resume", CK, "--out", os.path.join(WORK, "dlca-resumed"),
+                                  "-q"], "pass")
+dlca_ck_cases = {
+    "rows_u64_2^61": lambda f: replace_dset(f, "rows_u64", (HUGE,), "u8", chunks=(65536,), maxshape=(None,)),
+    "rows_both_1e8": lambda f: [replace_dset(f, n, (3 * 10**8,), t, chunks=(65536,))
+                                for n, t in (("rows_u64", "u8"), ("rows_f64", "f8"))],
+    "site_not_stored": lambda f: replace_dset(f, "site", f["site"].shape, "u4", chunks=True),
+    "u64_float": lambda f: retype(f, "u64", "f8"),
+    "truncated": None,
+}
+for name, fn in dlca_ck_cases.items():
+    d, path = forged(CK, "dlcack-" + name.replace("^", ""), fn)
+    expect("dlca-ckpt-%s/resume" % name, ["--model", "dlca", "--resume", path, "--out", os.path.join(d, "o"), "-q"],
+           "fail")
+
+# ---- event checkpoint through --resume ------------------------------------
+ev = os.path.join(WORK, "event")
+rc, lines, _ = run(["--model", "event", "--dim", "2", "--particles", "300", "--packing", "0.1", "--seed-radius", "1",
+                    "--t-max", "2", "--series-dt", "0.5", "--seed", "3", "--out", ev, "--checkpoint"])
+if rc != 0:
+    sys.exit("the event base run failed: %r" % lines)
+EK = os.path.join(ev, "checkpoint.h5")
+
+
+def ev_copy(tag, fn):
+    d, path = forged(EK, tag, fn)
+    return d
+
+
+def ev_resume(d):
+    return ["--model", "event", "--resume", d, "--t-max", "3", "--quiet"]
+
+
+expect("event-clean/resume", ev_resume(ev_copy("event-clean", lambda f: None)), "pass")
+ev_cases = {
+    "series_time_2^61": lambda f: replace_dset(f, "series/time", (HUGE,), "f8", chunks=(65536,), maxshape=(None,)),
+    "series_all_1e8": lambda f: [replace_dset(f, "series/" + n, (10**8,), t, chunks=(65536,))
+                                 for n, t in (("time", "f8"), ("kinetic_energy", "f8"), ("pressure", "f8"),
+                                              ("stuck", "u8"), ("collisions", "u8"))],
+    "state_kind_float": lambda f: retype(f, "state/kind", "f8"),
+    "state_ps_not_stored": lambda f: replace_dset(f, "state/ps", f["state/ps"].shape, "f8", chunks=True),
+    "format_version_array_5000": lambda f: f.attrs.__setitem__("format_version", np.ones(5000, dtype="i8")),
+    "format_string_array": lambda f: f.attrs.__setitem__("format", np.array([b"pdla-event-checkpoint"] * 50)),
+    "truncated": None,
+}
+for name, fn in ev_cases.items():
+    expect("event-ckpt-%s/resume" % name, ev_resume(ev_copy("eventck-" + name.replace("^", ""), fn)), "fail")
+
+n = 3 + len(dlca_cases) * 3 + len(tool_cases) * 2 + 1 + len(dlca_ck_cases) + 1 + len(ev_cases)
+print("hostile-models: %d runs, %d failures" % (n, len(failures)))
+sys.exit(1 if failures else 0)

@@ -703,6 +703,7 @@ int dlca_cmd_main(int argc, char **argv)
     const int orc = open_sim(&c, dir, sizeof dir, &s);
     if (orc) {
         free(scene_buf);
+        free_snapshots(&c); /* a resume reads them before its last checks */
         return orc;
     }
     const double t0 = pdla_clock_seconds();

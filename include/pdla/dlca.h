@@ -183,22 +183,34 @@ PDLA_API int dlca_write_h5(const dlca_sim *s, const char *path, const char *comm
                            double wall_s, char *err, size_t errlen);
 
 /* Snapshots (`--snapshot-every T`): the sites and cluster numbers (as
- * dlca_export_sites) at a time. Added to an existing DLCA cluster.h5 as
- * /snapshots/<i> (i = 0, 1, ...), each with datasets site [N] and cluster
- * [N] and attributes t, attempts, n_clusters. 0 or PDLA_EIO. */
+ * dlca_export_sites) at a time. Added to an existing DLCA cluster.h5 or
+ * checkpoint as /snapshots (attributes count and every = T) with groups
+ * <i> (i = 0, 1, ...), each with datasets site [N], cluster [N] and
+ * position [N][d] (the sites' coordinates) and attributes t, attempts,
+ * n_clusters. 0 or PDLA_EIO. */
 typedef struct dlca_snapshot {
     double t;
     uint64_t attempts, n_clusters;
     uint32_t *site, *cluster;
 } dlca_snapshot;
-PDLA_API int dlca_write_snapshots_h5(const char *path, const dlca_snapshot *snaps, size_t n, uint64_t n_monomers,
-                                     char *err, size_t errlen);
+PDLA_API int dlca_write_snapshots_h5(const char *path, const dlca_params *p, const dlca_snapshot *snaps, size_t n,
+                                     uint64_t n_monomers, double every, char *err, size_t errlen);
+/* The snapshots of a file so written (a checkpoint: a resumed run keeps
+ * them): *snaps (malloc'ed, *n of them, each with its arrays; the caller
+ * frees them, also after a failure) and *every; none (0) if the file has no
+ * /snapshots. 0 or PDLA_EIO. */
+PDLA_API int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot **snaps, size_t *n,
+                                    double *every, char *err, size_t errlen);
 
 /* ParaView's XDMF 2 sidecar (xdmf.h) of a DLCA cluster.h5 just written
  * with n monomers: points at /monomers/position (site coordinates, lattice
  * units, wrapped into the box) with the arrays "cluster" and "site"; beside
- * it as cluster.xdmf2. d = 4, 5: nothing written (0). 0 or PDLA_EIO. */
-PDLA_API int dlca_write_xdmf(const char *h5_path, int dim, uint64_t n, char *err, size_t errlen);
+ * it as cluster.xdmf2. With snapshots (nsnaps > 0) it is a temporal
+ * collection: one time step per snapshot (/snapshots/<i>, at its t) and the
+ * end (/monomers at t_end, unless the last snapshot is at t_end). d = 4, 5:
+ * nothing written (0). 0 or PDLA_EIO. */
+PDLA_API int dlca_write_xdmf(const char *h5_path, int dim, uint64_t n, const dlca_snapshot *snaps, size_t nsnaps,
+                             double t_end, char *err, size_t errlen);
 
 /* Checkpoints: everything needed to go on (parameters, random state,
  * clusters, counters, series) in one HDF5 file (model = "dlca-checkpoint").

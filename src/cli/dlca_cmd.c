@@ -106,8 +106,8 @@ static void print_help(FILE *o)
                "                                     cluster.h5); --fill and --count are then not used\n"
                "  --snapshot-every T                 also store the sites and cluster ids at times T, 2T, ... in\n"
                "                                     cluster.h5 (/snapshots/0, 1, ...; kept in memory until written,\n"
-               "                                     8 bytes per monomer each; those of a run before --resume are not\n"
-               "                                     carried over)\n"
+               "                                     8 bytes per monomer each; checkpoints keep them for --resume, and\n"
+               "                                     cluster.xdmf2 shows them as ParaView time steps)\n"
                "  --out DIR                          run directory (default runs/dlca-YYYYmmdd-HHMMSS-<d>d)\n"
                "  --force                            write into an existing run directory\n"
                "  --no-output                        write no files\n"
@@ -369,8 +369,9 @@ static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, con
     err[0] = '\0';
     int rc = what[1] == 'l' ? dlca_write_h5(s, tmp, cmd, wall, err, errlen)
                             : dlca_checkpoint_write(s, tmp, err, errlen);
-    if (rc == 0 && what[1] == 'l' && c->nsnaps)
-        rc = dlca_write_snapshots_h5(tmp, c->snaps, c->nsnaps, c->n_monomers, err, errlen);
+    if (rc == 0 && c->snapshot_every > 0) /* the checkpoint too: a resumed run keeps them */
+        rc = dlca_write_snapshots_h5(tmp, dlca_get_params(s), c->snaps, c->nsnaps, c->n_monomers, c->snapshot_every,
+                                     err, errlen);
     if (rc || rename(tmp, path)) {
         if (!err[0]) snprintf(err, errlen, "cannot rename %.900s: %s", tmp, strerror(errno));
         unlink(tmp);
@@ -379,7 +380,8 @@ static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, con
     if (what[1] == 'l') { /* ParaView's sidecar, for the file under its final name */
         dlca_stats st;
         dlca_get_stats(s, &st);
-        if (dlca_write_xdmf(path, dlca_get_params(s)->dim, st.n_monomers, err, errlen)) return -1;
+        if (dlca_write_xdmf(path, dlca_get_params(s)->dim, st.n_monomers, c->snaps, c->nsnaps, st.t, err, errlen))
+            return -1;
     }
     return 0;
 }
@@ -541,6 +543,18 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
         *s = NULL;
         return EXIT_USAGE;
     }
+    /* The snapshots taken before the checkpoint, and its period unless
+     * --snapshot-every is given again. */
+    dlca_stats st;
+    dlca_get_stats(*s, &st);
+    double every = 0;
+    if (dlca_read_snapshots_h5(ckpath, st.n_monomers, &c->snaps, &c->nsnaps, &every, err, sizeof err)) {
+        fprintf(stderr, "pdla: %s\n", err);
+        dlca_destroy(*s);
+        *s = NULL;
+        return EXIT_USAGE;
+    }
+    if (!(c->snapshot_every > 0)) c->snapshot_every = every;
     /* The stops not given stay the checkpoint's: a resumed run ends where
      * the interrupted one would have. */
     pdla_param_apply_resumable(t, n, c->given, &p, &c->p);

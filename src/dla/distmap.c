@@ -1,6 +1,6 @@
 /*
  * distmap.c - the two-level chessboard distance map (see distmap.h): grid
- * growth, incremental breadth-first updates, rebuild from a tree.
+ * growth, incremental updates shell by shell, rebuild from a tree.
  */
 #include "distmap.h"
 
@@ -46,8 +46,6 @@ int distmap_init(distmap *m, int dim, int bits, int64_t margin_units)
     atomic_init(&m->epoch, 0);
     m->retired_bytes = 0;
     m->old = NULL;
-    m->queue = NULL;
-    m->qcap = 0;
     m->bytes = 0;
     return 0;
 }
@@ -83,9 +81,6 @@ void distmap_free(distmap *m)
     distmap_quiesce(m);
     grid_free(atomic_load_explicit(&m->grid, memory_order_relaxed));
     atomic_store_explicit(&m->grid, NULL, memory_order_relaxed);
-    free(m->queue);
-    m->queue = NULL;
-    m->qcap = 0;
     m->bytes = 0;
 }
 
@@ -269,7 +264,18 @@ static distmap_grid *grid_make(const distmap *m, const distmap_grid *old, int64_
                     }
                 }
     }
-    for (int l = 0; l < 2; l++) transform(&g->lv[l], dim);
+    for (int l = 0; l < 2; l++) {
+        /* The copied cells are exact already (every zero cell lies in the
+         * old grid), and a new cell is more than margin / cell side cells
+         * from every zero cell (each particle lies margin inside the old
+         * grid): where that reaches the cap, the new cells' cap is exact
+         * too and the transform would change nothing. At leaf cells that
+         * is the fine level (margin >= 4096 units = 16 cells > 15), which
+         * holds nearly all the cells. */
+        if (old->lv[0].bits == fb && (m->margin >> g->lv[l].bits) + 1 >= (int64_t)g->lv[l].cap)
+            continue;
+        transform(&g->lv[l], dim);
+    }
     return g;
 }
 
@@ -292,66 +298,66 @@ static int covers(const distmap *m, const distmap_grid *g, const int64_t *p)
     return 1;
 }
 
-static int queue_push(distmap *m, size_t *head, size_t *len, uint64_t v)
-{
-    if (*len == m->qcap) {
-        const size_t cap = m->qcap ? 2 * m->qcap : 1024;
-        uint64_t *q = malloc(cap * sizeof *q);
-        if (!q) return -1;
-        for (size_t i = 0; i < *len; i++) q[i] = m->queue[(*head + i) & (m->qcap - 1)];
-        free(m->queue);
-        m->queue = q;
-        m->qcap = cap;
-        *head = 0;
-    }
-    m->queue[(*head + *len) & (m->qcap - 1)] = v;
-    (*len)++;
-    return 0;
-}
-
-static inline uint64_t pack(int64_t x, int64_t y, int64_t z)
-{
-    return (uint64_t)x | (uint64_t)y << 21 | (uint64_t)z << 42;
-}
-
 /* Mark the cell at level coordinates c occupied and lower the cells around
- * it, breadth first, as far as their distance drops. */
-static int mark(distmap *m, distmap_level *L, const int64_t *c)
+ * it to their chessboard distance r from it, shell by shell (the cells at
+ * distance exactly r), while a shell changes. That gives every cell
+ * min(old value, r), as a breadth-first pass from c would: the map was
+ * exact, so 1-Lipschitz, and a cell at r whose value drops has a neighbour
+ * at r - 1 (one step towards c on every axis) whose value dropped too. So
+ * shell r is looked at only within one cell of the box of the cells that
+ * changed on shell r - 1, and a shell where nothing drops ends it. A cell
+ * looked at costs one load, where a breadth-first pass loads the 3^dim - 1
+ * neighbours of every cell it lowers (and keeps a queue). */
+static void mark(distmap *m, distmap_level *L, const int64_t *c)
 {
     const int dim = m->dim;
-    const int64_t w = L->width, nz = dim == 3 ? w : 1;
-    const int64_t cz = dim == 3 ? c[2] : 0;
-    const size_t i0 = cell_index(L, c[0], c[1], cz);
-    if (cell_get(L, i0) == 0) return 0;
+    const int64_t w = L->width;
+    const int64_t cc[3] = {c[0], c[1], dim == 3 ? c[2] : 0};
+    const size_t i0 = cell_index(L, cc[0], cc[1], cc[2]);
+    if (cell_get(L, i0) == 0) return;
     cell_set(L, i0, 0);
     if (L->nibble)
         atomic_store_explicit(&m->leaves, atomic_load_explicit(&m->leaves, memory_order_relaxed) + 1,
                               memory_order_release);
-    size_t head = 0, len = 0;
-    if (queue_push(m, &head, &len, pack(c[0], c[1], cz))) return -1;
-    while (len) {
-        const uint64_t e = m->queue[head];
-        head = (head + 1) & (m->qcap - 1);
-        len--;
-        const int64_t x = (int64_t)(e & 0x1FFFFF), y = (int64_t)(e >> 21 & 0x1FFFFF),
-                      z = (int64_t)(e >> 42 & 0x1FFFFF);
-        const unsigned nv = cell_get(L, cell_index(L, x, y, z)) + 1u;
-        if (nv >= L->cap) continue;
-        for (int64_t Z = z - (dim == 3); Z <= z + (dim == 3); Z++) {
-            if (Z < 0 || Z >= nz) continue;
-            for (int64_t Y = y - 1; Y <= y + 1; Y++) {
-                if (Y < 0 || Y >= w) continue;
-                for (int64_t X = x - 1; X <= x + 1; X++) {
-                    if (X < 0 || X >= w) continue;
-                    const size_t i = cell_index(L, X, Y, Z);
-                    if (cell_get(L, i) <= nv) continue;
-                    cell_set(L, i, nv);
-                    if (queue_push(m, &head, &len, pack(X, Y, Z))) return -1;
+    /* The box of the cells changed on the last shell: [blo, bhi] per axis. */
+    int64_t blo[3], bhi[3];
+    for (int a = 0; a < 3; a++) blo[a] = bhi[a] = cc[a];
+    for (int64_t r = 1; r < (int64_t)L->cap; r++) {
+        int64_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, nlo[3], nhi[3];
+        for (int a = 0; a < dim; a++) {
+            lo[a] = blo[a] - 1 > cc[a] - r ? blo[a] - 1 : cc[a] - r;
+            hi[a] = bhi[a] + 1 < cc[a] + r ? bhi[a] + 1 : cc[a] + r;
+            if (lo[a] < 0) lo[a] = 0;
+            if (hi[a] > w - 1) hi[a] = w - 1;
+        }
+        for (int a = 0; a < 3; a++) {
+            nlo[a] = INT64_MAX;
+            nhi[a] = INT64_MIN;
+        }
+        for (int64_t z = lo[2]; z <= hi[2]; z++) {
+            const int zface = dim == 3 && (z == cc[2] - r || z == cc[2] + r);
+            for (int64_t y = lo[1]; y <= hi[1]; y++) {
+                const size_t row = cell_index(L, 0, y, z);
+                const int face = zface || y == cc[1] - r || y == cc[1] + r;
+                /* Off the faces only the two ends of the row are on the shell. */
+                const int64_t step = face ? 1 : 2 * r;
+                for (int64_t x = face ? lo[0] : cc[0] - r; x <= hi[0]; x += step) {
+                    if (x < lo[0] || cell_get(L, row + (size_t)x) <= (unsigned)r) continue;
+                    cell_set(L, row + (size_t)x, (unsigned)r);
+                    const int64_t at[3] = {x, y, z};
+                    for (int a = 0; a < 3; a++) {
+                        if (at[a] < nlo[a]) nlo[a] = at[a];
+                        if (at[a] > nhi[a]) nhi[a] = at[a];
+                    }
                 }
             }
         }
+        if (nlo[0] == INT64_MAX) break;
+        for (int a = 0; a < 3; a++) {
+            blo[a] = nlo[a];
+            bhi[a] = nhi[a];
+        }
     }
-    return 0;
 }
 
 int distmap_needs_add(const distmap *m, const int64_t *p)
@@ -386,10 +392,7 @@ int distmap_add(distmap *m, const int64_t *p, uint64_t particles, int concurrent
     for (int l = 0; l < 2; l++) {
         int64_t c[3] = {0, 0, 0};
         for (int a = 0; a < m->dim; a++) c[a] = (p[a] + g->half) >> g->lv[l].bits;
-        if (mark(m, &g->lv[l], c)) {
-            disable(m, concurrent);
-            return 0;
-        }
+        mark(m, &g->lv[l], c);
     }
     return 0;
 }

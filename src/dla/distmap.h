@@ -14,8 +14,8 @@
  * and near the cluster the tree search decides.
  *
  * Updates: a particle in a cell that was not yet occupied sets it to 0 and a
- * breadth-first pass lowers the cells whose distance drops (each cell only
- * ever decreases). A particle that lands too near the grid's edge makes a
+ * pass over the shells of cells around it lowers the cells whose distance
+ * drops (each cell only ever decreases). A particle that lands too near the grid's edge makes a
  * larger grid (old values copied, new cells filled by a two-pass chessboard
  * transform). Everything is derived from the particle positions alone:
  * distmap_rebuild makes it from a tree (after a checkpoint load), with the
@@ -103,8 +103,6 @@ typedef struct distmap {
     double budget_per_particle;   /*   budget_per_particle x particles) bytes */
     distmap_grid *old;            /* retired grids, newest first */
     size_t retired_bytes;         /* their cells */
-    uint64_t *queue;              /* ring buffer of the breadth-first pass */
-    size_t qcap;
     size_t bytes;                 /* bytes of the current grid */
     PDLA_CACHE_PAD(pad_end_);
 } distmap;

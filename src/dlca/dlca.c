@@ -20,6 +20,9 @@
  * history, bit for bit, whichever search runs.
  */
 #include <math.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -79,43 +82,48 @@ static inline uint32_t next_stamp(dlca_sim *s)
 
 /* ---- records -------------------------------------------------------------- */
 
-/* Give record r a block of cap entries (cap >= n), its n copied over. */
+/* Give record r a block of cap entries (cap >= n), its head and n monomers
+ * copied over (n = 0: a fresh record, head left for the caller). */
 static int rec_grow(dlca_sim *s, uint32_t r, uint32_t n, uint32_t cap)
 {
-    dlca_rec *R = &s->rec[r];
-    uint32_t *k = malloc((size_t)cap * (1 + (size_t)s->d) * sizeof *k);
-    if (!k) return -1;
-    int32_t *off = (int32_t *)(k + cap);
+    const int d = s->d;
+    const size_t head = DLCA_REC_HEAD(d);
+    uint32_t *b = malloc((head + (size_t)cap * (1 + (size_t)d)) * sizeof *b);
+    if (!b) return -1;
     if (n) {
-        memcpy(k, R->k, (size_t)n * sizeof *k);
-        memcpy(off, R->k + R->cap, (size_t)n * s->d * sizeof *off);
+        const uint32_t *o = s->rec[r].b, ocap = o[0];
+        memcpy(b, o, head * sizeof *b);
+        memcpy(b + head, o + head, (size_t)n * sizeof *b);
+        memcpy(b + head + cap, o + head + ocap, (size_t)n * d * sizeof *b);
+        free(s->rec[r].b);
     }
-    free(R->k);
-    R->k = k;
-    R->cap = cap;
+    b[0] = cap;
+    s->rec[r].b = b;
     return 0;
+}
+
+static void rec_push_free(dlca_sim *s, uint32_t r)
+{
+    s->rec[r].next = (uint64_t)s->free_rec << 1 | 1;
+    s->free_rec = r;
 }
 
 uint32_t dlca_rec_new(dlca_sim *s, uint32_t cap)
 {
     uint32_t r = s->free_rec;
-    if (r != DLCA_NO_REC) s->free_rec = s->rec[r].cap;
+    if (r != DLCA_NO_REC) s->free_rec = (uint32_t)(s->rec[r].next >> 1);
     else {
         if (s->nrec == s->caprec) {
             const uint32_t c = s->caprec ? s->caprec + s->caprec / 2 : 64;
             dlca_rec *rec = realloc(s->rec, (size_t)c * sizeof *rec);
-            if (rec) s->rec = rec;
-            int32_t *g = rec ? realloc(s->rgeom, (size_t)c * 3 * s->d * sizeof *g) : NULL;
-            if (!g) return DLCA_NO_REC;
-            s->rgeom = g;
+            if (!rec) return DLCA_NO_REC;
+            s->rec = rec;
             s->caprec = c;
         }
         r = s->nrec++;
     }
-    s->rec[r] = (dlca_rec){NULL, 0};
     if (rec_grow(s, r, 0, cap)) {
-        s->rec[r].cap = s->free_rec;
-        s->free_rec = r;
+        rec_push_free(s, r);
         return DLCA_NO_REC;
     }
     return r;
@@ -123,9 +131,8 @@ uint32_t dlca_rec_new(dlca_sim *s, uint32_t cap)
 
 static void rec_free(dlca_sim *s, uint32_t r)
 {
-    free(s->rec[r].k);
-    s->rec[r] = (dlca_rec){NULL, s->free_rec};
-    s->free_rec = r;
+    free(s->rec[r].b);
+    rec_push_free(s, r);
 }
 
 /* ---- the series ---------------------------------------------------------- */
@@ -149,10 +156,19 @@ static void add_row(dlca_sim *s)
     s->row_nc = s->nc;
 }
 
+/* A row per 1% fewer clusters. At each, the heap's free pages go back to
+ * the system: the blocks of absorbed clusters and the outgrown blocks are
+ * freed in the middle of glibc's heap and would stay resident (14 of 68
+ * bytes a monomer at the end of a 2D run, runs/dlca/memory.txt). */
 static void maybe_row(dlca_sim *s)
 {
     const uint64_t next = (uint64_t)floor((double)s->row_nc * 0.99);
-    if (s->nc <= (next < s->row_nc - 1 ? next : s->row_nc - 1)) add_row(s);
+    if (s->nc <= (next < s->row_nc - 1 ? next : s->row_nc - 1)) {
+        add_row(s);
+#ifdef __GLIBC__
+        (void)malloc_trim(0);
+#endif
+    }
 }
 
 /* ---- grid boxes -------------------------------------------------------- */
@@ -324,10 +340,10 @@ int dlca_search_init(dlca_sim *s, int search, int A)
 void dlca_sim_free(dlca_sim *s)
 {
     if (!s) return;
-    for (uint32_t r = 0; r < s->nrec; r++) free(s->rec[r].k);
+    for (uint32_t r = 0; r < s->nrec; r++)
+        if (dlca_rec_live(&s->rec[r])) free(s->rec[r].b);
     boxes_free(s);
     free(s->rec);
-    free(s->rgeom);
     free(s->n);
     free(s->pos);
     free(s->ref);
@@ -408,14 +424,14 @@ static int keep_room(dlca_sim *s, uint32_t keep, uint32_t n)
         coords(s, k, x);
         int32_t *g = dlca_rgeom(s, r);
         for (int a = 0; a < s->d; a++) g[a] = (int32_t)x[a], g[s->d + a] = g[2 * s->d + a] = 0;
-        s->rec[r].k[0] = k;
-        memset(s->rec[r].k + n, 0, (size_t)s->d * sizeof(int32_t)); /* its offset */
+        dlca_rsites(s, r)[0] = k;
+        memset(dlca_rsites(s, r) + n, 0, (size_t)s->d * sizeof(int32_t)); /* its offset */
         s->ref[keep] = r;
         return 0;
     }
     const uint32_t r = s->ref[keep];
-    if (n <= s->rec[r].cap) return 0;
-    uint32_t cap = s->rec[r].cap;
+    uint32_t cap = dlca_rec_cap(s, r);
+    if (n <= cap) return 0;
     while (cap < n) cap += cap / 2 + 1;
     return rec_grow(s, r, s->n[keep], cap);
 }
@@ -970,9 +986,10 @@ const dlca_params *dlca_get_params(const dlca_sim *s) { return &s->p; }
 static uint64_t model_bytes(const dlca_sim *s)
 {
     uint64_t b = sizeof *s + (s->N + 1) * 3 * sizeof(uint32_t) + s->N * sizeof *s->act +
-                 (uint64_t)s->caprec * (sizeof *s->rec + 3 * (size_t)s->d * sizeof *s->rgeom);
+                 (uint64_t)s->caprec * sizeof *s->rec;
     for (uint32_t r = 0; r < s->nrec; r++)
-        if (s->rec[r].k) b += (uint64_t)s->rec[r].cap * (1 + (size_t)s->d) * sizeof(uint32_t);
+        if (dlca_rec_live(&s->rec[r]))
+            b += (DLCA_REC_HEAD(s->d) + (uint64_t)dlca_rec_cap(s, r) * (1 + (size_t)s->d)) * sizeof(uint32_t);
     if (s->cand) b += s->N * sizeof *s->cand;
     if (s->stamp) b += (s->N + 1) * sizeof *s->stamp;
     if (s->grid) b += s->V * sizeof *s->grid;

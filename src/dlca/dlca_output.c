@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "dlca_h5.h"
 #include "h5util.h"
@@ -209,7 +210,79 @@ done:
     return rc < 0 ? PDLA_EIO : 0;
 }
 
-int dlca_write_xdmf(const char *h5_path, int dim, uint64_t n, char *err, size_t errlen)
+/* name with the XML special characters escaped. */
+static void xml_escaped(FILE *f, const char *s)
+{
+    for (; *s; s++) {
+        switch (*s) {
+        case '&': fputs("&amp;", f); break;
+        case '<': fputs("&lt;", f); break;
+        case '>': fputs("&gt;", f); break;
+        case '"': fputs("&quot;", f); break;
+        default: fputc(*s, f);
+        }
+    }
+}
+
+/* One time step of the temporal collection: the monomers under group
+ * (e.g. "/snapshots/0" or "/monomers") of base, at time t. The items are
+ * those of xdmf.c's points (positions read as reals through a Function:
+ * ParaView's XDMF 2 reader takes them so). */
+static void xdmf_step(FILE *f, const char *base, const char *group, double t, uint64_t n, int dim)
+{
+    fprintf(f, "   <Grid Name=\"t = %.6g\" GridType=\"Uniform\">\n    <Time Value=\"%.17g\"/>\n"
+               "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%llu\" NodesPerElement=\"1\"/>\n"
+               "    <Geometry GeometryType=\"%s\">\n"
+               "     <DataItem ItemType=\"Function\" Function=\"$0 / 1\" Dimensions=\"%llu %d\">\n"
+               "      <DataItem Dimensions=\"%llu %d\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">",
+            t, t, (unsigned long long)n, dim == 3 ? "XYZ" : "XY", (unsigned long long)n, dim, (unsigned long long)n, dim);
+    xml_escaped(f, base);
+    fprintf(f, ":%s/position</DataItem>\n     </DataItem>\n    </Geometry>\n", group);
+    const char *arrays[2] = {"cluster", "site"};
+    for (int i = 0; i < 2; i++) {
+        fprintf(f, "    <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+                   "     <DataItem Dimensions=\"%llu\" NumberType=\"UInt\" Precision=\"4\" Format=\"HDF\">",
+                arrays[i], (unsigned long long)n);
+        xml_escaped(f, base);
+        fprintf(f, ":%s/%s</DataItem>\n    </Attribute>\n", group, arrays[i]);
+    }
+    fprintf(f, "   </Grid>\n");
+}
+
+/* The sidecar of a run with snapshots: a temporal collection, one step per
+ * snapshot and the end's /monomers (unless the last snapshot is the end). */
+static int xdmf_series(const char *xmf, const char *h5_path, int dim, uint64_t n, const dlca_snapshot *snaps,
+                       size_t nsnaps, double t_end, char *err, size_t errlen)
+{
+    char tmp[4300];
+    snprintf(tmp, sizeof tmp, "%s.tmp", xmf);
+    const char *sl = strrchr(h5_path, '/'), *base = sl ? sl + 1 : h5_path;
+    FILE *f = fopen(tmp, "w");
+    if (!f) return pdla_errorf(PDLA_EIO, err, errlen, "xdmf: cannot create %.200s", tmp);
+    fputs("<?xml version=\"1.0\" ?>\n<!-- pdla: DLCA monomers of ", f);
+    xml_escaped(f, base);
+    fputs(" at its snapshot times and the end, for ParaView's \"XDMF Reader\" (XDMF 2); lattice units -->\n"
+          "<Xdmf Version=\"2.0\">\n <Domain>\n"
+          "  <Grid Name=\"monomers\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
+          f);
+    char group[64];
+    for (size_t i = 0; i < nsnaps; i++) {
+        snprintf(group, sizeof group, "/snapshots/%zu", i);
+        xdmf_step(f, base, group, snaps[i].t, n, dim);
+    }
+    if (!(t_end <= snaps[nsnaps - 1].t)) xdmf_step(f, base, "/monomers", t_end, n, dim);
+    fputs("  </Grid>\n </Domain>\n</Xdmf>\n", f);
+    const int bad = ferror(f);
+    if (fclose(f) || bad || rename(tmp, xmf)) {
+        unlink(tmp);
+        unlink(xmf); /* an older sidecar would describe another file */
+        return pdla_errorf(PDLA_EIO, err, errlen, "xdmf: cannot write %.200s", xmf);
+    }
+    return 0;
+}
+
+int dlca_write_xdmf(const char *h5_path, int dim, uint64_t n, const dlca_snapshot *snaps, size_t nsnaps,
+                    double t_end, char *err, size_t errlen)
 {
     char xmf[4200];
     if (xdmf_sidecar_path(h5_path, xmf, sizeof xmf)) {
@@ -217,13 +290,16 @@ int dlca_write_xdmf(const char *h5_path, int dim, uint64_t n, char *err, size_t 
         return PDLA_EINVAL;
     }
     if (dim != 2 && dim != 3) return 0; /* ParaView shows 2D and 3D points */
+    if (nsnaps && n) return xdmf_series(xmf, h5_path, dim, n, snaps, nsnaps, t_end, err, errlen);
     const xdmf_array arrays[] = {{"cluster", "/monomers/cluster", "UInt", 4}, {"site", "/monomers/site", "UInt", 4}};
     const xdmf_points pts = {h5_path, "/monomers/position", n, dim, 1, 0, NULL, arrays, 2};
     return xdmf_write_points(xmf, &pts, err, errlen) ? PDLA_EIO : 0;
 }
 
-/* One snapshot as group name under g. */
-static int write_snapshot(const h5u_writer *w, hid_t g, const char *name, const dlca_snapshot *sn, uint64_t N)
+/* One snapshot as group name under g: site, cluster and the sites'
+ * coordinates (position [N][d], for the sidecar). */
+static int write_snapshot(const h5u_writer *w, hid_t g, const char *name, const dlca_snapshot *sn,
+                          const dlca_params *p, uint64_t N)
 {
     hid_t sg = h5u_group(w, g, name), sp = H5I_INVALID_HID, d;
     if (sg < 0) return -1;
@@ -244,11 +320,28 @@ static int write_snapshot(const h5u_writer *w, hid_t g, const char *name, const 
         rc = h5u_close(w, rc, sp, H5Sclose, "a dataspace");
         rc = h5u_close(w, rc, d, H5Dclose, names[i]);
     }
+    int32_t *pos = rc == 0 ? malloc((N ? N : 1) * (size_t)p->dim * sizeof *pos) : NULL;
+    if (rc == 0 && !pos) rc = h5u_fail_msg(w, "cannot write %s: out of memory", w->path);
+    for (uint64_t m = 0; pos && m < N; m++) {
+        uint64_t k = sn->site[m];
+        for (int a = 0; a < p->dim; a++) {
+            pos[m * p->dim + a] = (int32_t)(k % p->box[a]);
+            k /= p->box[a];
+        }
+    }
+    if (rc == 0 && (d = h5u_dataset(w, sg, "position", H5T_STD_I32LE, 2, N, (hsize_t)p->dim, chunk, &sp)) < 0) rc = -1;
+    else if (rc == 0) {
+        if (N && H5Dwrite(d, H5T_NATIVE_INT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, pos) < 0)
+            rc = h5u_fail(w, "write snapshot %s/position", name);
+        rc = h5u_close(w, rc, sp, H5Sclose, "a dataspace");
+        rc = h5u_close(w, rc, d, H5Dclose, "position");
+    }
+    free(pos);
     return h5u_close(w, rc, sg, H5Gclose, name);
 }
 
-int dlca_write_snapshots_h5(const char *path, const dlca_snapshot *snaps, size_t n, uint64_t n_monomers, char *err,
-                            size_t errlen)
+int dlca_write_snapshots_h5(const char *path, const dlca_params *p, const dlca_snapshot *snaps, size_t n,
+                            uint64_t n_monomers, double every, char *err, size_t errlen)
 {
     h5u_writer w = {path, err, errlen};
     h5u_quiet q;
@@ -258,15 +351,78 @@ int dlca_write_snapshots_h5(const char *path, const dlca_snapshot *snaps, size_t
     hid_t g = H5I_INVALID_HID;
     if (f < 0) h5u_fail_msg(&w, "cannot open %s to add snapshots", path);
     else if ((g = h5u_group(&w, f, "snapshots")) >= 0) {
-        rc = h5u_attr_u64(&w, g, "count", n) < 0 ? -1 : 0;
+        rc = h5u_attr_u64(&w, g, "count", n) < 0 || h5u_attr_f64(&w, g, "every", every) < 0 ? -1 : 0;
         for (size_t i = 0; i < n && rc == 0; i++) {
             char name[32];
             snprintf(name, sizeof name, "%zu", i);
-            rc = write_snapshot(&w, g, name, &snaps[i], n_monomers);
+            rc = write_snapshot(&w, g, name, &snaps[i], p, n_monomers);
         }
         rc = h5u_close(&w, rc, g, H5Gclose, "/snapshots");
     }
     if (f >= 0) rc = h5u_close(&w, rc, f, H5Fclose, path);
     h5u_restore(&q);
     return rc < 0 ? PDLA_EIO : 0;
+}
+
+/* Snapshot i of group g into sn (arrays of N allocated here). 0 or -1. */
+static int read_snapshot(hid_t g, size_t i, uint64_t N, dlca_snapshot *sn)
+{
+    char name[32];
+    snprintf(name, sizeof name, "%zu", i);
+    const hid_t sg = H5Gopen2(g, name, H5P_DEFAULT);
+    if (sg < 0) return -1;
+    int rc = 0;
+    const char *an[3] = {"t", "attempts", "n_clusters"};
+    void *av[3] = {&sn->t, &sn->attempts, &sn->n_clusters};
+    for (int a = 0; a < 3 && rc == 0; a++) {
+        const hid_t at = H5Aopen(sg, an[a], H5P_DEFAULT);
+        if (at < 0 || H5Aread(at, a ? H5T_NATIVE_UINT64 : H5T_NATIVE_DOUBLE, av[a]) < 0) rc = -1;
+        if (at >= 0) H5Aclose(at);
+    }
+    sn->site = malloc((N ? N : 1) * sizeof *sn->site);
+    sn->cluster = malloc((N ? N : 1) * sizeof *sn->cluster);
+    const char *dn[2] = {"site", "cluster"};
+    uint32_t *dv[2] = {sn->site, sn->cluster};
+    for (int a = 0; a < 2 && rc == 0; a++) {
+        const hid_t d = H5Dopen2(sg, dn[a], H5P_DEFAULT);
+        const hid_t sp = d >= 0 ? H5Dget_space(d) : H5I_INVALID_HID;
+        if (!dv[a] || sp < 0 || H5Sget_simple_extent_npoints(sp) != (hssize_t)N ||
+            (N && H5Dread(d, H5T_NATIVE_UINT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, dv[a]) < 0))
+            rc = -1;
+        if (sp >= 0) H5Sclose(sp);
+        if (d >= 0) H5Dclose(d);
+    }
+    H5Gclose(sg);
+    return rc;
+}
+
+int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot **snaps, size_t *n, double *every,
+                           char *err, size_t errlen)
+{
+    *snaps = NULL;
+    *n = 0;
+    *every = 0;
+    h5u_quiet q;
+    if (h5u_silence(&q)) return pdla_errorf(PDLA_EIO, err, errlen, "cannot read %s: cannot silence HDF5", path);
+    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    int rc = f < 0 ? -1 : 0;
+    const hid_t g = f >= 0 && H5Lexists(f, "snapshots", H5P_DEFAULT) > 0 ? H5Gopen2(f, "snapshots", H5P_DEFAULT)
+                                                                          : H5I_INVALID_HID;
+    uint64_t count = 0;
+    if (g >= 0) {
+        const hid_t ac = H5Aopen(g, "count", H5P_DEFAULT), ae = H5Aopen(g, "every", H5P_DEFAULT);
+        if (ac < 0 || ae < 0 || H5Aread(ac, H5T_NATIVE_UINT64, &count) < 0 || H5Aread(ae, H5T_NATIVE_DOUBLE, every) < 0)
+            rc = -1;
+        if (ac >= 0) H5Aclose(ac);
+        if (ae >= 0) H5Aclose(ae);
+        if (rc == 0 && count && !(*snaps = calloc(count, sizeof **snaps))) rc = -1;
+        for (size_t i = 0; rc == 0 && i < count; i++) {
+            rc = read_snapshot(g, i, n_monomers, &(*snaps)[i]);
+            *n = i + 1; /* the caller frees what was read, even on a failure */
+        }
+        H5Gclose(g);
+    }
+    if (f >= 0) H5Fclose(f);
+    h5u_restore(&q);
+    return rc ? pdla_errorf(PDLA_EIO, err, errlen, "cannot read the snapshots of %s", path) : 0;
 }

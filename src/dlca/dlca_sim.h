@@ -9,8 +9,11 @@
  * 16 bytes. A monomer alone (size 1) needs nothing more: `ref` is its site
  * and its geometry is implied (anchor = its coordinates, offset and bounding
  * box 0). A cluster of 2 or more owns a record (`ref` is its index): one
- * block of cap sites and cap x d offsets from the anchor, and its anchor and
- * bounding box. Records of absorbed clusters are reused. The id lattice
+ * 8-byte pointer to a block that holds everything else, its capacity, its
+ * anchor and bounding box, cap sites and cap x d offsets from the anchor
+ * (the record table keeps its largest length, so a record must be small:
+ * the geometry in the table made it 40 bytes, 14 B/monomer at the end of a
+ * 2D run). Records of absorbed clusters are reused. The id lattice
  * (4 bytes a site) is the collision structure of --search lattice; the
  * "seen" stamps and the box lists exist only for the seed's searches.
  */
@@ -22,11 +25,17 @@
 #include "pdla/dlca.h"
 #include "rng.h"
 
-/* A cluster of 2 or more monomers (a free record: k NULL, cap = next free). */
-typedef struct dlca_rec {
-    uint32_t *k;  /* sites [cap], then offsets [cap][d] (at k + cap) */
-    uint32_t cap; /* room in the block, in monomers */
+/* A cluster of 2 or more monomers: its block, 32-bit words [cap][anchor d]
+ * [lo d][hi d][sites cap][offsets cap x d]. A free record holds instead the
+ * next free record's index, shifted left and tagged odd (no block pointer
+ * is odd). */
+typedef union dlca_rec {
+    uint32_t *b;
+    uint64_t next;
 } dlca_rec;
+
+/* Words of a block before its sites: cap, anchor, lo, hi. */
+#define DLCA_REC_HEAD(d) (1 + 3 * (size_t)(d))
 
 /* A cluster as the moves see it: for a lone monomer the anchor is in the
  * view itself (g), the sites are its `ref` word and offset and bounding box
@@ -61,7 +70,6 @@ struct dlca_sim {
     uint32_t *act;  /* active slots */
     uint64_t nc;
     dlca_rec *rec;  /* records of clusters of 2 or more */
-    int32_t *rgeom; /* per record: anchor[d], lo[d], hi[d] */
     uint32_t nrec, caprec, free_rec;
     uint32_t *grid; /* LATTICE: slot id per site, 0 empty */
     pdla_rng rng;
@@ -111,17 +119,22 @@ static inline void dlca_coords(const dlca_sim *s, uint64_t k, int64_t *x)
     x[s->d - 1] = (int64_t)k;
 }
 
-static inline int32_t *dlca_rgeom(const dlca_sim *s, uint32_t r) { return s->rgeom + (size_t)r * 3 * s->d; }
+static inline int dlca_rec_live(const dlca_rec *r) { return r->b && !(r->next & 1); }
+static inline uint32_t dlca_rec_cap(const dlca_sim *s, uint32_t r) { return s->rec[r].b[0]; }
+/* Record r's anchor[d], lo[d], hi[d]. */
+static inline int32_t *dlca_rgeom(const dlca_sim *s, uint32_t r) { return (int32_t *)s->rec[r].b + 1; }
+static inline uint32_t *dlca_rsites(const dlca_sim *s, uint32_t r) { return s->rec[r].b + DLCA_REC_HEAD(s->d); }
 
 /* Fill v for record r holding n monomers. */
 static inline void view_rec(const dlca_sim *s, uint32_t r, uint32_t n, dlca_view *v)
 {
+    uint32_t *b = s->rec[r].b;
     v->n = n;
-    v->k = s->rec[r].k;
-    v->off = (int32_t *)(s->rec[r].k + s->rec[r].cap);
-    v->anc = dlca_rgeom(s, r);
+    v->anc = (int32_t *)b + 1;
     v->lo = v->anc + s->d;
     v->hi = v->anc + 2 * s->d;
+    v->k = b + DLCA_REC_HEAD(s->d);
+    v->off = (int32_t *)(v->k + b[0]);
 }
 
 /* Fill v for slot c (size >= 1). */

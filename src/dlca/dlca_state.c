@@ -29,7 +29,8 @@ static int check_cluster(const dlca_sim *s, uint32_t c, uint64_t *ks, uint64_t *
     const int d = s->d;
     if (s->pos[c] >= s->nc || s->act[s->pos[c]] != c) BAD("cluster %u is not in the active list", c);
     if (*m + s->n[c] > s->N) BAD("cluster sizes add up to more than N = %llu", (unsigned long long)s->N);
-    if (s->n[c] >= 2 && (s->ref[c] >= s->nrec || !s->rec[s->ref[c]].k || s->rec[s->ref[c]].cap < s->n[c]))
+    if (s->n[c] >= 2 && (s->ref[c] >= s->nrec || !dlca_rec_live(&s->rec[s->ref[c]]) ||
+                         dlca_rec_cap(s, s->ref[c]) < s->n[c]))
         BAD("cluster %u has no record of its %u monomers", c, s->n[c]);
     if (s->n[c] == 1 && s->ref[c] >= s->V) BAD("monomer %u lies outside the box", c);
     dlca_view v;
@@ -325,8 +326,8 @@ static int load_clusters(dlca_sim *s, const ck_arrays *a, char *why, size_t whyl
             const uint32_t r = dlca_rec_new(s, n);
             if (r == DLCA_NO_REC) LOAD_FAIL(PDLA_ENOMEM, "out of memory");
             s->ref[c] = r;
-            memcpy(s->rec[r].k, a->k + m, n * sizeof *a->k);
-            memcpy(s->rec[r].k + n, a->off + m * d, (size_t)n * d * sizeof *a->off);
+            memcpy(dlca_rsites(s, r), a->k + m, n * sizeof *a->k); /* cap n: offsets follow */
+            memcpy(dlca_rsites(s, r) + n, a->off + m * d, (size_t)n * d * sizeof *a->off);
             memcpy(dlca_rgeom(s, r), g, 3 * (size_t)d * sizeof *g);
         }
         for (uint32_t i = 0; i < n; i++) {

@@ -37,7 +37,9 @@
 #include "provenance.h"
 
 #define CK_FORMAT "pdla-event-checkpoint"
-#define CK_VERSION 1
+/* 2: the cell grid changed (finer cells, event4); a version 1 state names
+ * cells of another grid, so it is refused. */
+#define CK_VERSION 2
 enum { CK_NCOUNT = 13, CK_NREAL = 8 };
 
 static int wds(const h5u_writer *w, hid_t g, const char *name, hid_t ftype, hid_t mtype,
@@ -414,8 +416,11 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     long long ver = 0, dim = 0, n = 0, ntot = 0;
     if (!rc && (rattr_str(&r, "format", fmt, sizeof fmt) || strcmp(fmt, CK_FORMAT) != 0))
         rc = rfail(&r, "%s", "not an event-model checkpoint");
-    if (!rc && (rattr_int(&r, "format_version", &ver) || ver != CK_VERSION))
-        rc = rfail(&r, "%s", "format version not 1 (made by another pdla)");
+    if (!rc && (rattr_int(&r, "format_version", &ver) || ver != CK_VERSION)) {
+        char vm[96];
+        snprintf(vm, sizeof vm, "format version %lld, not %d", ver, CK_VERSION);
+        rc = rfail(&r, "%s (made by another pdla)", vm);
+    }
     if (!rc && (rattr_int(&r, "dim", &dim) || rattr_int(&r, "particles", &n) ||
                 rattr_int(&r, "ntot", &ntot)))
         rc = rfail(&r, "%s", "no dim/particles attributes");

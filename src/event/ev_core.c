@@ -284,22 +284,22 @@ static void cell_remove(ev_sim *s, uint32_t i)
 
 /* ---- predictions (D is a compile-time constant at every call) ------------ */
 
-/* Time at which i and j touch, or INF; never before `now`. Depends only on
- * the two stored states (see the top comment). */
+/* Time at which the particles at pi and pj touch, or INF; never before
+ * `now`. Depends only on the two stored states (see the top comment).
+ * per/half/L: the box, passed in so a scan keeps them in registers. The
+ * wrap `|r| > half: r -= sign(r) L` is the minimum image r > half ? r - L :
+ * r < -half ? r + L : r, bit for bit, with one test in the usual case. */
 static inline __attribute__((always_inline)) double
-pred_pair(const ev_sim *s, const int D, uint32_t i, uint32_t j, double now)
+pred_pp(const int D, const double *pi, const double *pj, double now, int per, double half,
+        double L)
 {
-    const double *pi = EV_P(s, i), *pj = EV_P(s, j);
     const double ti = pi[2 * D], tj = pj[2 * D];
     const double tr = ti > tj ? ti : tj;
     const double di = tr - ti, dj = tr - tj;
     double b = 0, rr = 0, vv = 0;
     for (int k = 0; k < D; k++) {
         double r = (pj[k] + pj[D + k] * dj) - (pi[k] + pi[D + k] * di);
-        if (s->periodic) {
-            if (r > s->half) r -= s->L;
-            else if (r < -s->half) r += s->L;
-        }
+        if (per && fabs(r) > half) r = r > 0 ? r - L : r + L;
         const double v = pj[D + k] - pi[D + k];
         b += r * v;
         rr += r * r;
@@ -313,6 +313,12 @@ pred_pair(const ev_sim *s, const int D, uint32_t i, uint32_t j, double now)
     if (disc <= 0) return EV_INF; /* miss or exact graze */
     const double t = tr + c / (-b + sqrt(disc)); /* stable root (no cancellation) */
     return t > now ? t : now;
+}
+
+static inline __attribute__((always_inline)) double
+pred_pair(const ev_sim *s, const int D, uint32_t i, uint32_t j, double now)
+{
+    return pred_pp(D, EV_P(s, i), EV_P(s, j), now, s->periodic, s->half, s->L);
 }
 
 /* Earliest wall event of i (elastic walls only): time, *what = 2k+side. */
@@ -383,74 +389,85 @@ pred_cell(const ev_sim *s, const int D, uint32_t i, double now, int *what)
  * The cells are listed first and the first particle of each is prefetched,
  * so their cache misses overlap instead of following one another down the
  * linked lists (at N >= 1e5 these misses are most of the time per event).
- * The visiting order is unchanged: cells in z, y, x order, each list from
- * its head. */
+ * The wrapped (or, with walls, dropped) coordinates are worked out once per
+ * dimension, 3 per axis, not once per cell. The visiting order is the same
+ * as always: cells in z, y, x order, each list from its head (the scans'
+ * results do not depend on it anyway: ties go to the lower index). */
 #define EV_FOR_NEIGHBOURS(s, D, cc, sk, slab, BODY)                                          \
     do {                                                                                     \
-        const int nc_ = (s)->nc;                                                             \
-        int lo_[3] = {-1, -1, -1}, hi_[3] = {1, 1, 1};                                       \
-        if ((sk) >= 0) lo_[(sk)] = hi_[(sk)] = (slab);                                       \
+        const int nc_ = (s)->nc, per_ = (s)->periodic;                                       \
+        const uint32_t *const cnext_ = (s)->cnext, *const chead_ = (s)->chead;              \
+        uint32_t off_[3][3] = {{0}, {0}, {0}}, stride_ = 1;                                 \
+        int no_[3] = {1, 1, 1};                                                              \
+        for (int k_ = 0; k_ < (D); k_++) {                                                   \
+            const int lo_ = k_ == (sk) ? (slab) : -1, hi_ = k_ == (sk) ? (slab) : 1;         \
+            int m_ = 0;                                                                      \
+            for (int o_ = lo_; o_ <= hi_; o_++) {                                            \
+                int q_ = (cc)[k_] + o_;                                                      \
+                if (q_ < 0 || q_ >= nc_) {                                                   \
+                    if (!per_) continue;                                                     \
+                    q_ = q_ < 0 ? q_ + nc_ : q_ - nc_;                                       \
+                }                                                                            \
+                off_[k_][m_++] = (uint32_t)q_ * stride_;                                     \
+            }                                                                                \
+            no_[k_] = m_;                                                                    \
+            stride_ *= (uint32_t)nc_;                                                        \
+        }                                                                                    \
         uint32_t heads_[27];                                                                 \
         int nh_ = 0;                                                                         \
-        for (int oz_ = (D) == 3 ? lo_[2] : 0; oz_ <= ((D) == 3 ? hi_[2] : 0); oz_++) {        \
-            int z_ = 0;                                                                      \
-            if ((D) == 3) {                                                                  \
-                z_ = (cc)[2] + oz_;                                                          \
-                if (z_ < 0 || z_ >= nc_) {                                                   \
-                    if (!(s)->periodic) continue;                                            \
-                    z_ = z_ < 0 ? z_ + nc_ : z_ - nc_;                                       \
-                }                                                                            \
-            }                                                                                \
-            for (int oy_ = lo_[1]; oy_ <= hi_[1]; oy_++) {                                   \
-                int y_ = (cc)[1] + oy_;                                                      \
-                if (y_ < 0 || y_ >= nc_) {                                                   \
-                    if (!(s)->periodic) continue;                                            \
-                    y_ = y_ < 0 ? y_ + nc_ : y_ - nc_;                                       \
-                }                                                                            \
-                for (int ox_ = lo_[0]; ox_ <= hi_[0]; ox_++) {                               \
-                    int x_ = (cc)[0] + ox_;                                                  \
-                    if (x_ < 0 || x_ >= nc_) {                                               \
-                        if (!(s)->periodic) continue;                                        \
-                        x_ = x_ < 0 ? x_ + nc_ : x_ - nc_;                                   \
-                    }                                                                        \
-                    const uint32_t c_ = (uint32_t)x_ +                                       \
-                                        (uint32_t)nc_ * ((uint32_t)y_ + (uint32_t)nc_ * (uint32_t)z_); \
-                    const uint32_t h_ = (s)->chead[c_];                                      \
+        for (int a_ = 0; a_ < no_[2]; a_++)                                                  \
+            for (int b_ = 0; b_ < no_[1]; b_++) {                                            \
+                const uint32_t row_ = off_[2][a_] + off_[1][b_];                             \
+                for (int c_ = 0; c_ < no_[0]; c_++) {                                        \
+                    const uint32_t h_ = chead_[row_ + off_[0][c_]];                          \
                     if (h_ == UINT32_MAX) continue;                                          \
                     __builtin_prefetch(EV_P_ANY((s), h_));                                   \
-                    __builtin_prefetch(&(s)->cnext[h_]);                                     \
+                    __builtin_prefetch(&cnext_[h_]);                                         \
                     heads_[nh_++] = h_;                                                      \
                 }                                                                            \
             }                                                                                \
-        }                                                                                    \
         for (int q_ = 0; q_ < nh_; q_++) {                                                   \
-            for (uint32_t j = heads_[q_]; j != UINT32_MAX; j = (s)->cnext[j]) {              \
+            for (uint32_t j = heads_[q_]; j != UINT32_MAX; j = cnext_[j]) {                  \
                 {                                                                            \
-                    const uint32_t nx_ = (s)->cnext[j];                                      \
+                    const uint32_t nx_ = cnext_[j];                                          \
                     if (nx_ != UINT32_MAX) __builtin_prefetch(EV_P_ANY((s), nx_));           \
                 }                                                                            \
                 BODY                                                                         \
-            }                                                                                \
+            }                                                                            \
         }                                                                                    \
     } while (0)
 
-/* Scan the cells around i (all, or one slab) for an earlier pair event. */
+/* Scan the cells around i (all, or one slab) for an earlier pair event.
+ * The best so far is kept in registers and written back once: the
+ * candidate with the least (time, index); a wall event (bj = none) wins a
+ * tie, and nothing replaces "no event" (INF) by an INF pair. */
 static inline __attribute__((always_inline)) void
 scan_pairs(ev_sim *s, const int D, uint32_t i, double now, int sk, int slab)
 {
     ev_evt *e = &s->evt[i];
     int32_t cc[3] = {0, 0, 0};
     cell_coords(s, D, s->cell[i], cc);
+    const double *const ps = s->ps, *const pi = EV_P(s, i);
+    const int per = s->periodic;
+    const double half = s->half, L = s->L;
+    double bt = e->t_pair;
+    uint32_t bj = e->kind == EV_K_PAIR ? e->partner : UINT32_MAX;
+    int found = 0;
     EV_FOR_NEIGHBOURS(s, D, cc, sk, slab, {
         if (j == i) continue;
-        const double t = pred_pair(s, D, i, j, now);
-        if (t < e->t_pair || (t == e->t_pair && e->kind == EV_K_PAIR && j < e->partner)) {
-            e->t_pair = t;
-            e->kind = EV_K_PAIR;
-            e->partner = j;
-            e->pcount = s->count[j];
+        const double t = pred_pp(D, pi, ps + (size_t)j * (size_t)(2 * D + 2), now, per, half, L);
+        if (t < bt || (t == bt && bj != UINT32_MAX && j < bj)) {
+            bt = t;
+            bj = j;
+            found = 1;
         }
     });
+    if (found) {
+        e->t_pair = bt;
+        e->kind = EV_K_PAIR;
+        e->partner = bj;
+        e->pcount = s->count[bj];
+    }
 }
 
 /* Full prediction of i's events. */

@@ -39,6 +39,43 @@ def run(args):
     return p.returncode, p.stdout.decode(errors="replace"), p.stderr.decode(errors="replace")
 
 
+def series(pdla, tmp):
+    """With --snapshot-every the sidecar is a temporal collection: ParaView
+    sees one time step per snapshot and the end, at their t, each with the
+    snapshot's points (its sites decoded) and cluster numbers."""
+    pv_series = os.path.join(os.path.dirname(os.path.abspath(__file__)), "pv_series.py")
+    for box, fill, T in (("40x30", "0.05", "15"), ("12x10x8", "0.05", "2")):
+        L = [int(v) for v in box.split("x")]
+        d = len(L)
+        out = os.path.join(tmp, "s%d" % d)
+        rc, so, se = run([pdla, "--model", "dlca", "--dim", str(d), "--box", box, "--fill", fill,
+                          "--until-clusters", "3", "--snapshot-every", T, "--seed", "3", "--out", out, "-q"])
+        if not check(rc == 0, "%s snapshots: pdla exit %d: %s" % (box, rc, se)):
+            continue
+        want = []
+        with h5py.File(os.path.join(out, "cluster.h5"), "r") as f:
+            groups = [f["snapshots/%d" % i] for i in range(int(f["snapshots"].attrs["count"]))]
+            t_end = float(f["results"].attrs["t"])
+            for g in groups + ([f["monomers"]] if t_end > float(groups[-1].attrs["t"]) else []):
+                k = g["site"][:].astype(np.int64)
+                xyz = np.zeros((len(k), 3))
+                for a in range(d):
+                    xyz[:, a] = k % L[a]
+                    k //= L[a]
+                want.append((float(g.attrs["t"]) if "t" in g.attrs else t_end, xyz, g["cluster"][:].tolist()))
+        check(len(want) >= 3, "%s: only %d time steps" % (box, len(want)))
+        rc, so, se = run(["pvpython", pv_series, os.path.abspath(os.path.join(out, "cluster.xdmf2"))])
+        last = [ln for ln in so.splitlines() if ln.startswith("{")]
+        if not check(rc == 0 and last, "%s series: pvpython exit %d: %s" % (box, rc, (se or so)[-500:])):
+            continue
+        j = json.loads(last[-1])
+        check(j["reader"] == "XdmfReader", "%s series: reader %s" % (box, j["reader"]))
+        check(j["times"] == [w[0] for w in want], "%s: time steps %s, want %s" % (box, j["times"], [w[0] for w in want]))
+        for i, (st, w) in enumerate(zip(j["steps"], want)):
+            check(st["points"] == len(w[1]) and st["xyz"] == w[1].tolist() and st["cluster"] == w[2],
+                  "%s: time step %d (t %g) is not its snapshot's points and clusters" % (box, i, w[0]))
+
+
 def main():
     pdla, pv_check = sys.argv[1], sys.argv[2]
     if not check(shutil.which("pvpython") is not None, "pvpython not found: apt-get install paraview"):
@@ -88,6 +125,7 @@ def main():
             if check(c is not None, "%s: no cluster array" % box):
                 check(c["range"] == [0, nc - 1] and c["at"] == cid[rows].tolist() and c["tuples"] == n,
                       "%s: cluster array %s, want 0..%d and %s" % (box, c, nc - 1, cid[rows].tolist()))
+        series(pdla, tmp)
     finally:
         shutil.rmtree(tmp)
 

@@ -4,7 +4,7 @@ readers of the DLCA and event models (issue 9: every HDF5 read goes through
 the checked reader, pdla/h5check.h).
 
 Makes one small DLCA run (cluster.h5 + checkpoint.h5) and one small event
-run (checkpoint.h5), then damaged copies of them with h5py (nothing binary
+run (checkpoint.h5), then damaged copies of them with h5py (the DLCA checkpoint with its snapshots) (nothing binary
 is committed): a dataset that declares 2^61 or 10^8 rows but stores none,
 one of the wrong element type or rank, an attribute that is an array where
 one value is wanted, and the file cut in half. Each reader that reads the
@@ -121,7 +121,7 @@ os.makedirs(WORK)
 # ---- DLCA: cluster.h5 through render / analyze / --start ------------------
 base = os.path.join(WORK, "dlca")
 rc, lines, _ = run(["--model", "dlca", "--dim", "2", "--box", "48", "--fill", "0.05", "--until-clusters", "20",
-                    "--seed", "4", "--out", base, "--checkpoint", "-q"])
+                    "--seed", "4", "--out", base, "--checkpoint", "--snapshot-every", "2", "-q"])
 if rc != 0:
     sys.exit("the DLCA base run failed: %r" % lines)
 CL, CK = os.path.join(base, "cluster.h5"), os.path.join(base, "checkpoint.h5")
@@ -173,6 +173,11 @@ dlca_ck_cases = {
                                 for n, t in (("rows_u64", "u8"), ("rows_f64", "f8"))],
     "site_not_stored": lambda f: replace_dset(f, "site", f["site"].shape, "u4", chunks=True),
     "u64_float": lambda f: retype(f, "u64", "f8"),
+    "snapshots_count_array_5000": lambda f: f["snapshots"].attrs.__setitem__("count", np.ones(5000, dtype="u8")),
+    "snapshots_count_2^60": lambda f: f["snapshots"].attrs.__setitem__("count", np.uint64(2**60)),
+    "snapshot_site_2^61_rows": lambda f: replace_dset(f, "snapshots/0/site", (HUGE,), "u4", chunks=(65536,),
+                                                      maxshape=(None,)),
+    "snapshot_t_array_5000": lambda f: f["snapshots/1"].attrs.__setitem__("t", np.ones(5000, dtype="f8")),
     "truncated": None,
 }
 for name, fn in dlca_ck_cases.items():

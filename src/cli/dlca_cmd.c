@@ -550,6 +550,7 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
     double every = 0;
     if (dlca_read_snapshots_h5(ckpath, st.n_monomers, &c->snaps, &c->nsnaps, &every, err, sizeof err)) {
         fprintf(stderr, "pdla: %s\n", err);
+        free_snapshots(c); /* what was read before the failure */
         dlca_destroy(*s);
         *s = NULL;
         return EXIT_USAGE;

@@ -42,6 +42,9 @@ extern "C" {
 #endif
 
 #define DLCA_MAX_DIM 5
+/* The longest box axis, in sites: a cluster stores its monomers' offsets
+ * from its anchor in 16 bits (runs/dlca/memory.txt). */
+#define DLCA_MAX_AXIS 16384
 
 typedef enum { DLCA_SEARCH_LATTICE = 0, DLCA_SEARCH_BOXES = 1, DLCA_SEARCH_ALLPAIRS = 2 } dlca_search;
 
@@ -66,7 +69,7 @@ enum {
  * table (dlca_params.c, dlca_param_table); dlca_params_default() fills them. */
 typedef struct dlca_params {
     int dim;                  /* d, 2..5 */
-    uint32_t box[DLCA_MAX_DIM]; /* L_1..L_d, each 2..65536; product < 2^32 (PDLA_PT_BOX) */
+    uint32_t box[DLCA_MAX_DIM]; /* L_1..L_d, each 2..DLCA_MAX_AXIS; product < 2^32 (PDLA_PT_BOX) */
     double fill;              /* phi in (0, 1): N = round(phi V) when count is 0 */
     uint64_t count;           /* N (monomers); 0: from fill */
     double mobility;          /* gamma: a cluster of s monomers moves at rate s^gamma */
@@ -196,9 +199,9 @@ typedef struct dlca_snapshot {
 PDLA_API int dlca_write_snapshots_h5(const char *path, const dlca_params *p, const dlca_snapshot *snaps, size_t n,
                                      uint64_t n_monomers, double every, char *err, size_t errlen);
 /* The snapshots of a file so written (a checkpoint: a resumed run keeps
- * them): *snaps (malloc'ed, *n of them, each with its arrays; the caller
- * frees them, also after a failure) and *every; none (0) if the file has no
- * /snapshots. 0 or PDLA_EIO. */
+ * them): *snaps (malloc'ed, *n of them, each with its arrays, for the
+ * caller to free) and *every; none (0) if the file has no /snapshots.
+ * 0, or PDLA_EIO with nothing left allocated. */
 PDLA_API int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot **snaps, size_t *n,
                                     double *every, char *err, size_t errlen);
 

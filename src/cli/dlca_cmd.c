@@ -550,7 +550,6 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
     double every = 0;
     if (dlca_read_snapshots_h5(ckpath, st.n_monomers, &c->snaps, &c->nsnaps, &every, err, sizeof err)) {
         fprintf(stderr, "pdla: %s\n", err);
-        free_snapshots(c); /* what was read before the failure */
         dlca_destroy(*s);
         *s = NULL;
         return EXIT_USAGE;
@@ -704,6 +703,7 @@ int dlca_cmd_main(int argc, char **argv)
     const int orc = open_sim(&c, dir, sizeof dir, &s);
     if (orc) {
         free(scene_buf);
+        free_snapshots(&c); /* a resume reads them before its last checks */
         return orc;
     }
     const double t0 = pdla_clock_seconds();

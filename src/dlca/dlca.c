@@ -33,6 +33,7 @@
 /* ---- small helpers ------------------------------------------------------ */
 
 const int32_t dlca_zero[DLCA_MAX_DIM] = {0};
+const dlca_off dlca_zero_off[DLCA_MAX_DIM] = {0};
 
 #define wrap dlca_wrap
 #define coords dlca_coords
@@ -88,13 +89,13 @@ static int rec_grow(dlca_sim *s, uint32_t r, uint32_t n, uint32_t cap)
 {
     const int d = s->d;
     const size_t head = DLCA_REC_HEAD(d);
-    uint32_t *b = malloc((head + (size_t)cap * (1 + (size_t)d)) * sizeof *b);
+    uint32_t *b = malloc(DLCA_REC_WORDS(d, cap) * sizeof *b);
     if (!b) return -1;
     if (n) {
         const uint32_t *o = s->rec[r].b, ocap = o[0];
         memcpy(b, o, head * sizeof *b);
         memcpy(b + head, o + head, (size_t)n * sizeof *b);
-        memcpy(b + head + cap, o + head + ocap, (size_t)n * d * sizeof *b);
+        memcpy(b + head + cap, o + head + ocap, (size_t)n * d * sizeof(dlca_off));
         free(s->rec[r].b);
     }
     b[0] = cap;
@@ -425,7 +426,7 @@ static int keep_room(dlca_sim *s, uint32_t keep, uint32_t n)
         int32_t *g = dlca_rgeom(s, r);
         for (int a = 0; a < s->d; a++) g[a] = (int32_t)x[a], g[s->d + a] = g[2 * s->d + a] = 0;
         dlca_rsites(s, r)[0] = k;
-        memset(dlca_rsites(s, r) + n, 0, (size_t)s->d * sizeof(int32_t)); /* its offset */
+        memset(dlca_rsites(s, r) + n, 0, (size_t)s->d * sizeof(dlca_off)); /* its offset */
         s->ref[keep] = r;
         return 0;
     }
@@ -448,7 +449,7 @@ static void append(dlca_sim *s, uint32_t keep, uint32_t gone, const int64_t *dis
         K.k[K.n + j] = G.k[j];
         for (int a = 0; a < d; a++) {
             const int32_t o = (int32_t)(G.off[(size_t)j * d + a] + disp[a]);
-            K.off[(size_t)(K.n + j) * d + a] = o;
+            K.off[(size_t)(K.n + j) * d + a] = (dlca_off)o; /* |o| <= 2L - 2 fits (DLCA_MAX_AXIS) */
             if (o < K.lo[a]) K.lo[a] = o;
             if (o > K.hi[a]) K.hi[a] = o;
         }
@@ -647,7 +648,7 @@ static int lattice_shift(dlca_sim *s, uint32_t c, dlca_view *v, int a, int sg)
     const int32_t T = (int32_t)window(s, v, a, sg > 0 ? L - 1 : 0);
     const int64_t dn = sg * st, dw = -sg * (L - 1) * st;
     uint32_t *k = v->k;
-    const int32_t *offa = v->off + a;
+    const dlca_off *offa = v->off + a;
     const uint32_t n = v->n;
     uint32_t *grid = s->grid;
     if (s->p.sticking < 1)
@@ -688,7 +689,7 @@ static int move_lattice(dlca_sim *s, uint32_t c, int a, int sg)
     const int32_t Tf = sg > 0 ? T1[a] : T0[a];
     const uint32_t *grid = s->grid, *k = v.k;
     for (uint32_t i = 0; i < v.n; i++) {
-        const int32_t *o = v.off + (size_t)i * d;
+        const dlca_off *o = v.off + (size_t)i * d;
         const int64_t ki = k[i];
         if (lead_only && grid[ki + (o[a] == Tf ? fw_w : fw_n)] == c) continue;
         for (int b = 0; b < d; b++) {
@@ -733,10 +734,10 @@ static int pair_test(const dlca_sim *s, uint32_t c, const int32_t *na, uint32_t 
     if (boxes_apart(s, &C, na, &B, D)) return PAIR_NONE;
     int found = 0;
     for (uint32_t i = 0; i < C.n; i++) {
-        const int32_t *oc = C.off + (size_t)i * d;
+        const dlca_off *oc = C.off + (size_t)i * d;
         int best = 2 * DLCA_MAX_DIM;
         for (uint32_t j = 0; j < B.n; j++) {
-            const int32_t *ob = B.off + (size_t)j * d;
+            const dlca_off *ob = B.off + (size_t)j * d;
             int nz = 0, dir = -1, ok = 1;
             for (int a = 0; a < d; a++) {
                 const int64_t r = wrap(D[a] + ob[a] - oc[a], s->L[a]);
@@ -989,7 +990,7 @@ static uint64_t model_bytes(const dlca_sim *s)
                  (uint64_t)s->caprec * sizeof *s->rec;
     for (uint32_t r = 0; r < s->nrec; r++)
         if (dlca_rec_live(&s->rec[r]))
-            b += (DLCA_REC_HEAD(s->d) + (uint64_t)dlca_rec_cap(s, r) * (1 + (size_t)s->d)) * sizeof(uint32_t);
+            b += DLCA_REC_WORDS(s->d, dlca_rec_cap(s, r)) * sizeof(uint32_t);
     if (s->cand) b += s->N * sizeof *s->cand;
     if (s->stamp) b += (s->N + 1) * sizeof *s->stamp;
     if (s->grid) b += s->V * sizeof *s->grid;

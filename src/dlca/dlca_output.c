@@ -418,11 +418,16 @@ int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot 
         if (rc == 0 && count && !(*snaps = calloc(count, sizeof **snaps))) rc = -1;
         for (size_t i = 0; rc == 0 && i < count; i++) {
             rc = read_snapshot(g, i, n_monomers, &(*snaps)[i]);
-            *n = i + 1; /* the caller frees what was read, even on a failure */
+            *n = i + 1;
         }
         H5Gclose(g);
     }
     if (f >= 0) H5Fclose(f);
     h5u_restore(&q);
-    return rc ? pdla_errorf(PDLA_EIO, err, errlen, "cannot read the snapshots of %s", path) : 0;
+    if (rc == 0) return 0;
+    for (size_t i = 0; i < *n; i++) free((*snaps)[i].site), free((*snaps)[i].cluster);
+    free(*snaps);
+    *snaps = NULL;
+    *n = 0;
+    return pdla_errorf(PDLA_EIO, err, errlen, "cannot read the snapshots of %s", path);
 }

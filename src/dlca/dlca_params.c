@@ -48,7 +48,7 @@ static const pdla_param_desc table[] = {
      .help = "box lengths, one per axis (one number: the same on every axis)", .group = G,
      .example = "64x48", .type = PDLA_PT_BOX, .offset = AT(box), .count_offset = AT(dim),
      .bit = DLCA_PARAM_BOX, .models = M, .show_default = 1, .def_u = 256, .lo_u = 2,
-     .hi_u = 65536},
+     .hi_u = DLCA_MAX_AXIS},
     {.name = "fill", .option = "fill", .label = "fill fraction", .unit = "", .metavar = "PHI",
      .help = "fill fraction: N = round(PHI V) monomers (unless --count)", .group = G,
      .example = "0.05", .type = PDLA_PT_REAL, .offset = AT(fill), .bit = DLCA_PARAM_FILL,
@@ -146,8 +146,8 @@ static int parse_box(const pdla_param_desc *d, dlca_params *p, const char *text,
         const unsigned long long v = strtoull(s, &end, 10);
         if (end == s || errno || v < d->lo_u || v > d->hi_u || *s == '-' || *s == '+')
             return pdla_errorf(PDLA_EINVAL, err, errlen,
-                               "invalid --box '%s' (each length an integer in [2, 65536], written L1xL2[x...])",
-                               text);
+                               "invalid --box '%s' (each length an integer in [2, %llu], written L1xL2[x...])",
+                               text, (unsigned long long)d->hi_u);
         if (n == PDLA_PARAM_BOX_MAX)
             return pdla_errorf(PDLA_EINVAL, err, errlen, "invalid --box '%s' (at most 5 lengths)", text);
         L[n++] = (uint32_t)v;

@@ -10,7 +10,9 @@
  * and its geometry is implied (anchor = its coordinates, offset and bounding
  * box 0). A cluster of 2 or more owns a record (`ref` is its index): one
  * 8-byte pointer to a block that holds everything else, its capacity, its
- * anchor and bounding box, cap sites and cap x d offsets from the anchor
+ * anchor and bounding box, cap sites and cap x d 16-bit offsets from the
+ * anchor (a box axis is at most DLCA_MAX_AXIS sites, so that even the
+ * offsets of a join that spans the box, |o| <= 2L - 2, fit)
  * (the record table keeps its largest length, so a record must be small:
  * the geometry in the table made it 40 bytes, 14 B/monomer at the end of a
  * 2D run). Records of absorbed clusters are reused. The id lattice
@@ -25,8 +27,11 @@
 #include "pdla/dlca.h"
 #include "rng.h"
 
+/* An offset from a cluster's anchor along one axis. */
+typedef int16_t dlca_off;
+
 /* A cluster of 2 or more monomers: its block, 32-bit words [cap][anchor d]
- * [lo d][hi d][sites cap][offsets cap x d]. A free record holds instead the
+ * [lo d][hi d][sites cap], then 16-bit [offsets cap x d]. A free record holds instead the
  * next free record's index, shifted left and tagged odd (no block pointer
  * is odd). */
 typedef union dlca_rec {
@@ -36,6 +41,8 @@ typedef union dlca_rec {
 
 /* Words of a block before its sites: cap, anchor, lo, hi. */
 #define DLCA_REC_HEAD(d) (1 + 3 * (size_t)(d))
+/* 32-bit words of a block of cap monomers. */
+#define DLCA_REC_WORDS(d, cap) (DLCA_REC_HEAD(d) + (size_t)(cap) + ((size_t)(cap) * (size_t)(d) + 1) / 2)
 
 /* A cluster as the moves see it: for a lone monomer the anchor is in the
  * view itself (g), the sites are its `ref` word and offset and bounding box
@@ -44,12 +51,14 @@ typedef union dlca_rec {
 typedef struct dlca_view {
     uint32_t n;
     uint32_t *k;
-    int32_t *off, *anc, *lo, *hi;
+    dlca_off *off;
+    int32_t *anc, *lo, *hi;
     int32_t g[DLCA_MAX_DIM];    /* a lone monomer's anchor */
 } dlca_view;
 
 /* A lone monomer's offset and bounding box (never written through). */
 extern const int32_t dlca_zero[DLCA_MAX_DIM];
+extern const dlca_off dlca_zero_off[DLCA_MAX_DIM];
 
 typedef struct dlca_contact {
     uint32_t b;                  /* the other cluster */
@@ -134,7 +143,7 @@ static inline void view_rec(const dlca_sim *s, uint32_t r, uint32_t n, dlca_view
     v->lo = v->anc + s->d;
     v->hi = v->anc + 2 * s->d;
     v->k = b + DLCA_REC_HEAD(s->d);
-    v->off = (int32_t *)(v->k + b[0]);
+    v->off = (dlca_off *)(v->k + b[0]);
 }
 
 /* Fill v for slot c (size >= 1). */
@@ -149,7 +158,8 @@ static inline void view_of(const dlca_sim *s, uint32_t c, dlca_view *v)
     dlca_coords(s, s->ref[c], x);
     for (int a = 0; a < s->d; a++) v->g[a] = (int32_t)x[a];
     v->k = &s->ref[c];
-    v->off = v->lo = v->hi = (int32_t *)dlca_zero;
+    v->off = (dlca_off *)dlca_zero_off;
+    v->lo = v->hi = (int32_t *)dlca_zero;
     v->anc = v->g;
 }
 

@@ -218,7 +218,7 @@ static void ck_gather(const dlca_sim *s, ck_arrays *a)
         memcpy(g + d, v.lo, (size_t)d * sizeof *g);
         memcpy(g + 2 * d, v.hi, (size_t)d * sizeof *g);
         memcpy(a->k + m, v.k, v.n * sizeof *a->k);
-        memcpy(a->off + m * d, v.off, (size_t)v.n * d * sizeof *a->off);
+        for (size_t j = 0; j < (size_t)v.n * d; j++) a->off[m * d + j] = v.off[j];
         m += v.n;
     }
     for (size_t r = 0; r < s->nrows; r++) {
@@ -327,7 +327,12 @@ static int load_clusters(dlca_sim *s, const ck_arrays *a, char *why, size_t whyl
             if (r == DLCA_NO_REC) LOAD_FAIL(PDLA_ENOMEM, "out of memory");
             s->ref[c] = r;
             memcpy(dlca_rsites(s, r), a->k + m, n * sizeof *a->k); /* cap n: offsets follow */
-            memcpy(dlca_rsites(s, r) + n, a->off + m * d, (size_t)n * d * sizeof *a->off);
+            dlca_off *off = (dlca_off *)(dlca_rsites(s, r) + n);
+            for (size_t j = 0; j < (size_t)n * d; j++) {
+                const int32_t o = a->off[m * d + j];
+                if (o < INT16_MIN || o > INT16_MAX) LOAD_FAIL(PDLA_EIO, "an offset is out of range");
+                off[j] = (dlca_off)o;
+            }
             memcpy(dlca_rgeom(s, r), g, 3 * (size_t)d * sizeof *g);
         }
         for (uint32_t i = 0; i < n; i++) {

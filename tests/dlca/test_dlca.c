@@ -271,6 +271,49 @@ static void two_site_axis(void)
     }
 }
 
+/* The longest axis (offsets are 16 bits): row A (x 0..L-2, anchored at
+ * x 0) and row B two rows up (L - 4 monomers from x L-4 on, wrapping,
+ * anchored at x L-4). B moves down onto A and joins it whole: its offsets
+ * in A's frame reach 2L - 9 (an axis of 2^15 would overflow them; extent 2L - 8) and the
+ * cluster spans the axis; every invariant holds (check_cluster: offsets
+ * against sites and bounding box), in every search. One more site on the
+ * axis is refused. */
+static void longest_axis(void)
+{
+    enum { L = DLCA_MAX_AXIS };
+    dlca_params p;
+    dlca_params_default(&p);
+    const uint32_t box[2] = {L, 4};
+    set_box(&p, 2, box);
+    uint32_t *sites = malloc(2 * L * sizeof *sites);
+    if (!sites) return;
+    uint32_t n = 0;
+    for (uint32_t x = 0; x < L - 1; x++) sites[n++] = x;
+    for (uint32_t j = 0; j < L - 4; j++) sites[n++] = 2 * L + (L - 4 + j) % L;
+    char err[512];
+    for (int m = 0; m < 3; m++) {
+        p.search = m;
+        dlca_sim *s = NULL;
+        CHECK(dlca_create_sites(&s, &p, sites, n, err, sizeof err) == 0, "longest axis: %s", err);
+        if (!s) continue;
+        dlca_stats st;
+        dlca_get_stats(s, &st);
+        CHECK(st.n_clusters == 2 && st.stop == 0, "longest axis: the rows did not form (N_c %llu)",
+              (unsigned long long)st.n_clusters);
+        CHECK(dlca_move_site(s, 2 * L + L - 4, 1, -1) == DLCA_MOVED, "longest axis: row B did not move");
+        dlca_get_stats(s, &st);
+        CHECK(st.stop == DLCA_STOP_SPANNING && st.n_clusters == 1 && dlca_extent_at(s, 0, 0) == 2 * L - 8,
+              "longest axis, search %d: stop %d, N_c %llu, extent %lld", m, st.stop,
+              (unsigned long long)st.n_clusters, (long long)dlca_extent_at(s, 0, 0));
+        CHECK(dlca_check(s, err, sizeof err) == 0, "longest axis, search %d: %s", m, err);
+        check_export(s, "longest axis");
+        dlca_destroy(s);
+    }
+    free(sites);
+    p.box[0] = L + 1;
+    CHECK(dlca_params_validate(&p, err, sizeof err) == PDLA_EINVAL, "an axis of %d sites accepted", L + 1);
+}
+
 static void determinism(void)
 {
     dlca_params p;
@@ -371,6 +414,7 @@ int main(void)
     refusals();
     for (int m = 0; m < 3; m++) resume(m);
     two_site_axis();
+    longest_axis();
     determinism();
     for (int d = 2; d <= 5; d++) {
         for (int a = 0; a < d; a++)

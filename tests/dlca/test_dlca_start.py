@@ -154,6 +154,21 @@ if rc == 0:
                   all(np.array_equal(a[k][()], b[k][()]) for k in ("site", "cluster", "position")),
                   f"snapshot {i} differs after the resume")
 
+# A checkpoint whose /snapshots claims more snapshots than it holds (or one
+# of the wrong length) is refused with one line, exit 2.
+rc, err = run(*base, "--snapshot-every", str(T), "--until-time", "100", "--checkpoint", "--out", path("forge"), "-q")
+check(rc == 0, f"run for the forged checkpoints: exit {rc} {err}")
+for what in ("count", "length"):
+    subprocess.run(["cp", path("forge/checkpoint.h5"), path(f"forge-{what}.h5")])
+    with h5py.File(path(f"forge-{what}.h5"), "r+") as f:
+        if what == "count":
+            f["snapshots"].attrs["count"] = np.uint64(10**9)
+        else:
+            del f["snapshots/0/site"]
+            f["snapshots/0/site"] = np.zeros(3, dtype="u4")
+    rc, err = run("--resume", path(f"forge-{what}.h5"), "--out", path(f"forge-{what}"), "-q")
+    check(rc == 2 and err.count("\n") == 1 and "snapshots" in err, f"forged snapshot {what}: exit {rc} {err!r}")
+
 subprocess.run(["rm", "-rf", tmp])
 print("dlca start/snapshots:", "all passed" if fails == 0 else f"{fails} failed")
 sys.exit(1 if fails else 0)

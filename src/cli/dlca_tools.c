@@ -28,7 +28,7 @@
 #include <sys/stat.h>
 
 #include "dlca_cmd.h"
-#include "optcheck.h"
+#include "h5read.h"
 #include "parse.h"
 #include "pdla/dlca.h"
 #include "pdla/h5check.h"
@@ -205,14 +205,8 @@ static int render_parse(int argc, char **argv, render_args *a)
                                        {"help", no_argument, NULL, 'h'},
                                        {NULL, 0, NULL, 0}};
     int c;
-    char err[600];
     a->out = NULL, a->size = 1024, a->force = 0;
-    opterr = 0;
-    optind = 1;
-    if (optcheck_exact(argc, argv, lo, "ho:", err, sizeof err)) {
-        fprintf(stderr, "pdla render: %s\n", err);
-        return TOOL_USAGE;
-    }
+    if (tools_options_begin("render", argc, argv, lo, "ho:")) return TOOL_USAGE;
     while ((c = getopt_long(argc, argv, "ho:", lo, NULL)) != -1) {
         if (c == 'o') a->out = optarg;
         else if (c == O_SIZE) {
@@ -418,14 +412,8 @@ static int analyze_parse(int argc, char **argv, int *json)
     static const struct option lo[] = {{"json", no_argument, NULL, 'j'}, {"help", no_argument, NULL, 'h'},
                                        {NULL, 0, NULL, 0}};
     int c;
-    char err[600];
     *json = 0;
-    opterr = 0;
-    optind = 1;
-    if (optcheck_exact(argc, argv, lo, "h", err, sizeof err)) {
-        fprintf(stderr, "pdla analyze: %s\n", err);
-        return TOOL_USAGE;
-    }
+    if (tools_options_begin("analyze", argc, argv, lo, "h")) return TOOL_USAGE;
     while ((c = getopt_long(argc, argv, "h", lo, NULL)) != -1) {
         if (c == 'j') *json = 1;
         else if (c == 'h') {

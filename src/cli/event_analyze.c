@@ -16,46 +16,45 @@
 
 #include "event_cmd.h"
 #include "pdla/event.h"
+#include "pdla/h5check.h"
 #include "pdla/pdla.h"
 
 /* Dataset PATH of f as doubles (rows x cols; cols 1 for a vector): the
  * array (caller frees), or NULL. An empty dataset gives a 1-element array
- * and *rows = 0. */
+ * and *rows = 0. Through the checked reader (pdla/h5check.h): a numeric
+ * dataset of rank 1 or 2 whose declared size the file really stores, so a
+ * forged size cannot size the allocation. */
 static double *read_doubles(hid_t f, const char *path, size_t *rows, size_t *cols)
 {
     *rows = 0;
     if (cols) *cols = 1;
-    if (H5Lexists(f, path[0] == '/' ? path + 1 : path, H5P_DEFAULT) <= 0) return NULL;
-    const hid_t d = H5Dopen2(f, path, H5P_DEFAULT);
-    if (d < 0) return NULL;
-    const hid_t sp = H5Dget_space(d);
-    hsize_t dims[2] = {0, 1};
-    const int rank = sp < 0 ? -1 : H5Sget_simple_extent_ndims(sp);
+    pdla_h5_dset d;
+    if (pdla_h5_dset_open(f, path, &d) < 0) return NULL;
     double *buf = NULL;
-    if (rank >= 1 && rank <= 2 && H5Sget_simple_extent_dims(sp, dims, NULL) == rank) {
-        const size_t n = (size_t)dims[0] * (size_t)(rank == 2 ? dims[1] : 1);
+    if (d.rank >= 1 && d.rank <= 2 && (d.kind == 'f' || d.kind == 'i' || d.kind == 'u') &&
+        pdla_h5_dset_stored(&d, sizeof *buf) == PDLA_H5_STORED) {
+        const size_t n = (size_t)d.elems;
         buf = malloc((n ? n : 1) * sizeof *buf);
-        if (buf && n && H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) {
+        if (buf && n && pdla_h5_dset_read(&d, PDLA_H5_F64, 0, d.dims[0], buf) < 0) {
             free(buf);
             buf = NULL;
         }
-        *rows = (size_t)dims[0];
-        if (cols) *cols = rank == 2 ? (size_t)dims[1] : 1;
+        *rows = (size_t)d.dims[0];
+        if (cols) *cols = d.rank == 2 ? (size_t)d.dims[1] : 1;
     }
-    if (sp >= 0) H5Sclose(sp);
-    H5Dclose(d);
+    pdla_h5_dset_close(&d);
     return buf;
 }
 
-/* Attribute NAME of object OBJ as a double, or NaN. */
+/* Attribute NAME of object OBJ as a double (one number), or NaN. */
 static double attr_num(hid_t f, const char *obj, const char *name)
 {
     double v = NAN;
-    if (H5Aexists_by_name(f, obj, name, H5P_DEFAULT) <= 0) return v;
-    const hid_t a = H5Aopen_by_name(f, obj, name, H5P_DEFAULT, H5P_DEFAULT);
-    if (a < 0) return v;
-    if (H5Aread(a, H5T_NATIVE_DOUBLE, &v) < 0) v = NAN;
-    H5Aclose(a);
+    if (H5Oexists_by_name(f, obj, H5P_DEFAULT) <= 0) return v;
+    const hid_t o = H5Oopen(f, obj, H5P_DEFAULT);
+    if (o < 0) return v;
+    if (pdla_h5_attr_number(o, name, PDLA_H5_F64, &v) < 0) v = NAN;
+    H5Oclose(o);
     return v;
 }
 

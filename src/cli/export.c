@@ -38,7 +38,6 @@
 
 #include "export_src.h"
 #include "h5read.h"
-#include "optcheck.h"
 #include "parse.h"
 #include "tools.h"
 
@@ -316,13 +315,7 @@ static int parse_options(int argc, char **argv, export_opts *o)
         {"cluster", required_argument, NULL, O_CLUSTER}, {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     int c;
-    opterr = 0;
-    optind = 1;
-    char oerr[160];
-    if (optcheck_exact(argc, argv, longopts, "ho:", oerr, sizeof oerr)) {
-        fprintf(stderr, "pdla export: %s\n", oerr);
-        return TOOL_USAGE;
-    }
+    if (tools_options_begin("export", argc, argv, longopts, "ho:")) return TOOL_USAGE;
     while ((c = getopt_long(argc, argv, "ho:", longopts, NULL)) != -1) {
         const char *bad = NULL;
         switch (c) {

@@ -65,8 +65,6 @@ static int install_signals(void)
     return 0;
 }
 
-static double wall_now(void) { return pdla_clock_seconds(); }
-
 /* Peak resident memory of this process image. VmHWM first: getrusage's
  * ru_maxrss keeps the high-water mark of the process that forked us (a
  * Python benchmark driver, say) across exec, so small runs would all read
@@ -336,11 +334,11 @@ static int on_progress(const pdla_engine *e, void *user)
     grow_ctx *c = user;
     if (stop_signal) {
         c->reason = STOP_SIGNAL;
-        c->t_stop = wall_now();
+        c->t_stop = pdla_clock_seconds();
         return 1;
     }
     if (c->o->checkpoint) {
-        const double t = wall_now();
+        const double t = pdla_clock_seconds();
         const uint64_t n = pdla_engine_count(e);
         if (n < pdla_engine_params(e)->target &&
             ((c->next_time > 0 && t >= c->next_time) ||
@@ -365,7 +363,7 @@ static int on_progress(const pdla_engine *e, void *user)
 
 static void schedule_checkpoints(grow_ctx *c, const pdla_engine *e)
 {
-    if (c->o->checkpoint_every > 0) c->next_time = wall_now() + c->o->checkpoint_every;
+    if (c->o->checkpoint_every > 0) c->next_time = pdla_clock_seconds() + c->o->checkpoint_every;
     const uint64_t P = c->o->checkpoint_particles;
     if (P) c->next_particles = (pdla_engine_count(e) / P + 1) * P;
 }
@@ -902,7 +900,7 @@ static void grow_step(run *R)
     gc->command = R->cmd;
     gc->resumed = o->resume ? &R->loaded : NULL;
     snprintf(gc->stop_path, sizeof gc->stop_path, "%s/STOP", R->dir);
-    gc->last_stop_check = wall_now();
+    gc->last_stop_check = pdla_clock_seconds();
     schedule_checkpoints(gc, R->eng);
     R->grew = 1;
     for (;;) {
@@ -911,7 +909,7 @@ static void grow_step(run *R)
                                   R->gerr, sizeof R->gerr);
         if (R->grc != PDLA_ESTOPPED || gc->reason != STOP_CHECKPOINT) break;
         /* A trigger: the workers have stopped (joined); write, go on. */
-        if (do_checkpoint(R->eng, gc, wall_now() - gc->t_stop, R->ckwhy, sizeof R->ckwhy) &&
+        if (do_checkpoint(R->eng, gc, pdla_clock_seconds() - gc->t_stop, R->ckwhy, sizeof R->ckwhy) &&
             gc->failures == 1)
             fprintf(stderr, "pdla: warning: %s; growth goes on\n", R->ckwhy);
     }
@@ -919,7 +917,7 @@ static void grow_step(run *R)
     /* The final checkpoint: at the end, on a signal or RUN_DIR/STOP. */
     R->asked_stop = R->grc == PDLA_ESTOPPED && (gc->reason == STOP_SIGNAL || gc->reason == STOP_FILE);
     if (o->checkpoint && (R->grc == PDLA_OK || R->asked_stop)) {
-        if (do_checkpoint(R->eng, gc, R->asked_stop ? wall_now() - gc->t_stop : 0.0, R->ckwhy,
+        if (do_checkpoint(R->eng, gc, R->asked_stop ? pdla_clock_seconds() - gc->t_stop : 0.0, R->ckwhy,
                           sizeof R->ckwhy))
             R->ckpt_failed = 1;
         else if (gc->reason == STOP_FILE)
@@ -938,13 +936,13 @@ static void write_outputs_step(run *R)
     if (!R->o.no_output) {
         snprintf(R->h5, sizeof R->h5, "%s/cluster.h5", R->dir);
         snprintf(R->txt, sizeof R->txt, "%s/summary.txt", R->dir);
-        const pdla_run_info info = {R->cmd, wall_now() - R->t0, peak_rss_bytes()};
+        const pdla_run_info info = {R->cmd, pdla_clock_seconds() - R->t0, peak_rss_bytes()};
         if (write_cluster(R->eng, &info, R->h5, R->dir, R->why, sizeof R->why)) R->write_failed = 1;
         else r->h5_path = R->h5;
     }
     pdla_engine_stats(R->eng, &r->st);
     r->fit = pdla_engine_fit(R->eng);
-    r->wall_seconds = wall_now() - R->t0;
+    r->wall_seconds = pdla_clock_seconds() - R->t0;
     r->peak_rss = peak_rss_bytes();
     if (R->o.no_output || R->write_failed) return;
     /* Beside it and renamed, as cluster.h5: a failed write (disk full)
@@ -1054,7 +1052,7 @@ int main(int argc, char **argv)
      * -> write outputs -> report. */
     static run R; /* ~40 KB of paths and messages: not on the stack */
     memset(&R, 0, sizeof R);
-    R.t0 = wall_now();
+    R.t0 = pdla_clock_seconds();
     R.lock = -1;
     code = parse_step(&R, argc, argv);
     if (code == GO_ON) code = R.o.resume ? resume_step(&R) : new_run_step(&R);

@@ -12,6 +12,7 @@
 #include "dlca_h5.h"
 #include "h5util.h"
 #include "pdla/dlca.h"
+#include "pdla/h5check.h"
 #include "pdla/xdmf.h"
 #include "provenance.h"
 
@@ -374,23 +375,22 @@ static int read_snapshot(hid_t g, size_t i, uint64_t N, dlca_snapshot *sn)
     int rc = 0;
     const char *an[3] = {"t", "attempts", "n_clusters"};
     void *av[3] = {&sn->t, &sn->attempts, &sn->n_clusters};
-    for (int a = 0; a < 3 && rc == 0; a++) {
-        const hid_t at = H5Aopen(sg, an[a], H5P_DEFAULT);
-        if (at < 0 || H5Aread(at, a ? H5T_NATIVE_UINT64 : H5T_NATIVE_DOUBLE, av[a]) < 0) rc = -1;
-        if (at >= 0) H5Aclose(at);
-    }
+    for (int a = 0; a < 3 && rc == 0; a++) /* the checked readers (pdla/h5check.h): one value each */
+        if (pdla_h5_attr_number(sg, an[a], a ? PDLA_H5_U64 : PDLA_H5_F64, av[a]) < 0) rc = -1;
     sn->site = malloc((N ? N : 1) * sizeof *sn->site);
     sn->cluster = malloc((N ? N : 1) * sizeof *sn->cluster);
     const char *dn[2] = {"site", "cluster"};
     uint32_t *dv[2] = {sn->site, sn->cluster};
-    for (int a = 0; a < 2 && rc == 0; a++) {
-        const hid_t d = H5Dopen2(sg, dn[a], H5P_DEFAULT);
-        const hid_t sp = d >= 0 ? H5Dget_space(d) : H5I_INVALID_HID;
-        if (!dv[a] || sp < 0 || H5Sget_simple_extent_npoints(sp) != (hssize_t)N ||
-            (N && H5Dread(d, H5T_NATIVE_UINT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, dv[a]) < 0))
+    for (int a = 0; a < 2 && rc == 0; a++) { /* rank 1, N u32 that the file stores, then read */
+        pdla_h5_dset d;
+        if (!dv[a] || pdla_h5_dset_open(sg, dn[a], &d) < 0) {
             rc = -1;
-        if (sp >= 0) H5Sclose(sp);
-        if (d >= 0) H5Dclose(d);
+            break;
+        }
+        if (d.rank != 1 || !pdla_h5_dset_is(&d, PDLA_H5_U32) || d.elems != N ||
+            pdla_h5_dset_stored(&d, sizeof *dv[a]) != PDLA_H5_STORED || pdla_h5_dset_read(&d, PDLA_H5_U32, 0, N, dv[a]) < 0)
+            rc = -1;
+        pdla_h5_dset_close(&d);
     }
     H5Gclose(sg);
     return rc;
@@ -410,13 +410,11 @@ int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot 
                                                                           : H5I_INVALID_HID;
     uint64_t count = 0;
     if (g >= 0) {
-        const hid_t ac = H5Aopen(g, "count", H5P_DEFAULT), ae = H5Aopen(g, "every", H5P_DEFAULT);
-        if (ac < 0 || ae < 0 || H5Aread(ac, H5T_NATIVE_UINT64, &count) < 0 || H5Aread(ae, H5T_NATIVE_DOUBLE, every) < 0)
+        /* count may not exceed the group's members: a forged count must not size the array */
+        H5G_info_t gi;
+        if (pdla_h5_attr_number(g, "count", PDLA_H5_U64, &count) < 0 ||
+            pdla_h5_attr_number(g, "every", PDLA_H5_F64, every) < 0 || H5Gget_info(g, &gi) < 0 || count > gi.nlinks)
             rc = -1;
-        if (ac >= 0) H5Aclose(ac);
-        if (ae >= 0) H5Aclose(ae);
-        H5G_info_t gi; /* a forged count must not allocate more than the file names */
-        if (rc == 0 && (H5Gget_info(g, &gi) < 0 || count > gi.nlinks)) rc = -1;
         if (rc == 0 && count && !(*snaps = calloc(count, sizeof **snaps))) rc = -1;
         for (size_t i = 0; rc == 0 && i < count; i++) {
             rc = read_snapshot(g, i, n_monomers, &(*snaps)[i]);

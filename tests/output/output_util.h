@@ -14,6 +14,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "pdla/h5check.h"
 #include "pdla/pdla.h"
 
 /* Creates and grows an engine; NULL (after printing why) on failure. */
@@ -114,40 +115,40 @@ static inline int count_entries_with(const char *dir, const char *part)
     return n;
 }
 
-/* Scalar numeric attribute of the object at `obj` (a path in file), read
- * as mtype; 0 on success. */
+/* The attribute readers below go through the library's checked readers
+ * (pdla/h5check.h), the one HDF5 reading layer (issue 9): an attribute is
+ * read only when it holds exactly the one element asked for. */
+static inline pdla_h5_type h5check_type_of(hid_t mtype)
+{
+    if (H5Tequal(mtype, H5T_NATIVE_DOUBLE) > 0) return PDLA_H5_F64;
+    if (H5Tequal(mtype, H5T_NATIVE_UINT64) > 0) return PDLA_H5_U64;
+    if (H5Tequal(mtype, H5T_NATIVE_INT64) > 0) return PDLA_H5_I64;
+    if (H5Tequal(mtype, H5T_NATIVE_UINT32) > 0) return PDLA_H5_U32;
+    if (H5Tequal(mtype, H5T_NATIVE_UINT8) > 0) return PDLA_H5_U8;
+    if (H5Tequal(mtype, H5T_NATIVE_INT8) > 0) return PDLA_H5_I8;
+    return PDLA_H5_I32; /* H5T_NATIVE_INT */
+}
+
+/* One-element numeric attribute of the object at `obj` (a path in file),
+ * read as mtype; 0 on success. */
 static inline int read_attr(hid_t file, const char *obj, const char *name, hid_t mtype, void *out)
 {
-    int rc = -1;
-    const hid_t a = H5Aopen_by_name(file, obj, name, H5P_DEFAULT, H5P_DEFAULT);
-    if (a < 0) return -1;
-    const hid_t s = H5Aget_space(a);
-    if (s >= 0 && H5Sget_simple_extent_type(s) == H5S_SCALAR && H5Aread(a, mtype, out) >= 0) rc = 0;
-    if (s >= 0) H5Sclose(s);
-    H5Aclose(a);
+    const hid_t o = H5Oopen(file, obj, H5P_DEFAULT);
+    if (o < 0) return -1;
+    const int rc = pdla_h5_attr_number(o, name, h5check_type_of(mtype), out) == 0 ? 0 : -1;
+    H5Oclose(o);
     return rc;
 }
 
-/* Scalar fixed-length string attribute into buf (terminated, cut to cap). */
+/* One string attribute into buf (terminated, cut to cap). */
 static inline int read_attr_str(hid_t file, const char *obj, const char *name, char *buf,
                                 size_t cap)
 {
-    int rc = -1;
     buf[0] = '\0';
-    const hid_t a = H5Aopen_by_name(file, obj, name, H5P_DEFAULT, H5P_DEFAULT);
-    if (a < 0) return -1;
-    const hid_t t = H5Aget_type(a);
-    if (t >= 0 && H5Tget_class(t) == H5T_STRING && H5Tis_variable_str(t) == 0) {
-        const size_t n = H5Tget_size(t);
-        char *tmp = calloc(n + 1, 1);
-        if (tmp && H5Aread(a, t, tmp) >= 0) {
-            snprintf(buf, cap, "%s", tmp);
-            rc = 0;
-        }
-        free(tmp);
-    }
-    if (t >= 0) H5Tclose(t);
-    H5Aclose(a);
+    const hid_t o = H5Oopen(file, obj, H5P_DEFAULT);
+    if (o < 0) return -1;
+    const int rc = pdla_h5_attr_str(o, name, buf, cap) >= 0 ? 0 : -1;
+    H5Oclose(o);
     return rc;
 }
 

@@ -4,11 +4,12 @@ readers of the DLCA and event models (issue 9: every HDF5 read goes through
 the checked reader, pdla/h5check.h).
 
 Makes one small DLCA run (cluster.h5 + checkpoint.h5) and one small event
-run (checkpoint.h5), then damaged copies of them with h5py (nothing binary
+run (checkpoint.h5), then damaged copies of them with h5py (the DLCA checkpoint with its snapshots) (nothing binary
 is committed): a dataset that declares 2^61 or 10^8 rows but stores none,
 one of the wrong element type or rank, an attribute that is an array where
 one value is wanted, and the file cut in half. Each reader that reads the
 damaged part - `pdla render` and `pdla analyze` of a DLCA file,
+`pdla analyze` of an event cluster.h5,
 `pdla --model dlca --start FILE`, `--model dlca --resume`, `--model event
 --resume` - must refuse it: exit 1 or 2 with exactly one line on stderr,
 never a signal, within a time limit and a peak-RSS bound (the forged
@@ -29,6 +30,7 @@ RSS_LIMIT_KB = 400 * 1024  # a clean read takes a few MB (tens under ASan)
 TIME_LIMIT = 60
 HUGE = 2**61 + 2**16
 failures = []
+runs = []
 
 
 def check(ok, what):
@@ -70,6 +72,7 @@ def run(args):
 
 def expect(tag, args, want):
     """want 'fail': refused with one line; 'pass': exit 0."""
+    runs.append(tag)
     rc, lines, rss = run(args)
     if rc is None:
         check(False, tag + ": did not end within %d s" % TIME_LIMIT)
@@ -118,7 +121,7 @@ os.makedirs(WORK)
 # ---- DLCA: cluster.h5 through render / analyze / --start ------------------
 base = os.path.join(WORK, "dlca")
 rc, lines, _ = run(["--model", "dlca", "--dim", "2", "--box", "48", "--fill", "0.05", "--until-clusters", "20",
-                    "--seed", "4", "--out", base, "--checkpoint", "-q"])
+                    "--seed", "4", "--out", base, "--checkpoint", "--snapshot-every", "2", "-q"])
 if rc != 0:
     sys.exit("the DLCA base run failed: %r" % lines)
 CL, CK = os.path.join(base, "cluster.h5"), os.path.join(base, "checkpoint.h5")
@@ -170,6 +173,11 @@ dlca_ck_cases = {
                                 for n, t in (("rows_u64", "u8"), ("rows_f64", "f8"))],
     "site_not_stored": lambda f: replace_dset(f, "site", f["site"].shape, "u4", chunks=True),
     "u64_float": lambda f: retype(f, "u64", "f8"),
+    "snapshots_count_array_5000": lambda f: f["snapshots"].attrs.__setitem__("count", np.ones(5000, dtype="u8")),
+    "snapshots_count_2^60": lambda f: f["snapshots"].attrs.__setitem__("count", np.uint64(2**60)),
+    "snapshot_site_2^61_rows": lambda f: replace_dset(f, "snapshots/0/site", (HUGE,), "u4", chunks=(65536,),
+                                                      maxshape=(None,)),
+    "snapshot_t_array_5000": lambda f: f["snapshots/1"].attrs.__setitem__("t", np.ones(5000, dtype="f8")),
     "truncated": None,
 }
 for name, fn in dlca_ck_cases.items():
@@ -210,6 +218,19 @@ ev_cases = {
 for name, fn in ev_cases.items():
     expect("event-ckpt-%s/resume" % name, ev_resume(ev_copy("eventck-" + name.replace("^", ""), fn)), "fail")
 
-n = 3 + len(dlca_cases) * 3 + len(tool_cases) * 2 + 1 + len(dlca_ck_cases) + 1 + len(ev_cases)
-print("hostile-models: %d runs, %d failures" % (n, len(failures)))
+# ---- event cluster.h5 through pdla analyze -------------------------------
+EC = os.path.join(ev, "cluster.h5")
+expect("event-clean/analyze", ["analyze", EC], "pass")
+ev_file_cases = {
+    "series_time_2^61": lambda f: replace_dset(f, "series/time", (HUGE,), "f8", chunks=(65536,), maxshape=(None,)),
+    "positions_1e8_rows": lambda f: replace_dset(f, "cluster/positions", (10**8, 2), "f8", chunks=(65536, 2)),
+    "dim_array_5000": lambda f: f.attrs.__setitem__("dim", np.ones(5000, dtype="f8")),
+    "box_side_array_5000": lambda f: f["results"].attrs.__setitem__("box_side", np.ones(5000, dtype="f8")),
+    "truncated": None,
+}
+for name, fn in ev_file_cases.items():
+    d, path = forged(EC, "evfile-" + name.replace("^", ""), fn)
+    expect("event-file-%s/analyze" % name, ["analyze", path], "fail")
+
+print("hostile-models: %d runs, %d failures" % (len(runs), len(failures)))
 sys.exit(1 if failures else 0)

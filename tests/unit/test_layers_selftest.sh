@@ -7,7 +7,8 @@
 # an #include cycle between two headers, the CLI including a library-internal
 # header, a public header missing from tests/headers, an unresolvable include,
 # a second reader of the monotonic clock, a private copy of the error
-# formatter (both shapes the old fail()s had).
+# formatter (both shapes the old fail()s had), an HDF5 read outside the
+# checked reader.
 set -u
 src=$1
 check="$src/scripts/check-layers"
@@ -56,5 +57,9 @@ fresh; printf 'static int fail(char *err, size_t errlen, const char *fmt, ...)\n
 expect "a private error formatter" "src/event/ev_sim.c:.*fail() formats an error message itself"
 fresh; printf 'static int oops(char *err, size_t errlen, int code, const char *msg)\n{\n    return code;\n}\n' >>"$tmp/t/src/dlca/dlca.c"
 expect "a private error formatter (code, message)" "src/dlca/dlca.c:.*oops() formats an error message itself"
+fresh; printf 'static int rd(hid_t d, double *v) { return H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v); }\n' >>"$tmp/t/src/dlca/dlca_state.c"
+expect "an HDF5 read outside h5check" "src/dlca/dlca_state.c:.*calls H5Dread itself"
+fresh; printf 'static int ra(hid_t a, double *v) { return H5Aread(a, H5T_NATIVE_DOUBLE, v); }\n' >>"$tmp/t/src/cli/info.c"
+expect "an attribute read outside h5check" "src/cli/info.c:.*calls H5Aread itself"
 
 exit $fail

@@ -226,7 +226,9 @@ typedef struct stack_entry {
 
 /* Top-down branch and bound inside the subtree of one node, seeded with the
  * best bound found so far. A child's squared box distance is the sum over
- * axes of the distance to its lower or upper half, computed once per axis. */
+ * axes of the distance to its lower or upper half, computed once per axis.
+ * Longer than the 80-line rule on purpose: the hot branch and bound of
+ * every far query, always_inline and kept whole (long-functions.allow). */
 static inline __attribute__((always_inline)) uint64_t
 subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t node, int level,
               const int64_t *lo, uint64_t d2, uint64_t best2, uint64_t *visits, search_state *k,
@@ -609,7 +611,9 @@ static inline __attribute__((always_inline)) uint32_t find_leaf_cached(const tre
 
 /* Make the list around p with radius r <= SEARCH_NB_RADIUS from the leaves
  * (found from the cached path) that the ball meets; 0 (list invalid) if
- * more than SEARCH_NB_MAX particles lie that near. */
+ * more than SEARCH_NB_MAX particles lie that near. Longer than the 80-line
+ * rule on purpose: built in one pass inside the jump loop and always_inline,
+ * split it and the 3D jump loses its registers (long-functions.allow). */
 static inline __attribute__((always_inline)) int nb_make(const tree *t, const int64_t *p,
                                                          int32_t r, search_state *k,
                                                          const int dim)

@@ -197,7 +197,9 @@ static inline __attribute__((always_inline)) int walk_stale(const pdla_engine *e
  * stuck_at. conc: worker threads append meanwhile; every move is then
  * checked against the particles appended since its query (walk_stale), so
  * each jump is exact for the cluster as it is when the jump is taken, as in
- * the race-free reference. */
+ * the race-free reference. Longer than the 80-line rule on purpose: the
+ * hot loop of every walk, kept in one always_inline piece so the compiler
+ * keeps its state in registers (scripts/long-functions.allow). */
 static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine *e,
                                                                walker_ctx *w, walk_state *s,
                                                                int64_t *stuck_at, const int dim,

@@ -37,6 +37,7 @@ struct ev_sim {
     int nfree_total;      /* 1 when there are particles that can stick */
     double L, half, V;    /* box side, L/2, volume */
     int nc;               /* cells per dimension */
+    uint64_t ncm;         /* 2^64 / nc rounded up (0 for nc = 1): c / nc by a multiply */
     int nc_order;         /* cells per dimension of the numbering grid (ev_sim.c) */
     double w;             /* cell side */
     /* Particle i: ps[i*S ..]: x[D], v[D], t_i, radius (S = 2D + 2). */

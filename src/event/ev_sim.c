@@ -288,6 +288,7 @@ static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
     if (ncd > cap) ncd = cap;
     if (ncd < 1) ncd = 1;
     s->nc = (int)ncd;
+    s->ncm = UINT64_MAX / (uint64_t)s->nc + 1;
     s->w = s->L / s->nc;
     if (s->periodic && s->nc < 3)
         return pdla_errorf(-1, err, errlen, "box too small for periodic walls: side %g is under 3 cells of %g",

@@ -77,11 +77,11 @@ static void heap_up(ev_sim *s, uint32_t pos, ev_hent x)
         const ev_hent p = s->heap[parent];
         if (!hless(x, p)) break;
         s->heap[pos] = p;
-        s->hpos[p.id] = pos;
+        s->qnode[p.id].hpos = pos;
         pos = parent;
     }
     s->heap[pos] = x;
-    s->hpos[x.id] = pos;
+    s->qnode[x.id].hpos = pos;
 }
 
 static void heap_down(ev_sim *s, uint32_t pos, ev_hent x)
@@ -94,25 +94,25 @@ static void heap_down(ev_sim *s, uint32_t pos, ev_hent x)
         const ev_hent ch = s->heap[c];
         if (!hless(ch, x)) break;
         s->heap[pos] = ch;
-        s->hpos[ch.id] = pos;
+        s->qnode[ch.id].hpos = pos;
         pos = c;
     }
     s->heap[pos] = x;
-    s->hpos[x.id] = pos;
+    s->qnode[x.id].hpos = pos;
 }
 
 static inline void heap_push(ev_sim *s, uint32_t i, double t)
 {
-    s->qslot[i] = QNONE;
+    s->qnode[i].slot = QNONE;
     s->hn++;
     heap_up(s, s->hn - 1, (ev_hent){t, i});
 }
 
 static void heap_remove(ev_sim *s, uint32_t i)
 {
-    const uint32_t pos = s->hpos[i];
+    const uint32_t pos = s->qnode[i].hpos;
     s->hn--;
-    s->hpos[i] = QNONE;
+    s->qnode[i].hpos = QNONE;
     if (pos == s->hn) return;
     const ev_hent last = s->heap[s->hn];
     if (pos > 0 && hless(last, s->heap[(pos - 1) / 2])) heap_up(s, pos, last);
@@ -130,20 +130,20 @@ static inline uint32_t bucket_of(const ev_sim *s, double t)
 static inline void list_add(ev_sim *s, uint32_t i, uint32_t slot)
 {
     const uint32_t h = s->qhead[slot];
-    s->qslot[i] = slot;
-    s->qprev[i] = QNONE;
-    s->qnext[i] = h;
-    if (h != QNONE) s->qprev[h] = i;
+    s->qnode[i].slot = slot;
+    s->qnode[i].prev = QNONE;
+    s->qnode[i].next = h;
+    if (h != QNONE) s->qnode[h].prev = i;
     s->qhead[slot] = i;
 }
 
 static inline void list_del(ev_sim *s, uint32_t i)
 {
-    const uint32_t slot = s->qslot[i], nx = s->qnext[i], pv = s->qprev[i];
-    if (pv != QNONE) s->qnext[pv] = nx;
+    const uint32_t slot = s->qnode[i].slot, nx = s->qnode[i].next, pv = s->qnode[i].prev;
+    if (pv != QNONE) s->qnode[pv].next = nx;
     else s->qhead[slot] = nx;
-    if (nx != QNONE) s->qprev[nx] = pv;
-    s->qslot[i] = QNONE;
+    if (nx != QNONE) s->qnode[nx].prev = pv;
+    s->qnode[i].slot = QNONE;
     if (slot != s->qover) s->qnlist--;
 }
 
@@ -171,11 +171,11 @@ void ev_heap_push(ev_sim *s, uint32_t i)
 /* Key of i changed: move it to its place. */
 static void heap_fix(ev_sim *s, uint32_t i)
 {
-    if (s->qslot[i] == QNONE) {
+    if (s->qnode[i].slot == QNONE) {
         const double t = ev_key(s, i);
         const uint32_t b = bucket_of(s, t);
         if (b <= s->cq && b < s->qnb) {
-            const uint32_t pos = s->hpos[i];
+            const uint32_t pos = s->qnode[i].hpos;
             const ev_hent x = {t, i};
             if (pos > 0 && hless(x, s->heap[(pos - 1) / 2])) heap_up(s, pos, x);
             else heap_down(s, pos, x);
@@ -190,7 +190,7 @@ static void heap_fix(ev_sim *s, uint32_t i)
 
 static void q_remove(ev_sim *s, uint32_t i)
 {
-    if (s->qslot[i] == QNONE) heap_remove(s, i);
+    if (s->qnode[i].slot == QNONE) heap_remove(s, i);
     else list_del(s, i);
     s->qn--;
 }
@@ -200,7 +200,7 @@ static void q_rebucket(ev_sim *s)
 {
     uint32_t nf = 0;
     double tmin = INFINITY, sum = 0;
-    for (uint32_t i = s->qhead[s->qover]; i != QNONE; i = s->qnext[i]) {
+    for (uint32_t i = s->qhead[s->qover]; i != QNONE; i = s->qnode[i].next) {
         const double t = ev_key(s, i);
         if (t == INFINITY) continue;
         nf++;
@@ -219,7 +219,7 @@ static void q_rebucket(ev_sim *s)
     uint32_t i = s->qhead[s->qover];
     s->qhead[s->qover] = QNONE;
     while (i != QNONE) {
-        const uint32_t nx = s->qnext[i];
+        const uint32_t nx = s->qnode[i].next;
         q_insert(s, i);
         i = nx;
     }
@@ -239,8 +239,8 @@ static inline int q_ready(ev_sim *s)
         uint32_t i = s->qhead[s->cq];
         s->qhead[s->cq] = QNONE;
         while (i != QNONE) {
-            const uint32_t nx = s->qnext[i];
-            s->qslot[i] = QNONE;
+            const uint32_t nx = s->qnode[i].next;
+            s->qnode[i].slot = QNONE;
             s->qnlist--;
             heap_push(s, i, ev_key(s, i));
             i = nx;
@@ -259,27 +259,36 @@ void ev_queue_reset(ev_sim *s)
     s->cq = 0;
     s->qbase = 0;
     s->qinv = 0;
-    for (uint32_t i = 0; i < s->ntot; i++) s->hpos[i] = s->qslot[i] = QNONE;
+    for (uint32_t i = 0; i < s->ntot; i++) s->qnode[i].hpos = s->qnode[i].slot = QNONE;
     for (uint32_t b = 0; b <= s->qover; b++) s->qhead[b] = QNONE;
 }
 
 /* ---- cells --------------------------------------------------------------- */
 
+void ev_cells_clear(ev_sim *s)
+{
+    const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (s->dim == 3 ? (uint64_t)s->nc : 1);
+    for (uint64_t c = 0; c < ncell; c++) s->chead[c] = (ev_cellhead){UINT32_MAX, UINT32_MAX};
+}
+
 void ev_cell_insert(ev_sim *s, uint32_t i, uint32_t c)
 {
+    ev_cellhead *ch = &s->chead[c];
     s->cell[i] = c;
     s->cprev[i] = UINT32_MAX;
-    s->cnext[i] = s->chead[c];
-    if (s->chead[c] != UINT32_MAX) s->cprev[s->chead[c]] = i;
-    s->chead[c] = i;
+    s->cnext[i] = ch->head;
+    if (ch->head != UINT32_MAX) s->cprev[ch->head] = i;
+    ch->second = ch->head;
+    ch->head = i;
 }
 
 static void cell_remove(ev_sim *s, uint32_t i)
 {
-    const uint32_t c = s->cell[i];
+    ev_cellhead *ch = &s->chead[s->cell[i]];
     if (s->cprev[i] != UINT32_MAX) s->cnext[s->cprev[i]] = s->cnext[i];
-    else s->chead[c] = s->cnext[i];
+    else ch->head = s->cnext[i];
     if (s->cnext[i] != UINT32_MAX) s->cprev[s->cnext[i]] = s->cprev[i];
+    ch->second = ch->head != UINT32_MAX ? s->cnext[ch->head] : UINT32_MAX;
 }
 
 /* ---- predictions (D is a compile-time constant at every call) ------------ */
@@ -421,7 +430,8 @@ pred_cell(const ev_sim *s, const int D, uint32_t i, double now, int *what)
 #define EV_FOR_NEIGHBOURS(s, D, cc, sk, slab, BODY)                                          \
     do {                                                                                     \
         const int nc_ = (s)->nc, per_ = (s)->periodic;                                       \
-        const uint32_t *const cnext_ = (s)->cnext, *const chead_ = (s)->chead;              \
+        const uint32_t *const cnext_ = (s)->cnext;                                          \
+        const ev_cellhead *const chead_ = (s)->chead;                                        \
         uint32_t off_[3][3] = {{0}, {0}, {0}}, stride_ = 1;                                 \
         int no_[3] = {1, 1, 1};                                                              \
         for (int k_ = 0; k_ < (D); k_++) {                                                   \
@@ -438,27 +448,29 @@ pred_cell(const ev_sim *s, const int D, uint32_t i, double now, int *what)
             no_[k_] = m_;                                                                    \
             stride_ *= (uint32_t)nc_;                                                        \
         }                                                                                    \
-        uint32_t heads_[27];                                                                 \
+        uint32_t heads_[27], secs_[27];                                                      \
         int nh_ = 0;                                                                         \
         for (int a_ = 0; a_ < no_[2]; a_++)                                                  \
             for (int b_ = 0; b_ < no_[1]; b_++) {                                            \
                 const uint32_t row_ = off_[2][a_] + off_[1][b_];                             \
                 for (int c_ = 0; c_ < no_[0]; c_++) {                                        \
-                    const uint32_t h_ = chead_[row_ + off_[0][c_]];                          \
-                    if (h_ == UINT32_MAX) continue;                                          \
-                    __builtin_prefetch(EV_P_ANY((s), h_));                                   \
-                    __builtin_prefetch(&cnext_[h_]);                                         \
-                    heads_[nh_++] = h_;                                                      \
+                    const ev_cellhead h_ = chead_[row_ + off_[0][c_]];                       \
+                    if (h_.head == UINT32_MAX) continue;                                     \
+                    __builtin_prefetch(EV_P_ANY((s), h_.head));                              \
+                    if (h_.second != UINT32_MAX) {                                           \
+                        __builtin_prefetch(EV_P_ANY((s), h_.second));                        \
+                        __builtin_prefetch(&cnext_[h_.second]);                              \
+                    }                                                                        \
+                    heads_[nh_] = h_.head;                                                   \
+                    secs_[nh_++] = h_.second;                                                \
                 }                                                                            \
             }                                                                                \
         for (int q_ = 0; q_ < nh_; q_++) {                                                   \
-            for (uint32_t j = heads_[q_]; j != UINT32_MAX; j = cnext_[j]) {                  \
-                {                                                                            \
-                    const uint32_t nx_ = cnext_[j];                                          \
-                    if (nx_ != UINT32_MAX) __builtin_prefetch(EV_P_ANY((s), nx_));           \
-                }                                                                            \
+            uint32_t nx_ = secs_[q_];                                                        \
+            for (uint32_t j = heads_[q_]; j != UINT32_MAX;                                   \
+                 j = nx_, nx_ = nx_ != UINT32_MAX ? cnext_[nx_] : UINT32_MAX) {               \
                 BODY                                                                         \
-            }                                                                            \
+            }                                                                                \
         }                                                                                    \
     } while (0)
 

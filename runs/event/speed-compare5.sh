@@ -7,9 +7,13 @@
 # sticking off, seed 5. start: random (default) or lattice.
 old=$1 new=$2 rounds=$3
 shift 3
+specs=""
+for sp in "$@"; do specs="$specs$sp;"; done
 out=${TMPDIR:-/tmp}/speed-compare5.$$
 for r in $(seq 1 "$rounds"); do
-  for spec in "$@"; do
+  IFS=';'
+  for spec in $specs; do
+    unset IFS
     set -- $spec
     st=${5:-random}
     for b in "$old" "$new"; do
@@ -19,6 +23,8 @@ for r in $(seq 1 "$rounds"); do
         grep -E "^(stuck|cpu)" | tr '\n' ' '
       echo
     done
+    IFS=';'
   done
+  unset IFS
 done
 rm -rf "$out"

@@ -77,11 +77,11 @@ static void heap_up(ev_sim *s, uint32_t pos, ev_hent x)
         const ev_hent p = s->heap[parent];
         if (!hless(x, p)) break;
         s->heap[pos] = p;
-        s->qnode[p.id].hpos = pos;
+        s->hpos[p.id] = pos;
         pos = parent;
     }
     s->heap[pos] = x;
-    s->qnode[x.id].hpos = pos;
+    s->hpos[x.id] = pos;
 }
 
 static void heap_down(ev_sim *s, uint32_t pos, ev_hent x)
@@ -94,25 +94,25 @@ static void heap_down(ev_sim *s, uint32_t pos, ev_hent x)
         const ev_hent ch = s->heap[c];
         if (!hless(ch, x)) break;
         s->heap[pos] = ch;
-        s->qnode[ch.id].hpos = pos;
+        s->hpos[ch.id] = pos;
         pos = c;
     }
     s->heap[pos] = x;
-    s->qnode[x.id].hpos = pos;
+    s->hpos[x.id] = pos;
 }
 
 static inline void heap_push(ev_sim *s, uint32_t i, double t)
 {
-    s->qnode[i].slot = QNONE;
+    s->qslot[i] = QNONE;
     s->hn++;
     heap_up(s, s->hn - 1, (ev_hent){t, i});
 }
 
 static void heap_remove(ev_sim *s, uint32_t i)
 {
-    const uint32_t pos = s->qnode[i].hpos;
+    const uint32_t pos = s->hpos[i];
     s->hn--;
-    s->qnode[i].hpos = QNONE;
+    s->hpos[i] = QNONE;
     if (pos == s->hn) return;
     const ev_hent last = s->heap[s->hn];
     if (pos > 0 && hless(last, s->heap[(pos - 1) / 2])) heap_up(s, pos, last);
@@ -130,20 +130,20 @@ static inline uint32_t bucket_of(const ev_sim *s, double t)
 static inline void list_add(ev_sim *s, uint32_t i, uint32_t slot)
 {
     const uint32_t h = s->qhead[slot];
-    s->qnode[i].slot = slot;
-    s->qnode[i].prev = QNONE;
-    s->qnode[i].next = h;
-    if (h != QNONE) s->qnode[h].prev = i;
+    s->qslot[i] = slot;
+    s->qprev[i] = QNONE;
+    s->qnext[i] = h;
+    if (h != QNONE) s->qprev[h] = i;
     s->qhead[slot] = i;
 }
 
 static inline void list_del(ev_sim *s, uint32_t i)
 {
-    const uint32_t slot = s->qnode[i].slot, nx = s->qnode[i].next, pv = s->qnode[i].prev;
-    if (pv != QNONE) s->qnode[pv].next = nx;
+    const uint32_t slot = s->qslot[i], nx = s->qnext[i], pv = s->qprev[i];
+    if (pv != QNONE) s->qnext[pv] = nx;
     else s->qhead[slot] = nx;
-    if (nx != QNONE) s->qnode[nx].prev = pv;
-    s->qnode[i].slot = QNONE;
+    if (nx != QNONE) s->qprev[nx] = pv;
+    s->qslot[i] = QNONE;
     if (slot != s->qover) s->qnlist--;
 }
 
@@ -171,11 +171,11 @@ void ev_heap_push(ev_sim *s, uint32_t i)
 /* Key of i changed: move it to its place. */
 static void heap_fix(ev_sim *s, uint32_t i)
 {
-    if (s->qnode[i].slot == QNONE) {
+    if (s->qslot[i] == QNONE) {
         const double t = ev_key(s, i);
         const uint32_t b = bucket_of(s, t);
         if (b <= s->cq && b < s->qnb) {
-            const uint32_t pos = s->qnode[i].hpos;
+            const uint32_t pos = s->hpos[i];
             const ev_hent x = {t, i};
             if (pos > 0 && hless(x, s->heap[(pos - 1) / 2])) heap_up(s, pos, x);
             else heap_down(s, pos, x);
@@ -190,7 +190,7 @@ static void heap_fix(ev_sim *s, uint32_t i)
 
 static void q_remove(ev_sim *s, uint32_t i)
 {
-    if (s->qnode[i].slot == QNONE) heap_remove(s, i);
+    if (s->qslot[i] == QNONE) heap_remove(s, i);
     else list_del(s, i);
     s->qn--;
 }
@@ -200,7 +200,7 @@ static void q_rebucket(ev_sim *s)
 {
     uint32_t nf = 0;
     double tmin = INFINITY, sum = 0;
-    for (uint32_t i = s->qhead[s->qover]; i != QNONE; i = s->qnode[i].next) {
+    for (uint32_t i = s->qhead[s->qover]; i != QNONE; i = s->qnext[i]) {
         const double t = ev_key(s, i);
         if (t == INFINITY) continue;
         nf++;
@@ -219,7 +219,7 @@ static void q_rebucket(ev_sim *s)
     uint32_t i = s->qhead[s->qover];
     s->qhead[s->qover] = QNONE;
     while (i != QNONE) {
-        const uint32_t nx = s->qnode[i].next;
+        const uint32_t nx = s->qnext[i];
         q_insert(s, i);
         i = nx;
     }
@@ -239,8 +239,8 @@ static inline int q_ready(ev_sim *s)
         uint32_t i = s->qhead[s->cq];
         s->qhead[s->cq] = QNONE;
         while (i != QNONE) {
-            const uint32_t nx = s->qnode[i].next;
-            s->qnode[i].slot = QNONE;
+            const uint32_t nx = s->qnext[i];
+            s->qslot[i] = QNONE;
             s->qnlist--;
             heap_push(s, i, ev_key(s, i));
             i = nx;
@@ -259,36 +259,27 @@ void ev_queue_reset(ev_sim *s)
     s->cq = 0;
     s->qbase = 0;
     s->qinv = 0;
-    for (uint32_t i = 0; i < s->ntot; i++) s->qnode[i].hpos = s->qnode[i].slot = QNONE;
+    for (uint32_t i = 0; i < s->ntot; i++) s->hpos[i] = s->qslot[i] = QNONE;
     for (uint32_t b = 0; b <= s->qover; b++) s->qhead[b] = QNONE;
 }
 
 /* ---- cells --------------------------------------------------------------- */
 
-void ev_cells_clear(ev_sim *s)
-{
-    const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (s->dim == 3 ? (uint64_t)s->nc : 1);
-    for (uint64_t c = 0; c < ncell; c++) s->chead[c] = (ev_cellhead){UINT32_MAX, UINT32_MAX};
-}
-
 void ev_cell_insert(ev_sim *s, uint32_t i, uint32_t c)
 {
-    ev_cellhead *ch = &s->chead[c];
     s->cell[i] = c;
     s->cprev[i] = UINT32_MAX;
-    s->cnext[i] = ch->head;
-    if (ch->head != UINT32_MAX) s->cprev[ch->head] = i;
-    ch->second = ch->head;
-    ch->head = i;
+    s->cnext[i] = s->chead[c];
+    if (s->chead[c] != UINT32_MAX) s->cprev[s->chead[c]] = i;
+    s->chead[c] = i;
 }
 
 static void cell_remove(ev_sim *s, uint32_t i)
 {
-    ev_cellhead *ch = &s->chead[s->cell[i]];
+    const uint32_t c = s->cell[i];
     if (s->cprev[i] != UINT32_MAX) s->cnext[s->cprev[i]] = s->cnext[i];
-    else ch->head = s->cnext[i];
+    else s->chead[c] = s->cnext[i];
     if (s->cnext[i] != UINT32_MAX) s->cprev[s->cnext[i]] = s->cprev[i];
-    ch->second = ch->head != UINT32_MAX ? s->cnext[ch->head] : UINT32_MAX;
 }
 
 /* ---- predictions (D is a compile-time constant at every call) ------------ */
@@ -304,29 +295,17 @@ pred_pp(const int D, const double *pi, const double *pj, double now, int per, do
 {
     const double ti = pi[2 * D], tj = pj[2 * D];
     const double tr = ti > tj ? ti : tj;
-    /* Both moved to tr; the one already there is not moved (x + v * 0 is
-     * x: the same bits as moving it by 0, one multiply-add fewer). */
-    double r[3], v[3];
-    if (tj <= ti) {
-        const double dj = ti - tj;
-        for (int k = 0; k < D; k++) r[k] = (pj[k] + pj[D + k] * dj) - pi[k];
-    } else {
-        const double di = tj - ti;
-        for (int k = 0; k < D; k++) r[k] = pj[k] - (pi[k] + pi[D + k] * di);
-    }
-    double b = 0;
+    const double di = tr - ti, dj = tr - tj;
+    double b = 0, rr = 0, vv = 0;
     for (int k = 0; k < D; k++) {
-        if (per && fabs(r[k]) > half) r[k] = r[k] > 0 ? r[k] - L : r[k] + L;
-        v[k] = pj[D + k] - pi[D + k];
-        b += r[k] * v[k];
+        double r = (pj[k] + pj[D + k] * dj) - (pi[k] + pi[D + k] * di);
+        if (per && fabs(r) > half) r = r > 0 ? r - L : r + L;
+        const double v = pj[D + k] - pi[D + k];
+        b += r * v;
+        rr += r * r;
+        vv += v * v;
     }
     if (b >= 0) return EV_INF; /* receding or at rest: no event */
-    /* |r|^2 and |v|^2 only for approaching pairs (about half) */
-    double rr = 0, vv = 0;
-    for (int k = 0; k < D; k++) {
-        rr += r[k] * r[k];
-        vv += v[k] * v[k];
-    }
     const double sig = pi[2 * D + 1] + pj[2 * D + 1];
     const double c = rr - sig * sig;
     if (c <= 0) return tr > now ? tr : now; /* round-off overlap, approaching: now */
@@ -364,26 +343,13 @@ pred_wall(const ev_sim *s, const int D, uint32_t i, double now, int *what)
     return best > now ? best : now;
 }
 
-/* c / nc without a division instruction (tens of cycles, 4-6 per
- * collision): floor(c * ncm / 2^64) with ncm = ceil(2^64 / nc) is exact for
- * every 32-bit c (Lemire, Kaser, Kurz 2019). nc = 1: ncm = 0, and c is 0. */
-static inline uint32_t cell_div(const ev_sim *s, uint32_t c)
-{
-#ifdef __SIZEOF_INT128__
-    return (uint32_t)(((unsigned __int128)s->ncm * c) >> 64);
-#else
-    return c / (uint32_t)s->nc;
-#endif
-}
-
 /* Cell coordinates of cell c. */
 static inline __attribute__((always_inline)) void cell_coords(const ev_sim *s, const int D,
                                                               uint32_t c, int32_t *cc)
 {
     for (int k = 0; k < D; k++) {
-        const uint32_t q = cell_div(s, c);
-        cc[k] = (int32_t)(c - q * (uint32_t)s->nc);
-        c = q;
+        cc[k] = (int32_t)(c % (uint32_t)s->nc);
+        c /= (uint32_t)s->nc;
     }
 }
 
@@ -430,8 +396,7 @@ pred_cell(const ev_sim *s, const int D, uint32_t i, double now, int *what)
 #define EV_FOR_NEIGHBOURS(s, D, cc, sk, slab, BODY)                                          \
     do {                                                                                     \
         const int nc_ = (s)->nc, per_ = (s)->periodic;                                       \
-        const uint32_t *const cnext_ = (s)->cnext;                                          \
-        const ev_cellhead *const chead_ = (s)->chead;                                        \
+        const uint32_t *const cnext_ = (s)->cnext, *const chead_ = (s)->chead;              \
         uint32_t off_[3][3] = {{0}, {0}, {0}}, stride_ = 1;                                 \
         int no_[3] = {1, 1, 1};                                                              \
         for (int k_ = 0; k_ < (D); k_++) {                                                   \
@@ -448,29 +413,27 @@ pred_cell(const ev_sim *s, const int D, uint32_t i, double now, int *what)
             no_[k_] = m_;                                                                    \
             stride_ *= (uint32_t)nc_;                                                        \
         }                                                                                    \
-        uint32_t heads_[27], secs_[27];                                                      \
+        uint32_t heads_[27];                                                                 \
         int nh_ = 0;                                                                         \
         for (int a_ = 0; a_ < no_[2]; a_++)                                                  \
             for (int b_ = 0; b_ < no_[1]; b_++) {                                            \
                 const uint32_t row_ = off_[2][a_] + off_[1][b_];                             \
                 for (int c_ = 0; c_ < no_[0]; c_++) {                                        \
-                    const ev_cellhead h_ = chead_[row_ + off_[0][c_]];                       \
-                    if (h_.head == UINT32_MAX) continue;                                     \
-                    __builtin_prefetch(EV_P_ANY((s), h_.head));                              \
-                    if (h_.second != UINT32_MAX) {                                           \
-                        __builtin_prefetch(EV_P_ANY((s), h_.second));                        \
-                        __builtin_prefetch(&cnext_[h_.second]);                              \
-                    }                                                                        \
-                    heads_[nh_] = h_.head;                                                   \
-                    secs_[nh_++] = h_.second;                                                \
+                    const uint32_t h_ = chead_[row_ + off_[0][c_]];                          \
+                    if (h_ == UINT32_MAX) continue;                                          \
+                    __builtin_prefetch(EV_P_ANY((s), h_));                                   \
+                    __builtin_prefetch(&cnext_[h_]);                                         \
+                    heads_[nh_++] = h_;                                                      \
                 }                                                                            \
             }                                                                                \
         for (int q_ = 0; q_ < nh_; q_++) {                                                   \
-            uint32_t nx_ = secs_[q_];                                                        \
-            for (uint32_t j = heads_[q_]; j != UINT32_MAX;                                   \
-                 j = nx_, nx_ = nx_ != UINT32_MAX ? cnext_[nx_] : UINT32_MAX) {               \
+            for (uint32_t j = heads_[q_]; j != UINT32_MAX; j = cnext_[j]) {                  \
+                {                                                                            \
+                    const uint32_t nx_ = cnext_[j];                                          \
+                    if (nx_ != UINT32_MAX) __builtin_prefetch(EV_P_ANY((s), nx_));           \
+                }                                                                            \
                 BODY                                                                         \
-            }                                                                                \
+            }                                                                            \
         }                                                                                    \
     } while (0)
 

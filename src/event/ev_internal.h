@@ -21,20 +21,6 @@ typedef struct ev_evt {
     int8_t cell_what; /* 2k + (direction > 0), -1: none */
 } ev_evt;
 
-/* A particle's place in the event queue (ev_core.c), in one 16-byte node
- * so a queue update touches one cache line of it, not four: its bucket
- * list links, its slot (bucket, or none when in the heap), its heap index. */
-typedef struct ev_qnode {
-    uint32_t next, prev, slot, hpos;
-} ev_qnode;
-
-/* A cell's list: its first particle and the one after it (the head's
- * cnext, kept here so that a scan of a cell holding one or two particles,
- * nearly all of them, reads no cnext at all). */
-typedef struct ev_cellhead {
-    uint32_t head, second;
-} ev_cellhead;
-
 typedef struct ev_hent {
     double t;
     uint32_t id;
@@ -51,7 +37,6 @@ struct ev_sim {
     int nfree_total;      /* 1 when there are particles that can stick */
     double L, half, V;    /* box side, L/2, volume */
     int nc;               /* cells per dimension */
-    uint64_t ncm;         /* 2^64 / nc rounded up (0 for nc = 1): c / nc by a multiply */
     int nc_order;         /* cells per dimension of the numbering grid (ev_sim.c) */
     double w;             /* cell side */
     /* Particle i: ps[i*S ..]: x[D], v[D], t_i, radius (S = 2D + 2). */
@@ -60,14 +45,12 @@ struct ev_sim {
     double *mass;
     uint8_t *species, *stuck;
     uint32_t *count, *parent;
-    uint32_t *cell, *cnext, *cprev;
-    ev_cellhead *chead;
+    uint32_t *cell, *cnext, *cprev, *chead;
     ev_evt *evt;
     /* event queue (ev_core.c): heap of the current bucket, bucket lists */
     ev_hent *heap;
-    uint32_t hn;
-    ev_qnode *qnode;
-    uint32_t *qhead;
+    uint32_t *hpos, hn;
+    uint32_t *qnext, *qprev, *qslot, *qhead;
     uint32_t qn, qnlist; /* queued particles; those in bucket lists */
     uint32_t qnb, cq;    /* buckets now, current bucket */
     uint32_t qover;      /* slot of the overflow list (>= any qnb) */
@@ -102,8 +85,6 @@ double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi);
 void ev_queue_reset(ev_sim *s);
 void ev_heap_push(ev_sim *s, uint32_t i);
 void ev_cell_insert(ev_sim *s, uint32_t i, uint32_t c);
-/* Every cell empty (before ev_cell_insert of all particles). */
-void ev_cells_clear(ev_sim *s);
 void ev_predict(ev_sim *s, uint32_t i, double now);
 int ev_loop(ev_sim *s, double t_end, volatile const int *interrupt);
 /* Species list from p (the string, or one species): 0 or -1 with err. */

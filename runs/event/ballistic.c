@@ -10,6 +10,8 @@
  *                                 random offset uniform over a disk (3D) or
  *                                 segment (2D) of radius R_max + 1 across it;
  *                                 it sticks at its first contact
+ *   ballistic bpca DIM N SEED OUT the same cluster written to OUT as csv
+ *                                 (x,y[,z], the seed first; for window.c)
  *   ballistic csv FILE [C...]     a cluster from `pdla export --format csv`
  *                                 (x,y[,z] first, rows in arrival order);
  *                                 C: the seed's coordinates when the file
@@ -78,7 +80,7 @@ static double *read_csv(const char *path, size_t *n, int *D)
 
 int main(int argc, char **argv)
 {
-    if (argc == 5 && !strcmp(argv[1], "bpca")) {
+    if ((argc == 5 || argc == 6) && !strcmp(argv[1], "bpca")) {
         const int D = atoi(argv[2]);
         const size_t n = (size_t)atof(argv[3]);
         if ((D != 2 && D != 3) || n < 100) return fprintf(stderr, "ballistic: bad DIM or N\n"), 2;
@@ -88,6 +90,14 @@ int main(int argc, char **argv)
         char what[64];
         snprintf(what, sizeof what, "bpca seed %s", argv[4]);
         report(what, pos, n, D, pos, INFINITY);
+        FILE *f = argc == 6 ? fopen(argv[5], "w") : NULL;
+        if (argc == 6 && !f) return free(pos), fprintf(stderr, "ballistic: cannot write %s\n", argv[5]), 1;
+        if (f) {
+            fputs(D == 3 ? "x,y,z\n" : "x,y\n", f);
+            for (size_t k = 0; k < n; k++)
+                for (int q = 0; q < D; q++) fprintf(f, "%.10g%c", pos[k * D + q], q == D - 1 ? '\n' : ',');
+            if (fclose(f)) return free(pos), fprintf(stderr, "ballistic: cannot write %s\n", argv[5]), 1;
+        }
         free(pos);
         return 0;
     }
@@ -103,6 +113,6 @@ int main(int argc, char **argv)
         free(pos);
         return 0;
     }
-    fprintf(stderr, "usage: ballistic bpca DIM N SEED | ballistic csv FILE [SEED_X SEED_Y [SEED_Z]]\n");
+    fprintf(stderr, "usage: ballistic bpca DIM N SEED [OUT.csv] | ballistic csv FILE [SEED_X SEED_Y [SEED_Z]]\n");
     return 2;
 }

@@ -137,6 +137,11 @@ PDLA_API void pdla_params_default(pdla_params *p);
  * err (pdla_param_validate over the table, in its order). */
 PDLA_API int pdla_params_validate(const pdla_params *p, char *err, size_t errlen);
 
+/* The PDLA straggler bound: a worker's walker that finds more than
+ * PDLA_STRAGGLER_FACTOR x workers particles appended since its last step is
+ * relaunched (pdla_stats.relaunches). */
+#define PDLA_STRAGGLER_FACTOR 8
+
 /* Bins of pdla_stats.lag_hist (powers of two). */
 #define PDLA_LAG_BINS 20
 
@@ -167,6 +172,11 @@ typedef struct pdla_stats {
      * query lay inside the jump's ball, and birth-circle moves redone
      * because R_ext had grown since it was read. */
     uint64_t stale_jumps, stale_births;
+    /* PDLA straggler bound (workers; this process only, not checkpointed):
+     * walkers relaunched from the birth circle because more than 8 x workers
+     * particles were appended between two of their steps (or between their
+     * last step and their append): descheduled while the others grew. */
+    uint64_t relaunches;
     /* PDLA lock contention, indexed by PDLA_MUTEX_NODE/BUCKET/GYRATION:
      * acquisitions by workers, and those that found the mutex held (so had
      * to wait). Counted since this process started (not checkpointed). */

@@ -1,6 +1,7 @@
 #!/bin/sh
-# cmp.sh OLD NEW: cluster.h5 datasets (monomers, clusters, series) identical on fixed seeds
-old=$1 new=$2; w=/tmp/dlca4mem/cmp; rm -rf $w; mkdir -p $w; fails=0; n=0
+# h5cmp.sh OLD NEW: cluster.h5 datasets (monomers, clusters, series) identical on fixed seeds
+# (the last two: N > 65536, so /monomers is written in more than one piece; W=DIR: work folder)
+old=$1 new=$2; w=${W:-/tmp/dlca4mem/cmp}; rm -rf $w; mkdir -p $w; fails=0; n=0
 while read -r args; do
   n=$((n+1))
   nice -n 10 $old --model dlca $args --out $w/o$n -q --force >/dev/null 2>&1 || echo "old failed: $args"
@@ -20,5 +21,7 @@ done <<'LIST'
 --dim 4 --box 16 --fill 0.05 --until-clusters 20 --seed 7
 --dim 5 --box 8 --fill 0.05 --mobility 0.5 --until-clusters 10 --seed 8
 --box 1024 --fill 0.05 --until-clusters 1000 --seed 9
+--dim 3 --box 128 --fill 0.15 --max-attempts 300000 --seed 3
+--box 2048 --fill 0.07 --until-clusters 20000 --seed 4
 LIST
 echo "$n runs, $fails datasets differ"

@@ -15,18 +15,18 @@ static parts measure(const dlca_sim *s)
 {
     parts p = {0};
     const int d = s->d;
-    p.slots = (double)(s->N + 1) * 12 + (double)s->N * 4;
+    p.slots = (double)(s->nslot + 1) * (12 + 4 * (s->id != NULL)) + (double)s->nslot * 4;
     p.grid = s->grid ? (double)s->V * 4 : 0;
     p.rectab = (double)s->caprec * sizeof *s->rec;
     for (uint32_t r = 0; r < s->nrec; r++)
         if (dlca_rec_live(&s->rec[r])) p.blocks_cap += DLCA_REC_WORDS(d, dlca_rec_cap(s, r)) * 4.0;
-    for (uint64_t c = 1; c <= s->N; c++)
+    for (uint64_t c = 1; c <= s->nslot; c++)
         if (s->n[c] >= 2) p.blocks_used += (double)s->n[c] * (4 + 2 * d);
     if (s->size_count) p.extra += (s->N + 1) * 4.0;
     if (s->mob) p.extra += s->nmob * 8.0;
-    if (s->stamp) p.extra += (s->N + 1) * 4.0;
-    if (s->cand) p.extra += s->N * 4.0;
-    if (s->brange) p.extra += (s->N + 1) * 8.0 * d;
+    if (s->stamp) p.extra += (s->nslot + 1) * 4.0;
+    if (s->cand) p.extra += s->nslot * 4.0;
+    if (s->brange) p.extra += (s->nslot + 1) * 8.0 * d;
     struct mallinfo2 mi = mallinfo2(); if (getenv("TRIM")) malloc_trim(0);
     { FILE *f = fopen("/proc/self/statm", "r"); long a, b; if (fscanf(f, "%ld %ld", &a, &b) == 2) p.extra = b * 4096.0; fclose(f); }
     p.heap = (double)mi.arena + (double)mi.hblkhd; /* bytes obtained from the system */

@@ -1,1 +1,1 @@
-/tmp/bias2bin/pdla --dim 2 --target 1e5 --seed SEED --no-output -q --stats-json FILE 
+/tmp/bias3bin/pdla --dim 2 --target 1e5 --seed SEED --no-output -q --stats-json FILE 

@@ -45,6 +45,12 @@ typedef struct walker_ctx {
     uint64_t lag_n, lag_sum;
     double lag_sum2;
     uint64_t lag_hist[PDLA_LAG_BINS];
+    /* The straggler bound (workers only, parallel.c): a walker that finds
+     * more than relaunch_after particles appended since its own last step
+     * (0: no bound) is relaunched from the birth circle; counted in
+     * relaunches. step_seen: the count its last step read (set when a walk
+     * stops, for the check at the append). */
+    uint64_t relaunch_after, relaunches, step_seen;
     /* Acquisitions of the node, bucket and gyration mutexes (PDLA_MUTEX_*),
      * and how many found the mutex held (this process only; not saved in
      * checkpoints): the measure of lock contention as threads are added. */
@@ -84,6 +90,7 @@ typedef struct engine_hooks {
     void (*turn_begin)(void *user, int id);
     void (*turn_end)(void *user, int id);
     int take_stale; /* count stale jumps but take them (the behaviour before the check) */
+    int no_relaunch; /* no straggler bound (the behaviour before it, parallel.c) */
     void *user;
 } engine_hooks;
 
@@ -156,6 +163,7 @@ typedef struct walk_state {
     int64_t p[3];
     uint64_t jumps;           /* since launch (for max_jumps) */
     uint64_t launched_at;     /* particle count at launch (the lag's origin) */
+    uint64_t step_seen;       /* workers: the count read by the last step */
     int64_t r_ext_units;      /* the R_ext the radii below were drawn from */
     double r_ext, Rb, Rout2, Rdeath;
 } walk_state;

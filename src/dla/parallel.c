@@ -46,6 +46,39 @@
  * mutex: about the number of workers, rarely more. */
 #define RECENT_CAP 4096u
 
+/* The straggler bound (issue 11): with n workers, a walker that finds more
+ * than STRAGGLER_FACTOR * n particles appended since its own last step
+ * (checked at every step, walker.c, and at the append, append_locked) is
+ * relaunched from the birth circle instead of going on.
+ *
+ * Why the bound: in the race-free reference of n walkers (reference.c) the
+ * others append at most n - 1 particles between two steps of a walker, and
+ * none between its last step and its append; so do the workers taking turns
+ * (test lockstep), so the bound never triggers there, and the reference is
+ * not touched at all (it runs no worker). With free cores a step takes far
+ * less time than a walk, so the others append about (n - 1) / (jumps per
+ * walk) << 1 particles per step. More than 8n means the walker was
+ * descheduled (an oversubscribed or shared machine) while the others grew
+ * the cluster by many particles: a walker frozen at a point its walk chose
+ * in a cluster that no longer exists ("straggler"; about 110 per 1e5
+ * particles at 4 and 16 workers on the shared 2-core VM, with lags of 2000
+ * to 9000) would stick too deep in the new growth, a thing neither serial
+ * DLA nor P walkers in flight do.
+ *
+ * Why relaunching does not bias: the relaunched walker is a fresh walker on
+ * a circle enclosing the cluster as of the count it read (R_ext covers it),
+ * launched uniformly, which is the exact harmonic measure from infinity for
+ * that circle; so it hits the current cluster with the exact harmonic
+ * measure, as serial DLA's next walker would. Whether a walker is relaunched
+ * depends on the others' appends (the OS schedule), not on its own path;
+ * the one selection left is that a longer walk has more chances to be
+ * caught by a deschedule, which reweights only the relaunched walks (counted
+ * in stats.relaunches, about one walk in a thousand; measured in
+ * runs/pdla-bias/README.md) and only by their duration, not by where they
+ * were heading. Without the bound those same walks stick with the hit
+ * distribution of a cluster thousands of particles younger. */
+#define STRAGGLER_FACTOR ((uint64_t)PDLA_STRAGGLER_FACTOR)
+
 typedef struct worker {
     /* The map epoch this worker saw between two walks, when it held no map
      * grid (UINT64_MAX once it has returned); written by the worker once a
@@ -117,7 +150,7 @@ static inline void unlock_counted(pthread_mutex_t *mu, walker_ctx *w, int which,
 /* insert_concurrent's steps below return these (errors are negative
  * PDLA_E* codes, already recorded by worker_fail). RETRY: another walker took
  * the spot since this one's last check; re-check as an overlap. */
-enum { RETRY = 3 };
+enum { RETRY = 3, RELAUNCH = 4 };
 
 /* Step 1, for an overlap: snap p onto contact with the particle that took
  * its spot, once, unless --recheck discard. Otherwise the snap of
@@ -165,9 +198,11 @@ static int make_path(worker *k, const int64_t *p, uint64_t seen, tree_slot *slot
     return 0;
 }
 
-/* Step 3, under the bucket mutex: the exact target check, the re-check
- * against the particles appended since `seen` (the ring), and the append.
- * INSERTED with p's index in *index, TARGET_REACHED, RETRY, or PDLA_ENOMEM. */
+/* Step 3, under the bucket mutex: the exact target check, the straggler
+ * bound (more than relaunch_after particles appended since the walk's last
+ * step: RELAUNCH), the re-check against the particles appended since `seen`
+ * (the ring), and the append. INSERTED with p's index in *index,
+ * TARGET_REACHED, RELAUNCH, RETRY, or PDLA_ENOMEM. */
 static int append_locked(worker *k, const int64_t *p, uint64_t seen, tree_slot *slot,
                          uint64_t *index)
 {
@@ -179,6 +214,11 @@ static int append_locked(worker *k, const int64_t *p, uint64_t seen, tree_slot *
     if (count >= k->n_until) {
         unlock_counted(&e->bucket_mu, k->w, PDLA_MUTEX_BUCKET, held);
         return TARGET_REACHED;
+    }
+    const walker_ctx *w = k->w;
+    if (w->relaunch_after && count - w->step_seen > w->relaunch_after) {
+        unlock_counted(&e->bucket_mu, k->w, PDLA_MUTEX_BUCKET, held);
+        return RELAUNCH;
     }
     if (recent_overlap(k->recent, t, seen, p, D * D)) {
         unlock_counted(&e->bucket_mu, k->w, PDLA_MUTEX_BUCKET, held);
@@ -271,6 +311,7 @@ static void *worker_main(void *arg)
         int64_t p[3];
         const int status = walker_run(e, k->w, p);
         const int r = insert_concurrent(k, p, status);
+        if (r == RELAUNCH) k->w->relaunches++; /* the next walk is a fresh walker */
         if (__builtin_expect(h != NULL, 0) && h->turn_end) h->turn_end(h->user, k->w->id);
         if (r == TARGET_REACHED || r < 0) break;
     }
@@ -364,6 +405,7 @@ static void phase_setup_workers(pdla_engine *e, phase *ph, uint64_t n_until)
 {
     const pdla_params *P = &e->params;
     pdla_rng stream = e->walker.rng;
+    const int bound = ph->n > 1 && !(e->hooks && e->hooks->no_relaunch);
     size_t used = (size_t)snprintf(e->binding, sizeof e->binding, "%s",
                                    P->bind == PDLA_BIND_CORE ? "core:" : "none");
     for (int i = 0; i < ph->n; i++) {
@@ -371,6 +413,7 @@ static void phase_setup_workers(pdla_engine *e, phase *ph, uint64_t n_until)
         if (i > 0) rng_jump(&stream);
         ph->ws[i].rng = stream;
         ph->ws[i].id = i;
+        ph->ws[i].relaunch_after = bound ? STRAGGLER_FACTOR * (uint64_t)ph->n : 0;
         search_state_reset(&ph->ws[i].ss);
         k->e = e;
         k->w = &ph->ws[i];

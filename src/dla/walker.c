@@ -164,6 +164,21 @@ static inline __attribute__((always_inline)) void walk_begin_dim(const pdla_engi
     launch(w, s->Rb, s->p, dim);
     s->jumps = 0;
     s->launched_at = tree_count(&e->tree);
+    s->step_seen = s->launched_at;
+}
+
+/* With worker threads: 1 if more than w->relaunch_after particles were
+ * appended since this walker's last step (count `seen` now): it was frozen
+ * (descheduled) while the cluster grew, and is relaunched (the straggler
+ * bound; why this is unbiased: parallel.c, STRAGGLER_FACTOR). */
+static inline __attribute__((always_inline)) int walk_straggler(walker_ctx *w, walk_state *s,
+                                                                uint64_t seen)
+{
+    const uint64_t since = seen - s->step_seen;
+    s->step_seen = seen;
+    if (!w->relaunch_after || since <= w->relaunch_after) return 0;
+    w->relaunches++;
+    return 1;
 }
 
 /* With worker threads (conc): 1 if a particle appended since the query
@@ -215,6 +230,11 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
      * the map and the tree searches. */
     const uint64_t seen = conc ? tree_count(t) : 0;
     walk_refresh(e, s);
+    if (conc && walk_straggler(w, s, seen)) {
+        launch(w, s->Rb, p, dim);
+        s->jumps = 0;
+        s->launched_at = seen;
+    }
     if (s->jumps >= P->max_jumps) {
         w->restarts++;
         launch(w, s->Rb, p, dim);
@@ -275,6 +295,7 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
          * the insertion's exact re-check (parallel.c) sees it. */
         for (int a = 0; a < dim; a++) stuck_at[a] = p[a];
         w->launched_at = s->launched_at;
+        w->step_seen = seen;
         /* Closer than one diameter can only mean another walker's particle
          * appeared next to this one since its last jump. */
         return d2 < (uint64_t)P->resolution * (uint64_t)P->resolution ? WALK_OVERLAP
@@ -338,6 +359,7 @@ void walker_ctx_add_counts(walker_ctx *s, const walker_ctx *o)
     s->recheck_discarded += o->recheck_discarded;
     s->stale_jumps += o->stale_jumps;
     s->stale_births += o->stale_births;
+    s->relaunches += o->relaunches;
     s->lag_n += o->lag_n;
     s->lag_sum += o->lag_sum;
     s->lag_sum2 += o->lag_sum2;

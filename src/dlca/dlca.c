@@ -75,7 +75,7 @@ static inline double mob_of(const dlca_sim *s, uint64_t size)
 static inline uint32_t next_stamp(dlca_sim *s)
 {
     if (++s->stamp_now == 0) {
-        memset(s->stamp, 0, (s->N + 1) * sizeof *s->stamp);
+        memset(s->stamp, 0, (s->nslot + 1) * sizeof *s->stamp);
         s->stamp_now = 1;
     }
     return s->stamp_now;
@@ -157,8 +157,9 @@ static void add_row(dlca_sim *s)
     s->row_nc = s->nc;
 }
 
-/* A row per 1% fewer clusters. At each, the heap's free pages go back to
- * the system: the blocks of absorbed clusters and the outgrown blocks are
+/* A row per 1% fewer clusters. At each, the slots are compacted once a
+ * quarter of them is empty, and the heap's free pages go back to the
+ * system: the blocks of absorbed clusters and the outgrown blocks are
  * freed in the middle of glibc's heap and would stay resident (14 of 68
  * bytes a monomer at the end of a 2D run, runs/dlca/memory.txt). */
 static void maybe_row(dlca_sim *s)
@@ -166,6 +167,7 @@ static void maybe_row(dlca_sim *s)
     const uint64_t next = (uint64_t)floor((double)s->row_nc * 0.99);
     if (s->nc <= (next < s->row_nc - 1 ? next : s->row_nc - 1)) {
         add_row(s);
+        s->compact_due = s->nc <= s->nslot - s->nslot / 4; /* after this attempt (its digest names the slot) */
 #ifdef __GLIBC__
         (void)malloc_trim(0);
 #endif
@@ -280,7 +282,7 @@ int dlca_boxes_build(dlca_sim *s)
         nb *= (uint64_t)s->nb[a];
     }
     s->nboxes = nb;
-    if (!s->cand && !(s->cand = malloc(s->N * sizeof *s->cand))) return -1; /* the halo's candidates */
+    if (!s->cand && !(s->cand = malloc(s->nslot * sizeof *s->cand))) return -1; /* the halo's candidates */
     s->box = calloc(nb, sizeof *s->box);
     s->box_n = calloc(nb, sizeof *s->box_n);
     s->box_cap = calloc(nb, sizeof *s->box_cap);
@@ -317,8 +319,8 @@ int dlca_search_init(dlca_sim *s, int search, int A)
     }
     free(s->grid);
     s->grid = NULL;
-    s->brange = malloc((s->N + 1) * 2 * (size_t)s->d * sizeof *s->brange);
-    s->stamp = calloc(s->N + 1, sizeof *s->stamp);
+    s->brange = malloc((s->nslot + 1) * 2 * (size_t)s->d * sizeof *s->brange);
+    s->stamp = calloc(s->nslot + 1, sizeof *s->stamp);
     if (!s->brange || !s->stamp) return -1;
     s->search_now = search;
     if (search != DLCA_SEARCH_BOXES) return 0;
@@ -336,6 +338,79 @@ int dlca_search_init(dlca_sim *s, int search, int A)
     return dlca_boxes_build(s);
 }
 
+/* ---- compaction ------------------------------------------------------ */
+
+/* p shrunk to bytes (a failed shrink keeps p: it is still valid). */
+static void *shrink(void *p, size_t bytes)
+{
+    void *q = realloc(p, bytes ? bytes : 1);
+    return q ? q : p;
+}
+
+/* Slots renumbered 1..N_c in their order, each keeping its name (id), so
+ * that every comparison of slots (joins in slot order, the larger id
+ * absorbed on a tie) and the digest stay as they were: the history does
+ * not change. The per-slot arrays shrink to N_c; the lattice and the box
+ * lists are relabelled (O(N), and at most log_{4/3}(N) times in a run).
+ * Nothing else remembers a slot number across a row. Optional: on no
+ * memory it does nothing. */
+static __attribute__((noinline)) void compact(dlca_sim *s)
+{
+    s->compact_due = 0;
+    const uint64_t old = s->nslot;
+    const size_t w = 2 * (size_t)s->d;
+    uint32_t *map = NULL, *id = s->id, r = 0; /* map: old slot -> new, for the box lists */
+    dlca_rec *rec = malloc((s->nrec ? s->nrec : 1) * sizeof *rec); /* the live records, in slot order */
+    if (!id) id = malloc((s->nc + 1) * sizeof *id);
+    if (s->box) map = malloc((old + 1) * sizeof *map);
+    if (!rec || !id || (s->box && !map)) {
+        free(rec), free(map);
+        if (id != s->id) free(id);
+        return;
+    }
+    uint32_t j = 0;
+    for (uint64_t c = 1; c <= old; c++) {
+        if (!s->n[c]) continue;
+        id[++j] = s->id ? s->id[c] : (uint32_t)c; /* j <= c: in place */
+        if (map) map[c] = j;
+        if (s->n[c] >= 2) {
+            rec[r] = s->rec[s->ref[c]];
+            s->ref[c] = r++;
+        }
+        if (j == c) continue;
+        s->n[j] = s->n[c];
+        s->ref[j] = s->ref[c];
+        s->pos[j] = s->pos[c];
+        s->act[s->pos[j]] = j;
+        if (s->brange) memmove(s->brange + j * w, s->brange + c * w, w * sizeof *s->brange);
+        if (s->grid && s->n[j] == 1) s->grid[s->ref[j]] = j; /* no view: that divides */
+        else if (s->grid) {
+            const uint32_t *k = rec[s->ref[j]].b + DLCA_REC_HEAD(s->d);
+            for (uint32_t i = 0; i < s->n[j]; i++) s->grid[k[i]] = j;
+        }
+    }
+    free(s->rec);
+    s->rec = shrink(rec, (r ? r : 1) * sizeof *rec);
+    s->nrec = s->caprec = r;
+    s->free_rec = DLCA_NO_REC;
+    for (uint64_t b = 0; map && b < s->nboxes; b++)
+        for (uint32_t e = 0; e < s->box_n[b]; e++) s->box[b][e] = map[s->box[b][e]];
+    free(map);
+    s->id = id;
+    s->nslot = j;
+    s->n = shrink(s->n, (j + 1) * sizeof *s->n);
+    s->pos = shrink(s->pos, (j + 1) * sizeof *s->pos);
+    s->ref = shrink(s->ref, (j + 1) * sizeof *s->ref);
+    s->id = shrink(s->id, (j + 1) * sizeof *s->id);
+    s->act = shrink(s->act, j * sizeof *s->act);
+    if (s->brange) s->brange = shrink(s->brange, (j + 1) * w * sizeof *s->brange);
+    if (s->cand) s->cand = shrink(s->cand, j * sizeof *s->cand);
+    if (s->stamp) {
+        s->stamp = shrink(s->stamp, (j + 1) * sizeof *s->stamp);
+        memset(s->stamp, 0, (j + 1) * sizeof *s->stamp); /* stamp_now is never 0 */
+    }
+}
+
 /* ---- creation -------------------------------------------------------- */
 
 void dlca_sim_free(dlca_sim *s)
@@ -349,6 +424,7 @@ void dlca_sim_free(dlca_sim *s)
     free(s->pos);
     free(s->ref);
     free(s->act);
+    free(s->id);
     free(s->grid);
     free(s->mob);
     free(s->size_count);
@@ -375,6 +451,7 @@ int dlca_sim_alloc(dlca_sim **out, const dlca_params *p, uint64_t N)
         s->V *= p->box[a];
     }
     s->N = N;
+    s->nslot = N;
     s->free_rec = DLCA_NO_REC;
     rng_seed(&s->rng, p->seed);
     s->n = calloc(N + 1, sizeof *s->n);
@@ -892,11 +969,12 @@ static int step(dlca_sim *s)
 {
     s->attempts++;
     const uint32_t c = s->act[rng_below(&s->rng, s->nc)];
+    const uint64_t cid = dlca_slot_id(s, c);
     double mb = 1;
     if (s->mob) mb = s->p.mobility < 0 ? mob_of(s, s->smin) : mob_of(s, s->largest);
     s->t += 1.0 / ((double)s->nc * mb);
     if (s->mob && rng_uniform(&s->rng) * mb >= mob_of(s, s->n[c])) {
-        digest_add(s, c | (uint64_t)DLCA_NOT_PICKED << 40);
+        digest_add(s, cid | (uint64_t)DLCA_NOT_PICKED << 40);
         return 0;
     }
     int a, sg;
@@ -909,7 +987,7 @@ static int step(dlca_sim *s)
         sg = (dir & 1) ? -1 : 1;
     }
     const int r = do_move(s, c, a, sg);
-    digest_add(s, c | (uint64_t)(2 * a + (sg < 0)) << 32 | (uint64_t)(r < 0 ? 7 : r) << 40);
+    digest_add(s, cid | (uint64_t)(2 * a + (sg < 0)) << 32 | (uint64_t)(r < 0 ? 7 : r) << 40);
     return r < 0 ? r : 0;
 }
 
@@ -927,6 +1005,7 @@ int dlca_run_to(dlca_sim *s, uint64_t attempts, double t_pause)
             s->stop = DLCA_STOP_CALLER; /* out of memory in a join */
             break;
         }
+        if (s->compact_due) compact(s);
         if (dlca_check_stop(s)) break;
     }
     if (s->stop && (!s->nrows || s->rows[s->nrows - 1].attempts != s->attempts)) add_row(s);
@@ -952,8 +1031,10 @@ int dlca_move_site(dlca_sim *s, uint32_t k, int axis, int sign)
     const uint32_t c = k < s->V ? slot_at(s, k) : 0;
     if (!c || axis < 0 || axis >= s->d || (sign != 1 && sign != -1)) return PDLA_EINVAL;
     s->attempts++;
+    const uint64_t cid = dlca_slot_id(s, c);
     const int r = do_move(s, c, axis, sign);
-    digest_add(s, c | (uint64_t)(2 * axis + (sign < 0)) << 32 | (uint64_t)(r < 0 ? 7 : r) << 40);
+    digest_add(s, cid | (uint64_t)(2 * axis + (sign < 0)) << 32 | (uint64_t)(r < 0 ? 7 : r) << 40);
+    if (s->compact_due) compact(s);
     (void)dlca_check_stop(s);
     return r;
 }
@@ -986,17 +1067,17 @@ const dlca_params *dlca_get_params(const dlca_sim *s) { return &s->p; }
 /* Bytes held by the model (the arrays and blocks it allocated). */
 static uint64_t model_bytes(const dlca_sim *s)
 {
-    uint64_t b = sizeof *s + (s->N + 1) * 3 * sizeof(uint32_t) + s->N * sizeof *s->act +
-                 (uint64_t)s->caprec * sizeof *s->rec;
+    uint64_t b = sizeof *s + (s->nslot + 1) * (3 + (s->id != NULL)) * sizeof(uint32_t) +
+                 s->nslot * sizeof *s->act + (uint64_t)s->caprec * sizeof *s->rec;
     for (uint32_t r = 0; r < s->nrec; r++)
         if (dlca_rec_live(&s->rec[r]))
             b += DLCA_REC_WORDS(s->d, dlca_rec_cap(s, r)) * sizeof(uint32_t);
-    if (s->cand) b += s->N * sizeof *s->cand;
-    if (s->stamp) b += (s->N + 1) * sizeof *s->stamp;
+    if (s->cand) b += s->nslot * sizeof *s->cand;
+    if (s->stamp) b += (s->nslot + 1) * sizeof *s->stamp;
     if (s->grid) b += s->V * sizeof *s->grid;
     if (s->mob) b += s->nmob * sizeof *s->mob;
     if (s->size_count) b += (s->N + 1) * sizeof *s->size_count;
-    if (s->brange) b += (s->N + 1) * 2 * (size_t)s->d * sizeof *s->brange;
+    if (s->brange) b += (s->nslot + 1) * 2 * (size_t)s->d * sizeof *s->brange;
     for (uint64_t j = 0; j < s->nboxes; j++) b += sizeof(uint32_t *) + 8 + s->box_cap[j] * sizeof(uint32_t);
     return b;
 }
@@ -1027,27 +1108,35 @@ const dlca_row *dlca_series(const dlca_sim *s, size_t *n)
     return s->rows;
 }
 
+size_t dlca_export_chunk(const dlca_sim *s, dlca_cursor *cur, size_t max, uint32_t *site, uint32_t *cluster)
+{
+    size_t m = 0;
+    if (cur->c == 0) cur->c = 1, cur->i = 0, cur->id = 0;
+    for (; m < max && cur->c <= s->nslot; cur->c++, cur->i = 0) {
+        if (!s->n[cur->c]) continue;
+        dlca_view v;
+        view_of(s, (uint32_t)cur->c, &v);
+        while (cur->i < v.n && m < max) {
+            site[m] = v.k[cur->i++];
+            cluster[m++] = cur->id;
+        }
+        if (cur->i < v.n) break; /* full: go on in this cluster next time */
+        cur->id++;
+    }
+    return m;
+}
+
 void dlca_export_sites(const dlca_sim *s, uint32_t *site, uint32_t *cluster)
 {
-    uint64_t m = 0;
-    uint32_t id = 0;
-    for (uint64_t c = 1; c <= s->N; c++) {
-        if (!s->n[c]) continue;
-        dlca_view v;
-        view_of(s, (uint32_t)c, &v);
-        for (uint32_t i = 0; i < v.n; i++, m++) {
-            site[m] = v.k[i];
-            cluster[m] = id;
-        }
-        id++;
-    }
+    dlca_cursor cur = {0};
+    (void)dlca_export_chunk(s, &cur, s->N, site, cluster);
 }
 
 void dlca_cluster_table(const dlca_sim *s, uint64_t *size, double *rg)
 {
     uint64_t id = 0;
     const int d = s->d;
-    for (uint64_t c = 1; c <= s->N; c++) {
+    for (uint64_t c = 1; c <= s->nslot; c++) {
         if (!s->n[c]) continue;
         dlca_view v;
         view_of(s, (uint32_t)c, &v);

@@ -10,4 +10,5 @@
 int dlca_write_parameters_h5(const h5u_writer *w, hid_t file, const dlca_params *p);
 /* 0, or -1 if an attribute is missing or refused by the table's parser. */
 int dlca_read_parameters_h5(hid_t file, dlca_params *p);
+
 #endif

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "dlca_h5.h"
+#include "dlca_sim.h"
 #include "h5util.h"
 #include "pdla/dlca.h"
 #include "pdla/h5check.h"
@@ -144,6 +145,63 @@ static int write_results(const h5u_writer *w, hid_t file, const dlca_stats *st, 
     return h5u_close(w, 0, g, H5Gclose, "/results");
 }
 
+/* /monomers/{site,cluster,position}, MCHUNK monomers at a time from the
+ * model's own arrays: copies of all N (16 B a monomer in 2D, 20 in 3D)
+ * were a third of the peak RSS beyond the lattice in a 3D run
+ * (runs/dlca/memory.txt). The values are those of one whole write. */
+enum { MCHUNK = 1 << 16 }; /* the datasets' chunk: 1.3 MB of buffers in 3D */
+static int write_monomers(const h5u_writer *w, hid_t g, const dlca_sim *s, size_t N, const dlca_params *p)
+{
+    static const char *names[3] = {"site", "cluster", "position"};
+    const hid_t ft[3] = {H5T_STD_U32LE, H5T_STD_U32LE, H5T_STD_I32LE};
+    const hid_t mt[3] = {H5T_NATIVE_UINT32, H5T_NATIVE_UINT32, H5T_NATIVE_INT32};
+    const int dim = p->dim;
+    const size_t B = N < MCHUNK ? (N ? N : 1) : MCHUNK;
+    uint32_t *site = malloc(B * sizeof *site), *cid = malloc(B * sizeof *cid);
+    int32_t *pos = malloc(B * (size_t)dim * sizeof *pos);
+    hid_t ds[3] = {H5I_INVALID_HID, H5I_INVALID_HID, H5I_INVALID_HID};
+    hid_t fsp[3] = {H5I_INVALID_HID, H5I_INVALID_HID, H5I_INVALID_HID};
+    int rc = 0;
+    if (!site || !cid || !pos) rc = h5u_fail_msg(w, "out of memory");
+    for (int j = 0; j < 3 && rc == 0; j++) {
+        const hsize_t cols = j == 2 ? (hsize_t)dim : 1;
+        if ((ds[j] = h5u_dataset(w, g, names[j], ft[j], cols > 1 ? 2 : 1, N, cols, N > 65536 ? 65536 : (N ? N : 1),
+                                 &fsp[j])) < 0)
+            rc = -1;
+    }
+    dlca_cursor cur = {0};
+    for (size_t m0 = 0; rc == 0 && m0 < N;) {
+        const size_t m = dlca_export_chunk(s, &cur, N - m0 < B ? N - m0 : B, site, cid);
+        if (m == 0) {
+            rc = h5u_fail_msg(w, "the clusters hold fewer than N monomers");
+            break;
+        }
+        for (size_t i = 0; i < m; i++) { /* the k-index undone: x_a = (k / stride_a) mod L_a */
+            uint64_t k = site[i];
+            for (int a = 0; a < dim; a++) {
+                pos[i * dim + a] = (int32_t)(k % p->box[a]);
+                k /= p->box[a];
+            }
+        }
+        const void *buf[3] = {site, cid, pos};
+        for (int j = 0; j < 3 && rc == 0; j++) {
+            const hsize_t start[2] = {m0, 0}, count[2] = {m, j == 2 ? (hsize_t)dim : 1};
+            const hid_t msp = H5Screate_simple(j == 2 && dim > 1 ? 2 : 1, count, NULL);
+            if (msp < 0 || H5Sselect_hyperslab(fsp[j], H5S_SELECT_SET, start, NULL, count, NULL) < 0 ||
+                H5Dwrite(ds[j], mt[j], msp, fsp[j], H5P_DEFAULT, buf[j]) < 0)
+                rc = h5u_fail(w, "write %s", names[j]);
+            rc = h5u_close(w, rc, msp, H5Sclose, "a dataspace");
+        }
+        m0 += m;
+    }
+    for (int j = 0; j < 3; j++) {
+        rc = h5u_close(w, rc, fsp[j], H5Sclose, "a dataspace");
+        rc = h5u_close(w, rc, ds[j], H5Dclose, names[j]);
+    }
+    free(site), free(cid), free(pos);
+    return rc;
+}
+
 int dlca_write_h5(const dlca_sim *s, const char *path, const char *command_line, double wall_s, char *err,
                   size_t errlen)
 {
@@ -157,24 +215,13 @@ int dlca_write_h5(const dlca_sim *s, const char *path, const char *command_line,
     dlca_get_stats(s, &st);
     const dlca_params *p = dlca_get_params(s);
     const size_t N = st.n_monomers, nc = st.n_clusters;
-    const int dim = p->dim;
-    uint32_t *site = malloc(N * sizeof *site), *cid = malloc(N * sizeof *cid);
-    int32_t *pos = malloc(N * (size_t)dim * sizeof *pos);
     uint64_t *size = malloc(nc * sizeof *size);
     double *rg = malloc(nc * sizeof *rg);
     hid_t file = H5I_INVALID_HID, g = H5I_INVALID_HID;
     int rc = -1;
-    if (!site || !cid || !size || !rg || !pos) {
+    if (!size || !rg) {
         h5u_fail_msg(&w, "cannot write %s: out of memory", path);
         goto done;
-    }
-    dlca_export_sites(s, site, cid);
-    for (size_t i = 0; i < N; i++) { /* the k-index undone: x_a = (k / stride_a) mod L_a */
-        uint64_t k = site[i];
-        for (int a = 0; a < dim; a++) {
-            pos[i * dim + a] = (int32_t)(k % p->box[a]);
-            k /= p->box[a];
-        }
     }
     dlca_cluster_table(s, size, rg);
     double df, dferr;
@@ -194,11 +241,7 @@ int dlca_write_h5(const dlca_sim *s, const char *path, const char *command_line,
     g = H5I_INVALID_HID;
     if (rc < 0) goto done;
     rc = -1;
-    if ((g = h5u_group(&w, file, "monomers")) < 0 ||
-        write_1d(&w, g, "site", H5T_STD_U32LE, H5T_NATIVE_UINT32, site, N) < 0 ||
-        write_1d(&w, g, "cluster", H5T_STD_U32LE, H5T_NATIVE_UINT32, cid, N) < 0 ||
-        write_2d(&w, g, "position", H5T_STD_I32LE, H5T_NATIVE_INT32, pos, N, dim) < 0)
-        goto done;
+    if ((g = h5u_group(&w, file, "monomers")) < 0 || write_monomers(&w, g, s, N, p) < 0) goto done;
     rc = h5u_close(&w, 0, g, H5Gclose, "/monomers");
     g = H5I_INVALID_HID;
     if (rc < 0) goto done;
@@ -206,7 +249,7 @@ int dlca_write_h5(const dlca_sim *s, const char *path, const char *command_line,
 done:
     if (g >= 0) rc = h5u_close(&w, rc, g, H5Gclose, "a group");
     if (file >= 0) rc = h5u_close(&w, rc, file, H5Fclose, path);
-    free(site), free(cid), free(size), free(rg), free(pos);
+    free(size), free(rg);
     h5u_restore(&q);
     return rc < 0 ? PDLA_EIO : 0;
 }

@@ -3,10 +3,13 @@
  * and its consistency check and checkpoints (dlca_state.c). Internal to
  * libpdla.
  *
- * Memory (runs/dlca/memory.txt). A cluster is named by a slot 1..N (slot j
- * starts as the j-th monomer placed). Per slot there are three 32-bit words
- * (size, place in the active list, and `ref`) plus the active list's word:
- * 16 bytes. A monomer alone (size 1) needs nothing more: `ref` is its site
+ * Memory (runs/dlca/memory.txt). A cluster lives in a slot 1..nslot (slot
+ * j starts as the j-th monomer placed). Per slot there are three 32-bit
+ * words (size, place in the active list, and `ref`) plus the active list's
+ * word: 16 bytes; once a quarter of the slots is empty (at a row) they are
+ * renumbered in order and the arrays shrink, each slot keeping its name
+ * (id, 4 more bytes), so that the history is the same. A monomer alone
+ * (size 1) needs nothing more: `ref` is its site
  * and its geometry is implied (anchor = its coordinates, offset and bounding
  * box 0). A cluster of 2 or more owns a record (`ref` is its index): one
  * 8-byte pointer to a block that holds everything else, its capacity, its
@@ -15,7 +18,8 @@
  * offsets of a join that spans the box, |o| <= 2L - 2, fit)
  * (the record table keeps its largest length, so a record must be small:
  * the geometry in the table made it 40 bytes, 14 B/monomer at the end of a
- * 2D run). Records of absorbed clusters are reused. The id lattice
+ * 2D run). Records of absorbed clusters are reused, and the table is
+ * compacted with the slots. The id lattice
  * (4 bytes a site) is the collision structure of --search lattice; the
  * "seen" stamps and the box lists exist only for the seed's searches.
  */
@@ -73,10 +77,12 @@ struct dlca_sim {
     int64_t L[DLCA_MAX_DIM];
     int64_t stride[DLCA_MAX_DIM];
     uint64_t V, N;
-    uint32_t *n;    /* per slot 0..N: monomers (0: absorbed) */
+    uint64_t nslot; /* slots 1..nslot (N at the start; compacted as N_c falls) */
+    uint32_t *n;    /* per slot 0..nslot: monomers (0: absorbed) */
     uint32_t *pos;  /* per slot: index in act */
     uint32_t *ref;  /* per slot: n == 1 its site, n >= 2 its record */
     uint32_t *act;  /* active slots */
+    uint32_t *id;   /* per slot: the cluster's name (its first slot); NULL: the slot itself */
     uint64_t nc;
     dlca_rec *rec;  /* records of clusters of 2 or more */
     uint32_t nrec, caprec, free_rec;
@@ -86,6 +92,7 @@ struct dlca_sim {
     uint64_t attempts, moves, monomer_moves, merges, largest;
     double sum_s2;
     int stop, spanning, search_now, oom;
+    int compact_due; /* a row found a quarter of the slots empty: compact after the attempt */
     /* mobility thinning: s^gamma cached for s < nmob */
     double *mob;
     uint64_t nmob;
@@ -163,6 +170,11 @@ static inline void view_of(const dlca_sim *s, uint32_t c, dlca_view *v)
     v->anc = v->g;
 }
 
+/* Slot c's name: the slot it had before any compaction (the history's
+ * digest and the checkpoints use it; the order of slots is the order of
+ * names, so that compaction changes nothing of the history). */
+static inline uint32_t dlca_slot_id(const dlca_sim *s, uint64_t c) { return s->id ? s->id[c] : (uint32_t)c; }
+
 /* Shared between dlca.c and dlca_state.c. */
 void dlca_sim_free(dlca_sim *s);
 /* The arrays of a simulation of p with N monomers, nothing placed. */
@@ -176,4 +188,14 @@ void dlca_cluster_span(const dlca_sim *s, const dlca_view *v, const int32_t *anc
                        int32_t *cnt);
 static inline int32_t *dlca_brange(const dlca_sim *s, uint32_t c) { return s->brange + (size_t)c * 2 * s->d; }
 int dlca_check_stop(dlca_sim *s);
+/* Where an export of the monomers (dlca_export_sites order) stands; zero
+ * it to start. */
+typedef struct dlca_cursor {
+    uint64_t c;  /* slot */
+    uint32_t i;  /* monomer in it */
+    uint32_t id; /* its cluster number */
+} dlca_cursor;
+/* The next (up to) max monomers' sites and cluster numbers; how many. So
+ * that cluster.h5 is written in pieces, not from copies of all N. */
+size_t dlca_export_chunk(const dlca_sim *s, dlca_cursor *cur, size_t max, uint32_t *site, uint32_t *cluster);
 #endif

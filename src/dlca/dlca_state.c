@@ -62,8 +62,10 @@ static int check_counts(const dlca_sim *s, uint64_t m, char *err, size_t errlen)
 {
     uint64_t active = 0, largest = 0, smin = s->N;
     double s2 = 0;
-    for (uint64_t c = 1; c <= s->N; c++) {
+    for (uint64_t c = 1; c <= s->nslot; c++) {
         if (!s->n[c]) continue;
+        if (dlca_slot_id(s, c) > s->N || (c > 1 && dlca_slot_id(s, c) <= dlca_slot_id(s, c - 1)))
+            BAD("slot %llu is named out of order", (unsigned long long)c);
         active++;
         if (s->n[c] > largest) largest = s->n[c];
         if (s->n[c] < smin) smin = s->n[c];
@@ -150,7 +152,7 @@ int dlca_check(const dlca_sim *s, char *err, size_t errlen)
     if (!ks) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory");
     uint64_t m = 0;
     int rc = 0;
-    for (uint64_t c = 1; c <= s->N && rc == 0; c++)
+    for (uint64_t c = 1; c <= s->nslot && rc == 0; c++)
         if (s->n[c]) rc = check_cluster(s, (uint32_t)c, ks, &m, err, errlen);
     if (rc == 0) rc = check_counts(s, m, err, errlen);
     if (rc == 0) {
@@ -180,40 +182,45 @@ static int ck_write(const h5u_writer *w, hid_t loc, const char *name, hid_t ftyp
     return h5u_close(w, rc, d, H5Dclose, name);
 }
 
-/* The state as the checkpoint format (version 1) lays it out: per slot its
- * size and anchor + bounding box, per monomer (slot order) site and offset,
- * the series as two arrays. */
+/* The state as the checkpoint format (version 1) lays it out: per slot
+ * (by its name: the slots as they were before any compaction) its size and
+ * anchor + bounding box, per monomer (slot order) site and offset, the
+ * active list (names), the series as two arrays. */
 typedef struct ck_arrays {
-    uint32_t *slot_n, *k;
+    uint32_t *slot_n, *k, *act;
     int32_t *off, *geom;
     double *rt;
     uint64_t *ru;
 } ck_arrays;
 
-static void ck_free(ck_arrays *a) { free(a->slot_n), free(a->k), free(a->off), free(a->geom), free(a->rt), free(a->ru); }
+static void ck_free(ck_arrays *a)
+{
+    free(a->slot_n), free(a->k), free(a->act), free(a->off), free(a->geom), free(a->rt), free(a->ru);
+}
 
 static int ck_alloc(ck_arrays *a, uint64_t N, int d, size_t nrows)
 {
-    a->slot_n = malloc((N + 1) * sizeof *a->slot_n);
+    a->slot_n = calloc(N + 1, sizeof *a->slot_n);
     a->k = malloc(N * sizeof *a->k);
+    a->act = malloc((N ? N : 1) * sizeof *a->act);
     a->off = malloc(N * (size_t)d * sizeof *a->off);
     a->geom = calloc((N + 1) * 3 * (size_t)d, sizeof *a->geom);
     a->rt = malloc((nrows + 1) * 3 * sizeof *a->rt);
     a->ru = malloc((nrows + 1) * 3 * sizeof *a->ru);
-    return a->slot_n && a->k && a->off && a->geom && a->rt && a->ru ? 0 : -1;
+    return a->slot_n && a->k && a->act && a->off && a->geom && a->rt && a->ru ? 0 : -1;
 }
 
 static void ck_gather(const dlca_sim *s, ck_arrays *a)
 {
     const int d = s->d;
     uint64_t m = 0;
-    a->slot_n[0] = 0;
-    for (uint64_t c = 1; c <= s->N; c++) {
-        a->slot_n[c] = s->n[c];
+    for (uint64_t c = 1; c <= s->nslot; c++) {
         if (!s->n[c]) continue;
+        const uint32_t name = dlca_slot_id(s, c);
+        a->slot_n[name] = s->n[c];
         dlca_view v;
         view_of(s, (uint32_t)c, &v);
-        int32_t *g = a->geom + c * 3 * (size_t)d;
+        int32_t *g = a->geom + name * 3 * (size_t)d;
         memcpy(g, v.anc, (size_t)d * sizeof *g);
         memcpy(g + d, v.lo, (size_t)d * sizeof *g);
         memcpy(g + 2 * d, v.hi, (size_t)d * sizeof *g);
@@ -221,6 +228,7 @@ static void ck_gather(const dlca_sim *s, ck_arrays *a)
         for (size_t j = 0; j < (size_t)v.n * d; j++) a->off[m * d + j] = v.off[j];
         m += v.n;
     }
+    for (uint64_t j = 0; j < s->nc; j++) a->act[j] = dlca_slot_id(s, s->act[j]);
     for (size_t r = 0; r < s->nrows; r++) {
         const dlca_row *w = &s->rows[r];
         a->rt[3 * r] = w->t, a->rt[3 * r + 1] = w->mean_size, a->rt[3 * r + 2] = w->weight_size;
@@ -254,7 +262,7 @@ int dlca_checkpoint_write(const dlca_sim *s, const char *path, char *err, size_t
         ck_write(&w, file, "f64", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, dv, CK_ND) < 0 ||
         ck_write(&w, file, "slot_n", H5T_STD_U32LE, H5T_NATIVE_UINT32, a.slot_n, s->N + 1) < 0 ||
         ck_write(&w, file, "geom", H5T_STD_I32LE, H5T_NATIVE_INT32, a.geom, (s->N + 1) * 3 * (size_t)d) < 0 ||
-        ck_write(&w, file, "active", H5T_STD_U32LE, H5T_NATIVE_UINT32, s->act, s->nc) < 0 ||
+        ck_write(&w, file, "active", H5T_STD_U32LE, H5T_NATIVE_UINT32, a.act, s->nc) < 0 ||
         ck_write(&w, file, "site", H5T_STD_U32LE, H5T_NATIVE_UINT32, a.k, s->N) < 0 ||
         ck_write(&w, file, "offset", H5T_STD_I32LE, H5T_NATIVE_INT32, a.off, s->N * (size_t)d) < 0 ||
         ck_write(&w, file, "rows_f64", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, a.rt, 3 * s->nrows) < 0 ||

@@ -406,6 +406,34 @@ done:
     dlca_destroy(c);
 }
 
+/* The slots compact as N_c falls: at 100 clusters of N = 13107 the model
+ * holds at most 16 bytes a monomer beyond its id lattice (about 10: the
+ * clusters' blocks; before compaction the slots alone were 16 and the
+ * whole 29), and the state still checks. */
+static void compacted(void)
+{
+    dlca_params p;
+    dlca_params_default(&p);
+    static const uint32_t L[] = {512, 512};
+    set_box(&p, 2, L);
+    p.fill = 0.05;
+    p.until_clusters = 100;
+    p.seed = 1;
+    char err[256];
+    dlca_sim *s = NULL;
+    CHECK(dlca_create(&s, &p, err, sizeof err) == 0, "compacted: %s", err);
+    if (!s) return;
+    (void)dlca_run(s, 0);
+    dlca_stats st;
+    dlca_get_stats(s, &st);
+    const double beyond = ((double)st.bytes - 4.0 * 512 * 512) / (double)st.n_monomers;
+    CHECK(st.n_clusters == 100 && beyond < 16, "compacted: %.1f bytes a monomer beyond the lattice at N_c %llu",
+          beyond, (unsigned long long)st.n_clusters);
+    CHECK(dlca_check(s, err, sizeof err) == 0, "compacted: %s", err);
+    check_export(s, "compacted");
+    dlca_destroy(s);
+}
+
 int main(void)
 {
     static const uint32_t L2[] = {40, 36}, L3[] = {24, 20, 18}, L4[] = {16, 14, 15, 13}, L5[] = {10, 9, 11, 10, 9};
@@ -416,6 +444,7 @@ int main(void)
     two_site_axis();
     longest_axis();
     determinism();
+    compacted();
     for (int d = 2; d <= 5; d++) {
         for (int a = 0; a < d; a++)
             for (int m = 0; m < 3; m++) wrap_join(d, Es[d - 2], a, m);

@@ -234,22 +234,23 @@ static void test_threads(int dim, int threads, uint64_t serial_until, uint64_t t
     if (recheck == PDLA_RECHECK_DISCARD)
         CHECK(st.recheck_continued == 0, "%s: continued in discard mode", label);
     /* Lock accounting: each worker particle passes the gyration mutex once,
-     * the bucket mutex at least once (more after a re-check or at the
-     * target), the node mutex at most as often as the bucket mutex. */
+     * the bucket mutex at least once (more after a re-check, at the target,
+     * or when the straggler bound relaunches a walker there), the node mutex at most as often as the bucket mutex. */
     const uint64_t added = target - serial_until;
     CHECK(st.mutex_taken[PDLA_MUTEX_GYRATION] == added, "%s: gyration mutex taken %llu times for %llu particles",
           label, (unsigned long long)st.mutex_taken[PDLA_MUTEX_GYRATION], (unsigned long long)added);
     CHECK(st.mutex_taken[PDLA_MUTEX_BUCKET] >= added &&
-              st.mutex_taken[PDLA_MUTEX_BUCKET] <= added + st.recheck_overlaps + (uint64_t)threads,
+              st.mutex_taken[PDLA_MUTEX_BUCKET] <=
+                  added + st.recheck_overlaps + st.relaunches + (uint64_t)threads,
           "%s: bucket mutex taken %llu times for %llu particles", label,
           (unsigned long long)st.mutex_taken[PDLA_MUTEX_BUCKET], (unsigned long long)added);
     CHECK(st.mutex_taken[PDLA_MUTEX_NODE] <= st.mutex_taken[PDLA_MUTEX_BUCKET] + st.recheck_overlaps,
           "%s: node mutex taken more often than the bucket mutex", label);
     for (int i = 0; i < 3; i++)
         CHECK(st.mutex_contended[i] <= st.mutex_taken[i], "%s: mutex %d waits exceed acquisitions", label, i);
-    fprintf(stderr, "%s: overlaps %llu continued %llu discarded %llu\n", label,
+    fprintf(stderr, "%s: overlaps %llu continued %llu discarded %llu, relaunched %llu\n", label,
             (unsigned long long)st.recheck_overlaps, (unsigned long long)st.recheck_continued,
-            (unsigned long long)st.recheck_discarded);
+            (unsigned long long)st.recheck_discarded, (unsigned long long)st.relaunches);
     check_cluster(e, label);
     pdla_engine_destroy(e);
 }

@@ -190,6 +190,12 @@ fi
 good "threads" --threads 2 --serial-until 200 --target 3000 --out "$tmp/thr" --stats-json "$tmp/thr.json"
 grep -q '^mutex waits  *node [0-9.]*% of [0-9]*, bucket [0-9.]*% of [0-9]*, gyration [0-9.]*% of 2800$' \
     "$tmp/out" || fail "threads: summary mutex line: $(grep mutex "$tmp/out")"
+# the straggler bound (issue 11): its count reaches the summary and the JSON;
+# the reference runs no worker, so it never relaunches
+grep -Eq '^relaunched  *[0-9]+ walkers left behind by more than 8 x 2 particles$' "$tmp/out" ||
+    fail "threads: summary relaunched line"
+grep -Eq '"relaunches": [0-9]+,' "$tmp/thr.json" || fail "threads: JSON relaunches"
+grep -q '"relaunches": 0,' "$tmp/ref1.json" || fail "reference walkers: JSON relaunches not 0"
 if command -v python3 >/dev/null 2>&1 && python3 -c 'import h5py' 2>/dev/null; then
     checks=$((checks + 1))
     python3 - "$tmp/thr.json" "$tmp/thr/cluster.h5" <<'PY' || fail "threads: mutex counters in JSON / cluster.h5"

@@ -564,8 +564,8 @@ static int keep_room(dlca_sim *s, uint32_t keep, uint32_t n)
         }
         uint32_t *b = dlca_blk(s, keep);
         coords(s, k, x);
-        int32_t *g = dlca_bgeom(b);
-        for (int a = 0; a < s->d; a++) g[a] = (int32_t)x[a], g[s->d + a] = g[2 * s->d + a] = 0;
+        dlca_off *g = dlca_bgeom(b);
+        for (int a = 0; a < s->d; a++) g[a] = (dlca_off)x[a], g[s->d + a] = g[2 * s->d + a] = 0;
         dlca_bsites(s, b)[0] = k;
         memset(dlca_bsites(s, b) + n, 0, (size_t)s->d * sizeof(dlca_off)); /* its offset */
         return 0;
@@ -592,6 +592,7 @@ static void append(dlca_sim *s, uint32_t keep, uint32_t gone, const int64_t *dis
         }
         if (s->grid) s->grid[G.k[j]] = keep;
     }
+    view_put(s, &K);
     for (int a = 0; a < d; a++)
         if ((int64_t)K.hi[a] - K.lo[a] + 1 >= s->L[a]) s->spanning = 1;
 }
@@ -799,6 +800,7 @@ static int lattice_shift(dlca_sim *s, uint32_t c, dlca_view *v, int a, int sg)
     }
     for (uint32_t i = 0; i < n; i++) grid[k[i]] = c;
     v->anc[a] = (int32_t)wrap((int64_t)v->anc[a] + sg, L);
+    if (v->b) dlca_bgeom(v->b)[a] = (dlca_off)v->anc[a];
     return DLCA_MOVED;
 }
 
@@ -968,10 +970,12 @@ static int move_ref(dlca_sim *s, uint32_t c, int a, int sg)
         if (memcmp(b0, r, (size_t)d * sizeof *b0) || memcmp(cnt, r + d, (size_t)d * sizeof *cnt)) {
             box_unregister(s, c);
             memcpy(v.anc, na, (size_t)d * sizeof *na);
+            view_put(s, &v); /* box_register reads it from the block */
             if (box_register(s, c)) return PDLA_ENOMEM;
         }
     }
     memcpy(v.anc, na, (size_t)d * sizeof *na);
+    view_put(s, &v);
     return DLCA_MOVED;
 }
 

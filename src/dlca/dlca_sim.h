@@ -35,12 +35,13 @@ typedef int16_t dlca_off;
 
 /* A cluster of 2 or more monomers owns a block in the arena (s->ar, one
  * array of 32-bit words for all clusters; `ref` is the offset of the
- * block's cap word): [owner slot] then [cap][anchor d][lo d][hi d]
- * [sites cap], then 16-bit [offsets cap x d]. A freed block keeps its cap
+ * block's cap word): [owner slot] then [cap], 16-bit [anchor d][lo d][hi d]
+ * (padded to a word; the anchor is below L <= DLCA_MAX_AXIS, lo and hi are
+ * offsets), [sites cap], then 16-bit [offsets cap x d]. A freed block keeps its cap
  * and gets owner 0, so that the arena can be walked block by block and
  * slid down (dlca.c, ar_slide). */
 /* Words of a block (from its cap word) before its sites: cap, anchor, lo, hi. */
-#define DLCA_REC_HEAD(d) (1 + 3 * (size_t)(d))
+#define DLCA_REC_HEAD(d) (1 + (3 * (size_t)(d) + 1) / 2)
 /* 32-bit words of a block of cap monomers, from its cap word. */
 #define DLCA_REC_WORDS(d, cap) (DLCA_REC_HEAD(d) + (size_t)(cap) + ((size_t)(cap) * (size_t)(d) + 1) / 2)
 /* ... and with its owner word: the block's whole length in the arena. */
@@ -55,7 +56,9 @@ typedef struct dlca_view {
     uint32_t *k;
     dlca_off *off;
     int32_t *anc, *lo, *hi;
-    int32_t g[DLCA_MAX_DIM];    /* a lone monomer's anchor */
+    int32_t g[DLCA_MAX_DIM];    /* the anchor: a lone monomer's, or a block's copied */
+    int32_t glo[DLCA_MAX_DIM], ghi[DLCA_MAX_DIM]; /* a block's bounding box, copied */
+    uint32_t *b;                /* the block (NULL: a lone monomer) */
 } dlca_view;
 
 /* A lone monomer's offset and bounding box (never written through). */
@@ -134,20 +137,37 @@ static inline void dlca_coords(const dlca_sim *s, uint64_t k, int64_t *x)
 
 /* Slot c's block (size >= 2): its cap word. */
 static inline uint32_t *dlca_blk(const dlca_sim *s, uint32_t c) { return s->ar + s->ref[c]; }
-/* Block b's anchor[d], lo[d], hi[d]; its sites. */
-static inline int32_t *dlca_bgeom(uint32_t *b) { return (int32_t *)b + 1; }
+/* Block b's 16-bit anchor[d], lo[d], hi[d]; its sites. */
+static inline dlca_off *dlca_bgeom(uint32_t *b) { return (dlca_off *)(b + 1); }
 static inline uint32_t *dlca_bsites(const dlca_sim *s, uint32_t *b) { return b + DLCA_REC_HEAD(s->d); }
 
 /* Fill v for block b holding n monomers. The view points into the arena:
- * valid until the next block is made (dlca_blk_new may move the arena). */
+ * valid until the next block is made (dlca_blk_new may move the arena).
+ * Its anchor and bounding box are 32-bit copies of the block's 16-bit ones:
+ * a change to them goes back with view_put. */
 static inline void view_blk(const dlca_sim *s, uint32_t *b, uint32_t n, dlca_view *v)
 {
+    const int d = s->d;
+    const dlca_off *geo = dlca_bgeom(b);
     v->n = n;
-    v->anc = (int32_t *)b + 1;
-    v->lo = v->anc + s->d;
-    v->hi = v->anc + 2 * s->d;
-    v->k = b + DLCA_REC_HEAD(s->d);
+    v->b = b;
+    for (int a = 0; a < d; a++) v->g[a] = geo[a], v->glo[a] = geo[d + a], v->ghi[a] = geo[2 * d + a];
+    v->anc = v->g;
+    v->lo = v->glo;
+    v->hi = v->ghi;
+    v->k = b + DLCA_REC_HEAD(d);
     v->off = (dlca_off *)(v->k + b[0]);
+}
+
+/* v's anchor and bounding box back into its block (none for a lone
+ * monomer: its are implied). */
+static inline void view_put(const dlca_sim *s, const dlca_view *v)
+{
+    if (!v->b) return;
+    const int d = s->d;
+    dlca_off *geo = dlca_bgeom(v->b);
+    for (int a = 0; a < d; a++)
+        geo[a] = (dlca_off)v->anc[a], geo[d + a] = (dlca_off)v->lo[a], geo[2 * d + a] = (dlca_off)v->hi[a];
 }
 
 /* Fill v for slot c (size >= 1). */
@@ -158,6 +178,7 @@ static inline void view_of(const dlca_sim *s, uint32_t c, dlca_view *v)
         return;
     }
     v->n = s->n[c];
+    v->b = NULL;
     int64_t x[DLCA_MAX_DIM];
     dlca_coords(s, s->ref[c], x);
     for (int a = 0; a < s->d; a++) v->g[a] = (int32_t)x[a];

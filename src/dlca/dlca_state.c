@@ -360,7 +360,11 @@ static int load_clusters(dlca_sim *s, const ck_arrays *a, char *why, size_t whyl
                 if (o < INT16_MIN || o > INT16_MAX) LOAD_FAIL(PDLA_EIO, "an offset is out of range");
                 off[j] = (dlca_off)o;
             }
-            memcpy(dlca_bgeom(b), g, 3 * (size_t)d * sizeof *g);
+            dlca_off *geo = dlca_bgeom(b);
+            for (int j = 0; j < 3 * d; j++) {
+                if (g[j] < INT16_MIN || g[j] > INT16_MAX) LOAD_FAIL(PDLA_EIO, "an anchor or bounding box is out of range");
+                geo[j] = (dlca_off)g[j];
+            }
         }
         for (uint32_t i = 0; i < n; i++) {
             if (a->k[m + i] >= s->V || s->grid[a->k[m + i]]) LOAD_FAIL(PDLA_EIO, "a site is outside the box or taken twice");

@@ -1,7 +1,7 @@
 #!/bin/sh
 # h5cmp.sh OLD NEW: cluster.h5 datasets (monomers, clusters, series) identical on fixed seeds
-# (the last two: N > 65536, so /monomers is written in more than one piece; W=DIR: work folder)
-old=$1 new=$2; w=${W:-/tmp/dlca4mem/cmp}; rm -rf $w; mkdir -p $w; fails=0; n=0
+# and /results/history_digest (the last two: N > 65536, so /monomers is written in more than one piece; W=DIR: work folder)
+old=$1 new=$2; w=${W:-/tmp/dlca4mem/cmp}; rm -rf $w; mkdir -p $w; fails=0; dfails=0; n=0
 while read -r args; do
   n=$((n+1))
   nice -n 10 $old --model dlca $args --out $w/o$n -q --force >/dev/null 2>&1 || echo "old failed: $args"
@@ -9,6 +9,9 @@ while read -r args; do
   for ds in /monomers /clusters /series; do
     h5diff $w/o$n/cluster.h5 $w/n$n/cluster.h5 $ds $ds >/dev/null 2>&1 || { echo "DIFF $ds: $args"; fails=$((fails+1)); }
   done
+  dg_o=$(h5dump -a /results/history_digest $w/o$n/cluster.h5 2>/dev/null | grep '(0)')
+  dg_n=$(h5dump -a /results/history_digest $w/n$n/cluster.h5 2>/dev/null | grep '(0)')
+  [ -n "$dg_o" ] && [ "$dg_o" = "$dg_n" ] || { echo "DIFF digest: $args"; dfails=$((dfails+1)); }
 done <<'LIST'
 --box 256 --fill 0.05 --until-clusters 50 --seed 1
 --box 256 --fill 0.01 --mobility -0.5 --until-clusters 20 --seed 2
@@ -24,4 +27,4 @@ done <<'LIST'
 --dim 3 --box 128 --fill 0.15 --max-attempts 300000 --seed 3
 --box 2048 --fill 0.07 --until-clusters 20000 --seed 4
 LIST
-echo "$n runs, $fails datasets differ"
+echo "$n runs, $fails datasets differ, $dfails history digests differ"

@@ -2,7 +2,9 @@
  * seed 1): the model's parts and glibc's heap, sampled every 20000 attempts,
  * at the sample of the largest heap and at the end; "rss" from
  * /proc/self/statm (TRIM=1: malloc_trim first; MMT=bytes: mallopt's mmap
- * threshold). Build and run (internal headers, the release libpdla.a):
+ * threshold). Since the block arena (dlca6): "arena_live" = its live blocks,
+ * "arena_top" = up to its top with the freed blocks not yet slid out.
+ * TRACE=1: a line each time N_c falls by a fifth. Build and run (internal headers, the release libpdla.a):
  *   gcc -O2 -std=gnu11 -I include -I src -I src/core -I src/dlca runs/dlca/memparts.c build/libpdla.a \
  *       -lhdf5_serial -lhwloc -lm -lpthread -o /tmp/memparts
  *   /tmp/memparts D L FILL GAMMA */
@@ -17,9 +19,8 @@ static parts measure(const dlca_sim *s)
     const int d = s->d;
     p.slots = (double)(s->nslot + 1) * (12 + 4 * (s->id != NULL)) + (double)s->nslot * 4;
     p.grid = s->grid ? (double)s->V * 4 : 0;
-    p.rectab = (double)s->caprec * sizeof *s->rec;
-    for (uint32_t r = 0; r < s->nrec; r++)
-        if (dlca_rec_live(&s->rec[r])) p.blocks_cap += DLCA_REC_WORDS(d, dlca_rec_cap(s, r)) * 4.0;
+    p.rectab = (double)(s->ar_top - s->ar_free) * 4; /* the arena's live blocks (no record table now) */
+    p.blocks_cap = (double)s->ar_top * 4;             /* the arena up to its top, freed blocks too */
     for (uint64_t c = 1; c <= s->nslot; c++)
         if (s->n[c] >= 2) p.blocks_used += (double)s->n[c] * (4 + 2 * d);
     if (s->size_count) p.extra += (s->N + 1) * 4.0;
@@ -47,15 +48,22 @@ int main(int argc, char **argv)
     dlca_sim *s;
     if (dlca_create(&s, &p, err, sizeof err)) { fprintf(stderr, "%s\n", err); return 1; }
     parts pk = {0};
+    double lastnc = 1e30;
     double nc_pk = 0;
     while (!dlca_run(s, 20000)) {
         parts q = measure(s);
         if (q.heap > pk.heap) pk = q, nc_pk = s->nc;
+        if (getenv("TRACE") && s->nc < 0.8 * lastnc) {
+            lastnc = (double)s->nc;
+            printf("nc %llu slots %.1f arena_live %.1f arena_top %.1f used %.1f rss %.1f heap %.1f\n",
+                   (unsigned long long)s->nc, q.slots / s->N, q.rectab / s->N, q.blocks_cap / s->N,
+                   q.blocks_used / s->N, q.extra / s->N, q.heap / s->N);
+        }
     }
     parts e = measure(s);
     const double N = s->N;
     printf("N %.0f\n", N);
-    const char *names[] = {"slots", "grid", "rectab", "blocks_cap", "blocks_used", "rss", "heap(system)"};
+    const char *names[] = {"slots", "grid", "arena_live", "arena_top", "blocks_used", "rss", "heap(system)"};
     for (int i = 0; i < 7; i++)
         printf("%-13s peak(N_c %.0f) %7.1f B/monomer   end(N_c %llu) %7.1f\n", names[i], nc_pk, ((double *)&pk)[i] / N,
                (unsigned long long)s->nc, ((double *)&e)[i] / N);

@@ -19,7 +19,11 @@
  * lowest direction), and joins run in cluster-id order: hence the same
  * history, bit for bit, whichever search runs.
  */
+#define _GNU_SOURCE /* mremap (Linux) */
 #include <math.h>
+#ifdef __linux__
+#include <sys/mman.h>
+#endif
 #ifdef __GLIBC__
 #include <malloc.h>
 #endif
@@ -81,59 +85,124 @@ static inline uint32_t next_stamp(dlca_sim *s)
     return s->stamp_now;
 }
 
-/* ---- records -------------------------------------------------------------- */
+/* ---- the block arena ------------------------------------------------------ */
 
-/* Give record r a block of cap entries (cap >= n), its head and n monomers
- * copied over (n = 0: a fresh record, head left for the caller). */
-static int rec_grow(dlca_sim *s, uint32_t r, uint32_t n, uint32_t cap)
+/* Every cluster of 2 or more has its block in one arena, carved at the top
+ * and freed by marking (owner 0). When the top reaches the capacity, the
+ * live blocks are slid down in place if an eighth of the top is freed
+ * blocks, else the arena grows; either way its capacity is then set to the
+ * top plus an eighth, so that the pages above the top go back to the
+ * system. Resident: at most ~9/8 of the live blocks (one malloc per block
+ * kept ~20 B a monomer of freed and outgrown blocks in glibc's heap, and
+ * 16 B of malloc header a block: runs/dlca/memory.txt). Offsets are 32-bit
+ * words: an arena of at most 2^32 words (16 GiB). On Linux the arena is
+ * its own mapping (mremap moves it without copying and gives back the
+ * tail); elsewhere realloc. */
+#define AR_MAX UINT32_MAX
+
+static void ar_release(dlca_sim *s)
 {
-    const int d = s->d;
-    const size_t head = DLCA_REC_HEAD(d);
-    uint32_t *b = malloc(DLCA_REC_WORDS(d, cap) * sizeof *b);
-    if (!b) return -1;
-    if (n) {
-        const uint32_t *o = s->rec[r].b, ocap = o[0];
-        memcpy(b, o, head * sizeof *b);
-        memcpy(b + head, o + head, (size_t)n * sizeof *b);
-        memcpy(b + head + cap, o + head + ocap, (size_t)n * d * sizeof(dlca_off));
-        free(s->rec[r].b);
-    }
-    b[0] = cap;
-    s->rec[r].b = b;
+#ifdef __linux__
+    if (s->ar) munmap(s->ar, s->ar_cap * sizeof *s->ar);
+#else
+    free(s->ar);
+#endif
+    s->ar = NULL;
+    s->ar_top = s->ar_cap = s->ar_free = 0;
+}
+
+/* Capacity of cap words (a whole number of pages); 0 or -1 (arena kept). */
+static int ar_resize(dlca_sim *s, uint64_t cap)
+{
+    const uint64_t page = 4096 / sizeof *s->ar;
+    cap = (cap + page - 1) / page * page;
+    if (cap == s->ar_cap) return 0;
+    if (cap > (uint64_t)AR_MAX + 1) return -1;
+    const size_t nb = (size_t)cap * sizeof *s->ar;
+#ifdef __linux__
+    void *p = s->ar ? mremap(s->ar, s->ar_cap * sizeof *s->ar, nb, MREMAP_MAYMOVE)
+                    : mmap(NULL, nb, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (p == MAP_FAILED) return -1;
+#else
+    void *p = realloc(s->ar, nb);
+    if (!p) return -1;
+#endif
+    s->ar = p;
+    s->ar_cap = cap;
     return 0;
 }
 
-static void rec_push_free(dlca_sim *s, uint32_t r)
+/* The live blocks slid down to the bottom, in their order; each owner's
+ * ref follows its block. O(top). */
+static void ar_slide(dlca_sim *s)
 {
-    s->rec[r].next = (uint64_t)s->free_rec << 1 | 1;
-    s->free_rec = r;
-}
-
-uint32_t dlca_rec_new(dlca_sim *s, uint32_t cap)
-{
-    uint32_t r = s->free_rec;
-    if (r != DLCA_NO_REC) s->free_rec = (uint32_t)(s->rec[r].next >> 1);
-    else {
-        if (s->nrec == s->caprec) {
-            const uint32_t c = s->caprec ? s->caprec + s->caprec / 2 : 64;
-            dlca_rec *rec = realloc(s->rec, (size_t)c * sizeof *rec);
-            if (!rec) return DLCA_NO_REC;
-            s->rec = rec;
-            s->caprec = c;
+    uint64_t src = 0, dst = 0;
+    while (src < s->ar_top) {
+        const uint32_t owner = s->ar[src];
+        const uint64_t w = DLCA_BLK_WORDS(s->d, s->ar[src + 1]);
+        if (owner) {
+            if (dst != src) memmove(s->ar + dst, s->ar + src, (size_t)w * sizeof *s->ar);
+            s->ref[owner] = (uint32_t)(dst + 1);
+            dst += w;
         }
-        r = s->nrec++;
+        src += w;
     }
-    if (rec_grow(s, r, 0, cap)) {
-        rec_push_free(s, r);
-        return DLCA_NO_REC;
-    }
-    return r;
+    s->ar_top = dst;
+    s->ar_free = 0;
 }
 
-static void rec_free(dlca_sim *s, uint32_t r)
+/* Room for w more words at the top (a slide or a resize: the arena may
+ * move). 0 or -1. */
+static int ar_reserve(dlca_sim *s, uint64_t w)
 {
-    free(s->rec[r].b);
-    rec_push_free(s, r);
+    if (s->ar_top + w <= s->ar_cap) return 0;
+    if (s->ar_free > s->ar_top / 8) ar_slide(s);
+    const uint64_t need = s->ar_top + w;
+    if (need > AR_MAX) return -1;
+    return ar_resize(s, need + need / 8 + 1024) && ar_resize(s, need) ? -1 : 0;
+}
+
+/* A block of cap for slot c at the top (room reserved); its cap word. */
+static uint32_t ar_carve(dlca_sim *s, uint32_t c, uint32_t cap)
+{
+    uint32_t *b = s->ar + s->ar_top;
+    b[0] = c;
+    b[1] = cap;
+    s->ar_top += DLCA_BLK_WORDS(s->d, cap);
+    return (uint32_t)(b + 1 - s->ar);
+}
+
+int dlca_blk_new(dlca_sim *s, uint32_t c, uint32_t cap)
+{
+    if (ar_reserve(s, DLCA_BLK_WORDS(s->d, cap))) return -1;
+    s->ref[c] = ar_carve(s, c, cap);
+    return 0;
+}
+
+/* Slot c's block freed (ref[c] left as it was). */
+static void blk_free(dlca_sim *s, uint32_t c)
+{
+    uint32_t *b = dlca_blk(s, c);
+    b[-1] = 0;
+    s->ar_free += DLCA_BLK_WORDS(s->d, b[0]);
+}
+
+/* Slot c (n >= 2 monomers) moves to a new block of cap >= n, its head and
+ * monomers copied over. 0 or -1 (the old block kept). */
+static int blk_grow(dlca_sim *s, uint32_t c, uint32_t n, uint32_t cap)
+{
+    const int d = s->d;
+    const size_t head = DLCA_REC_HEAD(d);
+    if (ar_reserve(s, DLCA_BLK_WORDS(d, cap))) return -1;
+    const uint32_t nb = ar_carve(s, c, cap);
+    const uint32_t *o = dlca_blk(s, c);
+    uint32_t *b = s->ar + nb;
+    memcpy(b + 1, o + 1, (head - 1) * sizeof *b);
+    memcpy(b + head, o + head, (size_t)n * sizeof *b);
+    memcpy(b + head + cap, o + head + o[0], (size_t)n * d * sizeof(dlca_off));
+    blk_free(s, c);
+    s->ref[c] = nb;
+    return 0;
 }
 
 /* ---- the series ---------------------------------------------------------- */
@@ -359,12 +428,11 @@ static __attribute__((noinline)) void compact(dlca_sim *s)
     s->compact_due = 0;
     const uint64_t old = s->nslot;
     const size_t w = 2 * (size_t)s->d;
-    uint32_t *map = NULL, *id = s->id, r = 0; /* map: old slot -> new, for the box lists */
-    dlca_rec *rec = malloc((s->nrec ? s->nrec : 1) * sizeof *rec); /* the live records, in slot order */
+    uint32_t *map = NULL, *id = s->id; /* map: old slot -> new, for the box lists */
     if (!id) id = malloc((s->nc + 1) * sizeof *id);
     if (s->box) map = malloc((old + 1) * sizeof *map);
-    if (!rec || !id || (s->box && !map)) {
-        free(rec), free(map);
+    if (!id || (s->box && !map)) {
+        free(map);
         if (id != s->id) free(id);
         return;
     }
@@ -373,10 +441,6 @@ static __attribute__((noinline)) void compact(dlca_sim *s)
         if (!s->n[c]) continue;
         id[++j] = s->id ? s->id[c] : (uint32_t)c; /* j <= c: in place */
         if (map) map[c] = j;
-        if (s->n[c] >= 2) {
-            rec[r] = s->rec[s->ref[c]];
-            s->ref[c] = r++;
-        }
         if (j == c) continue;
         s->n[j] = s->n[c];
         s->ref[j] = s->ref[c];
@@ -384,15 +448,13 @@ static __attribute__((noinline)) void compact(dlca_sim *s)
         s->act[s->pos[j]] = j;
         if (s->brange) memmove(s->brange + j * w, s->brange + c * w, w * sizeof *s->brange);
         if (s->grid && s->n[j] == 1) s->grid[s->ref[j]] = j; /* no view: that divides */
-        else if (s->grid) {
-            const uint32_t *k = rec[s->ref[j]].b + DLCA_REC_HEAD(s->d);
-            for (uint32_t i = 0; i < s->n[j]; i++) s->grid[k[i]] = j;
+        if (s->n[j] >= 2) {
+            uint32_t *b = dlca_blk(s, j);
+            b[-1] = j; /* its owner, for ar_slide */
+            const uint32_t *k = dlca_bsites(s, b);
+            for (uint32_t i = 0; s->grid && i < s->n[j]; i++) s->grid[k[i]] = j;
         }
     }
-    free(s->rec);
-    s->rec = shrink(rec, (r ? r : 1) * sizeof *rec);
-    s->nrec = s->caprec = r;
-    s->free_rec = DLCA_NO_REC;
     for (uint64_t b = 0; map && b < s->nboxes; b++)
         for (uint32_t e = 0; e < s->box_n[b]; e++) s->box[b][e] = map[s->box[b][e]];
     free(map);
@@ -416,10 +478,8 @@ static __attribute__((noinline)) void compact(dlca_sim *s)
 void dlca_sim_free(dlca_sim *s)
 {
     if (!s) return;
-    for (uint32_t r = 0; r < s->nrec; r++)
-        if (dlca_rec_live(&s->rec[r])) free(s->rec[r].b);
+    ar_release(s);
     boxes_free(s);
-    free(s->rec);
     free(s->n);
     free(s->pos);
     free(s->ref);
@@ -452,7 +512,6 @@ int dlca_sim_alloc(dlca_sim **out, const dlca_params *p, uint64_t N)
     }
     s->N = N;
     s->nslot = N;
-    s->free_rec = DLCA_NO_REC;
     rng_seed(&s->rng, p->seed);
     s->n = calloc(N + 1, sizeof *s->n);
     s->pos = calloc(N + 1, sizeof *s->pos);
@@ -490,28 +549,29 @@ static void sizes_joined(dlca_sim *s, uint64_t a, uint64_t b)
     while (s->smin < s->N && s->size_count[s->smin] == 0) s->smin++;
 }
 
-/* Room for n monomers in the keeper: a lone monomer gets a record (its
- * geometry made explicit), a record grows by half. 0 or -1. */
+/* Room for n monomers in the keeper: a lone monomer gets a block (its
+ * geometry made explicit), a block too small is replaced by one of n and
+ * an eighth (the old one is garbage until a slide: with little slack the
+ * copies stay O(n) a join and the slack small). 0 or -1. Moves the arena. */
 static int keep_room(dlca_sim *s, uint32_t keep, uint32_t n)
 {
     if (s->n[keep] == 1) {
         int64_t x[DLCA_MAX_DIM];
         const uint32_t k = s->ref[keep];
-        const uint32_t r = dlca_rec_new(s, n); /* exact: most clusters stay small */
-        if (r == DLCA_NO_REC) return -1;
+        if (dlca_blk_new(s, keep, n)) { /* exact: most clusters stay small */
+            s->ref[keep] = k;
+            return -1;
+        }
+        uint32_t *b = dlca_blk(s, keep);
         coords(s, k, x);
-        int32_t *g = dlca_rgeom(s, r);
-        for (int a = 0; a < s->d; a++) g[a] = (int32_t)x[a], g[s->d + a] = g[2 * s->d + a] = 0;
-        dlca_rsites(s, r)[0] = k;
-        memset(dlca_rsites(s, r) + n, 0, (size_t)s->d * sizeof(dlca_off)); /* its offset */
-        s->ref[keep] = r;
+        dlca_off *g = dlca_bgeom(b);
+        for (int a = 0; a < s->d; a++) g[a] = (dlca_off)x[a], g[s->d + a] = g[2 * s->d + a] = 0;
+        dlca_bsites(s, b)[0] = k;
+        memset(dlca_bsites(s, b) + n, 0, (size_t)s->d * sizeof(dlca_off)); /* its offset */
         return 0;
     }
-    const uint32_t r = s->ref[keep];
-    uint32_t cap = dlca_rec_cap(s, r);
-    if (n <= cap) return 0;
-    while (cap < n) cap += cap / 2 + 1;
-    return rec_grow(s, r, s->n[keep], cap);
+    if (n <= dlca_blk(s, keep)[0]) return 0;
+    return blk_grow(s, keep, s->n[keep], n + (n / 8 < UINT32_MAX - n ? n / 8 : UINT32_MAX - n));
 }
 
 /* Append gone's monomers to keep (room made: keep has a record, even if
@@ -520,7 +580,7 @@ static void append(dlca_sim *s, uint32_t keep, uint32_t gone, const int64_t *dis
 {
     const int d = s->d;
     dlca_view K, G;
-    view_rec(s, s->ref[keep], s->n[keep], &K);
+    view_blk(s, dlca_blk(s, keep), s->n[keep], &K);
     view_of(s, gone, &G);
     for (uint32_t j = 0; j < G.n; j++) {
         K.k[K.n + j] = G.k[j];
@@ -532,6 +592,7 @@ static void append(dlca_sim *s, uint32_t keep, uint32_t gone, const int64_t *dis
         }
         if (s->grid) s->grid[G.k[j]] = keep;
     }
+    view_put(s, &K);
     for (int a = 0; a < d; a++)
         if ((int64_t)K.hi[a] - K.lo[a] + 1 >= s->L[a]) s->spanning = 1;
 }
@@ -559,7 +620,7 @@ static uint32_t join(dlca_sim *s, uint32_t c, uint32_t b, const int64_t *disp_in
     s->sum_s2 += 2.0 * (double)nk * (double)ng;
     sizes_joined(s, nk, ng);
     s->n[keep] = n;
-    if (ng >= 2) rec_free(s, s->ref[gone]);
+    if (ng >= 2) blk_free(s, gone);
     s->n[gone] = 0;
     s->ref[gone] = 0;
     remove_active(s, gone);
@@ -739,6 +800,7 @@ static int lattice_shift(dlca_sim *s, uint32_t c, dlca_view *v, int a, int sg)
     }
     for (uint32_t i = 0; i < n; i++) grid[k[i]] = c;
     v->anc[a] = (int32_t)wrap((int64_t)v->anc[a] + sg, L);
+    if (v->b) dlca_bgeom(v->b)[a] = (dlca_off)v->anc[a];
     return DLCA_MOVED;
 }
 
@@ -908,10 +970,12 @@ static int move_ref(dlca_sim *s, uint32_t c, int a, int sg)
         if (memcmp(b0, r, (size_t)d * sizeof *b0) || memcmp(cnt, r + d, (size_t)d * sizeof *cnt)) {
             box_unregister(s, c);
             memcpy(v.anc, na, (size_t)d * sizeof *na);
+            view_put(s, &v); /* box_register reads it from the block */
             if (box_register(s, c)) return PDLA_ENOMEM;
         }
     }
     memcpy(v.anc, na, (size_t)d * sizeof *na);
+    view_put(s, &v);
     return DLCA_MOVED;
 }
 
@@ -1068,10 +1132,7 @@ const dlca_params *dlca_get_params(const dlca_sim *s) { return &s->p; }
 static uint64_t model_bytes(const dlca_sim *s)
 {
     uint64_t b = sizeof *s + (s->nslot + 1) * (3 + (s->id != NULL)) * sizeof(uint32_t) +
-                 s->nslot * sizeof *s->act + (uint64_t)s->caprec * sizeof *s->rec;
-    for (uint32_t r = 0; r < s->nrec; r++)
-        if (dlca_rec_live(&s->rec[r]))
-            b += DLCA_REC_WORDS(s->d, dlca_rec_cap(s, r)) * sizeof(uint32_t);
+                 s->nslot * sizeof *s->act + s->ar_top * sizeof *s->ar; /* with its freed blocks */
     if (s->cand) b += s->nslot * sizeof *s->cand;
     if (s->stamp) b += (s->nslot + 1) * sizeof *s->stamp;
     if (s->grid) b += s->V * sizeof *s->grid;

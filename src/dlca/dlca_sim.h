@@ -11,15 +11,14 @@
  * (id, 4 more bytes), so that the history is the same. A monomer alone
  * (size 1) needs nothing more: `ref` is its site
  * and its geometry is implied (anchor = its coordinates, offset and bounding
- * box 0). A cluster of 2 or more owns a record (`ref` is its index): one
- * 8-byte pointer to a block that holds everything else, its capacity, its
- * anchor and bounding box, cap sites and cap x d 16-bit offsets from the
- * anchor (a box axis is at most DLCA_MAX_AXIS sites, so that even the
- * offsets of a join that spans the box, |o| <= 2L - 2, fit)
- * (the record table keeps its largest length, so a record must be small:
- * the geometry in the table made it 40 bytes, 14 B/monomer at the end of a
- * 2D run). Records of absorbed clusters are reused, and the table is
- * compacted with the slots. The id lattice
+ * box 0). A cluster of 2 or more owns a block in one arena for all blocks
+ * (`ref` is its offset): its capacity, anchor and bounding box, cap sites
+ * and cap x d 16-bit offsets from the anchor (a box axis is at most
+ * DLCA_MAX_AXIS sites, so that even the offsets of a join that spans the
+ * box, |o| <= 2L - 2, fit). Blocks are made with little slack and freed
+ * blocks are reclaimed by sliding the live ones down (dlca.c): one malloc'd
+ * block per cluster left ~20 bytes a monomer of glibc's heap between live
+ * blocks (runs/dlca/memory.txt). The id lattice
  * (4 bytes a site) is the collision structure of --search lattice; the
  * "seen" stamps and the box lists exist only for the seed's searches.
  */
@@ -34,19 +33,19 @@
 /* An offset from a cluster's anchor along one axis. */
 typedef int16_t dlca_off;
 
-/* A cluster of 2 or more monomers: its block, 32-bit words [cap][anchor d]
- * [lo d][hi d][sites cap], then 16-bit [offsets cap x d]. A free record holds instead the
- * next free record's index, shifted left and tagged odd (no block pointer
- * is odd). */
-typedef union dlca_rec {
-    uint32_t *b;
-    uint64_t next;
-} dlca_rec;
-
-/* Words of a block before its sites: cap, anchor, lo, hi. */
-#define DLCA_REC_HEAD(d) (1 + 3 * (size_t)(d))
-/* 32-bit words of a block of cap monomers. */
+/* A cluster of 2 or more monomers owns a block in the arena (s->ar, one
+ * array of 32-bit words for all clusters; `ref` is the offset of the
+ * block's cap word): [owner slot] then [cap], 16-bit [anchor d][lo d][hi d]
+ * (padded to a word; the anchor is below L <= DLCA_MAX_AXIS, lo and hi are
+ * offsets), [sites cap], then 16-bit [offsets cap x d]. A freed block keeps its cap
+ * and gets owner 0, so that the arena can be walked block by block and
+ * slid down (dlca.c, ar_slide). */
+/* Words of a block (from its cap word) before its sites: cap, anchor, lo, hi. */
+#define DLCA_REC_HEAD(d) (1 + (3 * (size_t)(d) + 1) / 2)
+/* 32-bit words of a block of cap monomers, from its cap word. */
 #define DLCA_REC_WORDS(d, cap) (DLCA_REC_HEAD(d) + (size_t)(cap) + ((size_t)(cap) * (size_t)(d) + 1) / 2)
+/* ... and with its owner word: the block's whole length in the arena. */
+#define DLCA_BLK_WORDS(d, cap) (1 + DLCA_REC_WORDS(d, cap))
 
 /* A cluster as the moves see it: for a lone monomer the anchor is in the
  * view itself (g), the sites are its `ref` word and offset and bounding box
@@ -57,7 +56,9 @@ typedef struct dlca_view {
     uint32_t *k;
     dlca_off *off;
     int32_t *anc, *lo, *hi;
-    int32_t g[DLCA_MAX_DIM];    /* a lone monomer's anchor */
+    int32_t g[DLCA_MAX_DIM];    /* the anchor: a lone monomer's, or a block's copied */
+    int32_t glo[DLCA_MAX_DIM], ghi[DLCA_MAX_DIM]; /* a block's bounding box, copied */
+    uint32_t *b;                /* the block (NULL: a lone monomer) */
 } dlca_view;
 
 /* A lone monomer's offset and bounding box (never written through). */
@@ -80,12 +81,12 @@ struct dlca_sim {
     uint64_t nslot; /* slots 1..nslot (N at the start; compacted as N_c falls) */
     uint32_t *n;    /* per slot 0..nslot: monomers (0: absorbed) */
     uint32_t *pos;  /* per slot: index in act */
-    uint32_t *ref;  /* per slot: n == 1 its site, n >= 2 its record */
+    uint32_t *ref;  /* per slot: n == 1 its site, n >= 2 its block's offset in ar */
     uint32_t *act;  /* active slots */
     uint32_t *id;   /* per slot: the cluster's name (its first slot); NULL: the slot itself */
     uint64_t nc;
-    dlca_rec *rec;  /* records of clusters of 2 or more */
-    uint32_t nrec, caprec, free_rec;
+    uint32_t *ar;   /* the arena: blocks of clusters of 2 or more */
+    uint64_t ar_top, ar_cap, ar_free; /* words: in use (live or freed), allocated, freed */
     uint32_t *grid; /* LATTICE: slot id per site, 0 empty */
     pdla_rng rng;
     double t;
@@ -116,7 +117,6 @@ struct dlca_sim {
     uint64_t row_nc;
 };
 
-#define DLCA_NO_REC UINT32_MAX
 
 static inline int64_t dlca_wrap(int64_t v, int64_t L)
 {
@@ -135,32 +135,50 @@ static inline void dlca_coords(const dlca_sim *s, uint64_t k, int64_t *x)
     x[s->d - 1] = (int64_t)k;
 }
 
-static inline int dlca_rec_live(const dlca_rec *r) { return r->b && !(r->next & 1); }
-static inline uint32_t dlca_rec_cap(const dlca_sim *s, uint32_t r) { return s->rec[r].b[0]; }
-/* Record r's anchor[d], lo[d], hi[d]. */
-static inline int32_t *dlca_rgeom(const dlca_sim *s, uint32_t r) { return (int32_t *)s->rec[r].b + 1; }
-static inline uint32_t *dlca_rsites(const dlca_sim *s, uint32_t r) { return s->rec[r].b + DLCA_REC_HEAD(s->d); }
+/* Slot c's block (size >= 2): its cap word. */
+static inline uint32_t *dlca_blk(const dlca_sim *s, uint32_t c) { return s->ar + s->ref[c]; }
+/* Block b's 16-bit anchor[d], lo[d], hi[d]; its sites. */
+static inline dlca_off *dlca_bgeom(uint32_t *b) { return (dlca_off *)(b + 1); }
+static inline uint32_t *dlca_bsites(const dlca_sim *s, uint32_t *b) { return b + DLCA_REC_HEAD(s->d); }
 
-/* Fill v for record r holding n monomers. */
-static inline void view_rec(const dlca_sim *s, uint32_t r, uint32_t n, dlca_view *v)
+/* Fill v for block b holding n monomers. The view points into the arena:
+ * valid until the next block is made (dlca_blk_new may move the arena).
+ * Its anchor and bounding box are 32-bit copies of the block's 16-bit ones:
+ * a change to them goes back with view_put. */
+static inline void view_blk(const dlca_sim *s, uint32_t *b, uint32_t n, dlca_view *v)
 {
-    uint32_t *b = s->rec[r].b;
+    const int d = s->d;
+    const dlca_off *geo = dlca_bgeom(b);
     v->n = n;
-    v->anc = (int32_t *)b + 1;
-    v->lo = v->anc + s->d;
-    v->hi = v->anc + 2 * s->d;
-    v->k = b + DLCA_REC_HEAD(s->d);
+    v->b = b;
+    for (int a = 0; a < d; a++) v->g[a] = geo[a], v->glo[a] = geo[d + a], v->ghi[a] = geo[2 * d + a];
+    v->anc = v->g;
+    v->lo = v->glo;
+    v->hi = v->ghi;
+    v->k = b + DLCA_REC_HEAD(d);
     v->off = (dlca_off *)(v->k + b[0]);
+}
+
+/* v's anchor and bounding box back into its block (none for a lone
+ * monomer: its are implied). */
+static inline void view_put(const dlca_sim *s, const dlca_view *v)
+{
+    if (!v->b) return;
+    const int d = s->d;
+    dlca_off *geo = dlca_bgeom(v->b);
+    for (int a = 0; a < d; a++)
+        geo[a] = (dlca_off)v->anc[a], geo[d + a] = (dlca_off)v->lo[a], geo[2 * d + a] = (dlca_off)v->hi[a];
 }
 
 /* Fill v for slot c (size >= 1). */
 static inline void view_of(const dlca_sim *s, uint32_t c, dlca_view *v)
 {
     if (s->n[c] >= 2) {
-        view_rec(s, s->ref[c], s->n[c], v);
+        view_blk(s, dlca_blk(s, c), s->n[c], v);
         return;
     }
     v->n = s->n[c];
+    v->b = NULL;
     int64_t x[DLCA_MAX_DIM];
     dlca_coords(s, s->ref[c], x);
     for (int a = 0; a < s->d; a++) v->g[a] = (int32_t)x[a];
@@ -179,8 +197,10 @@ static inline uint32_t dlca_slot_id(const dlca_sim *s, uint64_t c) { return s->i
 void dlca_sim_free(dlca_sim *s);
 /* The arrays of a simulation of p with N monomers, nothing placed. */
 int dlca_sim_alloc(dlca_sim **out, const dlca_params *p, uint64_t N);
-/* A record with room for cap monomers (its index), or DLCA_NO_REC. */
-uint32_t dlca_rec_new(dlca_sim *s, uint32_t cap);
+/* A block for slot c with room for cap monomers (ref[c] set, head and
+ * contents left to the caller); 0 or -1 (no memory). Moves the arena:
+ * every pointer into it is stale after. */
+int dlca_blk_new(dlca_sim *s, uint32_t c, uint32_t cap);
 /* The seed's search structures from the state (after a start or a load). */
 int dlca_search_init(dlca_sim *s, int search, int A);
 int dlca_boxes_build(dlca_sim *s);

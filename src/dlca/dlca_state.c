@@ -29,9 +29,9 @@ static int check_cluster(const dlca_sim *s, uint32_t c, uint64_t *ks, uint64_t *
     const int d = s->d;
     if (s->pos[c] >= s->nc || s->act[s->pos[c]] != c) BAD("cluster %u is not in the active list", c);
     if (*m + s->n[c] > s->N) BAD("cluster sizes add up to more than N = %llu", (unsigned long long)s->N);
-    if (s->n[c] >= 2 && (s->ref[c] >= s->nrec || !dlca_rec_live(&s->rec[s->ref[c]]) ||
-                         dlca_rec_cap(s, s->ref[c]) < s->n[c]))
-        BAD("cluster %u has no record of its %u monomers", c, s->n[c]);
+    if (s->n[c] >= 2 && (s->ref[c] < 1 || s->ref[c] + DLCA_REC_HEAD(d) > s->ar_top || s->ar[s->ref[c] - 1] != c ||
+                         s->ar[s->ref[c]] < s->n[c] || s->ref[c] + DLCA_REC_WORDS(d, s->ar[s->ref[c]]) > s->ar_top))
+        BAD("cluster %u has no block of its %u monomers", c, s->n[c]);
     if (s->n[c] == 1 && s->ref[c] >= s->V) BAD("monomer %u lies outside the box", c);
     dlca_view v;
     view_of(s, c, &v);
@@ -144,6 +144,25 @@ static int check_boxes(const dlca_sim *s, char *err, size_t errlen)
         BAD("boxes list %llu entries, expected %llu", (unsigned long long)listed, (unsigned long long)expect);
     return 0;
 }
+/* The arena walks block by block to its top; a live block is its owner's,
+ * the freed words add up. */
+static int check_arena(const dlca_sim *s, char *err, size_t errlen)
+{
+    uint64_t p = 0, freed = 0;
+    while (p < s->ar_top) {
+        if (p + 2 > s->ar_top) BAD("the block arena ends inside a block head");
+        const uint32_t owner = s->ar[p];
+        const uint64_t w = DLCA_BLK_WORDS(s->d, s->ar[p + 1]);
+        if (!owner) freed += w;
+        else if (owner > s->nslot || s->n[owner] < 2 || s->ref[owner] != p + 1)
+            BAD("an arena block at %llu names slot %u, which is not its owner", (unsigned long long)p, owner);
+        p += w;
+    }
+    if (p != s->ar_top) BAD("the block arena overruns its top");
+    if (freed != s->ar_free) BAD("the block arena has %llu freed words, counted %llu", (unsigned long long)freed,
+                                 (unsigned long long)s->ar_free);
+    return 0;
+}
 #undef BAD
 
 int dlca_check(const dlca_sim *s, char *err, size_t errlen)
@@ -160,6 +179,7 @@ int dlca_check(const dlca_sim *s, char *err, size_t errlen)
         rc = check_sites(s, ks, m, err, errlen);
     }
     if (rc == 0) rc = check_boxes(s, err, errlen);
+    if (rc == 0) rc = check_arena(s, err, errlen);
     free(ks);
     return rc;
 }
@@ -331,17 +351,20 @@ static int load_clusters(dlca_sim *s, const ck_arrays *a, char *why, size_t whyl
         s->n[c] = n;
         if (n == 1) s->ref[c] = a->k[m];
         else {
-            const uint32_t r = dlca_rec_new(s, n);
-            if (r == DLCA_NO_REC) LOAD_FAIL(PDLA_ENOMEM, "out of memory");
-            s->ref[c] = r;
-            memcpy(dlca_rsites(s, r), a->k + m, n * sizeof *a->k); /* cap n: offsets follow */
-            dlca_off *off = (dlca_off *)(dlca_rsites(s, r) + n);
+            if (dlca_blk_new(s, (uint32_t)c, n)) LOAD_FAIL(PDLA_ENOMEM, "out of memory");
+            uint32_t *b = dlca_blk(s, (uint32_t)c);
+            memcpy(dlca_bsites(s, b), a->k + m, n * sizeof *a->k); /* cap n: offsets follow */
+            dlca_off *off = (dlca_off *)(dlca_bsites(s, b) + n);
             for (size_t j = 0; j < (size_t)n * d; j++) {
                 const int32_t o = a->off[m * d + j];
                 if (o < INT16_MIN || o > INT16_MAX) LOAD_FAIL(PDLA_EIO, "an offset is out of range");
                 off[j] = (dlca_off)o;
             }
-            memcpy(dlca_rgeom(s, r), g, 3 * (size_t)d * sizeof *g);
+            dlca_off *geo = dlca_bgeom(b);
+            for (int j = 0; j < 3 * d; j++) {
+                if (g[j] < INT16_MIN || g[j] > INT16_MAX) LOAD_FAIL(PDLA_EIO, "an anchor or bounding box is out of range");
+                geo[j] = (dlca_off)g[j];
+            }
         }
         for (uint32_t i = 0; i < n; i++) {
             if (a->k[m + i] >= s->V || s->grid[a->k[m + i]]) LOAD_FAIL(PDLA_EIO, "a site is outside the box or taken twice");

@@ -172,10 +172,12 @@ typedef struct pdla_stats {
      * query lay inside the jump's ball, and birth-circle moves redone
      * because R_ext had grown since it was read. */
     uint64_t stale_jumps, stale_births;
-    /* PDLA straggler bound (workers; this process only, not checkpointed):
-     * walkers relaunched from the birth circle because more than 8 x workers
-     * particles were appended between two of their steps (or between their
-     * last step and their append): descheduled while the others grew. */
+    /* PDLA straggler bound (workers): walkers relaunched from the birth
+     * circle because more than 8 x workers particles were appended between
+     * two of their steps (or between their last step and their append):
+     * descheduled while the others grew. Saved in checkpoints, so cumulative
+     * over resumes (a checkpoint written before the count was saved resumes
+     * it from 0). */
     uint64_t relaunches;
     /* PDLA lock contention, indexed by PDLA_MUTEX_NODE/BUCKET/GYRATION:
      * acquisitions by workers, and those that found the mutex held (so had

@@ -15,8 +15,10 @@
  * mean M(r), the cluster's packing fraction inside r (M(r) v / V(r), v the
  * volume of a particle of radius 0.5, V(r) the d-ball of radius r) and the
  * local slope d ln <M> / d ln r from the two points r / sqrt2 and r sqrt2
- * (a factor 2 in r). Only r with every file's R_max > r are printed: the
- * outer rim of a cluster that is still growing undercounts M.
+ * (a factor 2 in r), with its standard error from the per-file local
+ * slopes (sd / sqrt(files); nan with one file). Only r with every file's
+ * R_max > r are printed: the outer rim of a cluster that is still growing
+ * undercounts M.
  */
 #include <math.h>
 #include <stdio.h>
@@ -112,19 +114,27 @@ int main(int argc, char **argv)
     const double mean = sum / nf, sd = nf > 1 ? sqrt(fmax(sum2 - nf * mean * mean, 0) / (nf - 1)) : NAN;
     printf("D_f[%g,%g] mean %.4f sd %.4f se %.4f files %d\n", r0, r1, mean, sd, sd / sqrt(nf), nf);
     const double v = D == 2 ? M_PI * 0.25 : M_PI / 6;
-    printf("%10s %12s %10s %10s\n", "r", "<M(r)>", "phi_c(r)", "slope");
+    printf("%10s %12s %10s %10s %10s\n", "r", "<M(r)>", "phi_c(r)", "slope", "slope_se");
     for (int j = 0;; j++) {
         const double rr = pow(2, j / 4.0), a = rr / sqrt(2), b = rr * sqrt(2);
         if (b > rmin) break;
-        double m = 0, ma = 0, mb = 0;
+        double m = 0, ma = 0, mb = 0, s1 = 0, s2 = 0;
+        int ns = 0;
         for (int i = 0; i < nf; i++) {
+            const double mai = mass(r[i], n[i], a), mbi = mass(r[i], n[i], b);
             m += mass(r[i], n[i], rr) / nf;
-            ma += mass(r[i], n[i], a) / nf;
-            mb += mass(r[i], n[i], b) / nf;
+            ma += mai / nf;
+            mb += mbi / nf;
+            if (mai > 0) {
+                const double si = log(mbi / mai) / log(2);
+                s1 += si, s2 += si * si, ns++;
+            }
         }
+        const double sm = ns ? s1 / ns : NAN;
+        const double se = ns > 1 ? sqrt(fmax(s2 - ns * sm * sm, 0) / (ns - 1) / ns) : NAN;
         const double V = D == 2 ? M_PI * rr * rr : 4 * M_PI / 3 * rr * rr * rr;
         const double s = ma > 0 ? log(mb / ma) / log(2) : NAN;
-        printf("%10.2f %12.1f %10.4f %10.3f\n", rr, m, m * v / V, s);
+        printf("%10.2f %12.1f %10.4f %10.3f %10.3f\n", rr, m, m * v / V, s, se);
     }
     for (int i = 0; i < nf; i++) free(r[i]);
     free(r), free(n);

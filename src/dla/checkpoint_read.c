@@ -244,6 +244,19 @@ static int all_zero(const void *p, size_t n)
 
 static unsigned __int128 join128(const uint64_t *w) { return (unsigned __int128)w[1] << 64 | w[0]; }
 
+/* /state relaunches (the straggler bound's count, parallel.c), written
+ * since it was added: a checkpoint written before has none and resumes
+ * counting from 0, as every resume did then. */
+static int load_relaunches(const reader *r, hid_t s, walker_ctx *w)
+{
+    const htri_t has = H5Aexists(s, "relaunches");
+    if (has < 0) return damaged(r, "/state attributes");
+    w->relaunches = 0;
+    if (has > 0 && pdla_h5_attr_exact(s, "relaunches", PDLA_H5_U64, &w->relaunches) < 0)
+        return damaged(r, "/state relaunches");
+    return PDLA_OK;
+}
+
 /* /state, checked against what the tree's particles give (c): the exact
  * gyration sums, R_ext, the R_g grid position; the random states. */
 static int load_state(const reader *r, hid_t file, pdla_engine *e, const tree_verify_sums *cs,
@@ -282,6 +295,7 @@ static int load_state(const reader *r, hid_t file, pdla_engine *e, const tree_ve
         rc = damaged(r, "/state attributes");
     else if (nw < 0 || nw > 1024)
         rc = damaged(r, "/state last_workers out of range");
+    if (rc == PDLA_OK) rc = load_relaunches(r, s, w);
     if (rc == PDLA_OK) rc = read_array(r, s, "gyration", PDLA_H5_U64, 2, 4, 2, gy);
     uint64_t(*rng)[4] = NULL;
     if (rc == PDLA_OK && !(rng = malloc((size_t)(1 + nw) * sizeof *rng))) rc = PDLA_ENOMEM;

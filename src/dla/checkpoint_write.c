@@ -212,6 +212,7 @@ static int write_state(const h5u_writer *w, hid_t file, const pdla_engine *e)
         h5u_attr_u64(w, g, "recheck_overlaps", c.recheck_overlaps) < 0 ||
         h5u_attr_u64(w, g, "recheck_continued", c.recheck_continued) < 0 ||
         h5u_attr_u64(w, g, "recheck_discarded", c.recheck_discarded) < 0 ||
+        h5u_attr_u64(w, g, "relaunches", c.relaunches) < 0 ||
         h5u_attr_int(w, g, "last_workers", e->nworkers) < 0 ||
         h5u_attr_str(w, g, "binding", e->binding) < 0 ||
         write_array(w, g, "gyration", H5T_STD_U64LE, H5T_NATIVE_UINT64, 2, 4, 2, gy) < 0 ||

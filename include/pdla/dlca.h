@@ -69,7 +69,7 @@ enum {
  * table (dlca_params.c, dlca_param_table); dlca_params_default() fills them. */
 typedef struct dlca_params {
     int dim;                  /* d, 2..5 */
-    uint32_t box[DLCA_MAX_DIM]; /* L_1..L_d, each 2..DLCA_MAX_AXIS; product < 2^32 (PDLA_PT_BOX) */
+    uint32_t box[DLCA_MAX_DIM]; /* L_1..L_d, each 2..DLCA_MAX_AXIS; product < 2^31 (PDLA_PT_BOX) */
     double fill;              /* phi in (0, 1): N = round(phi V) when count is 0 */
     uint64_t count;           /* N (monomers); 0: from fill */
     double mobility;          /* gamma: a cluster of s monomers moves at rate s^gamma */

@@ -3,7 +3,7 @@
  * beyond the id lattice (4 bytes a site), in bytes a monomer. Public API
  * only, so that one source builds against any version of libpdla.a:
  *   gcc -O2 -std=gnu11 -I include runs/dlca/hwm.c build/libpdla.a -lhdf5_serial -lhwloc -lm -lpthread -o /tmp/hwm
- *   /tmp/hwm D L FILL [GAMMA] */
+ *   /tmp/hwm D L FILL [GAMMA [MAX_ATTEMPTS]] */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -29,6 +29,7 @@ int main(int argc, char **argv)
     for (int a = 0; a < p.dim; a++) V *= p.box[a];
     p.fill = atof(argv[3]);
     if (argc > 4) p.mobility = atof(argv[4]);
+    if (argc > 5) p.max_attempts = (uint64_t)atoll(argv[5]);
     p.until_clusters = 100;
     p.seed = 1;
     char err[256];

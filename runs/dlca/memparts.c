@@ -3,7 +3,8 @@
  * at the sample of the largest heap and at the end; "rss" from
  * /proc/self/statm (TRIM=1: malloc_trim first; MMT=bytes: mallopt's mmap
  * threshold). Since the block arena (dlca6): "arena_live" = its live blocks,
- * "arena_top" = up to its top with the freed blocks not yet slid out.
+ * "arena_top" = up to its top with the freed blocks not yet slid out; slots:
+ * pos, ref, act (+ id after a compaction), no size array since dlca6.
  * TRACE=1: a line each time N_c falls by a fifth. Build and run (internal headers, the release libpdla.a):
  *   gcc -O2 -std=gnu11 -I include -I src -I src/core -I src/dlca runs/dlca/memparts.c build/libpdla.a \
  *       -lhdf5_serial -lhwloc -lm -lpthread -o /tmp/memparts
@@ -17,12 +18,12 @@ static parts measure(const dlca_sim *s)
 {
     parts p = {0};
     const int d = s->d;
-    p.slots = (double)(s->nslot + 1) * (12 + 4 * (s->id != NULL)) + (double)s->nslot * 4;
+    p.slots = (double)(s->nslot + 1) * (8 + 4 * (s->id != NULL)) + (double)s->nslot * 4;
     p.grid = s->grid ? (double)s->V * 4 : 0;
     p.rectab = (double)(s->ar_top - s->ar_free) * 4; /* the arena's live blocks (no record table now) */
     p.blocks_cap = (double)s->ar_top * 4;             /* the arena up to its top, freed blocks too */
     for (uint64_t c = 1; c <= s->nslot; c++)
-        if (s->n[c] >= 2) p.blocks_used += (double)s->n[c] * (4 + 2 * d);
+        if (dlca_n(s, c) >= 2) p.blocks_used += (double)dlca_n(s, c) * (4 + 2 * d);
     if (s->size_count) p.extra += (s->N + 1) * 4.0;
     if (s->mob) p.extra += s->nmob * 8.0;
     if (s->stamp) p.extra += (s->nslot + 1) * 4.0;

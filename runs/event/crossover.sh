@@ -66,7 +66,9 @@ h5dump -d /free/positions -y -w 0 "$dir/cluster.h5" | grep -E '^ *[0-9.e+-]+, [0
     { r = sqrt(($1 - c)^2 + ($2 - c)^2); for (i = 1; i < nb; i++) if (r >= e[i] && r < e[i + 1]) k[i]++ }
     END { for (i = 1; i < nb; i++) printf "#   r %5d-%-5d free %7d packing %.4f\n", e[i], e[i + 1], k[i],
           k[i] * 3.14159265 / 4 / (3.14159265 * (e[i + 1]^2 - e[i]^2)) }'
-$b render "$dir/cluster.h5" -o "$dir.png" --size 4096 --force >/dev/null
-convert "$dir.png" ppm:- > "$dir.ppm"
-python3 runs/event/crop-png.py "$dir.ppm" 480 "runs/event/crossover_2d_p$eta.png"
-rm -f "$dir.ppm"
+if [ "$s" = 1 ]; then # the committed picture: seed 1
+    $b render "$dir/cluster.h5" -o "$dir.png" --size 4096 --force >/dev/null
+    convert "$dir.png" ppm:- > "$dir.ppm"
+    python3 runs/event/crop-png.py "$dir.ppm" 480 "runs/event/crossover_2d_p$eta.png"
+    rm -f "$dir.ppm"
+fi

@@ -95,10 +95,10 @@ static inline uint32_t next_stamp(dlca_sim *s)
  * system. Resident: at most ~9/8 of the live blocks (one malloc per block
  * kept ~20 B a monomer of freed and outgrown blocks in glibc's heap, and
  * 16 B of malloc header a block: runs/dlca/memory.txt). Offsets are 32-bit
- * words: an arena of at most 2^32 words (16 GiB). On Linux the arena is
+ * words below the tag bit of `ref`: an arena of at most 2^31 words (8 GiB). On Linux the arena is
  * its own mapping (mremap moves it without copying and gives back the
  * tail); elsewhere realloc. */
-#define AR_MAX UINT32_MAX
+#define AR_MAX (DLCA_EMPTY - 1) /* offsets below the tag bit of `ref` */
 
 static void ar_release(dlca_sim *s)
 {
@@ -142,7 +142,7 @@ static void ar_slide(dlca_sim *s)
         const uint64_t w = DLCA_BLK_WORDS(s->d, s->ar[src + 1]);
         if (owner) {
             if (dst != src) memmove(s->ar + dst, s->ar + src, (size_t)w * sizeof *s->ar);
-            s->ref[owner] = (uint32_t)(dst + 1);
+            s->ref[owner] = (uint32_t)(dst + 1) | DLCA_EMPTY;
             dst += w;
         }
         src += w;
@@ -169,7 +169,7 @@ static uint32_t ar_carve(dlca_sim *s, uint32_t c, uint32_t cap)
     b[0] = c;
     b[1] = cap;
     s->ar_top += DLCA_BLK_WORDS(s->d, cap);
-    return (uint32_t)(b + 1 - s->ar);
+    return (uint32_t)(b + 1 - s->ar) | DLCA_EMPTY;
 }
 
 int dlca_blk_new(dlca_sim *s, uint32_t c, uint32_t cap)
@@ -196,7 +196,7 @@ static int blk_grow(dlca_sim *s, uint32_t c, uint32_t n, uint32_t cap)
     if (ar_reserve(s, DLCA_BLK_WORDS(d, cap))) return -1;
     const uint32_t nb = ar_carve(s, c, cap);
     const uint32_t *o = dlca_blk(s, c);
-    uint32_t *b = s->ar + nb;
+    uint32_t *b = s->ar + (nb & ~DLCA_EMPTY);
     memcpy(b + 1, o + 1, (head - 1) * sizeof *b);
     memcpy(b + head, o + head, (size_t)n * sizeof *b);
     memcpy(b + head + cap, o + head + o[0], (size_t)n * d * sizeof(dlca_off));
@@ -438,21 +438,21 @@ static __attribute__((noinline)) void compact(dlca_sim *s)
     }
     uint32_t j = 0;
     for (uint64_t c = 1; c <= old; c++) {
-        if (!s->n[c]) continue;
+        if (s->ref[c] == DLCA_EMPTY) continue;
         id[++j] = s->id ? s->id[c] : (uint32_t)c; /* j <= c: in place */
         if (map) map[c] = j;
         if (j == c) continue;
-        s->n[j] = s->n[c];
         s->ref[j] = s->ref[c];
         s->pos[j] = s->pos[c];
         s->act[s->pos[j]] = j;
         if (s->brange) memmove(s->brange + j * w, s->brange + c * w, w * sizeof *s->brange);
-        if (s->grid && s->n[j] == 1) s->grid[s->ref[j]] = j; /* no view: that divides */
-        if (s->n[j] >= 2) {
+        if (s->ref[j] < DLCA_EMPTY) {
+            if (s->grid) s->grid[s->ref[j]] = j; /* no view: that divides */
+        } else {
             uint32_t *b = dlca_blk(s, j);
             b[-1] = j; /* its owner, for ar_slide */
             const uint32_t *k = dlca_bsites(s, b);
-            for (uint32_t i = 0; s->grid && i < s->n[j]; i++) s->grid[k[i]] = j;
+            for (uint32_t i = 0; s->grid && i < b[1]; i++) s->grid[k[i]] = j;
         }
     }
     for (uint64_t b = 0; map && b < s->nboxes; b++)
@@ -460,7 +460,6 @@ static __attribute__((noinline)) void compact(dlca_sim *s)
     free(map);
     s->id = id;
     s->nslot = j;
-    s->n = shrink(s->n, (j + 1) * sizeof *s->n);
     s->pos = shrink(s->pos, (j + 1) * sizeof *s->pos);
     s->ref = shrink(s->ref, (j + 1) * sizeof *s->ref);
     s->id = shrink(s->id, (j + 1) * sizeof *s->id);
@@ -480,7 +479,6 @@ void dlca_sim_free(dlca_sim *s)
     if (!s) return;
     ar_release(s);
     boxes_free(s);
-    free(s->n);
     free(s->pos);
     free(s->ref);
     free(s->act);
@@ -513,12 +511,12 @@ int dlca_sim_alloc(dlca_sim **out, const dlca_params *p, uint64_t N)
     s->N = N;
     s->nslot = N;
     rng_seed(&s->rng, p->seed);
-    s->n = calloc(N + 1, sizeof *s->n);
     s->pos = calloc(N + 1, sizeof *s->pos);
-    s->ref = calloc(N + 1, sizeof *s->ref);
+    s->ref = malloc((N + 1) * sizeof *s->ref);
     s->act = malloc(N * sizeof *s->act);
     s->grid = calloc(s->V, sizeof *s->grid);
-    if (!s->n || !s->pos || !s->ref || !s->act || !s->grid) return -1;
+    if (!s->pos || !s->ref || !s->act || !s->grid) return -1;
+    for (uint64_t j = 0; j <= N; j++) s->ref[j] = DLCA_EMPTY;
     if (p->mobility != 0) {
         s->nmob = N + 1 < 65536 ? N + 1 : 65536;
         if (!(s->mob = malloc(s->nmob * sizeof *s->mob))) return -1;
@@ -555,7 +553,7 @@ static void sizes_joined(dlca_sim *s, uint64_t a, uint64_t b)
  * copies stay O(n) a join and the slack small). 0 or -1. Moves the arena. */
 static int keep_room(dlca_sim *s, uint32_t keep, uint32_t n)
 {
-    if (s->n[keep] == 1) {
+    if (s->ref[keep] < DLCA_EMPTY) {
         int64_t x[DLCA_MAX_DIM];
         const uint32_t k = s->ref[keep];
         if (dlca_blk_new(s, keep, n)) { /* exact: most clusters stay small */
@@ -563,6 +561,7 @@ static int keep_room(dlca_sim *s, uint32_t keep, uint32_t n)
             return -1;
         }
         uint32_t *b = dlca_blk(s, keep);
+        b[1] = 1;
         coords(s, k, x);
         dlca_off *g = dlca_bgeom(b);
         for (int a = 0; a < s->d; a++) g[a] = (dlca_off)x[a], g[s->d + a] = g[2 * s->d + a] = 0;
@@ -571,7 +570,7 @@ static int keep_room(dlca_sim *s, uint32_t keep, uint32_t n)
         return 0;
     }
     if (n <= dlca_blk(s, keep)[0]) return 0;
-    return blk_grow(s, keep, s->n[keep], n + (n / 8 < UINT32_MAX - n ? n / 8 : UINT32_MAX - n));
+    return blk_grow(s, keep, dlca_n(s, keep), n + (n / 8 < UINT32_MAX - n ? n / 8 : UINT32_MAX - n));
 }
 
 /* Append gone's monomers to keep (room made: keep has a record, even if
@@ -580,7 +579,7 @@ static void append(dlca_sim *s, uint32_t keep, uint32_t gone, const int64_t *dis
 {
     const int d = s->d;
     dlca_view K, G;
-    view_blk(s, dlca_blk(s, keep), s->n[keep], &K);
+    view_blk(s, dlca_blk(s, keep), &K);
     view_of(s, gone, &G);
     for (uint32_t j = 0; j < G.n; j++) {
         K.k[K.n + j] = G.k[j];
@@ -605,12 +604,12 @@ static uint32_t join(dlca_sim *s, uint32_t c, uint32_t b, const int64_t *disp_in
     const int d = s->d;
     uint32_t keep = c, gone = b;
     for (int a = 0; a < d; a++) disp[a] = disp_in[a];
-    if (s->n[b] > s->n[c] || (s->n[b] == s->n[c] && b < c)) {
+    if (dlca_n(s, b) > dlca_n(s, c) || (dlca_n(s, b) == dlca_n(s, c) && b < c)) {
         keep = b;
         gone = c;
         for (int a = 0; a < d; a++) disp[a] = -disp[a];
     }
-    const uint32_t nk = s->n[keep], ng = s->n[gone], n = nk + ng;
+    const uint32_t nk = dlca_n(s, keep), ng = dlca_n(s, gone), n = nk + ng;
     if (keep_room(s, keep, n)) return 0;
     if (s->search_now == DLCA_SEARCH_BOXES) {
         box_unregister(s, gone);
@@ -619,10 +618,9 @@ static uint32_t join(dlca_sim *s, uint32_t c, uint32_t b, const int64_t *disp_in
     append(s, keep, gone, disp);
     s->sum_s2 += 2.0 * (double)nk * (double)ng;
     sizes_joined(s, nk, ng);
-    s->n[keep] = n;
+    dlca_blk(s, keep)[1] = n;
     if (ng >= 2) blk_free(s, gone);
-    s->n[gone] = 0;
-    s->ref[gone] = 0;
+    s->ref[gone] = DLCA_EMPTY;
     remove_active(s, gone);
     if (n > s->largest) s->largest = n;
     s->merges++;
@@ -667,7 +665,6 @@ static int place(dlca_sim *s, const uint32_t *sites, uint32_t *placed, char *err
         }
         s->grid[k] = (uint32_t)j;
         placed[j - 1] = (uint32_t)k;
-        s->n[j] = 1;
         s->ref[j] = (uint32_t)k;
         s->pos[j] = (uint32_t)(j - 1);
         s->act[j - 1] = (uint32_t)j;
@@ -1009,7 +1006,7 @@ static int join_contacts(dlca_sim *s, uint32_t c)
 
 static int do_move(dlca_sim *s, uint32_t c, int a, int sg)
 {
-    const uint32_t n = s->n[c];
+    const uint32_t n = dlca_n(s, c);
     const int r = s->search_now == DLCA_SEARCH_LATTICE ? move_lattice(s, c, a, sg) : move_ref(s, c, a, sg);
     if (s->oom) return PDLA_ENOMEM;
     if (r != DLCA_MOVED) return r;
@@ -1037,7 +1034,7 @@ static int step(dlca_sim *s)
     double mb = 1;
     if (s->mob) mb = s->p.mobility < 0 ? mob_of(s, s->smin) : mob_of(s, s->largest);
     s->t += 1.0 / ((double)s->nc * mb);
-    if (s->mob && rng_uniform(&s->rng) * mb >= mob_of(s, s->n[c])) {
+    if (s->mob && rng_uniform(&s->rng) * mb >= mob_of(s, dlca_n(s, c))) {
         digest_add(s, cid | (uint64_t)DLCA_NOT_PICKED << 40);
         return 0;
     }
@@ -1106,7 +1103,7 @@ int dlca_move_site(dlca_sim *s, uint32_t k, int axis, int sign)
 uint64_t dlca_size_at(const dlca_sim *s, uint32_t k)
 {
     const uint32_t c = k < s->V ? slot_at(s, k) : 0;
-    return c ? s->n[c] : 0;
+    return c ? dlca_n(s, c) : 0;
 }
 
 int64_t dlca_extent_at(const dlca_sim *s, uint32_t k, int axis)
@@ -1131,7 +1128,7 @@ const dlca_params *dlca_get_params(const dlca_sim *s) { return &s->p; }
 /* Bytes held by the model (the arrays and blocks it allocated). */
 static uint64_t model_bytes(const dlca_sim *s)
 {
-    uint64_t b = sizeof *s + (s->nslot + 1) * (3 + (s->id != NULL)) * sizeof(uint32_t) +
+    uint64_t b = sizeof *s + (s->nslot + 1) * (2 + (s->id != NULL)) * sizeof(uint32_t) +
                  s->nslot * sizeof *s->act + s->ar_top * sizeof *s->ar; /* with its freed blocks */
     if (s->cand) b += s->nslot * sizeof *s->cand;
     if (s->stamp) b += (s->nslot + 1) * sizeof *s->stamp;
@@ -1174,7 +1171,7 @@ size_t dlca_export_chunk(const dlca_sim *s, dlca_cursor *cur, size_t max, uint32
     size_t m = 0;
     if (cur->c == 0) cur->c = 1, cur->i = 0, cur->id = 0;
     for (; m < max && cur->c <= s->nslot; cur->c++, cur->i = 0) {
-        if (!s->n[cur->c]) continue;
+        if (!dlca_n(s, cur->c)) continue;
         dlca_view v;
         view_of(s, (uint32_t)cur->c, &v);
         while (cur->i < v.n && m < max) {
@@ -1198,7 +1195,7 @@ void dlca_cluster_table(const dlca_sim *s, uint64_t *size, double *rg)
     uint64_t id = 0;
     const int d = s->d;
     for (uint64_t c = 1; c <= s->nslot; c++) {
-        if (!s->n[c]) continue;
+        if (!dlca_n(s, c)) continue;
         dlca_view v;
         view_of(s, (uint32_t)c, &v);
         double var = 0;

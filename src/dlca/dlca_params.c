@@ -217,8 +217,8 @@ int dlca_params_validate(const dlca_params *p, char *err, size_t errlen)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "--%s: %s", bad ? bad->option : "?", why);
     double V = 1;
     for (int i = 0; i < p->dim; i++) V *= p->box[i];
-    if (V >= 4294967295.0)
-        return pdla_errorf(PDLA_EINVAL, err, errlen, "--box has %.3g sites (at most 2^32 - 1)", V);
+    if (V >= 2147483648.0) /* a site and a tag bit in one word (dlca_sim.h, DLCA_EMPTY) */
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "--box has %.3g sites (at most 2^31 - 1)", V);
     /* The id lattice: 4 bytes a site; refuse what cannot fit in memory. */
     const long pages = sysconf(_SC_PHYS_PAGES), psz = sysconf(_SC_PAGESIZE);
     if (pages > 0 && psz > 0 && 4.0 * V > 0.5 * (double)pages * (double)psz)

@@ -4,9 +4,11 @@
  * libpdla.
  *
  * Memory (runs/dlca/memory.txt). A cluster lives in a slot 1..nslot (slot
- * j starts as the j-th monomer placed). Per slot there are three 32-bit
- * words (size, place in the active list, and `ref`) plus the active list's
- * word: 16 bytes; once a quarter of the slots is empty (at a row) they are
+ * j starts as the j-th monomer placed). Per slot there are two 32-bit
+ * words (place in the active list, and `ref`: a site, empty, or a block,
+ * see DLCA_EMPTY) plus the active list's word: 12 bytes (a size per slot
+ * went into the block's head: 4 B a slot for 4 B a cluster of 2 or more);
+ * once a quarter of the slots is empty (at a row) they are
  * renumbered in order and the arrays shrink, each slot keeping its name
  * (id, 4 more bytes), so that the history is the same. A monomer alone
  * (size 1) needs nothing more: `ref` is its site
@@ -35,13 +37,13 @@ typedef int16_t dlca_off;
 
 /* A cluster of 2 or more monomers owns a block in the arena (s->ar, one
  * array of 32-bit words for all clusters; `ref` is the offset of the
- * block's cap word): [owner slot] then [cap], 16-bit [anchor d][lo d][hi d]
+ * block's cap word): [owner slot] then [cap][n], 16-bit [anchor d][lo d][hi d]
  * (padded to a word; the anchor is below L <= DLCA_MAX_AXIS, lo and hi are
  * offsets), [sites cap], then 16-bit [offsets cap x d]. A freed block keeps its cap
  * and gets owner 0, so that the arena can be walked block by block and
  * slid down (dlca.c, ar_slide). */
 /* Words of a block (from its cap word) before its sites: cap, anchor, lo, hi. */
-#define DLCA_REC_HEAD(d) (1 + (3 * (size_t)(d) + 1) / 2)
+#define DLCA_REC_HEAD(d) (2 + (3 * (size_t)(d) + 1) / 2)
 /* 32-bit words of a block of cap monomers, from its cap word. */
 #define DLCA_REC_WORDS(d, cap) (DLCA_REC_HEAD(d) + (size_t)(cap) + ((size_t)(cap) * (size_t)(d) + 1) / 2)
 /* ... and with its owner word: the block's whole length in the arena. */
@@ -79,9 +81,8 @@ struct dlca_sim {
     int64_t stride[DLCA_MAX_DIM];
     uint64_t V, N;
     uint64_t nslot; /* slots 1..nslot (N at the start; compacted as N_c falls) */
-    uint32_t *n;    /* per slot 0..nslot: monomers (0: absorbed) */
     uint32_t *pos;  /* per slot: index in act */
-    uint32_t *ref;  /* per slot: n == 1 its site, n >= 2 its block's offset in ar */
+    uint32_t *ref;  /* per slot: a lone monomer's site, DLCA_EMPTY, or DLCA_EMPTY | its block's offset in ar */
     uint32_t *act;  /* active slots */
     uint32_t *id;   /* per slot: the cluster's name (its first slot); NULL: the slot itself */
     uint64_t nc;
@@ -135,21 +136,31 @@ static inline void dlca_coords(const dlca_sim *s, uint64_t k, int64_t *x)
     x[s->d - 1] = (int64_t)k;
 }
 
+/* A slot's `ref`: below DLCA_EMPTY a lone monomer's site (sites are below
+ * 2^31), DLCA_EMPTY an absorbed slot, above it DLCA_EMPTY | the offset of
+ * its block in the arena, whose head holds the size: no per-slot size. */
+#define DLCA_EMPTY UINT32_C(0x80000000)
 /* Slot c's block (size >= 2): its cap word. */
-static inline uint32_t *dlca_blk(const dlca_sim *s, uint32_t c) { return s->ar + s->ref[c]; }
+static inline uint32_t *dlca_blk(const dlca_sim *s, uint64_t c) { return s->ar + (s->ref[c] & ~DLCA_EMPTY); }
+/* Slot c's monomers (0: absorbed). */
+static inline uint32_t dlca_n(const dlca_sim *s, uint64_t c)
+{
+    const uint32_t r = s->ref[c];
+    return r < DLCA_EMPTY ? 1 : r == DLCA_EMPTY ? 0 : s->ar[(r & ~DLCA_EMPTY) + 1];
+}
 /* Block b's 16-bit anchor[d], lo[d], hi[d]; its sites. */
-static inline dlca_off *dlca_bgeom(uint32_t *b) { return (dlca_off *)(b + 1); }
+static inline dlca_off *dlca_bgeom(uint32_t *b) { return (dlca_off *)(b + 2); }
 static inline uint32_t *dlca_bsites(const dlca_sim *s, uint32_t *b) { return b + DLCA_REC_HEAD(s->d); }
 
 /* Fill v for block b holding n monomers. The view points into the arena:
  * valid until the next block is made (dlca_blk_new may move the arena).
  * Its anchor and bounding box are 32-bit copies of the block's 16-bit ones:
  * a change to them goes back with view_put. */
-static inline void view_blk(const dlca_sim *s, uint32_t *b, uint32_t n, dlca_view *v)
+static inline void view_blk(const dlca_sim *s, uint32_t *b, dlca_view *v)
 {
     const int d = s->d;
     const dlca_off *geo = dlca_bgeom(b);
-    v->n = n;
+    v->n = b[1];
     v->b = b;
     for (int a = 0; a < d; a++) v->g[a] = geo[a], v->glo[a] = geo[d + a], v->ghi[a] = geo[2 * d + a];
     v->anc = v->g;
@@ -173,11 +184,11 @@ static inline void view_put(const dlca_sim *s, const dlca_view *v)
 /* Fill v for slot c (size >= 1). */
 static inline void view_of(const dlca_sim *s, uint32_t c, dlca_view *v)
 {
-    if (s->n[c] >= 2) {
-        view_blk(s, dlca_blk(s, c), s->n[c], v);
+    if (s->ref[c] > DLCA_EMPTY) {
+        view_blk(s, dlca_blk(s, c), v);
         return;
     }
-    v->n = s->n[c];
+    v->n = 1;
     v->b = NULL;
     int64_t x[DLCA_MAX_DIM];
     dlca_coords(s, s->ref[c], x);

@@ -28,11 +28,12 @@ static int check_cluster(const dlca_sim *s, uint32_t c, uint64_t *ks, uint64_t *
 {
     const int d = s->d;
     if (s->pos[c] >= s->nc || s->act[s->pos[c]] != c) BAD("cluster %u is not in the active list", c);
-    if (*m + s->n[c] > s->N) BAD("cluster sizes add up to more than N = %llu", (unsigned long long)s->N);
-    if (s->n[c] >= 2 && (s->ref[c] < 1 || s->ref[c] + DLCA_REC_HEAD(d) > s->ar_top || s->ar[s->ref[c] - 1] != c ||
-                         s->ar[s->ref[c]] < s->n[c] || s->ref[c] + DLCA_REC_WORDS(d, s->ar[s->ref[c]]) > s->ar_top))
-        BAD("cluster %u has no block of its %u monomers", c, s->n[c]);
-    if (s->n[c] == 1 && s->ref[c] >= s->V) BAD("monomer %u lies outside the box", c);
+    const uint64_t r = s->ref[c] & ~DLCA_EMPTY; /* its block: the arena holds it whole, it is c's, n fits */
+    if (s->ref[c] > DLCA_EMPTY && (r + DLCA_REC_HEAD(d) > s->ar_top || s->ar[r - 1] != c || s->ar[r + 1] < 2 ||
+                                   s->ar[r] < s->ar[r + 1] || r + DLCA_REC_WORDS(d, s->ar[r]) > s->ar_top))
+        BAD("cluster %u has no block of its monomers", c);
+    if (s->ref[c] < DLCA_EMPTY && s->ref[c] >= s->V) BAD("monomer %u lies outside the box", c);
+    if (*m + dlca_n(s, c) > s->N) BAD("cluster sizes add up to more than N = %llu", (unsigned long long)s->N);
     dlca_view v;
     view_of(s, c, &v);
     int32_t tlo[DLCA_MAX_DIM], thi[DLCA_MAX_DIM];
@@ -63,13 +64,13 @@ static int check_counts(const dlca_sim *s, uint64_t m, char *err, size_t errlen)
     uint64_t active = 0, largest = 0, smin = s->N;
     double s2 = 0;
     for (uint64_t c = 1; c <= s->nslot; c++) {
-        if (!s->n[c]) continue;
+        if (!dlca_n(s, c)) continue;
         if (dlca_slot_id(s, c) > s->N || (c > 1 && dlca_slot_id(s, c) <= dlca_slot_id(s, c - 1)))
             BAD("slot %llu is named out of order", (unsigned long long)c);
         active++;
-        if (s->n[c] > largest) largest = s->n[c];
-        if (s->n[c] < smin) smin = s->n[c];
-        s2 += (double)s->n[c] * s->n[c];
+        if (dlca_n(s, c) > largest) largest = dlca_n(s, c);
+        if (dlca_n(s, c) < smin) smin = dlca_n(s, c);
+        s2 += (double)dlca_n(s, c) * dlca_n(s, c);
     }
     if (m != s->N) BAD("cluster sizes add up to %llu, not N = %llu", (unsigned long long)m, (unsigned long long)s->N);
     if (active != s->nc)
@@ -154,7 +155,7 @@ static int check_arena(const dlca_sim *s, char *err, size_t errlen)
         const uint32_t owner = s->ar[p];
         const uint64_t w = DLCA_BLK_WORDS(s->d, s->ar[p + 1]);
         if (!owner) freed += w;
-        else if (owner > s->nslot || s->n[owner] < 2 || s->ref[owner] != p + 1)
+        else if (owner > s->nslot || s->ref[owner] != ((uint32_t)(p + 1) | DLCA_EMPTY))
             BAD("an arena block at %llu names slot %u, which is not its owner", (unsigned long long)p, owner);
         p += w;
     }
@@ -172,7 +173,7 @@ int dlca_check(const dlca_sim *s, char *err, size_t errlen)
     uint64_t m = 0;
     int rc = 0;
     for (uint64_t c = 1; c <= s->nslot && rc == 0; c++)
-        if (s->n[c]) rc = check_cluster(s, (uint32_t)c, ks, &m, err, errlen);
+        if (dlca_n(s, c)) rc = check_cluster(s, (uint32_t)c, ks, &m, err, errlen);
     if (rc == 0) rc = check_counts(s, m, err, errlen);
     if (rc == 0) {
         qsort(ks, m, sizeof *ks, cmp_u64);
@@ -235,9 +236,9 @@ static void ck_gather(const dlca_sim *s, ck_arrays *a)
     const int d = s->d;
     uint64_t m = 0;
     for (uint64_t c = 1; c <= s->nslot; c++) {
-        if (!s->n[c]) continue;
+        if (!dlca_n(s, c)) continue;
         const uint32_t name = dlca_slot_id(s, c);
-        a->slot_n[name] = s->n[c];
+        a->slot_n[name] = dlca_n(s, c);
         dlca_view v;
         view_of(s, (uint32_t)c, &v);
         int32_t *g = a->geom + name * 3 * (size_t)d;
@@ -348,11 +349,11 @@ static int load_clusters(dlca_sim *s, const ck_arrays *a, char *why, size_t whyl
         if (!n) continue;
         if (m + n > s->N) LOAD_FAIL(PDLA_EIO, "its cluster sizes add up to more than N");
         const int32_t *g = a->geom + c * 3 * (size_t)d;
-        s->n[c] = n;
         if (n == 1) s->ref[c] = a->k[m];
         else {
             if (dlca_blk_new(s, (uint32_t)c, n)) LOAD_FAIL(PDLA_ENOMEM, "out of memory");
             uint32_t *b = dlca_blk(s, (uint32_t)c);
+            b[1] = n;
             memcpy(dlca_bsites(s, b), a->k + m, n * sizeof *a->k); /* cap n: offsets follow */
             dlca_off *off = (dlca_off *)(dlca_bsites(s, b) + n);
             for (size_t j = 0; j < (size_t)n * d; j++) {
@@ -383,7 +384,7 @@ static int load_counters(dlca_sim *s, hid_t f, const uint64_t *u, const double *
         LOAD_FAIL(PDLA_EIO, "its state arrays are missing or have the wrong length");
     s->nc = u[CK_U_NC];
     for (uint64_t j = 0; j < s->nc; j++) {
-        if (s->act[j] < 1 || s->act[j] > s->N || !s->n[s->act[j]]) LOAD_FAIL(PDLA_EIO, "its active list names an empty cluster");
+        if (s->act[j] < 1 || s->act[j] > s->N || !dlca_n(s, s->act[j])) LOAD_FAIL(PDLA_EIO, "its active list names an empty cluster");
         s->pos[s->act[j]] = (uint32_t)j;
     }
     s->attempts = u[CK_U_ATT], s->moves = u[CK_U_MOV], s->monomer_moves = u[CK_U_MMOV];
@@ -392,7 +393,7 @@ static int load_counters(dlca_sim *s, hid_t f, const uint64_t *u, const double *
     s->spanning = (int)u[CK_U_SPAN], s->stop = (int)u[CK_U_STOP];
     s->t = dv[CK_D_T], s->sum_s2 = dv[CK_D_S2];
     if (s->size_count)
-        for (uint64_t j = 0; j < s->nc; j++) s->size_count[s->n[s->act[j]]]++;
+        for (uint64_t j = 0; j < s->nc; j++) s->size_count[dlca_n(s, s->act[j])]++;
     const size_t nr = ck_rows(f, "rows_u64", PDLA_H5_U64, 3);
     double *rt = malloc((nr + 1) * 3 * sizeof *rt);
     uint64_t *ru = malloc((nr + 1) * 3 * sizeof *ru);

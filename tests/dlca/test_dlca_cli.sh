@@ -27,6 +27,8 @@ refused --fill 1.5
 refused --box 4x4 --fill 0.01
 refused --box 1x64
 refused --dim 3 --box 2000
+refused --dim 3 --box 2048x1024x1024   # 2^31 sites: a site shares its word with a tag bit (dlca_sim.h)
+grep -q 'at most 2^31 - 1' "$tmp/err" || fail "2^31 sites -> $(cat "$tmp/err")"
 refused --box 65536x60000
 refused --search nearest
 refused --until-clusters 0

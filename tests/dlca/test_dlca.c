@@ -434,6 +434,95 @@ static void compacted(void)
     dlca_destroy(s);
 }
 
+/* The drift option does what it says: with probability G a move is one
+ * site down the last axis. Two lone monomers far apart (they never meet in
+ * the run) are moved 4000 times; their summed displacement, unwrapped by
+ * the minimal image every 50 attempts (a monomer moves at most 50 sites in
+ * between, the box is 512), has mean -4000 G along y and 0 along x. Per
+ * attempt the y step has variance G + (1 - G)/2 - G^2 (0.56 at G = 0.3:
+ * sd 47 over 4000), x (1 - G)/2 (sd 37): tolerances of 5 sd. Ignoring the
+ * drift (0), reversing it (+1200) or putting it on axis 0 (x -1200) fails.
+ * Every search gives the same displacement (same history). */
+static void drift_statistics(void)
+{
+    const double G = 0.3;
+    const uint32_t L[2] = {512, 512};
+    long long sum[3][2] = {{0}};
+    for (int m = 0; m < 3; m++) {
+        dlca_params p;
+        dlca_params_default(&p);
+        set_box(&p, 2, L);
+        p.drift = G;
+        p.search = m;
+        p.seed = 42;
+        const uint32_t sites[2] = {0, 256 + 256 * 512};
+        dlca_sim *s = NULL;
+        char err[256];
+        if (dlca_create_sites(&s, &p, sites, 2, err, sizeof err)) {
+            CHECK(0, "drift: %s", err);
+            return;
+        }
+        uint32_t prev[2] = {sites[0], sites[1]}, cur[2], cid[2];
+        for (int chunk = 0; chunk < 80; chunk++) {
+            (void)dlca_run(s, 50);
+            dlca_export_sites(s, cur, cid);
+            for (int i = 0; i < 2; i++) {
+                const long long dx = (long long)(cur[i] % 512) - (long long)(prev[i] % 512);
+                const long long dy = (long long)(cur[i] / 512) - (long long)(prev[i] / 512);
+                sum[m][0] += dx > 256 ? dx - 512 : dx < -256 ? dx + 512 : dx;
+                sum[m][1] += dy > 256 ? dy - 512 : dy < -256 ? dy + 512 : dy;
+                prev[i] = cur[i];
+            }
+        }
+        dlca_stats st;
+        dlca_get_stats(s, &st);
+        CHECK(st.attempts == 4000 && st.n_clusters == 2, "drift: %llu attempts, %llu clusters",
+              (unsigned long long)st.attempts, (unsigned long long)st.n_clusters);
+        dlca_destroy(s);
+    }
+    if (getenv("DLCA_TEST_VERBOSE")) fprintf(stderr, "drift: displacement (%lld, %lld)\n", sum[0][0], sum[0][1]);
+    CHECK(llabs(sum[0][1] + 1200) <= 5 * 47 && llabs(sum[0][0]) <= 5 * 37,
+          "drift %g: displacement (%lld, %lld) over 4000 attempts, want (0, -1200) within 5 sd", G, sum[0][0],
+          sum[0][1]);
+    CHECK(memcmp(sum[0], sum[1], sizeof sum[0]) == 0 && memcmp(sum[0], sum[2], sizeof sum[0]) == 0,
+          "drift: the searches moved the monomers differently");
+}
+
+/* The sticking probability: a monomer stepped next to another joins it
+ * with probability p. 600 fresh pairs (seeds 1..600) at p = 0.3: the
+ * joins are binomial, mean 180, sd 11.2; tolerance 4 sd (45). p ignored
+ * (600 joins) or 1 - p (420) fails. The searches agree pair by pair. */
+static void sticking_statistics(void)
+{
+    const uint32_t L[2] = {16, 12};
+    int joins[3] = {0, 0, 0};
+    for (int m = 0; m < 3; m++)
+        for (uint64_t seed = 1; seed <= 600; seed++) {
+            dlca_params p;
+            dlca_params_default(&p);
+            set_box(&p, 2, L);
+            p.sticking = 0.3;
+            p.search = m;
+            p.seed = seed;
+            const uint32_t sites[2] = {5 + 16 * 6, 7 + 16 * 6};
+            dlca_sim *s = NULL;
+            char err[256];
+            if (dlca_create_sites(&s, &p, sites, 2, err, sizeof err)) {
+                CHECK(0, "sticking: %s", err);
+                return;
+            }
+            const int r = dlca_move_site(s, sites[0], 0, +1);
+            CHECK(r == DLCA_MOVED, "sticking: the step next to the other monomer was refused (%d)", r);
+            joins[m] += dlca_size_at(s, sites[1]) == 2;
+            CHECK(dlca_check(s, err, sizeof err) == 0, "sticking: %s", err);
+            dlca_destroy(s);
+        }
+    if (getenv("DLCA_TEST_VERBOSE")) fprintf(stderr, "sticking: %d joins of 600\n", joins[0]);
+    CHECK(abs(joins[0] - 180) <= 45, "sticking 0.3: %d joins of 600 contacts, want 180 +/- 45", joins[0]);
+    CHECK(joins[0] == joins[1] && joins[0] == joins[2], "sticking: searches differ (%d, %d, %d joins)", joins[0],
+          joins[1], joins[2]);
+}
+
 int main(void)
 {
     static const uint32_t L2[] = {40, 36}, L3[] = {24, 20, 18}, L4[] = {16, 14, 15, 13}, L5[] = {10, 9, 11, 10, 9};
@@ -445,6 +534,8 @@ int main(void)
     longest_axis();
     determinism();
     compacted();
+    drift_statistics();
+    sticking_statistics();
     for (int d = 2; d <= 5; d++) {
         for (int a = 0; a < d; a++)
             for (int m = 0; m < 3; m++) wrap_join(d, Es[d - 2], a, m);

@@ -20,8 +20,9 @@
  * `until_time`, after `max_attempts` attempts, or when a cluster spans the
  * box (its extent along an axis reaches L: it touches its own image).
  *
- * Collision search (dlca_params.search): DLCA_SEARCH_LATTICE keeps the
- * cluster id of every site (a move costs O(cluster size)); BOXES is the
+ * Collision search (dlca_params.search): DLCA_SEARCH_LATTICE keeps a bit
+ * per site (occupied or not: a move costs O(cluster size)) and names the
+ * cluster at a contact through boxes listing the clusters; BOXES is the
  * seed's grid-boxing (boxes of side A doubling to hold the largest
  * cluster, halo search, all-pairs once 3A >= L on an axis); ALLPAIRS tests
  * every cluster. All three give the same history, bit for bit, for a seed.
@@ -84,8 +85,8 @@ typedef struct dlca_params {
 } dlca_params;
 
 PDLA_API void dlca_params_default(dlca_params *p);
-/* 0, or PDLA_EINVAL naming the first bad field. Also refuses a lattice whose
- * id array would not fit in the machine's memory. */
+/* 0, or PDLA_EINVAL naming the first bad field. Also refuses a lattice and
+ * monomers that would not fit in half the machine's memory. */
 PDLA_API int dlca_params_validate(const dlca_params *p, char *err, size_t errlen);
 /* N for these parameters (count, or round(fill V)). */
 PDLA_API uint64_t dlca_params_monomers(const dlca_params *p);
@@ -152,7 +153,7 @@ PDLA_API void dlca_get_stats(const dlca_sim *s, dlca_stats *out);
 PDLA_API const dlca_params *dlca_get_params(const dlca_sim *s);
 
 /* Full consistency check (sizes sum to N, every site once, no overlap,
- * the id lattice and boxes agree, no two clusters face-adjacent when
+ * the bit lattice and boxes agree, no two clusters face-adjacent when
  * sticking = 1): 0 or PDLA_EINVAL with the first fault. O(N log N). */
 PDLA_API int dlca_check(const dlca_sim *s, char *err, size_t errlen);
 

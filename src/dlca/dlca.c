@@ -54,11 +54,16 @@ uint32_t dlca_site(const dlca_sim *s, const int64_t *x)
     return (uint32_t)k;
 }
 
-/* The offset inside cluster v's window of wrapped coordinate x on axis a. */
+/* The offset inside cluster v's window of wrapped coordinate x on axis a.
+ * x and the anchor lie in [0, L) and lo <= 0 (the anchor's own offset is
+ * 0), so x - anc - lo > -L: a division only past 2L (a spanning cluster). */
 static inline int64_t window(const dlca_sim *s, const dlca_view *v, int a, int64_t x)
 {
-    const int64_t lo = v->lo[a];
-    return lo + wrap(x - v->anc[a] - lo, s->L[a]);
+    const int64_t lo = v->lo[a], L = s->L[a];
+    int64_t r = x - v->anc[a] - lo;
+    if (r < 0) r += L;
+    else if (r >= L) r = r - L < L ? r - L : r % L;
+    return lo + r;
 }
 
 static inline void digest_add(dlca_sim *s, uint64_t v)
@@ -307,9 +312,14 @@ static int box_remove(dlca_sim *s, uint64_t box, uint32_t c)
     return -1;
 }
 
+/* Register cluster c in the boxes its bounding box covers at its anchor
+ * (the range kept in brange for the seed's boxes; the lookup boxes of
+ * --search lattice recompute it from the view when it goes: the geometry
+ * does not change in between without an unregister first). */
 static int box_register(dlca_sim *s, uint32_t c)
 {
-    int32_t *r = dlca_brange(s, c);
+    int32_t tmp[2 * DLCA_MAX_DIM];
+    int32_t *r = s->brange ? dlca_brange(s, c) : tmp;
     dlca_view v;
     view_of(s, c, &v);
     dlca_cluster_span(s, &v, v.anc, 0, r, r + s->d);
@@ -318,7 +328,14 @@ static int box_register(dlca_sim *s, uint32_t c)
 
 static void box_unregister(dlca_sim *s, uint32_t c)
 {
-    int32_t *r = dlca_brange(s, c);
+    int32_t tmp[2 * DLCA_MAX_DIM];
+    int32_t *r = tmp;
+    if (s->brange) r = dlca_brange(s, c);
+    else {
+        dlca_view v;
+        view_of(s, c, &v);
+        dlca_cluster_span(s, &v, v.anc, 0, r, r + s->d);
+    }
     (void)for_boxes(s, r, r + s->d, box_remove, c);
 }
 
@@ -361,10 +378,12 @@ int dlca_boxes_build(dlca_sim *s)
     return 0;
 }
 
+static int lookup_build(dlca_sim *s);
+
 /* After a join: grow A (doubling) until the largest extent fits. */
 static int boxes_fit(dlca_sim *s, uint32_t c)
 {
-    if (s->search_now != DLCA_SEARCH_BOXES) return 0;
+    if (!s->box) return 0;
     dlca_view v;
     view_of(s, c, &v);
     int64_t ext = 0;
@@ -374,20 +393,96 @@ static int boxes_fit(dlca_sim *s, uint32_t c)
     }
     if (ext <= s->A) return 0;
     while (s->A < ext) s->A *= 2;
-    return dlca_boxes_build(s);
+    return s->search_now == DLCA_SEARCH_BOXES ? dlca_boxes_build(s) : lookup_build(s);
 }
 
-/* The search structures of the seed's modes from the current state: the
- * id lattice goes, stamps and box ranges come, and the boxes are built with
+/* ---- lookup boxes (--search lattice) ------------------------------------ */
+
+/* The boxes of side A listing every cluster where its bounding box lies,
+ * as the seed's, but only to name the cluster at a contact site: no halo,
+ * and no fall-back to all pairs (a box range covering a whole axis is
+ * fine). Unlike the seed's they keep no per-slot range (the memory). */
+static int lookup_build(dlca_sim *s)
+{
+    boxes_free(s);
+    uint64_t nb = 1;
+    for (int a = 0; a < s->d; a++) {
+        s->nb[a] = (s->L[a] + s->A - 1) / s->A;
+        s->bstride[a] = (int64_t)nb;
+        nb *= (uint64_t)s->nb[a];
+    }
+    s->nboxes = nb;
+    s->box = calloc(nb, sizeof *s->box);
+    s->box_n = calloc(nb, sizeof *s->box_n);
+    s->box_cap = calloc(nb, sizeof *s->box_cap);
+    if (!s->box || !s->box_n || !s->box_cap) return -1;
+    for (uint64_t j = 0; j < s->nc; j++)
+        if (box_register(s, s->act[j])) return -1;
+    return 0;
+}
+
+/* Side A: a power of two holding the widest cluster, and about 32 monomers
+ * a box on average (fewer boxes: less memory and fewer re-registrations;
+ * a lookup scans one box's list, and lookups are rare). */
+int dlca_lookup_init(dlca_sim *s)
+{
+    int64_t ext = 1;
+    for (uint64_t j = 0; j < s->nc; j++) {
+        dlca_view v;
+        view_of(s, s->act[j], &v);
+        for (int a = 0; a < s->d; a++) {
+            const int64_t e = (int64_t)v.hi[a] - v.lo[a] + 1;
+            if (e > ext) ext = e;
+        }
+    }
+    const double per_site = (double)s->N / (double)s->V;
+    s->A = 1;
+    while (s->A < ext || pow((double)s->A, s->d) * per_site < 32) s->A *= 2;
+    return lookup_build(s);
+}
+
+/* Does cluster c hold site k (coordinates x)? Its bounding box first. */
+static int holds(const dlca_sim *s, uint32_t c, uint64_t k, const int64_t *x)
+{
+    if (s->ref[c] < DLCA_EMPTY) return s->ref[c] == k;
+    dlca_view v;
+    view_blk(s, dlca_blk(s, c), &v);
+    for (int a = 0; a < s->d; a++)
+        if (window(s, &v, a, x[a]) > v.hi[a]) return 0;
+    for (uint32_t i = 0; i < v.n; i++)
+        if (v.k[i] == k) return 1;
+    return 0;
+}
+
+uint32_t dlca_slot_of(const dlca_sim *s, uint64_t k)
+{
+    int64_t x[DLCA_MAX_DIM];
+    coords(s, k, x);
+    if (!s->box || s->search_now != DLCA_SEARCH_LATTICE || s->spanning) { /* a spanning join left them stale */
+        for (uint64_t j = 0; j < s->nc; j++)
+            if (holds(s, s->act[j], k, x)) return s->act[j];
+        return 0;
+    }
+    uint64_t box = 0;
+    for (int a = 0; a < s->d; a++) box += (uint64_t)(x[a] / s->A) * (uint64_t)s->bstride[a];
+    for (uint32_t j = 0; j < s->box_n[box]; j++)
+        if (holds(s, s->box[box][j], k, x)) return s->box[box][j];
+    return 0;
+}
+
+/* The search structures from the current state: --search lattice keeps
+ * the bit lattice and gets its lookup boxes; for the seed's modes the bit
+ * lattice goes, stamps and box ranges come, and the boxes are built with
  * side A (grown to hold the widest cluster). */
 int dlca_search_init(dlca_sim *s, int search, int A)
 {
     if (search == DLCA_SEARCH_LATTICE) {
         s->search_now = DLCA_SEARCH_LATTICE;
-        return 0;
+        return s->box ? 0 : dlca_lookup_init(s);
     }
-    free(s->grid);
-    s->grid = NULL;
+    free(s->occ);
+    s->occ = NULL;
+    boxes_free(s);
     s->brange = malloc((s->nslot + 1) * 2 * (size_t)s->d * sizeof *s->brange);
     s->stamp = calloc(s->nslot + 1, sizeof *s->stamp);
     if (!s->brange || !s->stamp) return -1;
@@ -419,8 +514,8 @@ static void *shrink(void *p, size_t bytes)
 /* Slots renumbered 1..N_c in their order, each keeping its name (id), so
  * that every comparison of slots (joins in slot order, the larger id
  * absorbed on a tie) and the digest stay as they were: the history does
- * not change. The per-slot arrays shrink to N_c; the lattice and the box
- * lists are relabelled (O(N), and at most log_{4/3}(N) times in a run).
+ * not change. The per-slot arrays shrink to N_c; the box lists are
+ * relabelled (O(N), and at most log_{4/3}(N) times in a run).
  * Nothing else remembers a slot number across a row. Optional: on no
  * memory it does nothing. */
 static __attribute__((noinline)) void compact(dlca_sim *s)
@@ -446,14 +541,7 @@ static __attribute__((noinline)) void compact(dlca_sim *s)
         s->pos[j] = s->pos[c];
         s->act[s->pos[j]] = j;
         if (s->brange) memmove(s->brange + j * w, s->brange + c * w, w * sizeof *s->brange);
-        if (s->ref[j] < DLCA_EMPTY) {
-            if (s->grid) s->grid[s->ref[j]] = j; /* no view: that divides */
-        } else {
-            uint32_t *b = dlca_blk(s, j);
-            b[-1] = j; /* its owner, for ar_slide */
-            const uint32_t *k = dlca_bsites(s, b);
-            for (uint32_t i = 0; s->grid && i < b[1]; i++) s->grid[k[i]] = j;
-        }
+        if (s->ref[j] > DLCA_EMPTY) dlca_blk(s, j)[-1] = j; /* its owner, for ar_slide */
     }
     for (uint64_t b = 0; map && b < s->nboxes; b++)
         for (uint32_t e = 0; e < s->box_n[b]; e++) s->box[b][e] = map[s->box[b][e]];
@@ -483,7 +571,9 @@ void dlca_sim_free(dlca_sim *s)
     free(s->ref);
     free(s->act);
     free(s->id);
-    free(s->grid);
+    free(s->occ);
+    free(s->lead);
+    free(s->uf);
     free(s->mob);
     free(s->size_count);
     free(s->brange);
@@ -514,8 +604,8 @@ int dlca_sim_alloc(dlca_sim **out, const dlca_params *p, uint64_t N)
     s->pos = calloc(N + 1, sizeof *s->pos);
     s->ref = malloc((N + 1) * sizeof *s->ref);
     s->act = malloc(N * sizeof *s->act);
-    s->grid = calloc(s->V, sizeof *s->grid);
-    if (!s->pos || !s->ref || !s->act || !s->grid) return -1;
+    s->occ = calloc((s->V + 63) / 64, sizeof *s->occ);
+    if (!s->pos || !s->ref || !s->act || !s->occ) return -1;
     for (uint64_t j = 0; j <= N; j++) s->ref[j] = DLCA_EMPTY;
     if (p->mobility != 0) {
         s->nmob = N + 1 < 65536 ? N + 1 : 65536;
@@ -589,7 +679,6 @@ static void append(dlca_sim *s, uint32_t keep, uint32_t gone, const int64_t *dis
             if (o < K.lo[a]) K.lo[a] = o;
             if (o > K.hi[a]) K.hi[a] = o;
         }
-        if (s->grid) s->grid[G.k[j]] = keep;
     }
     view_put(s, &K);
     for (int a = 0; a < d; a++)
@@ -611,7 +700,8 @@ static uint32_t join(dlca_sim *s, uint32_t c, uint32_t b, const int64_t *disp_in
     }
     const uint32_t nk = dlca_n(s, keep), ng = dlca_n(s, gone), n = nk + ng;
     if (keep_room(s, keep, n)) return 0;
-    if (s->search_now == DLCA_SEARCH_BOXES) {
+    if (s->uf) s->uf[gone] = keep;
+    if (s->box) {
         box_unregister(s, gone);
         box_unregister(s, keep);
     }
@@ -624,7 +714,7 @@ static uint32_t join(dlca_sim *s, uint32_t c, uint32_t b, const int64_t *disp_in
     remove_active(s, gone);
     if (n > s->largest) s->largest = n;
     s->merges++;
-    if (s->search_now == DLCA_SEARCH_BOXES && !s->spanning) {
+    if (s->box && !s->spanning) {
         if (box_register(s, keep)) return 0;
         if (boxes_fit(s, keep)) return 0;
     }
@@ -657,13 +747,13 @@ static int place(dlca_sim *s, const uint32_t *sites, uint32_t *placed, char *err
         uint64_t k;
         if (sites) {
             k = sites[j - 1];
-            if (k >= s->V || s->grid[k])
+            if (k >= s->V || dlca_occ(s, k))
                 return pdla_errorf(PDLA_EINVAL, err, errlen, k >= s->V ? "a site is outside the box" : "two monomers on one site");
         } else {
             do k = rng_below(&s->rng, s->V);
-            while (s->grid[k]);
+            while (dlca_occ(s, k));
         }
-        s->grid[k] = (uint32_t)j;
+        dlca_occ_set(s, k);
         placed[j - 1] = (uint32_t)k;
         s->ref[j] = (uint32_t)k;
         s->pos[j] = (uint32_t)(j - 1);
@@ -677,11 +767,37 @@ static int place(dlca_sim *s, const uint32_t *sites, uint32_t *placed, char *err
     return 0;
 }
 
+static int cmp_u64(const void *a, const void *b)
+{
+    const uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* The slot now holding monomer j (placed as slot j): union-find. */
+static uint32_t uf_find(uint32_t *uf, uint32_t j)
+{
+    while (uf[j] != j) j = uf[j] = uf[uf[j]];
+    return j;
+}
+
 /* Face-adjacent monomers start joined: every placed site in placement
- * order, its directions in order (the same in every search mode). */
+ * order, its directions in order (the same in every search mode). The
+ * monomer on a site is found in the placed sites sorted by site, its
+ * cluster by union-find over the joins (12 bytes a monomer while starting,
+ * freed after: no id lattice). */
 static int join_adjacent(dlca_sim *s, const uint32_t *placed)
 {
-    for (uint64_t j = 1; j <= s->N && !s->spanning; j++) {
+    uint64_t *bysite = malloc(s->N * sizeof *bysite);
+    s->uf = malloc((s->N + 1) * sizeof *s->uf);
+    if (!bysite || !s->uf) {
+        free(bysite);
+        return -1;
+    }
+    for (uint64_t j = 0; j <= s->N; j++) s->uf[j] = (uint32_t)j;
+    for (uint64_t j = 1; j <= s->N; j++) bysite[j - 1] = (uint64_t)placed[j - 1] << 32 | j;
+    qsort(bysite, s->N, sizeof *bysite, cmp_u64);
+    int rc = 0;
+    for (uint64_t j = 1; j <= s->N && !s->spanning && !rc; j++) {
         const uint32_t k = placed[j - 1];
         int64_t x[DLCA_MAX_DIM];
         int32_t xw[DLCA_MAX_DIM];
@@ -691,11 +807,25 @@ static int join_adjacent(dlca_sim *s, const uint32_t *placed)
             int64_t y[DLCA_MAX_DIM];
             memcpy(y, x, sizeof y);
             y[dir >> 1] += (dir & 1) ? -1 : 1;
-            const uint32_t other = s->grid[dlca_site(s, y)], self = s->grid[k];
-            if (other && other != self && !join_contact(s, self, other, xw, dir)) return -1;
+            const uint64_t ky = dlca_site(s, y);
+            if (!dlca_occ(s, ky)) continue;
+            uint64_t lo = 0, hi = s->N; /* the monomer on ky */
+            while (lo < hi) {
+                const uint64_t mid = (lo + hi) / 2;
+                if (bysite[mid] >> 32 < ky) lo = mid + 1;
+                else hi = mid;
+            }
+            const uint32_t other = uf_find(s->uf, (uint32_t)bysite[lo]), self = uf_find(s->uf, (uint32_t)j);
+            if (other != self && !join_contact(s, self, other, xw, dir)) {
+                rc = -1;
+                break;
+            }
         }
     }
-    return 0;
+    free(bysite);
+    free(s->uf);
+    s->uf = NULL;
+    return rc;
 }
 
 static int setup(dlca_sim **out, const dlca_params *p, const uint32_t *sites, uint64_t n, char *err,
@@ -708,7 +838,7 @@ static int setup(dlca_sim **out, const dlca_params *p, const uint32_t *sites, ui
     dlca_sim *s = NULL;
     uint32_t *placed = NULL;
     if (dlca_sim_alloc(&s, p, N) || !(placed = malloc(N * sizeof *placed))) goto nomem;
-    s->search_now = DLCA_SEARCH_LATTICE; /* boxes are built after the first joins */
+    s->search_now = DLCA_SEARCH_LATTICE; /* the seed's boxes are built after the first joins */
     if ((rc = place(s, sites, placed, err, errlen))) {
         free(placed);
         dlca_sim_free(s);
@@ -773,41 +903,80 @@ static inline void lattice_contact(dlca_sim *s, uint32_t id, uint32_t i, int dir
     add_contact(s, id, i, dir);
 }
 
-/* The id-lattice move of cluster v (slot c) one step along a: sites,
- * lattice and anchor; refused (only possible when sticking < 1: with p = 1
- * no two clusters are ever adjacent) onto another cluster. */
-static int lattice_shift(dlca_sim *s, uint32_t c, dlca_view *v, int a, int sg)
+/* Can the box range along a of a span [start, start + w) change when it
+ * shifts by sg? Only if its first or last site crosses a box edge (A is a
+ * power of two: no division; a range over the whole axis never changes).
+ * start is above -L. */
+static inline int span_moved(const dlca_sim *s, int a, int sg, int64_t start, int64_t w)
 {
-    const int d = s->d;
-    const int64_t L = s->L[a], st = s->stride[a];
-    const int32_t T = (int32_t)window(s, v, a, sg > 0 ? L - 1 : 0);
-    const int64_t dn = sg * st, dw = -sg * (L - 1) * st;
-    uint32_t *k = v->k;
-    const dlca_off *offa = v->off + a;
-    const uint32_t n = v->n;
-    uint32_t *grid = s->grid;
-    if (s->p.sticking < 1)
-        for (uint32_t i = 0; i < n; i++) {
-            const uint32_t id = grid[(int64_t)k[i] + (offa[(size_t)i * d] == T ? dw : dn)];
-            if (id && id != c) return DLCA_REFUSED;
-        }
-    for (uint32_t i = 0; i < n; i++) {
-        grid[k[i]] = 0;
-        k[i] = (uint32_t)((int64_t)k[i] + (offa[(size_t)i * d] == T ? dw : dn));
-    }
-    for (uint32_t i = 0; i < n; i++) grid[k[i]] = c;
-    v->anc[a] = (int32_t)wrap((int64_t)v->anc[a] + sg, L);
-    if (v->b) dlca_bgeom(v->b)[a] = (dlca_off)v->anc[a];
-    return DLCA_MOVED;
+    const int64_t L = s->L[a];
+    if (w >= L - s->A) return 0;
+    const int sh = __builtin_ctz((unsigned)s->A);
+    int64_t xs = start < 0 ? start + L : start, xe = xs + w - 1;
+    if (xe >= L) xe -= L;
+    int64_t ns = xs + sg, ne = xe + sg;
+    if (ns < 0) ns += L; else if (ns >= L) ns -= L;
+    if (ne < 0) ne += L; else if (ne >= L) ne -= L;
+    return (xs >> sh) != (ns >> sh) || (xe >> sh) != (ne >> sh);
 }
 
-/* The id-lattice move, then the neighbours of every new site. */
+/* The bit-lattice move of cluster v (slot c) one step along a (sg = +-1).
+ * With sticking 1 no cluster touches the mover before it moves, so a
+ * monomer whose site ahead is set (in the lattice before the move) has its
+ * own monomer there: its new site was the cluster's, every neighbour of it
+ * free of other clusters, and only the other monomers (the leading face)
+ * are scanned; those are marked first (s->lead). Then the mover's bits are
+ * cleared, so that a set bit next to a new site is another cluster's: its
+ * id is looked up (rare: a contact), the same clusters and first contacts
+ * as an id lattice gives. A move onto a set bit (only possible with
+ * sticking < 1) is refused and the bits put back. */
 static int move_lattice(dlca_sim *s, uint32_t c, int a, int sg)
 {
     dlca_view v;
     view_of(s, c, &v);
     const int d = s->d;
-    if (lattice_shift(s, c, &v, a, sg) != DLCA_MOVED) return DLCA_REFUSED;
+    const uint32_t n = v.n;
+    uint32_t *k = v.k;
+    const int64_t L = s->L[a], st = s->stride[a];
+    const int32_t T = (int32_t)window(s, &v, a, sg > 0 ? L - 1 : 0); /* offsets on the face that wraps */
+    const int64_t dn = sg * st, dw = -sg * (L - 1) * st;
+    const dlca_off *offa = v.off + a;
+    const int lead_only = s->p.sticking >= 1;
+    uint64_t *lead = NULL;
+    if (lead_only && n > 1) {
+        const size_t w = (n + 63) / 64;
+        if (w > s->caplead) {
+            uint64_t *l = realloc(s->lead, (w + w / 8) * sizeof *l);
+            if (!l) {
+                s->oom = 1;
+                return DLCA_REFUSED;
+            }
+            s->lead = l;
+            s->caplead = w + w / 8;
+        }
+        lead = s->lead;
+        memset(lead, 0, w * sizeof *lead);
+        for (uint32_t i = 0; i < n; i++)
+            if (!dlca_occ(s, (uint64_t)((int64_t)k[i] + (offa[(size_t)i * d] == T ? dw : dn))))
+                lead[i >> 6] |= UINT64_C(1) << (i & 63);
+    }
+    if (lead_only) /* nothing to refuse: clear and step in one pass */
+        for (uint32_t i = 0; i < n; i++) {
+            dlca_occ_clear(s, k[i]);
+            k[i] = (uint32_t)((int64_t)k[i] + (offa[(size_t)i * d] == T ? dw : dn));
+        }
+    else {
+        for (uint32_t i = 0; i < n; i++) dlca_occ_clear(s, k[i]);
+        for (uint32_t i = 0; i < n; i++)
+            if (dlca_occ(s, (uint64_t)((int64_t)k[i] + (offa[(size_t)i * d] == T ? dw : dn)))) {
+                for (uint32_t j = 0; j < n; j++) dlca_occ_set(s, k[j]);
+                return DLCA_REFUSED;
+            }
+        for (uint32_t i = 0; i < n; i++) k[i] = (uint32_t)((int64_t)k[i] + (offa[(size_t)i * d] == T ? dw : dn));
+    }
+    const int32_t old_anc = v.anc[a];
+    v.anc[a] = old_anc + sg < 0 ? (int32_t)(L - 1) : old_anc + sg == L ? 0 : old_anc + sg;
+    if (v.b) dlca_bgeom(v.b)[a] = (dlca_off)v.anc[a];
     int32_t T0[DLCA_MAX_DIM], T1[DLCA_MAX_DIM];
     for (int b = 0; b < d; b++) {
         T0[b] = (int32_t)window(s, &v, b, 0);
@@ -815,26 +984,32 @@ static int move_lattice(dlca_sim *s, uint32_t c, int a, int sg)
     }
     s->ncon = 0;
     const int skip = 2 * a + (sg > 0); /* the way back: own old site */
-    /* With sticking 1 no cluster touched the mover before, so a monomer
-     * whose site ahead is its own (x + e was in the cluster) cannot touch
-     * anything now: every neighbour of x + e was free of other clusters.
-     * Only the leading face is scanned. */
-    const int lead_only = s->p.sticking >= 1;
-    const int64_t L = s->L[a], st = s->stride[a];
-    const int64_t fw_n = sg * st, fw_w = -sg * (L - 1) * st;
-    const int32_t Tf = sg > 0 ? T1[a] : T0[a];
-    const uint32_t *grid = s->grid, *k = v.k;
-    for (uint32_t i = 0; i < v.n; i++) {
+    for (uint32_t i = 0; i < n; i++) {
+        if (lead && !(lead[i >> 6] >> (i & 63) & 1)) continue;
         const dlca_off *o = v.off + (size_t)i * d;
         const int64_t ki = k[i];
-        if (lead_only && grid[ki + (o[a] == Tf ? fw_w : fw_n)] == c) continue;
         for (int b = 0; b < d; b++) {
             const int64_t sb = s->stride[b], wb = (s->L[b] - 1) * sb;
-            const int64_t kp = o[b] == T1[b] ? ki - wb : ki + sb;
-            const int64_t km = o[b] == T0[b] ? ki + wb : ki - sb;
-            uint32_t id;
-            if (2 * b != skip && (id = grid[kp]) && id != c) lattice_contact(s, id, i, 2 * b);
-            if (2 * b + 1 != skip && (id = grid[km]) && id != c) lattice_contact(s, id, i, 2 * b + 1);
+            const uint64_t kp = (uint64_t)(o[b] == T1[b] ? ki - wb : ki + sb);
+            const uint64_t km = (uint64_t)(o[b] == T0[b] ? ki + wb : ki - sb);
+            if (2 * b != skip && dlca_occ(s, kp)) lattice_contact(s, dlca_slot_of(s, kp), i, 2 * b);
+            if (2 * b + 1 != skip && dlca_occ(s, km)) lattice_contact(s, dlca_slot_of(s, km), i, 2 * b + 1);
+        }
+    }
+    for (uint32_t i = 0; i < n; i++) dlca_occ_set(s, k[i]);
+    if (s->box && span_moved(s, a, sg, old_anc + v.lo[a], (int64_t)v.hi[a] - v.lo[a] + 1)) {
+        /* the lookup boxes follow when the range along a changes */
+        int32_t b0[DLCA_MAX_DIM], cnt[DLCA_MAX_DIM], ob0, ocnt;
+        const int64_t w = (int64_t)v.hi[a] - v.lo[a] + 1;
+        box_span(s, a, (int64_t)old_anc + v.lo[a], w, &ob0, &ocnt);
+        box_span(s, a, (int64_t)v.anc[a] + v.lo[a], w, &b0[a], &cnt[a]);
+        if (ob0 != b0[a] || ocnt != cnt[a]) {
+            dlca_cluster_span(s, &v, v.anc, 0, b0, cnt);
+            const int32_t nb0 = b0[a], ncnt = cnt[a];
+            b0[a] = ob0, cnt[a] = ocnt;
+            (void)for_boxes(s, b0, cnt, box_remove, c);
+            b0[a] = nb0, cnt[a] = ncnt;
+            if (for_boxes(s, b0, cnt, box_add, c)) s->oom = 1;
         }
     }
     return DLCA_MOVED;
@@ -1075,17 +1250,7 @@ int dlca_run_to(dlca_sim *s, uint64_t attempts, double t_pause)
 
 /* ---- test hooks ---------------------------------------------------------- */
 
-static uint32_t slot_at(const dlca_sim *s, uint32_t k)
-{
-    if (s->grid) return s->grid[k];
-    for (uint64_t j = 0; j < s->nc; j++) {
-        dlca_view v;
-        view_of(s, s->act[j], &v);
-        for (uint32_t i = 0; i < v.n; i++)
-            if (v.k[i] == k) return s->act[j];
-    }
-    return 0;
-}
+static uint32_t slot_at(const dlca_sim *s, uint32_t k) { return dlca_slot_of(s, k); }
 
 int dlca_move_site(dlca_sim *s, uint32_t k, int axis, int sign)
 {
@@ -1132,7 +1297,8 @@ static uint64_t model_bytes(const dlca_sim *s)
                  s->nslot * sizeof *s->act + s->ar_top * sizeof *s->ar; /* with its freed blocks */
     if (s->cand) b += s->nslot * sizeof *s->cand;
     if (s->stamp) b += (s->nslot + 1) * sizeof *s->stamp;
-    if (s->grid) b += s->V * sizeof *s->grid;
+    if (s->occ) b += (s->V + 63) / 64 * sizeof *s->occ;
+    b += s->caplead * sizeof *s->lead;
     if (s->mob) b += s->nmob * sizeof *s->mob;
     if (s->size_count) b += (s->N + 1) * sizeof *s->size_count;
     if (s->brange) b += (s->nslot + 1) * 2 * (size_t)s->d * sizeof *s->brange;

@@ -92,7 +92,7 @@ static const pdla_param_desc table[] = {
      .lo_u = 0, .hi_u = UINT64_MAX},
     {.name = "search", .option = "search", .label = "search", .unit = "",
      .metavar = "lattice|boxes|allpairs",
-     .help = "collision search: id lattice (fastest), the seed's grid-boxing, or all pairs",
+     .help = "collision search: bit lattice (fastest), the seed's grid-boxing, or all pairs",
      .group = G, .example = "boxes", .type = PDLA_PT_CHOICE, .offset = AT(search),
      .bit = DLCA_PARAM_SEARCH, .models = M, .show_default = 1, .def_u = DLCA_SEARCH_LATTICE,
      .lo_u = 0, .hi_u = 2, .choices = search_words},
@@ -219,13 +219,15 @@ int dlca_params_validate(const dlca_params *p, char *err, size_t errlen)
     for (int i = 0; i < p->dim; i++) V *= p->box[i];
     if (V >= 2147483648.0) /* a site and a tag bit in one word (dlca_sim.h, DLCA_EMPTY) */
         return pdla_errorf(PDLA_EINVAL, err, errlen, "--box has %.3g sites (at most 2^31 - 1)", V);
-    /* The id lattice: 4 bytes a site; refuse what cannot fit in memory. */
-    const long pages = sysconf(_SC_PHYS_PAGES), psz = sysconf(_SC_PAGESIZE);
-    if (pages > 0 && psz > 0 && 4.0 * V > 0.5 * (double)pages * (double)psz)
-        return pdla_errorf(PDLA_EINVAL, err, errlen,
-                           "--box needs %.3g GiB for its lattice, more than half of this machine's memory",
-                           4.0 * V / 1073741824.0);
+    /* The bit lattice (1 bit a site) and about 32 bytes a monomer at the
+     * mid-run peak (runs/dlca/memory.txt): refuse what cannot fit in memory. */
     const uint64_t N = dlca_params_monomers(p);
+    const long pages = sysconf(_SC_PHYS_PAGES), psz = sysconf(_SC_PAGESIZE);
+    const double need = V / 8 + 32.0 * (double)N;
+    if (pages > 0 && psz > 0 && need > 0.5 * (double)pages * (double)psz)
+        return pdla_errorf(PDLA_EINVAL, err, errlen,
+                           "--box and --fill need about %.3g GiB (lattice and monomers), more than half of this "
+                           "machine's memory", need / 1073741824.0);
     if (N < 1 || (double)N >= V)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "the box of %.0f sites cannot hold %llu monomers (need 1 <= N < V)",
                            V, (unsigned long long)N);

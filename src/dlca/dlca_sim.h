@@ -20,9 +20,15 @@
  * box, |o| <= 2L - 2, fit). Blocks are made with little slack and freed
  * blocks are reclaimed by sliding the live ones down (dlca.c): one malloc'd
  * block per cluster left ~20 bytes a monomer of glibc's heap between live
- * blocks (runs/dlca/memory.txt). The id lattice
- * (4 bytes a site) is the collision structure of --search lattice; the
- * "seen" stamps and the box lists exist only for the seed's searches.
+ * blocks (runs/dlca/memory.txt). The collision
+ * structure of --search lattice is an occupancy bit lattice (1 bit a site;
+ * a 4-byte cluster-id lattice before session 7: 268 MB at 8192^2, and
+ * cache and TLB misses on every site a move touched): a move clears and
+ * sets its sites' bits and tests its new neighbours' bits; only a contact
+ * (rare) asks which cluster holds a site, through grid boxes that list the
+ * clusters whose bounding box covers them (lookup boxes: no halo search,
+ * never all pairs). The "seen" stamps and the box ranges exist only for
+ * the seed's searches.
  */
 #ifndef PDLA_DLCA_SIM_H
 #define PDLA_DLCA_SIM_H
@@ -88,7 +94,10 @@ struct dlca_sim {
     uint64_t nc;
     uint32_t *ar;   /* the arena: blocks of clusters of 2 or more */
     uint64_t ar_top, ar_cap, ar_free; /* words: in use (live or freed), allocated, freed */
-    uint32_t *grid; /* LATTICE: slot id per site, 0 empty */
+    uint64_t *occ;  /* occupancy, a bit per site (LATTICE, and every search while starting) */
+    uint64_t *lead; /* LATTICE, sticking 1: per mover monomer, "its site ahead was free" */
+    size_t caplead; /* words of lead */
+    uint32_t *uf;   /* while starting: per slot, the slot it joined (union-find) */
     pdla_rng rng;
     double t;
     uint64_t attempts, moves, monomer_moves, merges, largest;
@@ -106,7 +115,7 @@ struct dlca_sim {
     uint64_t nboxes;
     uint32_t **box;
     uint32_t *box_n, *box_cap;
-    int32_t *brange; /* per slot: start[d], count[d] of its registered boxes */
+    int32_t *brange; /* BOXES: per slot, start[d], count[d] of its registered boxes (NULL: from the view) */
     uint64_t candidates;
     uint32_t *stamp, stamp_now; /* BOXES, ALLPAIRS: "seen in this search" marks, per slot */
     uint32_t *cand;
@@ -218,6 +227,15 @@ int dlca_boxes_build(dlca_sim *s);
 void dlca_cluster_span(const dlca_sim *s, const dlca_view *v, const int32_t *anchor, int margin, int32_t *b0,
                        int32_t *cnt);
 static inline int32_t *dlca_brange(const dlca_sim *s, uint32_t c) { return s->brange + (size_t)c * 2 * s->d; }
+static inline int dlca_occ(const dlca_sim *s, uint64_t k) { return (int)(s->occ[k >> 6] >> (k & 63) & 1); }
+static inline void dlca_occ_set(dlca_sim *s, uint64_t k) { s->occ[k >> 6] |= UINT64_C(1) << (k & 63); }
+static inline void dlca_occ_clear(dlca_sim *s, uint64_t k) { s->occ[k >> 6] &= ~(UINT64_C(1) << (k & 63)); }
+/* The lookup boxes of --search lattice for the current state (after a start
+ * or a load); 0 or -1 (no memory). */
+int dlca_lookup_init(dlca_sim *s);
+/* The slot holding site k (0: none), by the lookup boxes or, without
+ * them, a scan of every cluster. */
+uint32_t dlca_slot_of(const dlca_sim *s, uint64_t k);
 int dlca_check_stop(dlca_sim *s);
 /* Where an export of the monomers (dlca_export_sites order) stands; zero
  * it to start. */

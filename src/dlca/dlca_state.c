@@ -47,7 +47,7 @@ static int check_cluster(const dlca_sim *s, uint32_t c, uint64_t *ks, uint64_t *
             if (o > thi[a]) thi[a] = o;
         }
         if (dlca_site(s, x) != v.k[i]) BAD("cluster %u monomer %u: site %u does not match its offset", c, i, v.k[i]);
-        if (s->grid && s->grid[v.k[i]] != c) BAD("site %u holds id %u, not its cluster %u", v.k[i], s->grid[v.k[i]], c);
+        if (s->occ && !dlca_occ(s, v.k[i])) BAD("site %u of cluster %u is not set in the bit lattice", v.k[i], c);
         ks[(*m)++] = (uint64_t)v.k[i] << 32 | c;
     }
     for (int a = 0; a < d; a++) {
@@ -89,11 +89,11 @@ static int check_sites(const dlca_sim *s, const uint64_t *ks, uint64_t m, char *
 {
     for (uint64_t j = 1; j < m; j++)
         if (ks[j] >> 32 == ks[j - 1] >> 32) BAD("two monomers on site %llu", (unsigned long long)(ks[j] >> 32));
-    if (s->grid) {
+    if (s->occ) {
         uint64_t filled = 0;
-        for (uint64_t k = 0; k < s->V; k++) filled += s->grid[k] != 0;
+        for (uint64_t w = 0; w < (s->V + 63) / 64; w++) filled += (uint64_t)__builtin_popcountll(s->occ[w]);
         if (filled != s->N)
-            BAD("the id lattice holds %llu sites, N = %llu", (unsigned long long)filled, (unsigned long long)s->N);
+            BAD("the bit lattice holds %llu sites, N = %llu", (unsigned long long)filled, (unsigned long long)s->N);
     }
     if (s->p.sticking < 1 || s->spanning) return 0;
     for (uint64_t j = 0; j < m; j++) {
@@ -118,10 +118,27 @@ static int check_sites(const dlca_sim *s, const uint64_t *ks, uint64_t m, char *
     return 0;
 }
 
-/* The grid boxes list every cluster where its bounding box lies. */
+/* Is c listed in every box of the range b0, cnt? */
+static int listed_in(const dlca_sim *s, uint32_t c, const int32_t *b0, const int32_t *cnt)
+{
+    int32_t i[DLCA_MAX_DIM] = {0};
+    for (;;) {
+        uint64_t box = 0;
+        for (int a = 0; a < s->d; a++) box += (uint64_t)dlca_wrap(b0[a] + i[a], s->nb[a]) * (uint64_t)s->bstride[a];
+        uint32_t j = 0;
+        while (j < s->box_n[box] && s->box[box][j] != c) j++;
+        if (j == s->box_n[box]) return 0;
+        int a = 0;
+        while (a < s->d && ++i[a] == cnt[a]) i[a++] = 0;
+        if (a == s->d) return 1;
+    }
+}
+
+/* The grid boxes (the seed's, or the lookup boxes of --search lattice)
+ * list every cluster where its bounding box lies, and nothing else. */
 static int check_boxes(const dlca_sim *s, char *err, size_t errlen)
 {
-    if (s->search_now != DLCA_SEARCH_BOXES || s->spanning) return 0; /* a spanning join stops the bookkeeping */
+    if (!s->box || s->spanning) return 0; /* a spanning join stops the bookkeeping */
     const int d = s->d;
     uint64_t listed = 0, expect = 0;
     for (uint64_t b = 0; b < s->nboxes; b++) listed += s->box_n[b];
@@ -131,9 +148,12 @@ static int check_boxes(const dlca_sim *s, char *err, size_t errlen)
         view_of(s, c, &v);
         int32_t b0[DLCA_MAX_DIM], cnt[DLCA_MAX_DIM];
         dlca_cluster_span(s, &v, v.anc, 0, b0, cnt);
-        const int32_t *r = dlca_brange(s, c);
-        if (memcmp(b0, r, (size_t)d * sizeof *b0) || memcmp(cnt, r + d, (size_t)d * sizeof *cnt))
-            BAD("cluster %u is registered in stale boxes", c);
+        if (s->brange) {
+            const int32_t *r = dlca_brange(s, c);
+            if (memcmp(b0, r, (size_t)d * sizeof *b0) || memcmp(cnt, r + d, (size_t)d * sizeof *cnt))
+                BAD("cluster %u is registered in stale boxes", c);
+        }
+        if (!listed_in(s, c, b0, cnt)) BAD("cluster %u is missing from a box its bounding box covers", c);
         uint64_t e = 1;
         for (int a = 0; a < d; a++) {
             e *= (uint64_t)cnt[a];
@@ -368,8 +388,8 @@ static int load_clusters(dlca_sim *s, const ck_arrays *a, char *why, size_t whyl
             }
         }
         for (uint32_t i = 0; i < n; i++) {
-            if (a->k[m + i] >= s->V || s->grid[a->k[m + i]]) LOAD_FAIL(PDLA_EIO, "a site is outside the box or taken twice");
-            s->grid[a->k[m + i]] = (uint32_t)c;
+            if (a->k[m + i] >= s->V || dlca_occ(s, a->k[m + i])) LOAD_FAIL(PDLA_EIO, "a site is outside the box or taken twice");
+            dlca_occ_set(s, a->k[m + i]);
         }
         m += n;
     }

@@ -30,6 +30,13 @@ refused --dim 3 --box 2000
 refused --dim 3 --box 2048x1024x1024   # 2^31 sites: a site shares its word with a tag bit (dlca_sim.h)
 grep -q 'at most 2^31 - 1' "$tmp/err" || fail "2^31 sites -> $(cat "$tmp/err")"
 refused --box 65536x60000
+# Over half the machine's memory (1 bit a site, ~32 bytes a monomer: 1024^3 at 90% wants ~29 GiB);
+# only where the machine has less than 48 GiB.
+memkb=$(awk '/^MemTotal:/ {print $2}' /proc/meminfo 2>/dev/null)
+if [ -n "$memkb" ] && [ "$memkb" -lt 50331648 ]; then
+    refused --dim 3 --box 1024 --fill 0.9
+    grep -q 'more than half of this machine' "$tmp/err" || fail "memory refusal: $(cat "$tmp/err")"
+fi
 refused --search nearest
 refused --until-clusters 0
 refused --mobility x

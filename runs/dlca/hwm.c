@@ -1,6 +1,8 @@
 /* runs/dlca/hwm.c - peak RSS of a DLCA run (lattice search, seed 1, to 100
  * clusters or spanning) beyond what the process held before dlca_create and
- * beyond the id lattice (4 bytes a site), in bytes a monomer. Public API
+ * beyond the lattice (HWM_SITE_BITS bits a site: 32, the default, for the
+ * id lattice before session 7; 1 for the bit lattice since), in bytes a
+ * monomer. Public API
  * only, so that one source builds against any version of libpdla.a:
  *   gcc -O2 -std=gnu11 -I include runs/dlca/hwm.c build/libpdla.a -lhdf5_serial -lhwloc -lm -lpthread -o /tmp/hwm
  *   /tmp/hwm D L FILL [GAMMA [MAX_ATTEMPTS]] */
@@ -34,6 +36,7 @@ int main(int argc, char **argv)
     p.seed = 1;
     char err[256];
     dlca_sim *s;
+    const double bits = getenv("HWM_SITE_BITS") ? atof(getenv("HWM_SITE_BITS")) : 32;
     const long rss0 = status_kb("VmRSS:");
     if (dlca_create(&s, &p, err, sizeof err)) { fprintf(stderr, "%s\n", err); return 1; }
     while (!dlca_run(s, 1000000)) {}
@@ -42,7 +45,7 @@ int main(int argc, char **argv)
     const long hwm = status_kb("VmHWM:");
     printf("d %d L %s fill %s: N %llu stop %s N_c %llu | rss before %ld kB, VmHWM %ld kB | beyond the lattice %.1f B/monomer\n",
            p.dim, argv[2], argv[3], (unsigned long long)st.n_monomers, dlca_stop_name(st.stop),
-           (unsigned long long)st.n_clusters, rss0, hwm, ((hwm - rss0) * 1024.0 - 4 * V) / (double)st.n_monomers);
+           (unsigned long long)st.n_clusters, rss0, hwm, ((hwm - rss0) * 1024.0 - bits / 8 * V) / (double)st.n_monomers);
     dlca_destroy(s);
     return 0;
 }

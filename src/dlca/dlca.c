@@ -920,6 +920,50 @@ static inline int span_moved(const dlca_sim *s, int a, int sg, int64_t start, in
     return (xs >> sh) != (ns >> sh) || (xe >> sh) != (ne >> sh);
 }
 
+/* Flags of v's monomers whose site ahead (new site: k + dn, or k + dw on
+ * the face T that wraps) is clear before the move: the leading face.
+ * NULL (s->oom) on no memory. */
+static uint64_t *mark_lead(dlca_sim *s, const dlca_view *v, int a, int32_t T, int64_t dn, int64_t dw)
+{
+    const uint32_t n = v->n;
+    const size_t w = (n + 63) / 64;
+    if (w > s->caplead) {
+        uint64_t *l = realloc(s->lead, (w + w / 8) * sizeof *l);
+        if (!l) {
+            s->oom = 1;
+            return NULL;
+        }
+        s->lead = l;
+        s->caplead = w + w / 8;
+    }
+    uint64_t *lead = s->lead;
+    const dlca_off *offa = v->off + a;
+    const uint32_t *k = v->k;
+    const int d = s->d;
+    memset(lead, 0, w * sizeof *lead);
+    for (uint32_t i = 0; i < n; i++)
+        if (!dlca_occ(s, (uint64_t)((int64_t)k[i] + (offa[(size_t)i * d] == T ? dw : dn))))
+            lead[i >> 6] |= UINT64_C(1) << (i & 63);
+    return lead;
+}
+
+/* Cluster c (view v, moved along a from anchor old_anc) re-registered in
+ * the lookup boxes if its range along a changed. */
+static void lookup_follow(dlca_sim *s, uint32_t c, const dlca_view *v, int a, int32_t old_anc)
+{
+    int32_t b0[DLCA_MAX_DIM], cnt[DLCA_MAX_DIM], ob0, ocnt;
+    const int64_t w = (int64_t)v->hi[a] - v->lo[a] + 1;
+    box_span(s, a, (int64_t)old_anc + v->lo[a], w, &ob0, &ocnt);
+    box_span(s, a, (int64_t)v->anc[a] + v->lo[a], w, &b0[a], &cnt[a]);
+    if (ob0 == b0[a] && ocnt == cnt[a]) return;
+    dlca_cluster_span(s, v, v->anc, 0, b0, cnt);
+    const int32_t nb0 = b0[a], ncnt = cnt[a];
+    b0[a] = ob0, cnt[a] = ocnt;
+    (void)for_boxes(s, b0, cnt, box_remove, c);
+    b0[a] = nb0, cnt[a] = ncnt;
+    if (for_boxes(s, b0, cnt, box_add, c)) s->oom = 1;
+}
+
 /* The bit-lattice move of cluster v (slot c) one step along a (sg = +-1).
  * With sticking 1 no cluster touches the mover before it moves, so a
  * monomer whose site ahead is set (in the lattice before the move) has its
@@ -943,23 +987,7 @@ static int move_lattice(dlca_sim *s, uint32_t c, int a, int sg)
     const dlca_off *offa = v.off + a;
     const int lead_only = s->p.sticking >= 1;
     uint64_t *lead = NULL;
-    if (lead_only && n > 1) {
-        const size_t w = (n + 63) / 64;
-        if (w > s->caplead) {
-            uint64_t *l = realloc(s->lead, (w + w / 8) * sizeof *l);
-            if (!l) {
-                s->oom = 1;
-                return DLCA_REFUSED;
-            }
-            s->lead = l;
-            s->caplead = w + w / 8;
-        }
-        lead = s->lead;
-        memset(lead, 0, w * sizeof *lead);
-        for (uint32_t i = 0; i < n; i++)
-            if (!dlca_occ(s, (uint64_t)((int64_t)k[i] + (offa[(size_t)i * d] == T ? dw : dn))))
-                lead[i >> 6] |= UINT64_C(1) << (i & 63);
-    }
+    if (lead_only && n > 1 && !(lead = mark_lead(s, &v, a, T, dn, dw))) return DLCA_REFUSED; /* s->oom */
     if (lead_only) /* nothing to refuse: clear and step in one pass */
         for (uint32_t i = 0; i < n; i++) {
             dlca_occ_clear(s, k[i]);
@@ -997,21 +1025,8 @@ static int move_lattice(dlca_sim *s, uint32_t c, int a, int sg)
         }
     }
     for (uint32_t i = 0; i < n; i++) dlca_occ_set(s, k[i]);
-    if (s->box && span_moved(s, a, sg, old_anc + v.lo[a], (int64_t)v.hi[a] - v.lo[a] + 1)) {
-        /* the lookup boxes follow when the range along a changes */
-        int32_t b0[DLCA_MAX_DIM], cnt[DLCA_MAX_DIM], ob0, ocnt;
-        const int64_t w = (int64_t)v.hi[a] - v.lo[a] + 1;
-        box_span(s, a, (int64_t)old_anc + v.lo[a], w, &ob0, &ocnt);
-        box_span(s, a, (int64_t)v.anc[a] + v.lo[a], w, &b0[a], &cnt[a]);
-        if (ob0 != b0[a] || ocnt != cnt[a]) {
-            dlca_cluster_span(s, &v, v.anc, 0, b0, cnt);
-            const int32_t nb0 = b0[a], ncnt = cnt[a];
-            b0[a] = ob0, cnt[a] = ocnt;
-            (void)for_boxes(s, b0, cnt, box_remove, c);
-            b0[a] = nb0, cnt[a] = ncnt;
-            if (for_boxes(s, b0, cnt, box_add, c)) s->oom = 1;
-        }
-    }
+    if (s->box && span_moved(s, a, sg, old_anc + v.lo[a], (int64_t)v.hi[a] - v.lo[a] + 1))
+        lookup_follow(s, c, &v, a, old_anc);
     return DLCA_MOVED;
 }
 

@@ -10,6 +10,7 @@
  *             particle at once, sticking onto two at once, Newton's cradle
  *   bath      kinds with STICKY 0: never stick, bounce off the cluster
  *             keeping their energy; the all-sticky history unchanged;
+ *             bath-brute: against the brute force, resume with a bath;
  *             old checkpoints load as all sticky (bath-oldckpt FILE)
  *   determinism, params
  */
@@ -1036,7 +1037,7 @@ static void test_bath_alone(int dim)
     ev_params q = base(dim, 1, dim == 2 ? 0.3 : 0.2, 0, dim == 2 ? 5 : 2.5, 1);
     strcpy(q.species, dim == 2 ? "150:0.5:1:0,50:0.6:3:0" : "300:0.5:1:0,100:0.45:3:0");
     q.start = EV_START_LATTICE;
-    q.t_max = dim == 2 ? 400 : 150;
+    q.t_max = dim == 2 ? 400 : 75;
     char err[256];
     ev_sim *s = ev_create(&q, err, sizeof err);
     CHECK(s != NULL, "bath alone %dd: %s", dim, err);
@@ -1237,11 +1238,15 @@ static void test_bath(void)
     test_bath_stick(2, 1);
     test_bath_stick(2, 0.3);
     test_bath_stick(3, 1);
-    /* the engine against the brute force with a bath (p = 0.5: the RNG is
-     * drawn for sticky contacts only) */
+}
+
+/* The engine against the brute force with a bath (p = 0.5: the RNG is
+ * drawn for sticky contacts only), and a checkpoint mid-run with a bath. */
+static void test_bath_brute(void)
+{
     ev_params q = base(2, 1, 0.2, 0, 1.0, 0.5);
     strcpy(q.species, "60:0.5:1,240:0.5:1:0");
-    q.max_events = 200000;
+    q.max_events = 60000; /* cell crossings included: ~27000 traced events */
     cmp_brute("2d bath + sticky p=0.5", q, 20000, 1);
     q = base(3, 1, 0.15, 0, 1.0, 1);
     strcpy(q.species, "50:0.5:1,200:0.45:2:0");
@@ -1300,5 +1305,6 @@ int main(int argc, char **argv)
     if (all || !strcmp(what, "seeds")) test_seeds();
     if (all || !strcmp(what, "resume")) test_resume();
     if (all || !strcmp(what, "bath")) test_bath();
+    if (all || !strcmp(what, "bath-brute")) test_bath_brute();
     return check_finish();
 }

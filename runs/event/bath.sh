@@ -101,6 +101,25 @@ for s in $(seq 1 "$nseeds"); do
         awk -v s="$s" 'NR == 1 { nt = split($0, t, " ") } NR == 2 { split($0, m, " "); printf "#   seed %s:", s;
             for (i = 1; i <= nt; i++) printf " %g:%s", t[i], m[i]; print "" }'
 done
+echo "## sticky gas left at the end, packing in rings around the seed (seed 1; start $eta_c)"
+for set in "$bathname" "$ctrlname"; do
+    python3 - "$o/${set}_s1/cluster.h5" <<'PY'
+import sys
+import h5py
+import numpy as np
+with h5py.File(sys.argv[1], "r") as f:
+    L = float(f["results"].attrs["box_side"])
+    p = f["free/positions"][...]
+    st = f["species/sticky"][...][f["free/species"][...]] != 0
+d = np.hypot(p[st, 0] - L / 2, p[st, 1] - L / 2)
+e = [0, 40, 60, 80, 100, 120, 140]
+row = []
+for a, b in zip(e, e[1:]):
+    n = np.count_nonzero((d >= a) & (d < b))
+    row.append(f"{a}-{b}: {n * np.pi * 0.25 / (np.pi * (b * b - a * a)):.4f}")
+print(f"#   {sys.argv[1].split('/')[-2]}: " + ", ".join(row))
+PY
+done
 if [ -n "${PICTURE:-}" ]; then # the committed picture: seed 1, bath run and control
     python3 runs/event/bath-png.py "$o/${bathname}_s1/cluster.h5" "$o/${ctrlname}_s1/cluster.h5" runs/event/bath_2d.png
 fi

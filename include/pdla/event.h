@@ -29,6 +29,8 @@ enum ev_start { EV_START_RANDOM = 0, EV_START_LATTICE = 1 };
 typedef struct ev_species {
     uint64_t count;
     double radius, density;
+    int sticky; /* 1: sticks on contact with the cluster (with --stick-p); 0: a bath
+                 * particle, every contact elastic, the cluster an infinite mass */
 } ev_species;
 
 /* Every parameter of the model; the fields are named in ev_param_table. */
@@ -36,7 +38,7 @@ typedef struct ev_params {
     int dim;                 /* 2 or 3 */
     uint64_t particles;      /* when species is empty: one species of this many */
     double radius, density;  /* ... with this radius and density */
-    char species[256];       /* "COUNT:RADIUS:DENSITY[,...]" or "" */
+    char species[256];       /* "COUNT:RADIUS:DENSITY[:STICKY][,...]" or "" */
     char seeds[512];         /* file of immobile seeds (replace the central one), or "" */
     double packing;          /* volume fraction of the free particles in the box */
     int walls;               /* enum ev_walls */
@@ -124,6 +126,11 @@ const double *ev_vel(const ev_sim *s, size_t i);
 double ev_radius(const ev_sim *s, size_t i);
 double ev_mass(const ev_sim *s, size_t i);
 int ev_species_of(const ev_sim *s, size_t i);
+/* Particles of sticky kinds (ev_count(s) when no kind is a bath), and
+ * whether kind k sticks (STICKY in --species; 0 for k out of range). The
+ * run's "all stuck" means every particle of a sticky kind stuck. */
+size_t ev_sticky_count(const ev_sim *s);
+int ev_species_sticky(const ev_sim *s, int k);
 int ev_has_seed(const ev_sim *s);
 /* Stuck particles in arrival order: index and the time they stuck. */
 size_t ev_stuck_list(const ev_sim *s, const uint32_t **idx, const double **t);

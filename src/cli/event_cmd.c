@@ -330,7 +330,7 @@ static double done_fraction(const ev_sim *s, const ev_stats *st)
     const ev_params *p = ev_params_of((ev_sim *)s);
     double f = -1;
     if (p->t_max > 0) f = fmax(f, st->t / p->t_max);
-    const uint64_t tgt = p->max_stuck ? p->max_stuck : (ev_has_seed(s) && p->stick_p > 0 ? ev_count(s) : 0);
+    const uint64_t tgt = p->max_stuck ? p->max_stuck : (ev_has_seed(s) && p->stick_p > 0 ? ev_sticky_count(s) : 0);
     if (tgt) f = fmax(f, (double)st->stuck / (double)tgt);
     if (p->max_events) f = fmax(f, (double)st->events / (double)p->max_events);
     return f > 1 ? 1 : f;
@@ -353,8 +353,8 @@ static void progress_line(ev_ticker *k, ev_sim *s, double now, int final)
                              "t %.4g  events %.3g (%.3g/s)  collisions %.3g  stuck %.1f%% (%" PRIu64
                              "/%zu)  %s %s",
                              st.t, (double)st.events, k->rate, (double)st.collisions,
-                             ev_count(s) ? 100.0 * (double)st.stuck / (double)ev_count(s) : 0.0,
-                             st.stuck, ev_count(s), final ? "time" : "ETA", eta);
+                             ev_sticky_count(s) ? 100.0 * (double)st.stuck / (double)ev_sticky_count(s) : 0.0,
+                             st.stuck, ev_sticky_count(s), final ? "time" : "ETA", eta);
     if (k->tty) {
         fprintf(stderr, "\r%s%*s%s", line, k->width > len ? k->width - len : 0, "", final ? "\n" : "");
         k->width = len;
@@ -468,11 +468,14 @@ static void print_summary(const ev_cli *c, ev_sim *s, const char *dir, int why, 
 {
     ev_stats st;
     ev_get_stats(s, &st);
-    printf("model event, %dd, %zu particles, box %.6g (%s walls)\n"
+    char bath[64] = "";
+    if (ev_sticky_count(s) < ev_count(s))
+        snprintf(bath, sizeof bath, " (%zu of a bath kind)", ev_count(s) - ev_sticky_count(s));
+    printf("model event, %dd, %zu particles%s, box %.6g (%s walls)\n"
            "stopped: %s at time %.6g\n"
            "stuck %" PRIu64 ", events %" PRIu64 ", collisions %" PRIu64 ", wall hits %" PRIu64
            "\ncpu %.3f s, %.3g collisions/s, %.3g us/event, peak RSS %.1f MB\nwrote %s/cluster.h5\n",
-           ev_dim(s), ev_count(s), st.box,
+           ev_dim(s), ev_count(s), bath, st.box,
            ev_params_of(s)->walls == EV_WALLS_PERIODIC ? "periodic" : "elastic",
            ev_stop_name(why), st.t, st.stuck, st.events, st.collisions, st.wall_hits, cpu,
            cpu > 0 ? (double)st.collisions / cpu : 0.0,

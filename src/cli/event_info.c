@@ -116,6 +116,56 @@ static long long rows(hid_t f, const char *ds)
     return (long long)d.dims[0];
 }
 
+/* One column of /species (rank 1, at most EV_INFO_KINDS rows) as doubles:
+ * its length, 0 when absent (an older file has no `sticky`), -1 unreadable. */
+#define EV_INFO_KINDS 8
+static int species_col(hid_t f, const char *name, double *v)
+{
+    pdla_h5_dset d;
+    if (H5Lexists(f, "/species", H5P_DEFAULT) <= 0) return 0;
+    char path[64];
+    snprintf(path, sizeof path, "/species/%s", name);
+    if (H5Lexists(f, path, H5P_DEFAULT) <= 0) return 0;
+    if (pdla_h5_dset_open(f, path, &d) < 0) return -1;
+    int n = -1;
+    if (d.rank == 1 && d.dims[0] <= EV_INFO_KINDS && pdla_h5_dset_stored(&d, 8) == PDLA_H5_STORED &&
+        pdla_h5_dset_read(&d, PDLA_H5_F64, 0, d.dims[0], v) == 0)
+        n = (int)d.dims[0];
+    pdla_h5_dset_close(&d);
+    return n;
+}
+
+/* The per-kind table of /species: count, radius, density, stuck and sticky
+ * (1 when the file has no `sticky`: written before bath kinds, all stuck
+ * on contact). 0, or -1 when it cannot be read. */
+static int species_table(FILE *o, hid_t f, int json)
+{
+    static const char *const col[] = {"count", "radius", "density", "stuck", "sticky"};
+    double v[5][EV_INFO_KINDS];
+    int n = -2;
+    for (int c = 0; c < 5; c++) {
+        const int m = species_col(f, col[c], v[c]);
+        if (m < 0 || (m == 0 && c < 4)) return m < 0 ? -1 : 0; /* no table: nothing to show */
+        if (c == 4 && m == 0)
+            for (int k = 0; k < n; k++) v[4][k] = 1;
+        else if (n == -2) n = m;
+        else if (m != n) return -1;
+    }
+    if (json) fprintf(o, "  \"species\": [");
+    else fprintf(o, "/species\n");
+    for (int k = 0; k < n; k++) {
+        if (json)
+            fprintf(o, "%s\n    {\"count\": %.17g, \"radius\": %.17g, \"density\": %.17g, "
+                       "\"stuck\": %.17g, \"sticky\": %d}",
+                    k ? "," : "", v[0][k], v[1][k], v[2][k], v[3][k], v[4][k] != 0);
+        else
+            fprintf(o, "  kind %d: count %.10g radius %.10g density %.10g stuck %.10g sticky %d%s\n", k + 1,
+                    v[0][k], v[1][k], v[2][k], v[3][k], v[4][k] != 0, v[4][k] != 0 ? "" : " (bath)");
+    }
+    if (json) fprintf(o, "\n  ],\n");
+    return 0;
+}
+
 int event_info_main(int argc, char **argv)
 {
     int json;
@@ -138,7 +188,8 @@ int event_info_main(int argc, char **argv)
                               "  \"series_rows\": %lld,\n", path, ns, nf, nr);
     else fprintf(stdout, "%s: event model, %lld stuck, %lld free, %lld series rows\n", path, ns, nf, nr);
     if (group(stdout, f, "/", json, 0) || group(stdout, f, "/parameters", json, 0) ||
-        group(stdout, f, "/results", json, 0) || group(stdout, f, "/Code", json, 1))
+        group(stdout, f, "/results", json, 0) || species_table(stdout, f, json) ||
+        group(stdout, f, "/Code", json, 1))
         rc = 1;
     if (json) fprintf(stdout, "}\n");
     H5Fclose(f);

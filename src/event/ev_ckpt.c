@@ -12,6 +12,9 @@
  *                kind, cell_what), stuck_idx, stuck_t, counters (u64),
  *                reals (f64), rng
  *   /series      the rows so far
+ * Which kinds stick (STICKY in --species, default 1) is part of the
+ * species parameter, so a checkpoint written before bath kinds existed
+ * (no STICKY fields) loads as all sticky, as it ran (tests/event: resume).
  * Everything that decides the next event is stored as it is in memory, and
  * the queue is rebuilt from the pending events: its order is the strict
  * (time, index) order, so the rebuilt queue pops the same events. The cell
@@ -305,6 +308,8 @@ static int check_state(const rd *r, const ev_sim *s)
     for (uint32_t a = 0; a < s->nstuck; a++)
         if (s->stuck_idx[a] >= s->n || !s->stuck[s->stuck_idx[a]])
             return rfail(r, "%s", "the stuck list names a free particle (damaged)");
+        else if (!s->sp[s->species[s->stuck_idx[a]]].sticky)
+            return rfail(r, "%s", "a particle of a bath kind (STICKY 0) is stuck (damaged)");
     return 0;
 }
 

@@ -532,8 +532,9 @@ static inline __attribute__((always_inline)) void offer_stuck(ev_sim *s, const i
     });
 }
 
-/* Free i meets stuck j: stick with probability p, else reflect off the
- * infinite mass. */
+/* Free i meets stuck j: stick with probability p (never for a bath
+ * particle), else reflect off the infinite mass: v -= 2 (v.r) r / r.r, which
+ * keeps |v| (the bath particle's energy) to round-off. */
 static inline __attribute__((always_inline)) void hit_stuck(ev_sim *s, const int D, uint32_t i,
                                                             uint32_t j, double now)
 {
@@ -552,7 +553,11 @@ static inline __attribute__((always_inline)) void hit_stuck(ev_sim *s, const int
     const double sig = pi[2 * D + 1] + pj[2 * D + 1];
     const double ov = (sig - sqrt(rr)) / sig;
     if (ov > s->max_overlap) s->max_overlap = ov;
-    const int sticks = s->stick_p >= 1 || (s->stick_p > 0 && rng_uniform(&s->rng) < s->stick_p);
+    /* A bath particle (a kind with STICKY 0) never sticks and draws no
+     * random number; has_bath first, so an all-sticky run pays one
+     * predictable branch here and nothing in the loop. */
+    const int sticks = (!s->has_bath || s->sp[s->species[i]].sticky) &&
+                       (s->stick_p >= 1 || (s->stick_p > 0 && rng_uniform(&s->rng) < s->stick_p));
     if (sticks) {
         s->ke_stuck += kinetic(s, D, i);
         for (int k = 0; k < D; k++) pi[D + k] = 0;
@@ -703,10 +708,17 @@ int ev_loop(ev_sim *s, double t_end, volatile const int *interrupt)
 {
     int (*const stepf)(ev_sim *) = s->dim == 2 ? step2 : step3;
     const ev_params *p = &s->par;
+    /* With a bath the queue never empties: the run ends when every sticky
+     * particle is stuck, folded into the stuck-count stop so that a run
+     * without a bath makes the same test per event as before. */
+    uint64_t stuck_stop = p->max_stuck;
+    if (s->has_bath && s->nfree_total && (!stuck_stop || stuck_stop > s->nsticky)) stuck_stop = s->nsticky;
     for (uint64_t n = 0;; n++) {
         if (s->qn == 0) return s->nfree_total && s->nstuck == s->n ? EV_STOP_ALL_STUCK
                                                                    : EV_STOP_NO_EVENTS;
-        if (p->max_stuck && s->nstuck >= p->max_stuck) return EV_STOP_STUCK;
+        if (stuck_stop && s->nstuck >= stuck_stop)
+            return s->has_bath && s->nfree_total && s->nstuck >= s->nsticky ? EV_STOP_ALL_STUCK
+                                                                            : EV_STOP_STUCK;
         if (p->max_events && s->events >= p->max_events) return EV_STOP_EVENTS;
         if (q_ready(s)) return EV_STOP_NO_EVENTS; /* everything free is at rest */
         const double next = s->heap[0].t;

@@ -35,6 +35,8 @@ struct ev_sim {
     uint32_t nseeds;      /* ntot - n: 1 for the central seed, or the file's count */
     double *seed_xr;      /* while building: the file's seeds, D + 1 per seed (ev_seeds.c) */
     int nfree_total;      /* 1 when there are particles that can stick */
+    uint32_t nsticky;     /* particles of sticky kinds (n when there is no bath) */
+    int has_bath;         /* 1 when a kind never sticks (STICKY 0 in --species) */
     double L, half, V;    /* box side, L/2, volume */
     int nc;               /* cells per dimension */
     int nc_order;         /* cells per dimension of the numbering grid (ev_sim.c) */

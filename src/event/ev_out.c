@@ -9,7 +9,7 @@
  *                seed); seed_positions, seed_radii (a --seeds file)
  *   /free        positions, velocities, radii, species of the free ones
  *   /series      time, stuck, kinetic_energy, collisions, pressure
- *   /species     count, radius, density, mass, stuck (per kind)
+ *   /species     count, radius, density, mass, stuck, sticky (per kind)
  *   /results     counters and energies (attributes)
  *   /Code        provenance
  * Written to PATH.tmp and renamed onto PATH when complete.
@@ -191,12 +191,14 @@ static int write_species(const h5u_writer *w, hid_t file, const ev_sim *s)
     if (g < 0) return -1;
     const int n = s->nspecies;
     uint64_t cnt[EV_MAX_SPECIES], stk[EV_MAX_SPECIES] = {0};
+    uint8_t sticky[EV_MAX_SPECIES];
     double r[EV_MAX_SPECIES], rho[EV_MAX_SPECIES], m[EV_MAX_SPECIES];
     for (int k = 0; k < n; k++) {
         cnt[k] = s->sp[k].count;
         r[k] = s->sp[k].radius;
         rho[k] = s->sp[k].density;
         m[k] = rho[k] * ev_particle_volume(s->dim, r[k]);
+        sticky[k] = (uint8_t)s->sp[k].sticky;
     }
     for (uint32_t a = 0; a < s->nstuck; a++) stk[s->species[s->stuck_idx[a]]]++;
     int rc = write_ds(w, g, "count", H5T_STD_U64LE, H5T_NATIVE_UINT64, 1, (size_t)n, 1, cnt);
@@ -204,6 +206,8 @@ static int write_species(const h5u_writer *w, hid_t file, const ev_sim *s)
     if (!rc) rc = write_ds(w, g, "density", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 1, (size_t)n, 1, rho);
     if (!rc) rc = write_ds(w, g, "mass", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 1, (size_t)n, 1, m);
     if (!rc) rc = write_ds(w, g, "stuck", H5T_STD_U64LE, H5T_NATIVE_UINT64, 1, (size_t)n, 1, stk);
+    /* 1: the kind sticks; 0: a bath kind (STICKY 0 in --species) */
+    if (!rc) rc = write_ds(w, g, "sticky", H5T_STD_U8LE, H5T_NATIVE_UINT8, 1, (size_t)n, 1, sticky);
     return h5u_close(w, rc, g, H5Gclose, "/species");
 }
 

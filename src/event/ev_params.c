@@ -45,7 +45,8 @@ static const pdla_param_desc ev_rows[] = {
      .bit = BIT(3), .models = EVT, .show_default = 1, .def_r = 1, .lo_r = 0, .hi_r = 1e12,
      .lo_open = 1},
     {.name = "species", .option = "species", .label = "species", .unit = "", .metavar = "LIST",
-     .help = "COUNT:RADIUS:DENSITY[,...] up to 8 kinds (replaces --particles/--radius/--density)",
+     .help = "COUNT:RADIUS:DENSITY[:STICKY][,...] up to 8 kinds (replaces --particles/--radius/"
+             "--density); STICKY 1 (default): sticks, 0: a bath kind that never sticks",
      .group = "Event:", .example = "100:0.5:1,50:0.3:2", .type = PDLA_PT_STRING,
      .offset = OFF(species), .bit = BIT(4), .models = EVT, .show_default = 1, .lo_u = 0,
      .hi_u = sizeof(((ev_params *)0)->species) - 1, .def_s = ""},
@@ -193,7 +194,7 @@ double ev_particle_volume(int dim, double r)
 int ev_parse_species(const ev_params *p, ev_species *sp, int *nsp, char *err, size_t errlen)
 {
     if (!p->species[0]) {
-        sp[0] = (ev_species){p->particles, p->radius, p->density};
+        sp[0] = (ev_species){p->particles, p->radius, p->density, 1};
         *nsp = 1;
         return 0;
     }
@@ -212,9 +213,18 @@ int ev_parse_species(const ev_params *p, ev_species *sp, int *nsp, char *err, si
             return pdla_errorf(-1, err, errlen, "--species: kind %d: RADIUS must be > 0", n + 1);
         c = end + 1;
         const double rho = strtod(c, &end);
-        if (end == c || (*end != ',' && *end) || !(rho > 0) || !isfinite(rho))
+        if (end == c || (*end != ',' && *end != ':' && *end) || !(rho > 0) || !isfinite(rho))
             return pdla_errorf(-1, err, errlen, "--species: kind %d: DENSITY must be > 0", n + 1);
-        sp[n++] = (ev_species){(uint64_t)cnt, r, rho};
+        int sticky = 1;
+        if (*end == ':') {
+            /* STICKY: exactly "0" or "1" */
+            c = end + 1;
+            if ((*c != '0' && *c != '1') || (c[1] != ',' && c[1]))
+                return pdla_errorf(-1, err, errlen, "--species: kind %d: STICKY must be 0 or 1", n + 1);
+            sticky = *c == '1';
+            end = (char *)c + 1;
+        }
+        sp[n++] = (ev_species){(uint64_t)cnt, r, rho, sticky};
         c = *end ? end + 1 : end;
     }
     if (!n) return pdla_errorf(-1, err, errlen, "--species: empty list");
@@ -229,10 +239,11 @@ int ev_params_check(const ev_params *p, char *err, size_t errlen)
     ev_species sp[EV_MAX_SPECIES];
     int nsp;
     if (ev_parse_species(p, sp, &nsp, err, errlen)) return -1;
-    uint64_t total = 0;
+    uint64_t total = 0, nsticky = 0;
     double rmax = p->seed_radius;
     for (int k = 0; k < nsp; k++) {
         total += sp[k].count;
+        if (sp[k].sticky) nsticky += sp[k].count;
         if (sp[k].radius > rmax) rmax = sp[k].radius;
     }
     if (total >= UINT32_MAX - 1) return pdla_errorf(-1, err, errlen, "too many particles (%" PRIu64 ")", total);
@@ -243,11 +254,19 @@ int ev_params_check(const ev_params *p, char *err, size_t errlen)
     if (!p->seeds[0] && p->seed_radius > 10 * rpmax)
         return pdla_errorf(-1, err, errlen, "--seed-radius %g is above 10 particle radii (the cell size)",
                     p->seed_radius);
+    /* Without a sticky kind nothing can end the run but time or events (a
+     * bath alone is a plain gas around the cluster), and --max-stuck could
+     * never be reached: both refused, as with no seed. */
     const int endless = p->t_max == 0 && p->max_events == 0;
     if (endless && (!seeded || p->stick_p == 0))
         return pdla_errorf(-1, err, errlen, "nothing sticks (--seed-radius 0 or --stick-p 0): give --t-max or "
                                  "--max-events");
+    if (endless && !nsticky)
+        return pdla_errorf(-1, err, errlen, "nothing sticks (--species: every kind has STICKY 0): give --t-max or "
+                                 "--max-events");
     if (p->max_stuck && !seeded)
         return pdla_errorf(-1, err, errlen, "--max-stuck needs a seed (--seed-radius > 0)");
+    if (p->max_stuck && !nsticky)
+        return pdla_errorf(-1, err, errlen, "--max-stuck needs a sticky kind (--species: every kind has STICKY 0)");
     return 0;
 }

@@ -249,17 +249,21 @@ static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
     double vol = 0, rmax = p->seeds[0] ? 0 : p->seed_radius, rpmax = 0;
     for (uint32_t a = 0; a < s->nseeds && p->seeds[0]; a++)
         rmax = fmax(rmax, s->seed_xr[(size_t)a * (size_t)(D + 1) + (size_t)D]);
+    uint64_t nsticky = 0;
     for (int k = 0; k < s->nspecies; k++) {
         n += s->sp[k].count;
+        if (s->sp[k].sticky) nsticky += s->sp[k].count;
         vol += (double)s->sp[k].count * ev_particle_volume(D, s->sp[k].radius);
         if (s->sp[k].radius > rmax) rmax = s->sp[k].radius;
         if (s->sp[k].radius > rpmax) rpmax = s->sp[k].radius;
     }
     s->n = (uint32_t)n;
+    s->nsticky = (uint32_t)nsticky;
+    s->has_bath = nsticky < n;
     if (!p->seeds[0]) s->nseeds = p->seed_radius > 0;
     s->has_seed = s->nseeds > 0;
     s->ntot = s->n + s->nseeds;
-    s->nfree_total = s->has_seed && s->stick_p > 0;
+    s->nfree_total = s->has_seed && s->stick_p > 0 && s->nsticky > 0;
     s->V = vol / p->packing;
     s->L = pow(s->V, 1.0 / D);
     s->half = 0.5 * s->L;
@@ -521,6 +525,8 @@ double ev_radius(const ev_sim *s, size_t i)
 }
 double ev_mass(const ev_sim *s, size_t i) { return s->mass[i]; }
 int ev_species_of(const ev_sim *s, size_t i) { return s->species[i] == UINT8_MAX ? -1 : s->species[i]; }
+size_t ev_sticky_count(const ev_sim *s) { return s->nsticky; }
+int ev_species_sticky(const ev_sim *s, int k) { return k >= 0 && k < s->nspecies && s->sp[k].sticky; }
 size_t ev_stuck_list(const ev_sim *s, const uint32_t **idx, const double **t)
 {
     *idx = s->stuck_idx;

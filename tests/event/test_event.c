@@ -8,6 +8,10 @@
  *             carried, every stuck particle touches its parent, no overlap
  *   edge      round-off overlaps, grazing, simultaneous events, wall and
  *             particle at once, sticking onto two at once, Newton's cradle
+ *   bath      kinds with STICKY 0: never stick, bounce off the cluster
+ *             keeping their energy; the all-sticky history unchanged;
+ *             bath-brute: against the brute force, resume with a bath;
+ *             old checkpoints load as all sticky (bath-oldckpt FILE)
  *   determinism, params
  */
 #include <math.h>
@@ -54,7 +58,7 @@ typedef struct bf {
     uint32_t n, ntot;
     double L, half, p;
     double *x, *v, *t, *r, *m;
-    uint8_t *stuck;
+    uint8_t *stuck, *bath; /* bath: a kind with STICKY 0, never sticks */
     double *bt;
     int *bk; /* 0 none, 1 pair, 2 wall */
     uint32_t *bp;
@@ -137,6 +141,7 @@ static bf *bf_from(const ev_sim *s)
     b->r = calloc(s->ntot, sizeof *b->r);
     b->m = calloc(s->ntot, sizeof *b->m);
     b->stuck = calloc(s->ntot, 1);
+    b->bath = calloc(s->ntot, 1);
     b->bt = calloc(s->ntot, sizeof *b->bt);
     b->bk = calloc(s->ntot, sizeof *b->bk);
     b->bp = calloc(s->ntot, sizeof *b->bp);
@@ -150,6 +155,7 @@ static bf *bf_from(const ev_sim *s)
         b->r[i] = p[2 * D + 1];
         b->m[i] = s->mass[i];
         b->stuck[i] = s->stuck[i];
+        b->bath[i] = i < s->n && !ev_species_sticky(s, ev_species_of(s, i));
     }
     for (uint32_t i = 0; i < b->n; i++) bf_best(b, i);
     return b;
@@ -157,7 +163,7 @@ static bf *bf_from(const ev_sim *s)
 
 static void bf_free(bf *b)
 {
-    free(b->x), free(b->v), free(b->t), free(b->r), free(b->m), free(b->stuck);
+    free(b->x), free(b->v), free(b->t), free(b->r), free(b->m), free(b->stuck), free(b->bath);
     free(b->bt), free(b->bk), free(b->bp), free(b);
 }
 
@@ -219,7 +225,7 @@ static int bf_step(bf *b, trace *tr)
             rr += r[k] * r[k];
             rv += r[k] * b->v[i * 3 + k];
         }
-        const int sticks = b->p >= 1 || (b->p > 0 && rng_uniform(&b->rng) < b->p);
+        const int sticks = !b->bath[i] && (b->p >= 1 || (b->p > 0 && rng_uniform(&b->rng) < b->p));
         if (sticks) {
             for (int k = 0; k < D; k++) b->v[i * 3 + k] = 0;
             b->stuck[i] = 1;
@@ -1001,8 +1007,265 @@ static void test_resume(void)
     resume_case("3d gas", q, 3);
 }
 
+/* ---- bath kinds (STICKY 0 in --species) ----------------------------------- */
+/* A bath particle never sticks: it bounces off the seed and the stuck ones
+ * as off an infinite mass (v -= 2 (v.r) r / r.r), which keeps its energy.
+ * Counts the bounces off the cluster, by bath and by sticky particles. */
+typedef struct bath_count {
+    const ev_sim *s;
+    uint64_t bath_bounce, bath_stick;
+} bath_count;
+
+static void bath_rec(const ev_trace_event *e, void *u)
+{
+    bath_count *c = u;
+    const ev_sim *s = c->s;
+    if (e->kind == EV_EV_WALL || e->i >= s->n) return;
+    const int bath_i = !ev_species_sticky(s, ev_species_of(s, e->i));
+    if (e->kind == EV_EV_STICK && bath_i) c->bath_stick++;
+    /* a pair event with a seed or a stuck particle: i is the free one */
+    if (e->kind == EV_EV_PAIR && bath_i && (e->j >= s->n || s->stuck[e->j])) c->bath_bounce++;
+}
+
+/* A bath alone around a big seed (a small box, so that many collisions are
+ * with the seed): nothing sticks, the energy stays to round-off over >= 1e5
+ * collisions of which >= 5000 off the infinite-mass seed (same tolerance
+ * as `conserve`: ~1e-16 per collision as a random walk), no overlap beyond
+ * TOL. Two bath kinds of different mass, elastic walls. */
+static void test_bath_alone(int dim)
+{
+    ev_params q = base(dim, 1, dim == 2 ? 0.3 : 0.2, 0, dim == 2 ? 5 : 2.5, 1);
+    strcpy(q.species, dim == 2 ? "150:0.5:1:0,50:0.6:3:0" : "300:0.5:1:0,100:0.45:3:0");
+    q.start = EV_START_LATTICE;
+    q.t_max = dim == 2 ? 400 : 75;
+    char err[256];
+    ev_sim *s = ev_create(&q, err, sizeof err);
+    CHECK(s != NULL, "bath alone %dd: %s", dim, err);
+    if (!s) return;
+    CHECK(s->has_bath && s->nsticky == 0 && !s->nfree_total, "bath alone %dd: flags", dim);
+    bath_count c = {s, 0, 0};
+    ev_set_trace(s, bath_rec, &c);
+    ev_stats a, b;
+    ev_get_stats(s, &a);
+    double worst = ev_max_overlap_now(s);
+    int why = 0;
+    for (int k = 1; k <= 10; k++) {
+        s->par.t_max = q.t_max * k / 10;
+        why = ev_run(s, NULL);
+        const double ov = ev_max_overlap_now(s);
+        if (ov > worst) worst = ov;
+    }
+    ev_get_stats(s, &b);
+    const double de = fabs(b.ke_free - a.ke_free) / a.ke_free;
+    fprintf(stderr, "bath alone %dd: %llu collisions, %llu off the seed, dE/E %.3g, overlap %.3g/%.3g, %s\n",
+            dim, (unsigned long long)b.collisions, (unsigned long long)c.bath_bounce, de, worst,
+            b.max_overlap, ev_stop_name(why));
+    CHECK(why == EV_STOP_TIME && b.stuck == 0 && c.bath_stick == 0, "bath alone %dd: something stuck", dim);
+    CHECK(b.collisions > 100000 && c.bath_bounce > 5000, "bath alone %dd: too few collisions", dim);
+    CHECK(de < 1e-11, "bath alone %dd: energy drift %g", dim, de);
+    CHECK(worst < TOL && b.max_overlap < TOL, "bath alone %dd: overlap %g / %g", dim, worst, b.max_overlap);
+    ev_free(s);
+}
+
+/* Sticky kinds in a bath, run to the end: every sticky particle stuck and
+ * no bath one ("all stuck"), the bath bounced off the cluster, the energy
+ * bookkeeping of `stick` (free + carried away = start, to round-off: the
+ * bath's bounces keep energy), contacts, no overlap with the cluster. */
+static void test_bath_stick(int dim, double p)
+{
+    ev_params q = base(dim, 1, 0.2, 0, 0.5, p);
+    strcpy(q.species, dim == 2 ? "150:0.5:1,500:0.5:1:0,150:0.35:4:0" : "120:0.5:1,500:0.5:1:0");
+    q.t_max = 0;
+    char err[256];
+    ev_sim *s = ev_create(&q, err, sizeof err);
+    CHECK(s != NULL, "bath stick %dd: %s", dim, err);
+    if (!s) return;
+    bath_count c = {s, 0, 0};
+    ev_set_trace(s, bath_rec, &c);
+    ev_stats a, b;
+    ev_get_stats(s, &a);
+    double worst = ev_max_overlap_now(s);
+    int why = 0;
+    for (int k = 1; k <= 20 && why != EV_STOP_ALL_STUCK; k++) {
+        s->par.max_stuck = s->nsticky * (uint64_t)k / 20;
+        why = ev_run(s, NULL);
+        const double ov = ev_max_overlap_now(s);
+        if (ov > worst) worst = ov;
+    }
+    ev_get_stats(s, &b);
+    uint32_t bath_stuck = 0, sticky_free = 0;
+    double worst_touch = 0;
+    for (uint32_t i = 0; i < s->n; i++) {
+        const int sticky = ev_species_sticky(s, ev_species_of(s, i));
+        bath_stuck += !sticky && s->stuck[i];
+        sticky_free += sticky && !s->stuck[i];
+    }
+    for (uint32_t k = 0; k < s->nstuck; k++) {
+        const uint32_t i = s->stuck_idx[k], j = s->parent[i];
+        double rr = 0;
+        for (int d = 0; d < dim; d++) {
+            const double x = EV_P_ANY(s, i)[d] - EV_P_ANY(s, j)[d];
+            rr += x * x;
+        }
+        const double sig = EV_P_ANY(s, i)[2 * dim + 1] + EV_P_ANY(s, j)[2 * dim + 1];
+        worst_touch = fmax(worst_touch, fabs(sqrt(rr) - sig) / sig);
+    }
+    const double de = fabs(b.ke_free + b.ke_stuck - a.ke_free) / a.ke_free;
+    fprintf(stderr, "bath stick %dd p %.1f: stuck %llu of %u sticky (%s), bath bounces off the cluster "
+            "%llu, dE/E %.3g, contact gap %.3g, overlap %.3g\n", dim, p, (unsigned long long)b.stuck,
+            s->nsticky, ev_stop_name(why), (unsigned long long)c.bath_bounce, de, worst_touch, worst);
+    CHECK(why == EV_STOP_ALL_STUCK && b.stuck == s->nsticky && sticky_free == 0,
+          "bath stick %dd: not all sticky ones stuck (%s)", dim, ev_stop_name(why));
+    CHECK(bath_stuck == 0 && c.bath_stick == 0, "bath stick %dd: %u bath particles stuck", dim, bath_stuck);
+    CHECK(c.bath_bounce > 1000, "bath stick %dd: only %llu bath bounces off the cluster", dim,
+          (unsigned long long)c.bath_bounce);
+    CHECK(b.ke_free > 0.5 * a.ke_free, "bath stick %dd: the bath lost its energy", dim);
+    CHECK(de < 1e-11, "bath stick %dd: energy bookkeeping %g", dim, de);
+    CHECK(worst_touch < TOL, "bath stick %dd: stuck particle off its parent by %g", dim, worst_touch);
+    CHECK(worst < TOL && b.max_overlap < TOL, "bath stick %dd: overlap %g / %g", dim, worst, b.max_overlap);
+    ev_free(s);
+}
+
+/* STICKY given as 1 everywhere is the list without it, bit for bit. */
+static void test_bath_same(void)
+{
+    ev_sim *s[2];
+    for (int r = 0; r < 2; r++) {
+        ev_params q = base(2, 1, 0.1, 0, 1, 0.5);
+        strcpy(q.species, r ? "300:0.5:1:1,200:0.4:2:1" : "300:0.5:1,200:0.4:2");
+        q.t_max = 0;
+        s[r] = ev_create(&q, NULL, 0);
+        CHECK(s[r] != NULL, "create");
+        if (!s[r]) return;
+        CHECK(ev_run(s[r], NULL) == EV_STOP_ALL_STUCK, "not all stuck");
+    }
+    const ev_sim *a = s[0], *b = s[1];
+    CHECK(!a->has_bath && !b->has_bath && a->nsticky == a->n, "STICKY 1 made a bath");
+    CHECK(a->events == b->events && a->nstuck == b->nstuck &&
+              !memcmp(a->ps, b->ps, a->ntot * (size_t)(2 * a->dim + 2) * sizeof(double)) &&
+              !memcmp(a->stuck_t, b->stuck_t, a->nstuck * sizeof *a->stuck_t),
+          "STICKY 1 changed the history (events %llu/%llu)", (unsigned long long)a->events,
+          (unsigned long long)b->events);
+    ev_free(s[0]);
+    ev_free(s[1]);
+}
+
+static void test_bath_params(void)
+{
+    char err[256];
+    ev_params p;
+    static const char *const bad[] = {"10:0.5:1:2", "10:0.5:1:", "10:0.5:1:01", "10:0.5:1:1x",
+                                      "10:0.5:1:-1", "10:0.5:1:0:1", NULL};
+    for (int k = 0; bad[k]; k++) {
+        ev_params_default(&p);
+        strcpy(p.species, bad[k]);
+        err[0] = 0;
+        CHECK(ev_params_check(&p, err, sizeof err) < 0 && strstr(err, "--species") && !strchr(err, '\n'),
+              "--species %s accepted (%s)", bad[k], err);
+    }
+    ev_params_default(&p);
+    strcpy(p.species, "10:0.5:1,20:0.5:1:0,5:0.4:2:1");
+    ev_species sp[EV_MAX_SPECIES];
+    int n = 0;
+    CHECK(ev_parse_species(&p, sp, &n, err, sizeof err) == 0 && n == 3 && sp[0].sticky == 1 &&
+              sp[1].sticky == 0 && sp[2].sticky == 1 && sp[2].density == 2,
+          "--species with STICKY: %s", err);
+    /* nothing sticky: a stop by time or events is needed, --max-stuck refused */
+    ev_params_default(&p);
+    strcpy(p.species, "100:0.5:1:0");
+    CHECK(ev_params_check(&p, err, sizeof err) < 0 && strstr(err, "STICKY 0"), "all bath, no end: %s", err);
+    p.t_max = 5;
+    CHECK(ev_params_check(&p, err, sizeof err) == 0, "all bath with --t-max refused: %s", err);
+    p.max_stuck = 3;
+    CHECK(ev_params_check(&p, err, sizeof err) < 0 && strstr(err, "max-stuck"), "all bath --max-stuck: %s", err);
+    /* --max-stuck below the sticky count stops there; above it, all stuck */
+    ev_params q = base(2, 1, 0.1, 0, 1, 1);
+    strcpy(q.species, "40:0.5:1,200:0.5:1:0");
+    q.t_max = 0;
+    q.max_stuck = 10;
+    ev_sim *s = ev_create(&q, err, sizeof err);
+    CHECK(s && ev_run(s, NULL) == EV_STOP_STUCK && s->nstuck == 10, "--max-stuck 10 in a bath");
+    if (s) s->par.max_stuck = 1000;
+    CHECK(s && ev_run(s, NULL) == EV_STOP_ALL_STUCK && s->nstuck == 40, "--max-stuck 1000 in a bath");
+    ev_free(s);
+}
+
+/* A checkpoint written by main 999a772 (before STICKY existed: 40 + 30
+ * particles, p = 0.5, stopped at event 2000, tests/event/data) loads as
+ * all sticky and runs on to the same end, bit for bit, as a fresh run of
+ * its parameters by this code. */
+static void test_bath_oldckpt(const char *path)
+{
+    char err[512];
+    ev_series sa = {0}, sb = {0};
+    ev_sim *b = ev_checkpoint_load(path, &sb, err, sizeof err);
+    CHECK(b != NULL, "old checkpoint %s: %s", path, err);
+    if (!b) return;
+    CHECK(b->events == 2000 && !b->has_bath && b->nsticky == b->n && b->n == 70 &&
+              ev_species_sticky(b, 0) && ev_species_sticky(b, 1),
+          "old checkpoint: not all sticky (events %llu, sticky %u of %u)", (unsigned long long)b->events,
+          b->nsticky, b->n);
+    ev_params q = *ev_params_of(b);
+    q.max_events = 0;
+    b->par.max_events = 0;
+    ev_sim *a = ev_create(&q, err, sizeof err);
+    CHECK(a != NULL, "fresh run: %s", err);
+    if (a) {
+        const int wa = ev_run_series(a, &sa, NULL), wb = ev_run_series(b, &sb, NULL);
+        fprintf(stderr, "old checkpoint: resumed %s at %llu events, fresh %s at %llu, stuck %u/%u\n",
+                ev_stop_name(wb), (unsigned long long)b->events, ev_stop_name(wa),
+                (unsigned long long)a->events, b->nstuck, a->nstuck);
+        CHECK(wa == EV_STOP_ALL_STUCK && wb == wa && a->nstuck == a->n && b->nstuck == a->nstuck &&
+                  a->events == b->events && a->collisions == b->collisions &&
+                  !memcmp(a->ps, b->ps, a->ntot * (size_t)(2 * a->dim + 2) * sizeof(double)) &&
+                  !memcmp(a->stuck_idx, b->stuck_idx, a->nstuck * sizeof *a->stuck_idx) &&
+                  !memcmp(a->stuck_t, b->stuck_t, a->nstuck * sizeof *a->stuck_t) &&
+                  !memcmp(&a->rng, &b->rng, sizeof a->rng),
+              "old checkpoint: the resumed run is not the fresh one");
+    }
+    ev_free(a);
+    ev_free(b);
+    ev_series_free(&sa);
+    ev_series_free(&sb);
+}
+
+static void test_bath(void)
+{
+    test_bath_params();
+    test_bath_same();
+    test_bath_alone(2);
+    test_bath_alone(3);
+    test_bath_stick(2, 1);
+    test_bath_stick(2, 0.3);
+    test_bath_stick(3, 1);
+}
+
+/* The engine against the brute force with a bath (p = 0.5: the RNG is
+ * drawn for sticky contacts only), and a checkpoint mid-run with a bath. */
+static void test_bath_brute(void)
+{
+    ev_params q = base(2, 1, 0.2, 0, 1.0, 0.5);
+    strcpy(q.species, "60:0.5:1,240:0.5:1:0");
+    q.max_events = 60000; /* cell crossings included: ~27000 traced events */
+    cmp_brute("2d bath + sticky p=0.5", q, 20000, 1);
+    q = base(3, 1, 0.15, 0, 1.0, 1);
+    strcpy(q.species, "50:0.5:1,200:0.45:2:0");
+    q.max_events = 100000;
+    cmp_brute("3d bath + sticky p=1", q, 20000, 1);
+    /* a checkpoint mid-run resumes bit for bit with a bath */
+    q = base(2, 1, 0.2, 0, 1, 0.5);
+    strcpy(q.species, "400:0.5:1,2000:0.5:1:0");
+    q.t_max = 300;
+    q.series_dt = 3;
+    resume_case("2d bath", q, 5);
+}
+
 int main(int argc, char **argv)
 {
+    if (argc > 2 && !strcmp(argv[1], "bath-oldckpt")) {
+        test_bath_oldckpt(argv[2]);
+        return check_finish();
+    }
     if (argc > 4 && !strcmp(argv[1], "eos")) {
         test_eos(atoi(argv[2]), atof(argv[3]), strtoull(argv[4], NULL, 10), argc > 5 ? atof(argv[5]) : 200);
         return check_finish();
@@ -1041,5 +1304,7 @@ int main(int argc, char **argv)
     if (all || !strcmp(what, "dffit")) test_dffit();
     if (all || !strcmp(what, "seeds")) test_seeds();
     if (all || !strcmp(what, "resume")) test_resume();
+    if (all || !strcmp(what, "bath")) test_bath();
+    if (all || !strcmp(what, "bath-brute")) test_bath_brute();
     return check_finish();
 }

@@ -126,5 +126,31 @@ grep -q "events" "$t/out" && grep -q "^t " "$t/out" && fail "progress went to st
     fail "--no-progress run"
 [ -s "$t/err" ] && fail "--no-progress wrote to stderr: $(cat "$t/err")"
 
+# bath kinds (STICKY 0): bad flags and nothing-sticky refused; a run ends
+# when every sticky particle is stuck, info shows the flag, the scene key too
+expect_usage "STICKY 2" --model event --species 30:0.5:1:2 --out "$t/b"
+grep -q "STICKY must be 0 or 1" "$t/err" || fail "STICKY 2: $(cat "$t/err")"
+expect_usage "STICKY empty" --model event --species 30:0.5:1:,20:0.5:1 --out "$t/b"
+expect_usage "only a bath, no end" --model event --species 30:0.5:1:0 --out "$t/b"
+grep -q "STICKY 0" "$t/err" || fail "only a bath: $(cat "$t/err")"
+expect_usage "only a bath, --max-stuck" --model event --species 30:0.5:1:0 --t-max 5 --max-stuck 3 --out "$t/b"
+[ -e "$t/b" ] && fail "run directory made for a bad bath"
+"$pdla" --model event --species 40:0.5:1,300:0.5:1:0 --packing 0.2 --seed 5 --out "$t/bath" >"$t/out" 2>"$t/err" ||
+    fail "bath run: $(cat "$t/err")"
+grep -q "stopped: all stuck" "$t/out" && grep -q "^stuck 40," "$t/out" && grep -q "(300 of a bath kind)" "$t/out" ||
+    fail "bath run: $(cat "$t/out")"
+"$pdla" info "$t/bath/cluster.h5" >"$t/info" || fail "bath info exit"
+grep -q "kind 1: count 40 .* stuck 40 sticky 1$" "$t/info" && grep -q "kind 2: count 300 .* stuck 0 sticky 0 (bath)" "$t/info" ||
+    fail "bath info: $(grep kind "$t/info")"
+"$pdla" info --json "$t/bath/cluster.h5" | python3 -c "
+import json, sys
+sp = json.load(sys.stdin)['species']
+assert [k['sticky'] for k in sp] == [1, 0] and [k['stuck'] for k in sp] == [40, 0], sp
+" || fail "bath info --json"
+h5dump -d /species/sticky "$t/bath/cluster.h5" 2>/dev/null | grep -q "(0): 1, 0" || fail "bath: /species/sticky"
+printf 'model = event\nspecies = 40:0.5:1,300:0.5:1:0\npacking = 0.2\nmax_events = 20000\n' >"$t/bath.txt"
+"$pdla" --scene "$t/bath.txt" --out "$t/bs" >"$t/out" 2>"$t/err" || fail "bath scene: $(cat "$t/err")"
+grep -q "(300 of a bath kind)" "$t/out" || fail "bath scene: $(cat "$t/out")"
+
 [ $fails -eq 0 ] && echo "event cli: all passed"
 exit $((fails > 0))

@@ -351,6 +351,26 @@ static void boxes_free(dlca_sim *s)
     s->nboxes = 0;
 }
 
+/* The grid of boxes of side A (the seed's boxes and the lattice search's
+ * lookup boxes alike), with every active cluster registered. */
+static int boxes_grid(dlca_sim *s)
+{
+    uint64_t nb = 1;
+    for (int a = 0; a < s->d; a++) {
+        s->nb[a] = (s->L[a] + s->A - 1) / s->A;
+        s->bstride[a] = (int64_t)nb;
+        nb *= (uint64_t)s->nb[a];
+    }
+    s->nboxes = nb;
+    s->box = calloc(nb, sizeof *s->box);
+    s->box_n = calloc(nb, sizeof *s->box_n);
+    s->box_cap = calloc(nb, sizeof *s->box_cap);
+    if (!s->box || !s->box_n || !s->box_cap) return -1;
+    for (uint64_t j = 0; j < s->nc; j++)
+        if (box_register(s, s->act[j])) return -1;
+    return 0;
+}
+
 /* (Re)build the boxes for side s->A; falls back to all pairs when 3A >= L
  * on some axis, as the seed does. */
 int dlca_boxes_build(dlca_sim *s)
@@ -361,21 +381,8 @@ int dlca_boxes_build(dlca_sim *s)
             s->search_now = DLCA_SEARCH_ALLPAIRS;
             return 0;
         }
-    uint64_t nb = 1;
-    for (int a = 0; a < s->d; a++) {
-        s->nb[a] = (s->L[a] + s->A - 1) / s->A;
-        s->bstride[a] = (int64_t)nb;
-        nb *= (uint64_t)s->nb[a];
-    }
-    s->nboxes = nb;
     if (!s->cand && !(s->cand = malloc(s->nslot * sizeof *s->cand))) return -1; /* the halo's candidates */
-    s->box = calloc(nb, sizeof *s->box);
-    s->box_n = calloc(nb, sizeof *s->box_n);
-    s->box_cap = calloc(nb, sizeof *s->box_cap);
-    if (!s->box || !s->box_n || !s->box_cap) return -1;
-    for (uint64_t j = 0; j < s->nc; j++)
-        if (box_register(s, s->act[j])) return -1;
-    return 0;
+    return boxes_grid(s);
 }
 
 static int lookup_build(dlca_sim *s);
@@ -405,20 +412,7 @@ static int boxes_fit(dlca_sim *s, uint32_t c)
 static int lookup_build(dlca_sim *s)
 {
     boxes_free(s);
-    uint64_t nb = 1;
-    for (int a = 0; a < s->d; a++) {
-        s->nb[a] = (s->L[a] + s->A - 1) / s->A;
-        s->bstride[a] = (int64_t)nb;
-        nb *= (uint64_t)s->nb[a];
-    }
-    s->nboxes = nb;
-    s->box = calloc(nb, sizeof *s->box);
-    s->box_n = calloc(nb, sizeof *s->box_n);
-    s->box_cap = calloc(nb, sizeof *s->box_cap);
-    if (!s->box || !s->box_n || !s->box_cap) return -1;
-    for (uint64_t j = 0; j < s->nc; j++)
-        if (box_register(s, s->act[j])) return -1;
-    return 0;
+    return boxes_grid(s);
 }
 
 /* Side A: a power of two holding the widest cluster, and about 32 monomers

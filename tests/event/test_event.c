@@ -387,6 +387,19 @@ static void test_conserve(int dim, int periodic, double packing, double tend)
 /* A --seeds file for test_stick (NULL: the central seed). */
 static const char *stick_seeds;
 
+/* |distance - sum of radii| / sum of radii of particles i and j (a stuck
+ * particle and its parent): 0 when they touch exactly. */
+static double contact_gap(const ev_sim *s, uint32_t i, uint32_t j, int dim)
+{
+    double rr = 0;
+    for (int c = 0; c < dim; c++) {
+        const double d = EV_P_ANY(s, i)[c] - EV_P_ANY(s, j)[c];
+        rr += d * d;
+    }
+    const double sig = EV_P_ANY(s, i)[2 * dim + 1] + EV_P_ANY(s, j)[2 * dim + 1];
+    return fabs(sqrt(rr) - sig) / sig;
+}
+
 static void test_stick(int dim, double packing, double p)
 {
     ev_params q = base(dim, dim == 2 ? 2000 : 1500, packing, 0, 0.5, p);
@@ -415,14 +428,7 @@ static void test_stick(int dim, double packing, double p)
     double worst_touch = 0;
     for (uint32_t k = 0; k < s->nstuck; k++) {
         const uint32_t i = s->stuck_idx[k], j = s->parent[i];
-        double rr = 0;
-        for (int c = 0; c < D; c++) {
-            const double d = EV_P_ANY(s, i)[c] - EV_P_ANY(s, j)[c];
-            rr += d * d;
-        }
-        const double sig = EV_P_ANY(s, i)[2 * D + 1] + EV_P_ANY(s, j)[2 * D + 1];
-        const double gap = fabs(sqrt(rr) - sig) / sig;
-        if (gap > worst_touch) worst_touch = gap;
+        worst_touch = fmax(worst_touch, contact_gap(s, i, j, D));
         CHECK(j >= s->n || (s->stuck[j] && j != i), "parent of %u not stuck", i);
         CHECK(j < s->ntot, "parent of %u is %u, no particle or seed", i, j);
     }
@@ -1102,13 +1108,7 @@ static void test_bath_stick(int dim, double p)
     }
     for (uint32_t k = 0; k < s->nstuck; k++) {
         const uint32_t i = s->stuck_idx[k], j = s->parent[i];
-        double rr = 0;
-        for (int d = 0; d < dim; d++) {
-            const double x = EV_P_ANY(s, i)[d] - EV_P_ANY(s, j)[d];
-            rr += x * x;
-        }
-        const double sig = EV_P_ANY(s, i)[2 * dim + 1] + EV_P_ANY(s, j)[2 * dim + 1];
-        worst_touch = fmax(worst_touch, fabs(sqrt(rr) - sig) / sig);
+        worst_touch = fmax(worst_touch, contact_gap(s, i, j, dim));
     }
     const double de = fabs(b.ke_free + b.ke_stuck - a.ke_free) / a.ke_free;
     fprintf(stderr, "bath stick %dd p %.1f: stuck %llu of %u sticky (%s), bath bounces off the cluster "

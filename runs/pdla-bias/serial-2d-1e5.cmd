@@ -1,1 +1,1 @@
-/tmp/bias3bin/pdla --dim 2 --target 1e5 --seed SEED --no-output -q --stats-json FILE 
+/work/big/bias8bin/pdla --dim 2 --target 1e5 --seed SEED --no-output -q --stats-json FILE 

@@ -1,1 +1,1 @@
-/work/big/bias7bin/pdla --dim 2 --target 1e5 --seed SEED --no-output -q --stats-json FILE --threads 32 --serial-until 1e4
+/work/big/bias8bin/pdla --dim 2 --target 1e5 --seed SEED --no-output -q --stats-json FILE --threads 32 --serial-until 1e4

@@ -392,7 +392,8 @@ static void rebuild_derived(ev_sim *s)
         const ev_species *sp = &s->sp[s->species[i]];
         s->mass[i] = sp->density * ev_particle_volume(D, sp->radius);
     }
-    ev_cells_clear(s);
+    const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (D == 3 ? (uint64_t)s->nc : 1);
+    for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
     for (uint32_t i = s->ntot; i-- > 0;) ev_cell_insert(s, i, s->cell[i]);
     ev_queue_reset(s);
     for (uint32_t i = 0; i < s->n; i++)

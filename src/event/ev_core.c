@@ -269,70 +269,21 @@ void ev_queue_reset(ev_sim *s)
 
 /* ---- cells --------------------------------------------------------------- */
 
-void ev_cells_clear(ev_sim *s)
-{
-    const size_t ncell = (size_t)s->nc * (size_t)s->nc * (s->dim == 3 ? (size_t)s->nc : 1);
-    memset(s->cdat, 0, ncell * EV_CS * sizeof *s->cdat);
-}
-
 void ev_cell_insert(ev_sim *s, uint32_t i, uint32_t c)
 {
-    uint32_t *const d = s->cdat + (size_t)c * EV_CS;
-    const uint32_t n = d[0];
     s->cell[i] = c;
-    s->cnext[i] = UINT32_MAX;
-    if (n < EV_CK) {
-        d[1 + n] = i;
-        s->cpos[i] = (uint8_t)n;
-    } else {
-        /* behind the last slot's particle a, which heads the list */
-        const uint32_t a = d[EV_CK];
-        s->cpos[i] = EV_CK;
-        s->cprev[i] = a;
-        s->cnext[i] = s->cnext[a];
-        if (s->cnext[a] != UINT32_MAX) s->cprev[s->cnext[a]] = i;
-        s->cnext[a] = i;
-    }
-    d[0] = n + 1;
-}
-
-/* Take o (in the overflow list, whose head is a or another list member)
- * out of the list. */
-static inline void ovf_unlink(ev_sim *s, uint32_t o)
-{
-    const uint32_t pv = s->cprev[o], nx = s->cnext[o];
-    s->cnext[pv] = nx;
-    if (nx != UINT32_MAX) s->cprev[nx] = pv;
+    s->cprev[i] = UINT32_MAX;
+    s->cnext[i] = s->chead[c];
+    if (s->chead[c] != UINT32_MAX) s->cprev[s->chead[c]] = i;
+    s->chead[c] = i;
 }
 
 static void cell_remove(ev_sim *s, uint32_t i)
 {
-    uint32_t *const d = s->cdat + (size_t)s->cell[i] * EV_CS;
-    const uint32_t n = d[0], p = s->cpos[i];
-    d[0] = n - 1;
-    if (p == EV_CK) {
-        ovf_unlink(s, i);
-        return;
-    }
-    if (n <= EV_CK) {
-        /* the last slot's particle fills the hole */
-        const uint32_t last = d[n];
-        d[1 + p] = last;
-        s->cpos[last] = (uint8_t)p;
-        return;
-    }
-    /* the first of the list fills the hole; if i headed the list (last
-     * slot), its successor inherits the rest of the list */
-    const uint32_t o = s->cnext[d[EV_CK]];
-    ovf_unlink(s, o);
-    if (p == EV_CK - 1) {
-        s->cnext[o] = s->cnext[i];
-        if (s->cnext[i] != UINT32_MAX) s->cprev[s->cnext[i]] = o;
-    } else {
-        s->cnext[o] = UINT32_MAX;
-    }
-    d[1 + p] = o;
-    s->cpos[o] = (uint8_t)p;
+    const uint32_t c = s->cell[i];
+    if (s->cprev[i] != UINT32_MAX) s->cnext[s->cprev[i]] = s->cnext[i];
+    else s->chead[c] = s->cnext[i];
+    if (s->cnext[i] != UINT32_MAX) s->cprev[s->cnext[i]] = s->cprev[i];
 }
 
 /* ---- predictions (D is a compile-time constant at every call) ------------ */
@@ -438,15 +389,18 @@ pred_cell(const ev_sim *s, const int D, uint32_t i, double now, int *what)
 }
 
 /* Visit the cells around cc (3^D, or the 3^(D-1) slab at offset `slab` in
- * dimension `sk` when sk >= 0), running CBODY with `d_` the cell's record
- * (count, EV_CK slots). The wrapped (or, with walls, dropped) coordinates
- * are worked out once per dimension, 3 per axis, not once per cell. The
- * order of the cells does not matter to any caller (a scan's ties go to
- * the lower index). */
-#define EV_FOR_CELLS(s, D, cc, sk, slab, CBODY)                                              \
+ * dimension `sk` when sk >= 0), running BODY for each particle j there.
+ * The cells are listed first and the first particle of each is prefetched,
+ * so their cache misses overlap instead of following one another down the
+ * linked lists (at N >= 1e5 these misses are most of the time per event).
+ * The wrapped (or, with walls, dropped) coordinates are worked out once per
+ * dimension, 3 per axis, not once per cell. The visiting order is the same
+ * as always: cells in z, y, x order, each list from its head (the scans'
+ * results do not depend on it anyway: ties go to the lower index). */
+#define EV_FOR_NEIGHBOURS(s, D, cc, sk, slab, BODY)                                          \
     do {                                                                                     \
         const int nc_ = (s)->nc, per_ = (s)->periodic;                                       \
-        const uint32_t *const cdat_ = (s)->cdat;                                             \
+        const uint32_t *const cnext_ = (s)->cnext, *const chead_ = (s)->chead;              \
         uint32_t off_[3][3] = {{0}, {0}, {0}}, stride_ = 1;                                 \
         int no_[3] = {1, 1, 1};                                                              \
         for (int k_ = 0; k_ < (D); k_++) {                                                   \
@@ -463,36 +417,29 @@ pred_cell(const ev_sim *s, const int D, uint32_t i, double now, int *what)
             no_[k_] = m_;                                                                    \
             stride_ *= (uint32_t)nc_;                                                        \
         }                                                                                    \
-        /* the cells' record offsets first, then one flat loop over them */                \
-        size_t rec_[27];                                                                     \
-        int nrec_ = 0;                                                                       \
+        uint32_t heads_[27];                                                                 \
+        int nh_ = 0;                                                                         \
         for (int a_ = 0; a_ < no_[2]; a_++)                                                  \
             for (int b_ = 0; b_ < no_[1]; b_++) {                                            \
                 const uint32_t row_ = off_[2][a_] + off_[1][b_];                             \
-                for (int c_ = 0; c_ < no_[0]; c_++)                                          \
-                    rec_[nrec_++] = (size_t)(row_ + off_[0][c_]) * EV_CS;                    \
+                for (int c_ = 0; c_ < no_[0]; c_++) {                                        \
+                    const uint32_t h_ = chead_[row_ + off_[0][c_]];                          \
+                    if (h_ == UINT32_MAX) continue;                                          \
+                    __builtin_prefetch(EV_P_ANY((s), h_));                                   \
+                    __builtin_prefetch(&cnext_[h_]);                                         \
+                    heads_[nh_++] = h_;                                                      \
+                }                                                                            \
             }                                                                                \
-        for (int r_ = 0; r_ < nrec_; r_++) {                                                 \
-            const uint32_t *const d_ = cdat_ + rec_[r_];                                     \
-            CBODY                                                                            \
+        for (int q_ = 0; q_ < nh_; q_++) {                                                   \
+            for (uint32_t j = heads_[q_]; j != UINT32_MAX; j = cnext_[j]) {                  \
+                {                                                                            \
+                    const uint32_t nx_ = cnext_[j];                                          \
+                    if (nx_ != UINT32_MAX) __builtin_prefetch(EV_P_ANY((s), nx_));           \
+                }                                                                            \
+                BODY                                                                         \
+            }                                                                            \
         }                                                                                    \
     } while (0)
-
-/* Run BODY for each particle j in the cells around cc (see EV_FOR_CELLS);
- * BODY may `continue`. For the rare paths (a particle sticking, checks);
- * the event loop's scans gather candidates without branches instead. */
-#define EV_FOR_NEIGHBOURS(s, D, cc, sk, slab, BODY)                                          \
-    EV_FOR_CELLS(s, D, cc, sk, slab, {                                                       \
-        const uint32_t cnt_ = d_[0];                                                         \
-        for (uint32_t q_ = 0; q_ < cnt_ && q_ < EV_CK; q_++) {                              \
-            const uint32_t j = d_[1 + q_];                                                   \
-            BODY                                                                             \
-        }                                                                                    \
-        if (cnt_ > EV_CK)                                                                    \
-            for (uint32_t j = (s)->cnext[d_[EV_CK]]; j != UINT32_MAX; j = (s)->cnext[j]) {   \
-                BODY                                                                         \
-            }                                                                                \
-    })
 
 /* Pair prediction of pi against two candidates at once, one per SSE2 lane:
  * the same IEEE operations as pred_pp in each lane, in the same order, so
@@ -584,54 +531,45 @@ scan_batch(const ev_sim *s, const int D, uint32_t i, const double *pi, const uin
     else scan_batch_per(s, D, 0, i, pi, cand, n, now, bt, bj);
 }
 
-/* Scan the cells around i (all, or one slab) for an earlier pair event.
- * Each cell's slots are copied whole into a candidate list and the count
- * advanced by the cell's count (no branch per cell or particle; the few
- * cells holding more than EV_CK get a second pass over their lists), the
- * candidates' records prefetched, then predicted two at a time by
- * scan_batch; the best so far is kept in registers and written back once.
- * Not inlined into step(): on its own it keeps its loop state in
- * registers (inlined, the scan's counters went to the stack). */
+/* Scan the cells around i (all, or one slab) for an earlier pair event:
+ * the best (time, partner) is kept in registers and written back once.
+ * batch = 1 (3D): the cells' particles are listed first (the lists walked
+ * with the next record prefetched), then predicted two at a time by
+ * scan_batch, without branches on the outcome; batch = 0 (2D, ~5
+ * candidates per scan, too few to pay for the list): one at a time by
+ * pred_pp, as they come. */
 static inline __attribute__((always_inline)) void
-scan_pairs_body(ev_sim *s, const int D, uint32_t i, double now, int sk, int slab)
+scan_pairs_body(ev_sim *s, const int D, const int batch, uint32_t i, double now, int sk, int slab)
 {
     ev_evt *e = &s->evt[i];
     int32_t cc[3] = {0, 0, 0};
     cell_coords(s, D, s->cell[i], cc);
-    const double *const pi = EV_P(s, i);
-    const double *const ps = s->ps;
+    const double *const ps = s->ps, *const pi = EV_P(s, i);
+    const int per = s->periodic;
+    const double half = s->half, L = s->L;
     double bt = e->t_pair;
     const uint32_t bj0 = e->kind == EV_K_PAIR ? e->partner : UINT32_MAX;
     uint32_t bj = bj0;
-    /* 27 cells x EV_CK slots, and room for the last cell's whole copy */
-    uint32_t cand[27 * EV_CK + 4];
+    enum { CAP = 64 };
+    uint32_t cand[CAP];
     int n = 0;
-    uint32_t big = 0;
-    EV_FOR_CELLS(s, D, cc, sk, slab, {
-        const uint32_t cnt_ = d_[0];
-        /* EV_CS words from the first slot: one 16-byte copy (the last
-         * word is the next cell's count, or cdat's pad word; never used) */
-        memcpy(cand + n, d_ + 1, EV_CS * sizeof *cand);
-        n += cnt_ < EV_CK ? (int)cnt_ : EV_CK;
-        big |= cnt_ > EV_CK;
-    });
-    for (int q = 0; q < n; q++) __builtin_prefetch(ps + (size_t)cand[q] * (size_t)(2 * D + 2));
-    scan_batch(s, D, i, pi, cand, n, now, &bt, &bj);
-    if (__builtin_expect(big != 0, 0)) {
-        /* the particles past EV_CK in the fuller cells, a list's worth at a time */
-        EV_FOR_CELLS(s, D, cc, sk, slab, {
-            if (d_[0] <= EV_CK) continue;
-            n = 0;
-            for (uint32_t j = s->cnext[d_[EV_CK]]; j != UINT32_MAX; j = s->cnext[j]) {
-                cand[n++] = j;
-                if (n == 27 * EV_CK) {
-                    scan_batch(s, D, i, pi, cand, n, now, &bt, &bj);
-                    n = 0;
-                }
+    EV_FOR_NEIGHBOURS(s, D, cc, sk, slab, {
+        if (batch) {
+            cand[n++] = j;
+            if (n == CAP) {
+                scan_batch(s, D, i, pi, cand, n, now, &bt, &bj);
+                n = 0;
             }
-            scan_batch(s, D, i, pi, cand, n, now, &bt, &bj);
-        });
-    }
+        } else {
+            if (j == i) continue;
+            const double t = pred_pp(D, pi, ps + (size_t)j * (size_t)(2 * D + 2), now, per, half, L);
+            if (t < bt || (t == bt && bj != UINT32_MAX && j < bj)) {
+                bt = t;
+                bj = j;
+            }
+        }
+    });
+    if (batch) scan_batch(s, D, i, pi, cand, n, now, &bt, &bj);
     if (bj != bj0 || bt != e->t_pair) {
         e->t_pair = bt;
         e->kind = EV_K_PAIR;
@@ -640,20 +578,17 @@ scan_pairs_body(ev_sim *s, const int D, uint32_t i, double now, int sk, int slab
     }
 }
 
-static __attribute__((noinline)) void scan_pairs2(ev_sim *s, uint32_t i, double now, int sk, int slab)
-{
-    scan_pairs_body(s, 2, i, now, sk, slab);
-}
-
+/* 3D: out of line, so the batch's state stays in registers (inlined into
+ * step(), the scan's counters went to the stack). */
 static __attribute__((noinline)) void scan_pairs3(ev_sim *s, uint32_t i, double now, int sk, int slab)
 {
-    scan_pairs_body(s, 3, i, now, sk, slab);
+    scan_pairs_body(s, 3, 1, i, now, sk, slab);
 }
 
 static inline __attribute__((always_inline)) void
 scan_pairs(ev_sim *s, const int D, uint32_t i, double now, int sk, int slab)
 {
-    if (D == 2) scan_pairs2(s, i, now, sk, slab);
+    if (D == 2) scan_pairs_body(s, 2, 0, i, now, sk, slab);
     else scan_pairs3(s, i, now, sk, slab);
 }
 

@@ -47,12 +47,7 @@ struct ev_sim {
     double *mass;
     uint8_t *species, *stuck;
     uint32_t *count, *parent;
-    /* Cells: a fixed record of EV_CS words per cell, {count, EV_CK slots};
-     * a cell's particles past EV_CK (rare: a cell holds ~0.3-0.6 on
-     * average) hang in a list behind the one in the last slot, through
-     * cnext/cprev. cpos: a particle's slot, EV_CK when in that list. */
-    uint32_t *cell, *cnext, *cprev, *cdat;
-    uint8_t *cpos;
+    uint32_t *cell, *cnext, *cprev, *chead;
     ev_evt *evt;
     /* event queue (ev_core.c): heap of the current bucket, bucket lists */
     ev_hent *heap;
@@ -83,8 +78,6 @@ struct ev_sim {
     ev_species sp[EV_MAX_SPECIES];
 };
 
-#define EV_CK 3
-#define EV_CS 4
 #define EV_P(s, i) ((s)->ps + (size_t)(i) * (size_t)(2 * D + 2))
 #define EV_P_ANY(s, i) ((s)->ps + (size_t)(i) * (size_t)(2 * (s)->dim + 2))
 void ev_rebuild(ev_sim *s);
@@ -94,7 +87,6 @@ double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi);
 void ev_queue_reset(ev_sim *s);
 void ev_heap_push(ev_sim *s, uint32_t i);
 void ev_cell_insert(ev_sim *s, uint32_t i, uint32_t c);
-void ev_cells_clear(ev_sim *s);
 void ev_predict(ev_sim *s, uint32_t i, double now);
 int ev_loop(ev_sim *s, double t_end, volatile const int *interrupt);
 /* Species list from p (the string, or one species): 0 or -1 with err. */

@@ -30,8 +30,7 @@ void ev_free(ev_sim *s)
     free(s->cell);
     free(s->cnext);
     free(s->cprev);
-    free(s->cdat);
-    free(s->cpos);
+    free(s->chead);
     free(s->evt);
     free(s->heap);
     free(s->hpos);
@@ -85,9 +84,7 @@ static int overlaps(const ev_sim *s, const double *x, double r)
                 if (!ok) continue;
                 const uint32_t cn = (uint32_t)q[0] +
                                     (uint32_t)s->nc * ((uint32_t)q[1] + (uint32_t)s->nc * (uint32_t)(D == 3 ? q[2] : 0));
-                const uint32_t *cd = s->cdat + (size_t)cn * EV_CS;
-                const uint32_t cnt = cd[0];
-                for (uint32_t m = 0, j = cd[1]; m < cnt; m++, j = m < EV_CK ? cd[1 + m] : s->cnext[j]) {
+                for (uint32_t j = s->chead[cn]; j != UINT32_MAX; j = s->cnext[j]) {
                     const double *pj = EV_P(s, j);
                     double rr = 0;
                     for (int k = 0; k < D; k++) {
@@ -227,7 +224,8 @@ static int sort_by_cell(ev_sim *s)
     memcpy(s->mass, m, s->n * sizeof *m);
     memcpy(s->species, sp, s->n);
     free(order), free(key), free(start), free(ps), free(m), free(sp);
-    ev_cells_clear(s);
+    const uint64_t nce = (uint64_t)s->nc * (uint64_t)s->nc * (D == 3 ? (uint64_t)s->nc : 1);
+    for (uint64_t c = 0; c < nce; c++) s->chead[c] = UINT32_MAX;
     for (uint32_t i = 0; i < s->ntot; i++) ev_cell_insert(s, i, cell_of(s, EV_P(s, i)));
     return 0;
 }
@@ -323,8 +321,7 @@ static int alloc_arrays(ev_sim *s)
     ALLOC(s->cell, N);
     ALLOC(s->cnext, N);
     ALLOC(s->cprev, N);
-    ALLOC(s->cdat, ncell * EV_CS + 1); /* + 1: the scans copy EV_CS words from a slot */
-    ALLOC(s->cpos, N);
+    ALLOC(s->chead, ncell);
     ALLOC(s->evt, N);
     ALLOC(s->heap, N);
     ALLOC(s->hpos, N);
@@ -335,7 +332,7 @@ static int alloc_arrays(ev_sim *s)
     ALLOC(s->qhead, (size_t)s->qover + 1);
     ALLOC(s->stuck_idx, N);
     ALLOC(s->stuck_t, N);
-    ev_cells_clear(s);
+    for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
     return 0;
 oom:
     return -1;
@@ -657,10 +654,11 @@ const char *ev_stop_name(int why)
  * cells, events and the heap are rebuilt from the stored states. */
 void ev_rebuild(ev_sim *s)
 {
+    const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (s->dim == 3 ? (uint64_t)s->nc : 1);
     ev_sync(s);
     for (uint32_t i = 0; i < s->ntot && s->periodic; i++)
         for (int k = 0; k < s->dim; k++) EV_P_ANY(s, i)[k] -= s->L * floor(EV_P_ANY(s, i)[k] / s->L);
-    ev_cells_clear(s);
+    for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
     for (uint32_t i = 0; i < s->ntot; i++) ev_cell_insert(s, i, cell_of(s, EV_P_ANY(s, i)));
     ev_queue_reset(s);
     for (uint32_t i = 0; i < s->n; i++)

@@ -446,7 +446,9 @@ pred_cell(const ev_sim *s, const int D, uint32_t i, double now, int *what)
  * the times are the same bits; the case analysis of pred_pp is done with
  * masks instead of branches (a scan's outcomes - receding, missing,
  * hitting - are near random, and each mispredicted branch cost about as
- * much as the arithmetic). out[0] for pa, out[1] for pb. */
+ * much as the arithmetic). A lane whose case is decided by a mask may
+ * divide by zero on the way (inf or NaN, no trap; the mask drops it).
+ * out[0] for pa, out[1] for pb. */
 #if defined(__SSE2__)
 static inline __attribute__((always_inline)) void
 pred_pp2(const int D, const double *pi, const double *pa, const double *pb, double now, int per,

@@ -356,13 +356,13 @@ static void test_brute(void)
      * more candidates than one batch) against the brute force, bit for bit. The seed reflects (p = 0), so
      * the gas keeps moving between the crowded cells. */
     q = base(2, 300, 0.3, 0, 4.0, 0);
-    q.max_events = 60000;
+    q.max_events = 20000;
     crowded_cells(q);
-    cmp_brute("2d walls crowded cells", q, 20000, 1);
+    cmp_brute("2d walls crowded cells", q, 8000, 1);
     q = base(3, 250, 0.2, 0, 1.5, 0);
-    q.max_events = 60000;
+    q.max_events = 20000;
     crowded_cells(q);
-    cmp_brute("3d walls crowded cells", q, 20000, 1);
+    cmp_brute("3d walls crowded cells", q, 8000, 1);
     /* periodic: wrapping at the box edge changes the stored position by L,
      * so times agree to round-off only (chaos ends the agreement later). */
     q = base(2, 300, 0.2, 1, 0, 1);

@@ -38,6 +38,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "ev_internal.h"
 
 #define EV_INF INFINITY
@@ -437,12 +441,107 @@ pred_cell(const ev_sim *s, const int D, uint32_t i, double now, int *what)
         }                                                                                    \
     } while (0)
 
-/* Scan the cells around i (all, or one slab) for an earlier pair event.
- * The best so far is kept in registers and written back once: the
- * candidate with the least (time, index); a wall event (bj = none) wins a
- * tie, and nothing replaces "no event" (INF) by an INF pair. */
+/* Pair prediction of pi against two candidates at once, one per SSE2 lane:
+ * the same IEEE operations as pred_pp in each lane, in the same order, so
+ * the times are the same bits; the case analysis of pred_pp is done with
+ * masks instead of branches (a scan's outcomes - receding, missing,
+ * hitting - are near random, and each mispredicted branch cost about as
+ * much as the arithmetic). A lane whose case is decided by a mask may
+ * divide by zero on the way (inf or NaN, no trap; the mask drops it).
+ * out[0] for pa, out[1] for pb. */
+#if defined(__SSE2__)
 static inline __attribute__((always_inline)) void
-scan_pairs(ev_sim *s, const int D, uint32_t i, double now, int sk, int slab)
+pred_pp2(const int D, const double *pi, const double *pa, const double *pb, double now, int per,
+         double half, double L, double *out)
+{
+    const __m128d sgn = _mm_set1_pd(-0.0), inf = _mm_set1_pd(EV_INF), zero = _mm_setzero_pd();
+    const __m128d ti = _mm_set1_pd(pi[2 * D]), tj = _mm_set_pd(pb[2 * D], pa[2 * D]);
+    const __m128d tr = _mm_max_pd(ti, tj); /* ti > tj ? ti : tj */
+    const __m128d di = _mm_sub_pd(tr, ti), dj = _mm_sub_pd(tr, tj);
+    __m128d b = zero, rr = zero, vv = zero;
+#pragma GCC unroll 3
+    for (int k = 0; k < D; k++) {
+        const __m128d xj = _mm_set_pd(pb[k], pa[k]), vj = _mm_set_pd(pb[D + k], pa[D + k]);
+        const __m128d xi = _mm_set1_pd(pi[k]), vi = _mm_set1_pd(pi[D + k]);
+        __m128d r = _mm_sub_pd(_mm_add_pd(xj, _mm_mul_pd(vj, dj)), _mm_add_pd(xi, _mm_mul_pd(vi, di)));
+        if (per) {
+            /* |r| > half: r - copysign(L, r), i.e. r - L or r + L exactly */
+            const __m128d far = _mm_cmpgt_pd(_mm_andnot_pd(sgn, r), _mm_set1_pd(half));
+            const __m128d sl = _mm_or_pd(_mm_and_pd(sgn, r), _mm_set1_pd(L));
+            r = _mm_sub_pd(r, _mm_and_pd(far, sl));
+        }
+        const __m128d v = _mm_sub_pd(vj, vi);
+        b = _mm_add_pd(b, _mm_mul_pd(r, v));
+        rr = _mm_add_pd(rr, _mm_mul_pd(r, r));
+        vv = _mm_add_pd(vv, _mm_mul_pd(v, v));
+    }
+    const __m128d sig = _mm_add_pd(_mm_set1_pd(pi[2 * D + 1]), _mm_set_pd(pb[2 * D + 1], pa[2 * D + 1]));
+    const __m128d c = _mm_sub_pd(rr, _mm_mul_pd(sig, sig));
+    const __m128d disc = _mm_sub_pd(_mm_mul_pd(b, b), _mm_mul_pd(vv, c));
+    /* sqrt of disc where disc > 0 (the only lanes that use it) */
+    const __m128d sq = _mm_sqrt_pd(_mm_and_pd(_mm_cmpgt_pd(disc, zero), disc));
+    const __m128d nb = _mm_xor_pd(b, sgn); /* -b */
+    const __m128d t = _mm_max_pd(_mm_add_pd(tr, _mm_div_pd(c, _mm_add_pd(nb, sq))), _mm_set1_pd(now));
+    const __m128d tnow = _mm_max_pd(tr, _mm_set1_pd(now));
+    const __m128d over = _mm_cmple_pd(c, zero), miss = _mm_cmple_pd(disc, zero);
+    const __m128d rec = _mm_cmpge_pd(b, zero);
+    /* c <= 0: tnow; else disc <= 0: INF; else t; and b >= 0: INF */
+    __m128d res = _mm_or_pd(_mm_and_pd(miss, inf), _mm_andnot_pd(miss, t));
+    res = _mm_or_pd(_mm_and_pd(over, tnow), _mm_andnot_pd(over, res));
+    res = _mm_or_pd(_mm_and_pd(rec, inf), _mm_andnot_pd(rec, res));
+    _mm_storeu_pd(out, res);
+}
+#endif
+
+/* Best (time, partner) of i over the candidates cand[0 .. n): the least
+ * (time, index); a wall event (*bj = none) wins a tie, and nothing replaces
+ * "no event" (INF) by an INF pair. cand may name i itself (skipped). */
+static inline __attribute__((always_inline)) void
+scan_batch_per(const ev_sim *s, const int D, const int per, uint32_t i, const double *pi,
+               const uint32_t *cand, int n, double now, double *bt, uint32_t *bj)
+{
+    const double *const ps = s->ps;
+    const double half = s->half, L = s->L;
+    double t2[2];
+    for (int q = 0; q < n; q += 2) {
+        const uint32_t ja = cand[q], jb = q + 1 < n ? cand[q + 1] : i;
+        const double *pa = ps + (size_t)ja * (size_t)(2 * D + 2);
+        const double *pb = ps + (size_t)jb * (size_t)(2 * D + 2);
+#if defined(__SSE2__)
+        pred_pp2(D, pi, pa, pb, now, per, half, L, t2);
+#else
+        t2[0] = pred_pp(D, pi, pa, now, per, half, L);
+        t2[1] = pred_pp(D, pi, pb, now, per, half, L);
+#endif
+        for (int h = 0; h < 2; h++) {
+            const uint32_t j = h ? jb : ja;
+            const double t = t2[h];
+            if ((t < *bt || (t == *bt && *bj != UINT32_MAX && j < *bj)) && j != i) {
+                *bt = t;
+                *bj = j;
+            }
+        }
+    }
+}
+
+/* scan_batch with the box's wrap decided once per batch, not per pair */
+static inline __attribute__((always_inline)) void
+scan_batch(const ev_sim *s, const int D, uint32_t i, const double *pi, const uint32_t *cand,
+           int n, double now, double *bt, uint32_t *bj)
+{
+    if (s->periodic) scan_batch_per(s, D, 1, i, pi, cand, n, now, bt, bj);
+    else scan_batch_per(s, D, 0, i, pi, cand, n, now, bt, bj);
+}
+
+/* Scan the cells around i (all, or one slab) for an earlier pair event:
+ * the best (time, partner) is kept in registers and written back once.
+ * batch = 1 (3D): the cells' particles are listed first (the lists walked
+ * with the next record prefetched), then predicted two at a time by
+ * scan_batch, without branches on the outcome; batch = 0 (2D, ~5
+ * candidates per scan, too few to pay for the list): one at a time by
+ * pred_pp, as they come. */
+static inline __attribute__((always_inline)) void
+scan_pairs_body(ev_sim *s, const int D, const int batch, uint32_t i, double now, int sk, int slab)
 {
     ev_evt *e = &s->evt[i];
     int32_t cc[3] = {0, 0, 0};
@@ -451,23 +550,48 @@ scan_pairs(ev_sim *s, const int D, uint32_t i, double now, int sk, int slab)
     const int per = s->periodic;
     const double half = s->half, L = s->L;
     double bt = e->t_pair;
-    uint32_t bj = e->kind == EV_K_PAIR ? e->partner : UINT32_MAX;
-    int found = 0;
+    const uint32_t bj0 = e->kind == EV_K_PAIR ? e->partner : UINT32_MAX;
+    uint32_t bj = bj0;
+    enum { CAP = 64 };
+    uint32_t cand[CAP];
+    int n = 0;
     EV_FOR_NEIGHBOURS(s, D, cc, sk, slab, {
-        if (j == i) continue;
-        const double t = pred_pp(D, pi, ps + (size_t)j * (size_t)(2 * D + 2), now, per, half, L);
-        if (t < bt || (t == bt && bj != UINT32_MAX && j < bj)) {
-            bt = t;
-            bj = j;
-            found = 1;
+        if (batch) {
+            cand[n++] = j;
+            if (n == CAP) {
+                scan_batch(s, D, i, pi, cand, n, now, &bt, &bj);
+                n = 0;
+            }
+        } else {
+            if (j == i) continue;
+            const double t = pred_pp(D, pi, ps + (size_t)j * (size_t)(2 * D + 2), now, per, half, L);
+            if (t < bt || (t == bt && bj != UINT32_MAX && j < bj)) {
+                bt = t;
+                bj = j;
+            }
         }
     });
-    if (found) {
+    if (batch) scan_batch(s, D, i, pi, cand, n, now, &bt, &bj);
+    if (bj != bj0 || bt != e->t_pair) {
         e->t_pair = bt;
         e->kind = EV_K_PAIR;
         e->partner = bj;
         e->pcount = s->count[bj];
     }
+}
+
+/* 3D: out of line, so the batch's state stays in registers (inlined into
+ * step(), the scan's counters went to the stack). */
+static __attribute__((noinline)) void scan_pairs3(ev_sim *s, uint32_t i, double now, int sk, int slab)
+{
+    scan_pairs_body(s, 3, 1, i, now, sk, slab);
+}
+
+static inline __attribute__((always_inline)) void
+scan_pairs(ev_sim *s, const int D, uint32_t i, double now, int sk, int slab)
+{
+    if (D == 2) scan_pairs_body(s, 2, 0, i, now, sk, slab);
+    else scan_pairs3(s, i, now, sk, slab);
 }
 
 /* Full prediction of i's events. */

@@ -307,6 +307,31 @@ static void cmp_brute(const char *what, ev_params q, size_t nev, int exact)
     ev_free(s);
 }
 
+/* The start of q has crowded cells (so the cell lists are long, the case
+ * cmp_brute then tests), and every cell's list agrees with the particles'
+ * `cell` (each particle listed once, in its own cell). */
+static void crowded_cells(ev_params q)
+{
+    char err[256];
+    ev_sim *s = ev_create(&q, err, sizeof err);
+    CHECK(s != NULL, "crowded cells: %s", err);
+    if (!s) return;
+    const size_t ncell = (size_t)s->nc * (size_t)s->nc * (s->dim == 3 ? (size_t)s->nc : 1);
+    uint32_t most = 0, listed = 0, bad = 0;
+    for (size_t c = 0; c < ncell; c++) {
+        uint32_t m = 0;
+        for (uint32_t j = s->chead[c]; j != UINT32_MAX && m <= s->ntot; j = s->cnext[j], m++)
+            if (s->cell[j] != c) bad++;
+        listed += m;
+        if (m > most) most = m;
+    }
+    fprintf(stderr, "crowded cells (dim %d): %zu cells, up to %u particles in one, %u listed of %u, "
+            "%u in a wrong cell\n", s->dim, ncell, most, listed, s->ntot, bad);
+    CHECK(most >= 10, "crowded cells: at most %u particles in a cell (the test needs >= 10)", most);
+    CHECK(bad == 0 && listed == s->ntot, "crowded cells: cell lists inconsistent");
+    ev_free(s);
+}
+
 /* ev_loop runs until the heap is empty or t_end: bound it by events. */
 static void test_brute(void)
 {
@@ -326,6 +351,18 @@ static void test_brute(void)
     strcpy(q.species, "150:0.5:1,150:0.8:3");
     q.max_events = 100000;
     cmp_brute("2d walls two species", q, 30000, 1);
+    /* Crowded cells: a big seed sizes the cells (side >= its diameter), so
+     * a cell holds ~10-40 particles: long cell lists (and in 3D, scans of
+     * more candidates than one batch) against the brute force, bit for bit. The seed reflects (p = 0), so
+     * the gas keeps moving between the crowded cells. */
+    q = base(2, 300, 0.3, 0, 4.0, 0);
+    q.max_events = 20000;
+    crowded_cells(q);
+    cmp_brute("2d walls crowded cells", q, 8000, 1);
+    q = base(3, 250, 0.2, 0, 1.5, 0);
+    q.max_events = 20000;
+    crowded_cells(q);
+    cmp_brute("3d walls crowded cells", q, 8000, 1);
     /* periodic: wrapping at the box edge changes the stored position by L,
      * so times agree to round-off only (chaos ends the agreement later). */
     q = base(2, 300, 0.2, 1, 0, 1);

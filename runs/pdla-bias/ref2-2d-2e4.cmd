@@ -1,0 +1,1 @@
+/work/big/bias8bin/pdla --dim 2 --target 2e4 --seed SEED --no-output -q --stats-json FILE --reference-walkers 2 --serial-until 1e4

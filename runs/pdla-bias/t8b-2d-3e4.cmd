@@ -1,0 +1,1 @@
+/work/big/bias8bin/pdla --dim 2 --target 3e4 --seed SEED --no-output -q --stats-json FILE --threads 8 --serial-until 1e4

@@ -147,16 +147,27 @@ int distmap_rebuild(distmap *m, const tree *t);
 
 /* search_block2, the map-assisted search, is declared in search.h. */
 
+/* The value of cell (c) of a level whose L->nibble is `nibble` (a constant
+ * where the level is known: the fine level is always 4-bit, the coarse one
+ * always bytes, and the walker's look-up then has no branch on it). */
+static inline __attribute__((always_inline)) unsigned distmap_level_value_k(const distmap_level *L,
+                                                                            const int64_t *c,
+                                                                            const int dim,
+                                                                            const int nibble)
+{
+    size_t idx = 0;
+    for (int a = dim - 1; a >= 0; a--) idx = idx * L->width + (size_t)c[a];
+    if (!nibble) return atomic_load_explicit(&L->cell[idx], memory_order_acquire);
+    const unsigned b = atomic_load_explicit(&L->cell[idx >> 1], memory_order_acquire);
+    return (b >> ((idx & 1) * 4)) & 15u;
+}
+
 /* The value of cell (c) of a level, and the distance bound it gives. */
 static inline __attribute__((always_inline)) unsigned distmap_level_value(const distmap_level *L,
                                                                           const int64_t *c,
                                                                           const int dim)
 {
-    size_t idx = 0;
-    for (int a = dim - 1; a >= 0; a--) idx = idx * L->width + (size_t)c[a];
-    if (!L->nibble) return atomic_load_explicit(&L->cell[idx], memory_order_acquire);
-    const unsigned b = atomic_load_explicit(&L->cell[idx >> 1], memory_order_acquire);
-    return (b >> ((idx & 1) * 4)) & 15u;
+    return L->nibble ? distmap_level_value_k(L, c, dim, 1) : distmap_level_value_k(L, c, dim, 0);
 }
 
 /* Every particle is outside the cells within v - 1 of c: the distance from p
@@ -194,14 +205,14 @@ static inline __attribute__((always_inline)) int64_t distmap_bound(const distmap
         if ((uint64_t)u[a] >= span) return 0;
         c[a] = u[a] >> g->lv[1].bits;
     }
-    const int64_t vc = distmap_level_value(&g->lv[1], c, dim);
+    const int64_t vc = distmap_level_value_k(&g->lv[1], c, dim, 0);
     int64_t coarse = 0;
     if (vc >= 2) {
         coarse = distmap_block_bound(g->half, g->lv[1].bits, c, p, vc, dim);
         if (vc >= 5) return coarse; /* beyond anything the fine level can say */
     }
     for (int a = 0; a < dim; a++) c[a] = u[a] >> g->lv[0].bits;
-    const int64_t vf = distmap_level_value(&g->lv[0], c, dim);
+    const int64_t vf = distmap_level_value_k(&g->lv[0], c, dim, 1);
     if (vf < 2) return coarse;
     const int64_t fine = distmap_block_bound(g->half, g->lv[0].bits, c, p, vf, dim);
     return fine > coarse ? fine : coarse;

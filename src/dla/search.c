@@ -801,7 +801,16 @@ static inline __attribute__((always_inline)) void blk_recentre(search_state *k, 
             d[a] = (lo[a] - k->blk_c[a]) / TREE_LEAF_SIDE;
             near &= d[a] >= -2 && d[a] <= 2;
         }
-        if (near)
+        if (near && dim == 2) {
+            /* Unrolled: the offsets become constants (2D 1e5: ~50 Ir less
+             * per re-centring). */
+#pragma GCC unroll 9
+            for (int o = 0; o < 9; o++) {
+                const int64_t sx = block_off[o][0] + d[0], sy = block_off[o][1] + d[1];
+                if (sx >= -1 && sx <= 1 && sy >= -1 && sy <= 1)
+                    nh[o] = k->blk_head[(int)(sx + 1) + 3 * (int)(sy + 1)];
+            }
+        } else if (near)
             for (int o = 0; o < n; o++) {
                 int src = 0, ok = 1, mul = 1;
                 for (int a = 0; a < dim; a++) {
@@ -832,7 +841,7 @@ static inline __attribute__((always_inline)) uint32_t blk_lookup(const tree *t,
 {
     int64_t nc[3];
     for (int a = 0; a < dim; a++) nc[a] = cc[a] + block_off[o][a];
-    if (distmap_level_value(L, nc, dim) != 0) return k->blk_head[o] = BLK_EMPTY;
+    if (distmap_level_value_k(L, nc, dim, 1) != 0) return k->blk_head[o] = BLK_EMPTY;
     const uint32_t head = find_leaf_cached(t, nlo, k, dim);
     return k->blk_head[o] = head ? head : BLK_UNKNOWN;
 }

@@ -170,22 +170,28 @@ static inline __attribute__((always_inline)) unsigned distmap_level_value(const 
     return L->nibble ? distmap_level_value_k(L, c, dim, 1) : distmap_level_value_k(L, c, dim, 0);
 }
 
-/* Every particle is outside the cells within v - 1 of c: the distance from p
- * to the outside of that block. */
-static inline __attribute__((always_inline)) int64_t distmap_block_bound(int64_t half, int bits,
-                                                                         const int64_t *c,
-                                                                         const int64_t *p,
-                                                                         int64_t v, const int dim)
+/* Every particle is outside the cells within v - 1 of p's cell: the distance
+ * from p to the outside of that block is (v - 1) cells plus the distance from
+ * p to the outside of its own cell, min over axes of r + 1 and side - r
+ * (r: p's offset in its cell; u = p + half, the grid coordinates, >= 0).
+ * The second term does not depend on v. */
+static inline __attribute__((always_inline)) int64_t distmap_cell_edge(const int64_t *u, int bits,
+                                                                       const int dim)
 {
-    int64_t best = INT64_MAX;
+    const int64_t side = (int64_t)1 << bits;
+    int64_t best = side;
     for (int a = 0; a < dim; a++) {
-        const int64_t lo = (c[a] - (v - 1)) * ((int64_t)1 << bits) - half; /* may be < 0 */
-        const int64_t hi = (c[a] + v) * ((int64_t)1 << bits) - half;
-        const int64_t below = p[a] - lo + 1, above = hi - p[a];
+        const int64_t r = u[a] & (side - 1), below = r + 1, above = side - r;
         if (below < best) best = below;
         if (above < best) best = above;
     }
     return best;
+}
+
+static inline __attribute__((always_inline)) int64_t distmap_block_bound(const int64_t *u, int bits,
+                                                                         int64_t v, const int dim)
+{
+    return (v - 1) * ((int64_t)1 << bits) + distmap_cell_edge(u, bits, dim);
 }
 
 /* Lower bound (units) on the distance from p to every particle, or 0 when
@@ -200,21 +206,22 @@ static inline __attribute__((always_inline)) int64_t distmap_bound(const distmap
     if (!g) return 0;
     const uint64_t span = (uint64_t)g->half << 1;
     int64_t u[3], c[3];
+    const int cb = g->lv[1].bits, fb = g->lv[0].bits;
     for (int a = 0; a < dim; a++) {
         u[a] = p[a] + g->half;
         if ((uint64_t)u[a] >= span) return 0;
-        c[a] = u[a] >> g->lv[1].bits;
+        c[a] = u[a] >> cb;
     }
     const int64_t vc = distmap_level_value_k(&g->lv[1], c, dim, 0);
     int64_t coarse = 0;
     if (vc >= 2) {
-        coarse = distmap_block_bound(g->half, g->lv[1].bits, c, p, vc, dim);
+        coarse = distmap_block_bound(u, cb, vc, dim);
         if (vc >= 5) return coarse; /* beyond anything the fine level can say */
     }
-    for (int a = 0; a < dim; a++) c[a] = u[a] >> g->lv[0].bits;
+    for (int a = 0; a < dim; a++) c[a] = u[a] >> fb;
     const int64_t vf = distmap_level_value_k(&g->lv[0], c, dim, 1);
     if (vf < 2) return coarse;
-    const int64_t fine = distmap_block_bound(g->half, g->lv[0].bits, c, p, vf, dim);
+    const int64_t fine = distmap_block_bound(u, fb, vf, dim);
     return fine > coarse ? fine : coarse;
 }
 #endif

@@ -960,8 +960,22 @@ static inline __attribute__((always_inline)) uint64_t blk_scan(const tree *t,
         col2[a][2] = (uint64_t)(above * above);
     }
     if (dim == 2) {
-#pragma GCC unroll 9
-        for (int i = 0; i < 9; i++)
+        /* Own leaf, faces, corners (block_order2). A face's box is at least
+         * the nearest face column away, a corner's at least the nearest
+         * corner: when best2 is not above that, every leaf of the group
+         * would be pruned by its own box, so the group is skipped whole
+         * (same answer, fewer compares). */
+        const uint64_t mx = col2[0][0] < col2[0][2] ? col2[0][0] : col2[0][2];
+        const uint64_t my = col2[1][0] < col2[1][2] ? col2[1][0] : col2[1][2];
+        best2 = blk_visit(t, c, L, p, lo, cc, (const uint64_t(*)[3])col2, 4, best2, k, 2);
+        if (best2 <= (mx < my ? mx : my)) return best2;
+#pragma GCC unroll 4
+        for (int i = 1; i < 5; i++)
+            best2 = blk_visit(t, c, L, p, lo, cc, (const uint64_t(*)[3])col2, block_order2[i],
+                              best2, k, 2);
+        if (best2 <= mx + my) return best2;
+#pragma GCC unroll 4
+        for (int i = 5; i < 9; i++)
             best2 = blk_visit(t, c, L, p, lo, cc, (const uint64_t(*)[3])col2, block_order2[i],
                               best2, k, 2);
         return best2;
@@ -983,8 +997,11 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
     const int64_t w = L->width;
     int64_t cc[3];
     for (int a = 0; a < dim; a++) {
+        /* 1 <= cc < w - 1 (p + half < 0 gives cc < 0: the shift is
+         * arithmetic), in one unsigned compare; w >= 8, as half is whole
+         * coarse cells. */
         cc[a] = (p[a] + g->half) >> TREE_LEAF_BITS;
-        if (p[a] + g->half < 0 || cc[a] < 1 || cc[a] >= w - 1) return UINT64_MAX;
+        if ((uint64_t)(cc[a] - 1) >= (uint64_t)(w - 2)) return UINT64_MAX;
     }
     /* The cache is keyed by the own leaf's absolute corner, not by grid
      * cells: the grid's origin moves when it grows. */

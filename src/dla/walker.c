@@ -207,6 +207,29 @@ static inline __attribute__((always_inline)) int walk_stale(const pdla_engine *e
     return 1;
 }
 
+/* The parameters a step reads, converted once per walk (walk_dim) rather
+ * than reloaded from the engine on every jump: the step's calls into
+ * search.c force those reloads otherwise. */
+typedef struct walk_consts {
+    double D;           /* one diameter, units */
+    uint64_t stick2;    /* (D + eps)^2: contact below it */
+    uint64_t D2;        /* D^2: overlap below it */
+    uint64_t max_jumps;
+    int exact;          /* --exact-search */
+    int kill;           /* PDLA_RETURN_KILL */
+} walk_consts;
+
+static inline __attribute__((always_inline)) walk_consts walk_consts_of(const pdla_params *P)
+{
+    const uint64_t De = (uint64_t)(P->resolution + P->eps);
+    return (walk_consts){.D = (double)P->resolution,
+                         .stick2 = De * De,
+                         .D2 = (uint64_t)P->resolution * (uint64_t)P->resolution,
+                         .max_jumps = P->max_jumps,
+                         .exact = P->exact_search,
+                         .kill = P->return_mode == PDLA_RETURN_KILL};
+}
+
 /* One step of a walk: one jump (or return to the birth circle, restart,
  * kill). Returns WALK_MOVED, or WALK_CONTACT / WALK_OVERLAP with the spot in
  * stuck_at. conc: worker threads append meanwhile; every move is then
@@ -217,13 +240,11 @@ static inline __attribute__((always_inline)) int walk_stale(const pdla_engine *e
  * keeps its state in registers (scripts/long-functions.allow). */
 static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine *e,
                                                                walker_ctx *w, walk_state *s,
-                                                               int64_t *stuck_at, const int dim,
-                                                               const int conc)
+                                                               int64_t *stuck_at, const walk_consts kc,
+                                                               const int dim, const int conc)
 {
-    const pdla_params *P = &e->params;
     const tree *t = &e->tree;
-    const double D = (double)P->resolution;
-    const uint64_t stick2 = (uint64_t)(P->resolution + P->eps) * (uint64_t)(P->resolution + P->eps);
+    const double D = kc.D;
     int64_t *p = s->p;
     /* The count first: R_ext is raised before a particle is published, so
      * the R_ext read next covers every particle below `seen`, and so do
@@ -235,7 +256,7 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
         s->jumps = 0;
         s->launched_at = seen;
     }
-    if (s->jumps >= P->max_jumps) {
+    if (s->jumps >= kc.max_jumps) {
         w->restarts++;
         launch(w, s->Rb, p, dim);
         s->jumps = 0;
@@ -249,7 +270,7 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
                                (uint64_t)s->r_ext_units * (uint64_t)s->r_ext_units, RECENT_FAR))
             return WALK_MOVED;
         const double r = sqrt(r2);
-        if (P->return_mode == PDLA_RETURN_KILL) {
+        if (kc.kill) {
             if (r > s->Rdeath) {
                 w->killed++;
                 launch(w, s->Rb, p, dim);
@@ -269,7 +290,7 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
      * distance (at least one map cell, far above the sticking shell).
      * --exact-search (the reference setting) skips the map and the
      * block cut: every jump is by the exact distance from the tree. */
-    const int64_t far = P->exact_search ? 0 : distmap_bound(&e->dmap, p, dim);
+    const int64_t far = kc.exact ? 0 : distmap_bound(&e->dmap, p, dim);
     if (far > 0) {
         if (conc && walk_stale(e, w, seen, p, (uint64_t)far * (uint64_t)far, RECENT_NEAR))
             return WALK_MOVED;
@@ -284,13 +305,13 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
      * whenever it gives one, so the walk is the same; serial only, as the
      * list is remade whenever the tree grows.) */
     uint64_t d2 = UINT64_MAX;
-    if (dim == 2 && !P->exact_search)
+    if (dim == 2 && !kc.exact)
         d2 = search_block2(t, &e->search, &e->dmap, p, &w->ss);
-    else if (dim == 3 && !conc && !P->exact_search)
+    else if (dim == 3 && !conc && !kc.exact)
         d2 = search_near2(t, &e->search, p, &w->ss);
     if (d2 == UINT64_MAX) d2 = search_lower_bound2(t, &e->search, p, UINT64_MAX, &w->ss);
     w->ss.nb_last2 = d2;
-    if (d2 < stick2) {
+    if (d2 < kc.stick2) {
         /* A particle appended since the query only makes the walker closer:
          * the insertion's exact re-check (parallel.c) sees it. */
         for (int a = 0; a < dim; a++) stuck_at[a] = p[a];
@@ -298,8 +319,7 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
         w->step_seen = seen;
         /* Closer than one diameter can only mean another walker's particle
          * appeared next to this one since its last jump. */
-        return d2 < (uint64_t)P->resolution * (uint64_t)P->resolution ? WALK_OVERLAP
-                                                                       : WALK_CONTACT;
+        return d2 < kc.D2 ? WALK_OVERLAP : WALK_CONTACT;
     }
     if (conc && walk_stale(e, w, seen, p, d2, RECENT_NEAR)) return WALK_MOVED;
     jump(w, p, sqrt((double)d2) - D - 1.0, dim);
@@ -312,9 +332,10 @@ static inline __attribute__((always_inline)) int walk_dim(const pdla_engine *e, 
                                                           const int conc)
 {
     walk_state s;
+    const walk_consts kc = walk_consts_of(&e->params);
     walk_begin_dim(e, w, &s, dim);
     for (;;) {
-        const int r = walk_step_dim(e, w, &s, stuck_at, dim, conc);
+        const int r = walk_step_dim(e, w, &s, stuck_at, kc, dim, conc);
         if (r != WALK_MOVED) return r;
         if (conc && __builtin_expect(e->hooks != NULL, 0) && e->hooks->turn_end) {
             e->hooks->turn_end(e->hooks->user, w->id);
@@ -340,8 +361,9 @@ void walker_begin(const pdla_engine *e, walker_ctx *w, walk_state *s)
 
 int walker_step(const pdla_engine *e, walker_ctx *w, walk_state *s, int64_t *stuck_at)
 {
-    return e->params.dim == 2 ? walk_step_dim(e, w, s, stuck_at, 2, 0)
-                              : walk_step_dim(e, w, s, stuck_at, 3, 0);
+    const walk_consts kc = walk_consts_of(&e->params);
+    return e->params.dim == 2 ? walk_step_dim(e, w, s, stuck_at, kc, 2, 0)
+                              : walk_step_dim(e, w, s, stuck_at, kc, 3, 0);
 }
 
 void walker_ctx_add_counts(walker_ctx *s, const walker_ctx *o)

@@ -1041,6 +1041,25 @@ uint64_t search_block2(const tree *t, const search_config *c, const distmap *m, 
     return t->dim == 2 ? block_dim(t, c, m, p, k, 2) : block_dim(t, c, m, p, k, 3);
 }
 
+/* The first chunk of the leaf with low corner `corner` when the walker's 2D
+ * block cache knows it (snapping runs right after the block query that
+ * stopped the walker, at most a contact distance from its point, so the
+ * leaves it needs are that block's): saves a tree walk per leaf. 0 when not
+ * known (or seen empty: a leaf may have been made since; the tree decides).
+ * A leaf's first chunk never changes. Skipping find_leaf_cached leaves the
+ * cached path as it was, which changes no search's answer (descend_own_path
+ * reaches the same deepest node from any level that contains p). */
+static inline __attribute__((always_inline)) uint32_t blk_known_head2(const search_state *k,
+                                                                     const int64_t *corner)
+{
+    if (!k->blk_valid) return 0;
+    const int64_t dx = corner[0] - k->blk_c[0], dy = corner[1] - k->blk_c[1];
+    if (dx < -TREE_LEAF_SIDE || dx > TREE_LEAF_SIDE || dy < -TREE_LEAF_SIDE || dy > TREE_LEAF_SIDE)
+        return 0;
+    const uint32_t head = k->blk_head[(dx / TREE_LEAF_SIDE + 1) + 3 * (dy / TREE_LEAF_SIDE + 1)];
+    return head > BLK_EMPTY ? head : 0;
+}
+
 static inline __attribute__((always_inline)) int nearest_point(const tree *t, const int64_t *p,
                                                              uint64_t radius2, int64_t *q,
                                                              uint64_t *d2_out, search_state *k)
@@ -1076,7 +1095,9 @@ static inline __attribute__((always_inline)) int nearest_point(const tree *t, co
         int64_t lo[3];
         uint32_t leaf_idx;
         if (k) { /* from the walker's cached path: the leaves are its neighbours */
-            leaf_idx = dim == 2 ? find_leaf_cached(t, corner, k, 2) : find_leaf_cached(t, corner, k, 3);
+            leaf_idx = dim == 2 ? blk_known_head2(k, corner) : 0;
+            if (!leaf_idx)
+                leaf_idx = dim == 2 ? find_leaf_cached(t, corner, k, 2) : find_leaf_cached(t, corner, k, 3);
             for (int a = 0; a < dim; a++) lo[a] = corner[a];
         } else {
             leaf_idx = tree_find_leaf(t, corner, lo);

@@ -210,17 +210,22 @@ static inline __attribute__((always_inline)) int64_t distmap_bound(const distmap
     for (int a = 0; a < dim; a++) {
         u[a] = p[a] + g->half;
         if ((uint64_t)u[a] >= span) return 0;
-        c[a] = u[a] >> cb;
+        c[a] = u[a] >> fb;
     }
+    /* The fine cell first: near the cluster (half the look-ups) it is
+     * within one cell of an occupied one, and then so is its coarse cell
+     * (two fine cells at chessboard distance 1 lie in the same or adjacent
+     * coarse cells), whose bound would be 0: the answer is 0 without the
+     * coarse look-up. */
+    const int64_t vf = distmap_level_value_k(&g->lv[0], c, dim, 1);
+    if (vf < 2) return 0;
+    for (int a = 0; a < dim; a++) c[a] = u[a] >> cb;
     const int64_t vc = distmap_level_value_k(&g->lv[1], c, dim, 0);
     int64_t coarse = 0;
     if (vc >= 2) {
         coarse = distmap_block_bound(u, cb, vc, dim);
         if (vc >= 5) return coarse; /* beyond anything the fine level can say */
     }
-    for (int a = 0; a < dim; a++) c[a] = u[a] >> fb;
-    const int64_t vf = distmap_level_value_k(&g->lv[0], c, dim, 1);
-    if (vf < 2) return coarse;
     const int64_t fine = distmap_block_bound(u, fb, vf, dim);
     return fine > coarse ? fine : coarse;
 }

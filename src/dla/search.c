@@ -846,7 +846,7 @@ static inline __attribute__((always_inline)) uint32_t blk_lookup(const tree *t,
     return k->blk_head[o] = head ? head : BLK_UNKNOWN;
 }
 
-#if defined(__SSE2__)
+#if defined(__SSE2__) && defined(__x86_64__) /* _mm_cvttss_si64 */
 /* 2D chunk lanes past a chunk's fill count m: OR-ing 0x7fffffff into a
  * squared distance (< 2^31) makes it 0x7fffffff, above every real one.
  * Row m masks lanes m..11 (lanes 10 and 11 are never particles). */
@@ -895,7 +895,7 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf2(const tree *t, 
                                                                  const int64_t *q, uint64_t best2,
                                                                  int concurrent, search_state *k)
 {
-#if defined(__SSE2__)
+#if defined(__SSE2__) && defined(__x86_64__)
     for (uint32_t c = head;;) {
         const uint8_t *chunk = tree_chunk_at(t, c);
         const uint32_t link = tree_chunk_link(t, chunk);

@@ -45,6 +45,11 @@ void search_config_init(search_config *c, double far_factor, int resolution, int
     }
 }
 
+/* Seeding pays in 3D (callgrind, seed 1, 3D 3e4: 4.295e9 -> 4.199e9 Ir)
+ * but not in 2D, where the block search prunes well by itself (2D 1e5:
+ * 2.651e9 -> 2.670e9 Ir with it), so there it is off. */
+#define SEARCH_SEEDED(dim) ((dim) == 3)
+
 /* Squared distance from p to the integer box [lo, lo + side - 1]. */
 static inline __attribute__((always_inline)) uint64_t box_dist2(const int64_t *p, const int64_t *lo,
                                                                 int64_t side, int dim)
@@ -177,6 +182,7 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
          * safe even while workers append; only the last chunk of a leaf may
          * be filling, and then only its first m slots may be read (the
          * scalar loop). */
+        const uint64_t before2 = best2;
         if (small && (!concurrent || link > TREE_CHUNK_CAP)) {
             best2 = chunk_min_below(chunk, q, m, best2, dim);
         } else {
@@ -188,6 +194,11 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
                 }
                 if (d2 < best2) best2 = d2;
             }
+        }
+        if (SEARCH_SEEDED(dim) && best2 < before2) {
+            /* Where the bound came from (note_nearest reads the particle). */
+            k->arg_chunk = chunk;
+            for (int a = 0; a < dim; a++) k->arg_q[a] = q[a];
         }
         if (link <= TREE_CHUNK_CAP) break;
         c = link;
@@ -351,6 +362,17 @@ static inline __attribute__((always_inline)) uint64_t inside_margin2(const int64
 static inline __attribute__((always_inline)) uint64_t seed_bound2(const search_state *k,
                                                                   const int64_t *p, const int dim)
 {
+    if (k->nq_valid) {
+        /* The squared distance to a particle: the answer never exceeds
+         * it, and when nothing lies nearer it is the answer itself. */
+        uint64_t d2 = 0;
+        for (int a = 0; a < dim; a++) {
+            const int64_t d = p[a] - k->nq[a];
+            if (d < -(INT64_C(1) << 30) || d > (INT64_C(1) << 30)) return UINT64_MAX;
+            d2 += (uint64_t)(d * d);
+        }
+        return d2;
+    }
     if (k->ub_d2 >= (UINT64_C(1) << 60)) return UINT64_MAX;
     uint64_t b2 = 0;
     for (int a = 0; a < dim; a++) {
@@ -361,17 +383,39 @@ static inline __attribute__((always_inline)) uint64_t seed_bound2(const search_s
     return 2 * (k->ub_d2 + b2) + 1;
 }
 
-/* Seeding pays in 3D (callgrind, seed 1, 3D 3e4: 4.295e9 -> 4.199e9 Ir)
- * but not in 2D, where the block search prunes well by itself (2D 1e5:
- * 2.651e9 -> 2.670e9 Ir with it), so there it is off. */
-#define SEARCH_SEEDED(dim) ((dim) == 3)
-
 /* Remember an exact answer (the squared distance from p to a particle). */
 static inline __attribute__((always_inline)) void note_exact(search_state *k, const int64_t *p,
                                                              uint64_t d2, const int dim)
 {
     k->ub_d2 = d2;
     for (int a = 0; a < dim; a++) k->ub_p[a] = p[a];
+}
+
+/* After a search whose exact answer d2 is below its seed: the particle at
+ * that distance, from the chunk where the bound last fell (scan_leaf), is
+ * the walker's nearest (nq). When the answer equals the seed, nq is kept:
+ * the seed was its distance. */
+static inline __attribute__((always_inline)) void note_nearest(search_state *k, const tree *t,
+                                                               const int64_t *p, uint64_t d2,
+                                                               const int dim)
+{
+    k->nq_valid = 0;
+    const uint8_t *chunk = k->arg_chunk;
+    if (!chunk) return;
+    const uint32_t link = tree_chunk_link(t, chunk);
+    const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+    for (uint32_t j = 0; j < m; j++) {
+        uint64_t e2 = 0;
+        for (int a = 0; a < dim; a++) {
+            const int64_t d = k->arg_q[a] - (int64_t)chunk[a * TREE_CHUNK_CAP + (int)j];
+            e2 += (uint64_t)(d * d);
+        }
+        if (e2 != d2) continue;
+        for (int a = 0; a < dim; a++)
+            k->nq[a] = p[a] - k->arg_q[a] + (int64_t)chunk[a * TREE_CHUNK_CAP + (int)j];
+        k->nq_valid = 1;
+        return;
+    }
 }
 
 /* The lowest level of the walker's cached path whose node contains p (the
@@ -503,6 +547,7 @@ lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_
     const uint64_t root_d2 = box_dist2(p, lo, 2 * root_half, dim);
     const uint64_t seed2 = SEARCH_SEEDED(dim) ? seed_bound2(k, p, dim) : UINT64_MAX;
     uint64_t best2 = seed2 < cap2 ? seed2 : cap2;
+    if (SEARCH_SEEDED(dim)) k->arg_chunk = NULL;
     if (root_d2 > 0) {
         /* Outside the root box: plain top-down search. */
         best2 = subtree_bound(t, c, p, root.node, root.level, lo, root_d2, best2, &visits, k, dim);
@@ -523,7 +568,10 @@ lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_
         if (done || level == root.level) break;
     }
     k->node_visits += visits;
-    if (SEARCH_SEEDED(dim) && best2 < cap2 && best2 < c->far2[0]) note_exact(k, p, best2, dim);
+    if (SEARCH_SEEDED(dim) && best2 < cap2 && best2 < c->far2[0]) {
+        note_exact(k, p, best2, dim);
+        if (best2 < seed2) note_nearest(k, t, p, best2, dim);
+    }
     return best2;
 }
 
@@ -770,7 +818,10 @@ static inline __attribute__((always_inline)) uint64_t near_dim(const tree *t,
 #endif
     if (m > 0 && (uint64_t)best < (uint64_t)m * (uint64_t)m) {
         k->nb_hits++;
-        if (SEARCH_SEEDED(dim)) note_exact(k, p, best, dim);
+        if (SEARCH_SEEDED(dim)) {
+            note_exact(k, p, best, dim);
+            k->nq_valid = 0; /* the list does not say which particle */
+        }
         return best;
     }
     k->nb_misses++;

@@ -164,6 +164,38 @@ static inline __attribute__((always_inline)) uint64_t chunk_min_below(const uint
 #endif
 }
 
+#if defined(__SSE2__)
+/* The first of the m slots of a 3D chunk at squared distance d2 from q
+ * (leaf-relative, |q| <= 2^14), or -1: the lanes of chunk_min_below. */
+static inline __attribute__((always_inline)) int chunk_slot_at3(const uint8_t *chunk,
+                                                                const int64_t *q, uint32_t m,
+                                                                uint32_t d2)
+{
+    __m128i xl, xh, yl, yh, zl, zh;
+    load_coord(chunk, 0, 0, &xl, &xh);
+    load_coord(chunk, 10, 0, &yl, &yh);
+    load_coord(chunk, 16, 4, &zl, &zh);
+    const __m128i qx = _mm_set1_epi16((int16_t)q[0]), qy = _mm_set1_epi16((int16_t)q[1]);
+    const __m128i qz = _mm_set1_epi16((int16_t)q[2]), zero = _mm_setzero_si128();
+    const __m128i dxl = _mm_sub_epi16(qx, xl), dxh = _mm_sub_epi16(qx, xh);
+    const __m128i dyl = _mm_sub_epi16(qy, yl), dyh = _mm_sub_epi16(qy, yh);
+    const __m128i dzl = _mm_sub_epi16(qz, zl), dzh = _mm_sub_epi16(qz, zh);
+    const __m128i p0 = _mm_unpacklo_epi16(dxl, dyl), p1 = _mm_unpackhi_epi16(dxl, dyl);
+    const __m128i p2 = _mm_unpacklo_epi16(dxh, dyh);
+    const __m128i z0 = _mm_unpacklo_epi16(dzl, zero), z1 = _mm_unpackhi_epi16(dzl, zero);
+    const __m128i z2 = _mm_unpacklo_epi16(dzh, zero);
+    const __m128i d0 = _mm_add_epi32(_mm_madd_epi16(p0, p0), _mm_madd_epi16(z0, z0));
+    const __m128i d1 = _mm_add_epi32(_mm_madd_epi16(p1, p1), _mm_madd_epi16(z1, z1));
+    const __m128i dd = _mm_add_epi32(_mm_madd_epi16(p2, p2), _mm_madd_epi16(z2, z2));
+    const __m128i v = _mm_set1_epi32((int32_t)d2);
+    const uint32_t eq = (uint32_t)_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(d0, v))) |
+                        (uint32_t)_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(d1, v))) << 4 |
+                        (uint32_t)_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(dd, v))) << 8;
+    const uint32_t hit = eq & ((1u << m) - 1);
+    return hit ? __builtin_ctz(hit) : -1;
+}
+#endif
+
 /* Exact scan of one leaf. q = p - leaf corner. The common near case runs in
  * 16/32-bit arithmetic when `small`: |q| <= 2^14 keeps q - x in int16 and
  * dim * (2^14 + 255)^2 < 2^31 (leaf_small). */
@@ -404,6 +436,17 @@ static inline __attribute__((always_inline)) void note_nearest(search_state *k, 
     if (!chunk) return;
     const uint32_t link = tree_chunk_link(t, chunk);
     const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+#if defined(__SSE2__)
+    if (dim == 3 && leaf_small(k->arg_q, d2, dim)) {
+        /* The slot whose distance is d2, from the scan's own lanes. */
+        const int j = chunk_slot_at3(chunk, k->arg_q, m, (uint32_t)d2);
+        if (j < 0) return;
+        for (int a = 0; a < dim; a++)
+            k->nq[a] = p[a] - k->arg_q[a] + (int64_t)chunk[a * TREE_CHUNK_CAP + j];
+        k->nq_valid = 1;
+        return;
+    }
+#endif
     for (uint32_t j = 0; j < m; j++) {
         uint64_t e2 = 0;
         for (int a = 0; a < dim; a++) {
@@ -428,6 +471,17 @@ static inline __attribute__((always_inline)) int cached_start_level(const search
                                                                     const int dim)
 {
     int level = root.level;
+    if (dim == 3 && k->root == root.node && k->root_level == root.level) {
+        /* Below the root every node is aligned to its side, 256 << level,
+         * so p lies in the cached node of level L >= depth exactly when it
+         * agrees with the deepest cached corner on the bits from 8 + L up:
+         * the level is read from the highest bit where they differ. */
+        uint64_t x = 0;
+        for (int a = 0; a < dim; a++) x |= (uint64_t)(p[a] ^ k->lo[k->depth][a]);
+        const int differ = x ? 64 - __builtin_clzll(x) - TREE_LEAF_BITS : 0;
+        level = differ > k->depth ? differ : k->depth;
+        return level < root.level ? level : root.level;
+    }
     if (k->root == root.node && k->root_level == root.level) {
         for (level = k->depth; level < root.level; level++) {
             const int64_t side = (int64_t)TREE_LEAF_SIDE << level;

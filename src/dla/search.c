@@ -545,7 +545,12 @@ static inline __attribute__((always_inline)) uint64_t climb_level(const tree *t,
     const int64_t *plo = k->lo[level];
     const uint32_t pown = k->own[level];
     int64_t own_lo[3];
-    for (int a = 0; a < dim; a++) own_lo[a] = plo[a] + (int64_t)((pown >> a) & 1) * half;
+    if (dim == 3 && level > k->depth) {
+        /* The own child is the cached node one level down. */
+        for (int a = 0; a < dim; a++) own_lo[a] = k->lo[level - 1][a];
+    } else {
+        for (int a = 0; a < dim; a++) own_lo[a] = plo[a] + (int64_t)((pown >> a) & 1) * half;
+    }
     if (inside_margin2(p, own_lo, half, dim) >= best2) {
         *done = 1;
         return best2;

@@ -429,7 +429,7 @@ static inline __attribute__((always_inline)) void note_exact(search_state *k, co
  * the seed was its distance. */
 static inline __attribute__((always_inline)) void note_nearest(search_state *k, const tree *t,
                                                                const int64_t *p, uint64_t d2,
-                                                               const int dim)
+                                                               int concurrent, const int dim)
 {
     k->nq_valid = 0;
     const uint8_t *chunk = k->arg_chunk;
@@ -437,8 +437,10 @@ static inline __attribute__((always_inline)) void note_nearest(search_state *k, 
     const uint32_t link = tree_chunk_link(t, chunk);
     const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
 #if defined(__SSE2__)
-    if (dim == 3 && leaf_small(k->arg_q, d2, dim)) {
-        /* The slot whose distance is d2, from the scan's own lanes. */
+    if (dim == 3 && leaf_small(k->arg_q, d2, dim) && (!concurrent || link > TREE_CHUNK_CAP)) {
+        /* The slot whose distance is d2, from the scan's own lanes (the
+         * vector loads read every slot: while workers append, only on a
+         * full chunk, as in scan_leaf). */
         const int j = chunk_slot_at3(chunk, k->arg_q, m, (uint32_t)d2);
         if (j < 0) return;
         for (int a = 0; a < dim; a++)
@@ -629,7 +631,7 @@ lower_bound_dim(const tree *t, const search_config *c, const int64_t *p, uint64_
     k->node_visits += visits;
     if (SEARCH_SEEDED(dim) && best2 < cap2 && best2 < c->far2[0]) {
         note_exact(k, p, best2, dim);
-        if (best2 < seed2) note_nearest(k, t, p, best2, dim);
+        if (best2 < seed2) note_nearest(k, t, p, best2, c->concurrent, dim);
     }
     return best2;
 }

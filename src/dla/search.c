@@ -718,6 +718,61 @@ static inline __attribute__((always_inline)) uint32_t find_leaf_cached(const tre
 #define NB_RADIUS_MUL 2.5
 #define NB_RADIUS_MIN 64
 
+#if defined(__SSE2__)
+/* nb_make's append of one 3D chunk: the first m particles, as offsets
+ * from p (q = p - the leaf's corner, |q| < 2 SEARCH_NB_RADIUS + 256, so
+ * offsets fit in int16 and squared distances in int32), those nearer than
+ * r2 appended in slot order (the scalar loop's order, so the same list),
+ * with their buckets. Returns the new count. */
+static inline __attribute__((always_inline)) uint32_t
+nb_append_chunk3(const uint8_t *chunk, const int64_t *q, uint32_t m, uint32_t r2, int shift,
+                 int16_t *tx, int16_t *ty, int16_t *tz, uint8_t *tb, uint32_t n)
+{
+    __m128i xl, xh, yl, yh, zl, zh;
+    load_coord(chunk, 0, 0, &xl, &xh);
+    load_coord(chunk, 10, 0, &yl, &yh);
+    load_coord(chunk, 16, 4, &zl, &zh);
+    const __m128i qx = _mm_set1_epi16((int16_t)q[0]), qy = _mm_set1_epi16((int16_t)q[1]);
+    const __m128i qz = _mm_set1_epi16((int16_t)q[2]), zero = _mm_setzero_si128();
+    int16_t ox[16], oy[16], oz[16];
+    int32_t od[12];
+    const __m128i dxl = _mm_sub_epi16(xl, qx), dxh = _mm_sub_epi16(xh, qx);
+    const __m128i dyl = _mm_sub_epi16(yl, qy), dyh = _mm_sub_epi16(yh, qy);
+    const __m128i dzl = _mm_sub_epi16(zl, qz), dzh = _mm_sub_epi16(zh, qz);
+    _mm_storeu_si128((__m128i *)(void *)ox, dxl);
+    _mm_storeu_si128((__m128i *)(void *)(ox + 8), dxh);
+    _mm_storeu_si128((__m128i *)(void *)oy, dyl);
+    _mm_storeu_si128((__m128i *)(void *)(oy + 8), dyh);
+    _mm_storeu_si128((__m128i *)(void *)oz, dzl);
+    _mm_storeu_si128((__m128i *)(void *)(oz + 8), dzh);
+    const __m128i p0 = _mm_unpacklo_epi16(dxl, dyl), p1 = _mm_unpackhi_epi16(dxl, dyl);
+    const __m128i p2 = _mm_unpacklo_epi16(dxh, dyh);
+    const __m128i z0 = _mm_unpacklo_epi16(dzl, zero), z1 = _mm_unpackhi_epi16(dzl, zero);
+    const __m128i z2 = _mm_unpacklo_epi16(dzh, zero);
+    const __m128i d0 = _mm_add_epi32(_mm_madd_epi16(p0, p0), _mm_madd_epi16(z0, z0));
+    const __m128i d1 = _mm_add_epi32(_mm_madd_epi16(p1, p1), _mm_madd_epi16(z1, z1));
+    const __m128i d2 = _mm_add_epi32(_mm_madd_epi16(p2, p2), _mm_madd_epi16(z2, z2));
+    _mm_storeu_si128((__m128i *)(void *)od, d0);
+    _mm_storeu_si128((__m128i *)(void *)(od + 4), d1);
+    _mm_storeu_si128((__m128i *)(void *)(od + 8), d2);
+    const __m128i vr = _mm_set1_epi32((int32_t)r2);
+    uint32_t in = (uint32_t)_mm_movemask_ps(_mm_castsi128_ps(_mm_cmplt_epi32(d0, vr))) |
+                  (uint32_t)_mm_movemask_ps(_mm_castsi128_ps(_mm_cmplt_epi32(d1, vr))) << 4 |
+                  (uint32_t)_mm_movemask_ps(_mm_castsi128_ps(_mm_cmplt_epi32(d2, vr))) << 8;
+    in &= (1u << m) - 1;
+    while (in) {
+        const int j = __builtin_ctz(in);
+        in &= in - 1;
+        tx[n] = ox[j];
+        ty[n] = oy[j];
+        tz[n] = oz[j];
+        tb[n] = (uint8_t)((uint32_t)od[j] >> shift);
+        n++;
+    }
+    return n;
+}
+#endif
+
 /* Make the list around p with radius r <= SEARCH_NB_RADIUS from the leaves
  * (found from the cached path) that the ball meets; 0 (list invalid) if
  * more than SEARCH_NB_MAX particles lie that near. Longer than the 80-line
@@ -755,6 +810,15 @@ static inline __attribute__((always_inline)) int nb_make(const tree *t, const in
                     const uint8_t *chunk = tree_chunk_at(t, ci);
                     const uint32_t link = tree_chunk_link(t, chunk);
                     const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+#if defined(__SSE2__)
+                    if (dim == 3) {
+                        n = nb_append_chunk3(chunk, q, m, r2, shift, tx, ty, tz, tb, n);
+                        if (n > SEARCH_NB_MAX) return 0;
+                        if (link <= TREE_CHUNK_CAP) break;
+                        ci = link;
+                        continue;
+                    }
+#endif
                     for (uint32_t j = 0; j < m; j++) {
                         int32_t x[3] = {0, 0, 0};
                         uint32_t d2 = 0;

@@ -205,8 +205,8 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
                                                                 search_state *k)
 {
     for (uint32_t c = head;;) {
-        const uint8_t *chunk = tree_chunk_at(t, c);
-        const uint32_t link = tree_chunk_link(t, chunk);
+        const uint8_t *chunk = tree_chunk_at_d(t, c, dim);
+        const uint32_t link = tree_chunk_link_d(t, chunk, dim);
         const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
         k->particle_checks += m;
         /* A chunk that links to a next one is full and never written again,
@@ -318,7 +318,7 @@ subtree_bound(const tree *t, const search_config *c, const int64_t *p, uint32_t 
              * before their index is loaded. */
             if (half_d2[a][up ^ 1] < best2) near |= 1u << a;
         }
-        const _Atomic uint32_t *ch = tree_children(t, e.node);
+        const _Atomic uint32_t *ch = tree_children_d(t, e.node, dim);
         if (e.level == 1) {
             /* Leaves: scanned at once, nearest first (roughly: the
              * submasks in increasing order), as the stack would pop them
@@ -434,7 +434,7 @@ static inline __attribute__((always_inline)) void note_nearest(search_state *k, 
     k->nq_valid = 0;
     const uint8_t *chunk = k->arg_chunk;
     if (!chunk) return;
-    const uint32_t link = tree_chunk_link(t, chunk);
+    const uint32_t link = tree_chunk_link_d(t, chunk, dim);
     const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
 #if defined(__SSE2__)
     if (dim == 3 && leaf_small(k->arg_q, d2, dim) && (!concurrent || link > TREE_CHUNK_CAP)) {
@@ -516,7 +516,7 @@ static inline __attribute__((always_inline)) int descend_own_path(const tree *t,
         k->node[level] = node;
         k->own[level] = own;
         for (int a = 0; a < dim; a++) k->lo[level][a] = lo[a];
-        const uint32_t child = tree_child(tree_children(t, node), own);
+        const uint32_t child = tree_child(tree_children_d(t, node, dim), own);
         (*visits)++;
         if (!child) return level;
         for (int a = 0; a < dim; a++) lo[a] += (int64_t)((own >> a) & 1) * half;
@@ -573,7 +573,7 @@ static inline __attribute__((always_inline)) uint64_t climb_level(const tree *t,
      * those are enumerated (submasks of `near`), without loading the
      * others' indices. The order does not change the answer (see the
      * top of the file). */
-    const _Atomic uint32_t *ch = tree_children(t, k->node[level]);
+    const _Atomic uint32_t *ch = tree_children_d(t, k->node[level], dim);
     for (uint32_t differ = near; differ; differ = (differ - 1) & near) {
         const uint32_t kidx = differ ^ pown;
         const uint32_t child = tree_child(ch, kidx);
@@ -682,7 +682,7 @@ static inline __attribute__((always_inline)) uint32_t find_leaf_cached(const tre
         k->node[level] = node;
         k->own[level] = own;
         for (int a = 0; a < dim; a++) k->lo[level][a] = lo[a];
-        const uint32_t child = tree_child(tree_children(t, node), own);
+        const uint32_t child = tree_child(tree_children_d(t, node, dim), own);
         if (!child || level == 1) {
             k->depth = level;
             return child;
@@ -807,8 +807,8 @@ static inline __attribute__((always_inline)) int nb_make(const tree *t, const in
                 int64_t q[3] = {0, 0, 0};
                 for (int a = 0; a < dim; a++) q[a] = p[a] - lo[a];
                 for (uint32_t ci = head;;) {
-                    const uint8_t *chunk = tree_chunk_at(t, ci);
-                    const uint32_t link = tree_chunk_link(t, chunk);
+                    const uint8_t *chunk = tree_chunk_at_d(t, ci, dim);
+                    const uint32_t link = tree_chunk_link_d(t, chunk, dim);
                     const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
 #if defined(__SSE2__)
                     if (dim == 3) {
@@ -1152,8 +1152,8 @@ static inline __attribute__((always_inline)) int nearest_point(const tree *t, co
         int64_t ql[3] = {0, 0, 0};
         for (int a = 0; a < dim; a++) ql[a] = p[a] - lo[a]; /* |ql| < 512: chunk_min_below applies */
         for (uint32_t ci = leaf_idx;;) {
-            const uint8_t *chunk = tree_chunk_at(t, ci);
-            const uint32_t link = tree_chunk_link(t, chunk);
+            const uint8_t *chunk = tree_chunk_at_d(t, ci, dim);
+            const uint32_t link = tree_chunk_link_d(t, chunk, dim);
             const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
             /* A full chunk that links on is never written again, so its
              * vector minimum may be read while workers append: when it is

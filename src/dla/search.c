@@ -572,9 +572,13 @@ static inline __attribute__((always_inline)) uint64_t climb_level(const tree *t,
      * can come within the bound (it only decreases below), so only
      * those are enumerated (submasks of `near`), without loading the
      * others' indices. The order does not change the answer (see the
-     * top of the file). */
+     * top of the file), only the work: in 3D the submasks go in
+     * increasing order, roughly nearest first (faces before the corner),
+     * so the bound falls sooner (3D 3e4, callgrind: -2.2% Ir against the
+     * decreasing order 2D keeps). */
     const _Atomic uint32_t *ch = tree_children_d(t, k->node[level], dim);
-    for (uint32_t differ = near; differ; differ = (differ - 1) & near) {
+    for (uint32_t differ = dim == 3 ? (0u - near) & near : near; differ;
+         differ = dim == 3 ? (differ - near) & near : (differ - 1) & near) {
         const uint32_t kidx = differ ^ pown;
         const uint32_t child = tree_child(ch, kidx);
         if (!child) continue;

@@ -62,6 +62,15 @@ typedef struct search_state {
      * earlier). */
     uint64_t ub_d2;
     int64_t ub_p[3];
+    /* 3D: the particle at the walker's last exact answer (nq_valid), so
+     * |p - nq|^2, a distance the answer never exceeds, seeds the next
+     * search (a much tighter seed than ub_d2's); and, during a search, the
+     * chunk of the particle at its best bound so far with p less the
+     * leaf's corner (arg_q), from which nq is read at the end. */
+    int nq_valid;
+    int64_t nq[3];
+    const uint8_t *arg_chunk;
+    int64_t arg_q[3];
 } search_state;
 
 static inline void search_state_reset(search_state *s)
@@ -73,6 +82,7 @@ static inline void search_state_reset(search_state *s)
     s->nb_valid = 0;
     s->nb_last2 = 0;
     s->ub_d2 = UINT64_MAX;
+    s->nq_valid = 0;
 }
 
 /* Per-level squared far thresholds: a non-empty node at level L whose box is

@@ -52,6 +52,9 @@ int tree_init(tree *t, int dim)
     t->dim = dim;
     t->nchild = 1 << dim;
     /* 10 particles of dim bytes, padded so the 32-bit next index is aligned. */
+    /* tree.h's 3D accessors assume these sizes. */
+    _Static_assert((TREE_CHUNK_CAP * 3 + 3) / 4 * 4 + 4 == TREE_CHUNK_BYTES3, "3D chunk size");
+    _Static_assert(sizeof(uint32_t) * 8 == TREE_INNER_BYTES3, "3D inner node size");
     t->chunk_bytes = (uint32_t)((TREE_CHUNK_CAP * dim + 3) / 4 * 4 + 4);
     if (pool_init(&t->inner, (uint32_t)(sizeof(uint32_t) * (size_t)t->nchild)) ||
         pool_init(&t->chunks, t->chunk_bytes)) {

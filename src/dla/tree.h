@@ -162,6 +162,32 @@ static inline uint32_t tree_chunk_link(const tree *t, const uint8_t *chunk)
                                 memory_order_acquire);
 }
 
+/* The same three accessors for code instantiated per dimension: in 3D the
+ * record sizes are constants (36-byte chunks, 8 children of 4 bytes), so
+ * an access is a shift and an add instead of a load and a multiply. 2D
+ * code calls the general ones. */
+#define TREE_CHUNK_BYTES3 36u
+#define TREE_INNER_BYTES3 32u
+static inline const _Atomic uint32_t *tree_children_d(const tree *t, uint32_t node, const int dim)
+{
+    if (dim != 3) return tree_children(t, node);
+    return (const _Atomic uint32_t *)(const void *)(t->inner.seg[node >> POOL_SEG_BITS] +
+                                                    (size_t)(node & (POOL_SEG_SIZE - 1)) *
+                                                        TREE_INNER_BYTES3);
+}
+static inline const uint8_t *tree_chunk_at_d(const tree *t, uint32_t chunk, const int dim)
+{
+    if (dim != 3) return tree_chunk_at(t, chunk);
+    return t->chunks.seg[chunk >> POOL_SEG_BITS] +
+           (size_t)(chunk & (POOL_SEG_SIZE - 1)) * TREE_CHUNK_BYTES3;
+}
+static inline uint32_t tree_chunk_link_d(const tree *t, const uint8_t *chunk, const int dim)
+{
+    if (dim != 3) return tree_chunk_link(t, chunk);
+    return atomic_load_explicit((const _Atomic uint32_t *)(const void *)(chunk + TREE_CHUNK_BYTES3 - 4),
+                                memory_order_acquire);
+}
+
 /* Half side of a root box of this level: the root is [-h, h)^dim. */
 static inline int64_t tree_root_half(int root_level)
 {

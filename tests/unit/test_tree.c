@@ -183,7 +183,7 @@ static void test_near_list(int dim, int kind, size_t n, uint64_t seed)
     search_state k, k2;
     search_state_reset(&k);
     search_state_reset(&k2);
-    int answered = 0, wrong = 0, missed_insert = 0, seeded_differs = 0;
+    int answered = 0, wrong = 0, missed_insert = 0, seeded_differs = 0, nq_checked = 0, nq_bad = 0;
     for (int w = 0; w < 60; w++) {
         int64_t p[3] = {0, 0, 0};
         const pt *s = &in[rng_next(&r) % n];
@@ -198,6 +198,22 @@ static void test_near_list(int dim, int kind, size_t n, uint64_t seed)
             search_state fresh;
             search_state_reset(&fresh);
             if (lb != search_lower_bound2(&t, &vp, p, UINT64_MAX, &fresh)) seeded_differs++;
+            /* 3D: the particle the next search is seeded from is a stored
+             * point, never nearer than the answer, and at exactly its
+             * distance when the answer is exact (below the near threshold)
+             * and p lies in the root box (outside it nq is not renewed). */
+            if (dim == 3 && k2.nq_valid) {
+                nq_checked++;
+                int stored = 0;
+                for (size_t i = 0; i < n && !stored; i++)
+                    stored = in[i].x[0] == k2.nq[0] && in[i].x[1] == k2.nq[1] && in[i].x[2] == k2.nq[2];
+                uint64_t e2 = 0;
+                for (int a = 0; a < 3; a++) e2 += (uint64_t)((p[a] - k2.nq[a]) * (p[a] - k2.nq[a]));
+                const int64_t h = tree_root_half(tree_root_get(&t).level);
+                int inside = 1;
+                for (int a = 0; a < 3; a++) inside &= p[a] >= -h && p[a] < h;
+                if (!stored || e2 < lb || (inside && lb < vp.far2[0] && e2 != lb)) nq_bad++;
+            }
             if (nb != UINT64_MAX) {
                 answered++;
                 if (nb != truth || nb != lb) {
@@ -234,6 +250,9 @@ static void test_near_list(int dim, int kind, size_t n, uint64_t seed)
           missed_insert);
     CHECK(seeded_differs == 0, "dim %d kind %d: %d seeded tree answers differ from unseeded ones",
           dim, kind, seeded_differs);
+    CHECK(nq_bad == 0, "dim %d kind %d: %d of %d seeding particles wrong", dim, kind, nq_bad,
+          nq_checked);
+    if (dim == 3) CHECK(nq_checked > 100, "kind %d: only %d seeding particles", kind, nq_checked);
     if (kind == 0) CHECK(answered > 100, "dim %d: the neighbour list answered only %d queries", dim, answered);
     fprintf(stderr, "dim %d kind %d: the neighbour list answered %d queries\n", dim, kind, answered);
     free(in);

@@ -98,6 +98,11 @@ typedef struct engine_hooks {
     /* Node work before and outside the bucket mutex, so others may append
      * meanwhile (the behaviour before issue 11's fix, parallel.c). */
     int node_before_bucket;
+    /* node_work after the frontier particle is appended, bucket mutex still
+     * held: the particle is visible to walkers while appends wait (the
+     * probe that tells the two effects of a slow node work apart,
+     * runs/pdla-bias/node9). */
+    int node_work_published;
     int no_relaunch; /* no straggler bound (the behaviour before it, parallel.c) */
     void *user;
 } engine_hooks;

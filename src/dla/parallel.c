@@ -221,7 +221,7 @@ static int make_path(worker *k, const int64_t *p, uint64_t seen, int have_path, 
     const uint64_t held = lock_counted(&e->node_mu, k->w, PDLA_MUTEX_NODE);
     const int rc = have_path ? 0 : tree_make_path(&e->tree, p, slot);
     if (rc == 0) distmap_add(&e->dmap, p, seen + 1, 1);
-    if (__builtin_expect(e->hooks != NULL, 0) && e->hooks->node_work)
+    if (__builtin_expect(e->hooks != NULL, 0) && e->hooks->node_work && !e->hooks->node_work_published)
         e->hooks->node_work(e->hooks->user);
     unlock_counted(&e->node_mu, k->w, PDLA_MUTEX_NODE, held);
     if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory (or tree index space) creating nodes");
@@ -269,6 +269,8 @@ static int append_locked(worker *k, const int64_t *p, uint64_t seen, int need, i
     if (__builtin_expect(e->hooks != NULL, 0) && e->hooks->append)
         e->hooks->append(e->hooks->user, count, p);
     const int rc = tree_append(t, slot, p);
+    if (__builtin_expect(e->hooks != NULL, 0) && need && e->hooks->node_work && e->hooks->node_work_published)
+        e->hooks->node_work(e->hooks->user);
     unlock_counted(&e->bucket_mu, k->w, PDLA_MUTEX_BUCKET, held);
     if (rc) return worker_fail(k, PDLA_ENOMEM, "out of memory appending a particle");
     *index = count;

@@ -10,7 +10,8 @@
  * about one particle in twelve) sleeps SLEEP_US microseconds (test hook
  * node_work). MODE "fixed" is the engine as it is; "before" does the node
  * work outside the bucket mutex (hook node_before_bucket), as before the
- * fix, so that others append while a frontier particle waits: its walker
+ * fix, so that others append while a frontier particle waits ("-nobound"
+ * appended to either: no straggler bound, hook no_relaunch): its walker
  * then sticks where the cluster was, deeper in the newer growth, and the
  * cluster comes out more compact (runs/pdla-bias/README.md, session 8:
  * -0.3% with the straggler bound, -0.75% without, 8 workers, 500 us, 2D
@@ -98,15 +99,21 @@ int main(int argc, char **argv)
     const int dim = atoi(argv[1]), m = atoi(argv[2]), threads = atoi(argv[5]);
     const uint64_t n = (uint64_t)atof(argv[3]), serial_until = (uint64_t)atof(argv[4]);
     const double tol = atof(argv[7]);
-    const int before = !strcmp(argv[8], "before");
+    /* MODE, optionally with "-nobound": no straggler bound (hook no_relaunch). */
+    const int before = !strncmp(argv[8], "before", 6);
+    const int nobound = strstr(argv[8], "-nobound") != NULL;
+    /* "-published": the sleep after the particle is appended, appends held. */
+    const int published = strstr(argv[8], "-published") != NULL;
     const uint64_t seed0 = argc == 10 ? (uint64_t)atof(argv[9]) : 1001;
     if (m < 2 || threads < 2 || serial_until < 1 || n <= serial_until ||
-        (!before && strcmp(argv[8], "fixed"))) {
+        (!before && strncmp(argv[8], "fixed", 5))) {
         fprintf(stderr, "test_frontier: bad arguments\n");
         return 2;
     }
     sleeper s = {atol(argv[6]), 0};
-    const engine_hooks h = {.node_work = on_node_work, .node_before_bucket = before, .user = &s};
+    const engine_hooks h = {
+        .node_work = on_node_work, .node_before_bucket = before, .no_relaunch = nobound,
+        .node_work_published = published, .user = &s};
     double sum = 0, sum2 = 0, lag = 0, relaunches = 0, slept = 0;
     for (int i = 0; i < m; i++) {
         const uint64_t seed = seed0 + (uint64_t)i;

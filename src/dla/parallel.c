@@ -16,16 +16,19 @@
  * Why the node work is done inside the bucket mutex (issue 11): it used to
  * come before it, under the node mutex alone. A walker whose particle needed
  * new nodes (the frontier, where the cluster grows outward) then waited for
- * the node mutex, while walkers that needed none went on to append past it:
- * a slow node-mutex holder (descheduled, a page fault in a new tree block, a
- * big map update) delayed the frontier's particles selectively, and a
- * delayed walker sticks where the cluster was, deeper in the newer growth.
- * Made slow on purpose (a test hook sleeping 500 us in the node work, 8
- * workers, 2D 1e4 -> 3e4) it made clusters 0.3-0.75% more compact than
- * serial DLA (runs/pdla-bias/README.md, session 8). Inside the bucket
- * mutex a slow insertion holds every append up alike, frontier or not, so
- * no walker appends past a particle because that particle needed nodes
- * (runs/pdla-bias/node9, tests/physics/test_frontier.c).
+ * the node mutex, while walkers that needed none went on to append past it
+ * (or it was relaunched by the straggler bound after its node work): a slow
+ * node-mutex holder (descheduled, a page fault in a new tree block, a big
+ * map update) delayed or dropped the frontier's particles selectively.
+ * Inside the bucket mutex nobody appends while a frontier particle's node
+ * work runs, and the checks that can turn a particle down come first (test
+ * frontier-order). Made slow on purpose (a test hook sleeping 500 us in the
+ * node work, 8 workers, 2D 1e4 -> 3e4, runs/pdla-bias/node9) the clusters
+ * come out 1.0% more compact than serial DLA with the old order, 0.3% with
+ * this one: what is left is not the frontier's but that of any slow holder
+ * of the bucket mutex (walks that end meanwhile wait and stick where the
+ * cluster was, or are relaunched; a first-come order measured worse, -1.8%).
+ * Unamplified, the node work takes about 0.5 us (2D) to 2 us (3D).
  *
  * The lock order is bucket -> node (pdla_engine_stats too); the gyration
  * mutex is taken alone. The node mutex stays, though every worker now takes

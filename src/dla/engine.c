@@ -261,14 +261,14 @@ void pdla_engine_stats(const pdla_engine *e, pdla_stats *s)
     pthread_mutex_lock(&m->gyration_mu);
     s->rg_diam = sqrt(gyration_rg2_units(&e->gyr, e->params.dim)) / e->params.resolution;
     pthread_mutex_unlock(&m->gyration_mu);
+    pthread_mutex_lock(&m->bucket_mu); /* the workers' order: bucket, then node */
     pthread_mutex_lock(&m->node_mu);
-    pthread_mutex_lock(&m->bucket_mu);
     s->tree_bytes = tree_bytes(&e->tree);
     s->inner_nodes = e->tree.inner.count - 1;
     s->leaves = e->tree.leaves;
     s->chunks = e->tree.chunks.count - (TREE_CHUNK_CAP + 1);
-    pthread_mutex_unlock(&m->bucket_mu);
     pthread_mutex_unlock(&m->node_mu);
+    pthread_mutex_unlock(&m->bucket_mu);
     s->root_level = tree_root_get(&e->tree).level;
     s->grow_seconds = e->grow_seconds;
 }

@@ -89,7 +89,20 @@ typedef struct engine_hooks {
      * mode does (reference.c). */
     void (*turn_begin)(void *user, int id);
     void (*turn_end)(void *user, int id);
+    /* A worker does the node work of a frontier particle (new tree nodes or
+     * distance-map cells; node mutex held, and the bucket mutex unless
+     * node_before_bucket): a test can make it slow (tests/physics/
+     * test_frontier.c). */
+    void (*node_work)(void *user);
     int take_stale; /* count stale jumps but take them (the behaviour before the check) */
+    /* Node work before and outside the bucket mutex, so others may append
+     * meanwhile (the behaviour before issue 11's fix, parallel.c). */
+    int node_before_bucket;
+    /* node_work after the frontier particle is appended, bucket mutex still
+     * held: the particle is visible to walkers while appends wait (the
+     * probe that tells the two effects of a slow node work apart,
+     * runs/pdla-bias/node9). */
+    int node_work_published;
     int no_relaunch; /* no straggler bound (the behaviour before it, parallel.c) */
     void *user;
 } engine_hooks;
@@ -114,8 +127,9 @@ struct pdla_engine {
      * distance map's writes (cells, grids); bucket: appending to a leaf's
      * chunks (chunk pool, count, the exact re-check, the target and the
      * recent-insertion ring); gyration:
-     * the R_g sums, R_ext and the samples. Taken one at a time, in that
-     * order. */
+     * the R_g sums, R_ext and the samples. Workers take the node mutex
+     * inside the bucket mutex (lock order bucket -> node, parallel.c), the
+     * gyration mutex alone. */
     pthread_mutex_t node_mu;
     PDLA_CACHE_PAD(pad_node_);
     pthread_mutex_t bucket_mu;

@@ -1,1 +1,1 @@
-/tmp/bias3bin/pdla --dim 2 --target 1e5 --seed SEED --no-output -q --stats-json FILE --reference-walkers 2 --serial-until 1e4
+/work/big/bin9/pdla --dim 2 --target 1e5 --seed SEED --no-output -q --stats-json FILE --reference-walkers 2 --serial-until 1e4

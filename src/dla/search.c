@@ -165,6 +165,23 @@ static inline __attribute__((always_inline)) uint64_t chunk_min_below(const uint
 }
 
 #if defined(__SSE2__)
+/* Squared lengths of the 10 (+2 padding) 3D differences whose x, y, z
+ * components sit in 16-bit lanes (lo: slots 0-7, hi: 8-11), as three vectors
+ * of 32-bit lanes (slots 0-3, 4-7, 8-11); shared by the chunk scans below. */
+static inline __attribute__((always_inline)) void
+sq3_lanes(__m128i dxl, __m128i dxh, __m128i dyl, __m128i dyh, __m128i dzl, __m128i dzh,
+          __m128i *d0, __m128i *d1, __m128i *d2)
+{
+    const __m128i zero = _mm_setzero_si128();
+    const __m128i p0 = _mm_unpacklo_epi16(dxl, dyl), p1 = _mm_unpackhi_epi16(dxl, dyl);
+    const __m128i p2 = _mm_unpacklo_epi16(dxh, dyh);
+    const __m128i z0 = _mm_unpacklo_epi16(dzl, zero), z1 = _mm_unpackhi_epi16(dzl, zero);
+    const __m128i z2 = _mm_unpacklo_epi16(dzh, zero);
+    *d0 = _mm_add_epi32(_mm_madd_epi16(p0, p0), _mm_madd_epi16(z0, z0));
+    *d1 = _mm_add_epi32(_mm_madd_epi16(p1, p1), _mm_madd_epi16(z1, z1));
+    *d2 = _mm_add_epi32(_mm_madd_epi16(p2, p2), _mm_madd_epi16(z2, z2));
+}
+
 /* The first of the m slots of a 3D chunk at squared distance d2 from q
  * (leaf-relative, |q| <= 2^14), or -1: the lanes of chunk_min_below. */
 static inline __attribute__((always_inline)) int chunk_slot_at3(const uint8_t *chunk,
@@ -176,17 +193,10 @@ static inline __attribute__((always_inline)) int chunk_slot_at3(const uint8_t *c
     load_coord(chunk, 10, 0, &yl, &yh);
     load_coord(chunk, 16, 4, &zl, &zh);
     const __m128i qx = _mm_set1_epi16((int16_t)q[0]), qy = _mm_set1_epi16((int16_t)q[1]);
-    const __m128i qz = _mm_set1_epi16((int16_t)q[2]), zero = _mm_setzero_si128();
-    const __m128i dxl = _mm_sub_epi16(qx, xl), dxh = _mm_sub_epi16(qx, xh);
-    const __m128i dyl = _mm_sub_epi16(qy, yl), dyh = _mm_sub_epi16(qy, yh);
-    const __m128i dzl = _mm_sub_epi16(qz, zl), dzh = _mm_sub_epi16(qz, zh);
-    const __m128i p0 = _mm_unpacklo_epi16(dxl, dyl), p1 = _mm_unpackhi_epi16(dxl, dyl);
-    const __m128i p2 = _mm_unpacklo_epi16(dxh, dyh);
-    const __m128i z0 = _mm_unpacklo_epi16(dzl, zero), z1 = _mm_unpackhi_epi16(dzl, zero);
-    const __m128i z2 = _mm_unpacklo_epi16(dzh, zero);
-    const __m128i d0 = _mm_add_epi32(_mm_madd_epi16(p0, p0), _mm_madd_epi16(z0, z0));
-    const __m128i d1 = _mm_add_epi32(_mm_madd_epi16(p1, p1), _mm_madd_epi16(z1, z1));
-    const __m128i dd = _mm_add_epi32(_mm_madd_epi16(p2, p2), _mm_madd_epi16(z2, z2));
+    const __m128i qz = _mm_set1_epi16((int16_t)q[2]);
+    __m128i d0, d1, dd;
+    sq3_lanes(_mm_sub_epi16(qx, xl), _mm_sub_epi16(qx, xh), _mm_sub_epi16(qy, yl),
+              _mm_sub_epi16(qy, yh), _mm_sub_epi16(qz, zl), _mm_sub_epi16(qz, zh), &d0, &d1, &dd);
     const __m128i v = _mm_set1_epi32((int32_t)d2);
     const uint32_t eq = (uint32_t)_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(d0, v))) |
                         (uint32_t)_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(d1, v))) << 4 |
@@ -737,7 +747,7 @@ nb_append_chunk3(const uint8_t *chunk, const int64_t *q, uint32_t m, uint32_t r2
     load_coord(chunk, 10, 0, &yl, &yh);
     load_coord(chunk, 16, 4, &zl, &zh);
     const __m128i qx = _mm_set1_epi16((int16_t)q[0]), qy = _mm_set1_epi16((int16_t)q[1]);
-    const __m128i qz = _mm_set1_epi16((int16_t)q[2]), zero = _mm_setzero_si128();
+    const __m128i qz = _mm_set1_epi16((int16_t)q[2]);
     int16_t ox[16], oy[16], oz[16];
     int32_t od[12];
     const __m128i dxl = _mm_sub_epi16(xl, qx), dxh = _mm_sub_epi16(xh, qx);
@@ -749,13 +759,8 @@ nb_append_chunk3(const uint8_t *chunk, const int64_t *q, uint32_t m, uint32_t r2
     _mm_storeu_si128((__m128i *)(void *)(oy + 8), dyh);
     _mm_storeu_si128((__m128i *)(void *)oz, dzl);
     _mm_storeu_si128((__m128i *)(void *)(oz + 8), dzh);
-    const __m128i p0 = _mm_unpacklo_epi16(dxl, dyl), p1 = _mm_unpackhi_epi16(dxl, dyl);
-    const __m128i p2 = _mm_unpacklo_epi16(dxh, dyh);
-    const __m128i z0 = _mm_unpacklo_epi16(dzl, zero), z1 = _mm_unpackhi_epi16(dzl, zero);
-    const __m128i z2 = _mm_unpacklo_epi16(dzh, zero);
-    const __m128i d0 = _mm_add_epi32(_mm_madd_epi16(p0, p0), _mm_madd_epi16(z0, z0));
-    const __m128i d1 = _mm_add_epi32(_mm_madd_epi16(p1, p1), _mm_madd_epi16(z1, z1));
-    const __m128i d2 = _mm_add_epi32(_mm_madd_epi16(p2, p2), _mm_madd_epi16(z2, z2));
+    __m128i d0, d1, d2;
+    sq3_lanes(dxl, dxh, dyl, dyh, dzl, dzh, &d0, &d1, &d2);
     _mm_storeu_si128((__m128i *)(void *)od, d0);
     _mm_storeu_si128((__m128i *)(void *)(od + 4), d1);
     _mm_storeu_si128((__m128i *)(void *)(od + 8), d2);

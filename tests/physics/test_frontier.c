@@ -34,6 +34,7 @@
 
 #include "check.h"
 #include "engine.h"
+#include "grow_params.h"
 
 typedef struct sleeper {
     long us;
@@ -59,13 +60,7 @@ static int grow(int dim, uint64_t n, uint64_t serial_until, int threads, uint64_
                 const engine_hooks *h, sleeper *s, run *out)
 {
     pdla_params p;
-    pdla_params_default(&p);
-    p.dim = dim;
-    p.target = n;
-    p.threads = threads;
-    p.serial_until = serial_until;
-    p.seed = seed;
-    p.rg_per_decade = 0;
+    grow_params(&p, dim, n, threads, serial_until, seed);
     pdla_engine *e;
     char err[256];
     if (pdla_engine_create(&e, &p, err, sizeof err)) {

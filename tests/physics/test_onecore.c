@@ -35,6 +35,7 @@
 
 #include "check.h"
 #include "engine.h"
+#include "grow_params.h"
 
 typedef struct onecore {
     int cpu;                  /* the CPU every worker must run on */
@@ -91,13 +92,7 @@ static double grow_rg(uint64_t n, uint64_t serial_until, int threads, uint64_t s
                       const engine_hooks *h, arm_stats *acc)
 {
     pdla_params p;
-    pdla_params_default(&p);
-    p.dim = 2;
-    p.target = n;
-    p.threads = threads;
-    p.serial_until = serial_until;
-    p.seed = seed;
-    p.rg_per_decade = 0;
+    grow_params(&p, 2, n, threads, serial_until, seed);
     pdla_engine *e;
     char err[256];
     if (pdla_engine_create(&e, &p, err, sizeof err)) {

@@ -36,6 +36,7 @@
 #include "check.h"
 #include "fit.h"
 #include "pdla/pdla.h"
+#include "grow_params.h"
 
 typedef struct ensemble {
     size_t count;
@@ -156,14 +157,8 @@ static double grow_rg(int dim, uint64_t n, uint64_t serial_until, int threads, i
                       uint64_t seed, lag_stat *lag)
 {
     pdla_params p;
-    pdla_params_default(&p);
-    p.dim = dim;
-    p.target = n;
-    p.threads = threads;
+    grow_params(&p, dim, n, threads, serial_until, seed);
     p.reference_walkers = refs;
-    p.serial_until = serial_until;
-    p.seed = seed;
-    p.rg_per_decade = 0;
     pdla_engine *e;
     char err[256];
     if (pdla_engine_create(&e, &p, err, sizeof err) ||

@@ -16,6 +16,9 @@ args="--model event --dim 2 --particles 20000 --packing 0.2 --seed-radius 1 --st
 
 "$pdla" $args --out "$t/A" >"$t/outA" 2>&1 || fail "uninterrupted run: $(cat "$t/outA")"
 
+# Checkpoints every 0.05 s of wall time: the whole run takes about 1 s on a
+# quiet machine, and with 0.2 s the first stop could come so late that the
+# resumed part ended before its own first checkpoint (and its signal).
 # stop_when_running SIGNAL DIR PID: wait until DIR/checkpoint.h5 is newer
 # than DIR/stamp (an interval checkpoint: the run is under way), then signal.
 stop_when_running() {
@@ -30,7 +33,7 @@ stop_when_running() {
 interrupted() { h5dump -a /results/stop_reason "$1/cluster.h5" 2>/dev/null | grep -q interrupted; }
 
 mkdir "$t/B" && touch "$t/B/stamp"
-"$pdla" $args --checkpoint-every 0.2 --out "$t/B" --force >"$t/outB1" 2>&1 &
+"$pdla" $args --checkpoint-every 0.05 --out "$t/B" --force >"$t/outB1" 2>&1 &
 pid=$!
 stop_when_running INT "$t/B" $pid
 wait $pid
@@ -42,7 +45,7 @@ ls -a "$t/B" | grep -q '\.tmp' && fail "a temporary file was left: $(ls -a "$t/B
 
 sleep 0.01
 touch "$t/B/stamp"
-"$pdla" --model event --resume "$t/B" --checkpoint-every 0.2 >"$t/outB2" 2>&1 &
+"$pdla" --model event --resume "$t/B" --checkpoint-every 0.05 >"$t/outB2" 2>&1 &
 pid=$!
 stop_when_running TERM "$t/B" $pid
 wait $pid

@@ -9,12 +9,14 @@
  *       off-lattice code, see the README).
  *   test_physics 3 M N   3D ensemble: D_f in [2.40, 2.60] over [1e3, N].
  *
- *   test_physics 2 M N THREADS SERIAL_UNTIL   PDLA against DLA: the same
- *       ensemble grown serially and with THREADS workers after SERIAL_UNTIL
- *       particles; the PDLA ensemble-mean R_g(n) stays within 2% of the
- *       serial one at every sampled n in [10 SERIAL_UNTIL, N] and its D_f is in
- *       [1.66, 1.76]. (A live shared tree with P walkers is DLA while P/N is
- *       small; a frozen snapshot per batch would drift by percents.)
+ *   test_physics 2 M N THREADS SERIAL_UNTIL   PDLA against DLA, M pairs:
+ *       each seed grown serially and with THREADS workers after the same
+ *       SERIAL_UNTIL serial particles; the mean over the pairs of
+ *       ln(R_g PDLA / R_g DLA) is within max(2%, 4.5 standard errors) at the
+ *       first sample past 10 SERIAL_UNTIL and at N, and the D_f of the PDLA
+ *       ensemble-mean R_g is in [1.66, 1.76]. (A live shared tree with P
+ *       walkers is DLA while P/N is small; a frozen snapshot per batch would
+ *       drift by percents.)
  *
  *   test_physics pair DIM M N SERIAL_UNTIL THREADS_A REFS_A THREADS_B REFS_B TOL
  *       Paired ensembles (issue 11): M seeds, each grown to SERIAL_UNTIL
@@ -42,16 +44,15 @@ typedef struct ensemble {
     size_t count;
     uint64_t *grid_n;
     double *mean_rg;
-    double *se_log_rg; /* standard error of the mean of ln R_g */
     double df_mean, df_sd;
 } ensemble;
 
 static ensemble grow_ensemble(int dim, int clusters, uint64_t n, int threads, uint64_t serial_until)
 {
-    ensemble out = {0, NULL, NULL, NULL, 0, 0};
+    ensemble out = {0, NULL, NULL, 0, 0};
     size_t count = 0;
     uint64_t *grid_n = NULL;
-    double *sum_log_rg = NULL, *sum_log_rg2 = NULL;
+    double *sum_log_rg = NULL;
     double df_sum = 0, df_sum2 = 0;
     for (int i = 0; i < clusters; i++) {
         pdla_params p;
@@ -76,14 +77,12 @@ static ensemble grow_ensemble(int dim, int clusters, uint64_t n, int threads, ui
             count = sc;
             grid_n = malloc(sc * sizeof *grid_n);
             sum_log_rg = calloc(sc, sizeof *sum_log_rg);
-            sum_log_rg2 = calloc(sc, sizeof *sum_log_rg2);
             memcpy(grid_n, sn, sc * sizeof *grid_n);
         }
         CHECK(sc == count, "cluster %d has %zu samples, cluster 0 has %zu", i, sc, count);
         for (size_t k = 0; k < count && k < sc; k++) {
             CHECK(sn[k] == grid_n[k], "sample grids differ");
             sum_log_rg[k] += log(srg[k]);
-            sum_log_rg2[k] += log(srg[k]) * log(srg[k]);
         }
         const pdla_fit f = pdla_engine_fit(e);
         df_sum += f.df;
@@ -91,15 +90,10 @@ static ensemble grow_ensemble(int dim, int clusters, uint64_t n, int threads, ui
         pdla_engine_destroy(e);
     }
     double *mean_rg = malloc(count * sizeof *mean_rg);
-    double *se = malloc(count * sizeof *se);
     for (size_t k = 0; k < count; k++) {
-        const double m = sum_log_rg[k] / clusters;
-        mean_rg[k] = exp(m);
-        se[k] = clusters > 1 ? sqrt(fmax(0, sum_log_rg2[k] / clusters - m * m) / (clusters - 1)) : 0;
+        mean_rg[k] = exp(sum_log_rg[k] / clusters);
     }
     free(sum_log_rg);
-    free(sum_log_rg2);
-    out.se_log_rg = se;
     out.count = count;
     out.grid_n = grid_n;
     out.mean_rg = mean_rg;
@@ -108,42 +102,106 @@ static ensemble grow_ensemble(int dim, int clusters, uint64_t n, int threads, ui
     return out;
 }
 
-static int compare_pdla(int clusters, uint64_t n, int threads, uint64_t serial_until)
+/* One growth of the PDLA-against-DLA comparison: its R_g series (ln R_g
+ * at the fixed sample points, in ln_rg[0..count)), and its stats. */
+static size_t grow_series(uint64_t n, int threads, uint64_t serial_until, uint64_t seed,
+                          uint64_t *grid_n, double *ln_rg, size_t cap, pdla_stats *st)
 {
-    const ensemble dla = grow_ensemble(2, clusters, n, 1, serial_until);
-    const ensemble pdla = grow_ensemble(2, clusters, n, threads, serial_until);
-    CHECK(dla.count == pdla.count && dla.count > 0, "sample grids differ");
-    if (dla.count != pdla.count || !dla.count) return check_finish();
-    /* Compared at 10x the serial size and at N: within 2%, or within three
-     * standard errors of the difference where the ensembles are too small
-     * to resolve 2% (the fast CI run; the slow one resolves it). */
-    double worst = 0;
-    for (size_t k = 0; k < dla.count; k++) {
-        const uint64_t at = dla.grid_n[k];
-        const int last = k + 1 == dla.count;
-        if (!last && !(at >= 10 * serial_until && (k == 0 || dla.grid_n[k - 1] < 10 * serial_until)))
-            continue;
-        const double rel = pdla.mean_rg[k] / dla.mean_rg[k] - 1;
-        const double se = sqrt(dla.se_log_rg[k] * dla.se_log_rg[k] + pdla.se_log_rg[k] * pdla.se_log_rg[k]);
-        const double tol = fmax(0.02, 3 * se);
-        if (fabs(rel) > fabs(worst)) worst = rel;
-        fprintf(stderr, "N = %llu: PDLA/DLA R_g - 1 = %+.2f%% (standard error %.2f%%, tolerance %.2f%%)\n",
-                (unsigned long long)at, 100 * rel, 100 * se, 100 * tol);
-        CHECK(fabs(rel) <= tol, "PDLA R_g differs from DLA by %.2f%% at N = %llu (tolerance %.2f%%)",
-              100 * rel, (unsigned long long)at, 100 * tol);
+    pdla_params p;
+    pdla_params_default(&p);
+    p.dim = 2;
+    p.target = n;
+    p.threads = threads;
+    p.serial_until = serial_until;
+    p.seed = seed;
+    pdla_engine *e;
+    char err[256];
+    if (pdla_engine_create(&e, &p, err, sizeof err) ||
+        pdla_engine_grow(e, n, NULL, 0, NULL, err, sizeof err)) {
+        CHECK(0, "growth failed: %s", err);
+        return 0;
     }
-    const pdla_fit f = fit_powerlaw(pdla.grid_n, pdla.mean_rg, pdla.count, 1000, n);
-    fprintf(stderr, "%d clusters of %llu, %d threads after %llu: largest R_g deviation from DLA "
-                    "%+.2f%%; PDLA D_f = %.4f\n",
-            clusters, (unsigned long long)n, threads, (unsigned long long)serial_until, 100 * worst,
-            f.df);
+    const uint64_t *sn;
+    const double *srg;
+    size_t sc;
+    pdla_engine_rg_series(e, &sn, &srg, &sc);
+    CHECK(sc <= cap, "%zu R_g samples, room for %zu", sc, cap);
+    const size_t count = sc < cap ? sc : cap;
+    for (size_t k = 0; k < count; k++) {
+        grid_n[k] = sn[k];
+        ln_rg[k] = log(srg[k]);
+    }
+    pdla_engine_stats(e, st);
+    pdla_engine_destroy(e);
+    return count;
+}
+
+/* PDLA against DLA, paired by seed: seed 1000 + i grows the same serial
+ * prefix (SERIAL_UNTIL) and then on to N serially and with THREADS
+ * workers; the statistic at a sample point is the mean over seeds of
+ * ln(R_g PDLA / R_g DLA), its standard error from the pairs' spread.
+ * Checked at the first sample past 10 SERIAL_UNTIL and at N.
+ *
+ * This is the coarse guard (a PDLA phase that grows another law: a frozen
+ * snapshot per batch, lost or doubled particles, a broken re-check would
+ * move R_g by percents); the 0.1% questions of issue 11 are the paired
+ * tests pdla-one-cpu-2e4 (fast) and the slow suite's. Tolerance: 2%, or
+ * 4.5 standard errors where the pairs are too few to resolve 2% (so a
+ * correct engine fails with probability ~1e-5 per check: the test runs in
+ * every CI, in the release and the TSan build). With 32 pairs of 3e4 after
+ * 2e3 (pair sd ~2.7%, se ~0.48%) the tolerance is 2.2%. A failure prints the
+ * straggler relaunches and lags, so the regime that made it can be read. */
+static int compare_pdla(int pairs, uint64_t n, int threads, uint64_t serial_until)
+{
+    enum { CAP = 4096 }; /* R_g samples: 100 a decade by default */
+    static uint64_t grid_d[CAP], grid_p[CAP];
+    static double ln_d[CAP], ln_p[CAP], sum[CAP], sum2[CAP], sum_ln_p[CAP], mean_rg[CAP];
+    size_t count = 0;
+    uint64_t relaunches = 0, lag_n = 0, lag_sum = 0, lag0 = 0;
+    for (int i = 0; i < pairs; i++) {
+        const uint64_t seed = 1000 + (uint64_t)i;
+        pdla_stats sd, sp;
+        const size_t cd = grow_series(n, 1, serial_until, seed, grid_d, ln_d, CAP, &sd);
+        const size_t cp = grow_series(n, threads, serial_until, seed, grid_p, ln_p, CAP, &sp);
+        CHECK(cd > 0 && cd == cp && !memcmp(grid_d, grid_p, cd * sizeof *grid_d),
+              "seed %llu: sample grids differ (%zu and %zu points)", (unsigned long long)seed, cd, cp);
+        if (!cd || cd != cp || (count && cd != count)) return check_finish();
+        count = cd;
+        for (size_t k = 0; k < count; k++) {
+            const double d = ln_p[k] - ln_d[k];
+            sum[k] += d;
+            sum2[k] += d * d;
+            sum_ln_p[k] += ln_p[k];
+        }
+        relaunches += sp.relaunches;
+        lag_n += sp.lag_n;
+        lag_sum += sp.lag_sum;
+        lag0 += sp.lag_hist[0];
+    }
+    double worst = 0;
+    for (size_t k = 0; k < count; k++) {
+        const uint64_t at = grid_d[k];
+        const int last = k + 1 == count;
+        if (!last && !(at >= 10 * serial_until && (k == 0 || grid_d[k - 1] < 10 * serial_until)))
+            continue;
+        const pair_stat st = pair_stat_of(sum[k], sum2[k], pairs);
+        const double tol = fmax(0.02, 4.5 * st.se);
+        if (fabs(st.mean) > fabs(worst)) worst = st.mean;
+        fprintf(stderr, "N = %llu: ln(R_g PDLA / R_g DLA), mean of %d pairs = %+.3f%% +- %.3f%% "
+                        "(pair sd %.2f%%, tolerance %.2f%%)\n",
+                (unsigned long long)at, pairs, 100 * st.mean, 100 * st.se, 100 * st.sd, 100 * tol);
+        CHECK(fabs(st.mean) <= tol, "PDLA R_g differs from DLA by %+.2f%% at N = %llu (tolerance %.2f%%)",
+              100 * st.mean, (unsigned long long)at, 100 * tol);
+    }
+    for (size_t k = 0; k < count; k++) mean_rg[k] = exp(sum_ln_p[k] / pairs);
+    const pdla_fit f = fit_powerlaw(grid_d, mean_rg, count, 1000, n);
+    fprintf(stderr, "%d pairs of %llu, %d threads after %llu: largest R_g deviation from DLA "
+                    "%+.2f%%; PDLA D_f = %.4f; per PDLA run %.0f straggler relaunches, lag mean %.2f, "
+                    "%.1f%% of particles with lag 0\n",
+            pairs, (unsigned long long)n, threads, (unsigned long long)serial_until, 100 * worst,
+            f.df, (double)relaunches / pairs, lag_n ? (double)lag_sum / (double)lag_n : 0,
+            lag_n ? 100.0 * (double)lag0 / (double)lag_n : 100.0);
     CHECK(f.df >= 1.66 && f.df <= 1.76, "PDLA D_f %.4f outside [1.66, 1.76]", f.df);
-    free(dla.grid_n);
-    free(dla.mean_rg);
-    free(dla.se_log_rg);
-    free(pdla.grid_n);
-    free(pdla.mean_rg);
-    free(pdla.se_log_rg);
     return check_finish();
 }
 
@@ -258,7 +316,6 @@ int main(int argc, char **argv)
         CHECK(f.df >= 2.40 && f.df <= 2.60, "3D D_f %.4f outside [2.40, 2.60]", f.df);
     }
     free(ens.grid_n);
-    free(ens.se_log_rg);
     free(mean_rg);
     return check_finish();
 }

@@ -101,10 +101,27 @@ run --resume sig -q --target $((n2 + 500)) --threads 2
 grep -q "^particles  *$((n2 + 500)) of $((n2 + 500))$" sig/summary.txt || fail "raised target: $(grep particles sig/summary.txt)"
 
 # ---- the lock ---------------------------------------------------------------
-"$PDLA" --resume sig -q --target 1e9 2>/dev/null </dev/null &
+# The second writer comes once the first holds the lock: when a checkpoint
+# newer than the stamp appears (only the lock holder writes one), not after
+# a fixed sleep - on a loaded machine the first pdla could still be starting
+# after 0.5 s, the second then took the lock and grew to 1e9 (a hang). The
+# second's target is finite, so a broken lock fails (exit 0) instead of hanging.
+touch stamp
+"$PDLA" --resume sig -q --target 1e9 --checkpoint-every 0.05s 2>/dev/null </dev/null &
 pid=$!
-sleep 0.5
-bad "second writer" 2 "run directory 'sig' is in use by another pdla process" --resume sig --target 1e9
+i=0
+while [ -z "$(find sig -maxdepth 1 -name checkpoint.h5 -newer stamp 2>/dev/null)" ] && [ $i -lt 1200 ] &&
+    kill -0 $pid 2>/dev/null; do
+    sleep 0.05
+    i=$((i + 1))
+done
+if [ -n "$(find sig -maxdepth 1 -name checkpoint.h5 -newer stamp 2>/dev/null)" ]; then
+    bad "second writer" 2 "run directory 'sig' is in use by another pdla process" --resume sig \
+        --target $((n2 + 100000))
+else
+    checks=$((checks + 1))
+    fail "lock: the first writer wrote no checkpoint in 60 s"
+fi
 kill -TERM $pid
 wait $pid
 

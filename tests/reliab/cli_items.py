@@ -135,11 +135,33 @@ check(rc == 0 and not left, "item 8: --force run left %r" % left)
 rc, err = pdla("render", W("F", "cluster.h5"), "-o", W("z.png"), "--zoom", "1e6", timeout=20)
 check(rc == 0 and os.path.getsize(W("z.png")) > 0, "item 9: render --zoom 1e6: %r %r" % (rc, err))
 
-# --- item 10: a directory named STOP is not a stop request
+# --- item 10: a directory named STOP is not a stop request. pdla looks for
+# RUN_DIR/STOP once per second of growth, so the run must grow past that
+# look: the resume to 6000 it replaces grew for 0.1 s (release, loaded VM)
+# and never looked, so it could not fail. This one grows until SIGTERM, 2.5 s
+# after its first checkpoint; it must stop by that signal, the STOP
+# directory left where it was.
 os.mkdir(W("R", "STOP"))
-rc, err = pdla("--resume", W("R"), "--target", "6000", "--checkpoint-every", "0.2", "-q", timeout=60)
-check(rc == 0 and len(positions(W("R", "cluster.h5"))) == 6000,
-      "item 10: STOP directory stopped the resume: %r %r" % (rc, err))
+ck = W("R", "checkpoint.h5")
+ck0 = os.stat(ck).st_mtime_ns
+with open(W("stop-item.err"), "w+b") as errf:
+    p = subprocess.Popen([PDLA, "--resume", W("R"), "--target", "1e9", "--checkpoint-every", "0.2", "-q"],
+                         stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=errf)
+    t0 = time.monotonic()
+    while p.poll() is None and os.stat(ck).st_mtime_ns == ck0 and time.monotonic() - t0 < 60:
+        time.sleep(0.05)
+    if p.poll() is None:
+        time.sleep(2.5)
+        p.terminate()
+    try:
+        rc = p.wait(timeout=60)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        rc = p.wait()
+    errf.seek(0)
+    err = errf.read().decode("utf-8", "replace")
+check(rc == 0 and "stopped by signal" in err and os.path.isdir(W("R", "STOP")),
+      "item 10: STOP directory stopped the resume (or no signal stop): %r %r" % (rc, err))
 
 # --- item 10: --force over an older run's checkpoints
 rc, err = pdla("--target", "2000", "--out", W("O"), "--checkpoint", "-q")

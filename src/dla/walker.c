@@ -52,8 +52,9 @@ static inline __attribute__((always_inline)) int return_to_birth(walker_ctx *w, 
 {
     double out[3];
     if (dim == 2) {
-        const double theta = sample_return_angle2(&w->rng, r, Rb);
-        sample_rotate_to2((double)p[0], (double)p[1], theta, Rb, out);
+        double cs[2];
+        sample_return_cs2(&w->rng, r, Rb, cs);
+        sample_rotate_cs2((double)p[0], (double)p[1], r, cs, Rb, out);
     } else {
         double cos_theta;
         if (!sample_return3(&w->rng, r, Rb, &cos_theta)) return 0;
@@ -80,8 +81,13 @@ static inline __attribute__((always_inline)) void jump(walker_ctx *w, int64_t *p
                                                        const int dim)
 {
     double v[3];
-    random_dir(&w->rng, v, dim);
-    for (int a = 0; a < dim; a++) p[a] += round_i64(s * v[a]);
+    if (dim == 2) {
+        sample_step2(&w->rng, s, v);
+        for (int a = 0; a < 2; a++) p[a] += round_i64(v[a]);
+    } else {
+        sample_dir3(&w->rng, v);
+        for (int a = 0; a < 3; a++) p[a] += round_i64(s * v[a]);
+    }
     w->jumps++;
 }
 

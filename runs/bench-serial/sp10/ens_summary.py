@@ -24,10 +24,13 @@ for n in sorted({k[0] for k in by}, key=float):
         for k in keys:
             ma, sa, _ = ms([float(r[k]) for r in a]); mb, sb, _ = ms([float(r[k]) for r in b])
             se = math.hypot(sa, sb)
-            print(f"  {labels[1]} - {labels[0]} {k}: {mb - ma:+.4f} +/- {se:.4f} ({100 * (mb - ma) / ma:+.3f}% +/- {100 * se / ma:.3f}%), z = {(mb - ma) / se:+.2f}")
-        ua = {r["seed"]: float(r["user_s"]) for r in a}; ub = {r["seed"]: float(r["user_s"]) for r in b}
-        common = [s for s in ua if s in ub]
-        if common:
-            rat = [math.log(ub[s] / ua[s]) for s in common if ua[s] > 0 and ub[s] > 0]
+            print(f"  {labels[1]} - {labels[0]} {k}: {mb - ma:+.4f} +/- {se:.4f} ({100 * (mb - ma) / ma:+.3f}% +/- {100 * se / ma:.3f}%), z = {(mb - ma) / se if se > 0 else float('nan'):+.2f}")
+        # pairs: the k-th run of a seed by one label with the k-th by the other
+        ua, ub = collections.defaultdict(list), collections.defaultdict(list)
+        for r in a: ua[r["seed"]].append(float(r["user_s"]))
+        for r in b: ub[r["seed"]].append(float(r["user_s"]))
+        pairs = [(x, y) for s in ua if s in ub for x, y in zip(ua[s], ub[s]) if x > 0 and y > 0]
+        if pairs:
+            rat = [math.log(y / x) for x, y in pairs]
             m, se, _ = ms(rat)
-            print(f"  paired user s, {len(rat)} seeds: {labels[1]}/{labels[0]} = {math.exp(m):.4f} (log se {se:.4f}); sums {sum(ua[s] for s in common):.2f} vs {sum(ub[s] for s in common):.2f}")
+            print(f"  paired user s, {len(pairs)} pairs: {labels[1]}/{labels[0]} = {math.exp(m):.4f} (log se {se:.4f}); sums {sum(x for x, _ in pairs):.2f} vs {sum(y for _, y in pairs):.2f}")

@@ -234,6 +234,7 @@ static inline __attribute__((always_inline)) void walk_begin_dim(const pdla_engi
     s->jumps = 0;
     s->launched_at = tree_count(&e->tree);
     s->step_seen = s->launched_at;
+    s->near = 0;
 }
 
 /* With worker threads: 1 if more than w->relaunch_after particles were
@@ -275,6 +276,16 @@ static inline __attribute__((always_inline)) int walk_stale(const pdla_engine *e
     }
     return 1;
 }
+
+/* 2D: a block answer below 128 units is exact (its cut is at least one
+ * leaf, 256 units), so a particle q lies at d < 128 from p. The jump of
+ * d - D - 1 (plus < 1 unit of rounding) ends less than 2d - D < 256 from q,
+ * so within one fine cell (>= 256 units) of q's occupied cell on each axis:
+ * the map's fine value there is at most 1 and distmap_bound is 0, which the
+ * next step then need not look up (the answer is the same). Particles are
+ * only added and map values only fall, so it holds for walkers stepped in
+ * turn (reference.c) too; with worker threads it is not used. */
+#define NEAR_SKIP2 ((uint64_t)128 * 128)
 
 /* The parameters a step reads, converted once per walk (walk_dim) rather
  * than reloaded from the engine on every jump: the step's calls into
@@ -330,7 +341,11 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
         launch(w, s->Rb, p, dim);
         s->jumps = 0;
         s->launched_at = tree_count(t);
+        s->near = 0;
     }
+    /* Set by the last step's jump: then the map's bound here is 0. */
+    const int near = s->near;
+    s->near = 0;
     double r2 = 0;
     for (int a = 0; a < dim; a++) r2 += (double)p[a] * (double)p[a];
     if (r2 > s->Rout2) {
@@ -359,7 +374,7 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
      * distance (at least one map cell, far above the sticking shell).
      * --exact-search (the reference setting) skips the map and the
      * block cut: every jump is by the exact distance from the tree. */
-    const int64_t far = kc.exact ? 0 : distmap_bound(&e->dmap, p, dim);
+    const int64_t far = kc.exact || near ? 0 : distmap_bound(&e->dmap, p, dim);
     if (far > 0) {
         if (conc && walk_stale(e, w, seen, p, (uint64_t)far * (uint64_t)far, RECENT_NEAR))
             return WALK_MOVED;
@@ -374,8 +389,11 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
      * whenever it gives one, so the walk is the same; serial only, as the
      * list is remade whenever the tree grows.) */
     uint64_t d2 = UINT64_MAX;
-    if (dim == 2 && !kc.exact)
+    int exact_near = 0;
+    if (dim == 2 && !kc.exact) {
         d2 = search_block2(t, &e->search, &e->dmap, p, &w->ss);
+        exact_near = d2 < NEAR_SKIP2;
+    }
     else if (dim == 3 && !conc && !kc.exact)
         d2 = search_near2(t, &e->search, p, &w->ss);
     if (d2 == UINT64_MAX) d2 = search_lower_bound2(t, &e->search, p, UINT64_MAX, &w->ss);
@@ -393,6 +411,7 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
     if (conc && walk_stale(e, w, seen, p, d2, RECENT_NEAR)) return WALK_MOVED;
     jump(w, p, sqrt((double)d2) - D - 1.0, dim);
     s->jumps++;
+    s->near = !conc && exact_near;
     return WALK_MOVED;
 }
 

@@ -57,10 +57,10 @@ static inline void sample_dir2(pdla_rng *rng, double v[2])
  * integers, are a point (x, y) of the integer lattice in [-2^31, 2^31)^2,
  * kept when 0 < x^2 + y^2 < 2^62 (exact in 64-bit integers; the one
  * unsigned compare also rejects 0). The kept set is symmetric under the
- * square's eight symmetries, and its angles are uniform up to the lattice's
- * discrepancy, a relative ~2^-31 of any sector's probability (~5e-10: a
- * jump of 1e6 units lands within ~1e-3 units of where its law puts it,
- * against the half unit of the grid rounding that follows). Doubling the
+ * square's eight symmetries, and the CDF of its angle is the uniform one up
+ * to an absolute error of order 2^-31 (~5e-10, the lattice points along a
+ * sector's edges): a jump of 1e6 units lands within ~1e-3 units of where
+ * its law puts it, against the half unit of the grid rounding that follows. Doubling the
  * angle, as in sample_dir2, needs no square root: the direction is
  * (x^2 - y^2, 2xy) / (x^2 + y^2), integers below 2^62 in magnitude,
  * converted to double with a relative rounding of 2^-53; the one division

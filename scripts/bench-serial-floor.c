@@ -242,12 +242,14 @@ static inline __attribute__((always_inline)) uint64_t jump_loop(uint64_t njumps,
             continue;
         }
         double v[3];
-        if (dim == 2)
-            sample_dir2(&rng, v);
-        else
-            sample_dir3(&rng, v);
         const double s = radius[i & 1023];
-        for (int a = 0; a < dim; a++) p[a] += round_i64(s * v[a]);
+        if (dim == 2) {
+            sample_step2(&rng, s, v); /* the walker's 2D jump (walker.c) */
+            for (int a = 0; a < 2; a++) p[a] += round_i64(v[a]);
+        } else {
+            sample_dir3(&rng, v);
+            for (int a = 0; a < 3; a++) p[a] += round_i64(s * v[a]);
+        }
         jumps++;
     }
     return jumps + outside;

@@ -180,6 +180,7 @@ typedef struct walk_state {
     uint64_t step_seen;       /* workers: the count read by the last step */
     int64_t r_ext_units;      /* the R_ext the radii below were drawn from */
     double r_ext, Rb, Rout2, Rdeath;
+    int near;                 /* 2D, one thread: the map's bound here is 0 (walker.c) */
 } walk_state;
 
 /* Launch a walker on the birth circle (sphere). */

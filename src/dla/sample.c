@@ -1,8 +1,9 @@
 /*
  * sample.c - the walker's random geometry (see sample.h for the laws).
  *
- * sample_dir2/3 (inline in sample.h) run once per walker jump, so they use
- * rejection from the square and no libm call but one sqrt in 3D. The return
+ * sample_step2 and sample_dir3 (inline in sample.h) run once per walker
+ * jump, so they use rejection from the square and no libm call but one sqrt
+ * in 3D; the 2D return (sample_return_cs2) needs no libm call either. The return
  * samplers run only when a walker leaves the birth circle/sphere; there the
  * concern is precision, not speed: r/R may be 1 + 1e-12 (a walker just
  * outside) or 1e300, so every formula below is arranged to avoid
@@ -12,7 +13,7 @@
 
 #include <math.h>
 
-double sample_return_angle2(pdla_rng *rng, double r, double R)
+void sample_return_cs2(pdla_rng *rng, double r, double R, double cs[2])
 {
     /* k = (r - R) / (r + R). r - R is exact when r and R are close (Sterbenz),
      * which is where k matters most; halving both terms keeps r + R finite
@@ -20,16 +21,40 @@ double sample_return_angle2(pdla_rng *rng, double r, double R)
      * uniform to double precision anyway. A walker at or inside R (which the
      * caller should not send) returns where it is. */
     const double gap = r - R;
-    if (!(gap > 0.0)) return 0.0;
+    if (!(gap > 0.0)) {
+        cs[0] = 1.0;
+        cs[1] = 0.0;
+        return;
+    }
     double k = (0.5 * gap) / (0.5 * r + 0.5 * R);
     if (k > 1.0) k = 1.0;
-    /* u is open, so pi (u - 1/2) stays inside (-pi/2, pi/2) and tan is finite
-     * (at most ~1.6e16); the atan of the product is then within (-pi/2, pi/2). */
-    const double u = rng_uniform_open(rng);
-    double theta = 2.0 * atan(k * tan(M_PI * (u - 0.5)));
-    if (theta > M_PI) theta = M_PI;
-    if (theta <= -M_PI) theta = M_PI;
-    return theta;
+    /* tan(pi (u - 1/2)) with u uniform is a standard Cauchy variable, and so
+     * is b/a for (a, b) uniform in the unit disk (its angle is uniform). With
+     * w = k b/a, theta = 2 atan(w) has cos = (1 - w^2)/(1 + w^2) and sin =
+     * 2w/(1 + w^2); times a^2/a^2 that is (a^2 - (kb)^2, 2a(kb)) / (a^2 +
+     * (kb)^2): no trig, no division by a (a = 0, probability 2^-53, is
+     * theta = pi). The disk point comes from two 52-bit uniforms (as
+     * sample_dir2), so the angle is as fine as the old tan/atan form's. */
+    for (;;) {
+        const double a = sample_uniform_pm1(rng);
+        const double b = sample_uniform_pm1(rng);
+        const double s = a * a + b * b;
+        if (s >= 1.0 || s < 1e-300) continue;
+        const double kb = k * b, a2 = a * a, kb2 = kb * kb;
+        const double inv = 1.0 / (a2 + kb2);
+        cs[0] = (a2 - kb2) * inv;
+        cs[1] = 2.0 * a * kb * inv;
+        return;
+    }
+}
+
+double sample_return_angle2(pdla_rng *rng, double r, double R)
+{
+    double cs[2];
+    sample_return_cs2(rng, r, R, cs);
+    const double theta = atan2(cs[1], cs[0]);
+    /* atan2(-0, -1) is -pi: the same point as pi. */
+    return theta <= -M_PI ? M_PI : theta;
 }
 
 int sample_return3(pdla_rng *rng, double r, double R, double *cos_theta)
@@ -88,12 +113,17 @@ void sample_cone_point3(pdla_rng *rng, const double u[3], double R, double cos_t
     for (int i = 0; i < 3; i++) out[i] = R * (c * u[i] + s1 * e1[i] + s2 * e2[i]);
 }
 
+void sample_rotate_cs2(double x, double y, double r, const double cs[2], double R,
+                       double out[2])
+{
+    const double scale = R / r;
+    out[0] = scale * (cs[0] * x - cs[1] * y);
+    out[1] = scale * (cs[1] * x + cs[0] * y);
+}
+
 void sample_rotate_to2(double x, double y, double theta, double R, double out[2])
 {
     /* hypot avoids overflow and underflow of x^2 + y^2 for any finite point. */
-    const double scale = R / hypot(x, y);
-    const double c = cos(theta);
-    const double s = sin(theta);
-    out[0] = scale * (c * x - s * y);
-    out[1] = scale * (s * x + c * y);
+    const double cs[2] = {cos(theta), sin(theta)};
+    sample_rotate_cs2(x, y, hypot(x, y), cs, R, out);
 }

@@ -6,7 +6,8 @@
  * Return laws (r = |p| > R = R_birth):
  *   2D: the walker always returns; the angle between p and the return point is
  *       theta = 2 atan(((r - R)/(r + R)) tan(pi (u - 1/2))), u ~ U(0,1)
- *       (a wrapped Cauchy law with concentration R/r).
+ *       (a wrapped Cauchy law with concentration R/r); sample_return_cs2
+ *       gives its cos and sin without trig (sample.c).
  *   3D: it returns with probability R/r, else it escapes to infinity (a new
  *       walker starts uniformly on the sphere). Given return, the distance rho
  *       from p to the return point has 1/rho uniform on [1/(r+R), 1/(r-R)], and
@@ -51,6 +52,34 @@ static inline void sample_dir2(pdla_rng *rng, double v[2])
     }
 }
 
+/* The 2D walker's jump: len times a uniform unit vector, in d. One 64-bit
+ * draw per try (sample_dir2 takes two): its halves, read as signed 32-bit
+ * integers, are a point (x, y) of the integer lattice in [-2^31, 2^31)^2,
+ * kept when 0 < x^2 + y^2 < 2^62 (exact in 64-bit integers; the one
+ * unsigned compare also rejects 0). The kept set is symmetric under the
+ * square's eight symmetries, and the CDF of its angle is the uniform one up
+ * to an absolute error of order 2^-31 (~5e-10, the lattice points along a
+ * sector's edges): a jump of 1e6 units lands within ~1e-3 units of where
+ * its law puts it, against the half unit of the grid rounding that follows. Doubling the
+ * angle, as in sample_dir2, needs no square root: the direction is
+ * (x^2 - y^2, 2xy) / (x^2 + y^2), integers below 2^62 in magnitude,
+ * converted to double with a relative rounding of 2^-53; the one division
+ * also applies len. */
+static inline void sample_step2(pdla_rng *rng, double len, double d[2])
+{
+    for (;;) {
+        const uint64_t z = rng_next(rng);
+        const int64_t x = (int32_t)(uint32_t)(z >> 32);
+        const int64_t y = (int32_t)(uint32_t)z;
+        const uint64_t s = (uint64_t)(x * x) + (uint64_t)(y * y);
+        if (s - 1 >= (UINT64_C(1) << 62) - 1) continue;
+        const double f = len / (double)(int64_t)s;
+        d[0] = (double)(x * x - y * y) * f;
+        d[1] = (double)(2 * x * y) * f;
+        return;
+    }
+}
+
 static inline void sample_dir3(pdla_rng *rng, double v[3])
 {
     /* Marsaglia (1972): with (x, y) uniform in the unit disk and s = x^2 + y^2,
@@ -70,7 +99,12 @@ static inline void sample_dir3(pdla_rng *rng, double v[3])
 }
 
 
-/* 2D: signed return angle theta in (-pi, pi] for a walker at radius r. */
+/* 2D: cos and sin of the return angle theta for a walker at radius r, in
+ * cs[0], cs[1]; no trig (the walker's return). */
+void sample_return_cs2(pdla_rng *rng, double r, double R, double cs[2]);
+
+/* 2D: signed return angle theta in (-pi, pi] for a walker at radius r: the
+ * angle of sample_return_cs2 (for tests and tools). */
 double sample_return_angle2(pdla_rng *rng, double r, double R);
 
 /* 3D: 1 and *cos_theta if the walker returns (probability R/r), 0 if it is
@@ -81,6 +115,11 @@ int sample_return3(pdla_rng *rng, double r, double R, double *cos_theta);
  * vector u (not renormalised here), azimuth uniform around u. */
 void sample_cone_point3(pdla_rng *rng, const double u[3], double R, double cos_theta,
                         double out[3]);
+
+/* 2D: rotate the point (x, y), whose norm is r, by the angle whose cos and
+ * sin are cs, and scale it to radius R. */
+void sample_rotate_cs2(double x, double y, double r, const double cs[2], double R,
+                       double out[2]);
 
 /* 2D: rotate the point (x, y) by theta and scale it to radius R. */
 void sample_rotate_to2(double x, double y, double theta, double R, double out[2]);

@@ -1325,6 +1325,80 @@ static inline __attribute__((always_inline)) int nearest_point(const tree *t, co
     return found;
 }
 
+/* Smallest r with r^2 >= r2. */
+static inline int64_t ceil_sqrt(uint64_t r2)
+{
+    int64_t r = (int64_t)sqrt((double)r2);
+    while ((uint64_t)(r * r) < r2) r++;
+    return r;
+}
+
+/* Appends the particles of the 2D leaf with corner `corner` whose squared
+ * distance from p is below far2 to pts[n..]; returns the new count, or -1
+ * past cap. Leaves as nearest_point finds them (the walker's block cache,
+ * else its cached tree path), chunks in the same order. */
+static int ball_leaf2(const tree *t, const int64_t *p, const int64_t *corner, uint64_t far2,
+                      search_point *pts, int n, int cap, search_state *k)
+{
+    uint32_t ci = blk_known_head2(k, corner);
+    if (!ci) ci = find_leaf_cached(t, corner, k, 2);
+    if (!ci) return n;
+    for (;;) {
+        const uint8_t *chunk = tree_chunk_at_d(t, ci, 2);
+        const uint32_t link = tree_chunk_link_d(t, chunk, 2);
+        const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+        for (uint32_t j = 0; j < m; j++) {
+            const int64_t x = corner[0] + chunk[j], y = corner[1] + chunk[TREE_CHUNK_CAP + (int)j];
+            const uint64_t d2 = (uint64_t)((p[0] - x) * (p[0] - x)) + (uint64_t)((p[1] - y) * (p[1] - y));
+            if (d2 >= far2) continue;
+            if (n == cap) return -1;
+            pts[n++] = (search_point){{x, y}, d2};
+        }
+        if (link <= TREE_CHUNK_CAP) return n;
+        ci = link;
+    }
+}
+
+int search_ball_points2(const tree *t, const int64_t *p, uint64_t near2, uint64_t far2,
+                        search_point *pts, int cap, search_state *k)
+{
+    const int64_t r0 = ceil_sqrt(near2), r1 = ceil_sqrt(far2);
+    if (r1 >= TREE_LEAF_SIDE || r0 > r1) return -1;
+    int64_t f0[2], s0[2], f1[2], s1[2];
+    for (int a = 0; a < 2; a++) {
+        f0[a] = (p[a] - r0) & ~(int64_t)(TREE_LEAF_SIDE - 1);
+        s0[a] = (((p[a] + r0) & ~(int64_t)(TREE_LEAF_SIDE - 1)) - f0[a]) / TREE_LEAF_SIDE + 1;
+        f1[a] = (p[a] - r1) & ~(int64_t)(TREE_LEAF_SIDE - 1);
+        s1[a] = (((p[a] + r1) & ~(int64_t)(TREE_LEAF_SIDE - 1)) - f1[a]) / TREE_LEAF_SIDE + 1;
+    }
+    int n = 0;
+    /* The leaves of the near ball in nearest_point's order: the 2 x 2 from
+     * the low corner, then those two leaves over on some axis. */
+    const int nvisit = s0[0] > 2 || s0[1] > 2 ? 4 + 9 : 4;
+    for (int i = 0; i < nvisit && n >= 0; i++) {
+        int64_t corner[2];
+        int skip = 0, has2 = 0;
+        for (int a = 0; a < 2; a++) {
+            const int64_t step = i < 4 ? (i >> a) & 1 : block_off[i - 4][a] + 1;
+            has2 |= step == 2;
+            if (step >= s0[a]) skip = 1;
+            corner[a] = f0[a] + step * TREE_LEAF_SIDE;
+        }
+        if (skip || (i >= 4 && !has2)) continue;
+        n = ball_leaf2(t, p, corner, far2, pts, n, cap, k);
+    }
+    /* Then the leaves only the far ball reaches. */
+    for (int64_t sy = 0; sy < s1[1] && n >= 0; sy++)
+        for (int64_t sx = 0; sx < s1[0] && n >= 0; sx++) {
+            const int64_t corner[2] = {f1[0] + sx * TREE_LEAF_SIDE, f1[1] + sy * TREE_LEAF_SIDE};
+            int inside = 1;
+            for (int a = 0; a < 2; a++)
+                inside &= corner[a] >= f0[a] && corner[a] < f0[a] + s0[a] * TREE_LEAF_SIDE;
+            if (!inside) n = ball_leaf2(t, p, corner, far2, pts, n, cap, k);
+        }
+    return n;
+}
+
 int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
                          uint64_t *d2_out)
 {

@@ -130,6 +130,23 @@ int search_nearest_point(const tree *t, const int64_t *p, uint64_t radius2, int6
 int search_nearest_point_cached(const tree *t, const int64_t *p, uint64_t radius2, int64_t *q,
                                 uint64_t *d2, search_state *k);
 
+/* A particle centre and its squared distance from a query point. */
+typedef struct search_point {
+    int64_t x[2];
+    uint64_t d2;
+} search_point;
+
+/* 2D, from a walker's caches (k): every particle centre whose squared
+ * distance from p is below far2 (near2 <= far2 < 256^2), in pts, at most
+ * cap; returns their number, or -1 when there are more (or far2 is out of
+ * range). The leaves of the ball of near2 come first, in
+ * search_nearest_point's order, so the first point of least d2 below near2
+ * is the one search_nearest_point_cached(p, near2) returns. Contact
+ * snapping reads its nearest particle and the overlap checks of its
+ * candidate spots from one such scan (walker.c). */
+int search_ball_points2(const tree *t, const int64_t *p, uint64_t near2, uint64_t far2,
+                        search_point *pts, int cap, search_state *k);
+
 /* Squared lower bound on the distance from p to the cluster from the leaves
  * of the 3^dim block around p's leaf that the map's fine level marks
  * occupied (the fine cells are the leaves), scanned exactly: exact whenever

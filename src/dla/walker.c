@@ -52,8 +52,9 @@ static inline __attribute__((always_inline)) int return_to_birth(walker_ctx *w, 
 {
     double out[3];
     if (dim == 2) {
-        const double theta = sample_return_angle2(&w->rng, r, Rb);
-        sample_rotate_to2((double)p[0], (double)p[1], theta, Rb, out);
+        double cs[2];
+        sample_return_cs2(&w->rng, r, Rb, cs);
+        sample_rotate_cs2((double)p[0], (double)p[1], r, cs, Rb, out);
     } else {
         double cos_theta;
         if (!sample_return3(&w->rng, r, Rb, &cos_theta)) return 0;
@@ -80,9 +81,67 @@ static inline __attribute__((always_inline)) void jump(walker_ctx *w, int64_t *p
                                                        const int dim)
 {
     double v[3];
-    random_dir(&w->rng, v, dim);
-    for (int a = 0; a < dim; a++) p[a] += round_i64(s * v[a]);
+    if (dim == 2) {
+        sample_step2(&w->rng, s, v);
+        for (int a = 0; a < 2; a++) p[a] += round_i64(v[a]);
+    } else {
+        sample_dir3(&w->rng, v);
+        for (int a = 0; a < 3; a++) p[a] += round_i64(s * v[a]);
+    }
     w->jumps++;
+}
+
+/* Up to this many particles near a 2D contact are read in one scan (circles
+ * of diameter D packed within D + eps + 2 of p: far fewer). */
+enum { SNAP_NEAR_CAP = 32 };
+
+/* The particles near a 2D contact, read once (search_ball_points2): those
+ * within reach of p, in the order the nearest search takes them, and every
+ * other one within `far` units of p. n < 0: not read. */
+typedef struct snap_near {
+    search_point pt[SNAP_NEAR_CAP];
+    int n;
+    int64_t far;
+} snap_near;
+
+/* The nearest particle centre within reach (squared reach2) of p, into q and
+ * d2: from the scan when there is one (the first of least d2, as the search
+ * would take it), else from the tree. */
+static int snap_nearest(const tree *t, const int64_t *p, uint64_t reach2, int64_t *q, uint64_t *d2,
+                        search_state *k, const snap_near *nb)
+{
+    if (nb->n < 0) return search_nearest_point_cached(t, p, reach2, q, d2, k);
+    int best = -1;
+    for (int i = 0; i < nb->n; i++)
+        if (nb->pt[i].d2 < reach2 && (best < 0 || nb->pt[i].d2 < nb->pt[best].d2)) best = i;
+    if (best < 0) return 0;
+    q[0] = nb->pt[best].x[0];
+    q[1] = nb->pt[best].x[1];
+    *d2 = nb->pt[best].d2;
+    return 1;
+}
+
+/* 1 if a particle centre lies within D (squared D2) of the spot c. The scan
+ * holds every particle within `far` of p, so it decides whenever c is within
+ * far - D of p (a particle within D of c is then within far of p); else
+ * the tree does. */
+static int snap_blocked(const tree *t, const int64_t *p, const int64_t *c, int64_t D, uint64_t D2,
+                        search_state *k, const snap_near *nb)
+{
+    const int dim = t->dim;
+    uint64_t cp2 = 0;
+    for (int a = 0; a < dim; a++) cp2 += (uint64_t)((c[a] - p[a]) * (c[a] - p[a]));
+    const int64_t slack = nb->far - D;
+    if (nb->n < 0 || slack < 0 || cp2 > (uint64_t)(slack * slack)) {
+        int64_t other[3];
+        uint64_t od2;
+        return search_nearest_point_cached(t, c, D2, other, &od2, k);
+    }
+    for (int i = 0; i < nb->n; i++) {
+        const int64_t dx = nb->pt[i].x[0] - c[0], dy = nb->pt[i].x[1] - c[1];
+        if ((uint64_t)(dx * dx) + (uint64_t)(dy * dy) < D2) return 1;
+    }
+    return 0;
 }
 
 /* Move a walker that stopped inside the sticking shell onto contact with its
@@ -90,13 +149,25 @@ static inline __attribute__((always_inline)) void jump(walker_ctx *w, int64_t *p
  * without it the mean contact distance is D + eps/2, a systematic
  * stretch of the cluster by eps/(2D)). Of the grid points around the exact
  * contact point, take the one nearest to contact that keeps every particle
- * at least D away; if none does, stay put. */
+ * at least D away; if none does, stay put. In 2D the nearest particle and
+ * the candidates' overlap checks come from one scan of the particles within
+ * reach + 2 units of p (a candidate lies within reach - D + sqrt(2) of p
+ * when p is at least D from q), with the same answers as a search each. */
 int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2, search_state *k)
 {
     const int dim = t->dim;
+    snap_near nb;
+    nb.n = -1;
+    nb.far = 0;
+    if (dim == 2 && k) {
+        int64_t reach = (int64_t)sqrt((double)reach2);
+        while ((uint64_t)(reach * reach) < reach2) reach++;
+        nb.far = reach + 2;
+        nb.n = search_ball_points2(t, p, reach2, (uint64_t)(nb.far * nb.far), nb.pt, SNAP_NEAR_CAP, k);
+    }
     int64_t q[3];
     uint64_t d2;
-    if (!search_nearest_point_cached(t, p, reach2, q, &d2, k) || d2 == 0) return 0;
+    if (!snap_nearest(t, p, reach2, q, &d2, k, &nb) || d2 == 0) return 0;
     const double scale = (double)D / sqrt((double)d2);
     double x[3];
     int64_t base[3];
@@ -122,9 +193,7 @@ int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2
         int best = 0;
         for (int i = 1; i < n; i++)
             if (cand_d2[i] < cand_d2[best]) best = i;
-        int64_t other[3];
-        uint64_t od2;
-        if (!search_nearest_point_cached(t, cand[best], D2, other, &od2, k)) {
+        if (!snap_blocked(t, p, cand[best], D, D2, k, &nb)) {
             for (int a = 0; a < dim; a++) p[a] = cand[best][a];
             return 1;
         }
@@ -165,6 +234,7 @@ static inline __attribute__((always_inline)) void walk_begin_dim(const pdla_engi
     s->jumps = 0;
     s->launched_at = tree_count(&e->tree);
     s->step_seen = s->launched_at;
+    s->near = 0;
 }
 
 /* With worker threads: 1 if more than w->relaunch_after particles were
@@ -206,6 +276,16 @@ static inline __attribute__((always_inline)) int walk_stale(const pdla_engine *e
     }
     return 1;
 }
+
+/* 2D: a block answer below 128 units is exact (its cut is at least one
+ * leaf, 256 units), so a particle q lies at d < 128 from p. The jump of
+ * d - D - 1 (plus < 1 unit of rounding) ends less than 2d - D < 256 from q,
+ * so within one fine cell (>= 256 units) of q's occupied cell on each axis:
+ * the map's fine value there is at most 1 and distmap_bound is 0, which the
+ * next step then need not look up (the answer is the same). Particles are
+ * only added and map values only fall, so it holds for walkers stepped in
+ * turn (reference.c) too; with worker threads it is not used. */
+#define NEAR_SKIP2 ((uint64_t)128 * 128)
 
 /* The parameters a step reads, converted once per walk (walk_dim) rather
  * than reloaded from the engine on every jump: the step's calls into
@@ -261,7 +341,11 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
         launch(w, s->Rb, p, dim);
         s->jumps = 0;
         s->launched_at = tree_count(t);
+        s->near = 0;
     }
+    /* Set by the last step's jump: then the map's bound here is 0. */
+    const int near = s->near;
+    s->near = 0;
     double r2 = 0;
     for (int a = 0; a < dim; a++) r2 += (double)p[a] * (double)p[a];
     if (r2 > s->Rout2) {
@@ -290,7 +374,7 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
      * distance (at least one map cell, far above the sticking shell).
      * --exact-search (the reference setting) skips the map and the
      * block cut: every jump is by the exact distance from the tree. */
-    const int64_t far = kc.exact ? 0 : distmap_bound(&e->dmap, p, dim);
+    const int64_t far = kc.exact || near ? 0 : distmap_bound(&e->dmap, p, dim);
     if (far > 0) {
         if (conc && walk_stale(e, w, seen, p, (uint64_t)far * (uint64_t)far, RECENT_NEAR))
             return WALK_MOVED;
@@ -305,8 +389,11 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
      * whenever it gives one, so the walk is the same; serial only, as the
      * list is remade whenever the tree grows.) */
     uint64_t d2 = UINT64_MAX;
-    if (dim == 2 && !kc.exact)
+    int exact_near = 0;
+    if (dim == 2 && !kc.exact) {
         d2 = search_block2(t, &e->search, &e->dmap, p, &w->ss);
+        exact_near = d2 < NEAR_SKIP2;
+    }
     else if (dim == 3 && !conc && !kc.exact)
         d2 = search_near2(t, &e->search, p, &w->ss);
     if (d2 == UINT64_MAX) d2 = search_lower_bound2(t, &e->search, p, UINT64_MAX, &w->ss);
@@ -324,6 +411,7 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
     if (conc && walk_stale(e, w, seen, p, d2, RECENT_NEAR)) return WALK_MOVED;
     jump(w, p, sqrt((double)d2) - D - 1.0, dim);
     s->jumps++;
+    s->near = !conc && exact_near;
     return WALK_MOVED;
 }
 

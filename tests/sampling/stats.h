@@ -8,7 +8,7 @@
  * gamma function (they agree with published tables):
  *   chi-square, 9 dof: 27.877   24 dof: 51.179   49 dof: 85.351
  *               63 dof: 103.442  99 dof: 148.230
- *   two-sample KS: D > 1.9495 sqrt((n + m) / (n m)).
+ *   two-sample KS: D > 1.9495 sqrt((n + m) / (n m)); one-sample: D > 1.9495 / sqrt(n).
  */
 #ifndef PDLA_TESTS_SAMPLING_STATS_H
 #define PDLA_TESTS_SAMPLING_STATS_H
@@ -76,6 +76,22 @@ static inline double ks_two_sample(double *a, size_t n, double *b, size_t m)
         while (j < m && b[j] <= x) j++;
         const double diff = fabs((double)i / (double)n - (double)j / (double)m);
         if (diff > d) d = diff;
+    }
+    return d;
+}
+
+/* One-sample Kolmogorov-Smirnov distance of probability-integral-transformed
+ * values F (uniform on [0, 1] under the tested law) from the uniform law;
+ * sorts F. Critical value at p = 0.001: KS_C_001 / sqrt(n) (asymptotic;
+ * the tests use n >= 1e5). */
+static inline double ks_one_sample(double *F, size_t n)
+{
+    qsort(F, n, sizeof *F, cmp_double_);
+    double d = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        const double above = (double)(i + 1) / (double)n - F[i], below = F[i] - (double)i / (double)n;
+        if (above > d) d = above;
+        if (below > d) d = below;
     }
     return d;
 }

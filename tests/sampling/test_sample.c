@@ -21,10 +21,15 @@ enum { BINS = 50 };
 
 /* ---- 2D return angle: wrapped Cauchy with concentration R/r ------------ */
 
-/* CDF on (-pi, pi]: 1/2 + atan(((r + R)/(r - R)) tan(theta/2)) / pi. */
+/* CDF on (-pi, pi] for k = (r - R)/(r + R): 1/2 + atan(tan(theta/2) / k) / pi. */
+static double cdf_return2_k(double theta, double k)
+{
+    return 0.5 + atan(tan(0.5 * theta) / k) / M_PI;
+}
+
 static double cdf_return2(double theta, double r, double R)
 {
-    return 0.5 + atan((r + R) / (r - R) * tan(0.5 * theta)) / M_PI;
+    return cdf_return2_k(theta, (r - R) / (r + R));
 }
 
 static double quantile_return2(double p, double r, double R)
@@ -50,14 +55,23 @@ static double poisson_kernel2(double theta, const void *param)
            (one_minus_q * one_minus_q + 4.0 * q * s * s);
 }
 
+/* The walker's 2D return (sample_return_cs2, no trig; sample_return_angle2
+ * is its angle) against the wrapped Cauchy law, 1e6 draws per ratio: binned
+ * chi-square (power 0.9 against a relative error of 0.77% in every bin:
+ * noncentrality 1e6 x 0.0077^2 = 59) and one-sample KS on the CDF values
+ * (critical 1.95e-3; the statistic's noise at a fixed point has sd <= 5e-4,
+ * so a CDF error of 0.26% anywhere is rejected with power > 0.9). KS control:
+ * the same draws scored against concentration k x 1.02 (a CDF error of up
+ * to ~0.32%) must be rejected. */
 static void test_return_angle2(void)
 {
     const double ratios[] = {1.0 + 1e-6, 1.01, 1.5, 4.0, 100.0, 1e6};
-    const int samples = 200000;
+    const int samples = 1000000;
     const double R = 1.0;
     pdla_rng rng;
     rng_seed(&rng, 2001);
     double *theta = malloc(samples * sizeof *theta);
+    double *pit = malloc(samples * sizeof *pit);
     for (size_t i = 0; i < sizeof ratios / sizeof ratios[0]; i++) {
         const double r = ratios[i] * R;
         const radii g = {r, R};
@@ -76,13 +90,16 @@ static void test_return_angle2(void)
         for (int n = 0; n < samples; n++) {
             theta[n] = sample_return_angle2(&rng, r, R);
             if (!(theta[n] > -M_PI && theta[n] <= M_PI)) bad++;
-            counts[pit_bin(cdf_return2(theta[n], r, R), BINS)]++;
+            pit[n] = cdf_return2(theta[n], r, R);
+            counts[pit_bin(pit[n], BINS)]++;
         }
         const double chi2 = chi_square(counts, prob, BINS, samples);
-        fprintf(stderr, "2D return angle, r/R = %-11.10g chi2 = %6.2f (49 dof, crit 85.35)",
-                ratios[i], chi2);
+        const double ks = ks_one_sample(pit, samples), ks_crit = KS_C_001 / sqrt(samples);
+        fprintf(stderr, "2D return angle, r/R = %-11.10g chi2 = %6.2f (49 dof, crit 85.35), "
+                        "KS D = %.2e (crit %.2e)", ratios[i], chi2, ks, ks_crit);
         CHECK(bad == 0, "r/R = %g: %d angles outside (-pi, pi]", ratios[i], bad);
         CHECK(chi2 < CHI2_CRIT_49, "r/R = %g: chi2 %.2f", ratios[i], chi2);
+        CHECK(ks < ks_crit, "r/R = %g: KS D %.2e", ratios[i], ks);
 
         /* Negative control: the same angles scored against the law for a walker
          * 20% farther from the circle. Too weak to see far out, where the law
@@ -96,9 +113,16 @@ static void test_return_angle2(void)
             fprintf(stderr, "; control (r - R) x 1.2: chi2 = %.1f", chi2_wrong);
             CHECK(chi2_wrong > CHI2_CRIT_49, "r/R = %g: control not rejected (%.2f)",
                   ratios[i], chi2_wrong);
+            const double k_wrong = 1.02 * (r - R) / (r + R);
+            for (int n = 0; n < samples; n++) pit[n] = cdf_return2_k(theta[n], k_wrong);
+            const double ks_wrong = ks_one_sample(pit, samples);
+            fprintf(stderr, "; KS control k x 1.02: D = %.2e", ks_wrong);
+            CHECK(ks_wrong > ks_crit, "r/R = %g: KS control not rejected (%.2e)", ratios[i],
+                  ks_wrong);
         }
         fputc('\n', stderr);
     }
+    free(pit);
     free(theta);
 }
 
@@ -247,6 +271,53 @@ static void test_dir2(void)
     CHECK(chi2_naive > CHI2_CRIT_63, "control not rejected (%.2f)", chi2_naive);
 }
 
+/* The 2D walker's jump (sample_step2): the length is len, and the angle is
+ * uniform: 64-bin chi-square (power 0.9 against a relative error of 0.81%
+ * in every bin) and one-sample KS on 1e6 angles (critical 1.95e-3; a CDF
+ * error of 0.26% is rejected with power > 0.9). The lattice's own error,
+ * ~5e-10 (sample.h), is far below what any test can see. Controls: the same
+ * angles distorted by phi + 0.02 sin(phi) (a CDF error of 0.32%) must fail
+ * KS, and the point of the square without the disk rejection (the angle
+ * doubled, corners overweighted) must fail the chi-square. */
+static void test_step2(void)
+{
+    enum { bins = 64 };
+    const int samples = 1000000;
+    const double len = 1234.5;
+    pdla_rng rng;
+    rng_seed(&rng, 4003);
+    double *pit = malloc(samples * sizeof *pit), *bent = malloc(samples * sizeof *bent);
+    uint64_t counts[bins] = {0}, naive[bins] = {0};
+    double worst_len = 0.0;
+    for (int n = 0; n < samples; n++) {
+        double d[2];
+        sample_step2(&rng, len, d);
+        worst_len = fmax(worst_len, fabs(hypot(d[0], d[1]) / len - 1.0));
+        const double phi = atan2(d[1], d[0]);
+        pit[n] = (phi + M_PI) / (2.0 * M_PI);
+        counts[angle_bin(phi, bins)]++;
+        const double wphi = remainder(phi + 0.02 * sin(phi), 2.0 * M_PI);
+        bent[n] = (wphi + M_PI) / (2.0 * M_PI);
+        const uint64_t z = rng_next(&rng);
+        const double x = (double)(int32_t)(uint32_t)(z >> 32), y = (double)(int32_t)(uint32_t)z;
+        naive[angle_bin(atan2(2.0 * x * y, x * x - y * y), bins)]++;
+    }
+    const double chi2 = chi_square_flat(counts, bins, samples);
+    const double chi2_naive = chi_square_flat(naive, bins, samples);
+    const double ks = ks_one_sample(pit, samples), ks_bent = ks_one_sample(bent, samples);
+    const double ks_crit = KS_C_001 / sqrt(samples);
+    fprintf(stderr, "sample_step2 angle: chi2 = %.2f (63 dof, crit 103.44), KS D = %.2e (crit %.2e); "
+                    "max ||d|/len - 1| = %.1e; controls: bent KS D = %.2e, no rejection chi2 = %.0f\n",
+            chi2, ks, ks_crit, worst_len, ks_bent, chi2_naive);
+    CHECK(chi2 < CHI2_CRIT_63, "chi2 %.2f", chi2);
+    CHECK(ks < ks_crit, "KS D %.2e", ks);
+    CHECK(worst_len < 1e-14, "|d| off len by %.2e", worst_len);
+    CHECK(ks_bent > ks_crit, "bent control not rejected (%.2e)", ks_bent);
+    CHECK(chi2_naive > CHI2_CRIT_63, "no-rejection control not rejected (%.2f)", chi2_naive);
+    free(pit);
+    free(bent);
+}
+
 static void test_dir3(void)
 {
     /* cos(theta) = z in 50 bins on [-1, 1] and azimuth in 50 bins (49 dof,
@@ -382,6 +453,7 @@ int main(void)
     test_return3_cos();
     test_return3_fraction();
     test_dir2();
+    test_step2();
     test_dir3();
     test_cone_point3();
     test_rotate_to2();

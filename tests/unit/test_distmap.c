@@ -10,7 +10,9 @@
  *    below one leaf;
  *  - search_nearest_point_cached (leaves from the walker's cached path)
  *    gives what search_nearest_point gives, and finds the true nearest
- *    within the reach;
+ *    within the reach; in 2D, search_ball_points2 returns exactly the
+ *    particles within its radius (brute force), and the first nearest of
+ *    them within the reach is the search's;
  *  - a walker's cached block stays right while the grid grows under it;
  *  - the same with a small memory budget, where the fine cells coarsen
  *    while the grid grows;
@@ -110,7 +112,7 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
     }
     int64_t(*pts)[3] = calloc(n, sizeof *pts);
     int64_t cur[3] = {0, 0, 0};
-    int bad_bound = 0, bad_min = 0, useful = 0, bad_block = 0, block_used = 0;
+    int bad_bound = 0, bad_min = 0, useful = 0, bad_block = 0, block_used = 0, ball_scans = 0;
     search_config cfg;
     search_config_init(&cfg, 2.0, 32, 2);
     search_config exact;
@@ -156,6 +158,37 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
                             (unsigned long long)e2, (unsigned long long)truth);
                 if (!f2 && truth < reach2 && bad_block++ < 5)
                     fprintf(stderr, "dim %d: nearest point missed\n", dim);
+                /* 2D: one scan of the particles within far of the walker
+                 * (contact snapping): exactly the brute-force set, and its
+                 * first nearest within the reach is the search's. */
+                if (dim == 2) {
+                    const int64_t rr = (int64_t)ceil(sqrt((double)reach2)), far = rr + rand_range(&r, 0, 255 - rr);
+                    search_point sp[64];
+                    const int got = search_ball_points2(&t, walker, reach2, (uint64_t)(far * far), sp, 64, &ss);
+                    int within = 0, first = -1, wrong = 0;
+                    for (size_t j = 0; j <= i; j++) {
+                        const int64_t dx = pts[j][0] - walker[0], dy = pts[j][1] - walker[1];
+                        within += (uint64_t)(dx * dx + dy * dy) < (uint64_t)(far * far);
+                    }
+                    for (int j = 0; j < got; j++) {
+                        const int64_t dx = sp[j].x[0] - walker[0], dy = sp[j].x[1] - walker[1];
+                        wrong += sp[j].d2 != (uint64_t)(dx * dx + dy * dy) || sp[j].d2 >= (uint64_t)(far * far);
+                        if (sp[j].d2 < reach2 && (first < 0 || sp[j].d2 < sp[first].d2)) first = j;
+                    }
+                    if (got >= 0) {
+                        ball_scans++;
+                        if (got != within || wrong) {
+                            if (bad_block++ < 5)
+                                fprintf(stderr, "ball scan: %d points, brute force %d, %d wrong\n",
+                                        got, within, wrong);
+                        } else if ((first >= 0) != f2 ||
+                                   (f2 && (sp[first].x[0] != q2[0] || sp[first].x[1] != q2[1]))) {
+                            if (bad_block++ < 5) fprintf(stderr, "ball scan: nearest differs\n");
+                        }
+                    } else if (within <= 64 && bad_block++ < 5) {
+                        fprintf(stderr, "ball scan refused %d points (cap 64)\n", within);
+                    }
+                }
             }
             if (b2 == UINT64_MAX) continue;
             block_used++;
@@ -183,6 +216,7 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
     CHECK(bad_block == 0, "dim %d seed %llu: %d block searches wrong", dim,
           (unsigned long long)seed, bad_block);
     if (!budget) CHECK(block_used > 1000, "dim %d: only %d block searches", dim, block_used);
+    if (dim == 2) CHECK(ball_scans > 1000, "only %d ball scans answered", ball_scans);
     const distmap_grid *gf = atomic_load(&m.grid);
     if (budget) CHECK(gf && gf->lv[0].bits > 8, "dim %d: the fine cells did not coarsen", dim);
     CHECK(bad_bound == 0, "dim %d seed %llu: %d bounds above the true distance", dim,

@@ -140,7 +140,8 @@ static void put(ev_sim *s, uint32_t i, const double *x)
  *   whole cube lies, with a margin, within rmin + r_j of a placed particle
  *   j (rmin the smallest radius): a position in such a cube overlaps j
  *   whatever its radius, so it is refused on one bit, as the exact test
- *   would refuse it. Positions in clear cubes get the exact test.
+ *   would refuse it. Positions in clear cubes get the exact test. The
+ *   map is made once the particles take 8 tries each on average.
  * - The positions are drawn in batches, and the bits and then the cell
  *   heads of the exact tests are prefetched for the whole batch, so the
  *   cache misses of a batch are in flight together.
@@ -155,6 +156,7 @@ typedef struct place_map {
     uint64_t *bits; /* NULL: no map (every position gets the exact test) */
     int m;          /* cubes per side, h = L / m */
     int lg, mt;     /* a word is a tile of 2^lg cubes per side (4^3, 8^2); mt tiles per side */
+    uint64_t nwords;
     double h, inv_h, rmin;
 } place_map;
 
@@ -168,20 +170,21 @@ typedef struct place_cand {
 } place_cand;
 
 /* The map's cube side: rmin / 2, coarser to keep the map at 256 bits per
- * particle or less, none when that would be coarser than rmin (a cube
- * must fit well inside a sphere of radius 2 rmin to be covered by one). */
-static int place_map_init(const ev_sim *s, place_map *pm)
+ * particle or less, none (m = 0) when that would be coarser than rmin (a
+ * cube must fit well inside a sphere of radius 2 rmin to be covered by
+ * one). Not allocated yet (place_map_start). */
+static void place_map_init(const ev_sim *s, place_map *pm)
 {
     const int D = s->dim;
     memset(pm, 0, sizeof *pm);
     pm->rmin = INFINITY;
     for (int k = 0; k < s->nspecies; k++)
         if (s->sp[k].count && s->sp[k].radius < pm->rmin) pm->rmin = s->sp[k].radius;
-    if (!(pm->rmin > 0) || !isfinite(pm->rmin)) return 0;
+    if (!(pm->rmin > 0) || !isfinite(pm->rmin)) return;
     double m = ceil(s->L / (0.5 * pm->rmin));
     const double mmax = floor(pow(256.0 * (double)s->n + 4096, 1.0 / D));
     if (m > mmax) m = mmax;
-    if (m < 1 || s->L / m > pm->rmin) return 0;
+    if (m < 1 || s->L / m > pm->rmin) return;
     pm->m = (int)m;
     pm->h = s->L / m;
     pm->inv_h = m / s->L;
@@ -189,9 +192,7 @@ static int place_map_init(const ev_sim *s, place_map *pm)
      * few cache lines */
     pm->lg = D == 3 ? 2 : 3;
     pm->mt = (pm->m + (1 << pm->lg) - 1) >> pm->lg;
-    const uint64_t nwords = (uint64_t)pm->mt * (uint64_t)pm->mt * (D == 3 ? (uint64_t)pm->mt : 1);
-    pm->bits = calloc((size_t)nwords, sizeof *pm->bits);
-    return pm->bits ? 0 : -1;
+    pm->nwords = (uint64_t)pm->mt * (uint64_t)pm->mt * (D == 3 ? (uint64_t)pm->mt : 1);
 }
 
 static int place_cube(const place_map *pm, double y)
@@ -256,14 +257,35 @@ static void place_mark(const ev_sim *s, const place_map *pm, const double *x, do
             /* cubes [q h, (q + 1) h] inside [x0 - a, x0 + a] */
             const double a = sqrt(rest);
             const int q0 = (int)ceil((x[0] - a) * pm->inv_h), q1 = (int)floor((x[0] + a) * pm->inv_h) - 1;
-            for (int q = q0; q <= q1; q++) {
+            /* the run, a piece per tile: its cubes are consecutive bits */
+            for (int q = q0; q <= q1;) {
                 const int wq[3] = {place_wrap(s, pm, q), wy, wz};
-                if (wq[0] < 0) continue;
-                const uint64_t b = place_tiled(s, pm, wq);
-                pm->bits[b >> 6] |= 1ull << (b & 63);
+                if (wq[0] < 0) {
+                    q++;
+                    continue;
+                }
+                int len = q1 - q + 1;
+                const int in_tile = (wq[0] | ((1 << pm->lg) - 1)) - wq[0] + 1, in_box = pm->m - wq[0];
+                if (len > in_tile) len = in_tile;
+                if (len > in_box) len = in_box;
+                const uint64_t bit = place_tiled(s, pm, wq);
+                pm->bits[bit >> 6] |= ((1ull << len) - 1) << (bit & 63);
+                q += len;
             }
         }
     }
+}
+
+/* Allocate the map and mark the seeds and the particles 0 .. nplaced - 1:
+ * 0, or -1 when out of memory. */
+static int place_map_start(const ev_sim *s, place_map *pm, uint32_t nplaced)
+{
+    const int D = s->dim;
+    pm->bits = calloc((size_t)pm->nwords, sizeof *pm->bits);
+    if (!pm->bits) return -1;
+    for (uint32_t a = s->n; a < s->ntot; a++) place_mark(s, pm, EV_P(s, a), EV_P(s, a)[2 * D + 1]);
+    for (uint32_t a = 0; a < nplaced; a++) place_mark(s, pm, EV_P(s, a), EV_P(s, a)[2 * D + 1]);
+    return 0;
 }
 
 static int place_marked(const place_map *pm, uint64_t b) { return (int)(pm->bits[b >> 6] >> (b & 63)) & 1; }
@@ -304,17 +326,22 @@ static int place_random(ev_sim *s, char *err, size_t errlen)
 {
     const int D = s->dim;
     place_map pm;
-    if (place_map_init(s, &pm)) return pdla_errorf(-1, err, errlen, "out of memory for the placement map");
-    for (uint32_t a = s->n; a < s->ntot; a++) place_mark(s, &pm, EV_P(s, a), EV_P(s, a)[2 * D + 1]);
+    place_map_init(s, &pm);
     place_cand c[PLACE_BATCH];
-    double mean_tries = 1; /* running mean: sets the batch size */
+    double mean_tries = 1; /* running mean: sets the batch size, starts the map */
     for (uint32_t i = 0; i < s->n; i++) {
         const double r = EV_P(s, i)[2 * D + 1];
         int tries = 0, placed = 0;
+        /* the map from 8 tries per particle on: below, marking costs more
+         * than the refusals it speeds up (3D 1e6 packing 0.05: +60% with a
+         * map from the start) */
+        if (!pm.bits && pm.m && mean_tries > 8 && place_map_start(s, &pm, i))
+            return pdla_errorf(-1, err, errlen, "out of memory for the placement map");
         while (tries < PLACE_TRIES && !placed) {
-            /* about twice the tries a particle takes now: one batch
+            /* about 1.5 times the tries a particle takes now: one batch
              * usually suffices and few draws are wasted */
-            int n = (int)(2 * mean_tries) + 1;
+            int n = (int)(1.5 * mean_tries);
+            if (n < 1) n = 1;
             if (n > PLACE_BATCH) n = PLACE_BATCH;
             if (n > PLACE_TRIES - tries) n = PLACE_TRIES - tries;
             place_batch(s, &pm, r, c, n);

@@ -122,7 +122,7 @@ static int overlaps_in(const ev_sim *s, const double *x, double r, const uint32_
 /* Does a particle of radius r at x overlap anything placed (cells)? The
  * cells of near_cells walked as they come, without the list: this is
  * the test of every position while few are refused (place_random). */
-static int overlaps(const ev_sim *s, const double *x, double r)
+static inline __attribute__((always_inline)) int overlaps(const ev_sim *s, const double *x, double r)
 {
     const int D = s->dim;
     const uint32_t c = cell_of(s, x);

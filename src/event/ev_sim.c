@@ -121,7 +121,10 @@ static int overlaps_in(const ev_sim *s, const double *x, double r, const uint32_
 
 /* Does a particle of radius r at x overlap anything placed (cells)? The
  * cells of near_cells walked as they come, without the list: this is
- * the test of every position while few are refused (place_random). */
+ * the test of every position while few are refused (place_random), and
+ * near_cells + overlaps_in there, even inlined, cost 10% more
+ * instructions for the whole start (2D 1e5 packing 0.3, callgrind: 449 M
+ * against 408 M). */
 static inline __attribute__((always_inline)) int overlaps(const ev_sim *s, const double *x, double r)
 {
     const int D = s->dim;

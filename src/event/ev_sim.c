@@ -60,8 +60,72 @@ static uint32_t cell_in(const ev_sim *s, const double *x, int nc, double w)
 
 static uint32_t cell_of(const ev_sim *s, const double *x) { return cell_in(s, x, s->nc, s->w); }
 
-/* Does a particle of radius r at x overlap anything placed (cells)? */
-static int overlaps(const ev_sim *s, const double *x, double r)
+/* The cells within one cell of the cell of x (3^D of them, fewer at
+ * elastic walls) into cn: their count. */
+static int near_cells(const ev_sim *s, const double *x, uint32_t *cn)
+{
+    const int D = s->dim;
+    const uint32_t c = cell_of(s, x);
+    int cc[3] = {0, 0, 0}, n = 0;
+    uint32_t t = c;
+    for (int k = 0; k < D; k++) {
+        cc[k] = (int)(t % (uint32_t)s->nc);
+        t /= (uint32_t)s->nc;
+    }
+    for (int oz = D == 3 ? -1 : 0; oz <= (D == 3 ? 1 : 0); oz++)
+        for (int oy = -1; oy <= 1; oy++)
+            for (int ox = -1; ox <= 1; ox++) {
+                int q[3] = {cc[0] + ox, cc[1] + oy, cc[2] + oz}, ok = 1;
+                for (int k = 0; k < D; k++) {
+                    if (q[k] < 0 || q[k] >= s->nc) {
+                        if (!s->periodic) ok = 0;
+                        q[k] = (q[k] + s->nc) % s->nc;
+                    }
+                }
+                if (!ok) continue;
+                cn[n++] = (uint32_t)q[0] +
+                          (uint32_t)s->nc * ((uint32_t)q[1] + (uint32_t)s->nc * (uint32_t)(D == 3 ? q[2] : 0));
+            }
+    return n;
+}
+
+/* Does a particle of radius r at x overlap a particle of cell c? */
+static inline int overlaps_cell(const ev_sim *s, const double *x, double r, uint32_t c)
+{
+    const int D = s->dim;
+    for (uint32_t j = s->chead[c]; j != UINT32_MAX; j = s->cnext[j]) {
+        const double *pj = EV_P(s, j);
+        double rr = 0;
+        for (int k = 0; k < D; k++) {
+            double d = pj[k] - x[k];
+            if (s->periodic) {
+                if (d > s->half) d -= s->L;
+                else if (d < -s->half) d += s->L;
+            }
+            rr += d * d;
+        }
+        const double sig = r + pj[2 * D + 1];
+        if (rr < sig * sig) return 1;
+    }
+    return 0;
+}
+
+/* Does a particle of radius r at x overlap anything placed in the cells
+ * cn[0 .. ncn - 1]? */
+static int overlaps_in(const ev_sim *s, const double *x, double r, const uint32_t *cn, int ncn)
+{
+    for (int a = 0; a < ncn; a++)
+        if (overlaps_cell(s, x, r, cn[a])) return 1;
+    return 0;
+}
+
+/* Does a particle of radius r at x overlap anything placed (cells)? The
+ * cells of near_cells walked as they come, without the list: this is
+ * the test of every position while few are refused (place_random), and
+ * near_cells + overlaps_in there, even inlined, cost 10% more
+ * instructions for the whole start (2D 1e5 packing 0.3, callgrind: 449 M
+ * against 408 M). */
+static inline __attribute__((always_inline)) int overlaps(const ev_sim *s, const double *x, double r)
 {
     const int D = s->dim;
     const uint32_t c = cell_of(s, x);
@@ -84,20 +148,7 @@ static int overlaps(const ev_sim *s, const double *x, double r)
                 if (!ok) continue;
                 const uint32_t cn = (uint32_t)q[0] +
                                     (uint32_t)s->nc * ((uint32_t)q[1] + (uint32_t)s->nc * (uint32_t)(D == 3 ? q[2] : 0));
-                for (uint32_t j = s->chead[cn]; j != UINT32_MAX; j = s->cnext[j]) {
-                    const double *pj = EV_P(s, j);
-                    double rr = 0;
-                    for (int k = 0; k < D; k++) {
-                        double d = pj[k] - x[k];
-                        if (s->periodic) {
-                            if (d > s->half) d -= s->L;
-                            else if (d < -s->half) d += s->L;
-                        }
-                        rr += d * d;
-                    }
-                    const double sig = r + pj[2 * D + 1];
-                    if (rr < sig * sig) return 1;
-                }
+                if (overlaps_cell(s, x, r, cn)) return 1;
             }
     return 0;
 }
@@ -110,30 +161,261 @@ static void put(ev_sim *s, uint32_t i, const double *x)
     ev_cell_insert(s, i, cell_of(s, x));
 }
 
+/* Random sequential addition: particle i goes to the first of uniformly
+ * random positions that overlaps nothing placed. Near the end of a dense
+ * start almost every position is refused (3D 1e6 packing 0.3: 35.5 M
+ * positions for 1e6 particles, 426 per particle at the end, and 96% of
+ * the run in the overlap test, on the loads of the records near it), so
+ * two things make a refusal cheap without changing which position is
+ * taken, bit for bit:
+ *
+ * - A bit map of small cubes (side h <= rmin / 2) with a bit set where the
+ *   whole cube lies, with a margin, within rmin + r_j of a placed particle
+ *   j (rmin the smallest radius): a position in such a cube overlaps j
+ *   whatever its radius, so it is refused on one bit, as the exact test
+ *   would refuse it. Positions in clear cubes get the exact test. The
+ *   map is made when the tries to come are many (below).
+ * - The positions are drawn in batches, and the bits and then the cell
+ *   heads of the exact tests are prefetched for the whole batch, so the
+ *   cache misses of a batch are in flight together.
+ *
+ * The candidates are the same draws in the same order, each tested against
+ * the same placed set (nothing is placed before the first that fits, and
+ * the rest of the batch is dropped), and the generator is left just after
+ * the draws of the one taken: the placement of the one-at-a-time loop. */
+enum { PLACE_TRIES = 10000, PLACE_BATCH = 64 };
+
+typedef struct place_map {
+    uint64_t *bits; /* NULL: no map (every position gets the exact test) */
+    int m;          /* cubes per side, h = L / m */
+    int lg, mt;     /* a word is a tile of 2^lg cubes per side (4^3, 8^2); mt tiles per side */
+    uint64_t nwords;
+    double h, inv_h, rmin;
+} place_map;
+
+typedef struct place_cand {
+    double x[3];
+    pdla_rng after; /* the generator just after this candidate's draws */
+    uint64_t bit;   /* its cube */
+    int refused;    /* by the map */
+    int ncn;        /* otherwise the cells of its exact test */
+    uint32_t cn[27];
+} place_cand;
+
+/* The map's cube side: rmin / 2, coarser to keep the map at 256 bits per
+ * particle or less, none (m = 0) when that would be coarser than rmin (a
+ * cube must fit well inside a sphere of radius 2 rmin to be covered by
+ * one). Not allocated yet (place_map_start). */
+static void place_map_init(const ev_sim *s, place_map *pm)
+{
+    const int D = s->dim;
+    memset(pm, 0, sizeof *pm);
+    pm->rmin = INFINITY;
+    for (int k = 0; k < s->nspecies; k++)
+        if (s->sp[k].count && s->sp[k].radius < pm->rmin) pm->rmin = s->sp[k].radius;
+    if (!(pm->rmin > 0) || !isfinite(pm->rmin)) return;
+    double m = ceil(s->L / (0.5 * pm->rmin));
+    const double mmax = floor(pow(256.0 * (double)s->n + 4096, 1.0 / D));
+    if (m > mmax) m = mmax;
+    if (m < 1 || s->L / m > pm->rmin) return;
+    pm->m = (int)m;
+    pm->h = s->L / m;
+    pm->inv_h = m / s->L;
+    /* tiles, so that the cubes a particle covers (up to 9 per side) share
+     * few cache lines */
+    pm->lg = D == 3 ? 2 : 3;
+    pm->mt = (pm->m + (1 << pm->lg) - 1) >> pm->lg;
+    pm->nwords = (uint64_t)pm->mt * (uint64_t)pm->mt * (D == 3 ? (uint64_t)pm->mt : 1);
+}
+
+static int place_cube(const place_map *pm, double y)
+{
+    int q = (int)(y * pm->inv_h);
+    return q < 0 ? 0 : q >= pm->m ? pm->m - 1 : q;
+}
+
+/* The bit of cube q[0..D-1]: 64 times its tile's word, plus its place in
+ * the tile. */
+static uint64_t place_tiled(const ev_sim *s, const place_map *pm, const int *q)
+{
+    const int lg = pm->lg, mask = (1 << lg) - 1;
+    uint64_t w = 0, b = 0;
+    for (int k = s->dim - 1; k >= 0; k--) {
+        w = w * (uint64_t)pm->mt + (uint64_t)(q[k] >> lg);
+        b = (b << lg) | (uint64_t)(q[k] & mask);
+    }
+    return w * 64 + b;
+}
+
+static uint64_t place_bit(const ev_sim *s, const place_map *pm, const double *x)
+{
+    int q[3];
+    for (int k = 0; k < s->dim; k++) q[k] = place_cube(pm, x[k]);
+    return place_tiled(s, pm, q);
+}
+
+/* Cube index q along one axis, wrapped (periodic) or -1 outside the box. */
+static int place_wrap(const ev_sim *s, const place_map *pm, int q)
+{
+    if (q >= 0 && q < pm->m) return q;
+    return s->periodic ? ((q % pm->m) + pm->m) % pm->m : -1;
+}
+
+/* The largest distance from c to a point of [q h, (q + 1) h]. */
+static double place_far(const place_map *pm, int q, double c)
+{
+    return fmax(fabs(c - q * pm->h), fabs((q + 1) * pm->h - c));
+}
+
+/* Set the bits of the cubes that lie wholly within rmin + r of x (shrunk
+ * by 1e-7 relative: round-off in the exact test and in the cube of a
+ * position is ~1e-14 of the box). Row by row along x, where the covered
+ * cubes are one run. */
+static void place_mark(const ev_sim *s, const place_map *pm, const double *x, double r)
+{
+    if (!pm->bits) return;
+    const int D = s->dim;
+    const double R = (pm->rmin + r) * (1 - 1e-7), R2 = R * R;
+    const int z0 = D == 3 ? (int)floor((x[2] - R) * pm->inv_h) : 0, z1 = D == 3 ? (int)floor((x[2] + R) * pm->inv_h) : 0;
+    const int y0 = (int)floor((x[1] - R) * pm->inv_h), y1 = (int)floor((x[1] + R) * pm->inv_h);
+    for (int qz = z0; qz <= z1; qz++) {
+        const int wz = D == 3 ? place_wrap(s, pm, qz) : 0;
+        if (wz < 0) continue;
+        const double dz = D == 3 ? place_far(pm, qz, x[2]) : 0;
+        for (int qy = y0; qy <= y1; qy++) {
+            const int wy = place_wrap(s, pm, qy);
+            if (wy < 0) continue;
+            const double dy = place_far(pm, qy, x[1]), rest = R2 - dz * dz - dy * dy;
+            if (rest <= 0) continue;
+            /* cubes [q h, (q + 1) h] inside [x0 - a, x0 + a] */
+            const double a = sqrt(rest);
+            const int q0 = (int)ceil((x[0] - a) * pm->inv_h), q1 = (int)floor((x[0] + a) * pm->inv_h) - 1;
+            /* the run, a piece per tile: its cubes are consecutive bits */
+            for (int q = q0; q <= q1;) {
+                const int wq[3] = {place_wrap(s, pm, q), wy, wz};
+                if (wq[0] < 0) {
+                    q++;
+                    continue;
+                }
+                int len = q1 - q + 1;
+                const int in_tile = (wq[0] | ((1 << pm->lg) - 1)) - wq[0] + 1, in_box = pm->m - wq[0];
+                if (len > in_tile) len = in_tile;
+                if (len > in_box) len = in_box;
+                const uint64_t bit = place_tiled(s, pm, wq);
+                pm->bits[bit >> 6] |= ((1ull << len) - 1) << (bit & 63);
+                q += len;
+            }
+        }
+    }
+}
+
+/* Allocate the map and mark the seeds and the particles 0 .. nplaced - 1:
+ * 0, or -1 when out of memory. */
+static int place_map_start(const ev_sim *s, place_map *pm, uint32_t nplaced)
+{
+    const int D = s->dim;
+    pm->bits = calloc((size_t)pm->nwords, sizeof *pm->bits);
+    if (!pm->bits) return -1;
+    for (uint32_t a = s->n; a < s->ntot; a++) place_mark(s, pm, EV_P(s, a), EV_P(s, a)[2 * D + 1]);
+    for (uint32_t a = 0; a < nplaced; a++) place_mark(s, pm, EV_P(s, a), EV_P(s, a)[2 * D + 1]);
+    return 0;
+}
+
+static int place_marked(const place_map *pm, uint64_t b) { return (int)(pm->bits[b >> 6] >> (b & 63)) & 1; }
+
+/* Draw n candidates from s->rng's state (not advancing it), refuse those
+ * in marked cubes, and prefetch what the exact tests of the others load. */
+static void place_batch(ev_sim *s, const place_map *pm, double r, place_cand *c, int n)
+{
+    pdla_rng g = s->rng;
+    for (int b = 0; b < n; b++) {
+        for (int k = 0; k < s->dim; k++)
+            c[b].x[k] = s->periodic ? rng_uniform(&g) * s->L : r + rng_uniform(&g) * (s->L - 2 * r);
+        c[b].after = g;
+        c[b].refused = 0;
+        if (pm->bits) {
+            c[b].bit = place_bit(s, pm, c[b].x);
+            __builtin_prefetch(&pm->bits[c[b].bit >> 6]);
+        }
+    }
+    for (int b = 0; b < n; b++) {
+        if (pm->bits && place_marked(pm, c[b].bit)) {
+            c[b].refused = 1;
+            continue;
+        }
+        c[b].ncn = near_cells(s, c[b].x, c[b].cn);
+        for (int a = 0; a < c[b].ncn; a++) __builtin_prefetch(&s->chead[c[b].cn[a]]);
+    }
+    for (int b = 0; b < n; b++)
+        for (int a = 0; a < (c[b].refused ? 0 : c[b].ncn); a++) {
+            const uint32_t j = s->chead[c[b].cn[a]];
+            if (j == UINT32_MAX) continue;
+            __builtin_prefetch(EV_P_ANY(s, j));
+            __builtin_prefetch(&s->cnext[j]);
+        }
+}
+
 static int place_random(ev_sim *s, char *err, size_t errlen)
 {
     const int D = s->dim;
-    enum { TRIES = 10000 };
+    place_map pm;
+    place_map_init(s, &pm);
+    place_cand c[PLACE_BATCH];
+    double mean_tries = 1; /* running mean: sets the batch size, starts the map */
     for (uint32_t i = 0; i < s->n; i++) {
         const double r = EV_P(s, i)[2 * D + 1];
-        int placed = 0;
-        for (int a = 0; a < TRIES && !placed; a++) {
+        int tries = 0, placed = 0;
+        /* the map once the tries still to come (at least mean_tries per
+         * particle left) outnumber 4 per particle to mark (all of them in
+         * the end): marking one costs about as much as 3-4 exact tests in
+         * 2D (callgrind, 2D 1e5 packing 0.3), and a map that comes too
+         * early costs more than the refusals it speeds up (3D 1e6 packing
+         * 0.05: +60% with a map from the start; 2D 1e6 packing 0.3: +6-10%
+         * with one from 8 tries per particle on) */
+        if (!pm.bits && pm.m && mean_tries * (double)(s->n - i) > 4.0 * s->n && place_map_start(s, &pm, i))
+            return pdla_errorf(-1, err, errlen, "out of memory for the placement map");
+        while (!pm.bits && tries < PLACE_TRIES && !placed) {
+            /* no map yet: one position at a time, as it comes (batches cost
+             * more than they save while few positions are refused: 2D 1e5
+             * packing 0.3 +25% instructions) */
             double x[3];
             for (int k = 0; k < D; k++)
-                x[k] = s->periodic ? rng_uniform(&s->rng) * s->L
-                                   : r + rng_uniform(&s->rng) * (s->L - 2 * r);
+                x[k] = s->periodic ? rng_uniform(&s->rng) * s->L : r + rng_uniform(&s->rng) * (s->L - 2 * r);
+            tries++;
             if (!overlaps(s, x, r)) {
                 put(s, i, x);
                 placed = 1;
             }
         }
-        if (!placed)
+        while (tries < PLACE_TRIES && !placed) {
+            /* about 1.5 times the tries a particle takes now: one batch
+             * usually suffices and few draws are wasted */
+            int n = (int)(1.5 * mean_tries);
+            if (n < 1) n = 1;
+            if (n > PLACE_BATCH) n = PLACE_BATCH;
+            if (n > PLACE_TRIES - tries) n = PLACE_TRIES - tries;
+            place_batch(s, &pm, r, c, n);
+            for (int b = 0; b < n && !placed; b++) {
+                tries++;
+                s->rng = c[b].after;
+                if (!c[b].refused && !overlaps_in(s, c[b].x, r, c[b].cn, c[b].ncn)) {
+                    put(s, i, c[b].x);
+                    place_mark(s, &pm, c[b].x, r);
+                    placed = 1;
+                }
+            }
+        }
+        if (!placed) {
+            free(pm.bits);
             return pdla_errorf(-1, err, errlen,
                         "cannot place particle %" PRIu32 " of %" PRIu32 " without overlap at packing "
                         "%g after %d tries (random placement jams near 0.55 in 2D, 0.38 in 3D): "
                         "lower --packing or use --start lattice",
-                        i + 1, s->n, s->par.packing, TRIES);
+                        i + 1, s->n, s->par.packing, PLACE_TRIES);
+        }
+        mean_tries += 0.05 * (tries - mean_tries);
     }
+    free(pm.bits);
     return 0;
 }
 

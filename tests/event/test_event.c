@@ -1297,6 +1297,153 @@ static void test_bath_brute(void)
     resume_case("2d bath", q, 5);
 }
 
+/* Random placement against its definition: a reference that draws one
+ * position at a time from the same generator and tests it against every
+ * particle placed so far (no cells, no map, no batches), with the engine's
+ * arithmetic. ev_create (cells, the bit map of covered cubes, batched
+ * draws) must place the same particles at the same positions, bit for bit,
+ * and leave the generator at the same state; the cases run near jamming
+ * (most positions refused by the map), with walls, a seed and two radii.
+ * The engine renumbers the particles by cell afterwards, so the two sets
+ * are compared sorted. */
+static int place_row_cmp(const void *a, const void *b)
+{
+    const double *x = a, *y = b;
+    for (int k = 0; k < 4; k++)
+        if (x[k] != y[k]) return x[k] < y[k] ? -1 : 1;
+    return 0;
+}
+
+static int place_ref_overlaps(const ev_sim *s, uint32_t n_placed, const double *x, double r)
+{
+    const int D = s->dim;
+    for (uint32_t a = 0; a < s->ntot; a++) {
+        if (a >= n_placed && a < s->n) continue;
+        const double *pj = EV_P(s, a);
+        double rr = 0;
+        for (int k = 0; k < D; k++) {
+            double d = pj[k] - x[k];
+            if (s->periodic) {
+                if (d > s->half) d -= s->L;
+                else if (d < -s->half) d += s->L;
+            }
+            rr += d * d;
+        }
+        const double sig = r + pj[2 * D + 1];
+        if (rr < sig * sig) return 1;
+    }
+    return 0;
+}
+
+static void place_case(const char *what, ev_params q, double min_tries)
+{
+    char err[256];
+    q.start = EV_START_RANDOM;
+    ev_sim *ref = ev_alloc(&q, err, sizeof err);
+    CHECK(ref != NULL, "%s: %s", what, err);
+    if (!ref) return;
+    const int D = ref->dim;
+    uint64_t tries = 0;
+    uint32_t fail = UINT32_MAX; /* the particle the reference cannot place */
+    for (uint32_t i = 0; i < ref->n && fail == UINT32_MAX; i++) {
+        const double r = EV_P(ref, i)[2 * D + 1];
+        for (int a = 0;; a++) {
+            if (a == 10000) {
+                fail = i;
+                break;
+            }
+            double x[3];
+            for (int k = 0; k < D; k++)
+                x[k] = ref->periodic ? rng_uniform(&ref->rng) * ref->L
+                                     : r + rng_uniform(&ref->rng) * (ref->L - 2 * r);
+            tries++;
+            if (!place_ref_overlaps(ref, i, x, r)) {
+                memcpy(EV_P(ref, i), x, (size_t)D * sizeof *x);
+                break;
+            }
+        }
+    }
+    /* the engine's generator after placement = the velocities' first draw */
+    q.velocities = EV_VEL_FIXED;
+    ev_sim *s = ev_create(&q, err, sizeof err);
+    if (fail != UINT32_MAX) {
+        /* jammed: the engine must give up on the same particle, in one line */
+        char want[64];
+        snprintf(want, sizeof want, "cannot place particle %u of %u ", fail + 1, ref->n);
+        printf("place %s: reference jams at particle %u; engine: %s\n", what, fail + 1, s ? "placed" : err);
+        CHECK(!s && strstr(err, want) && !strchr(err, '\n'), "%s: want \"%s\", got %s", what, want, s ? "placed" : err);
+        ev_free(s);
+        ev_free(ref);
+        return;
+    }
+    CHECK(s != NULL, "%s: %s", what, err);
+    if (!s) return;
+    double *ra = calloc((size_t)ref->n * 4, sizeof *ra), *sa = calloc((size_t)ref->n * 4, sizeof *sa);
+    for (uint32_t i = 0; i < ref->n; i++)
+        for (int k = 0; k < 4; k++) {
+            const int f = k < D ? k : k == 3 ? 2 * D + 1 : -1;
+            ra[4 * i + k] = f < 0 ? 0 : EV_P(ref, i)[f];
+            sa[4 * i + k] = f < 0 ? 0 : EV_P(s, i)[f];
+        }
+    qsort(ra, ref->n, 4 * sizeof *ra, place_row_cmp);
+    qsort(sa, ref->n, 4 * sizeof *sa, place_row_cmp);
+    const int same = !memcmp(ra, sa, (size_t)ref->n * 4 * sizeof *ra);
+    /* the engine's first velocity draw comes from the state after placement */
+    double u[3], uu;
+    pdla_rng g = ref->rng;
+    do {
+        uu = 0;
+        for (int k = 0; k < D; k++) {
+            u[k] = 2 * rng_uniform(&g) - 1;
+            uu += u[k] * u[k];
+        }
+    } while (uu > 1 || uu < 1e-12);
+    uint32_t hits = 0;
+    for (uint32_t i = 0; i < s->n; i++) {
+        const double *p = EV_P(s, i);
+        const double f = sqrt(2 * q.kT / s->mass[i]) / sqrt(uu);
+        int eq = 1;
+        for (int k = 0; k < D; k++) eq &= p[D + k] == f * u[k];
+        hits += eq;
+    }
+    printf("place %s: %u particles, %.1f tries per particle, positions %s, first velocity found %u times\n",
+           what, ref->n, (double)tries / ref->n, same ? "identical" : "DIFFER", hits);
+    CHECK(same, "%s: placement differs from the reference", what);
+    CHECK(hits == 1, "%s: generator state after placement differs (%u)", what, hits);
+    CHECK((double)tries / ref->n >= min_tries, "%s: %.1f tries per particle, the case does not reach jamming",
+          what, (double)tries / ref->n);
+    free(ra), free(sa);
+    ev_free(s);
+    ev_free(ref);
+}
+
+static void test_place(void)
+{
+    ev_params q = base(3, 3000, 0.3, 1, 0, 1);
+    q.seed = 3;
+    place_case("3d periodic 0.3", q, 5);
+    q = base(2, 3000, 0.45, 0, 3, 1);
+    q.seed = 4;
+    place_case("2d walls 0.45 seed", q, 5);
+    q = base(3, 1, 0.25, 0, 1, 1);
+    strcpy(q.species, "500:0.8:1,1500:0.5:1");
+    q.seed = 5;
+    place_case("3d walls two radii seed", q, 3);
+    q = base(2, 1, 0.4, 1, 0, 1);
+    strcpy(q.species, "300:0.9:1,2000:0.3:1");
+    q.seed = 6;
+    place_case("2d periodic two radii", q, 3);
+    /* the big ones last: they no longer fit */
+    q = base(3, 1, 0.25, 0, 1, 1);
+    strcpy(q.species, "1500:0.5:1,500:0.8:1");
+    q.seed = 5;
+    place_case("3d walls two radii jammed", q, 0);
+    q = base(2, 1, 0.4, 1, 0, 1);
+    strcpy(q.species, "2000:0.3:1,300:0.9:1");
+    q.seed = 6;
+    place_case("2d periodic two radii jammed", q, 0);
+}
+
 int main(int argc, char **argv)
 {
     if (argc > 2 && !strcmp(argv[1], "bath-oldckpt")) {
@@ -1343,5 +1490,6 @@ int main(int argc, char **argv)
     if (all || !strcmp(what, "resume")) test_resume();
     if (all || !strcmp(what, "bath")) test_bath();
     if (all || !strcmp(what, "bath-brute")) test_bath_brute();
+    if (all || !strcmp(what, "place")) test_place();
     return check_finish();
 }

@@ -60,32 +60,43 @@ static uint32_t cell_in(const ev_sim *s, const double *x, int nc, double w)
 
 static uint32_t cell_of(const ev_sim *s, const double *x) { return cell_in(s, x, s->nc, s->w); }
 
+/* The integer coordinates of cell c (cc[k] for k < D, the rest 0). */
+static inline __attribute__((always_inline)) void cell_coords(const ev_sim *s, uint32_t c, int *cc)
+{
+    cc[0] = cc[1] = cc[2] = 0;
+    for (int k = 0; k < s->dim; k++) {
+        cc[k] = (int)(c % (uint32_t)s->nc);
+        c /= (uint32_t)s->nc;
+    }
+}
+
+/* The cell at offset (ox, oy, oz) from the cell at cc into *cn: 1, or 0
+ * where the offset leaves an elastic box (periodic boxes wrap). */
+static inline __attribute__((always_inline)) int offset_cell(const ev_sim *s, const int *cc, int ox,
+                                                             int oy, int oz, uint32_t *cn)
+{
+    const int D = s->dim;
+    int q[3] = {cc[0] + ox, cc[1] + oy, cc[2] + oz};
+    for (int k = 0; k < D; k++) {
+        if (q[k] < 0 || q[k] >= s->nc) {
+            if (!s->periodic) return 0;
+            q[k] = (q[k] + s->nc) % s->nc;
+        }
+    }
+    *cn = (uint32_t)q[0] + (uint32_t)s->nc * ((uint32_t)q[1] + (uint32_t)s->nc * (uint32_t)(D == 3 ? q[2] : 0));
+    return 1;
+}
+
 /* The cells within one cell of the cell of x (3^D of them, fewer at
- * elastic walls) into cn: their count. */
+ * elastic walls) into cn: their count. The same order as overlaps(). */
 static int near_cells(const ev_sim *s, const double *x, uint32_t *cn)
 {
     const int D = s->dim;
-    const uint32_t c = cell_of(s, x);
-    int cc[3] = {0, 0, 0}, n = 0;
-    uint32_t t = c;
-    for (int k = 0; k < D; k++) {
-        cc[k] = (int)(t % (uint32_t)s->nc);
-        t /= (uint32_t)s->nc;
-    }
+    int cc[3], n = 0;
+    cell_coords(s, cell_of(s, x), cc);
     for (int oz = D == 3 ? -1 : 0; oz <= (D == 3 ? 1 : 0); oz++)
         for (int oy = -1; oy <= 1; oy++)
-            for (int ox = -1; ox <= 1; ox++) {
-                int q[3] = {cc[0] + ox, cc[1] + oy, cc[2] + oz}, ok = 1;
-                for (int k = 0; k < D; k++) {
-                    if (q[k] < 0 || q[k] >= s->nc) {
-                        if (!s->periodic) ok = 0;
-                        q[k] = (q[k] + s->nc) % s->nc;
-                    }
-                }
-                if (!ok) continue;
-                cn[n++] = (uint32_t)q[0] +
-                          (uint32_t)s->nc * ((uint32_t)q[1] + (uint32_t)s->nc * (uint32_t)(D == 3 ? q[2] : 0));
-            }
+            for (int ox = -1; ox <= 1; ox++) n += offset_cell(s, cc, ox, oy, oz, cn + n);
     return n;
 }
 
@@ -128,27 +139,13 @@ static int overlaps_in(const ev_sim *s, const double *x, double r, const uint32_
 static inline __attribute__((always_inline)) int overlaps(const ev_sim *s, const double *x, double r)
 {
     const int D = s->dim;
-    const uint32_t c = cell_of(s, x);
-    int cc[3] = {0, 0, 0};
-    uint32_t t = c;
-    for (int k = 0; k < D; k++) {
-        cc[k] = (int)(t % (uint32_t)s->nc);
-        t /= (uint32_t)s->nc;
-    }
+    int cc[3];
+    cell_coords(s, cell_of(s, x), cc);
     for (int oz = D == 3 ? -1 : 0; oz <= (D == 3 ? 1 : 0); oz++)
         for (int oy = -1; oy <= 1; oy++)
             for (int ox = -1; ox <= 1; ox++) {
-                int q[3] = {cc[0] + ox, cc[1] + oy, cc[2] + oz}, ok = 1;
-                for (int k = 0; k < D; k++) {
-                    if (q[k] < 0 || q[k] >= s->nc) {
-                        if (!s->periodic) ok = 0;
-                        q[k] = (q[k] + s->nc) % s->nc;
-                    }
-                }
-                if (!ok) continue;
-                const uint32_t cn = (uint32_t)q[0] +
-                                    (uint32_t)s->nc * ((uint32_t)q[1] + (uint32_t)s->nc * (uint32_t)(D == 3 ? q[2] : 0));
-                if (overlaps_cell(s, x, r, cn)) return 1;
+                uint32_t cn;
+                if (offset_cell(s, cc, ox, oy, oz, &cn) && overlaps_cell(s, x, r, cn)) return 1;
             }
     return 0;
 }

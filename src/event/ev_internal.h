@@ -79,6 +79,23 @@ struct ev_sim {
 };
 
 #define EV_P(s, i) ((s)->ps + (size_t)(i) * (size_t)(2 * D + 2))
+
+/* The squared distance from a to b (the first s->dim coordinates), by the
+ * minimum image in a periodic box. Symmetric bit for bit (the wrap of -d is
+ * the negative of the wrap of d). */
+static inline double ev_dist2(const ev_sim *s, const double *a, const double *b)
+{
+    double rr = 0;
+    for (int k = 0; k < s->dim; k++) {
+        double d = b[k] - a[k];
+        if (s->periodic) {
+            if (d > s->half) d -= s->L;
+            else if (d < -s->half) d += s->L;
+        }
+        rr += d * d;
+    }
+    return rr;
+}
 #define EV_P_ANY(s, i) ((s)->ps + (size_t)(i) * (size_t)(2 * (s)->dim + 2))
 void ev_rebuild(ev_sim *s);
 ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen);

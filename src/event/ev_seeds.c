@@ -100,17 +100,8 @@ int ev_seeds_check(const ev_sim *s, char *err, size_t errlen)
         const double *p = s->seed_xr + (size_t)a * (size_t)(D + 1);
         for (uint32_t b = a + 1; b < s->nseeds; b++) {
             const double *q = s->seed_xr + (size_t)b * (size_t)(D + 1);
-            double rr = 0;
-            for (int k = 0; k < D; k++) {
-                double d = q[k] - p[k];
-                if (s->periodic) {
-                    if (d > s->half) d -= s->L;
-                    else if (d < -s->half) d += s->L;
-                }
-                rr += d * d;
-            }
             const double sig = p[D] + q[D];
-            if (rr < sig * sig)
+            if (ev_dist2(s, p, q) < sig * sig)
                 return pdla_errorf(-1, err, errlen, "--seeds %s: seeds %u and %u overlap", path, a + 1, b + 1);
         }
     }

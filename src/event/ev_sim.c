@@ -106,17 +106,8 @@ static inline int overlaps_cell(const ev_sim *s, const double *x, double r, uint
     const int D = s->dim;
     for (uint32_t j = s->chead[c]; j != UINT32_MAX; j = s->cnext[j]) {
         const double *pj = EV_P(s, j);
-        double rr = 0;
-        for (int k = 0; k < D; k++) {
-            double d = pj[k] - x[k];
-            if (s->periodic) {
-                if (d > s->half) d -= s->L;
-                else if (d < -s->half) d += s->L;
-            }
-            rr += d * d;
-        }
         const double sig = r + pj[2 * D + 1];
-        if (rr < sig * sig) return 1;
+        if (ev_dist2(s, x, pj) < sig * sig) return 1;
     }
     return 0;
 }

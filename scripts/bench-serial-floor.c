@@ -247,8 +247,8 @@ static inline __attribute__((always_inline)) uint64_t jump_loop(uint64_t njumps,
             sample_step2(&rng, s, v); /* the walker's 2D jump (walker.c) */
             for (int a = 0; a < 2; a++) p[a] += round_i64(v[a]);
         } else {
-            sample_dir3(&rng, v);
-            for (int a = 0; a < 3; a++) p[a] += round_i64(s * v[a]);
+            sample_step3(&rng, s, v); /* the walker's 3D jump */
+            for (int a = 0; a < 3; a++) p[a] += round_i64(v[a]);
         }
         jumps++;
     }

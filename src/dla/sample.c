@@ -1,7 +1,7 @@
 /*
  * sample.c - the walker's random geometry (see sample.h for the laws).
  *
- * sample_step2 and sample_dir3 (inline in sample.h) run once per walker
+ * sample_step2 and sample_step3 (inline in sample.h) run once per walker
  * jump, so they use rejection from the square and no libm call but one sqrt
  * in 3D; the 2D return (sample_return_cs2) needs no libm call either. The return
  * samplers run only when a walker leaves the birth circle/sphere; there the

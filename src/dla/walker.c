@@ -85,8 +85,8 @@ static inline __attribute__((always_inline)) void jump(walker_ctx *w, int64_t *p
         sample_step2(&w->rng, s, v);
         for (int a = 0; a < 2; a++) p[a] += round_i64(v[a]);
     } else {
-        sample_dir3(&w->rng, v);
-        for (int a = 0; a < 3; a++) p[a] += round_i64(s * v[a]);
+        sample_step3(&w->rng, s, v);
+        for (int a = 0; a < 3; a++) p[a] += round_i64(v[a]);
     }
     w->jumps++;
 }

@@ -318,6 +318,70 @@ static void test_step2(void)
     free(bent);
 }
 
+/* The 3D jump (sample_step3): z = d[2]/len uniform on [-1, 1] (Archimedes),
+ * azimuth uniform, independent, |d| = len. Each marginal: 50 equiprobable
+ * bins (49 dof, crit 85.35; power 0.9 against a relative error of 0.77% in
+ * every bin: noncentrality 1e6 x 0.0077^2 = 59) and a one-sample KS (crit
+ * 1.95e-3; the statistic's noise at a fixed point has sd <= 5e-4, so a CDF
+ * error of 0.26% anywhere is rejected with power > 0.9); jointly 10 x 10
+ * cells (99 dof, crit 148.23). Controls that must fail: z's CDF and the
+ * azimuth's bent by 0.0032 sin(2 pi F) (an error of up to 0.32%) under KS,
+ * and the square's points without the disk rejection under chi-square. */
+static void test_step3(void)
+{
+    const int samples = 1000000;
+    const double len = 1234.5, bend = 0.0032;
+    pdla_rng rng;
+    rng_seed(&rng, 4004);
+    double *fz = malloc(samples * sizeof *fz), *fphi = malloc(samples * sizeof *fphi);
+    double *bz = malloc(samples * sizeof *bz), *bphi = malloc(samples * sizeof *bphi);
+    uint64_t cz[BINS] = {0}, cphi[BINS] = {0}, joint[100] = {0}, naive[BINS] = {0};
+    double worst_len = 0.0;
+    for (int n = 0; n < samples; n++) {
+        double d[3];
+        sample_step3(&rng, len, d);
+        worst_len = fmax(worst_len, fabs(sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / len - 1.0));
+        const double phi = atan2(d[1], d[0]);
+        fz[n] = 0.5 * (d[2] / len + 1.0);
+        fphi[n] = (phi + M_PI) / (2.0 * M_PI);
+        bz[n] = fz[n] + bend * sin(2.0 * M_PI * fz[n]);
+        bphi[n] = fphi[n] + bend * sin(2.0 * M_PI * fphi[n]);
+        cz[pit_bin(fz[n], BINS)]++;
+        cphi[angle_bin(phi, BINS)]++;
+        joint[10 * pit_bin(fz[n], 10) + angle_bin(phi, 10)]++;
+        /* Control: Marsaglia's map from the whole square (no rejection;
+         * S > 1 clamped to the south pole). */
+        const uint64_t w = rng_next(&rng);
+        const double x = (double)(int32_t)(uint32_t)(w >> 32) * 0x1.0p-31;
+        const double y = (double)(int32_t)(uint32_t)w * 0x1.0p-31;
+        naive[pit_bin(0.5 * (fmax(-1.0, 1.0 - 2.0 * (x * x + y * y)) + 1.0), BINS)]++;
+    }
+    const double chi2_z = chi_square_flat(cz, BINS, samples);
+    const double chi2_phi = chi_square_flat(cphi, BINS, samples);
+    const double chi2_joint = chi_square_flat(joint, 100, samples);
+    const double chi2_naive = chi_square_flat(naive, BINS, samples);
+    const double ks_z = ks_one_sample(fz, samples), ks_phi = ks_one_sample(fphi, samples);
+    const double ks_bz = ks_one_sample(bz, samples), ks_bphi = ks_one_sample(bphi, samples);
+    const double ks_crit = KS_C_001 / sqrt(samples);
+    fprintf(stderr, "sample_step3: chi2 z = %.2f, azimuth = %.2f (49 dof, crit 85.35), joint 10x10 = %.2f "
+                    "(99 dof, crit 148.23); KS D z = %.2e, azimuth = %.2e (crit %.2e); max ||d|/len - 1| = "
+                    "%.1e; controls: bent KS D z = %.2e, azimuth = %.2e, no rejection chi2 z = %.0f\n",
+            chi2_z, chi2_phi, chi2_joint, ks_z, ks_phi, ks_crit, worst_len, ks_bz, ks_bphi, chi2_naive);
+    CHECK(chi2_z < CHI2_CRIT_49, "z chi2 %.2f", chi2_z);
+    CHECK(chi2_phi < CHI2_CRIT_49, "azimuth chi2 %.2f", chi2_phi);
+    CHECK(chi2_joint < CHI2_CRIT_99, "joint chi2 %.2f", chi2_joint);
+    CHECK(ks_z < ks_crit, "z KS D %.2e", ks_z);
+    CHECK(ks_phi < ks_crit, "azimuth KS D %.2e", ks_phi);
+    CHECK(worst_len < 1e-14, "|d| off len by %.2e", worst_len);
+    CHECK(ks_bz > ks_crit, "bent z control not rejected (%.2e)", ks_bz);
+    CHECK(ks_bphi > ks_crit, "bent azimuth control not rejected (%.2e)", ks_bphi);
+    CHECK(chi2_naive > CHI2_CRIT_49, "no-rejection control not rejected (%.2f)", chi2_naive);
+    free(fz);
+    free(fphi);
+    free(bz);
+    free(bphi);
+}
+
 static void test_dir3(void)
 {
     /* cos(theta) = z in 50 bins on [-1, 1] and azimuth in 50 bins (49 dof,
@@ -454,6 +518,7 @@ int main(void)
     test_return3_fraction();
     test_dir2();
     test_step2();
+    test_step3();
     test_dir3();
     test_cone_point3();
     test_rotate_to2();

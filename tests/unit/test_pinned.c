@@ -6,7 +6,10 @@
  * build of commit 3133031 (main before the issue-9 restructuring), the 2D
  * ones re-pinned in session 10 (branch sp10), whose 2D jump and return
  * samplers draw the random stream differently (same laws: tests/sampling,
- * test_sample; runs/bench-serial/issue12-sp10-2026-11-25.md). Each case
+ * test_sample; runs/bench-serial/issue12-sp10-2026-11-25.md), the 3D ones
+ * re-pinned in session 10 (branch s3d10), whose 3D jump direction takes one
+ * draw per try (sample_step3; runs/bench-serial/issue12-s3d10-2026-11-25.md).
+ * Each case
  * also grows half-way, writes a checkpoint, resumes from it and must reach
  * the same hashes: checkpoint -> resume is bit-identical too.
  * A change of the walk, the search, the random stream or the tree's order
@@ -34,9 +37,9 @@ static const pin_case pin_cases[] = {
     {2, 2, 4000, 0, UINT64_C(0xd9210bfaf1bd9908), UINT64_C(0x3e3bb3d51a5d3b74)},
     {2, 7, 3000, 1, UINT64_C(0x9ee4690a48ca6c4b), UINT64_C(0x58816638457f7e6f)},
     {2, 9, 3000, 2, UINT64_C(0xad3351d6759b3206), UINT64_C(0x83a4b18507dfd662)},
-    {3, 1, 15000, 0, UINT64_C(0xd4f624ee52d2bcb7), UINT64_C(0x74543e2cd8a19b5b)},
-    {3, 3, 2000, 1, UINT64_C(0x4a32781a4f7f555b), UINT64_C(0x218f5a72c8d44137)},
-    {3, 5, 1500, 2, UINT64_C(0xc0659398ec31b44f), UINT64_C(0xb806619e076f978f)},
+    {3, 1, 15000, 0, UINT64_C(0x449983d9d087bac7), UINT64_C(0x21f521da211064cf)},
+    {3, 3, 2000, 1, UINT64_C(0x0ac20df09c42dfd2), UINT64_C(0x356dc95b7407262e)},
+    {3, 5, 1500, 2, UINT64_C(0x8317a965eb63ee1a), UINT64_C(0x950cd9ca884a05e2)},
 };
 
 static uint64_t fnv1a(uint64_t h, const void *data, size_t n)

@@ -65,13 +65,22 @@ static inline void sample_dir2(pdla_rng *rng, double v[2])
  * (x^2 - y^2, 2xy) / (x^2 + y^2), integers below 2^62 in magnitude,
  * converted to double with a relative rounding of 2^-53; the one division
  * also applies len. */
+/* One 64-bit draw as a point (x, y) of the integer lattice in
+ * [-2^31, 2^31)^2 (its halves as signed 32-bit integers): x^2 + y^2, exact
+ * in 64 bits (below 2^63). The jump samplers keep it inside the disk. */
+static inline uint64_t sample_lattice_point(pdla_rng *rng, int64_t *x, int64_t *y)
+{
+    const uint64_t z = rng_next(rng);
+    *x = (int32_t)(uint32_t)(z >> 32);
+    *y = (int32_t)(uint32_t)z;
+    return (uint64_t)(*x * *x) + (uint64_t)(*y * *y);
+}
+
 static inline void sample_step2(pdla_rng *rng, double len, double d[2])
 {
     for (;;) {
-        const uint64_t z = rng_next(rng);
-        const int64_t x = (int32_t)(uint32_t)(z >> 32);
-        const int64_t y = (int32_t)(uint32_t)z;
-        const uint64_t s = (uint64_t)(x * x) + (uint64_t)(y * y);
+        int64_t x, y;
+        const uint64_t s = sample_lattice_point(rng, &x, &y);
         if (s - 1 >= (UINT64_C(1) << 62) - 1) continue;
         const double f = len / (double)(int64_t)s;
         d[0] = (double)(x * x - y * y) * f;
@@ -116,10 +125,8 @@ static inline void sample_dir3(pdla_rng *rng, double v[3])
 static inline void sample_step3(pdla_rng *rng, double len, double d[3])
 {
     for (;;) {
-        const uint64_t w = rng_next(rng);
-        const int64_t x = (int32_t)(uint32_t)(w >> 32);
-        const int64_t y = (int32_t)(uint32_t)w;
-        const uint64_t s = (uint64_t)(x * x) + (uint64_t)(y * y);
+        int64_t x, y;
+        const uint64_t s = sample_lattice_point(rng, &x, &y);
         if (s >= (UINT64_C(1) << 62)) continue;
         const int64_t q = (int64_t)((UINT64_C(1) << 62) - s);
         const double f = len * 0x1.0p-61 * sqrt((double)q);

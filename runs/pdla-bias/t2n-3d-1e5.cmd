@@ -1,0 +1,1 @@
+/work/big/bin10/pdla --dim 3 --target 1e5 --seed SEED --no-output -q --stats-json FILE --threads 2 --serial-until 1e4

@@ -313,10 +313,7 @@ static int load_state(const reader *r, hid_t file, pdla_engine *e, const tree_ve
         if ((__int128)join128(gy[a]) != c.s1[a]) return damaged(r, "the gyration sums differ from the particles");
     if (join128(gy[3]) != c.s2 || gn != count) return damaged(r, "the gyration sums differ from the particles");
     if (r2 != c.r2max) return damaged(r, "R_ext differs from the particles");
-    int64_t re = (int64_t)sqrt((double)r2);
-    while ((uint64_t)(re * re) < r2) re++;
-    while (re > 0 && (uint64_t)((re - 1) * (re - 1)) >= r2) re--;
-    if (re != rext) return damaged(r, "R_ext differs from the particles");
+    if (tree_ceil_sqrt(r2) != rext) return damaged(r, "R_ext differs from the particles");
     for (int a = 0; a < 3; a++) e->gyr.s1[a] = c.s1[a];
     e->gyr.s2 = c.s2;
     e->gyr.n = count;

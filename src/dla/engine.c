@@ -162,8 +162,7 @@ void engine_raise_r_ext(pdla_engine *e, const int64_t *p)
 {
     uint64_t r2 = 0;
     for (int a = 0; a < e->params.dim; a++) r2 += (uint64_t)(p[a] * p[a]);
-    int64_t r = (int64_t)sqrt((double)r2);
-    while ((uint64_t)(r * r) < r2) r++;
+    const int64_t r = tree_ceil_sqrt(r2);
     int64_t cur = atomic_load_explicit(&e->r_ext, memory_order_relaxed);
     while (r > cur && !atomic_compare_exchange_weak_explicit(&e->r_ext, &cur, r, memory_order_relaxed,
                                                              memory_order_relaxed)) {

@@ -1250,8 +1250,7 @@ static inline __attribute__((always_inline)) int nearest_point(const tree *t, co
                                                              uint64_t *d2_out, search_state *k)
 {
     const int dim = t->dim;
-    int64_t r = (int64_t)sqrt((double)radius2);
-    while ((uint64_t)(r * r) < radius2) r++;
+    const int64_t r = tree_ceil_sqrt(radius2);
     /* The ball spans up to three leaves per axis (r < 256; two when
      * r <= 128). The leaves of the first two columns come first, in the
      * order that decides ties between equally near particles. */
@@ -1325,14 +1324,6 @@ static inline __attribute__((always_inline)) int nearest_point(const tree *t, co
     return found;
 }
 
-/* Smallest r with r^2 >= r2. */
-static inline int64_t ceil_sqrt(uint64_t r2)
-{
-    int64_t r = (int64_t)sqrt((double)r2);
-    while ((uint64_t)(r * r) < r2) r++;
-    return r;
-}
-
 /* Appends the particles of the 2D leaf with corner `corner` whose squared
  * distance from p is below far2 to pts[n..]; returns the new count, or -1
  * past cap. Leaves as nearest_point finds them (the walker's block cache,
@@ -1362,7 +1353,7 @@ static int ball_leaf2(const tree *t, const int64_t *p, const int64_t *corner, ui
 int search_ball_points2(const tree *t, const int64_t *p, uint64_t near2, uint64_t far2,
                         search_point *pts, int cap, search_state *k)
 {
-    const int64_t r0 = ceil_sqrt(near2), r1 = ceil_sqrt(far2);
+    const int64_t r0 = tree_ceil_sqrt(near2), r1 = tree_ceil_sqrt(far2);
     if (r1 >= TREE_LEAF_SIDE || r0 > r1) return -1;
     int64_t f0[2], s0[2], f1[2], s1[2];
     for (int a = 0; a < 2; a++) {

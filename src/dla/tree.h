@@ -36,6 +36,7 @@
 #include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <math.h>
 #include <string.h>
 
 #define TREE_LEAF_BITS 8
@@ -68,6 +69,16 @@ typedef struct tree_pool {
     uint32_t nseg;     /* segments allocated */
     PDLA_CACHE_PAD(pad_end_);
 } tree_pool;
+
+/* The smallest r >= 0 with r^2 >= r2 (r2 < 2^62), exact: the truncated
+ * double sqrt is a first guess never above it (rounding moves r2 by far
+ * less than 2r), raised in integers. */
+static inline int64_t tree_ceil_sqrt(uint64_t r2)
+{
+    int64_t r = (int64_t)sqrt((double)r2);
+    while ((uint64_t)(r * r) < r2) r++;
+    return r;
+}
 
 static inline void *pool_at(const tree_pool *p, uint32_t i)
 {

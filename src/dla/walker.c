@@ -160,9 +160,7 @@ int walker_snap_to_contact(const tree *t, int64_t *p, int64_t D, uint64_t reach2
     nb.n = -1;
     nb.far = 0;
     if (dim == 2 && k) {
-        int64_t reach = (int64_t)sqrt((double)reach2);
-        while ((uint64_t)(reach * reach) < reach2) reach++;
-        nb.far = reach + 2;
+        nb.far = tree_ceil_sqrt(reach2) + 2;
         nb.n = search_ball_points2(t, p, reach2, (uint64_t)(nb.far * nb.far), nb.pt, SNAP_NEAR_CAP, k);
     }
     int64_t q[3];

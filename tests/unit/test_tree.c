@@ -343,8 +343,32 @@ static void test_find_slot(int dim, int kind, uint64_t seed)
     tree_free(&t);
 }
 
+/* tree_ceil_sqrt (engine R_ext, checkpoint check, searches) is exact at
+ * k^2 - 1, k^2 and k^2 + 1 for k up to 2^31 - 1, r2 up to ~2^62, where the
+ * double r2 rounds (above 2^53). */
+static void test_ceil_sqrt(void)
+{
+    pdla_rng rng;
+    rng_seed(&rng, 99);
+    int wrong = 0, guess_off = 0;
+    for (int i = 0; i < 200000; i++) {
+        const uint64_t k = i < 3 ? (uint64_t)i : (i & 1 ? (rng_next(&rng) >> 33) : (UINT64_C(1) << 31) - 1 - (uint64_t)i);
+        for (int d = -1; d <= 1; d++) {
+            if (k <= 1 && d < 0) continue; /* 1 - 1 = 0 has root 0 */
+            const uint64_t r2 = k * k + (uint64_t)(int64_t)d;
+            const int64_t r = tree_ceil_sqrt(r2);
+            const uint64_t want = d <= 0 ? k : k + 1;
+            wrong += (uint64_t)r != want;
+            guess_off += (uint64_t)(int64_t)sqrt((double)r2) != want && d <= 0;
+        }
+    }
+    CHECK(wrong == 0, "tree_ceil_sqrt wrong %d times", wrong);
+    CHECK(guess_off > 0, "the first guess never needed raising (the test reached no such case)");
+}
+
 int main(void)
 {
+    test_ceil_sqrt();
     for (int dim = 2; dim <= 3; dim++)
         for (int kind = 0; kind < 4; kind++) test_find_slot(dim, kind, 4242 + (uint64_t)kind);
     for (int dim = 2; dim <= 3; dim++) {

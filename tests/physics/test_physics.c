@@ -107,13 +107,10 @@ static ensemble grow_ensemble(int dim, int clusters, uint64_t n, int threads, ui
 static size_t grow_series(uint64_t n, int threads, uint64_t serial_until, uint64_t seed,
                           uint64_t *grid_n, double *ln_rg, size_t cap, pdla_stats *st)
 {
-    pdla_params p;
-    pdla_params_default(&p);
-    p.dim = 2;
-    p.target = n;
-    p.threads = threads;
-    p.serial_until = serial_until;
-    p.seed = seed;
+    pdla_params p, defaults;
+    grow_params(&p, 2, n, threads, serial_until, seed);
+    pdla_params_default(&defaults);
+    p.rg_per_decade = defaults.rg_per_decade; /* the series is what is compared */
     pdla_engine *e;
     char err[256];
     if (pdla_engine_create(&e, &p, err, sizeof err) ||

@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 
 #include "ev_internal.h"
 
@@ -503,10 +504,35 @@ static int sort_by_cell(ev_sim *s)
 /* Cells per particle at most (see size_box). */
 #define EV_CELLS_PER_PARTICLE(D) ((D) == 3 ? 4.0 : 2.0)
 
+/* n zeroed elements of `size` bytes, aligned to `align` (a power of two,
+ * at least sizeof(void *)), for free(); NULL when out of memory. Arrays of
+ * 4 MB and more are aligned to 2 MB and asked to live in transparent huge
+ * pages (the kernel's THP "madvise" mode): the event loop reads them at
+ * random (a candidate's record, its cell's head, the queue links), and
+ * from N ~ 1e6 one TLB miss per random line was measured as 2-19% of the
+ * loop's CPU in 2D and up to 8% at N = 1e5 (runs/event/speed-session11.md).
+ * The advice is a hint: where it is refused the array is the same, in
+ * small pages. */
+static void *big_zalloc(size_t n, size_t size, size_t align)
+{
+    if (n == 0) n = 1;
+    if (n > SIZE_MAX / size) return NULL;
+    size_t bytes = n * size;
+    const size_t huge = (size_t)2 << 20;
+    if (bytes >= 2 * huge) align = huge;
+    bytes = (bytes + align - 1) / align * align;
+    void *p = aligned_alloc(align, bytes);
+    if (!p) return NULL;
+#ifdef MADV_HUGEPAGE
+    if (align == huge) (void)madvise(p, bytes, MADV_HUGEPAGE);
+#endif
+    memset(p, 0, bytes);
+    return p;
+}
+
 #define ALLOC(ptr, n)                                                      \
     do {                                                                   \
-        const size_t n_ = (size_t)(n);                                     \
-        (ptr) = calloc(n_ ? n_ : 1, sizeof *(ptr));                        \
+        (ptr) = big_zalloc((size_t)(n), sizeof *(ptr), 16);                 \
         if (!(ptr)) goto oom;                                              \
     } while (0)
 
@@ -578,10 +604,8 @@ static int alloc_arrays(ev_sim *s)
     const uint32_t N = s->ntot;
     {
         /* one particle = 64 bytes in 3D: align so it is one cache line */
-        const size_t bytes = ((size_t)N * (2 * D + 2) * sizeof(double) + 63) / 64 * 64;
-        s->ps = aligned_alloc(64, bytes ? bytes : 64);
+        s->ps = big_zalloc((size_t)N * (size_t)(2 * D + 2), sizeof(double), 64);
         if (!s->ps) goto oom;
-        memset(s->ps, 0, bytes);
     }
     ALLOC(s->mass, N);
     ALLOC(s->species, N);

@@ -269,21 +269,23 @@ void ev_queue_reset(ev_sim *s)
 
 /* ---- cells --------------------------------------------------------------- */
 
+/* Cell lists are singly linked: a cell holds 0.3-1 particles on average,
+ * so removal finds i within a step or two from the head, and no particle
+ * carries a back link (one array less, and no write into a neighbour's
+ * back link at every crossing). The order of a list is the same as with
+ * back links (insert at the head, unlink in place). */
 void ev_cell_insert(ev_sim *s, uint32_t i, uint32_t c)
 {
     s->cell[i] = c;
-    s->cprev[i] = UINT32_MAX;
     s->cnext[i] = s->chead[c];
-    if (s->chead[c] != UINT32_MAX) s->cprev[s->chead[c]] = i;
     s->chead[c] = i;
 }
 
 static void cell_remove(ev_sim *s, uint32_t i)
 {
-    const uint32_t c = s->cell[i];
-    if (s->cprev[i] != UINT32_MAX) s->cnext[s->cprev[i]] = s->cnext[i];
-    else s->chead[c] = s->cnext[i];
-    if (s->cnext[i] != UINT32_MAX) s->cprev[s->cnext[i]] = s->cprev[i];
+    uint32_t *p = &s->chead[s->cell[i]];
+    while (*p != i) p = &s->cnext[*p];
+    *p = s->cnext[i];
 }
 
 /* ---- predictions (D is a compile-time constant at every call) ------------ */

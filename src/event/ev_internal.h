@@ -47,7 +47,7 @@ struct ev_sim {
     double *mass;
     uint8_t *species, *stuck;
     uint32_t *count, *parent;
-    uint32_t *cell, *cnext, *cprev, *chead;
+    uint32_t *cell, *cnext, *chead;
     ev_evt *evt;
     /* event queue (ev_core.c): heap of the current bucket, bucket lists */
     ev_hent *heap;

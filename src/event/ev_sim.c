@@ -30,7 +30,6 @@ void ev_free(ev_sim *s)
     free(s->parent);
     free(s->cell);
     free(s->cnext);
-    free(s->cprev);
     free(s->chead);
     free(s->evt);
     free(s->heap);
@@ -504,27 +503,41 @@ static int sort_by_cell(ev_sim *s)
 /* Cells per particle at most (see size_box). */
 #define EV_CELLS_PER_PARTICLE(D) ((D) == 3 ? 4.0 : 2.0)
 
-/* n zeroed elements of `size` bytes, aligned to `align` (a power of two,
- * at least sizeof(void *)), for free(); NULL when out of memory. Arrays of
- * 4 MB and more are aligned to 2 MB and asked to live in transparent huge
- * pages (the kernel's THP "madvise" mode): the event loop reads them at
- * random (a candidate's record, its cell's head, the queue links), and
- * from N ~ 1e6 one TLB miss per random line was measured as 2-19% of the
- * loop's CPU in 2D and up to 8% at N = 1e5 (runs/event/speed-session11.md).
- * The advice is a hint: where it is refused the array is the same, in
- * small pages. */
+/* n zeroed elements of `size` bytes, aligned to `align` (16, or a larger
+ * power of two), for free(); NULL when out of memory. Arrays of 4 MB and
+ * more are asked to live in transparent huge pages (madvise, the kernel's
+ * THP "madvise" mode): the event loop reads them at random (a candidate's
+ * record, its cell's head, the queue links), and from N ~ 1e6 a TLB miss
+ * per random line was measured as a few % of the loop's CPU
+ * (runs/event/speed-session11.md). With align 16 the array comes from
+ * calloc (its untouched pages, e.g. the unused end of the heap array, stay
+ * unmapped) and its whole 2 MB pages inside are advised; larger alignments
+ * (the particle records) are aligned to 2 MB and written whole. The advice
+ * is a hint: where it is refused the array is the same, in small pages. */
 static void *big_zalloc(size_t n, size_t size, size_t align)
 {
     if (n == 0) n = 1;
     if (n > SIZE_MAX / size) return NULL;
     size_t bytes = n * size;
     const size_t huge = (size_t)2 << 20;
-    if (bytes >= 2 * huge) align = huge;
+    const int big = bytes >= 2 * huge;
+    if (align <= 16) {
+        char *p = calloc(n, size);
+#ifdef MADV_HUGEPAGE
+        if (p && big) {
+            char *lo = (char *)(((uintptr_t)p + huge - 1) & ~(uintptr_t)(huge - 1));
+            char *hi = (char *)(((uintptr_t)p + bytes) & ~(uintptr_t)(huge - 1));
+            if (hi > lo) (void)madvise(lo, (size_t)(hi - lo), MADV_HUGEPAGE);
+        }
+#endif
+        return p;
+    }
+    if (big) align = huge;
     bytes = (bytes + align - 1) / align * align;
     void *p = aligned_alloc(align, bytes);
     if (!p) return NULL;
 #ifdef MADV_HUGEPAGE
-    if (align == huge) (void)madvise(p, bytes, MADV_HUGEPAGE);
+    if (big) (void)madvise(p, bytes, MADV_HUGEPAGE);
 #endif
     memset(p, 0, bytes);
     return p;
@@ -614,7 +627,6 @@ static int alloc_arrays(ev_sim *s)
     ALLOC(s->parent, N);
     ALLOC(s->cell, N);
     ALLOC(s->cnext, N);
-    ALLOC(s->cprev, N);
     ALLOC(s->chead, ncell);
     ALLOC(s->evt, N);
     ALLOC(s->heap, N);

@@ -215,6 +215,59 @@ ev_cases = {
     "format_string_array": lambda f: f.attrs.__setitem__("format", np.array([b"pdla-event-checkpoint"] * 50)),
     "truncated": None,
 }
+
+
+def ev_values(name, fn):
+    """Dataset `name` with its values changed by fn(numpy array)."""
+    def damage(f):
+        a = fn(f[name][()].copy())
+        del f[name]
+        f[name] = a
+    return damage
+
+
+def ev_set(i, v):
+    def fn(a):
+        a[i] = v
+        return a
+    return fn
+
+
+def ev_param(key, value, attrs):
+    """The parameter line `key=...` set to value, and the root attributes."""
+    def damage(f):
+        t = bytes(f["parameters"][()]).decode()
+        t = "\n".join(key + "=" + value if ln.startswith(key + "=") else ln for ln in t.split("\n"))
+        del f["parameters"]
+        f["parameters"] = np.frombuffer(t.encode(), dtype="u1")
+        for k, v in attrs.items():
+            f.attrs[k] = np.int64(v)
+    return damage
+
+
+# Values the loader used to trust (session 11): before, NaN or infinite
+# numbers, an event time before `now`, a negative time or a zero series
+# interval ran without end; a cell face out of range read out of bounds
+# (UBSan); a particle outside its cell, a changed radius or an unknown event
+# kind ran on silently; parameters declaring 1e8 particles in a 10 KB file
+# allocated and initialised for them before the state was found missing.
+ev_cases.update({
+    "ps_nan": ev_values("state/ps", ev_set(0, np.nan)),
+    "ps_velocity_inf": ev_values("state/ps", ev_set(2, np.inf)),
+    "ps_outside_cell": ev_values("state/ps", ev_set(0, 1e6)),
+    "ps_radius_changed": ev_values("state/ps", ev_set(5, 3.0)),
+    "t_pair_before_now": ev_values("state/t_pair", lambda a: a * 0 - 1e300),
+    "t_cell_nan": ev_values("state/t_cell", lambda a: a * np.nan),
+    "kind_99": ev_values("state/kind", lambda a: a * 0 + 99),
+    "cell_what_99": ev_values("state/cell_what", lambda a: a * 0 + 99),
+    "parent_out_of_range": ev_values("state/parent", lambda a: a * 0 + 0xfffffff0),
+    "stuck_flags_all": ev_values("state/stuck", lambda a: a * 0 + 1),
+    "now_nan": ev_values("state/reals", ev_set(0, np.nan)),
+    "now_negative": ev_values("state/reals", ev_set(0, -1e300)),
+    "series_dt_zero": ev_values("state/reals", ev_set(1, 0.0)),
+    "rng_zero": ev_values("state/counters", lambda a: np.concatenate([a[:9], np.zeros(4, dtype="u8")])),
+    "particles_1e8": ev_param("particles", "100000000", {"particles": 10**8, "ntot": 10**8 + 1}),
+})
 for name, fn in ev_cases.items():
     expect("event-ckpt-%s/resume" % name, ev_resume(ev_copy("eventck-" + name.replace("^", ""), fn)), "fail")
 

@@ -180,10 +180,51 @@ dlca_ck_cases = {
     "snapshot_t_array_5000": lambda f: f["snapshots/1"].attrs.__setitem__("t", np.ones(5000, dtype="f8")),
     "truncated": None,
 }
+
+
+def dlca_u64(i, v):
+    """Entry i of the checkpoint's scalar array u64 set to v."""
+    def damage(f):
+        a = f["u64"][()]
+        a[i] = v
+        del f["u64"]
+        f["u64"] = a
+    return damage
+
+
+# Session 11: these resumed without a word (a NaN or negative time, a stop
+# state out of range, an all-zero RNG state), or sized memory by a forged
+# monomer count (2e8 in a 16384^2 box declared in a few KB: 795 MB RSS).
+dlca_ck_cases.update({
+    "t_nan": lambda f: (f.__setitem__("f64_x", np.array([np.nan, f["f64"][1]])), f.__delitem__("f64"),
+                        f.move("f64_x", "f64")),
+    "t_negative": lambda f: (f.__setitem__("f64_x", np.array([-1.0, f["f64"][1]])), f.__delitem__("f64"),
+                             f.move("f64_x", "f64")),
+    "stop_99": dlca_u64(13, 99),
+    "spanning_7": dlca_u64(12, 7),
+    "rng_zero": lambda f: (f.__delitem__("rng"), f.__setitem__("rng", np.zeros(4, dtype="u8"))),
+    "count_2e8_box_16384": lambda f: (dlca_u64(14, 2 * 10**8)(f),
+                                      f["parameters"].attrs.__setitem__("box", np.array([16384, 16384], dtype="u8"))),
+})
 for name, fn in dlca_ck_cases.items():
     d, path = forged(CK, "dlcack-" + name.replace("^", ""), fn)
     expect("dlca-ckpt-%s/resume" % name, ["--model", "dlca", "--resume", path, "--out", os.path.join(d, "o"), "-q"],
            "fail")
+
+# ---- DLCA --search boxes checkpoint: the box side A ------------------------
+# A box side of 0, or one that is no power of two >= --grid-box, looped for
+# ever in dlca_search_init (A *= 2 never reaches the clusters' extent; the
+# loop ignored SIGTERM); 2^31 wrapped to a negative int.
+boxes = os.path.join(WORK, "dlca-boxes")
+rc, lines, _ = run(["--model", "dlca", "--dim", "2", "--box", "48", "--fill", "0.05", "--until-clusters", "20",
+                    "--seed", "4", "--search", "boxes", "--out", boxes, "--checkpoint", "-q"])
+if rc != 0:
+    sys.exit("the DLCA boxes base run failed: %r" % lines)
+BK = os.path.join(boxes, "checkpoint.h5")
+for name, a, want in (("A_4", 4, "pass"), ("A_0", 0, "fail"), ("A_3", 3, "fail"), ("A_2^31", 2**31, "fail")):
+    d, path = forged(BK, "dlcabox-" + name.replace("^", ""), dlca_u64(10, a))
+    expect("dlca-boxes-ckpt-%s/resume" % name, ["--model", "dlca", "--resume", path, "--until-clusters", "5",
+                                                "--out", os.path.join(d, "o"), "-q"], want)
 
 # ---- event checkpoint through --resume ------------------------------------
 ev = os.path.join(WORK, "event")

@@ -28,6 +28,7 @@
 #include "parse.h"
 #include "pdla/dlca.h"
 #include "pdla/params.h"
+#include "pdla/pdla.h"
 
 enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 enum { OPT_MODEL = 1000, OPT_SCENE, OPT_OUT, OPT_FORCE, OPT_NO_OUTPUT, OPT_QUIET, OPT_HELP, OPT_CHECK, OPT_CKPT,
@@ -46,6 +47,7 @@ typedef struct dlca_cli {
     dlca_snapshot *snaps;         /* taken so far */
     size_t nsnaps;
     uint64_t n_monomers;          /* of the run (set when it starts) */
+    int lock, lock_out;           /* flocks (pdla_rundir_lock) of the checkpoint's and the run directory, -1: none */
 } dlca_cli;
 
 static volatile sig_atomic_t stop_signal;
@@ -485,6 +487,7 @@ static int read_command(int argc, char **argv, dlca_cli *c, char **scene_buf)
 {
     char err[1024];
     memset(c, 0, sizeof *c);
+    c->lock = c->lock_out = -1;
     dlca_params_default(&c->p);
     int prc = parse(argc, argv, c, scene_buf, err, sizeof err);
     if (prc == 1) {
@@ -529,6 +532,16 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
     struct stat sb; /* a run directory stands for its checkpoint.h5 */
     if (stat(c->resume, &sb) == 0 && S_ISDIR(sb.st_mode)) snprintf(ckpath, sizeof ckpath, "%s/checkpoint.h5", c->resume);
     else snprintf(ckpath, sizeof ckpath, "%s", c->resume);
+    /* The checkpoint's directory is locked before it is read: the run
+     * writing it may still be going (then this one is refused). */
+    char ckdir[4200];
+    snprintf(ckdir, sizeof ckdir, "%s", ckpath);
+    char *slash = strrchr(ckdir, '/');
+    if (slash) *slash = '\0';
+    if (pdla_rundir_lock(slash ? (ckdir[0] ? ckdir : "/") : ".", &c->lock, err, sizeof err) == PDLA_EEXIST) {
+        fprintf(stderr, "pdla: cannot resume: %s\n", err);
+        return EXIT_USAGE;
+    }
     const int lrc = dlca_checkpoint_load(s, ckpath, err, sizeof err);
     if (lrc) {
         fprintf(stderr, "pdla: %s\n", err);
@@ -584,6 +597,14 @@ static int new_sim(const dlca_cli *c, dlca_sim **s, char *err, size_t errlen)
     return crc;
 }
 
+/* Is dir the directory open as fd (the lock a resume took)? A second flock
+ * on it from this process would conflict with the first. */
+static int same_dir(int fd, const char *dir)
+{
+    struct stat a, b;
+    return fd >= 0 && fstat(fd, &a) == 0 && stat(dir, &b) == 0 && a.st_dev == b.st_dev && a.st_ino == b.st_ino;
+}
+
 /* The simulation to run (resumed or new) and its run directory: 0, or the
  * exit status with the line printed. */
 static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
@@ -601,7 +622,14 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
         }
     }
     if (!c->no_output) {
-        const int drc = make_dir(c, dir, dirlen);
+        /* One writer per run directory (as the DLA command): two runs on
+         * one directory wrote over each other's temporary files and left a
+         * 179-byte checkpoint.h5 that the survivor named for --resume. */
+        int drc = make_dir(c, dir, dirlen);
+        if (!drc && !same_dir(c->lock, dir) && pdla_rundir_lock(dir, &c->lock_out, err, sizeof err) != PDLA_OK) {
+            fprintf(stderr, "pdla: %s\n", err);
+            drc = EXIT_USAGE;
+        }
         if (drc) {
             dlca_destroy(*s);
             *s = NULL;
@@ -719,5 +747,7 @@ int dlca_cmd_main(int argc, char **argv)
     dlca_destroy(s);
     free(scene_buf);
     free_snapshots(&c);
+    pdla_rundir_unlock(c.lock_out);
+    pdla_rundir_unlock(c.lock);
     return exit_status(status, asked, final_ck, st.attempts, dir);
 }

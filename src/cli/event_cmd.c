@@ -125,6 +125,7 @@ typedef struct ev_cli {
     const char *resume;      /* run directory to continue */
     int progress;            /* -1: when stderr is a terminal */
     uint32_t given;          /* bits of the table rows given on the command line */
+    int lock;                /* the run directory's flock (pdla_rundir_lock), -1: none */
 } ev_cli;
 
 static int apply_scene_line(const char *key, const char *val, int line, void *u)
@@ -385,6 +386,11 @@ static int ticker(ev_sim *s, void *u)
 static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
 {
     snprintf(dir, len, "%s", c->resume);
+    char lerr[600]; /* locked before the checkpoint is read: the run writing it may still be going */
+    if (pdla_rundir_lock(dir, &c->lock, lerr, sizeof lerr) == PDLA_EEXIST) {
+        fprintf(stderr, "pdla: cannot resume: %s\n", lerr);
+        return NULL;
+    }
     char path[4200], err[600], err2[600];
     snprintf(path, sizeof path, "%s/checkpoint.h5", dir);
     ev_sim *s = ev_checkpoint_load(path, ser, err, sizeof err);
@@ -436,7 +442,13 @@ static ev_sim *start_sim(ev_cli *c, ev_series *ser, char *dir, size_t len, int *
         fprintf(stderr, "pdla: %s\n", err);
         return NULL;
     }
-    const int drc = make_dir(c, dir, len);
+    /* One writer per run directory (as the DLA command): two runs on one
+     * directory wrote over each other's cluster.h5.tmp and both lost it. */
+    int drc = make_dir(c, dir, len);
+    if (!drc && pdla_rundir_lock(dir, &c->lock, err, sizeof err) != PDLA_OK) {
+        fprintf(stderr, "pdla: %s\n", err);
+        drc = 2;
+    }
     if (drc) {
         ev_free(s);
         *rc = drc;
@@ -509,6 +521,7 @@ int event_cmd_main(int argc, char **argv)
     ev_cli c;
     memset(&c, 0, sizeof c);
     c.progress = -1;
+    c.lock = -1;
     const int prc = parse(argc, argv, &c);
     if (prc < 0) {
         fprintf(stderr, "pdla: %s\n", c.err);
@@ -541,6 +554,7 @@ int event_cmd_main(int argc, char **argv)
     free(cmd);
     ev_series_free(&ser);
     ev_free(s);
+    pdla_rundir_unlock(c.lock);
     /* Interrupted with checkpoints on: the run is saved, exit 0 (as the
      * DLA CLI); without: 130, the state is lost but cluster.h5 written. */
     if (why == EV_STOP_INTERRUPT && !rc && !c.checkpoint) return 130;

@@ -630,6 +630,14 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
             fprintf(stderr, "pdla: %s\n", err);
             drc = EXIT_USAGE;
         }
+        if (!drc && !c->resume) {
+            /* A new run (--force) replaces an older run's checkpoint: a
+             * later --resume would otherwise grow the old run and write it
+             * over this run's cluster.h5. */
+            char old[4200];
+            snprintf(old, sizeof old, "%s/checkpoint.h5", dir);
+            unlink(old);
+        }
         if (drc) {
             dlca_destroy(*s);
             *s = NULL;

@@ -9,6 +9,7 @@
  */
 #include "event_cmd.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
@@ -383,6 +384,35 @@ static int ticker(ev_sim *s, void *u)
 }
 
 /* --resume DIR: DIR/checkpoint.h5, or the previous one if that is unusable. */
+/* Under the directory's lock (no live writer can own them): the temporary
+ * files a killed pdla left (kill -9 while writing: each as large as a
+ * checkpoint, one per kill), and with old_checkpoints also an older run's
+ * checkpoints, which a new --force run replaces: a later --resume would
+ * otherwise grow the old run and write it over the new cluster.h5. */
+static void remove_stale(const char *dir, int old_checkpoints)
+{
+    static const char *const prefixes[] = {".checkpoint.h5.tmp.", "cluster.h5.tmp", "cluster.xdmf2.tmp.",
+                                           "cluster-free.xdmf2.tmp."};
+    char p[4400];
+    DIR *d = opendir(dir);
+    if (d) {
+        const struct dirent *de;
+        while ((de = readdir(d)))
+            for (size_t i = 0; i < sizeof prefixes / sizeof prefixes[0]; i++)
+                if (!strncmp(de->d_name, prefixes[i], strlen(prefixes[i]))) {
+                    snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
+                    unlink(p);
+                    break;
+                }
+        closedir(d);
+    }
+    if (!old_checkpoints) return;
+    snprintf(p, sizeof p, "%s/checkpoint.h5", dir);
+    unlink(p);
+    snprintf(p, sizeof p, "%s/checkpoint.prev.h5", dir);
+    unlink(p);
+}
+
 static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
 {
     snprintf(dir, len, "%s", c->resume);
@@ -391,6 +421,7 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
         fprintf(stderr, "pdla: cannot resume: %s\n", lerr);
         return NULL;
     }
+    if (c->lock >= 0) remove_stale(dir, 0);
     char path[4200], err[600], err2[600];
     snprintf(path, sizeof path, "%s/checkpoint.h5", dir);
     ev_sim *s = ev_checkpoint_load(path, ser, err, sizeof err);
@@ -449,6 +480,7 @@ static ev_sim *start_sim(ev_cli *c, ev_series *ser, char *dir, size_t len, int *
         fprintf(stderr, "pdla: %s\n", err);
         drc = 2;
     }
+    if (!drc) remove_stale(dir, 1);
     if (drc) {
         ev_free(s);
         *rc = drc;

@@ -13,6 +13,7 @@
  * that signal once the output is written.
  */
 #include <errno.h>
+#include <fcntl.h>
 #include <getopt.h>
 #include <math.h>
 #include <signal.h>
@@ -359,6 +360,19 @@ static char *join_args(int argc, char **argv)
     return s;
 }
 
+/* fsync of a file or a directory: 0, or -1 with errno (a directory that
+ * cannot be synced, EINVAL on some file systems, counts as synced). */
+static int sync_path(const char *p, int is_dir)
+{
+    const int fd = open(p, (is_dir ? O_RDONLY | O_DIRECTORY : O_WRONLY) | O_CLOEXEC);
+    if (fd < 0) return -1;
+    int r = fsync(fd) == 0 || (is_dir && errno == EINVAL) ? 0 : -1;
+    const int saved = errno;
+    if (close(fd) != 0 && r == 0) r = -1;
+    else errno = saved;
+    return r;
+}
+
 /* Write what = "cluster" or "checkpoint" as DIR/what.h5 (beside, then
  * renamed, so that a reader never sees half a file). 0 or -1 with err. */
 static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, const char *what, const char *cmd,
@@ -374,9 +388,20 @@ static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, con
     if (rc == 0 && c->snapshot_every > 0) /* the checkpoint too: a resumed run keeps them */
         rc = dlca_write_snapshots_h5(tmp, dlca_get_params(s), c->snaps, c->nsnaps, c->n_monomers, c->snapshot_every,
                                      err, errlen);
+    /* Synced before the rename and the directory after it: without, a
+     * machine crash could leave checkpoint.h5 empty with the previous one
+     * already replaced (the file was never fsync'ed before session 11). */
+    if (rc == 0 && sync_path(tmp, 0) != 0) {
+        snprintf(err, errlen, "cannot sync %.900s: %s", tmp, strerror(errno));
+        rc = -1;
+    }
     if (rc || rename(tmp, path)) {
         if (!err[0]) snprintf(err, errlen, "cannot rename %.900s: %s", tmp, strerror(errno));
         unlink(tmp);
+        return -1;
+    }
+    if (sync_path(dir, 1) != 0) {
+        snprintf(err, errlen, "wrote %.900s, but cannot sync its directory: %s", path, strerror(errno));
         return -1;
     }
     if (what[1] == 'l') { /* ParaView's sidecar, for the file under its final name */

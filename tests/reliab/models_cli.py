@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""models_cli.py PDLA WORKDIR - run-directory safety of the DLCA and event
+"""models_cli.py PDLA SHIM WORKDIR - run-directory safety of the DLCA and event
 commands (session 11; the DLA and ensemble commands are covered by
 cli_items.py and tests/ensemble).
 
@@ -23,7 +23,7 @@ import subprocess
 import sys
 import time
 
-PDLA, WORK = sys.argv[1], sys.argv[2]
+PDLA, SHIM, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
 failures = []
 
 
@@ -33,9 +33,11 @@ def check(ok, what):
         print("FAIL:", what, flush=True)
 
 
-def pdla(*args, timeout=120):
+def pdla(*args, timeout=120, env=None):
+    e = dict(os.environ)
+    e.update(env or {})
     try:
-        p = subprocess.run([PDLA] + list(args), capture_output=True, timeout=timeout)
+        p = subprocess.run([PDLA] + list(args), capture_output=True, timeout=timeout, env=e)
     except subprocess.TimeoutExpired:
         return None, "timeout"
     return p.returncode, p.stderr.decode("utf-8", "replace")
@@ -133,6 +135,68 @@ rc, err = pdla("--model", "event", "--resume", d, "--t-max", "3", "--quiet")
 check(rc == 0, "event-stale resume: %r" % err)
 left = sorted(n for n in os.listdir(d) if "tmp" in n)
 check(not left, "event: temporary files of a killed writer left after a resume: %r" % left)
+
+# Write faults (faultshim.so, as faults.py for DLA) while a --force run with
+# --checkpoint writes over an older one: exit 0 or 1 with at most one line
+# (one when it fails), never a signal, no temporary file left, cluster.h5
+# either the older run's or the new one complete, and what is left resumes
+# or is refused with one line. Before session 11 DLCA never fsync'ed
+# cluster.h5 or checkpoint.h5 before renaming them (a machine crash could
+# leave an empty checkpoint with the previous one gone): the first fsync
+# failing left the new cluster.h5 in place; now it keeps the old one.
+ldd = subprocess.run(["ldd", PDLA], capture_output=True, text=True).stdout
+PRELOAD = ":".join([ln.split("=>")[1].split()[0] for ln in ldd.splitlines() if "libasan" in ln and "=>" in ln] +
+                   [SHIM])
+
+
+def content(path, model):
+    try:
+        import h5py
+        with h5py.File(path, "r") as f:
+            if model == "dlca":
+                return f["monomers/site"][()].tobytes()
+            return f["cluster/positions"][()].tobytes() + f["free/positions"][()].tobytes()
+    except Exception as e:  # noqa: BLE001 - any failure to read is "damaged"
+        return "unreadable: %s" % e
+
+
+FAULTED = {
+    "dlca": ["--model", "dlca", "--dim", "2", "--box", "64", "--fill", "0.05", "--until-clusters", "20",
+             "--checkpoint", "-q"],
+    "event": ["--model", "event", "--dim", "2", "--particles", "300", "--packing", "0.1", "--t-max", "2",
+              "--checkpoint", "--quiet"],
+}
+for model, args in FAULTED.items():
+    ref, older = os.path.join(WORK, model + "-fref"), os.path.join(WORK, model + "-fold")
+    check(pdla(*(args + ["--seed", "2", "--out", ref]))[0] == 0, "%s: fault reference run" % model)
+    check(pdla(*(args + ["--seed", "1", "--out", older]))[0] == 0, "%s: fault older run" % model)
+    new_c, old_c = content(os.path.join(ref, "cluster.h5"), model), content(os.path.join(older, "cluster.h5"), model)
+    counted = os.path.join(WORK, model + "-count")
+    d = os.path.join(WORK, model + "-fcount")
+    shutil.copytree(older, d)
+    pdla(*(args + ["--seed", "2", "--out", d, "--force"]), env={"LD_PRELOAD": PRELOAD, "FAULT_COUNT": counted})
+    with open(counted) as fh:
+        ncalls = int(fh.read().split()[0])
+    cases = [("fsync", k, "EIO") for k in (1, 2, 3)] + [("any", k, e) for k in range(1, ncalls + 1, 4)
+                                                        for e in ("ENOSPC", "SHORT")]
+    for op, k, kind in cases:
+        tag = "%s fault %s #%d %s" % (model, op, k, kind)
+        d = os.path.join(WORK, "%s-f-%s-%d-%s" % (model, op, k, kind))
+        shutil.copytree(older, d)
+        rc, err = pdla(*(args + ["--seed", "2", "--out", d, "--force"]),
+                       env={"LD_PRELOAD": PRELOAD, "FAULT_OP": op, "FAULT_AT": str(k), "FAULT_ERR": kind})
+        lines = err.rstrip("\n").split("\n") if err.strip() else []
+        check(rc in (0, 1), "%s: exit %r %r" % (tag, rc, lines[:3]))
+        check(len(lines) == (1 if rc == 1 else len(lines)) and len(lines) <= 1, "%s: stderr %r" % (tag, lines[:3]))
+        got = content(os.path.join(d, "cluster.h5"), model)
+        check(got in (new_c, old_c), "%s: cluster.h5 neither the old nor the new one: %.100r" % (tag, got))
+        if model == "dlca" and op == "fsync" and k == 1:
+            check(got == old_c, "%s: cluster.h5 replaced though its fsync failed" % tag)
+        left = [n for n in os.listdir(d) if "tmp" in n or n.endswith(".new")]
+        check(not left, "%s: temporary files left: %r" % (tag, left))
+        more = ["--out", d + "-r", "-q"] if model == "dlca" else ["--quiet"]
+        rrc, rerr = pdla("--model", model, "--resume", d, *more)
+        check(rrc == 0 or (rrc == 2 and one_line(rerr)), "%s: resume of what is left: exit %r %r" % (tag, rrc, rerr))
 
 print("models-cli: %d failures" % len(failures))
 sys.exit(1 if failures else 0)

@@ -421,6 +421,12 @@ enum { ASKED_NONE = 0, ASKED_SIGNAL, ASKED_FILE };
 /* A snapshot of the state now (sites and cluster numbers); -1 on no memory. */
 static int take_snapshot(const dlca_sim *s, dlca_cli *c)
 {
+    /* Held until the file is written: a budget of a quarter of the
+     * machine's memory (the run itself may take half, dlca_params_validate) */
+    const long pages = sysconf(_SC_PHYS_PAGES), psz = sysconf(_SC_PAGESIZE);
+    if (pages > 0 && psz > 0 &&
+        (double)(c->nsnaps + 1) * 8.0 * (double)c->n_monomers > 0.25 * (double)pages * (double)psz)
+        return -1;
     dlca_snapshot *sn = realloc(c->snaps, (c->nsnaps + 1) * sizeof *sn);
     if (!sn) return -1;
     c->snaps = sn;
@@ -449,14 +455,29 @@ static void free_snapshots(dlca_cli *c)
     c->nsnaps = 0;
 }
 
+/* The first multiple of T after t, and always after t: where T is below
+ * t's rounding step, (floor(t/T) + 1) T rounds back to t, and the run loop
+ * stopped at t for ever taking a snapshot each pass (--snapshot-every
+ * 1e-300 filled the memory at once). */
+static double next_snapshot(double t, double T)
+{
+    const double next = (floor(t / T) + 1) * T;
+    return next > t ? next : nextafter(t, INFINITY);
+}
+
 /* Is it time for a snapshot (the first attempt at or after the next
  * multiple of T)? Then take it; *next becomes the multiple after now. */
 static int snapshot_due(const dlca_sim *s, dlca_cli *c, double *next)
 {
     if (!(*next > 0) || dlca_time(s) < *next) return 0;
-    *next = (floor(dlca_time(s) / c->snapshot_every) + 1) * c->snapshot_every;
+    *next = next_snapshot(dlca_time(s), c->snapshot_every);
     if (take_snapshot(s, c) == 0) return 0;
-    fprintf(stderr, "pdla: out of memory for a snapshot at t = %g\n", dlca_time(s));
+    /* Once, and no more snapshots: before, the line was printed on every
+     * pass of the loop (13 million lines in a minute). The run goes on; its
+     * exit status says a write failed. */
+    fprintf(stderr, "pdla: no memory for more snapshots at t = %g (%zu taken, %.3g GiB); none taken after it\n",
+            dlca_time(s), c->nsnaps, (double)c->nsnaps * 8.0 * (double)c->n_monomers / 1073741824.0);
+    *next = 0;
     return -1;
 }
 
@@ -470,7 +491,7 @@ static int run_loop(dlca_sim *s, dlca_cli *c, const char *dir, const char *cmd, 
     if (every) next_att = (att / every + 1) * every;
     double last_look = pdla_clock_seconds();
     double next_time = c->checkpoint_every > 0 ? last_look + c->checkpoint_every : 0;
-    double next_snap = c->snapshot_every > 0 ? (floor(dlca_time(s) / c->snapshot_every) + 1) * c->snapshot_every : 0;
+    double next_snap = c->snapshot_every > 0 ? next_snapshot(dlca_time(s), c->snapshot_every) : 0;
     char stop_path[4200], err[1024];
     snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
     *asked = ASKED_NONE;

@@ -30,6 +30,7 @@
 #include "pdla/dlca.h"
 #include "pdla/params.h"
 #include "pdla/pdla.h"
+#include "scene.h"
 
 enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 enum { OPT_MODEL = 1000, OPT_SCENE, OPT_OUT, OPT_FORCE, OPT_NO_OUTPUT, OPT_QUIET, OPT_HELP, OPT_CHECK, OPT_CKPT,
@@ -204,20 +205,35 @@ static int read_scene(dlca_cli *c, const char *path, char **keep, char *err, siz
         snprintf(err, errlen, "cannot read scene '%s': %s", path, strerror(errno));
         return -1;
     }
-    char *buf = calloc(1, 65537);
-    const size_t len = buf ? fread(buf, 1, 65536, f) : 0;
+    char *buf = calloc(1, SCENE_MAX_BYTES + 2);
+    const size_t len = buf ? fread(buf, 1, SCENE_MAX_BYTES + 1, f) : 0;
     fclose(f);
     if (!buf) {
         snprintf(err, errlen, "out of memory");
         return -1;
     }
     *keep = buf;
-    (void)len;
-    int lineno = 0;
+    /* As strict as the DLA command's scenes (scene.h): before, the bytes
+     * past 64 KiB were dropped without a word and a key given twice took
+     * the last value. */
+    if (len > SCENE_MAX_BYTES) {
+        snprintf(err, errlen, "%s: too large (a scene is at most %d bytes)", path, SCENE_MAX_BYTES);
+        return -1;
+    }
+    if (memchr(buf, '\0', len)) {
+        snprintf(err, errlen, "%s: contains a NUL byte (not a text file?)", path);
+        return -1;
+    }
+    char seen[64][64];
+    int lineno = 0, nseen = 0;
     for (char *line = buf, *next; line && *line; line = next) {
         lineno++;
         next = strchr(line, '\n');
         if (next) *next++ = '\0';
+        if (strlen(line) > SCENE_MAX_LINE) {
+            snprintf(err, errlen, "%s:%d: line too long (at most %d bytes)", path, lineno, SCENE_MAX_LINE);
+            return -1;
+        }
         char *h = strchr(line, '#');
         if (h) *h = '\0';
         char *eq = strchr(line, '=');
@@ -233,6 +249,16 @@ static int read_scene(dlca_cli *c, const char *path, char **keep, char *err, siz
         for (char *e = eq - 1; e >= k && (*e == ' ' || *e == '\t'); e--) *e = '\0';
         while (*v == ' ' || *v == '\t') v++;
         for (char *e = v + strlen(v) - 1; e >= v && (*e == ' ' || *e == '\t' || *e == '\r'); e--) *e = '\0';
+        char key[64];
+        snprintf(key, sizeof key, "%s", k);
+        for (char *q = key; *q; q++)
+            if (*q == '_') *q = '-';
+        for (int i = 0; i < nseen; i++)
+            if (!strcmp(seen[i], key)) {
+                snprintf(err, errlen, "%s:%d: duplicate key '%s'", path, lineno, key);
+                return -1;
+            }
+        if (nseen < 64) snprintf(seen[nseen++], sizeof seen[0], "%s", key);
         char why[512];
         if (set_key(c, k, v, why, sizeof why)) {
             snprintf(err, errlen, "%s:%d: %s", path, lineno, why);

@@ -23,6 +23,7 @@
 #include <unistd.h>
 
 #include "parse.h"
+#include "scene.h"
 #include "pdla/event.h"
 #include "pdla/pdla.h"
 
@@ -76,10 +77,23 @@ static int scene_each(const char *path, scene_fn fn, void *u, char *err, size_t 
         snprintf(err, errlen, "cannot read scene %s: %s", path, strerror(errno));
         return -1;
     }
-    char buf[1024];
-    int line = 0, rc = 0;
+    /* As strict as the DLA command's scenes (scene.h): at most
+     * SCENE_MAX_BYTES, lines of SCENE_MAX_LINE, no key twice. Before, a key
+     * given twice silently took the last value and a line over 1023 bytes
+     * was read as two lines. */
+    char buf[SCENE_MAX_LINE + 2], seen[64][64];
+    int line = 0, rc = 0, nseen = 0;
+    if (st.st_size > SCENE_MAX_BYTES) {
+        snprintf(err, errlen, "%s: too large (a scene is at most %d bytes)", path, SCENE_MAX_BYTES);
+        rc = -1;
+    }
     while (!rc && fgets(buf, sizeof buf, f)) {
         line++;
+        if (!strchr(buf, '\n') && strlen(buf) > SCENE_MAX_LINE) {
+            snprintf(err, errlen, "%s:%d: line too long (at most %d bytes)", path, line, SCENE_MAX_LINE);
+            rc = -1;
+            break;
+        }
         char *hash = strchr(buf, '#');
         if (hash) *hash = '\0';
         char *s = trim(buf);
@@ -91,7 +105,17 @@ static int scene_each(const char *path, scene_fn fn, void *u, char *err, size_t 
             break;
         }
         *eq = '\0';
-        rc = fn(trim(s), trim(eq + 1), line, u);
+        char key[64];
+        snprintf(key, sizeof key, "%s", trim(s));
+        for (char *q = key; *q; q++)
+            if (*q == '_') *q = '-';
+        for (int i = 0; i < nseen && !rc; i++)
+            if (!strcmp(seen[i], key)) {
+                snprintf(err, errlen, "%s:%d: duplicate key '%s'", path, line, key);
+                rc = -1;
+            }
+        if (!rc && nseen < 64) snprintf(seen[nseen++], sizeof seen[0], "%s", key);
+        if (!rc) rc = fn(trim(s), trim(eq + 1), line, u);
     }
     fclose(f);
     return rc;

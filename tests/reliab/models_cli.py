@@ -221,5 +221,36 @@ try:
 except subprocess.TimeoutExpired:
     check(False, "dlca --snapshot-every 1e-300: did not end within 30 s")
 
+# Scenes of the two models, as strict as the DLA command's (scene.h): a key
+# twice (also as key_name and key-name), a line over 1024 bytes, a file
+# over 64 KiB: one line, exit 2, no run directory. Before, a key given twice
+# took its last value, the event reader split a long line in two, and the
+# DLCA reader dropped what followed 64 KiB.
+SCENES = {
+    "dlca-dup": "model = dlca\nbox = 48\ndim = 2\ndim = 3\n",
+    "dlca-dup-underscore": "model = dlca\nbox = 48\nuntil_clusters = 2\nuntil-clusters = 3\n",
+    "dlca-long-line": "model = dlca\nbox = 48" + " " * 2000 + "\n",
+    "dlca-too-large": "model = dlca\nbox = 48\n" + ("#" * 100 + "\n") * 700,
+    "event-dup": "model = event\nparticles = 10\nt-max = 1\nparticles = 20\n",
+    "event-dup-underscore": "model = event\nparticles = 10\nt_max = 1\nt-max = 2\n",
+    "event-long-line": "model = event\nt-max = 1\nspecies = " + "10:0.5:1," * 150 + "\n",
+    "event-too-large": "model = event\nparticles = 10\nt-max = 1\n" + ("#" * 100 + "\n") * 700,
+}
+for name, text in SCENES.items():
+    path = os.path.join(WORK, name + ".scene")
+    out = os.path.join(WORK, name + "-out")
+    with open(path, "w") as fh:
+        fh.write(text)
+    rc, err = pdla("--scene", path, "--out", out)
+    check(rc == 2 and one_line(err), "scene %s: exit %r, %r" % (name, rc, err[-300:]))
+    check(not os.path.exists(out), "scene %s: a run directory was made" % name)
+for name, text in (("dlca-ok", "model = dlca\nbox = 48\nuntil_clusters = 20\n"),
+                   ("event-ok", "model = event\nparticles = 10\nt_max = 1\nkT = 2\n")):
+    path = os.path.join(WORK, name + ".scene")
+    with open(path, "w") as fh:
+        fh.write(text)
+    rc, err = pdla("--scene", path, "--out", os.path.join(WORK, name + "-out"), "--quiet" if "event" in name else "-q")
+    check(rc == 0, "scene %s: exit %r, %r" % (name, rc, err[-300:]))
+
 print("models-cli: %d failures" % len(failures))
 sys.exit(1 if failures else 0)

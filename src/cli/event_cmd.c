@@ -11,6 +11,7 @@
 
 #include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <inttypes.h>
 #include <math.h>
 #include <signal.h>
@@ -437,6 +438,20 @@ static void remove_stale(const char *dir, int old_checkpoints)
     unlink(p);
 }
 
+/* Can a file be made in dir? Seen before the run (chattr +i, a read-only
+ * mount: access() says yes to root): before, the whole run went by and
+ * then cluster.h5 and the checkpoint could not be written. 0, or 2 with
+ * the line printed. */
+static int dir_takes_files(const char *dir)
+{
+    char p[4300];
+    snprintf(p, sizeof p, "%s/.pdla-probe.%ld", dir, (long)getpid());
+    const int fd = open(p, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd >= 0 && close(fd) == 0 && unlink(p) == 0) return 0;
+    fprintf(stderr, "pdla: run directory '%s' takes no files: %s\n", dir, strerror(errno));
+    return 2;
+}
+
 static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
 {
     snprintf(dir, len, "%s", c->resume);
@@ -446,6 +461,7 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
         return NULL;
     }
     if (c->lock >= 0) remove_stale(dir, 0);
+    if (c->lock >= 0 && dir_takes_files(dir)) return NULL;
     char path[4200], err[600], err2[600];
     snprintf(path, sizeof path, "%s/checkpoint.h5", dir);
     ev_sim *s = ev_checkpoint_load(path, ser, err, sizeof err);
@@ -504,6 +520,7 @@ static ev_sim *start_sim(ev_cli *c, ev_series *ser, char *dir, size_t len, int *
         fprintf(stderr, "pdla: %s\n", err);
         drc = 2;
     }
+    if (!drc) drc = dir_takes_files(dir);
     if (!drc) remove_stale(dir, 1);
     if (drc) {
         ev_free(s);

@@ -13,6 +13,7 @@
  * that signal once the output is written.
  */
 #include <errno.h>
+#include <fcntl.h>
 #include <getopt.h>
 #include <math.h>
 #include <signal.h>
@@ -28,6 +29,8 @@
 #include "parse.h"
 #include "pdla/dlca.h"
 #include "pdla/params.h"
+#include "pdla/pdla.h"
+#include "scene.h"
 
 enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 enum { OPT_MODEL = 1000, OPT_SCENE, OPT_OUT, OPT_FORCE, OPT_NO_OUTPUT, OPT_QUIET, OPT_HELP, OPT_CHECK, OPT_CKPT,
@@ -46,6 +49,7 @@ typedef struct dlca_cli {
     dlca_snapshot *snaps;         /* taken so far */
     size_t nsnaps;
     uint64_t n_monomers;          /* of the run (set when it starts) */
+    int lock, lock_out;           /* flocks (pdla_rundir_lock) of the checkpoint's and the run directory, -1: none */
 } dlca_cli;
 
 static volatile sig_atomic_t stop_signal;
@@ -201,20 +205,35 @@ static int read_scene(dlca_cli *c, const char *path, char **keep, char *err, siz
         snprintf(err, errlen, "cannot read scene '%s': %s", path, strerror(errno));
         return -1;
     }
-    char *buf = calloc(1, 65537);
-    const size_t len = buf ? fread(buf, 1, 65536, f) : 0;
+    char *buf = calloc(1, SCENE_MAX_BYTES + 2);
+    const size_t len = buf ? fread(buf, 1, SCENE_MAX_BYTES + 1, f) : 0;
     fclose(f);
     if (!buf) {
         snprintf(err, errlen, "out of memory");
         return -1;
     }
     *keep = buf;
-    (void)len;
-    int lineno = 0;
+    /* As strict as the DLA command's scenes (scene.h): before, the bytes
+     * past 64 KiB were dropped without a word and a key given twice took
+     * the last value. */
+    if (len > SCENE_MAX_BYTES) {
+        snprintf(err, errlen, "%s: too large (a scene is at most %d bytes)", path, SCENE_MAX_BYTES);
+        return -1;
+    }
+    if (memchr(buf, '\0', len)) {
+        snprintf(err, errlen, "%s: contains a NUL byte (not a text file?)", path);
+        return -1;
+    }
+    char seen[64][64];
+    int lineno = 0, nseen = 0;
     for (char *line = buf, *next; line && *line; line = next) {
         lineno++;
         next = strchr(line, '\n');
         if (next) *next++ = '\0';
+        if (strlen(line) > SCENE_MAX_LINE) {
+            snprintf(err, errlen, "%s:%d: line too long (at most %d bytes)", path, lineno, SCENE_MAX_LINE);
+            return -1;
+        }
         char *h = strchr(line, '#');
         if (h) *h = '\0';
         char *eq = strchr(line, '=');
@@ -230,6 +249,16 @@ static int read_scene(dlca_cli *c, const char *path, char **keep, char *err, siz
         for (char *e = eq - 1; e >= k && (*e == ' ' || *e == '\t'); e--) *e = '\0';
         while (*v == ' ' || *v == '\t') v++;
         for (char *e = v + strlen(v) - 1; e >= v && (*e == ' ' || *e == '\t' || *e == '\r'); e--) *e = '\0';
+        char key[64];
+        snprintf(key, sizeof key, "%s", k);
+        for (char *q = key; *q; q++)
+            if (*q == '_') *q = '-';
+        for (int i = 0; i < nseen; i++)
+            if (!strcmp(seen[i], key)) {
+                snprintf(err, errlen, "%s:%d: duplicate key '%s'", path, lineno, key);
+                return -1;
+            }
+        if (nseen < 64) snprintf(seen[nseen++], sizeof seen[0], "%s", key);
         char why[512];
         if (set_key(c, k, v, why, sizeof why)) {
             snprintf(err, errlen, "%s:%d: %s", path, lineno, why);
@@ -357,6 +386,19 @@ static char *join_args(int argc, char **argv)
     return s;
 }
 
+/* fsync of a file or a directory: 0, or -1 with errno (a directory that
+ * cannot be synced, EINVAL on some file systems, counts as synced). */
+static int sync_path(const char *p, int is_dir)
+{
+    const int fd = open(p, (is_dir ? O_RDONLY | O_DIRECTORY : O_WRONLY) | O_CLOEXEC);
+    if (fd < 0) return -1;
+    int r = fsync(fd) == 0 || (is_dir && errno == EINVAL) ? 0 : -1;
+    const int saved = errno;
+    if (close(fd) != 0 && r == 0) r = -1;
+    else errno = saved;
+    return r;
+}
+
 /* Write what = "cluster" or "checkpoint" as DIR/what.h5 (beside, then
  * renamed, so that a reader never sees half a file). 0 or -1 with err. */
 static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, const char *what, const char *cmd,
@@ -372,9 +414,20 @@ static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, con
     if (rc == 0 && c->snapshot_every > 0) /* the checkpoint too: a resumed run keeps them */
         rc = dlca_write_snapshots_h5(tmp, dlca_get_params(s), c->snaps, c->nsnaps, c->n_monomers, c->snapshot_every,
                                      err, errlen);
+    /* Synced before the rename and the directory after it: without, a
+     * machine crash could leave checkpoint.h5 empty with the previous one
+     * already replaced (the file was never fsync'ed before session 11). */
+    if (rc == 0 && sync_path(tmp, 0) != 0) {
+        snprintf(err, errlen, "cannot sync %.900s: %s", tmp, strerror(errno));
+        rc = -1;
+    }
     if (rc || rename(tmp, path)) {
         if (!err[0]) snprintf(err, errlen, "cannot rename %.900s: %s", tmp, strerror(errno));
         unlink(tmp);
+        return -1;
+    }
+    if (sync_path(dir, 1) != 0) {
+        snprintf(err, errlen, "wrote %.900s, but cannot sync its directory: %s", path, strerror(errno));
         return -1;
     }
     if (what[1] == 'l') { /* ParaView's sidecar, for the file under its final name */
@@ -394,6 +447,12 @@ enum { ASKED_NONE = 0, ASKED_SIGNAL, ASKED_FILE };
 /* A snapshot of the state now (sites and cluster numbers); -1 on no memory. */
 static int take_snapshot(const dlca_sim *s, dlca_cli *c)
 {
+    /* Held until the file is written: a budget of a quarter of the
+     * machine's memory (the run itself may take half, dlca_params_validate) */
+    const long pages = sysconf(_SC_PHYS_PAGES), psz = sysconf(_SC_PAGESIZE);
+    if (pages > 0 && psz > 0 &&
+        (double)(c->nsnaps + 1) * 8.0 * (double)c->n_monomers > 0.25 * (double)pages * (double)psz)
+        return -1;
     dlca_snapshot *sn = realloc(c->snaps, (c->nsnaps + 1) * sizeof *sn);
     if (!sn) return -1;
     c->snaps = sn;
@@ -422,14 +481,29 @@ static void free_snapshots(dlca_cli *c)
     c->nsnaps = 0;
 }
 
+/* The first multiple of T after t, and always after t: where T is below
+ * t's rounding step, (floor(t/T) + 1) T rounds back to t, and the run loop
+ * stopped at t for ever taking a snapshot each pass (--snapshot-every
+ * 1e-300 filled the memory at once). */
+static double next_snapshot(double t, double T)
+{
+    const double next = (floor(t / T) + 1) * T;
+    return next > t ? next : nextafter(t, INFINITY);
+}
+
 /* Is it time for a snapshot (the first attempt at or after the next
  * multiple of T)? Then take it; *next becomes the multiple after now. */
 static int snapshot_due(const dlca_sim *s, dlca_cli *c, double *next)
 {
     if (!(*next > 0) || dlca_time(s) < *next) return 0;
-    *next = (floor(dlca_time(s) / c->snapshot_every) + 1) * c->snapshot_every;
+    *next = next_snapshot(dlca_time(s), c->snapshot_every);
     if (take_snapshot(s, c) == 0) return 0;
-    fprintf(stderr, "pdla: out of memory for a snapshot at t = %g\n", dlca_time(s));
+    /* Once, and no more snapshots: before, the line was printed on every
+     * pass of the loop (13 million lines in a minute). The run goes on; its
+     * exit status says a write failed. */
+    fprintf(stderr, "pdla: no memory for more snapshots at t = %g (%zu taken, %.3g GiB); none taken after it\n",
+            dlca_time(s), c->nsnaps, (double)c->nsnaps * 8.0 * (double)c->n_monomers / 1073741824.0);
+    *next = 0;
     return -1;
 }
 
@@ -443,7 +517,7 @@ static int run_loop(dlca_sim *s, dlca_cli *c, const char *dir, const char *cmd, 
     if (every) next_att = (att / every + 1) * every;
     double last_look = pdla_clock_seconds();
     double next_time = c->checkpoint_every > 0 ? last_look + c->checkpoint_every : 0;
-    double next_snap = c->snapshot_every > 0 ? (floor(dlca_time(s) / c->snapshot_every) + 1) * c->snapshot_every : 0;
+    double next_snap = c->snapshot_every > 0 ? next_snapshot(dlca_time(s), c->snapshot_every) : 0;
     char stop_path[4200], err[1024];
     snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
     *asked = ASKED_NONE;
@@ -485,6 +559,7 @@ static int read_command(int argc, char **argv, dlca_cli *c, char **scene_buf)
 {
     char err[1024];
     memset(c, 0, sizeof *c);
+    c->lock = c->lock_out = -1;
     dlca_params_default(&c->p);
     int prc = parse(argc, argv, c, scene_buf, err, sizeof err);
     if (prc == 1) {
@@ -529,6 +604,16 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
     struct stat sb; /* a run directory stands for its checkpoint.h5 */
     if (stat(c->resume, &sb) == 0 && S_ISDIR(sb.st_mode)) snprintf(ckpath, sizeof ckpath, "%s/checkpoint.h5", c->resume);
     else snprintf(ckpath, sizeof ckpath, "%s", c->resume);
+    /* The checkpoint's directory is locked before it is read: the run
+     * writing it may still be going (then this one is refused). */
+    char ckdir[4200];
+    snprintf(ckdir, sizeof ckdir, "%s", ckpath);
+    char *slash = strrchr(ckdir, '/');
+    if (slash) *slash = '\0';
+    if (pdla_rundir_lock(slash ? (ckdir[0] ? ckdir : "/") : ".", &c->lock, err, sizeof err) == PDLA_EEXIST) {
+        fprintf(stderr, "pdla: cannot resume: %s\n", err);
+        return EXIT_USAGE;
+    }
     const int lrc = dlca_checkpoint_load(s, ckpath, err, sizeof err);
     if (lrc) {
         fprintf(stderr, "pdla: %s\n", err);
@@ -584,6 +669,28 @@ static int new_sim(const dlca_cli *c, dlca_sim **s, char *err, size_t errlen)
     return crc;
 }
 
+/* Can a file be made in dir? Seen before the run (chattr +i, a read-only
+ * mount: access() says yes to root): before, the whole run went by and
+ * then cluster.h5 and the checkpoint could not be written. 0, or -1 with
+ * errno. */
+static int dir_takes_files(const char *dir)
+{
+    char p[4300];
+    snprintf(p, sizeof p, "%s/.pdla-probe.%ld", dir, (long)getpid());
+    const int fd = open(p, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd < 0) return -1;
+    close(fd);
+    return unlink(p);
+}
+
+/* Is dir the directory open as fd (the lock a resume took)? A second flock
+ * on it from this process would conflict with the first. */
+static int same_dir(int fd, const char *dir)
+{
+    struct stat a, b;
+    return fd >= 0 && fstat(fd, &a) == 0 && stat(dir, &b) == 0 && a.st_dev == b.st_dev && a.st_ino == b.st_ino;
+}
+
 /* The simulation to run (resumed or new) and its run directory: 0, or the
  * exit status with the line printed. */
 static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
@@ -601,7 +708,26 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
         }
     }
     if (!c->no_output) {
-        const int drc = make_dir(c, dir, dirlen);
+        /* One writer per run directory (as the DLA command): two runs on
+         * one directory wrote over each other's temporary files and left a
+         * 179-byte checkpoint.h5 that the survivor named for --resume. */
+        int drc = make_dir(c, dir, dirlen);
+        if (!drc && !same_dir(c->lock, dir) && pdla_rundir_lock(dir, &c->lock_out, err, sizeof err) != PDLA_OK) {
+            fprintf(stderr, "pdla: %s\n", err);
+            drc = EXIT_USAGE;
+        }
+        if (!drc && dir_takes_files(dir) != 0) {
+            fprintf(stderr, "pdla: run directory '%s' takes no files: %s\n", dir, strerror(errno));
+            drc = EXIT_USAGE;
+        }
+        if (!drc && !c->resume) {
+            /* A new run (--force) replaces an older run's checkpoint: a
+             * later --resume would otherwise grow the old run and write it
+             * over this run's cluster.h5. */
+            char old[4200];
+            snprintf(old, sizeof old, "%s/checkpoint.h5", dir);
+            unlink(old);
+        }
         if (drc) {
             dlca_destroy(*s);
             *s = NULL;
@@ -719,5 +845,7 @@ int dlca_cmd_main(int argc, char **argv)
     dlca_destroy(s);
     free(scene_buf);
     free_snapshots(&c);
+    pdla_rundir_unlock(c.lock_out);
+    pdla_rundir_unlock(c.lock);
     return exit_status(status, asked, final_ck, st.attempts, dir);
 }

@@ -9,7 +9,9 @@
  */
 #include "event_cmd.h"
 
+#include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <inttypes.h>
 #include <math.h>
 #include <signal.h>
@@ -22,6 +24,7 @@
 #include <unistd.h>
 
 #include "parse.h"
+#include "scene.h"
 #include "pdla/event.h"
 #include "pdla/pdla.h"
 
@@ -75,10 +78,23 @@ static int scene_each(const char *path, scene_fn fn, void *u, char *err, size_t 
         snprintf(err, errlen, "cannot read scene %s: %s", path, strerror(errno));
         return -1;
     }
-    char buf[1024];
-    int line = 0, rc = 0;
+    /* As strict as the DLA command's scenes (scene.h): at most
+     * SCENE_MAX_BYTES, lines of SCENE_MAX_LINE, no key twice. Before, a key
+     * given twice silently took the last value and a line over 1023 bytes
+     * was read as two lines. */
+    char buf[SCENE_MAX_LINE + 2], seen[64][64];
+    int line = 0, rc = 0, nseen = 0;
+    if (st.st_size > SCENE_MAX_BYTES) {
+        snprintf(err, errlen, "%s: too large (a scene is at most %d bytes)", path, SCENE_MAX_BYTES);
+        rc = -1;
+    }
     while (!rc && fgets(buf, sizeof buf, f)) {
         line++;
+        if (!strchr(buf, '\n') && strlen(buf) > SCENE_MAX_LINE) {
+            snprintf(err, errlen, "%s:%d: line too long (at most %d bytes)", path, line, SCENE_MAX_LINE);
+            rc = -1;
+            break;
+        }
         char *hash = strchr(buf, '#');
         if (hash) *hash = '\0';
         char *s = trim(buf);
@@ -90,7 +106,17 @@ static int scene_each(const char *path, scene_fn fn, void *u, char *err, size_t 
             break;
         }
         *eq = '\0';
-        rc = fn(trim(s), trim(eq + 1), line, u);
+        char key[64];
+        snprintf(key, sizeof key, "%s", trim(s));
+        for (char *q = key; *q; q++)
+            if (*q == '_') *q = '-';
+        for (int i = 0; i < nseen && !rc; i++)
+            if (!strcmp(seen[i], key)) {
+                snprintf(err, errlen, "%s:%d: duplicate key '%s'", path, line, key);
+                rc = -1;
+            }
+        if (!rc && nseen < 64) snprintf(seen[nseen++], sizeof seen[0], "%s", key);
+        if (!rc) rc = fn(trim(s), trim(eq + 1), line, u);
     }
     fclose(f);
     return rc;
@@ -125,6 +151,7 @@ typedef struct ev_cli {
     const char *resume;      /* run directory to continue */
     int progress;            /* -1: when stderr is a terminal */
     uint32_t given;          /* bits of the table rows given on the command line */
+    int lock;                /* the run directory's flock (pdla_rundir_lock), -1: none */
 } ev_cli;
 
 static int apply_scene_line(const char *key, const char *val, int line, void *u)
@@ -382,9 +409,59 @@ static int ticker(ev_sim *s, void *u)
 }
 
 /* --resume DIR: DIR/checkpoint.h5, or the previous one if that is unusable. */
+/* Under the directory's lock (no live writer can own them): the temporary
+ * files a killed pdla left (kill -9 while writing: each as large as a
+ * checkpoint, one per kill), and with old_checkpoints also an older run's
+ * checkpoints, which a new --force run replaces: a later --resume would
+ * otherwise grow the old run and write it over the new cluster.h5. */
+static void remove_stale(const char *dir, int old_checkpoints)
+{
+    static const char *const prefixes[] = {".checkpoint.h5.tmp.", "cluster.h5.tmp", "cluster.xdmf2.tmp.",
+                                           "cluster-free.xdmf2.tmp."};
+    char p[4400];
+    DIR *d = opendir(dir);
+    if (d) {
+        const struct dirent *de;
+        while ((de = readdir(d)))
+            for (size_t i = 0; i < sizeof prefixes / sizeof prefixes[0]; i++)
+                if (!strncmp(de->d_name, prefixes[i], strlen(prefixes[i]))) {
+                    snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
+                    unlink(p);
+                    break;
+                }
+        closedir(d);
+    }
+    if (!old_checkpoints) return;
+    snprintf(p, sizeof p, "%s/checkpoint.h5", dir);
+    unlink(p);
+    snprintf(p, sizeof p, "%s/checkpoint.prev.h5", dir);
+    unlink(p);
+}
+
+/* Can a file be made in dir? Seen before the run (chattr +i, a read-only
+ * mount: access() says yes to root): before, the whole run went by and
+ * then cluster.h5 and the checkpoint could not be written. 0, or 2 with
+ * the line printed. */
+static int dir_takes_files(const char *dir)
+{
+    char p[4300];
+    snprintf(p, sizeof p, "%s/.pdla-probe.%ld", dir, (long)getpid());
+    const int fd = open(p, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd >= 0 && close(fd) == 0 && unlink(p) == 0) return 0;
+    fprintf(stderr, "pdla: run directory '%s' takes no files: %s\n", dir, strerror(errno));
+    return 2;
+}
+
 static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
 {
     snprintf(dir, len, "%s", c->resume);
+    char lerr[600]; /* locked before the checkpoint is read: the run writing it may still be going */
+    if (pdla_rundir_lock(dir, &c->lock, lerr, sizeof lerr) == PDLA_EEXIST) {
+        fprintf(stderr, "pdla: cannot resume: %s\n", lerr);
+        return NULL;
+    }
+    if (c->lock >= 0) remove_stale(dir, 0);
+    if (c->lock >= 0 && dir_takes_files(dir)) return NULL;
     char path[4200], err[600], err2[600];
     snprintf(path, sizeof path, "%s/checkpoint.h5", dir);
     ev_sim *s = ev_checkpoint_load(path, ser, err, sizeof err);
@@ -436,7 +513,15 @@ static ev_sim *start_sim(ev_cli *c, ev_series *ser, char *dir, size_t len, int *
         fprintf(stderr, "pdla: %s\n", err);
         return NULL;
     }
-    const int drc = make_dir(c, dir, len);
+    /* One writer per run directory (as the DLA command): two runs on one
+     * directory wrote over each other's cluster.h5.tmp and both lost it. */
+    int drc = make_dir(c, dir, len);
+    if (!drc && pdla_rundir_lock(dir, &c->lock, err, sizeof err) != PDLA_OK) {
+        fprintf(stderr, "pdla: %s\n", err);
+        drc = 2;
+    }
+    if (!drc) drc = dir_takes_files(dir);
+    if (!drc) remove_stale(dir, 1);
     if (drc) {
         ev_free(s);
         *rc = drc;
@@ -509,6 +594,7 @@ int event_cmd_main(int argc, char **argv)
     ev_cli c;
     memset(&c, 0, sizeof c);
     c.progress = -1;
+    c.lock = -1;
     const int prc = parse(argc, argv, &c);
     if (prc < 0) {
         fprintf(stderr, "pdla: %s\n", c.err);
@@ -541,6 +627,7 @@ int event_cmd_main(int argc, char **argv)
     free(cmd);
     ev_series_free(&ser);
     ev_free(s);
+    pdla_rundir_unlock(c.lock);
     /* Interrupted with checkpoints on: the run is saved, exit 0 (as the
      * DLA CLI); without: 130, the state is lost but cluster.h5 written. */
     if (why == EV_STOP_INTERRUPT && !rc && !c.checkpoint) return 130;

@@ -3,6 +3,7 @@
  * consistency check (dlca_check) and checkpoints (write, load). Split from
  * dlca.c, which holds the dynamics; both see the state through dlca_sim.h.
  */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -412,6 +413,11 @@ static int load_counters(dlca_sim *s, hid_t f, const uint64_t *u, const double *
     s->digest = u[CK_U_DIG], s->row_nc = u[CK_U_ROWNC], s->smin = u[CK_U_SMIN];
     s->spanning = (int)u[CK_U_SPAN], s->stop = (int)u[CK_U_STOP];
     s->t = dv[CK_D_T], s->sum_s2 = dv[CK_D_S2];
+    /* What the dynamics trust (session 11: each of these resumed without a
+     * word; a zero RNG state moves every cluster the same way forever) */
+    if (!isfinite(s->t) || s->t < 0) LOAD_FAIL(PDLA_EIO, "its time is negative or not finite");
+    if (u[CK_U_SPAN] > 1 || u[CK_U_STOP] > DLCA_STOP_CALLER) LOAD_FAIL(PDLA_EIO, "its stop state is out of range");
+    if (!(s->rng.s[0] | s->rng.s[1] | s->rng.s[2] | s->rng.s[3])) LOAD_FAIL(PDLA_EIO, "its random state is all zero");
     if (s->size_count)
         for (uint64_t j = 0; j < s->nc; j++) s->size_count[dlca_n(s, s->act[j])]++;
     const size_t nr = ck_rows(f, "rows_u64", PDLA_H5_U64, 3);
@@ -443,6 +449,16 @@ static int load_state(dlca_sim **out, hid_t f, char *why, size_t whylen)
     p.count = u[CK_U_N];
     if (dlca_params_validate(&p, why, whylen)) return PDLA_EIO;
     const int d = p.dim;
+    /* Before N sizes memory: the file must store N monomers (a forged N of
+     * 2e8 in a few KB allocated and touched 795 MB), and a box side the
+     * boxes search can double from (0 or one not a power of two >= the
+     * first side looped for ever in dlca_search_init). */
+    if (ck_rows(f, "site", PDLA_H5_U32, 1) != p.count || ck_rows(f, "slot_n", PDLA_H5_U32, 1) != p.count + 1)
+        LOAD_FAIL(PDLA_EIO, "its monomer arrays are missing or have the wrong length");
+    if (p.search == DLCA_SEARCH_BOXES &&
+        (u[CK_U_A] < (uint64_t)p.grid_box || u[CK_U_A] > 65536 || (u[CK_U_A] & (u[CK_U_A] - 1))))
+        LOAD_FAIL(PDLA_EIO, "its grid-box side %llu is not a power of two in [grid_box, 65536]",
+                  (unsigned long long)u[CK_U_A]);
     ck_arrays a = {0};
     int rc = PDLA_EIO;
     if (dlca_sim_alloc(out, &p, p.count) || ck_alloc(&a, p.count, d, 0)) rc = PDLA_ENOMEM, snprintf(why, whylen, "out of memory");

@@ -313,6 +313,89 @@ static int check_state(const rd *r, const ev_sim *s)
     return 0;
 }
 
+/* Every pending event of a free particle is at or after `now` and names a
+ * real partner, wall or face: the loop pops the earliest event and indexes
+ * by these fields (a cell face outside [0, 2D) reads out of bounds; an
+ * event time before `now` or NaN would send the queue's buckets astray). */
+static int check_events(const rd *r, const ev_sim *s, uint32_t i)
+{
+    const ev_evt *e = &s->evt[i];
+    const int D = s->dim;
+    if (!(e->t_pair >= s->now) || !(e->t_cell >= s->now))
+        return rfail(r, "%s", "a pending event before the checkpoint's time or not a number (damaged)");
+    if (e->kind != EV_K_NONE && e->kind != EV_K_PAIR && e->kind != EV_K_WALL)
+        return rfail(r, "%s", "an unknown event kind (damaged)");
+    if (e->kind == EV_K_WALL && e->partner >= (uint32_t)(2 * D))
+        return rfail(r, "%s", "a wall event names no wall (damaged)");
+    if (e->cell_what < -1 || e->cell_what >= 2 * D || (e->cell_what < 0 && e->t_cell < INFINITY))
+        return rfail(r, "%s", "a cell crossing names no cell face (damaged)");
+    return 0;
+}
+
+/* Particle i's stored numbers: finite, its radius its kind's, its local
+ * time in [0, now], and its position at `now` inside its cell up to
+ * round-off (the cell lists are rebuilt from `cell`, so a particle far from
+ * its cell would never meet its neighbours; NaN or infinite positions or
+ * velocities make every later event time NaN and the loop never ends). */
+static int check_particle(const rd *r, const ev_sim *s, uint32_t i)
+{
+    const int D = s->dim;
+    const double *p = EV_P_ANY(s, i);
+    for (int k = 0; k < 2 * D + 2; k++)
+        if (!isfinite(p[k])) return rfail(r, "%s", "a position, velocity or time not finite (damaged)");
+    if (!(p[2 * D] >= 0 && p[2 * D] <= s->now))
+        return rfail(r, "%s", "a particle's time outside [0, now] (damaged)");
+    if (i < s->n ? p[2 * D + 1] != s->sp[s->species[i]].radius : !(p[2 * D + 1] > 0))
+        return rfail(r, "%s", "a particle's radius is not its kind's (damaged)");
+    uint32_t c = s->cell[i];
+    const double tol = 1e-6 * s->w;
+    for (int k = 0; k < D; k++, c /= (uint32_t)s->nc) {
+        const double lo = (double)(c % (uint32_t)s->nc) * s->w;
+        const double x = p[k] + p[D + k] * (s->now - p[2 * D]);
+        if (!(x >= lo - tol && x <= lo + s->w + tol))
+            return rfail(r, "%s", "a particle outside its cell (damaged)");
+    }
+    return 0;
+}
+
+/* The values check_state does not cover: what the event loop trusts. */
+static int check_values(const rd *r, const ev_sim *s)
+{
+    if (!isfinite(s->now) || s->now < 0 || !(s->series_dt > 0) || !isfinite(s->series_dt) ||
+        !isfinite(s->iv_t0) || !isfinite(s->iv_v0) || !isfinite(s->ke_stuck) || !isfinite(s->virial) ||
+        !isfinite(s->wall_impulse) || !isfinite(s->max_overlap))
+        return rfail(r, "%s", "a time or sum not finite, or a negative time (damaged)");
+    if ((s->started != 0 && s->started != 1) || (s->iv_open != 0 && s->iv_open != 1))
+        return rfail(r, "%s", "a run flag other than 0 or 1 (damaged)");
+    if (!(s->rng.s[0] | s->rng.s[1] | s->rng.s[2] | s->rng.s[3]))
+        return rfail(r, "%s", "an all-zero random state (damaged)");
+    uint8_t *seen = calloc(s->n ? s->n : 1, 1);
+    if (!seen) return rfail(r, "%s", "out of memory");
+    int rc = 0;
+    uint32_t flagged = 0;
+    for (uint32_t i = 0; !rc && i < s->ntot; i++) {
+        if (s->stuck[i] > 1 || (i >= s->n && !s->stuck[i]))
+            rc = rfail(r, "%s", "a stuck flag other than 0 or 1, or a free seed (damaged)");
+        else if (!(rc = check_particle(r, s, i)) && i < s->n) {
+            if (!s->stuck[i]) rc = check_events(r, s, i);
+            else if (s->parent[i] >= s->ntot || s->parent[i] == i)
+                rc = rfail(r, "%s", "a stuck particle's parent out of range (damaged)");
+            flagged += s->stuck[i];
+        }
+    }
+    double t_prev = 0;
+    for (uint32_t a = 0; !rc && a < s->nstuck; a++) {
+        const uint32_t i = s->stuck_idx[a]; /* < n: check_state */
+        if (seen[i]++) rc = rfail(r, "%s", "a particle twice in the stuck list (damaged)");
+        else if (!(s->stuck_t[a] >= t_prev && s->stuck_t[a] <= s->now))
+            rc = rfail(r, "%s", "sticking times out of order or after now (damaged)");
+        else t_prev = s->stuck_t[a];
+    }
+    if (!rc && flagged != s->nstuck) rc = rfail(r, "%s", "the stuck flags do not match the stuck list (damaged)");
+    free(seen);
+    return rc;
+}
+
 static int read_series(const rd *r, ev_series *ser)
 {
     const hssize_t n = rlen(r, "series/time");
@@ -400,6 +483,26 @@ static void rebuild_derived(ev_sim *s)
         if (!s->stuck[i]) ev_heap_push(s, i);
 }
 
+/* Before ev_alloc sizes memory by the parameters: they must give the
+ * particle count of the root attributes, and the file must store the state
+ * of that many (a forged `particles=4000000000` in a small file must not
+ * allocate for it). */
+static int check_sizes(const rd *r, const ev_params *p, long long dim, long long n, long long ntot)
+{
+    ev_species sp[EV_MAX_SPECIES];
+    int nsp = 0;
+    char e[400];
+    if (ev_parse_species(p, sp, &nsp, e, sizeof e)) return rfail(r, "%s", e);
+    uint64_t total = 0;
+    for (int k = 0; k < nsp; k++) total += sp[k].count;
+    if (dim != p->dim || n < 1 || (uint64_t)n != total || ntot < n || ntot > UINT32_MAX)
+        return rfail(r, "%s", "its parameters do not give its particle count (damaged)");
+    const hssize_t len = rlen(r, "state/ps");
+    if (len < 0 || (uint64_t)len != (uint64_t)ntot * (uint64_t)(2 * dim + 2))
+        return rfail(r, "%s", "dataset state/ps is not the state of its particles (damaged)");
+    return 0;
+}
+
 ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t errlen)
 {
     memset(ser, 0, sizeof *ser);
@@ -432,11 +535,13 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     ev_params p;
     if (!rc) rc = read_params(&r, &p);
     char e2[400];
+    if (!rc) rc = check_sizes(&r, &p, dim, n, ntot);
     if (!rc && !(s = ev_alloc(&p, e2, sizeof e2))) rc = rfail(&r, "%s", e2);
     if (!rc && ((long long)s->dim != dim || (long long)s->n != n || (long long)s->ntot != ntot))
         rc = rfail(&r, "%s", "its parameters do not give its particle count (damaged)");
     if (!rc) rc = read_state(&r, s);
     if (!rc) rc = check_state(&r, s);
+    if (!rc) rc = check_values(&r, s);
     if (!rc) rc = read_series(&r, ser);
     if (r.file >= 0) H5Fclose(r.file);
     h5u_restore(&q);

@@ -141,9 +141,14 @@ static void check_files(const pdla_param_desc *d)
         if (*c == '-') *c = '_';
     FILE *f = fopen(scene, "w");
     if (f) {
-        /* the base run's keys first: a later line overrides an earlier one */
-        fprintf(f, "model = dlca\nbox = 24\nfill = 0.05\nuntil_clusters = 5\nmax_attempts = 300000\nseed = 9\n"
-                   "%s%s = %s\nout = %s\n", d->type == PDLA_PT_BOX ? "dim = 2\n" : "", key, d->example, sdir);
+        /* the base run's keys, but the row's own: a scene may not give a
+         * key twice (scene.h, as the DLA command's scenes) */
+        static const char *const base_keys[][2] = {{"box", "24"}, {"fill", "0.05"}, {"until_clusters", "5"},
+                                                   {"max_attempts", "300000"}, {"seed", "9"}};
+        fprintf(f, "model = dlca\n");
+        for (size_t b = 0; b < sizeof base_keys / sizeof base_keys[0]; b++)
+            if (strcmp(base_keys[b][0], key)) fprintf(f, "%s = %s\n", base_keys[b][0], base_keys[b][1]);
+        fprintf(f, "%s%s = %s\nout = %s\n", d->type == PDLA_PT_BOX ? "dim = 2\n" : "", key, d->example, sdir);
         fclose(f);
     }
     snprintf(args, sizeof args, "--scene %s", scene);

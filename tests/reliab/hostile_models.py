@@ -180,10 +180,51 @@ dlca_ck_cases = {
     "snapshot_t_array_5000": lambda f: f["snapshots/1"].attrs.__setitem__("t", np.ones(5000, dtype="f8")),
     "truncated": None,
 }
+
+
+def dlca_u64(i, v):
+    """Entry i of the checkpoint's scalar array u64 set to v."""
+    def damage(f):
+        a = f["u64"][()]
+        a[i] = v
+        del f["u64"]
+        f["u64"] = a
+    return damage
+
+
+# Session 11: these resumed without a word (a NaN or negative time, a stop
+# state out of range, an all-zero RNG state), or sized memory by a forged
+# monomer count (2e8 in a 16384^2 box declared in a few KB: 795 MB RSS).
+dlca_ck_cases.update({
+    "t_nan": lambda f: (f.__setitem__("f64_x", np.array([np.nan, f["f64"][1]])), f.__delitem__("f64"),
+                        f.move("f64_x", "f64")),
+    "t_negative": lambda f: (f.__setitem__("f64_x", np.array([-1.0, f["f64"][1]])), f.__delitem__("f64"),
+                             f.move("f64_x", "f64")),
+    "stop_99": dlca_u64(13, 99),
+    "spanning_7": dlca_u64(12, 7),
+    "rng_zero": lambda f: (f.__delitem__("rng"), f.__setitem__("rng", np.zeros(4, dtype="u8"))),
+    "count_2e8_box_16384": lambda f: (dlca_u64(14, 2 * 10**8)(f),
+                                      f["parameters"].attrs.__setitem__("box", np.array([16384, 16384], dtype="u8"))),
+})
 for name, fn in dlca_ck_cases.items():
     d, path = forged(CK, "dlcack-" + name.replace("^", ""), fn)
     expect("dlca-ckpt-%s/resume" % name, ["--model", "dlca", "--resume", path, "--out", os.path.join(d, "o"), "-q"],
            "fail")
+
+# ---- DLCA --search boxes checkpoint: the box side A ------------------------
+# A box side of 0, or one that is no power of two >= --grid-box, looped for
+# ever in dlca_search_init (A *= 2 never reaches the clusters' extent; the
+# loop ignored SIGTERM); 2^31 wrapped to a negative int.
+boxes = os.path.join(WORK, "dlca-boxes")
+rc, lines, _ = run(["--model", "dlca", "--dim", "2", "--box", "48", "--fill", "0.05", "--until-clusters", "20",
+                    "--seed", "4", "--search", "boxes", "--out", boxes, "--checkpoint", "-q"])
+if rc != 0:
+    sys.exit("the DLCA boxes base run failed: %r" % lines)
+BK = os.path.join(boxes, "checkpoint.h5")
+for name, a, want in (("A_4", 4, "pass"), ("A_0", 0, "fail"), ("A_3", 3, "fail"), ("A_2^31", 2**31, "fail")):
+    d, path = forged(BK, "dlcabox-" + name.replace("^", ""), dlca_u64(10, a))
+    expect("dlca-boxes-ckpt-%s/resume" % name, ["--model", "dlca", "--resume", path, "--until-clusters", "5",
+                                                "--out", os.path.join(d, "o"), "-q"], want)
 
 # ---- event checkpoint through --resume ------------------------------------
 ev = os.path.join(WORK, "event")
@@ -215,6 +256,59 @@ ev_cases = {
     "format_string_array": lambda f: f.attrs.__setitem__("format", np.array([b"pdla-event-checkpoint"] * 50)),
     "truncated": None,
 }
+
+
+def ev_values(name, fn):
+    """Dataset `name` with its values changed by fn(numpy array)."""
+    def damage(f):
+        a = fn(f[name][()].copy())
+        del f[name]
+        f[name] = a
+    return damage
+
+
+def ev_set(i, v):
+    def fn(a):
+        a[i] = v
+        return a
+    return fn
+
+
+def ev_param(key, value, attrs):
+    """The parameter line `key=...` set to value, and the root attributes."""
+    def damage(f):
+        t = bytes(f["parameters"][()]).decode()
+        t = "\n".join(key + "=" + value if ln.startswith(key + "=") else ln for ln in t.split("\n"))
+        del f["parameters"]
+        f["parameters"] = np.frombuffer(t.encode(), dtype="u1")
+        for k, v in attrs.items():
+            f.attrs[k] = np.int64(v)
+    return damage
+
+
+# Values the loader used to trust (session 11): before, NaN or infinite
+# numbers, an event time before `now`, a negative time or a zero series
+# interval ran without end; a cell face out of range read out of bounds
+# (UBSan); a particle outside its cell, a changed radius or an unknown event
+# kind ran on silently; parameters declaring 1e8 particles in a 10 KB file
+# allocated and initialised for them before the state was found missing.
+ev_cases.update({
+    "ps_nan": ev_values("state/ps", ev_set(0, np.nan)),
+    "ps_velocity_inf": ev_values("state/ps", ev_set(2, np.inf)),
+    "ps_outside_cell": ev_values("state/ps", ev_set(0, 1e6)),
+    "ps_radius_changed": ev_values("state/ps", ev_set(5, 3.0)),
+    "t_pair_before_now": ev_values("state/t_pair", lambda a: a * 0 - 1e300),
+    "t_cell_nan": ev_values("state/t_cell", lambda a: a * np.nan),
+    "kind_99": ev_values("state/kind", lambda a: a * 0 + 99),
+    "cell_what_99": ev_values("state/cell_what", lambda a: a * 0 + 99),
+    "parent_out_of_range": ev_values("state/parent", lambda a: a * 0 + 0xfffffff0),
+    "stuck_flags_all": ev_values("state/stuck", lambda a: a * 0 + 1),
+    "now_nan": ev_values("state/reals", ev_set(0, np.nan)),
+    "now_negative": ev_values("state/reals", ev_set(0, -1e300)),
+    "series_dt_zero": ev_values("state/reals", ev_set(1, 0.0)),
+    "rng_zero": ev_values("state/counters", lambda a: np.concatenate([a[:9], np.zeros(4, dtype="u8")])),
+    "particles_1e8": ev_param("particles", "100000000", {"particles": 10**8, "ntot": 10**8 + 1}),
+})
 for name, fn in ev_cases.items():
     expect("event-ckpt-%s/resume" % name, ev_resume(ev_copy("eventck-" + name.replace("^", ""), fn)), "fail")
 

@@ -12,26 +12,16 @@
 
 /* Cell arrays come straight from mmap: freeing a large malloc block raises
  * glibc's mmap threshold, after which the tree's pool segments would come
- * from the heap and be zeroed (made resident) whole by calloc. Arrays of a
- * huge page or more are mapped 2 MiB-aligned (length rounded up; the tail
- * is never touched, so never resident), so that level_alloc can put the
- * whole pages inside them on huge pages once they are filled. */
-static size_t cells_mapped(size_t bytes)
-{
-    if (bytes < POOL_HUGE_PAGE) return bytes;
-    return (bytes + POOL_HUGE_PAGE - 1) / POOL_HUGE_PAGE * POOL_HUGE_PAGE;
-}
-
+ * from the heap and be zeroed (made resident) whole by calloc. */
 static void *cells_alloc(size_t bytes)
 {
-    if (bytes >= POOL_HUGE_PAGE) return pool_map(cells_mapped(bytes));
     void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
     return p == MAP_FAILED ? NULL : p;
 }
 
 static void level_free(distmap_level *L)
 {
-    if (L->cell) munmap((void *)L->cell, cells_mapped(L->bytes));
+    if (L->cell) munmap((void *)L->cell, L->bytes);
     L->cell = NULL;
 }
 
@@ -202,9 +192,6 @@ static int level_alloc(distmap_level *L, int dim, int bits, int nibble, unsigned
     if (!L->cell) return -1;
     const uint8_t fill = (uint8_t)(nibble ? cap | cap << 4 : cap);
     for (size_t i = 0; i < bytes; i++) atomic_init(&L->cell[i], fill);
-    /* Every cell is resident now: huge pages cost no memory here, and
-     * spare the page walks of a look-up per far jump in a map of many MB. */
-    pool_huge_collapse((void *)L->cell, bytes);
     return 0;
 }
 

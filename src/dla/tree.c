@@ -9,93 +9,15 @@
 
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
-
-#ifndef MADV_COLLAPSE
-#define MADV_COLLAPSE 25 /* Linux 6.1; glibc 2.36's headers predate it */
-#endif
-
-void *pool_map(size_t bytes)
-{
-    /* Map one huge page more than asked and trim both ends to alignment. */
-    uint8_t *m = mmap(NULL, bytes + POOL_HUGE_PAGE, PROT_READ | PROT_WRITE,
-                      MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-    if (m == MAP_FAILED) return NULL;
-    const size_t head = (POOL_HUGE_PAGE - (uintptr_t)m % POOL_HUGE_PAGE) % POOL_HUGE_PAGE;
-    if (head) munmap(m, head);
-    if (POOL_HUGE_PAGE - head) munmap(m + head + bytes, POOL_HUGE_PAGE - head);
-    return m + head;
-}
-
-void pool_unmap(void *p, size_t bytes)
-{
-    if (p) munmap(p, bytes);
-}
-
-void pool_huge_collapse(void *p, size_t bytes)
-{
-    const uintptr_t lo = ((uintptr_t)p + POOL_HUGE_PAGE - 1) / POOL_HUGE_PAGE * POOL_HUGE_PAGE;
-    const uintptr_t hi = ((uintptr_t)p + bytes) / POOL_HUGE_PAGE * POOL_HUGE_PAGE;
-    /* Failure (a kernel before 6.1, no huge page free) leaves 4 KiB pages:
-     * slower random access, same contents, so it is not an error. */
-    if (hi > lo) (void)madvise((void *)lo, hi - lo, MADV_COLLAPSE);
-}
-
-static size_t seg_bytes(const tree_pool *p)
-{
-    return (size_t)POOL_SEG_SIZE * p->elem;
-}
-
-/* Where segment s lies in its slab, and whether it lies there (segments a
- * checkpoint load allocated come from calloc instead). */
-static size_t seg_offset(const tree_pool *p, uint32_t s)
-{
-    return (size_t)(s & ((1u << POOL_SLAB_BITS) - 1)) * seg_bytes(p);
-}
-
-static int seg_in_slab(const tree_pool *p, uint32_t s)
-{
-    const uint8_t *slab = p->slab[s >> POOL_SLAB_BITS];
-    return slab && p->seg[s] == slab + seg_offset(p, s);
-}
-
-/* Memory for segment s, from its slab (mapped on first use). */
-static uint8_t *seg_new(tree_pool *p, uint32_t s)
-{
-    uint8_t **slab = &p->slab[s >> POOL_SLAB_BITS];
-    if (!*slab && !(*slab = pool_map(seg_bytes(p) << POOL_SLAB_BITS))) return NULL;
-    const size_t at = seg_offset(p, s);
-    /* Records run on contiguously from the segment before only if it is
-     * this slab's previous one. */
-    if (at == 0 || p->seg[s - 1] != *slab + at - seg_bytes(p)) p->huge_from = at;
-    return *slab + at;
-}
-
-/* Record i - 1 has been written (pool_new hands records out in order and
- * its callers fill them at once). If it completes a 2 MiB page whose every
- * record came from pool_new, that page is resident throughout: make it one
- * huge page, so a random access into a tree of hundreds of MB needs no page
- * walk through 4 KiB tables. Resident memory does not change. */
-static void pool_huge_done(tree_pool *p, uint32_t i)
-{
-    const uint32_t r = i - 1, s = r >> POOL_SEG_BITS;
-    const size_t recs = (size_t)POOL_SEG_SIZE << POOL_SLAB_BITS;
-    const size_t end = ((size_t)r % recs + 1) * p->elem; /* in its slab */
-    const size_t q = (end - p->elem) / POOL_HUGE_PAGE;  /* the page it starts in */
-    if (end < (q + 1) * POOL_HUGE_PAGE || q * POOL_HUGE_PAGE < p->huge_from || !seg_in_slab(p, s))
-        return;
-    pool_huge_collapse(p->slab[s >> POOL_SLAB_BITS] + q * POOL_HUGE_PAGE, POOL_HUGE_PAGE);
-}
 
 static int pool_init(tree_pool *p, uint32_t elem)
 {
     p->seg = calloc(POOL_MAX_SEGS, sizeof *p->seg);
-    p->slab = calloc(POOL_MAX_SLABS, sizeof *p->slab);
-    if (!p->seg || !p->slab) return -1;
+    if (!p->seg) return -1;
     p->elem = elem;
     p->nseg = 0;
     p->count = 1; /* record 0 is the null index */
-    p->seg[0] = seg_new(p, 0);
+    p->seg[0] = calloc(POOL_SEG_SIZE, elem);
     if (!p->seg[0]) return -1;
     p->nseg = 1;
     return 0;
@@ -103,16 +25,10 @@ static int pool_init(tree_pool *p, uint32_t elem)
 
 static void pool_free(tree_pool *p)
 {
-    if (p->seg && p->slab)
-        for (uint32_t s = 0; s < p->nseg; s++)
-            if (!seg_in_slab(p, s)) free(p->seg[s]);
-    if (p->slab)
-        for (uint32_t b = 0; b < POOL_MAX_SLABS; b++)
-            pool_unmap(p->slab[b], seg_bytes(p) << POOL_SLAB_BITS);
+    if (p->seg)
+        for (uint32_t s = 0; s < p->nseg; s++) free(p->seg[s]);
     free(p->seg);
-    free(p->slab);
     p->seg = NULL;
-    p->slab = NULL;
 }
 
 /* A new zeroed record; 0 when the 32-bit index space or memory is exhausted. */
@@ -120,10 +36,9 @@ static uint32_t pool_new(tree_pool *p)
 {
     const uint32_t i = p->count;
     if (i == UINT32_MAX) return 0;
-    pool_huge_done(p, i);
     const uint32_t s = i >> POOL_SEG_BITS;
     if (s >= p->nseg) {
-        p->seg[s] = seg_new(p, s);
+        p->seg[s] = calloc(POOL_SEG_SIZE, p->elem);
         if (!p->seg[s]) return 0;
         p->nseg = s + 1;
     }

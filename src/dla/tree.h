@@ -57,14 +57,6 @@
 #define POOL_SEG_BITS 16
 #define POOL_SEG_SIZE (1u << POOL_SEG_BITS)
 #define POOL_MAX_SEGS (1u << (32 - POOL_SEG_BITS))
-/* Segments are carved from slabs of 2^POOL_SLAB_BITS consecutive segments,
- * one 2 MiB-aligned mapping each: with records of a multiple of 4 bytes a
- * slab (8 x 2^16 x 4k bytes) is a whole number of 2 MiB huge pages, and a
- * huge page may span segments. Only address space is reserved; pages
- * become resident as records are written, exactly as before. */
-#define POOL_SLAB_BITS 3
-#define POOL_MAX_SLABS (POOL_MAX_SEGS >> POOL_SLAB_BITS)
-#define POOL_HUGE_PAGE ((size_t)2 << 20)
 
 /* A growable array of fixed-size records addressed by 32-bit index. The
  * fields every look-up reads come first; the fill counts, written as records
@@ -75,24 +67,8 @@ typedef struct tree_pool {
     PDLA_CACHE_PAD(pad_);
     uint32_t count;    /* records in use, including the null record 0 */
     uint32_t nseg;     /* segments allocated */
-    uint8_t **slab;    /* POOL_MAX_SLABS mappings, NULL until used */
-    size_t huge_from;  /* byte offset in the newest slab where records handed
-                        * out contiguously by pool_new begin (pages below it
-                        * may be unused: segments a checkpoint load calloc'd) */
     PDLA_CACHE_PAD(pad_end_);
 } tree_pool;
-
-/* An anonymous mapping of `bytes` (a multiple of POOL_HUGE_PAGE) aligned to
- * POOL_HUGE_PAGE, zero-filled on first touch; NULL when out of memory.
- * Freed with pool_unmap(p, bytes). */
-void *pool_map(size_t bytes);
-void pool_unmap(void *p, size_t bytes);
-
-/* Asks the kernel to back the whole 2 MiB pages inside [p, p + bytes) with
- * huge pages now (MADV_COLLAPSE). Call it only on memory that is already
- * resident, so resident memory does not grow; where the kernel cannot (too
- * old, no free huge page) nothing changes. The contents never change. */
-void pool_huge_collapse(void *p, size_t bytes);
 
 /* The smallest r >= 0 with r^2 >= r2 (r2 < 2^62), exact: the truncated
  * double sqrt is a first guess never above it (rounding moves r2 by far

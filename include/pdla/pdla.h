@@ -386,6 +386,14 @@ PDLA_API int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdl
  * pdla_rundir_unlock. PDLA_EEXIST when another process holds it. */
 PDLA_API int pdla_rundir_lock(const char *dir, int *fd, char *err, size_t errlen);
 PDLA_API void pdla_rundir_unlock(int fd);
+/* Whether dir takes new files: one is made and removed again, since access()
+ * cannot see an immutable directory or a read-only mount for root. 0, or an
+ * errno. */
+PDLA_API int pdla_rundir_probe(const char *dir);
+/* Remove the files of dir whose names start with one of the n prefixes
+ * (what a killed pdla left half written; hold the lock, so no live writer
+ * owns them). */
+PDLA_API void pdla_rundir_remove_prefixed(const char *dir, const char *const *prefixes, size_t n);
 /* Remove the temporary files an interrupted checkpoint write left in dir
  * (hold the lock). Returns how many were removed, or -1. */
 PDLA_API int pdla_checkpoint_remove_stale(const char *dir);

@@ -669,20 +669,6 @@ static int new_sim(const dlca_cli *c, dlca_sim **s, char *err, size_t errlen)
     return crc;
 }
 
-/* Can a file be made in dir? Seen before the run (chattr +i, a read-only
- * mount: access() says yes to root): before, the whole run went by and
- * then cluster.h5 and the checkpoint could not be written. 0, or -1 with
- * errno. */
-static int dir_takes_files(const char *dir)
-{
-    char p[4300];
-    snprintf(p, sizeof p, "%s/.pdla-probe.%ld", dir, (long)getpid());
-    const int fd = open(p, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-    if (fd < 0) return -1;
-    close(fd);
-    return unlink(p);
-}
-
 /* Is dir the directory open as fd (the lock a resume took)? A second flock
  * on it from this process would conflict with the first. */
 static int same_dir(int fd, const char *dir)
@@ -716,8 +702,11 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
             fprintf(stderr, "pdla: %s\n", err);
             drc = EXIT_USAGE;
         }
-        if (!drc && dir_takes_files(dir) != 0) {
-            fprintf(stderr, "pdla: run directory '%s' takes no files: %s\n", dir, strerror(errno));
+        /* seen before the run (chattr +i, a read-only mount): before, the
+         * whole run went by and then cluster.h5 and the checkpoint failed */
+        const int pe = drc ? 0 : pdla_rundir_probe(dir);
+        if (pe) {
+            fprintf(stderr, "pdla: run directory '%s' takes no files: %s\n", dir, strerror(pe));
             drc = EXIT_USAGE;
         }
         if (!drc && !c->resume) {

@@ -9,7 +9,6 @@
  */
 #include "event_cmd.h"
 
-#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <inttypes.h>
@@ -408,7 +407,6 @@ static int ticker(ev_sim *s, void *u)
     return 0;
 }
 
-/* --resume DIR: DIR/checkpoint.h5, or the previous one if that is unusable. */
 /* Under the directory's lock (no live writer can own them): the temporary
  * files a killed pdla left (kill -9 while writing: each as large as a
  * checkpoint, one per kill), and with old_checkpoints also an older run's
@@ -418,19 +416,8 @@ static void remove_stale(const char *dir, int old_checkpoints)
 {
     static const char *const prefixes[] = {".checkpoint.h5.tmp.", "cluster.h5.tmp", "cluster.xdmf2.tmp.",
                                            "cluster-free.xdmf2.tmp."};
+    pdla_rundir_remove_prefixed(dir, prefixes, sizeof prefixes / sizeof prefixes[0]);
     char p[4400];
-    DIR *d = opendir(dir);
-    if (d) {
-        const struct dirent *de;
-        while ((de = readdir(d)))
-            for (size_t i = 0; i < sizeof prefixes / sizeof prefixes[0]; i++)
-                if (!strncmp(de->d_name, prefixes[i], strlen(prefixes[i]))) {
-                    snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
-                    unlink(p);
-                    break;
-                }
-        closedir(d);
-    }
     if (!old_checkpoints) return;
     snprintf(p, sizeof p, "%s/checkpoint.h5", dir);
     unlink(p);
@@ -444,14 +431,13 @@ static void remove_stale(const char *dir, int old_checkpoints)
  * the line printed. */
 static int dir_takes_files(const char *dir)
 {
-    char p[4300];
-    snprintf(p, sizeof p, "%s/.pdla-probe.%ld", dir, (long)getpid());
-    const int fd = open(p, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-    if (fd >= 0 && close(fd) == 0 && unlink(p) == 0) return 0;
-    fprintf(stderr, "pdla: run directory '%s' takes no files: %s\n", dir, strerror(errno));
+    const int e = pdla_rundir_probe(dir);
+    if (!e) return 0;
+    fprintf(stderr, "pdla: run directory '%s' takes no files: %s\n", dir, strerror(e));
     return 2;
 }
 
+/* --resume DIR: DIR/checkpoint.h5, or the previous one if that is unusable. */
 static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
 {
     snprintf(dir, len, "%s", c->resume);

@@ -11,7 +11,6 @@
  * cluster is written, then pdla ends by the same signal so that shells and
  * loops see an interrupted command (status 130/143).
  */
-#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <inttypes.h>
@@ -138,19 +137,6 @@ static char *command_line(int argc, char **argv)
  * write fails late, after growth, for a name known from the start. */
 enum { RUN_DIR_MAX = 4000 };
 
-/* Whether dir takes new files: a file is made and removed again, since
- * access() cannot see an immutable directory or a read-only mount for root.
- * 0, or an errno. */
-static int probe_writable(const char *dir)
-{
-    char p[4200];
-    snprintf(p, sizeof p, "%s/.pdla-probe.%ld", dir, (long)getpid());
-    const int fd = open(p, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-    if (fd < 0) return errno;
-    close(fd);
-    return unlink(p) == 0 ? 0 : errno;
-}
-
 /* Removes what an earlier pdla in dir left behind when it was killed while
  * writing cluster.h5 or summary.txt (kill -9, a second SIGINT): only names
  * pdla makes, and only while we hold the directory's lock, so no live
@@ -158,18 +144,7 @@ static int probe_writable(const char *dir)
 static void remove_stale_outputs(const char *dir)
 {
     static const char *const prefixes[] = {"cluster.h5.tmp.", ".cluster.h5.new", "summary.txt.tmp."};
-    DIR *d = opendir(dir);
-    if (!d) return;
-    const struct dirent *de;
-    char p[4400];
-    while ((de = readdir(d)))
-        for (size_t i = 0; i < sizeof prefixes / sizeof prefixes[0]; i++)
-            if (!strncmp(de->d_name, prefixes[i], strlen(prefixes[i]))) {
-                snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
-                unlink(p);
-                break;
-            }
-    closedir(d);
+    pdla_rundir_remove_prefixed(dir, prefixes, sizeof prefixes / sizeof prefixes[0]);
 }
 
 /* A new run written with --force into a directory that holds another run's
@@ -296,7 +271,7 @@ static int make_run_dir(const cli_options *o, char *dir, size_t dirlen, int *cre
         fprintf(stderr, "pdla: '%s' exists and is not a directory\n", dir);
         return EXIT_USAGE;
     }
-    const int we = probe_writable(dir);
+    const int we = pdla_rundir_probe(dir);
     if (we) {
         fprintf(stderr, "pdla: run directory '%s' is not writable: %s\n", dir, strerror(we));
         return EXIT_USAGE;
@@ -836,7 +811,7 @@ static int resume_step(run *R)
      * cluster.h5 and summary.txt there. (After the load, so that a resume
      * refused for its checkpoint or parameters touches nothing, not even the
      * directory's mtime.) */
-    const int we = probe_writable(R->dir);
+    const int we = pdla_rundir_probe(R->dir);
     if (we) {
         fprintf(stderr, "pdla: cannot resume: run directory '%s' is not writable: %s\n", R->dir,
                 strerror(we));

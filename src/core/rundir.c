@@ -5,6 +5,7 @@
  */
 #include "pdla/pdla.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <stdio.h>
@@ -38,4 +39,34 @@ int pdla_rundir_lock(const char *dir, int *fd, char *err, size_t errlen)
 void pdla_rundir_unlock(int fd)
 {
     if (fd >= 0) close(fd); /* closing the last descriptor releases the flock */
+}
+
+int pdla_rundir_probe(const char *dir)
+{
+    char p[4300];
+    snprintf(p, sizeof p, "%s/.pdla-probe.%ld", dir, (long)getpid());
+    const int fd = open(p, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd < 0) return errno;
+    if (close(fd) != 0) {
+        const int e = errno;
+        unlink(p);
+        return e;
+    }
+    return unlink(p) == 0 ? 0 : errno;
+}
+
+void pdla_rundir_remove_prefixed(const char *dir, const char *const *prefixes, size_t n)
+{
+    DIR *d = opendir(dir);
+    if (!d) return;
+    char p[4400];
+    const struct dirent *de;
+    while ((de = readdir(d)))
+        for (size_t i = 0; i < n; i++)
+            if (!strncmp(de->d_name, prefixes[i], strlen(prefixes[i]))) {
+                snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
+                unlink(p);
+                break;
+            }
+    closedir(d);
 }

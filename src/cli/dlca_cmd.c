@@ -602,7 +602,11 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
 {
     char ckpath[4200], err[1024];
     struct stat sb; /* a run directory stands for its checkpoint.h5 */
-    if (stat(c->resume, &sb) == 0 && S_ISDIR(sb.st_mode)) snprintf(ckpath, sizeof ckpath, "%s/checkpoint.h5", c->resume);
+    if (stat(c->resume, &sb) != 0) { /* as the DLA command; before: "cannot open it as HDF5" */
+        fprintf(stderr, "pdla: cannot resume from '%s': %s\n", c->resume, strerror(errno));
+        return EXIT_USAGE;
+    }
+    if (S_ISDIR(sb.st_mode)) snprintf(ckpath, sizeof ckpath, "%s/checkpoint.h5", c->resume);
     else snprintf(ckpath, sizeof ckpath, "%s", c->resume);
     /* The checkpoint's directory is locked before it is read: the run
      * writing it may still be going (then this one is refused). */

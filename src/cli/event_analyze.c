@@ -187,7 +187,7 @@ int event_analyze_main(int argc, char **argv)
     const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
     if (f < 0) {
         fprintf(stderr, "pdla analyze: cannot open %s as HDF5\n", path);
-        return 1;
+        return 2; /* as info: bad input */
     }
     ev_summary m;
     memset(&m, 0, sizeof m);

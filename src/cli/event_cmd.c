@@ -87,8 +87,18 @@ static int scene_each(const char *path, scene_fn fn, void *u, char *err, size_t 
         snprintf(err, errlen, "%s: too large (a scene is at most %d bytes)", path, SCENE_MAX_BYTES);
         rc = -1;
     }
+    long at = ftell(f);
     while (!rc && fgets(buf, sizeof buf, f)) {
         line++;
+        /* fgets gives no count: fewer characters than it read is a NUL
+         * byte, which ended the line silently */
+        const long now = ftell(f);
+        if (at >= 0 && now >= at && (size_t)(now - at) != strlen(buf)) {
+            snprintf(err, errlen, "%s:%d: a NUL byte in the line", path, line);
+            rc = -1;
+            break;
+        }
+        at = now;
         if (!strchr(buf, '\n') && strlen(buf) > SCENE_MAX_LINE) {
             snprintf(err, errlen, "%s:%d: line too long (at most %d bytes)", path, line, SCENE_MAX_LINE);
             rc = -1;
@@ -437,10 +447,21 @@ static int dir_takes_files(const char *dir)
     return 2;
 }
 
-/* --resume DIR: DIR/checkpoint.h5, or the previous one if that is unusable. */
+/* --resume PATH: a run directory (its checkpoint.h5, or the previous one if
+ * that is unusable) or one checkpoint file, as the DLA and DLCA commands
+ * take; the run directory, locked, is then the file's folder. */
 static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
 {
+    struct stat st;
+    if (stat(c->resume, &st) != 0) {
+        fprintf(stderr, "pdla: cannot resume from '%s': %s\n", c->resume, strerror(errno));
+        return NULL;
+    }
+    const int is_dir = S_ISDIR(st.st_mode);
     snprintf(dir, len, "%s", c->resume);
+    char *slash = is_dir ? NULL : strrchr(dir, '/');
+    if (!is_dir && !slash) snprintf(dir, len, ".");
+    else if (slash) slash[slash == dir ? 1 : 0] = '\0';
     char lerr[600]; /* locked before the checkpoint is read: the run writing it may still be going */
     if (pdla_rundir_lock(dir, &c->lock, lerr, sizeof lerr) == PDLA_EEXIST) {
         fprintf(stderr, "pdla: cannot resume: %s\n", lerr);
@@ -449,8 +470,13 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
     if (c->lock >= 0) remove_stale(dir, 0);
     if (c->lock >= 0 && dir_takes_files(dir)) return NULL;
     char path[4200], err[600], err2[600];
-    snprintf(path, sizeof path, "%s/checkpoint.h5", dir);
+    if (is_dir) snprintf(path, sizeof path, "%s/checkpoint.h5", dir);
+    else snprintf(path, sizeof path, "%s", c->resume);
     ev_sim *s = ev_checkpoint_load(path, ser, err, sizeof err);
+    if (!s && !is_dir) { /* the file named: no other to fall back on */
+        fprintf(stderr, "pdla: cannot resume: %s\n", err);
+        return NULL;
+    }
     if (!s) {
         snprintf(path, sizeof path, "%s/checkpoint.prev.h5", dir);
         s = ev_checkpoint_load(path, ser, err2, sizeof err2);

@@ -13,6 +13,9 @@ int event_cmd_main(int argc, char **argv);
  * written by the event model. */
 int event_info_wanted(int argc, char **argv);
 int event_info_main(int argc, char **argv);
+/* 1, with one line printed, when that event FILE is no cluster file (a
+ * checkpoint): the readers' bad input (exit 2). */
+int event_checkpoint_refused(const char *tool, int argc, char **argv);
 /* `pdla render` for event files (argv[0] = "render"). */
 int event_render_main(int argc, char **argv);
 /* `pdla analyze` for event files (argv[0] = "analyze", event_analyze.c). */

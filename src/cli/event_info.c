@@ -43,6 +43,27 @@ int event_info_wanted(int argc, char **argv)
     return pdla_h5_file_model(path, model, sizeof model) == 0 && strcmp(model, "event") == 0;
 }
 
+/* An event file that is not a cluster file (a checkpoint: the only event
+ * file with a root "format") is bad input to every reader: one line, 1
+ * (exit 2). Before, analyze took it for a damaged cluster file (exit 1)
+ * while info and render refused it (exit 2). */
+int event_checkpoint_refused(const char *tool, int argc, char **argv)
+{
+    int json;
+    const char *path = file_arg(argc, argv, &json);
+    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f < 0) return 0; /* the reader says why */
+    pdla_h5_value v;
+    const int has = H5Aexists(f, "format") > 0 && pdla_h5_attr_value(f, "format", &v) == 0;
+    H5Fclose(f);
+    if (!has) return 0;
+    fprintf(stderr, "pdla %s: %s is not a pdla cluster file (format = \"%.200s\"; an event checkpoint "
+                    "continues with pdla --model event --resume)\n",
+            tool, path, v.read && v.kind == 's' ? v.s : "?");
+    return 1;
+}
+
 typedef struct pr {
     FILE *o;
     int json, first;

@@ -690,11 +690,15 @@ static int run_subcommand(int argc, char **argv, int *code)
 {
     const char *sub = argc > 1 ? argv[1] : "";
     /* The event model has its own command line and info (event_cmd.h). */
-    if (strcmp(sub, "info") == 0 && event_info_wanted(argc - 1, argv + 1))
+    const int ev_tool = (!strcmp(sub, "info") || !strcmp(sub, "render") || !strcmp(sub, "analyze")) &&
+                        event_info_wanted(argc - 1, argv + 1);
+    if (ev_tool && event_checkpoint_refused(sub, argc - 1, argv + 1))
+        *code = EXIT_USAGE;
+    else if (ev_tool && strcmp(sub, "info") == 0)
         *code = event_info_main(argc - 1, argv + 1);
-    else if (strcmp(sub, "render") == 0 && event_info_wanted(argc - 1, argv + 1))
+    else if (ev_tool && strcmp(sub, "render") == 0)
         *code = event_render_main(argc - 1, argv + 1);
-    else if (strcmp(sub, "analyze") == 0 && event_info_wanted(argc - 1, argv + 1))
+    else if (ev_tool)
         *code = event_analyze_main(argc - 1, argv + 1);
     else if (event_cmd_wanted(argc, argv))
         *code = event_cmd_main(argc, argv);

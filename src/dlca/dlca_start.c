@@ -53,10 +53,23 @@ static int site_of(const dlca_params *p, const long long *x, uint32_t *k, const 
     return 0;
 }
 
+/* Did the fgets that began at offset `at` read a NUL byte (fewer
+ * characters in line than it read)? fgets gives no count, and the NUL
+ * ended the line silently. 0 where f cannot tell its offset (a FIFO). */
+static int nul_read(FILE *f, long at, const char *line)
+{
+    const long now = ftell(f);
+    return at >= 0 && now >= at && (size_t)(now - at) != strlen(line);
+}
+
 static int read_text(FILE *f, const char *path, const dlca_params *p, start_buf *b, char *err, size_t errlen)
 {
     char line[4096];
-    for (uint64_t ln = 1; fgets(line, sizeof line, f); ln++) {
+    long at = ftell(f);
+    for (uint64_t ln = 1; fgets(line, sizeof line, f); ln++, at = ftell(f)) {
+        if (nul_read(f, at, line))
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: line %llu: a NUL byte in the line", path,
+                               (unsigned long long)ln);
         char *h = strchr(line, '#');
         if (h) *h = '\0';
         long long x[DLCA_MAX_DIM + 1];

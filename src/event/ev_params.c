@@ -179,7 +179,8 @@ char *ev_help_text(void)
              "  --checkpoint                 DIR/checkpoint.h5 at the end and on SIGINT/SIGTERM\n"
              "                               (then exit 0)\n"
              "  --checkpoint-every T         also every T of wall time (seconds, or 30s, 5m, 1h)\n"
-             "  --resume DIR                 continue DIR's checkpoint bit for bit; --t-max,\n"
+             "  --resume PATH                continue a run directory's checkpoint (or one\n"
+             "                               checkpoint file, in its folder) bit for bit; --t-max,\n"
              "                               --max-stuck, --max-events may change, any other\n"
              "                               parameter given must equal the checkpoint's\n"
              "  --help                       this text\n");

@@ -21,7 +21,9 @@
 /* The overlap check is over all pairs. */
 #define EV_MAX_SEEDS 100000
 
-/* One seed line into xr[0 .. D]: 0, 1 (blank or comment), -1 (bad). */
+/* One seed line into xr[0 .. D]: 0, 1 (blank or comment), -1 (bad). The
+ * numbers are decimal, as everywhere on the command line (cli_parse_real):
+ * strtod's hexadecimal (0x5) is refused. */
 static int parse_line(char *line, int D, double *xr)
 {
     char *hash = strchr(line, '#');
@@ -30,14 +32,33 @@ static int parse_line(char *line, int D, double *xr)
     while (*c == ' ' || *c == '\t' || *c == '\r' || *c == '\n') c++;
     if (!*c) return 1;
     for (int k = 0; k <= D; k++) {
+        while (*c == ' ' || *c == '\t') c++;
         char *end;
         errno = 0;
         xr[k] = strtod(c, &end);
         if (end == c || errno == ERANGE || !isfinite(xr[k])) return -1;
+        if (strspn(c, "0123456789.eE+-") < (size_t)(end - c)) return -1;
         c = end;
     }
     while (*c == ' ' || *c == '\t' || *c == '\r' || *c == '\n') c++;
     return *c ? -1 : 0;
+}
+
+/* The next line of f into buf (without its newline): its length, -1 at the
+ * end of the file, -2 for a NUL byte (it would end the line silently),
+ * -3 for a line that does not fit (fgets split it in two). */
+static long next_line(FILE *f, char *buf, size_t size)
+{
+    size_t n = 0;
+    int ch, bad = 0;
+    while ((ch = getc(f)) != EOF && ch != '\n') {
+        if (ch == '\0') bad = bad ? bad : -2;
+        else if (n + 1 == size) bad = bad ? bad : -3;
+        else buf[n++] = (char)ch;
+    }
+    buf[n] = '\0';
+    if (bad) return bad;
+    return ch == EOF && n == 0 ? -1 : (long)n;
 }
 
 static int read_lines(ev_sim *s, FILE *f, const char *path, char *err, size_t errlen)
@@ -46,12 +67,19 @@ static int read_lines(ev_sim *s, FILE *f, const char *path, char *err, size_t er
     char buf[1024];
     size_t cap = 0;
     int line = 0;
-    while (fgets(buf, sizeof buf, f)) {
+    long len;
+    while ((len = next_line(f, buf, sizeof buf)) != -1) {
         line++;
+        if (len == -2) return pdla_errorf(-1, err, errlen, "--seeds %s:%d: a NUL byte in the line", path, line);
+        if (len == -3)
+            return pdla_errorf(-1, err, errlen, "--seeds %s:%d: line longer than %zu bytes", path, line,
+                               sizeof buf - 1);
         double xr[4];
         const int r = parse_line(buf, D, xr);
         if (r == 1) continue;
-        if (r < 0) return pdla_errorf(-1, err, errlen, "--seeds %s:%d: want %d numbers (x y%s radius)", path, line, D + 1, D == 3 ? " z" : "");
+        if (r < 0)
+            return pdla_errorf(-1, err, errlen, "--seeds %s:%d: want %d decimal numbers (x y%s radius)", path,
+                               line, D + 1, D == 3 ? " z" : "");
         if (!(xr[D] > 0)) return pdla_errorf(-1, err, errlen, "--seeds %s:%d: radius must be > 0", path, line);
         if (s->nseeds == EV_MAX_SEEDS)
             return pdla_errorf(-1, err, errlen, "--seeds %s: more than %d seeds", path, EV_MAX_SEEDS);

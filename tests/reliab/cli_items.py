@@ -15,7 +15,10 @@ import time
 import h5py
 import numpy as np
 
+from reliab_util import one_line, runner
+
 PDLA, SHIM, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
+pdla = runner(PDLA, 60)
 failures = []
 
 
@@ -30,20 +33,6 @@ def preload():
     ldd = subprocess.run(["ldd", PDLA], capture_output=True, text=True).stdout
     asan = [l.split("=>")[1].split()[0] for l in ldd.splitlines() if "libasan" in l and "=>" in l]
     return ":".join(asan + [SHIM])
-
-
-def pdla(*args, env=None, timeout=60, cwd=None):
-    e = dict(os.environ)
-    e.update(env or {})
-    try:
-        p = subprocess.run([PDLA] + list(args), capture_output=True, timeout=timeout, env=e, cwd=cwd)
-    except subprocess.TimeoutExpired:
-        return None, "timeout"
-    return p.returncode, p.stderr.decode("utf-8", "replace")
-
-
-def one_line(err):
-    return len(err.rstrip("\n").split("\n")) == 1
 
 
 def positions(path):

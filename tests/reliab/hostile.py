@@ -20,6 +20,8 @@ import sys
 import h5py
 import numpy as np
 
+from reliab_util import run_rss
+
 PDLA, WORK = sys.argv[1], sys.argv[2]
 # Peak RSS bound per run: a clean read of this cluster takes a few MB (tens
 # under ASan); the forged declarations ask for GBs.
@@ -40,32 +42,8 @@ def run(args, env=None):
     this run alone - wait4 gives each child's own rusage), or (None, b"",
     None) when it did not end within TIME_LIMIT (then it is killed)."""
     import tempfile
-    import time
     with tempfile.TemporaryFile() as errf:
-        pid = os.fork()
-        if pid == 0:
-            try:
-                os.dup2(errf.fileno(), 2)
-                devnull = os.open(os.devnull, os.O_RDWR)
-                os.dup2(devnull, 0)
-                os.dup2(devnull, 1)
-                os.execve(PDLA, [PDLA] + args, env if env is not None else os.environ)
-            finally:
-                os._exit(127)
-        t0 = time.monotonic()
-        while True:
-            wpid, status, ru = os.wait4(pid, os.WNOHANG)
-            if wpid == pid:
-                break
-            if time.monotonic() - t0 > TIME_LIMIT:
-                os.kill(pid, 9)
-                os.wait4(pid, 0)
-                return None, b"", None
-            time.sleep(0.01)
-        errf.seek(0)
-        err = errf.read()
-    rc = os.WEXITSTATUS(status) if os.WIFEXITED(status) else -os.WTERMSIG(status)
-    return rc, err, ru.ru_maxrss
+        return run_rss(PDLA, args, TIME_LIMIT, errf, env)
 
 
 def tmp_left(d):

@@ -25,6 +25,8 @@ import sys
 import h5py
 import numpy as np
 
+from reliab_util import run_rss
+
 PDLA, WORK = sys.argv[1], sys.argv[2]
 RSS_LIMIT_KB = 400 * 1024  # a clean read takes a few MB (tens under ASan)
 TIME_LIMIT = 60
@@ -43,31 +45,11 @@ def run(args):
     """(exit status or -signal, stderr lines, peak RSS in KB of this run), or
     (None, [], None) when it did not end within TIME_LIMIT."""
     with open(os.path.join(WORK, "stderr"), "w+b") as errf:
-        pid = os.fork()
-        if pid == 0:
-            try:
-                os.dup2(errf.fileno(), 2)
-                devnull = os.open(os.devnull, os.O_RDWR)
-                os.dup2(devnull, 0)
-                os.dup2(devnull, 1)
-                os.execv(PDLA, [PDLA] + args)
-            finally:
-                os._exit(127)
-        import time
-        t0 = time.monotonic()
-        while True:
-            wpid, status, ru = os.wait4(pid, os.WNOHANG)
-            if wpid == pid:
-                break
-            if time.monotonic() - t0 > TIME_LIMIT:
-                os.kill(pid, 9)
-                os.wait4(pid, 0)
-                return None, [], None
-            time.sleep(0.01)
-        errf.seek(0)
-        err = errf.read().decode("utf-8", "replace").rstrip("\n")
-    rc = os.WEXITSTATUS(status) if os.WIFEXITED(status) else -os.WTERMSIG(status)
-    return rc, err.split("\n") if err else [], ru.ru_maxrss
+        rc, err, rss = run_rss(PDLA, args, TIME_LIMIT, errf)
+    if rc is None:
+        return None, [], None
+    err = err.decode("utf-8", "replace").rstrip("\n")
+    return rc, err.split("\n") if err else [], rss
 
 
 def expect(tag, args, want):

@@ -23,7 +23,10 @@ import subprocess
 import sys
 import time
 
+from reliab_util import one_line, runner
+
 PDLA, SHIM, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
+pdla = runner(PDLA, 120)
 failures = []
 
 
@@ -31,20 +34,6 @@ def check(ok, what):
     if not ok:
         failures.append(what)
         print("FAIL:", what, flush=True)
-
-
-def pdla(*args, timeout=120, env=None):
-    e = dict(os.environ)
-    e.update(env or {})
-    try:
-        p = subprocess.run([PDLA] + list(args), capture_output=True, timeout=timeout, env=e)
-    except subprocess.TimeoutExpired:
-        return None, "timeout"
-    return p.returncode, p.stderr.decode("utf-8", "replace")
-
-
-def one_line(err):
-    return len(err.rstrip("\n").split("\n")) == 1
 
 
 def locked(d):
@@ -251,6 +240,68 @@ for name, text in (("dlca-ok", "model = dlca\nbox = 48\nuntil_clusters = 20\n"),
         fh.write(text)
     rc, err = pdla("--scene", path, "--out", os.path.join(WORK, name + "-out"), "--quiet" if "event" in name else "-q")
     check(rc == 0, "scene %s: exit %r, %r" % (name, rc, err[-300:]))
+
+# --resume of a checkpoint file, as the DLA and DLCA commands take it: the
+# event command went on to FILE/checkpoint.h5 and named that in its
+# refusal. The file's directory is still locked (held here with flock, as
+# pdla holds it), and the resumed run writes there.
+d = os.path.join(WORK, "event-stale")
+ck = os.path.join(d, "checkpoint.h5")
+hold = os.open(d, os.O_RDONLY | os.O_DIRECTORY)
+fcntl.flock(hold, fcntl.LOCK_EX | fcntl.LOCK_NB)
+rc, err = pdla("--model", "event", "--resume", ck, "--t-max", "4", "--quiet")
+check(rc == 2 and one_line(err) and "in use by another pdla process" in err,
+      "event --resume FILE in a locked directory: exit %r, %r" % (rc, err))
+os.close(hold)
+before = os.stat(os.path.join(d, "cluster.h5")).st_mtime_ns
+rc, err = pdla("--model", "event", "--resume", ck, "--t-max", "4", "--quiet")
+check(rc == 0 and "checkpoint.h5/checkpoint.h5" not in err, "event --resume FILE: exit %r, %r" % (rc, err))
+check(os.stat(os.path.join(d, "cluster.h5")).st_mtime_ns != before, "event --resume FILE: cluster.h5 not rewritten")
+# A path that is not there: said so, for every model (DLCA said "cannot
+# open it as HDF5").
+for model in ("dlca", "event", None):
+    rc, err = pdla(*(["--model", model] if model else []), "--resume", os.path.join(WORK, "no-such-run"))
+    check(rc == 2 and one_line(err) and "No such file or directory" in err,
+          "%s --resume of a missing path: exit %r, %r" % (model or "dla", rc, err))
+
+# Every model's checkpoint through every reader is bad input: one line,
+# exit 2 (analyze took an event checkpoint for a damaged cluster file:
+# exit 1 while info said 2).
+rc, err = pdla("--target", "300", "--seed", "2", "--checkpoint", "-q", "--out", os.path.join(WORK, "dla-ck"))
+check(rc == 0, "dla checkpoint run: %r" % err)
+for tag, ckp in (("dla", os.path.join(WORK, "dla-ck", "checkpoint.h5")),
+                 ("dlca", os.path.join(WORK, "dlca-force", "checkpoint.h5")), ("event", ck)):
+    for tool in (["info"], ["info", "--json"], ["render", "-o", os.path.join(WORK, "ck.png")], ["analyze"],
+                 ["export", "-o", os.path.join(WORK, "ck.csv")]):
+        rc, err = pdla(*tool, ckp)
+        check(rc == 2 and one_line(err), "%s on a %s checkpoint: exit %r, %r" % (" ".join(tool), tag, rc, err))
+
+# Numbers and bytes in the models' text files: a --seeds number in
+# hexadecimal (strtod reads 0x18; the command line refuses it), and a NUL
+# byte inside a --seeds, DLCA --start or event scene line (it ended the line
+# silently): one line naming the file and line, exit 2.
+TEXTS = (("seeds-hex", b"0x18 24 1\n", ["--model", "event", "--dim", "2", "--particles", "50", "--packing", "0.05",
+                                         "--t-max", "0.5", "--quiet", "--seeds"], ":1:"),
+         ("seeds-nul", b"24 24 1\n10 10 1\0 junk\n", ["--model", "event", "--dim", "2", "--particles", "50",
+                                                      "--packing", "0.05", "--t-max", "0.5", "--quiet", "--seeds"],
+          ":2:"),
+         ("start-nul", b"10 10\n12 12\0 13 13\n", ["--model", "dlca", "--dim", "2", "--box", "48",
+                                                   "--until-clusters", "1", "-q", "--start"], ": line 2:"),
+         ("scene-nul", b"model = event\nparticles = 10\0 junk\nt_max = 1\n", ["--quiet", "--scene"], ":2:"))
+for name, text, args, where in TEXTS:
+    path = os.path.join(WORK, name + ".txt")
+    out = os.path.join(WORK, name + "-out")
+    with open(path, "wb") as fh:
+        fh.write(text)
+    rc, err = pdla(*(args + [path, "--out", out]))
+    check(rc == 2 and one_line(err) and (path + where) in err,
+          "%s: exit %r, %r" % (name, rc, err))
+    check(not os.path.exists(out), "%s: a run directory was made" % name)
+with open(os.path.join(WORK, "seeds-ok.txt"), "w") as fh:
+    fh.write("24 24 1\n 10 10 1e0 # two\n")
+rc, err = pdla("--model", "event", "--dim", "2", "--particles", "50", "--packing", "0.05", "--t-max", "0.5",
+               "--quiet", "--seeds", os.path.join(WORK, "seeds-ok.txt"), "--out", os.path.join(WORK, "seeds-ok-out"))
+check(rc == 0, "a decimal --seeds file: exit %r, %r" % (rc, err))
 
 # A run directory that takes no files (chattr +i; root ignores chmod): one
 # line, exit 2, before the run. Before, DLCA and event ran to the end and

@@ -1,0 +1,58 @@
+"""reliab_util.py - the helpers the reliab scripts share (imported by
+models_cli.py, cli_items.py, hostile.py and hostile_models.py; each runs as
+`python3 SCRIPT.py`, so this file, beside them, is on sys.path)."""
+import os
+import subprocess
+import time
+
+
+def runner(exe, timeout):
+    """pdla(*ARGS) -> (exit status, stderr text), or (None, "timeout") when it
+    ran past `timeout` seconds (then it is killed)."""
+    default = timeout
+
+    def pdla(*args, env=None, timeout=default, cwd=None):
+        e = dict(os.environ)
+        e.update(env or {})
+        try:
+            p = subprocess.run([exe] + list(args), capture_output=True, timeout=timeout, env=e, cwd=cwd)
+        except subprocess.TimeoutExpired:
+            return None, "timeout"
+        return p.returncode, p.stderr.decode("utf-8", "replace")
+    return pdla
+
+
+def one_line(err):
+    """Is the stderr text one line?"""
+    return len(err.rstrip("\n").split("\n")) == 1
+
+
+def run_rss(exe, args, limit, errf, env=None):
+    """Run EXE ARGS with stderr into the open binary file errf; (exit status
+    or -signal, stderr bytes, peak RSS in KB of this run alone - wait4 gives
+    each child's own rusage), or (None, b"", None) when it did not end within
+    `limit` seconds (then it is killed)."""
+    pid = os.fork()
+    if pid == 0:
+        try:
+            os.dup2(errf.fileno(), 2)
+            devnull = os.open(os.devnull, os.O_RDWR)
+            os.dup2(devnull, 0)
+            os.dup2(devnull, 1)
+            os.execve(exe, [exe] + args, env if env is not None else os.environ)
+        finally:
+            os._exit(127)
+    t0 = time.monotonic()
+    while True:
+        wpid, status, ru = os.wait4(pid, os.WNOHANG)
+        if wpid == pid:
+            break
+        if time.monotonic() - t0 > limit:
+            os.kill(pid, 9)
+            os.wait4(pid, 0)
+            return None, b"", None
+        time.sleep(0.01)
+    errf.seek(0)
+    err = errf.read()
+    rc = os.WEXITSTATUS(status) if os.WIFEXITED(status) else -os.WTERMSIG(status)
+    return rc, err, ru.ru_maxrss

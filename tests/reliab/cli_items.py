@@ -15,17 +15,10 @@ import time
 import h5py
 import numpy as np
 
-from reliab_util import one_line, runner
+from reliab_util import check, failures, one_line, runner
 
 PDLA, SHIM, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
 pdla = runner(PDLA, 60)
-failures = []
-
-
-def check(ok, what):
-    if not ok:
-        failures.append(what)
-        print("FAIL:", what, flush=True)
 
 
 def preload():

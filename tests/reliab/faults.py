@@ -25,15 +25,10 @@ import sys
 import h5py
 import numpy as np
 
+from reliab_util import check, failures
+
 PDLA, SHIM, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
-failures = []
 runs = 0
-
-
-def check(ok, what):
-    if not ok:
-        failures.append(what)
-        print("FAIL:", what, flush=True)
 
 
 ldd = subprocess.run(["ldd", PDLA], capture_output=True, text=True).stdout

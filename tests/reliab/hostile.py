@@ -20,7 +20,7 @@ import sys
 import h5py
 import numpy as np
 
-from reliab_util import run_rss
+from reliab_util import check, failures, run_rss
 
 PDLA, WORK = sys.argv[1], sys.argv[2]
 # Peak RSS bound per run: a clean read of this cluster takes a few MB (tens
@@ -28,13 +28,6 @@ PDLA, WORK = sys.argv[1], sys.argv[2]
 RSS_LIMIT_KB = 400 * 1024
 TIME_LIMIT = 60
 
-failures = []
-
-
-def check(ok, what):
-    if not ok:
-        failures.append(what)
-        print("FAIL:", what, flush=True)
 
 
 def run(args, env=None):

@@ -19,26 +19,18 @@ the DLA files.
 """
 import os
 import shutil
-import subprocess
 import sys
 
 import h5py
 import numpy as np
 
-from reliab_util import run_rss
+from reliab_util import check, failures, run_rss
 
 PDLA, WORK = sys.argv[1], sys.argv[2]
 RSS_LIMIT_KB = 400 * 1024  # a clean read takes a few MB (tens under ASan)
 TIME_LIMIT = 60
 HUGE = 2**61 + 2**16
-failures = []
 runs = []
-
-
-def check(ok, what):
-    if not ok:
-        failures.append(what)
-        print("FAIL:", what, flush=True)
 
 
 def run(args):

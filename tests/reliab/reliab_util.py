@@ -1,9 +1,19 @@
 """reliab_util.py - the helpers the reliab scripts share (imported by
-models_cli.py, cli_items.py, hostile.py and hostile_models.py; each runs as
+models_cli.py, cli_items.py, faults.py, hostile.py and hostile_models.py; each runs as
 `python3 SCRIPT.py`, so this file, beside them, is on sys.path)."""
 import os
 import subprocess
 import time
+
+# What failed, in the order seen; a script exits 1 when it is not empty.
+failures = []
+
+
+def check(ok, what):
+    """Record and print a failure unless ok."""
+    if not ok:
+        failures.append(what)
+        print("FAIL:", what, flush=True)
 
 
 def runner(exe, timeout):

@@ -455,10 +455,15 @@ static int load_state(dlca_sim **out, hid_t f, char *why, size_t whylen)
      * first side looped for ever in dlca_search_init). */
     if (ck_rows(f, "site", PDLA_H5_U32, 1) != p.count || ck_rows(f, "slot_n", PDLA_H5_U32, 1) != p.count + 1)
         LOAD_FAIL(PDLA_EIO, "its monomer arrays are missing or have the wrong length");
+    /* A starts at grid_box and doubles until it holds the widest cluster,
+     * so it never passes the first power of two >= the longest box side. */
+    uint64_t a_max = (uint64_t)p.grid_box;
+    for (int k = 0; k < d; k++)
+        while (a_max < p.box[k]) a_max *= 2;
     if (p.search == DLCA_SEARCH_BOXES &&
-        (u[CK_U_A] < (uint64_t)p.grid_box || u[CK_U_A] > 65536 || (u[CK_U_A] & (u[CK_U_A] - 1))))
-        LOAD_FAIL(PDLA_EIO, "its grid-box side %llu is not a power of two in [grid_box, 65536]",
-                  (unsigned long long)u[CK_U_A]);
+        (u[CK_U_A] < (uint64_t)p.grid_box || u[CK_U_A] > a_max || (u[CK_U_A] & (u[CK_U_A] - 1))))
+        LOAD_FAIL(PDLA_EIO, "its grid-box side %llu is not a power of two in [grid_box, %llu]",
+                  (unsigned long long)u[CK_U_A], (unsigned long long)a_max);
     ck_arrays a = {0};
     int rc = PDLA_EIO;
     if (dlca_sim_alloc(out, &p, p.count) || ck_alloc(&a, p.count, d, 0)) rc = PDLA_ENOMEM, snprintf(why, whylen, "out of memory");

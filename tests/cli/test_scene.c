@@ -71,7 +71,12 @@ static const bad_case bad[] = {
     {"target = 2e12\n", ":1: target 2000000000000 exceeds the limit 2^40"},
     {"scene = other.scene\n", ":1: unknown key 'scene'"},
     {"help = yes\n", ":1: unknown key 'help'"},
-    {"Target = 5\n", ":1: bad key 'Target'"},
+    /* keys are spelled as the options are (the event model has kT): a key
+     * that differs from one in letter case only is unknown, and named */
+    {"Target = 5\n", ":1: unknown key 'Target' (keys are case-sensitive: 'target')"},
+    {"SERIAL_UNTIL = 5\n", ":1: unknown key 'SERIAL-UNTIL' (keys are case-sensitive: 'serial-until')"},
+    {"Help = yes\n", ":1: unknown key 'Help' (keys are the long options"},
+    {"t\x01rget = 5\n", ":1: bad key 't?rget'"},
     {"tar get = 5\n", ":1: bad key 'tar get'"},
     {"out = -x\n", ":1: invalid value '-x' for --out"},
 };
@@ -94,7 +99,7 @@ static void check_bad(void)
     memset(&o, 0, sizeof o);
     pdla_params_default(&o.params);
     CHECK(scene_apply_text("mem", "dim = 2\0x", 9, &o, err, sizeof err) == CLI_PARSE_ERROR &&
-              strstr(err, "mem: contains a NUL byte"),
+              strstr(err, "mem:1: contains a NUL byte"),
           "NUL byte: '%s'", err);
     char *big = malloc(SCENE_MAX_BYTES + 2);
     memset(big, '#', SCENE_MAX_BYTES + 1);

@@ -110,6 +110,10 @@ path = scene_file("dlca-dup-args", "model = dlca\nseed = 1\nseed = 2\n")
 refused("dlca scene, dlca options", ["--scene", path, "--box", "48"],
         os.path.join(WORK, "dlca-dup-args-out"), "pdla: " + path + ":3: duplicate key 'seed'")
 
+path = scene_file("event-large-args", "model = event\n" + ("#" * 100 + "\n") * 700)
+refused("event scene too large, event options", ["--scene", path, "--particles", "10"],
+        os.path.join(WORK, "event-large-args-out"), "pdla: " + path + ": too large")
+
 # Good scenes run, `kT` (spelled as the option) in the event model's.
 for model, (first, _, body, quiet) in MODELS.items():
     extra = "kT = 2\n" if model == "event" else ""

@@ -55,22 +55,12 @@ typedef struct dlca_cli {
 static volatile sig_atomic_t stop_signal;
 static void on_signal(int sig) { stop_signal = sig; }
 
-/* Is `--model dlca` asked for, on the command line or by the scene? */
+/* Does the scene name model dlca? (scene.c reads it, as every scene.) */
 static int scene_is_dlca(const char *path)
 {
-    struct stat st; /* a FIFO or device would block or never end */
-    if (stat(path, &st) || !S_ISREG(st.st_mode)) return 0;
-    FILE *f = fopen(path, "r");
-    if (!f) return 0;
-    char line[1024];
-    int yes = 0;
-    while (!yes && fgets(line, sizeof line, f)) {
-        char k[64], v[64];
-        if (sscanf(line, " %63[A-Za-z_-] = %63s", k, v) == 2 && strcmp(k, "model") == 0 && strcmp(v, "dlca") == 0)
-            yes = 1;
-    }
-    fclose(f);
-    return yes;
+    char model[16];
+    scene_model(path, model, sizeof model);
+    return !strcmp(model, "dlca");
 }
 
 int dlca_cmd_wanted(int argc, char **argv)
@@ -185,90 +175,33 @@ static int set_key(dlca_cli *c, const char *key, const char *val, char *err, siz
     const pdla_param_desc *t = dlca_param_table(&n);
     const pdla_param_desc *d = pdla_param_find(t, n, k);
     if (!d) {
-        snprintf(err, errlen, "unknown key '%s' for model dlca", key);
-        return -1;
+        const char *near = NULL; /* the row it differs from in letter case only */
+        for (size_t i = 0; i < n && !near; i++)
+            if (scene_same_but_case(k, t[i].option)) near = t[i].option;
+        return scene_unknown_key(key, near, " for model dlca", err, errlen);
     }
     c->given |= d->bit;
     return dlca_param_set(&c->p, d, val, err, errlen) ? -1 : 0;
 }
 
-/* Scene: KEY = VALUE lines; '#' comments. The strings are kept (out). */
-static int read_scene(dlca_cli *c, const char *path, char **keep, char *err, size_t errlen)
+/* The scene's keys in its order, read by scene.c (as the other models'
+ * scenes); *sc keeps the strings (out, start, resume) until the end. */
+static int read_scene(dlca_cli *c, const char *path, scene *sc, char *err, size_t errlen)
 {
-    struct stat st;
-    if (stat(path, &st) || !S_ISREG(st.st_mode)) {
-        snprintf(err, errlen, "cannot read scene '%s': not a regular file", path);
+    if (sc->buf) {
+        snprintf(err, errlen, "--scene given twice");
         return -1;
     }
-    FILE *f = fopen(path, "r");
-    if (!f) {
-        snprintf(err, errlen, "cannot read scene '%s': %s", path, strerror(errno));
-        return -1;
-    }
-    char *buf = calloc(1, SCENE_MAX_BYTES + 2);
-    const size_t len = buf ? fread(buf, 1, SCENE_MAX_BYTES + 1, f) : 0;
-    fclose(f);
-    if (!buf) {
-        snprintf(err, errlen, "out of memory");
-        return -1;
-    }
-    *keep = buf;
-    /* As strict as the DLA command's scenes (scene.h): before, the bytes
-     * past 64 KiB were dropped without a word and a key given twice took
-     * the last value. */
-    if (len > SCENE_MAX_BYTES) {
-        snprintf(err, errlen, "%s: too large (a scene is at most %d bytes)", path, SCENE_MAX_BYTES);
-        return -1;
-    }
-    if (memchr(buf, '\0', len)) {
-        snprintf(err, errlen, "%s: contains a NUL byte (not a text file?)", path);
-        return -1;
-    }
-    char seen[64][64];
-    int lineno = 0, nseen = 0;
-    for (char *line = buf, *next; line && *line; line = next) {
-        lineno++;
-        next = strchr(line, '\n');
-        if (next) *next++ = '\0';
-        if (strlen(line) > SCENE_MAX_LINE) {
-            snprintf(err, errlen, "%s:%d: line too long (at most %d bytes)", path, lineno, SCENE_MAX_LINE);
-            return -1;
-        }
-        char *h = strchr(line, '#');
-        if (h) *h = '\0';
-        char *eq = strchr(line, '=');
-        char *k = line;
-        while (*k == ' ' || *k == '\t') k++;
-        if (!*k || *k == '\r') continue;
-        if (!eq) {
-            snprintf(err, errlen, "%s:%d: expected KEY = VALUE", path, lineno);
-            return -1;
-        }
-        *eq = '\0';
-        char *v = eq + 1;
-        for (char *e = eq - 1; e >= k && (*e == ' ' || *e == '\t'); e--) *e = '\0';
-        while (*v == ' ' || *v == '\t') v++;
-        for (char *e = v + strlen(v) - 1; e >= v && (*e == ' ' || *e == '\t' || *e == '\r'); e--) *e = '\0';
-        char key[64];
-        snprintf(key, sizeof key, "%s", k);
-        for (char *q = key; *q; q++)
-            if (*q == '_') *q = '-';
-        for (int i = 0; i < nseen; i++)
-            if (!strcmp(seen[i], key)) {
-                snprintf(err, errlen, "%s:%d: duplicate key '%s'", path, lineno, key);
-                return -1;
-            }
-        if (nseen < 64) snprintf(seen[nseen++], sizeof seen[0], "%s", key);
+    if (scene_read_file(path, sc, err, errlen)) return -1;
+    for (int i = 0; i < sc->n; i++) {
         char why[512];
-        if (set_key(c, k, v, why, sizeof why)) {
-            snprintf(err, errlen, "%s:%d: %s", path, lineno, why);
-            return -1;
-        }
+        if (set_key(c, sc->entries[i].key, sc->entries[i].value, why, sizeof why))
+            return pdla_errorf(-1, err, errlen, "%s:%d: %s", path, sc->entries[i].line, why);
     }
     return 0;
 }
 
-static int parse(int argc, char **argv, dlca_cli *c, char **scene_buf, char *err, size_t errlen)
+static int parse(int argc, char **argv, dlca_cli *c, scene *sc, char *err, size_t errlen)
 {
     size_t n;
     const pdla_param_desc *t = dlca_param_table(&n);
@@ -299,7 +232,7 @@ static int parse(int argc, char **argv, dlca_cli *c, char **scene_buf, char *err
     if (optcheck_exact(argc, argv, lo, ":q", err, errlen)) rc = -1;
     while (rc == 0 && (opt = getopt_long(argc, argv, ":q", lo, NULL)) != -1) {
         if (opt == OPT_HELP) rc = 1;
-        else if (opt == OPT_SCENE) rc = read_scene(c, optarg, scene_buf, err, errlen);
+        else if (opt == OPT_SCENE) rc = read_scene(c, optarg, sc, err, errlen);
         else if (opt == '?') {
             snprintf(err, errlen, "unknown option '%s' for --model dlca (see pdla --model dlca --help)", argv[optind - 1]);
             rc = -1;
@@ -555,13 +488,13 @@ static int run_loop(dlca_sim *s, dlca_cli *c, const char *dir, const char *cmd, 
 
 /* Parse and check the command line: -1 to go on, else the exit status
  * (0 after --help, EXIT_USAGE with the one line printed). */
-static int read_command(int argc, char **argv, dlca_cli *c, char **scene_buf)
+static int read_command(int argc, char **argv, dlca_cli *c, scene *sc)
 {
     char err[1024];
     memset(c, 0, sizeof *c);
     c->lock = c->lock_out = -1;
     dlca_params_default(&c->p);
-    int prc = parse(argc, argv, c, scene_buf, err, sizeof err);
+    int prc = parse(argc, argv, c, sc, err, sizeof err);
     if (prc == 1) {
         print_help(stdout);
         return fflush(stdout) ? EXIT_RUNTIME : 0;
@@ -811,17 +744,18 @@ static int exit_status(int status, int asked, int final_ck, uint64_t attempts, c
 int dlca_cmd_main(int argc, char **argv)
 {
     dlca_cli c;
-    char *scene_buf = NULL, dir[4096] = "";
-    const int rc = read_command(argc, argv, &c, &scene_buf);
+    scene sc = {0};
+    char dir[4096] = "";
+    const int rc = read_command(argc, argv, &c, &sc);
     dlca_sim *s = NULL;
     if (rc >= 0) {
-        free(scene_buf);
+        scene_free(&sc);
         return rc;
     }
     catch_signals();
     const int orc = open_sim(&c, dir, sizeof dir, &s);
     if (orc) {
-        free(scene_buf);
+        scene_free(&sc);
         free_snapshots(&c); /* a resume reads them before its last checks */
         return orc;
     }
@@ -836,7 +770,7 @@ int dlca_cmd_main(int argc, char **argv)
     dlca_stats st;
     dlca_get_stats(s, &st);
     dlca_destroy(s);
-    free(scene_buf);
+    scene_free(&sc);
     free_snapshots(&c);
     pdla_rundir_unlock(c.lock_out);
     pdla_rundir_unlock(c.lock);

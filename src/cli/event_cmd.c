@@ -52,101 +52,14 @@ static const char *opt_value(int argc, char **argv, const char *name, int *at)
     return NULL;
 }
 
-static char *trim(char *s)
-{
-    while (*s == ' ' || *s == '\t') s++;
-    size_t n = strlen(s);
-    while (n && (s[n - 1] == ' ' || s[n - 1] == '\t' || s[n - 1] == '\r' || s[n - 1] == '\n'))
-        s[--n] = '\0';
-    return s;
-}
-
-/* Calls fn(key, value, line) for each KEY = VALUE line of a scene. 0, or -1
- * (file unreadable or a line without '='), or fn's non-zero return. */
-typedef int (*scene_fn)(const char *key, const char *val, int line, void *u);
-static int scene_each(const char *path, scene_fn fn, void *u, char *err, size_t errlen)
-{
-    /* Regular files only: opening a FIFO would block. */
-    struct stat st;
-    if (stat(path, &st) != 0 || !S_ISREG(st.st_mode)) {
-        snprintf(err, errlen, "scene %s is not a readable regular file", path);
-        return -1;
-    }
-    FILE *f = fopen(path, "r");
-    if (!f) {
-        snprintf(err, errlen, "cannot read scene %s: %s", path, strerror(errno));
-        return -1;
-    }
-    /* As strict as the DLA command's scenes (scene.h): at most
-     * SCENE_MAX_BYTES, lines of SCENE_MAX_LINE, no key twice. Before, a key
-     * given twice silently took the last value and a line over 1023 bytes
-     * was read as two lines. */
-    char buf[SCENE_MAX_LINE + 2], seen[64][64];
-    int line = 0, rc = 0, nseen = 0;
-    if (st.st_size > SCENE_MAX_BYTES) {
-        snprintf(err, errlen, "%s: too large (a scene is at most %d bytes)", path, SCENE_MAX_BYTES);
-        rc = -1;
-    }
-    long at = ftell(f);
-    while (!rc && fgets(buf, sizeof buf, f)) {
-        line++;
-        /* fgets gives no count: fewer characters than it read is a NUL
-         * byte, which ended the line silently */
-        const long now = ftell(f);
-        if (at >= 0 && now >= at && (size_t)(now - at) != strlen(buf)) {
-            snprintf(err, errlen, "%s:%d: a NUL byte in the line", path, line);
-            rc = -1;
-            break;
-        }
-        at = now;
-        if (!strchr(buf, '\n') && strlen(buf) > SCENE_MAX_LINE) {
-            snprintf(err, errlen, "%s:%d: line too long (at most %d bytes)", path, line, SCENE_MAX_LINE);
-            rc = -1;
-            break;
-        }
-        char *hash = strchr(buf, '#');
-        if (hash) *hash = '\0';
-        char *s = trim(buf);
-        if (!*s) continue;
-        char *eq = strchr(s, '=');
-        if (!eq) {
-            snprintf(err, errlen, "%s:%d: want KEY = VALUE", path, line);
-            rc = -1;
-            break;
-        }
-        *eq = '\0';
-        char key[64];
-        snprintf(key, sizeof key, "%s", trim(s));
-        for (char *q = key; *q; q++)
-            if (*q == '_') *q = '-';
-        for (int i = 0; i < nseen && !rc; i++)
-            if (!strcmp(seen[i], key)) {
-                snprintf(err, errlen, "%s:%d: duplicate key '%s'", path, line, key);
-                rc = -1;
-            }
-        if (!rc && nseen < 64) snprintf(seen[nseen++], sizeof seen[0], "%s", key);
-        if (!rc) rc = fn(trim(s), trim(eq + 1), line, u);
-    }
-    fclose(f);
-    return rc;
-}
-
-static int find_model(const char *key, const char *val, int line, void *u)
-{
-    (void)line;
-    if (!strcmp(key, "model")) *(int *)u = !strcmp(val, "event");
-    return 0;
-}
-
 int event_cmd_wanted(int argc, char **argv)
 {
     const char *m = opt_value(argc, argv, "--model", NULL);
     if (m) return !strcmp(m, "event");
     const char *sc = opt_value(argc, argv, "--scene", NULL);
-    int is = 0;
-    char err[256];
-    if (sc) (void)scene_each(sc, find_model, &is, err, sizeof err);
-    return is;
+    char model[16] = "";
+    if (sc) scene_model(sc, model, sizeof model);
+    return !strcmp(model, "event");
 }
 
 typedef struct ev_cli {
@@ -163,28 +76,43 @@ typedef struct ev_cli {
     int lock;                /* the run directory's flock (pdla_rundir_lock), -1: none */
 } ev_cli;
 
-static int apply_scene_line(const char *key, const char *val, int line, void *u)
+/* One scene entry: `model`, `out` or a row of the parameter table. 0, or
+ * -1 with "FILE:LINE: reason" in c->err. */
+static int apply_scene_entry(ev_cli *c, const scene_entry *en)
 {
-    ev_cli *c = u;
-    if (!strcmp(key, "model")) {
-        if (strcmp(val, "event") != 0) {
-            snprintf(c->err, sizeof c->err, "%s:%d: model must be event here", c->scene, line);
-            return -1;
-        }
-        return 0;
-    }
+    const char *key = en->key, *val = en->value;
+    char e[400];
+    size_t np;
+    const pdla_param_desc *t = ev_param_table(&np);
     if (!strcmp(key, "out")) {
-        static char outbuf[4096];
+        static char outbuf[4096]; /* the scene's buffer is freed after reading */
         snprintf(outbuf, sizeof outbuf, "%s", val);
         c->out = outbuf;
         return 0;
     }
-    char e[400];
-    if (ev_param_set(&c->p, key, val, e, sizeof e)) {
-        snprintf(c->err, sizeof c->err, "%s:%d: %s", c->scene, line, e);
-        return -1;
+    if (!strcmp(key, "model")) {
+        if (!strcmp(val, "event")) return 0;
+        snprintf(e, sizeof e, "model must be event here");
+    } else if (!pdla_param_find(t, np, key)) {
+        const char *near = NULL; /* the row it differs from in letter case only */
+        for (size_t i = 0; i < np && !near; i++)
+            if (scene_same_but_case(key, t[i].option)) near = t[i].option;
+        scene_unknown_key(key, near, " for model event", e, sizeof e);
+    } else if (ev_param_set(&c->p, key, val, e, sizeof e) == 0) {
+        return 0;
     }
-    return 0;
+    return pdla_errorf(-1, c->err, sizeof c->err, "%s:%d: %s", c->scene, en->line, e);
+}
+
+/* The scene's entries in order, read by scene.c as every model's scene. */
+static int read_scene(ev_cli *c)
+{
+    scene sc;
+    if (scene_read_file(c->scene, &sc, c->err, sizeof c->err)) return -1;
+    int rc = 0;
+    for (int i = 0; i < sc.n && !rc; i++) rc = apply_scene_entry(c, &sc.entries[i]);
+    scene_free(&sc);
+    return rc;
 }
 
 /* A flag without value: 1 when `a` is one (and taken into c), else 0. */
@@ -237,7 +165,7 @@ static int parse(int argc, char **argv, ev_cli *c)
     ev_params_default(&c->p);
     int at = -1;
     c->scene = opt_value(argc, argv, "--scene", &at);
-    if (c->scene && scene_each(c->scene, apply_scene_line, c, c->err, sizeof c->err)) return -1;
+    if (c->scene && read_scene(c)) return -1;
     for (int k = 1; k < argc; k++) {
         const char *a = argv[k];
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) return 1;

@@ -366,6 +366,9 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
     return CLI_PARSE_OK;
 }
 
+/* Options that are no scene keys. */
+static int not_a_key(const opt_desc *d) { return d->id == 'h' || d->id == 'V' || d->id == OPT_SCENE; }
+
 int cli_set_option(cli_options *o, const char *name, const char *value, char *err, size_t errlen)
 {
     const opt_desc *d = NULL;
@@ -377,9 +380,18 @@ int cli_set_option(cli_options *o, const char *name, const char *value, char *er
     for (size_t i = 0; i < N_OPTIONS && !d; i++)
         if (options[i].name && !strcmp(options[i].name, name)) d = &options[i];
     char v[64];
-    if (!d || d->id == 'h' || d->id == 'V' || d->id == OPT_SCENE)
-        return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "unknown key '%s' (keys are the long options of pdla --help "
-                    "without '--', except scene, help and version)", shown(v, name));
+    if (!d || not_a_key(d)) {
+        /* a key that differs from an option in letter case only is named */
+        const char *near = NULL;
+        for (size_t i = 0; i < np && !near; i++)
+            if (scene_same_but_case(name, t[i].option)) near = t[i].option;
+        for (size_t i = 0; i < N_OPTIONS && !near; i++)
+            if (options[i].name && !not_a_key(&options[i]) && scene_same_but_case(name, options[i].name))
+                near = options[i].name;
+        scene_unknown_key(shown(v, name), near, " (keys are the long options of pdla --help without '--', "
+                          "except scene, help and version)", err, errlen);
+        return CLI_PARSE_ERROR;
+    }
     if (d->kind != ARG_NONE) return set_value(o, d, value, err, errlen);
     static const char *const yes[] = {"yes", "true", "1"}, *const no[] = {"no", "false", "0"};
     for (int i = 0; i < 3; i++) {

@@ -4,8 +4,9 @@
  * command line, command-line options override scene keys, and every bad
  * scene (unknown or duplicate key, missing '=', empty or bad value, a value
  * out of range, a key that is not allowed) is refused with one line
- * "FILE:LINE: reason" naming the right line. Also the worked examples in
- * runs/scenes/ (path given as argv[1]) parse.
+ * "FILE:LINE: reason" naming the right line. The model a scene names
+ * (scene_model, which picks the command that reads it). Also the worked
+ * examples in runs/scenes/ (path given as argv[1]) parse.
  */
 #include <dirent.h>
 #include <stdio.h>
@@ -71,7 +72,12 @@ static const bad_case bad[] = {
     {"target = 2e12\n", ":1: target 2000000000000 exceeds the limit 2^40"},
     {"scene = other.scene\n", ":1: unknown key 'scene'"},
     {"help = yes\n", ":1: unknown key 'help'"},
-    {"Target = 5\n", ":1: bad key 'Target'"},
+    /* keys are spelled as the options are (the event model has kT): a key
+     * that differs from one in letter case only is unknown, and named */
+    {"Target = 5\n", ":1: unknown key 'Target' (keys are case-sensitive: 'target')"},
+    {"SERIAL_UNTIL = 5\n", ":1: unknown key 'SERIAL-UNTIL' (keys are case-sensitive: 'serial-until')"},
+    {"Help = yes\n", ":1: unknown key 'Help' (keys are the long options"},
+    {"t\x01rget = 5\n", ":1: bad key 't?rget'"},
     {"tar get = 5\n", ":1: bad key 'tar get'"},
     {"out = -x\n", ":1: invalid value '-x' for --out"},
 };
@@ -94,7 +100,7 @@ static void check_bad(void)
     memset(&o, 0, sizeof o);
     pdla_params_default(&o.params);
     CHECK(scene_apply_text("mem", "dim = 2\0x", 9, &o, err, sizeof err) == CLI_PARSE_ERROR &&
-              strstr(err, "mem: contains a NUL byte"),
+              strstr(err, "mem:1: contains a NUL byte"),
           "NUL byte: '%s'", err);
     char *big = malloc(SCENE_MAX_BYTES + 2);
     memset(big, '#', SCENE_MAX_BYTES + 1);
@@ -118,6 +124,37 @@ static void check_bad(void)
     const char *path = write_scene("ok.scene", "dim = 2\n");
     CHECK(parse_with(path, twice, &o, err, sizeof err) == CLI_PARSE_ERROR && strstr(err, "--scene given twice"),
           "twice: '%s'", err);
+}
+
+/* The model a scene names, for the command that is to read it: the lines
+ * before a bad one count; an unreadable file names none. */
+static void check_model(void)
+{
+    static const struct {
+        const char *text, *want;
+    } cases[] = {{"# c\nmodel = event\n", "event"},
+                 {"model = dlca\nseed = 1\nseed = 2\n", "dlca"},
+                 {"seed = 1\nmodel = dlca\nx\n", "dlca"},
+                 {"x\nmodel = dlca\n", ""},
+                 {"dim = 2\n", ""}};
+    char model[16];
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        scene_model(write_scene("m.scene", cases[i].text), model, sizeof model);
+        CHECK(!strcmp(model, cases[i].want), "model case %zu: '%s', want '%s'", i, model, cases[i].want);
+    }
+    const char *path = write_scene("nul.scene", "model = event\n");
+    FILE *f = fopen(path, "a");
+    fputs("seed = 1", f);
+    fputc('\0', f);
+    fputs("\n", f);
+    for (int i = 0; i < 700; i++) fprintf(f, "%0100d\n", 0); /* also too large */
+    fclose(f);
+    scene_model(path, model, sizeof model);
+    CHECK(!strcmp(model, "event"), "model before a NUL byte in a large file: '%s'", model);
+    scene_model("/nonexistent/x.scene", model, sizeof model);
+    CHECK(!strcmp(model, ""), "model of a missing file: '%s'", model);
+    scene_model(tmpdir, model, sizeof model);
+    CHECK(!strcmp(model, ""), "model of a directory: '%s'", model);
 }
 
 static void check_good(void)
@@ -222,6 +259,7 @@ int main(int argc, char **argv)
         return 1;
     }
     check_bad();
+    check_model();
     check_good();
     if (argc > 1) check_examples(argv[1]);
     char cmd[600];

@@ -165,6 +165,13 @@ static int parse(int argc, char **argv, ev_cli *c)
     ev_params_default(&c->p);
     int at = -1;
     c->scene = opt_value(argc, argv, "--scene", &at);
+    for (int k = at + 1; c->scene && k < argc; k++) {
+        /* As the DLA and DLCA commands: a second scene is refused, not ignored. */
+        if (!strcmp(argv[k], "--scene") || !strncmp(argv[k], "--scene=", 8)) {
+            snprintf(c->err, sizeof c->err, "--scene given twice");
+            return -1;
+        }
+    }
     if (c->scene && read_scene(c)) return -1;
     for (int k = 1; k < argc; k++) {
         const char *a = argv[k];

@@ -66,7 +66,7 @@ int cli_parse(int argc, char **argv, cli_options *out, char *err, size_t errlen)
  * exactly as if "--NAME VALUE" had been given; a flag (an option without a
  * value) takes yes|no|true|false|1|0, "no" leaving it as it is. `scene`,
  * `help` and `version` are refused. CLI_PARSE_OK or CLI_PARSE_ERROR with the
- * reason in err. Used by scene.c. */
+ * reason in err. Used by parse.c's scene_apply. */
 int cli_set_option(cli_options *o, const char *name, const char *value, char *err, size_t errlen);
 
 /* Apply the scene file `path` (scene.h) to *o, which already holds the

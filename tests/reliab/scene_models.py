@@ -101,6 +101,14 @@ for model in MODELS:
                       "pdla: scene %s is not a regular file" % WORK))
 check(len(lines) == 1, "directory: the models differ: %r" % lines)
 
+# Two scenes: refused by every model's command (the event command used the
+# first and ignored the second).
+for model, (first, key, _, _) in MODELS.items():
+    path = scene_file(model + "-twice", first)
+    for second in (["--scene", path], ["--scene=" + path]):
+        refused(model + " scene twice", ["--scene", path] + second,
+                os.path.join(WORK, model + "-twice-out"), "pdla: --scene given twice")
+
 # A bad line after the model line goes to that model's command even when
 # the command line has options of that model only.
 path = scene_file("event-dup-args", "model = event\nseed = 1\nseed = 2\n")

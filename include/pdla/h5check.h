@@ -91,7 +91,10 @@ typedef struct pdla_h5_dset {
  * most PDLA_H5_MAX_RANK whose type, space and filters read back. 0, or -1
  * with d->id < 0. */
 PDLA_API int pdla_h5_dset_open(pdla_h5_id loc, const char *name, pdla_h5_dset *d);
-PDLA_API void pdla_h5_dset_close(pdla_h5_dset *d);
+/* Closes d (if open): 0, or -1 when HDF5 failed to close it. A reader that
+ * has read all it wanted treats -1 as a failed read; in an unwind after
+ * another error the first error is the one to report. */
+PDLA_API int pdla_h5_dset_close(pdla_h5_dset *d);
 /* Whether d's elements have t's class (integer or real) and size. */
 PDLA_API int pdla_h5_dset_is(const pdla_h5_dset *d, pdla_h5_type t);
 

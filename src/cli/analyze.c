@@ -465,6 +465,5 @@ out:
     free(edges_diam);
     free(m.hist);
     free(mass);
-    h5r_close(&f);
-    return rc;
+    return h5r_close_tool(&f, "analyze", rc);
 }

@@ -76,14 +76,13 @@ static int print_group(FILE *o, hid_t f, const char *g, int json, int last)
     hsize_t idx = 0;
     const herr_t rc = H5Aiterate2(gid, H5_INDEX_NAME, H5_ITER_INC, &idx, print_attr, &c);
     if (json) fprintf(o, "\n  }%s\n", last ? "" : ",");
-    H5Gclose(gid);
-    return rc < 0 ? -1 : 0;
+    const herr_t closed = H5Gclose(gid);
+    return rc < 0 || closed < 0 ? -1 : 0;
 }
 
 int dlca_info_main(const char *path, int json)
 {
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
-    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    const hid_t f = pdla_hdf5_quiet() ? H5I_INVALID_HID : H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
     if (f < 0) {
         fprintf(stderr, "pdla info: cannot open %s\n", path);
         return 2;
@@ -91,8 +90,7 @@ int dlca_info_main(const char *path, int json)
     long long rows = -1;
     pdla_h5_dset d;
     if (pdla_h5_dset_open(f, "/series/t", &d) == 0) {
-        rows = (long long)d.elems;
-        pdla_h5_dset_close(&d);
+        rows = pdla_h5_dset_close(&d) == 0 ? (long long)d.elems : -1;
     }
     FILE *o = stdout;
     int rc = 0;
@@ -104,7 +102,10 @@ int dlca_info_main(const char *path, int json)
         rc = 1;
     }
     if (json) fprintf(o, "}\n");
-    H5Fclose(f);
+    if (H5Fclose(f) < 0) {
+        fprintf(stderr, "pdla info: %s: cannot close it\n", path);
+        rc = 1;
+    }
     if (fflush(o) || ferror(o)) rc = 1;
     return rc;
 }

@@ -104,7 +104,7 @@ static int read_box(hid_t f, const char *path, dfile *o, char *err, size_t errle
         o->L[a] = box.u[a];
         ok = o->L[a] >= 1 && o->L[a] <= UINT32_MAX;
     }
-    if (g >= 0) H5Gclose(g);
+    if (g >= 0 && H5Gclose(g) < 0) ok = 0;
     if (ok) return 0;
     return pdla_errorf(-1, err, errlen, "%s: /parameters dim (2 to %d) or box (dim lengths of 1 to 2^32-1) "
                        "missing or bad", path, MAXD);
@@ -145,9 +145,15 @@ static int dfile_read(const char *path, dfile *o, char *err, size_t errlen)
     if (ok) { /* the stop reason is for the record only: absent or odd, it stays empty */
         const hid_t r = H5Gopen2(f, "results", H5P_DEFAULT);
         if (r < 0 || pdla_h5_attr_str(r, "stop", o->stop, sizeof o->stop) < 0) o->stop[0] = '\0';
-        if (r >= 0) H5Gclose(r);
+        if (r >= 0 && H5Gclose(r) < 0) {
+            pdla_errorf(-1, err, errlen, "%s: cannot close /results", path);
+            ok = 0;
+        }
     }
-    H5Fclose(f);
+    if (H5Fclose(f) < 0 && ok) {
+        pdla_errorf(-1, err, errlen, "%s: cannot close it", path);
+        ok = 0;
+    }
     if (!ok) {
         dfile_free(o);
         return -1;

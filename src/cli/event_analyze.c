@@ -54,8 +54,7 @@ static double attr_num(hid_t f, const char *obj, const char *name)
     const hid_t o = H5Oopen(f, obj, H5P_DEFAULT);
     if (o < 0) return v;
     if (pdla_h5_attr_number(o, name, PDLA_H5_F64, &v) < 0) v = NAN;
-    H5Oclose(o);
-    return v;
+    return H5Oclose(o) < 0 ? NAN : v; /* a failed read, as any HDF5 error */
 }
 
 typedef struct ev_summary {
@@ -201,7 +200,10 @@ int event_analyze_main(int argc, char **argv)
     if (rc) snprintf(err, sizeof err, "no dim (2 or 3) or /results box_side");
     if (!rc) rc = cluster_summary(f, &m, err, sizeof err);
     if (!rc) rc = series_summary(f, &m, err, sizeof err);
-    H5Fclose(f);
+    if (H5Fclose(f) < 0 && !rc) {
+        snprintf(err, sizeof err, "cannot close it");
+        rc = -1;
+    }
     if (rc) {
         fprintf(stderr, "pdla analyze: %s: %s\n", path, err);
         return 1;

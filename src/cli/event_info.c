@@ -51,13 +51,12 @@ int event_checkpoint_refused(const char *tool, int argc, char **argv)
 {
     int json;
     const char *path = file_arg(argc, argv, &json);
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
-    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    const hid_t f = pdla_hdf5_quiet() ? H5I_INVALID_HID : H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
     if (f < 0) return 0; /* the reader says why */
     pdla_h5_value v;
     const int has = H5Aexists(f, "format") > 0 && pdla_h5_attr_value(f, "format", &v) == 0;
-    H5Fclose(f);
-    if (!has) return 0;
+    /* A close that fails leaves the file to the reader, which opens it again and reports. */
+    if (H5Fclose(f) < 0 || !has) return 0;
     fprintf(stderr, "pdla %s: %s is not a pdla cluster file (format = \"%.200s\"; an event checkpoint "
                     "continues with pdla --model event --resume)\n",
             tool, path, v.read && v.kind == 's' ? v.s : "?");
@@ -125,8 +124,8 @@ static int group(FILE *o, hid_t f, const char *g, int json, int last)
     hsize_t idx = 0;
     const herr_t rc = H5Aiterate2(id, H5_INDEX_NAME, H5_ITER_INC, &idx, print_attr, &p);
     if (json) fprintf(o, "\n  }%s\n", last ? "" : ",");
-    H5Oclose(id);
-    return rc < 0 ? -1 : 0;
+    const herr_t closed = H5Oclose(id);
+    return rc < 0 || closed < 0 ? -1 : 0;
 }
 
 static long long rows(hid_t f, const char *ds)
@@ -191,8 +190,7 @@ int event_info_main(int argc, char **argv)
 {
     int json;
     const char *path = file_arg(argc, argv, &json);
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
-    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    const hid_t f = pdla_hdf5_quiet() ? H5I_INVALID_HID : H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
     if (f < 0) {
         fprintf(stderr, "pdla info: cannot open %s\n", path);
         return 2;
@@ -202,7 +200,7 @@ int event_info_main(int argc, char **argv)
     int rc = 0;
     if (ns < 0 || nf < 0 || nr < 0) {
         fprintf(stderr, "pdla info: %s: malformed event file (missing datasets)\n", path);
-        H5Fclose(f);
+        (void)H5Fclose(f); /* the error to report is the one above */
         return 2;
     }
     if (json) fprintf(stdout, "{\n  \"file\": \"%s\",\n  \"stuck\": %lld,\n  \"free\": %lld,\n"
@@ -213,8 +211,11 @@ int event_info_main(int argc, char **argv)
         group(stdout, f, "/Code", json, 1))
         rc = 1;
     if (json) fprintf(stdout, "}\n");
-    H5Fclose(f);
     if (rc) fprintf(stderr, "pdla info: %s: cannot read its attributes\n", path);
+    if (H5Fclose(f) < 0) {
+        fprintf(stderr, "pdla info: %s: cannot close it\n", path);
+        rc = 1;
+    }
     if (fflush(stdout)) rc = 1;
     return rc;
 }

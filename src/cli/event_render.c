@@ -126,8 +126,7 @@ int event_render_main(int argc, char **argv)
         fprintf(stderr, "pdla render: %s exists; not overwriting it (use --force)\n", out);
         return 2;
     }
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
-    const hid_t f = H5Fopen(in, H5F_ACC_RDONLY, H5P_DEFAULT);
+    const hid_t f = pdla_hdf5_quiet() ? H5I_INVALID_HID : H5Fopen(in, H5F_ACC_RDONLY, H5P_DEFAULT);
     if (f < 0) {
         fprintf(stderr, "pdla render: cannot open %s\n", in);
         return 2;
@@ -150,9 +149,10 @@ int event_render_main(int argc, char **argv)
             }
         }
     }
-    if (g >= 0) H5Gclose(g);
-    if (gc >= 0) H5Gclose(gc);
-    H5Fclose(f);
+    /* A failed close is a failed read: "malformed" below, as any HDF5 error. */
+    if (g >= 0 && H5Gclose(g) < 0) ok = 0;
+    if (gc >= 0 && H5Gclose(gc) < 0) ok = 0;
+    if (H5Fclose(f) < 0) ok = 0;
     int rc = 0;
     img im = {size, size / (L > 0 ? L : 1), calloc((size_t)size * size * 3, 1),
               malloc((size_t)size * size * sizeof(float))};

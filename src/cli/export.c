@@ -416,9 +416,12 @@ int tool_export(int argc, char **argv)
     x.err = err;
     x.errlen = sizeof err;
     set_decimals(&x, src.units);
-    const int rc = export_rows(&x, &src, o.slab, o.force) ? TOOL_RUNTIME : TOOL_OK;
+    int rc = export_rows(&x, &src, o.slab, o.force) ? TOOL_RUNTIME : TOOL_OK;
     if (rc != TOOL_OK) fprintf(stderr, "pdla export: %s\n", err);
     free(x.buf);
-    exp_src_close(&src);
+    if (exp_src_close(&src) && rc == TOOL_OK) {
+        fprintf(stderr, "pdla export: %s: cannot close it\n", src.path);
+        rc = TOOL_RUNTIME;
+    }
     return rc;
 }

@@ -13,17 +13,15 @@
 #include "pdla/pdla.h"
 #include "tools.h"
 
-void exp_src_close(exp_src *s)
+int exp_src_close(exp_src *s)
 {
-    if (s->kind == EXP_DLA) {
-        h5r_close(&s->dla);
-        return;
-    }
-    pdla_h5_dset_close(&s->pos);
-    pdla_h5_dset_close(&s->radius);
-    pdla_h5_dset_close(&s->cid);
-    if (s->file >= 0) H5Fclose(s->file);
+    if (s->kind == EXP_DLA) return h5r_close(&s->dla);
+    int rc = pdla_h5_dset_close(&s->pos);
+    if (pdla_h5_dset_close(&s->radius) < 0) rc = -1;
+    if (pdla_h5_dset_close(&s->cid) < 0) rc = -1;
+    if (s->file >= 0 && H5Fclose(s->file) < 0) rc = -1;
     s->file = H5I_INVALID_HID;
+    return rc;
 }
 
 /* name: a dataset of `rank` with rows rows (0: any) whose declared
@@ -67,8 +65,8 @@ static int open_ensemble(exp_src *s, int64_t cluster, char *err, size_t errlen)
     if (H5Lexists(s->file, "/ensemble", H5P_DEFAULT) <= 0)
         return pdla_errorf(-1, err, errlen, "%s: no /ensemble group", s->path);
     const hid_t g = H5Oopen(s->file, "/ensemble", H5P_DEFAULT);
-    const int ok = g >= 0 && pdla_h5_attr_number(g, "clusters", PDLA_H5_U64, &s->clusters) == 0;
-    if (g >= 0) H5Oclose(g);
+    int ok = g >= 0 && pdla_h5_attr_number(g, "clusters", PDLA_H5_U64, &s->clusters) == 0;
+    if (g >= 0 && H5Oclose(g) < 0) ok = 0;
     if (!ok || s->clusters == 0) return pdla_errorf(-1, err, errlen, "%s: no valid /ensemble clusters attribute", s->path);
     if (H5Lexists(s->file, "/clusters", H5P_DEFAULT) <= 0 || H5Lexists(s->file, name, H5P_DEFAULT) <= 0)
         return pdla_errorf(-1, err, errlen, "%s holds no positions (grown without --keep-positions)", s->path);
@@ -136,7 +134,7 @@ int exp_src_open(exp_src *s, const char *path, int64_t cluster, char *err, size_
     s->file = s->pos.id = s->radius.id = s->cid.id = H5I_INVALID_HID;
     s->dla.file = s->dla.pos.id = H5I_INVALID_HID;
     s->cluster = -1;
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    if (pdla_hdf5_quiet()) return pdla_errorf(-1, err, errlen, "%s: cannot silence HDF5", path);
     char model[64];
     const int has_model = pdla_h5_file_model(path, model, sizeof model) == 0;
     const int ens = !has_model && ens_analyze_is_ensemble(path);
@@ -145,7 +143,7 @@ int exp_src_open(exp_src *s, const char *path, int64_t cluster, char *err, size_
         s->kind = EXP_DLA;
         if (cluster >= 0) {
             if (h5r_open(&s->dla, path, err, errlen)) return -1;
-            h5r_close(&s->dla);
+            (void)h5r_close(&s->dla); /* the failure to report is the one below */
             return pdla_errorf(-1, err, errlen, "--cluster applies to ensemble files; %s is one cluster", path);
         }
         if (h5r_open(&s->dla, path, err, errlen)) return -1;
@@ -168,7 +166,7 @@ int exp_src_open(exp_src *s, const char *path, int64_t cluster, char *err, size_
                    : s->kind == EXP_DLCA   ? open_dlca(s, err, errlen)
                                            : open_event(s, err, errlen);
     if (rc) {
-        exp_src_close(s);
+        (void)exp_src_close(s); /* the failure to report is the one in err */
         return -1;
     }
     s->dim = (int)s->pos.dims[1];

@@ -69,6 +69,7 @@ int exp_src_open(exp_src *s, const char *path, int64_t cluster, char *err, size_
  * time from buffers of that size. fn's non-zero return stops and is
  * returned; a read failure returns -1 with err. */
 int exp_src_stream(exp_src *s, size_t slab_rows, exp_fn fn, void *user, char *err, size_t errlen);
-void exp_src_close(exp_src *s);
+/* 0, or -1 when HDF5 failed to close something of s. */
+int exp_src_close(exp_src *s);
 
 #endif

@@ -36,11 +36,19 @@ static int h5r_stored(const pdla_h5_dset *d, size_t esize, const char *path, con
     }
 }
 
-void h5r_close(h5r_file *f)
+int h5r_close(h5r_file *f)
 {
-    pdla_h5_dset_close(&f->pos);
-    if (f->file >= 0) H5Fclose(f->file);
+    int rc = pdla_h5_dset_close(&f->pos);
+    if (f->file >= 0 && H5Fclose(f->file) < 0) rc = -1;
     f->file = H5I_INVALID_HID;
+    return rc;
+}
+
+int h5r_close_tool(h5r_file *f, const char *tool, int code)
+{
+    if (h5r_close(f) == 0 || code != 0) return code;
+    fprintf(stderr, "pdla %s: %s: cannot close it\n", tool, f->path);
+    return 1;
 }
 
 /* A regular file that HDF5 opens; -1 with err. */
@@ -111,7 +119,8 @@ static int read_units(h5r_file *f, char *err, size_t errlen)
             int64_t res = 0;
             if (pdla_h5_attr_number(g, "resolution", PDLA_H5_I64, &res) == 0)
                 f->diameter_units = res >= 1 && res <= 1 << 20 ? (int)res : -1;
-            H5Oclose(g);
+            if (H5Oclose(g) < 0)
+                return pdla_errorf(-1, err, errlen, "%s: cannot close /parameters", f->path);
             if (have && pd != f->dim)
                 return pdla_errorf(-1, err, errlen,
                             "%s: /cluster/positions has %d columns but /parameters dim = %lld", f->path,
@@ -133,10 +142,10 @@ int h5r_open(h5r_file *f, const char *path, char *err, size_t errlen)
     f->file = f->pos.id = H5I_INVALID_HID;
     f->path = path;
     /* The tools print their own one-line messages. */
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    if (pdla_hdf5_quiet()) return pdla_errorf(-1, err, errlen, "%s: cannot silence HDF5", path);
     if (open_file(f, err, errlen) || check_format(f, err, errlen) || open_positions(f, err, errlen) ||
         read_units(f, err, errlen)) {
-        h5r_close(f);
+        (void)h5r_close(f); /* the failure to report is the one in err */
         return -1;
     }
     if (pdla_h5_attr_str(f->pos.id, "order", f->order, sizeof f->order) < 0)
@@ -268,8 +277,7 @@ int h5r_read_attrs(h5r_file *f, const char *where, h5r_attrs *out, char *err, si
     if (o < 0) return pdla_errorf(-1, err, errlen, "%s: cannot open %s", f->path, where);
     hsize_t idx = 0;
     const herr_t r = H5Aiterate2(o, H5_INDEX_NAME, H5_ITER_INC, &idx, attr_cb, out);
-    H5Oclose(o);
-    if (r < 0) {
+    if (H5Oclose(o) < 0 || r < 0) {
         h5r_attrs_free(out);
         return pdla_errorf(-1, err, errlen, "%s: cannot read the attributes of %s", f->path, where);
     }

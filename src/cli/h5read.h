@@ -49,7 +49,13 @@ typedef struct h5r_attrs {
 /* Opens and checks path. 0, or -1 with err: missing or unreadable file, not
  * HDF5, no format = "pdla-cluster", positions of the wrong type or shape. */
 int h5r_open(h5r_file *f, const char *path, char *err, size_t errlen);
-void h5r_close(h5r_file *f);
+/* 0, or -1 when HDF5 failed to close the file (a tool that read it all
+ * reports that as a failed run). */
+int h5r_close(h5r_file *f);
+/* The end of a tool that read f: closes it, and when that fails after a
+ * run that went well (code 0) prints "pdla TOOL: PATH: cannot close it" and
+ * returns 1; else returns code. */
+int h5r_close_tool(h5r_file *f, const char *tool, int code);
 
 /* Calls fn on rows [0, n) in order, slab_rows (1..H5R_MAX_SLAB_ROWS) at a
  * time from one buffer of slab_rows * dim int32; `first` is the index of the

@@ -240,6 +240,5 @@ int tool_info(int argc, char **argv)
     h5r_attrs_free(&par);
     h5r_attrs_free(&res);
     h5r_attrs_free(&code);
-    h5r_close(&f);
-    return rc;
+    return h5r_close_tool(&f, "info", rc);
 }

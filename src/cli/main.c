@@ -1026,8 +1026,12 @@ int main(int argc, char **argv)
      * file pdla opens is closed explicitly before it exits, so HDF5's exit
      * handler has nothing else to do: without it a failed close ends with
      * our one-line message and exit 1 instead of a segfault. Must come
-     * before the first HDF5 call. */
-    H5dont_atexit();
+     * before the first HDF5 call (else it fails, and a failed close could
+     * end in that segfault: refuse to run). */
+    if (H5dont_atexit() < 0) {
+        fprintf(stderr, "pdla: cannot turn off HDF5's exit handler\n");
+        return EXIT_RUNTIME;
+    }
     int code;
     if (run_subcommand(argc, argv, &code)) return code;
 

@@ -419,6 +419,5 @@ out:
     free(cv.w);
     free(cv.v);
     free(cv.z);
-    h5r_close(&f);
-    return rc;
+    return h5r_close_tool(&f, "render", rc);
 }

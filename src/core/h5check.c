@@ -39,6 +39,13 @@ static char kind_of(hid_t t)
     }
 }
 
+/* 1 when id is closed (or was never open), 0 when closing it failed: a
+ * reader whose close fails reports a failed read, as for any HDF5 error. */
+static int close_ok(hid_t id, herr_t (*close_fn)(hid_t))
+{
+    return id < 0 || close_fn(id) >= 0;
+}
+
 /* Opens attribute name of obj with its type and element count; -1 when it
  * is missing or they do not read back. */
 static hid_t attr_open(hid_t obj, const char *name, hid_t *type, hssize_t *n)
@@ -49,17 +56,18 @@ static hid_t attr_open(hid_t obj, const char *name, hid_t *type, hssize_t *n)
     if (a < 0) return H5I_INVALID_HID;
     const hid_t s = H5Aget_space(a);
     *n = s >= 0 ? H5Sget_simple_extent_npoints(s) : -1;
-    if (s >= 0) H5Sclose(s);
+    if (s >= 0 && H5Sclose(s) < 0) *n = -1;
     if (*n >= 0) *type = H5Aget_type(a);
     if (*type >= 0) return a;
-    H5Aclose(a);
+    (void)close_ok(a, H5Aclose); /* the failure already being returned is the one to report */
     return H5I_INVALID_HID;
 }
 
-static void attr_close(hid_t a, hid_t t)
+/* Closes a and t; 1, or 0 when a close failed. */
+static int attr_close(hid_t a, hid_t t)
 {
-    if (t >= 0) H5Tclose(t);
-    if (a >= 0) H5Aclose(a);
+    const int ok = close_ok(t, H5Tclose);
+    return close_ok(a, H5Aclose) && ok;
 }
 
 int pdla_h5_attr_exact(pdla_h5_id obj, const char *name, pdla_h5_type t, void *val)
@@ -72,7 +80,7 @@ int pdla_h5_attr_exact(pdla_h5_id obj, const char *name, pdla_h5_type t, void *v
     int ok = n == 1 && H5Tget_class(ft) == H5Tget_class(mt) && H5Tget_size(ft) == H5Tget_size(mt);
     if (ok && H5Tget_class(ft) == H5T_INTEGER) ok = H5Tget_sign(ft) == H5Tget_sign(mt);
     if (ok) ok = H5Aread(a, mt, val) >= 0;
-    attr_close(a, ft);
+    ok = attr_close(a, ft) && ok;
     return ok ? 0 : -1;
 }
 
@@ -85,7 +93,7 @@ int pdla_h5_attr_number(pdla_h5_id obj, const char *name, pdla_h5_type t, void *
     const H5T_class_t c = H5Tget_class(ft);
     int ok = n == 1 && (c == H5T_INTEGER || (t == PDLA_H5_F64 && c == H5T_FLOAT));
     if (ok) ok = H5Aread(a, native(t), val) >= 0;
-    attr_close(a, ft);
+    ok = attr_close(a, ft) && ok;
     return ok ? 0 : -1;
 }
 
@@ -102,10 +110,9 @@ static int read_string(hid_t a, hid_t ft, char *buf, size_t len)
         if (mt >= 0 && H5Aread(a, mt, &s) >= 0 && s) {
             rc = strlen(s) >= len ? 1 : 0;
             snprintf(buf, len, "%s", s);
-            H5free_memory(s);
+            if (H5free_memory(s) < 0) rc = -1;
         }
-        if (mt >= 0) H5Tclose(mt);
-        return rc;
+        return close_ok(mt, H5Tclose) ? rc : -1;
     }
     const size_t sz = H5Tget_size(ft);
     char *s = sz > 0 ? calloc(sz + 1, 1) : NULL; /* H5Aread writes all sz bytes */
@@ -126,8 +133,7 @@ int pdla_h5_attr_str(pdla_h5_id obj, const char *name, char *buf, size_t len)
     const hid_t a = attr_open(obj, name, &ft, &n);
     if (a < 0) return -1;
     const int rc = n == 1 && H5Tget_class(ft) == H5T_STRING ? read_string(a, ft, buf, len) : -1;
-    attr_close(a, ft);
-    return rc;
+    return attr_close(a, ft) ? rc : -1;
 }
 
 int pdla_h5_attr_value(pdla_h5_id obj, const char *name, pdla_h5_value *v)
@@ -150,8 +156,7 @@ int pdla_h5_attr_value(pdla_h5_id obj, const char *name, pdla_h5_value *v)
         for (int k = 0; k < n && v->kind != 'f'; k++)
             v->f[k] = v->kind == 'u' ? (double)v->u[k] : (double)v->i[k];
     }
-    attr_close(a, ft);
-    return 0;
+    return attr_close(a, ft) ? 0 : -1;
 }
 
 int pdla_h5_file_model(const char *path, char *model, size_t len)
@@ -161,16 +166,15 @@ int pdla_h5_file_model(const char *path, char *model, size_t len)
     if (stat(path, &st) != 0 || !S_ISREG(st.st_mode)) return -1;
     H5E_auto2_t fn;
     void *data;
-    H5Eget_auto2(H5E_DEFAULT, &fn, &data);
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    if (H5Eget_auto2(H5E_DEFAULT, &fn, &data) < 0 || H5Eset_auto2(H5E_DEFAULT, NULL, NULL) < 0)
+        return -1;
     int rc = -1;
     const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
     if (f >= 0) {
         rc = pdla_h5_attr_str(f, "model", model, len) == 0 ? 0 : -1;
-        H5Fclose(f);
+        if (H5Fclose(f) < 0) rc = -1;
     }
-    H5Eset_auto2(H5E_DEFAULT, fn, data);
-    return rc;
+    return H5Eset_auto2(H5E_DEFAULT, fn, data) < 0 ? -1 : rc;
 }
 
 /* ---- datasets ------------------------------------------------------------ */
@@ -206,9 +210,9 @@ static int describe(pdla_h5_dset *d)
             d->compressing = 1;
     }
     if (ok) d->stored = H5Dget_storage_size(d->id);
-    if (pl >= 0) H5Pclose(pl);
-    if (s >= 0) H5Sclose(s);
-    if (t >= 0) H5Tclose(t);
+    ok = close_ok(pl, H5Pclose) && ok;
+    ok = close_ok(s, H5Sclose) && ok;
+    ok = close_ok(t, H5Tclose) && ok;
     return ok ? 0 : -1;
 }
 
@@ -221,14 +225,15 @@ int pdla_h5_dset_open(pdla_h5_id loc, const char *name, pdla_h5_dset *d)
         return -1;
     if ((d->id = H5Dopen2(loc, name, H5P_DEFAULT)) < 0) return -1;
     if (describe(d) == 0) return 0;
-    pdla_h5_dset_close(d);
+    (void)pdla_h5_dset_close(d); /* the failure already being returned is the one to report */
     return -1;
 }
 
-void pdla_h5_dset_close(pdla_h5_dset *d)
+int pdla_h5_dset_close(pdla_h5_dset *d)
 {
-    if (d->id >= 0) H5Dclose(d->id);
+    const int ok = close_ok(d->id, H5Dclose);
     d->id = H5I_INVALID_HID;
+    return ok ? 0 : -1;
 }
 
 int pdla_h5_dset_is(const pdla_h5_dset *d, pdla_h5_type t)
@@ -260,7 +265,6 @@ int pdla_h5_dset_read(const pdla_h5_dset *d, pdla_h5_type t, uint64_t row0, uint
     const int ok = fs >= 0 && ms >= 0 &&
                    H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, NULL, count, NULL) >= 0 &&
                    H5Dread(d->id, native(t), ms, fs, H5P_DEFAULT, buf) >= 0;
-    if (fs >= 0) H5Sclose(fs);
-    if (ms >= 0) H5Sclose(ms);
-    return ok ? 0 : -1;
+    const int closed = close_ok(fs, H5Sclose) & close_ok(ms, H5Sclose);
+    return ok && closed ? 0 : -1;
 }

@@ -185,7 +185,7 @@ hid_t h5u_create_file(const h5u_writer *w, const char *path)
     rc = h5u_close(w, rc, fcpl, H5Pclose, "file creation properties");
     rc = h5u_close(w, rc, fapl, H5Pclose, "file access properties");
     if (rc < 0 && file >= 0) {
-        H5Fclose(file);
+        h5u_close(w, rc, file, H5Fclose, path); /* keeps the first failure, already in w */
         return H5I_INVALID_HID;
     }
     return file;

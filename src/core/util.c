@@ -1,12 +1,16 @@
 /*
  * util.c - the two helpers every layer shares: the one-line error message
  * (library, models and CLI all report errors this way) and the monotonic
- * clock that every timing in pdla reads.
+ * clock that every timing in pdla reads; and PDLA_MUST's abort (must.h).
  */
 #include "pdla/pdla.h"
 
+#include "must.h"
+
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
 #include <time.h>
 
 int pdla_verrorf(int code, char *err, size_t errlen, const char *fmt, va_list ap)
@@ -33,4 +37,13 @@ double pdla_clock_seconds(void)
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+void pdla_must_fail(int code, const char *call, const char *file, int line)
+{
+    /* A broken invariant (must.h): no caller to return to. */
+    fprintf(stderr, "pdla: %s:%d: %s: %s (a pthread call that cannot fail did: aborting)\n", file,
+            line, call, strerror(code));
+    fflush(stderr);
+    abort();
 }

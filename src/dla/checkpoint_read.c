@@ -51,6 +51,20 @@ static int damaged(const reader *r, const char *what)
     return rfail(r, "damaged checkpoint (%s)", what);
 }
 
+/* Closes id (close_fn: H5Gclose, H5Pclose) keeping the first failure: a
+ * close that fails fails the load when nothing else has. */
+static int close_id(const reader *r, int rc, hid_t id, herr_t (*close_fn)(hid_t), const char *what)
+{
+    if (id >= 0 && close_fn(id) < 0 && rc == PDLA_OK) return rfail(r, "cannot close %s", what);
+    return rc;
+}
+
+static int close_dset(const reader *r, int rc, pdla_h5_dset *d, const char *name)
+{
+    if (pdla_h5_dset_close(d) < 0 && rc == PDLA_OK) return rfail(r, "cannot close dataset %s", name);
+    return rc;
+}
+
 /* Opens dataset name of element type mtype (class and size) and exact
  * shape; when it has rows, it must carry the Fletcher32 checksum and store
  * what it declares: a forged file may declare 2^40 rows in a few KB, and
@@ -62,7 +76,7 @@ static int open_dset(const reader *r, hid_t loc, const char *name, pdla_h5_type 
         d->dims[0] == rows && (rank == 1 || d->dims[1] == cols) &&
         (rows == 0 || (d->fletcher32 && pdla_h5_dset_stored(d, d->size) == PDLA_H5_STORED)))
         return PDLA_OK;
-    pdla_h5_dset_close(d);
+    (void)pdla_h5_dset_close(d); /* the failure to report is the one below */
     char what[128];
     snprintf(what, sizeof what, "dataset %s missing or of the wrong type or shape", name);
     return damaged(r, what);
@@ -84,8 +98,7 @@ static int read_array(const reader *r, hid_t loc, const char *name, pdla_h5_type
     int rc = open_dset(r, loc, name, mtype, rank, rows, cols, &d);
     if (rc) return rc;
     rc = read_rows(r, &d, name, mtype, 0, rows, buf);
-    pdla_h5_dset_close(&d);
-    return rc;
+    return close_dset(r, rc, &d, name);
 }
 
 static int read_params(const reader *r, hid_t file, pdla_params *p)
@@ -103,7 +116,7 @@ static int read_params(const reader *r, hid_t file, pdla_params *p)
             rc = damaged(r, what);
         }
     }
-    H5Gclose(g);
+    rc = close_id(r, rc, g, H5Gclose, "/parameters");
     if (rc) return rc;
     char why[256];
     if (pdla_params_validate(p, why, sizeof why) != PDLA_OK) {
@@ -151,7 +164,7 @@ static int read_pool(const reader *r, hid_t g, const char *name, tree_pool *p, u
     const uint32_t nseg = (uint32_t)((records + POOL_SEG_SIZE - 1) / POOL_SEG_SIZE);
     for (uint32_t s = p->nseg; s < nseg; s++) {
         if (!(p->seg[s] = calloc(POOL_SEG_SIZE, p->elem))) {
-            pdla_h5_dset_close(&d);
+            (void)pdla_h5_dset_close(&d); /* out of memory is the failure to report */
             if (r->err && r->errlen) snprintf(r->err, r->errlen, "%s: out of memory for the tree", r->path);
             return PDLA_ENOMEM;
         }
@@ -165,7 +178,7 @@ static int read_pool(const reader *r, hid_t g, const char *name, tree_pool *p, u
         snprintf(full, sizeof full, "/tree/%s", name);
         rc = read_rows(r, &d, full, mtype, row0, n, p->seg[s]);
     }
-    pdla_h5_dset_close(&d);
+    rc = close_dset(r, rc, &d, name);
     if (rc == PDLA_OK) p->count = (uint32_t)records;
     return rc;
 }
@@ -227,7 +240,7 @@ static int read_chunks(const reader *r, hid_t g, tree *t, uint64_t nc)
     }
     if (rc == PDLA_OK && (at != have || pos != total)) rc = damaged(r, "bytes after the last packed chunk");
     free(buf);
-    pdla_h5_dset_close(&d);
+    rc = close_dset(r, rc, &d, "/tree/chunks_packed");
     if (rc == PDLA_ENOMEM && r->err && r->errlen)
         snprintf(r->err, r->errlen, "%s: out of memory for the tree", r->path);
     if (rc == PDLA_OK) p->count = (uint32_t)nc;
@@ -300,7 +313,7 @@ static int load_state(const reader *r, hid_t file, pdla_engine *e, const tree_ve
     uint64_t(*rng)[4] = NULL;
     if (rc == PDLA_OK && !(rng = malloc((size_t)(1 + nw) * sizeof *rng))) rc = PDLA_ENOMEM;
     if (rc == PDLA_OK) rc = read_array(r, s, "rng", PDLA_H5_U64, 2, (hsize_t)(1 + nw), 4, rng);
-    H5Gclose(s);
+    rc = close_id(r, rc, s, H5Gclose, "/state");
     if (rc == PDLA_OK) {
         memcpy(e->walker.rng.s, rng[0], sizeof rng[0]);
         for (int i = 0; i <= nw && rc == PDLA_OK; i++)
@@ -353,7 +366,7 @@ static int load_tree(const reader *r, hid_t file, pdla_engine *e)
     if (rc == PDLA_OK)
         rc = read_pool(r, g, "inner", &t->inner, ni, PDLA_H5_U32, (hsize_t)t->nchild);
     if (rc == PDLA_OK) rc = read_chunks(r, g, t, nc);
-    H5Gclose(g);
+    rc = close_id(r, rc, g, H5Gclose, "/tree");
     if (rc) return rc;
     if (!all_zero(pool_at(&t->inner, 0), t->inner.elem) ||
         !all_zero(pool_at(&t->chunks, 0), (size_t)t->chunks.elem * (TREE_CHUNK_CAP + 1)))
@@ -426,7 +439,7 @@ static int load_series(const reader *r, hid_t file, pdla_engine *e)
     if (pdla_h5_dset_open(file, "gyration/N", &d) < 0) return damaged(r, "cannot open /gyration/N");
     const int ok = d.rank == 1;
     const hsize_t k = d.dims[0];
-    pdla_h5_dset_close(&d);
+    if (close_dset(r, PDLA_OK, &d, "/gyration/N")) return PDLA_EIO;
     const uint64_t n = tree_count(&e->tree);
     if (!ok || k > 64 * 10000 || k > n) return damaged(r, "/gyration/N of a wrong shape");
     if (k > 0) {
@@ -537,17 +550,14 @@ static int load_file(const char *path, const pdla_params *asked, uint32_t fields
     /* Not H5F_CLOSE_STRONG here: with it, HDF5 1.10.8 keeps some internals
      * of a read-only file alive past the close (and reports an "infinite
      * loop closing library" at exit); the loader closes every id itself. */
-    if (fapl < 0 || H5Pset_fapl_sec2(fapl) < 0) {
-        if (fapl >= 0) H5Pclose(fapl);
-        return rfail(r, "cannot set up HDF5");
-    }
+    if (fapl < 0 || H5Pset_fapl_sec2(fapl) < 0)
+        return close_id(r, rfail(r, "cannot set up HDF5"), fapl, H5Pclose, "");
     const hid_t file = H5Fopen(path, H5F_ACC_RDONLY, fapl);
-    H5Pclose(fapl);
-    if (file < 0) return damaged(r, "HDF5 cannot open it: truncated or corrupt");
+    int rc = close_id(r, PDLA_OK, fapl, H5Pclose, "the file access properties");
+    if (file < 0) return rc ? rc : damaged(r, "HDF5 cannot open it: truncated or corrupt");
     pdla_engine *e = NULL;
     uint64_t generation = 0, particles = 0;
-    int rc = check_root(r, file, &generation, &particles);
-    if (rc) goto out;
+    if (rc || (rc = check_root(r, file, &generation, &particles))) goto out;
     pdla_params p;
     if ((rc = read_params(r, file, &p))) goto out;
     if (asked && (rc = apply_asked(r, &p, asked, fields, particles))) goto out;

@@ -49,8 +49,12 @@ static int write_pool(const h5u_writer *w, hid_t g, const char *name, const tree
             h5u_fail(w, "write /tree/%s", name);
             goto fail;
         }
-        H5Sclose(ms);
+        const herr_t closed = H5Sclose(ms);
         ms = H5I_INVALID_HID;
+        if (closed < 0) {
+            h5u_fail(w, "close a memory dataspace of /tree/%s", name);
+            goto fail;
+        }
     }
     rc = 0;
 fail:
@@ -99,8 +103,8 @@ static int flush_packed(const h5u_writer *w, hid_t d, hid_t space, const uint8_t
     const hid_t ms = H5Screate_simple(1, &count, NULL);
     const int ok = ms >= 0 && H5Sselect_hyperslab(space, H5S_SELECT_SET, &start, NULL, &count, NULL) >= 0 &&
                    H5Dwrite(d, H5T_NATIVE_UINT8, ms, space, H5P_DEFAULT, buf) >= 0;
-    if (ms >= 0) H5Sclose(ms);
-    if (!ok) return h5u_fail(w, "write /tree/chunks_packed");
+    if (!ok) return h5u_close(w, h5u_fail(w, "write /tree/chunks_packed"), ms, H5Sclose, "");
+    if (H5Sclose(ms) < 0) return h5u_fail(w, "close a memory dataspace of /tree/chunks_packed");
     *written += fill;
     return 0;
 }

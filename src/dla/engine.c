@@ -10,10 +10,12 @@
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 
 #include "engine.h"
 #include "fit.h"
+#include "must.h"
 #include "pdla_config.h"
 
 const char *pdla_version(void) { return PDLA_VERSION; }
@@ -32,6 +34,29 @@ static void rg_advance(pdla_engine *e)
 {
     e->rg_next_k++;
     e->rg_next_n = rg_grid_n(e->rg_next_k, e->params.rg_per_decade, e->rg_next_n);
+}
+
+/* The engine's three mutexes, adaptive where glibc has them: the critical
+ * sections are a few hundred nanoseconds, and a waiter that spins briefly
+ * before sleeping avoids a futex sleep and wake-up per contended insertion.
+ * PDLA_OK, or PDLA_ENOMEM with pthread's reason (none is left initialised). */
+static int engine_mutexes_init(pdla_engine *e, char *err, size_t errlen)
+{
+    pthread_mutexattr_t attr;
+    int rc = pthread_mutexattr_init(&attr);
+    if (rc) return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create a mutex attribute: %s",
+                               strerror(rc));
+#ifdef PTHREAD_ADAPTIVE_MUTEX_INITIALIZER_NP
+    rc = pthread_mutexattr_settype(&attr, PTHREAD_MUTEX_ADAPTIVE_NP);
+#endif
+    pthread_mutex_t *const mu[3] = {&e->node_mu, &e->bucket_mu, &e->gyration_mu};
+    int made = 0;
+    while (!rc && made < 3 && !(rc = pthread_mutex_init(mu[made], &attr))) made++;
+    PDLA_MUST(pthread_mutexattr_destroy(&attr));
+    if (!rc) return PDLA_OK;
+    while (made > 0) PDLA_MUST(pthread_mutex_destroy(mu[--made]));
+    return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create the engine's mutexes: %s",
+                       strerror(rc));
 }
 
 int pdla_engine_create(pdla_engine **out, const pdla_params *p, char *err, size_t errlen)
@@ -60,23 +85,11 @@ int pdla_engine_create(pdla_engine **out, const pdla_params *p, char *err, size_
     search_state_reset(&e->walker.ss);
     atomic_init(&e->r_ext, 0);
     atomic_init(&e->stop, 0);
-    /* The critical sections are a few hundred nanoseconds: a waiter that
-     * spins briefly before sleeping (glibc's adaptive mutex) avoids a futex
-     * sleep and wake-up per contended insertion. */
-    pthread_mutexattr_t attr;
-    int mu_rc = pthread_mutexattr_init(&attr);
-#ifdef PTHREAD_ADAPTIVE_MUTEX_INITIALIZER_NP
-    if (!mu_rc) pthread_mutexattr_settype(&attr, PTHREAD_MUTEX_ADAPTIVE_NP);
-#endif
-    if (!mu_rc) {
-        mu_rc = pthread_mutex_init(&e->node_mu, &attr) || pthread_mutex_init(&e->bucket_mu, &attr) ||
-                pthread_mutex_init(&e->gyration_mu, &attr);
-        pthread_mutexattr_destroy(&attr);
-    }
+    const int mu_rc = engine_mutexes_init(e, err, errlen);
     if (mu_rc) {
         tree_free(&e->tree);
         free(e);
-        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create the engine's mutexes");
+        return mu_rc;
     }
     snprintf(e->binding, sizeof e->binding, "none");
     e->rg_next_k = 0;
@@ -88,9 +101,9 @@ int pdla_engine_create(pdla_engine **out, const pdla_params *p, char *err, size_
 void pdla_engine_destroy(pdla_engine *e)
 {
     if (!e) return;
-    pthread_mutex_destroy(&e->node_mu);
-    pthread_mutex_destroy(&e->bucket_mu);
-    pthread_mutex_destroy(&e->gyration_mu);
+    PDLA_MUST(pthread_mutex_destroy(&e->node_mu));
+    PDLA_MUST(pthread_mutex_destroy(&e->bucket_mu));
+    PDLA_MUST(pthread_mutex_destroy(&e->gyration_mu));
     free(e->workers);
     distmap_free(&e->dmap);
     tree_free(&e->tree);
@@ -257,17 +270,17 @@ void pdla_engine_stats(const pdla_engine *e, pdla_stats *s)
     s->parallel_seconds = e->parallel_seconds;
     snprintf(s->binding, sizeof s->binding, "%s", e->binding);
     s->r_ext = atomic_load_explicit(&e->r_ext, memory_order_relaxed);
-    pthread_mutex_lock(&m->gyration_mu);
+    PDLA_MUST(pthread_mutex_lock(&m->gyration_mu));
     s->rg_diam = sqrt(gyration_rg2_units(&e->gyr, e->params.dim)) / e->params.resolution;
-    pthread_mutex_unlock(&m->gyration_mu);
-    pthread_mutex_lock(&m->bucket_mu); /* the workers' order: bucket, then node */
-    pthread_mutex_lock(&m->node_mu);
+    PDLA_MUST(pthread_mutex_unlock(&m->gyration_mu));
+    PDLA_MUST(pthread_mutex_lock(&m->bucket_mu)); /* the workers' order: bucket, then node */
+    PDLA_MUST(pthread_mutex_lock(&m->node_mu));
     s->tree_bytes = tree_bytes(&e->tree);
     s->inner_nodes = e->tree.inner.count - 1;
     s->leaves = e->tree.leaves;
     s->chunks = e->tree.chunks.count - (TREE_CHUNK_CAP + 1);
-    pthread_mutex_unlock(&m->node_mu);
-    pthread_mutex_unlock(&m->bucket_mu);
+    PDLA_MUST(pthread_mutex_unlock(&m->node_mu));
+    PDLA_MUST(pthread_mutex_unlock(&m->bucket_mu));
     s->root_level = tree_root_get(&e->tree).level;
     s->grow_seconds = e->grow_seconds;
 }

@@ -64,6 +64,7 @@
 #include <time.h>
 
 #include "engine.h"
+#include "must.h"
 #include "parallel.h"
 #include "recent.h"
 
@@ -153,7 +154,7 @@ static inline uint64_t lock_counted(pthread_mutex_t *mu, walker_ctx *w, int whic
     if (pthread_mutex_trylock(mu)) {
         w->mutex_contended[which]++;
         const uint64_t t0 = ticks();
-        pthread_mutex_lock(mu);
+        PDLA_MUST(pthread_mutex_lock(mu));
         const uint64_t t1 = ticks();
         w->mutex_wait_ticks[which] += t1 - t0;
         return t1;
@@ -170,7 +171,7 @@ static inline void unlock_counted(pthread_mutex_t *mu, walker_ctx *w, int which,
         w->mutex_hold_ticks[which] += held;
     else
         w->mutex_long_holds[which]++;
-    pthread_mutex_unlock(mu);
+    PDLA_MUST(pthread_mutex_unlock(mu));
 }
 
 /* insert_concurrent's steps below return these (errors are negative
@@ -378,9 +379,9 @@ static void reclaim_grids(pdla_engine *e, worker *ks, int n)
         const uint64_t s = atomic_load_explicit(&ks[i].seen_epoch, memory_order_acquire);
         if (s < oldest) oldest = s;
     }
-    pthread_mutex_lock(&e->node_mu);
+    PDLA_MUST(pthread_mutex_lock(&e->node_mu));
     distmap_reclaim(&e->dmap, oldest);
-    pthread_mutex_unlock(&e->node_mu);
+    PDLA_MUST(pthread_mutex_unlock(&e->node_mu));
 }
 
 static void sleep_ms(long ms)
@@ -502,13 +503,16 @@ static int phase_run(pdla_engine *e, phase *ph, uint64_t n_until, pdla_progress_
                      void *user, char *err, size_t errlen)
 {
     int rc = PDLA_OK;
-    for (; ph->started < ph->n; ph->started++)
-        if (pthread_create(&ph->ks[ph->started].thread, NULL, worker_main, &ph->ks[ph->started])) {
+    for (; ph->started < ph->n; ph->started++) {
+        worker *const k = &ph->ks[ph->started];
+        const int t = pthread_create(&k->thread, NULL, worker_main, k);
+        if (t) {
             atomic_store_explicit(&e->stop, 1, memory_order_relaxed);
-            rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot start worker thread %d of %d",
-                             ph->started + 1, ph->n);
+            rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot start worker thread %d of %d: %s",
+                             ph->started + 1, ph->n, strerror(t));
             break;
         }
+    }
     while (rc == PDLA_OK && !atomic_load_explicit(&e->stop, memory_order_relaxed) &&
            tree_count(&e->tree) < n_until) {
         sleep_ms(20);
@@ -519,9 +523,11 @@ static int phase_run(pdla_engine *e, phase *ph, uint64_t n_until, pdla_progress_
                              (unsigned long long)tree_count(&e->tree));
         }
     }
-    for (int i = 0; i < ph->started; i++)
-        if (pthread_join(ph->ks[i].thread, NULL) && rc == PDLA_OK)
-            rc = pdla_errorf(PDLA_EINVAL, err, errlen, "cannot join worker thread %d", i);
+    for (int i = 0; i < ph->started; i++) {
+        const int j = pthread_join(ph->ks[i].thread, NULL);
+        if (j && rc == PDLA_OK)
+            rc = pdla_errorf(PDLA_EINVAL, err, errlen, "cannot join worker thread %d: %s", i, strerror(j));
+    }
     return rc;
 }
 

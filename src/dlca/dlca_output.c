@@ -433,10 +433,9 @@ static int read_snapshot(hid_t g, size_t i, uint64_t N, dlca_snapshot *sn)
         if (d.rank != 1 || !pdla_h5_dset_is(&d, PDLA_H5_U32) || d.elems != N ||
             pdla_h5_dset_stored(&d, sizeof *dv[a]) != PDLA_H5_STORED || pdla_h5_dset_read(&d, PDLA_H5_U32, 0, N, dv[a]) < 0)
             rc = -1;
-        pdla_h5_dset_close(&d);
+        if (pdla_h5_dset_close(&d) < 0) rc = -1;
     }
-    H5Gclose(sg);
-    return rc;
+    return H5Gclose(sg) < 0 ? -1 : rc;
 }
 
 int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot **snaps, size_t *n, double *every,
@@ -463,10 +462,10 @@ int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot 
             rc = read_snapshot(g, i, n_monomers, &(*snaps)[i]);
             *n = i + 1;
         }
-        H5Gclose(g);
+        if (H5Gclose(g) < 0) rc = -1;
     }
-    if (f >= 0) H5Fclose(f);
-    h5u_restore(&q);
+    if (f >= 0 && H5Fclose(f) < 0) rc = -1;
+    if (h5u_restore(&q) < 0) rc = -1;
     if (rc == 0) return 0;
     for (size_t i = 0; i < *n; i++) free((*snaps)[i].site), free((*snaps)[i].cluster);
     free(*snaps);

@@ -26,6 +26,6 @@ int dlca_read_parameters_h5(hid_t file, dlca_params *p)
     const pdla_param_desc *t = dlca_param_table(&n);
     int rc = 0;
     for (size_t i = 0; i < n && rc == 0; i++) rc = pdla_param_read_h5(g, &t[i], p);
-    H5Gclose(g);
+    if (H5Gclose(g) < 0) rc = -1;
     return rc == 0 && dlca_params_validate(p, NULL, 0) == 0 ? 0 : -1;
 }

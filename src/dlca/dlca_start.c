@@ -134,9 +134,11 @@ static int read_h5(const char *path, const dlca_params *p, start_buf *b, char *e
         }
     }
     free(pos);
-    if (d.id >= 0) pdla_h5_dset_close(&d);
-    if (f >= 0) H5Fclose(f);
-    h5u_restore(&q);
+    /* A close that fails after a good read fails the start: HDF5 went wrong. */
+    if (pdla_h5_dset_close(&d) < 0 && rc == 0)
+        rc = pdla_errorf(PDLA_EIO, err, errlen, "%s: cannot close /monomers/position", path);
+    if (f >= 0 && H5Fclose(f) < 0 && rc == 0) rc = pdla_errorf(PDLA_EIO, err, errlen, "%s: cannot close it", path);
+    if (h5u_restore(&q) < 0 && rc == 0) rc = pdla_errorf(PDLA_EIO, err, errlen, "cannot restore HDF5's error printing");
     return rc;
 }
 

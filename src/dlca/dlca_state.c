@@ -500,7 +500,10 @@ int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, size_t err
             rc = PDLA_EIO;
         }
     }
-    if (f >= 0) H5Fclose(f);
+    if (f >= 0 && H5Fclose(f) < 0 && rc == 0) {
+        snprintf(why, sizeof why, "cannot close it");
+        rc = PDLA_EIO;
+    }
     h5u_restore(&q);
     if (rc) {
         dlca_sim_free(s);

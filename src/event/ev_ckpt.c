@@ -543,7 +543,7 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     if (!rc) rc = check_state(&r, s);
     if (!rc) rc = check_values(&r, s);
     if (!rc) rc = read_series(&r, ser);
-    if (r.file >= 0) H5Fclose(r.file);
+    if (r.file >= 0 && H5Fclose(r.file) < 0 && !rc) rc = rfail(&r, "%s", "cannot close it");
     h5u_restore(&q);
     if (rc) {
         ev_free(s);

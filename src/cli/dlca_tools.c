@@ -88,7 +88,11 @@ static void *read_ds(hid_t f, const char *path, const char *name, pdla_h5_type t
             buf = NULL;
         }
     }
-    pdla_h5_dset_close(&d);
+    if (pdla_h5_dset_close(&d) < 0 && buf) {
+        pdla_errorf(-1, err, errlen, "%s: cannot close %s", path, name);
+        free(buf);
+        buf = NULL;
+    }
     return buf;
 }
 
@@ -126,8 +130,7 @@ static int dfile_consistent(const dfile *o)
 static int dfile_read(const char *path, dfile *o, char *err, size_t errlen)
 {
     memset(o, 0, sizeof *o);
-    pdla_hdf5_quiet();
-    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    const hid_t f = pdla_hdf5_quiet() ? H5I_INVALID_HID : H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
     if (f < 0) return pdla_errorf(-1, err, errlen, "cannot open %s", path);
     size_t cols = 0, n2 = 0, n3 = 0, nc2 = 0, one;
     int ok = read_box(f, path, o, err, errlen) == 0 &&

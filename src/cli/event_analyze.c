@@ -42,7 +42,10 @@ static double *read_doubles(hid_t f, const char *path, size_t *rows, size_t *col
         *rows = (size_t)d.dims[0];
         if (cols) *cols = d.rank == 2 ? (size_t)d.dims[1] : 1;
     }
-    pdla_h5_dset_close(&d);
+    if (pdla_h5_dset_close(&d) < 0) { /* a failed read, as any HDF5 error */
+        free(buf);
+        buf = NULL;
+    }
     return buf;
 }
 
@@ -182,8 +185,7 @@ int event_analyze_main(int argc, char **argv)
             return 2;
         } else path = argv[k];
     }
-    pdla_hdf5_quiet();
-    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    const hid_t f = pdla_hdf5_quiet() ? H5I_INVALID_HID : H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
     if (f < 0) {
         fprintf(stderr, "pdla analyze: cannot open %s as HDF5\n", path);
         return 2; /* as info: bad input */

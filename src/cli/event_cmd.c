@@ -548,6 +548,10 @@ int event_cmd_main(int argc, char **argv)
         return 2;
     }
     if (prc == 1) return print_help();
+    if (pdla_hdf5_quiet()) {
+        fprintf(stderr, "pdla: cannot silence HDF5\n");
+        return 1;
+    }
     ev_series ser = {0};
     char dir[4096];
     int rc;
@@ -555,7 +559,6 @@ int event_cmd_main(int argc, char **argv)
     if (!s) return rc;
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
-    pdla_hdf5_quiet();
     char *cmd = joined(argc, argv);
     ev_ticker tk;
     ticker_init(&tk, &c, &ser, s, dir, cmd);

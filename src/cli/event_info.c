@@ -132,8 +132,7 @@ static long long rows(hid_t f, const char *ds)
 {
     pdla_h5_dset d;
     if (pdla_h5_dset_open(f, ds, &d) < 0) return -1;
-    pdla_h5_dset_close(&d);
-    return (long long)d.dims[0];
+    return pdla_h5_dset_close(&d) < 0 ? -1 : (long long)d.dims[0];
 }
 
 /* One column of /species (rank 1, at most EV_INFO_KINDS rows) as doubles:
@@ -151,8 +150,7 @@ static int species_col(hid_t f, const char *name, double *v)
     if (d.rank == 1 && d.dims[0] <= EV_INFO_KINDS && pdla_h5_dset_stored(&d, 8) == PDLA_H5_STORED &&
         pdla_h5_dset_read(&d, PDLA_H5_F64, 0, d.dims[0], v) == 0)
         n = (int)d.dims[0];
-    pdla_h5_dset_close(&d);
-    return n;
+    return pdla_h5_dset_close(&d) < 0 ? -1 : n;
 }
 
 /* The per-kind table of /species: count, radius, density, stuck and sticky

@@ -34,7 +34,10 @@ static double *read_all(hid_t f, const char *name, size_t *rows, size_t *cols)
             buf = NULL;
         }
     }
-    pdla_h5_dset_close(&d);
+    if (pdla_h5_dset_close(&d) < 0) { /* a failed read: "malformed", as any HDF5 error */
+        free(buf);
+        buf = NULL;
+    }
     return buf;
 }
 

@@ -99,7 +99,8 @@ static int open_dlca(exp_src *s, char *err, size_t errlen)
     if (pdla_h5_dset_open(s->file, "/monomers/position", &probe) == 0) {
         const int rank = probe.rank;
         const uint64_t cols = rank == 2 ? probe.dims[1] : 1;
-        pdla_h5_dset_close(&probe);
+        if (pdla_h5_dset_close(&probe) < 0)
+            return pdla_errorf(-1, err, errlen, "%s: cannot close /monomers/position", s->path);
         if (rank != 2 || cols < 2 || cols > 3)
             return pdla_errorf(-1, err, errlen, "%s: a %lluD DLCA lattice; export writes 2D and 3D positions", s->path,
                         (unsigned long long)cols);

@@ -209,7 +209,12 @@ static int read_1d(h5r_file *f, const char *name, pdla_h5_type mt, size_t esize,
             *k = (size_t)rows;
         }
     }
-    pdla_h5_dset_close(&d);
+    if (pdla_h5_dset_close(&d) < 0 && rc == 0) {
+        free(*out);
+        *out = NULL;
+        *k = 0;
+        rc = pdla_errorf(-1, err, errlen, "%s: cannot close %s", f->path, name);
+    }
     return rc;
 }
 

@@ -765,7 +765,10 @@ static int parse_step(run *R, int argc, char **argv)
         fprintf(stderr, "pdla: cannot install signal handlers: %s\n", strerror(errno));
         return EXIT_RUNTIME;
     }
-    pdla_hdf5_quiet(); /* HDF5 never prints; our messages say what failed */
+    if (pdla_hdf5_quiet()) { /* HDF5 never prints; our messages say what failed */
+        fprintf(stderr, "pdla: cannot silence HDF5\n");
+        return EXIT_RUNTIME;
+    }
     return GO_ON;
 }
 

@@ -645,7 +645,11 @@ int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params 
     } else {
         rc = load_file(path, asked, asked_fields, out, info, err, errlen);
     }
-    h5u_restore(&q);
+    if (h5u_restore(&q) < 0 && rc == PDLA_OK) {
+        pdla_engine_destroy(*out);
+        *out = NULL;
+        rc = pdla_errorf(PDLA_EIO, err, errlen, "cannot restore the HDF5 error handler");
+    }
     if (rc == PDLA_OK && info) info->seconds = pdla_clock_seconds() - t0;
     if (err && errlen) h5u_one_line(err);
     return rc;

@@ -250,7 +250,7 @@ done:
     if (g >= 0) rc = h5u_close(&w, rc, g, H5Gclose, "a group");
     if (file >= 0) rc = h5u_close(&w, rc, file, H5Fclose, path);
     free(size), free(rg);
-    h5u_restore(&q);
+    if (h5u_restore(&q) < 0 && rc == 0) rc = h5u_fail_msg(&w, "cannot restore the HDF5 error handler");
     return rc < 0 ? PDLA_EIO : 0;
 }
 
@@ -404,7 +404,7 @@ int dlca_write_snapshots_h5(const char *path, const dlca_params *p, const dlca_s
         rc = h5u_close(&w, rc, g, H5Gclose, "/snapshots");
     }
     if (f >= 0) rc = h5u_close(&w, rc, f, H5Fclose, path);
-    h5u_restore(&q);
+    if (h5u_restore(&q) < 0 && rc == 0) rc = h5u_fail_msg(&w, "cannot restore the HDF5 error handler");
     return rc < 0 ? PDLA_EIO : 0;
 }
 

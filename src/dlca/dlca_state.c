@@ -314,7 +314,7 @@ int dlca_checkpoint_write(const dlca_sim *s, const char *path, char *err, size_t
 done:
     if (file >= 0) rc = h5u_close(&w, rc, file, H5Fclose, path);
     ck_free(&a);
-    h5u_restore(&q);
+    if (h5u_restore(&q) < 0 && rc == 0) rc = h5u_fail_msg(&w, "cannot restore the HDF5 error handler");
     return rc < 0 ? PDLA_EIO : 0;
 }
 
@@ -328,7 +328,7 @@ static int ck_open(hid_t f, const char *name, pdla_h5_type t, pdla_h5_dset *d)
     if (pdla_h5_dset_open(f, name, d) == 0 && d->rank == 1 && pdla_h5_dset_is(d, t) &&
         pdla_h5_dset_stored(d, esize) == PDLA_H5_STORED)
         return 0;
-    pdla_h5_dset_close(d);
+    (void)pdla_h5_dset_close(d); /* -1 either way */
     return -1;
 }
 
@@ -338,8 +338,7 @@ static int ck_read(hid_t f, const char *name, pdla_h5_type t, void *buf, size_t 
     pdla_h5_dset d;
     if (ck_open(f, name, t, &d)) return -1;
     const int rc = d.elems == n && pdla_h5_dset_read(&d, t, 0, n, buf) == 0 ? 0 : -1;
-    pdla_h5_dset_close(&d);
-    return rc;
+    return pdla_h5_dset_close(&d) < 0 ? -1 : rc;
 }
 
 /* Elements in dataset name (of type t) / per (0 if it is missing or not
@@ -349,8 +348,7 @@ static size_t ck_rows(hid_t f, const char *name, pdla_h5_type t, size_t per)
     pdla_h5_dset d;
     if (ck_open(f, name, t, &d)) return 0;
     const size_t n = (size_t)(d.elems / per);
-    pdla_h5_dset_close(&d);
-    return n;
+    return pdla_h5_dset_close(&d) < 0 ? 0 : n; /* unreadable: as missing */
 }
 
 /* What a load failed on: the return code and the reason. */
@@ -504,7 +502,10 @@ int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, size_t err
         snprintf(why, sizeof why, "cannot close it");
         rc = PDLA_EIO;
     }
-    h5u_restore(&q);
+    if (h5u_restore(&q) < 0 && rc == 0) {
+        snprintf(why, sizeof why, "cannot restore the HDF5 error handler");
+        rc = PDLA_EIO;
+    }
     if (rc) {
         dlca_sim_free(s);
         return pdla_errorf(rc, err, errlen, "cannot resume from %s: %s", path, why);

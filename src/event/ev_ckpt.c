@@ -198,7 +198,7 @@ int ev_checkpoint_write(const ev_sim *s, const ev_series *ser, const char *dir,
     if (!rc && h5u_fsync_dir(dir) != 0)
         rc = h5u_fail_msg(&w, "written, but cannot sync directory %s: %s", dir, strerror(errno));
     if (rc) unlink(tmp);
-    h5u_restore(&q);
+    if (h5u_restore(&q) < 0 && !rc) rc = h5u_fail_msg(&w, "written, but %s", "cannot restore the HDF5 error handler");
     if (rc) h5u_one_line(err);
     return rc ? -1 : 0;
 }
@@ -236,7 +236,7 @@ static int rds(const rd *r, const char *name, pdla_h5_type t, size_t n, void *bu
         rc = rfail(r, "dataset %s declares more than the file stores (damaged)", name);
     else if (pdla_h5_dset_read(&d, t, 0, n, buf) < 0)
         rc = rfail(r, "cannot read %s (damaged: checksum or I/O error)", name);
-    pdla_h5_dset_close(&d);
+    if (pdla_h5_dset_close(&d) < 0 && !rc) rc = rfail(r, "cannot close dataset %s", name);
     return rc;
 }
 
@@ -247,8 +247,7 @@ static hssize_t rlen(const rd *r, const char *name)
     pdla_h5_dset d;
     if (pdla_h5_dset_open(r->file, name, &d) < 0) return -1;
     const hssize_t np = d.rank == 1 && pdla_h5_dset_stored(&d, d.size) == PDLA_H5_STORED ? (hssize_t)d.elems : -1;
-    pdla_h5_dset_close(&d);
-    return np;
+    return pdla_h5_dset_close(&d) < 0 ? -1 : np;
 }
 
 /* A string attribute of the file, whole (checked reader). */
@@ -544,7 +543,7 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     if (!rc) rc = check_values(&r, s);
     if (!rc) rc = read_series(&r, ser);
     if (r.file >= 0 && H5Fclose(r.file) < 0 && !rc) rc = rfail(&r, "%s", "cannot close it");
-    h5u_restore(&q);
+    if (h5u_restore(&q) < 0 && !rc) rc = rfail(&r, "%s", "cannot restore the HDF5 error handler");
     if (rc) {
         ev_free(s);
         ev_series_free(ser);

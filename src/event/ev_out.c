@@ -344,7 +344,7 @@ int ev_write_h5(const ev_sim *s, const ev_series *ser, const char *path, const c
     if (!rc && rename(tmp, path) != 0)
         rc = h5u_fail_msg(&w, "cannot rename %s to %s: %s", tmp, path, strerror(errno));
     if (rc) unlink(tmp);
-    h5u_restore(&q);
+    if (h5u_restore(&q) < 0 && !rc) rc = h5u_fail_msg(&w, "written, but %s", "cannot restore the HDF5 error handler");
     if (rc && err && errlen) h5u_one_line(err);
     free(tmp);
     return rc ? -1 : 0;

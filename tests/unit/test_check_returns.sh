@@ -5,7 +5,8 @@
 # checks that the check can fail: on a scratch tree, each kind of discarded
 # call must be reported at its line (a bare statement, one split over lines
 # after an `if`, a cast to void, a comma at statement level, after a label),
-# a call that can fail at run time inside PDLA_MUST must be refused, a stale
+# the discarded status of a wrapper of an HDF5 close too, a call that can fail
+# at run time inside PDLA_MUST must be refused, a stale
 # or reasonless allow entry must be reported, and calls whose value is used
 # (or that only a comment or a string names) must not be.
 set -u
@@ -56,6 +57,10 @@ int used(hid_t f, pthread_mutex_t *mu, int c)
         return -1;
     return MPI_Send(s, 1, MPI_BYTE, 0, 0, MPI_COMM_WORLD);
 }
+void wrapper(pdla_h5_dset *d)
+{
+    pdla_h5_dset_close(d);
+}
 C
 printf 'src/m/a.c gone H5Fclose a call that is no longer there\nsrc/m/a.c used\n' >"$tmp/allow"
 out=$(python3 "$cr" --allow "$tmp/allow" "$tmp/src")
@@ -66,13 +71,14 @@ for want in "a.c:3: H5Fclose(...) in bare: its return value is discarded" \
             "a.c:16: H5Sclose(...) in comma" "a.c:16: H5Dclose(...) in comma" \
             "a.c:21: MPI_Finalize(...) in labelled" \
             "a.c:25: pthread_create(...) in must: can fail at run time, so not through PDLA_MUST" \
+            "a.c:43: pdla_h5_dset_close(...) in wrapper: its return value is discarded" \
             "allow:1: src/m/a.c gone H5Fclose matches no discarded call" \
             "allow:2: want FILE FUNCTION CALL REASON"; do
     grep -qF -- "$want" <<<"$out" || { echo "FAIL: the check missed: $want"; fail=1; }
 done
 if [ $rc -eq 0 ]; then echo "FAIL: the check passed a tree with discarded returns"; fail=1; fi
 n=$(grep -c "^check-returns: .*a.c:" <<<"$out")
-if [ "$n" -ne 7 ]; then echo "FAIL: want 7 reports of a.c, got $n:"; echo "$out"; fail=1; fi
+if [ "$n" -ne 8 ]; then echo "FAIL: want 8 reports of a.c, got $n:"; echo "$out"; fail=1; fi
 # Listed with a reason, each is accepted; `(void)NAME` covers only the cast.
 cat >"$tmp/allow" <<'A'
 src/m/a.c bare H5Fclose reason
@@ -81,6 +87,7 @@ src/m/a.c voided (void)H5Gclose reason
 src/m/a.c comma H5Sclose reason
 src/m/a.c comma H5Dclose reason
 src/m/a.c labelled MPI_Finalize reason
+src/m/a.c wrapper pdla_h5_dset_close reason
 A
 out=$(python3 "$cr" --allow "$tmp/allow" "$tmp/src")
 if ! grep -q "in must: can fail at run time" <<<"$out" || [ "$(grep -c '^check-returns: .*a.c:' <<<"$out")" -ne 1 ]; then

@@ -407,9 +407,15 @@ int pdla_ens_journal_open(const char *dir, pdla_ens_journal **out, char *err, si
     char why[600] = "";
     char *text = NULL;
     struct stat st;
-    j->fd = open(j->path, O_RDONLY | O_CLOEXEC);
+    /* O_NONBLOCK: a FIFO put in the journal's place would block open()
+     * for good, and SIGINT/SIGTERM only set a flag (SA_RESTART). */
+    j->fd = open(j->path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
     if (j->fd < 0 || fstat(j->fd, &st)) {
         snprintf(why, sizeof why, "%s", strerror(errno));
+        goto fail;
+    }
+    if (!S_ISREG(st.st_mode)) {
+        snprintf(why, sizeof why, "not a regular file");
         goto fail;
     }
     uint8_t head[16];

@@ -166,6 +166,18 @@ check(forged != text, "the header has no clusters=8 line")
 open("forged/clusters.journal", "wb").write(header_bytes(forged) + raw[24 + len(text):])
 bad("forged header, 2 x 10^8 clusters", "at most 100000000", "ensemble", "--resume", "forged", rss_mb=100)
 
+# The journal replaced by a FIFO, a directory, /dev/zero: one line, exit 2
+# (a FIFO blocked open() for good, and SIGTERM could not end it).
+for kind in ["fifo", "dir", "zero"]:
+    d = "j" + kind
+    os.makedirs(d)
+    path = d + "/clusters.journal"
+    {"fifo": lambda: os.mkfifo(path), "dir": lambda: os.mkdir(path),
+     "zero": lambda: os.symlink("/dev/zero", path)}[kind]()
+    rc, err = pdla("ensemble", "--resume", d, timeout=20)
+    check(rc == 2 and one_line(err) and "clusters.journal" in err,
+          "journal replaced by a %s: exit %s %r" % (kind, rc, err[:200]))
+
 # ---- a damaged record inside the journal: the records after it still count -----
 shutil.copytree("ref", "mid")
 os.unlink("mid/ensemble.h5")

@@ -46,9 +46,23 @@ typedef struct pdla_ens_config {
     int keep_positions;  /* 1: records carry the particle positions */
 } pdla_ens_config;
 
-/* 0, or PDLA_EINVAL with the first problem: M = 0, a seed range
- * params.seed + M - 1 beyond 2^64 - 1, invalid params, threads != 1. */
+/* The most clusters one ensemble may have. The journal's index (16 bytes a
+ * cluster) is allocated at start and ensemble.h5 is written from memory
+ * (about 124 bytes + 8 per R_g sample a cluster, pdla_ens_memory_bytes):
+ * 10^8 clusters need 1.6 GB before the first one grows and 14+ GB at the
+ * end, so a larger M (or a journal header claiming one) is refused up
+ * front instead of failing after days of growth. */
+#define PDLA_ENS_MAX_CLUSTERS UINT64_C(100000000)
+
+/* 0, or PDLA_EINVAL with the first problem: M = 0 or above
+ * PDLA_ENS_MAX_CLUSTERS, a seed range params.seed + M - 1 beyond 2^64 - 1,
+ * invalid params, threads != 1. */
 PDLA_API int pdla_ens_config_check(const pdla_ens_config *c, char *err, size_t errlen);
+
+/* An upper estimate of the bytes of memory writing c's ensemble.h5 takes
+ * (the journal's index, the per-cluster columns and the M x K R_g matrix,
+ * K the R_g samples of one cluster); saturates at UINT64_MAX. */
+PDLA_API uint64_t pdla_ens_memory_bytes(const pdla_ens_config *c);
 
 /* The growth parameters of cluster i (seed = params.seed + i). */
 PDLA_API void pdla_ens_cluster_params(const pdla_ens_config *c, uint64_t i, pdla_params *out);
@@ -120,9 +134,11 @@ typedef struct pdla_ens_journal pdla_ens_journal;
 PDLA_API int pdla_ens_journal_create(const char *dir, const pdla_ens_config *c,
                                      pdla_ens_journal **out, char *err, size_t errlen);
 /* Open dir's journal read-only: its config and every complete record
- * (checksums verified; a torn or damaged tail, from a crash during an
- * append, is noted and ignored). PDLA_EIO when there is none or its header
- * is damaged. Writes nothing. */
+ * (checksums verified, and each record must belong to the ensemble: index,
+ * seed, dimension, particles, positions; a torn or damaged tail, from a
+ * crash during an append, is noted and ignored; a damaged record between
+ * valid ones is skipped and the scan goes on at the next valid record).
+ * PDLA_EIO when there is none or its header is damaged. Writes nothing. */
 PDLA_API int pdla_ens_journal_open(const char *dir, pdla_ens_journal **out, char *err,
                                    size_t errlen);
 /* Make an opened journal appendable: cut the torn tail, if any. */
@@ -143,6 +159,10 @@ PDLA_API uint64_t pdla_ens_journal_count(const pdla_ens_journal *j);
 PDLA_API int pdla_ens_journal_has(const pdla_ens_journal *j, uint64_t i);
 /* Bytes of a torn or damaged tail found by open (0: none). */
 PDLA_API uint64_t pdla_ens_journal_torn_bytes(const pdla_ens_journal *j);
+/* Bytes of damaged records found by open between valid ones (a bad sector,
+ * a stray write): skipped, not cut, so the records after them still count;
+ * the clusters they held are missing and grow again. 0: none. */
+PDLA_API uint64_t pdla_ens_journal_damaged_bytes(const pdla_ens_journal *j);
 /* Append rec (one write, then fdatasync) unless cluster rec->index is
  * already recorded. Thread-safe. */
 PDLA_API int pdla_ens_journal_append(pdla_ens_journal *j, const pdla_ens_record *rec,

@@ -260,6 +260,21 @@ static void launcher_ranks(long *size, long *rank)
     }
 }
 
+/* Writing ensemble.h5 holds the per-cluster columns and the R_g matrix in
+ * memory: refuse before the growth (days, perhaps) an ensemble this
+ * machine could never write. 0, or -1 with err. */
+static int check_memory(const pdla_ens_config *c, char *err, size_t errlen)
+{
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    if (pages <= 0 || page <= 0) return 0; /* unknown: let the allocations decide */
+    const double have = (double)pages * (double)page, need = (double)pdla_ens_memory_bytes(c);
+    if (need <= have) return 0;
+    snprintf(err, errlen, "%" PRIu64 " clusters of %" PRIu64 " particles need about %.3g GB of memory to write "
+             "ensemble.h5, more than this machine's %.3g GB (fewer clusters or --rg-per-decade)",
+             c->clusters, c->params.target, need / 1e9, have / 1e9);
+    return -1;
+}
+
 static int refuse_options(const cli_options *o, char *err, size_t errlen)
 {
     if (o->no_output) return snprintf(err, errlen, "--no-output does not apply to an ensemble"), -1;
@@ -395,10 +410,18 @@ static int open_resume(ens_cmd *c)
         fprintf(stderr, "pdla ensemble: cannot extend to --clusters %" PRIu64 ": %s\n", c->a.clusters, c->err);
         return EXIT_USAGE;
     }
+    if (check_memory(extend ? &wider : pdla_ens_journal_config(c->j), c->err, sizeof c->err)) {
+        fprintf(stderr, "pdla ensemble: cannot %s: %s\n", extend ? "extend" : "resume", c->err);
+        return EXIT_USAGE;
+    }
     if (access(c->dir, W_OK)) {
         fprintf(stderr, "pdla ensemble: cannot resume: '%s' is not writable: %s\n", c->dir, strerror(errno));
         return EXIT_USAGE;
     }
+    if (pdla_ens_journal_damaged_bytes(c->j))
+        fprintf(stderr, "pdla ensemble: note: skipping %" PRIu64 " damaged bytes inside %s/%s (the clusters "
+                        "they held grow again; the records after them count)\n",
+                pdla_ens_journal_damaged_bytes(c->j), c->dir, PDLA_ENS_JOURNAL_NAME);
     if (pdla_ens_journal_torn_bytes(c->j))
         fprintf(stderr, "pdla ensemble: note: cutting a torn record of %" PRIu64 " bytes (a cluster in flight)\n",
                 pdla_ens_journal_torn_bytes(c->j));
@@ -436,7 +459,7 @@ static int open_new(ens_cmd *c, int threads)
         fprintf(stderr, "pdla ensemble: --out DIR is required\n");
         return EXIT_USAGE;
     }
-    if (pdla_ens_config_check(&c->asked, c->err, sizeof c->err)) {
+    if (pdla_ens_config_check(&c->asked, c->err, sizeof c->err) || check_memory(&c->asked, c->err, sizeof c->err)) {
         fprintf(stderr, "pdla ensemble: %s\n", c->err);
         return EXIT_USAGE;
     }

@@ -50,6 +50,7 @@ struct pdla_ens_journal {
     uint64_t head_end;      /* bytes of the header: the records start here */
     uint64_t end;           /* bytes of valid journal */
     uint64_t torn;          /* bytes after end (a torn or damaged tail) */
+    uint64_t damaged;       /* bytes of damaged records skipped before end */
 };
 
 static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
@@ -266,8 +267,10 @@ int pdla_ens_journal_create(const char *dir, const pdla_ens_config *c, pdla_ens_
         const int e = errno;
         close(fd);
         unlink(tmp);
+        /* The message before the close: it frees j->path. */
+        rc = pdla_errorf(PDLA_EIO, err, errlen, "cannot write %s: %s", j->path, strerror(e));
         pdla_ens_journal_close(j);
-        return pdla_errorf(PDLA_EIO, err, errlen, "cannot write %s: %s", j->path, strerror(e));
+        return rc;
     }
     sync_dir(dir);
     j->fd = fd;
@@ -277,8 +280,87 @@ int pdla_ens_journal_create(const char *dir, const pdla_ens_config *c, pdla_ens_
     return PDLA_OK;
 }
 
-/* Scan the records after the header; stop at the first that is short,
- * damaged or inconsistent (the tail a crash tore). */
+/* The record at off, if it is one of this ensemble's: magic, a length that
+ * fits in the file, its checksum, and (decoded) its index, seed, dimension,
+ * particles and positions. 1 (with its payload length in *len and its index
+ * in *idx), 0 when it is not, or PDLA_ENOMEM. *buf, *cap: a scratch buffer
+ * kept between calls. */
+static int record_at(const pdla_ens_journal *j, uint64_t off, uint64_t size, uint8_t **buf, size_t *cap,
+                     uint64_t *len, uint64_t *idx)
+{
+    uint8_t head[16];
+    if (off + 24 > size || read_all(j->fd, head, 16, off) != 1 || memcmp(head, REC_MAGIC, 8)) return 0;
+    uint64_t n;
+    memcpy(&n, head + 8, 8);
+    if (n > size - off - 24 || n < 16) return 0;
+    if (n > *cap) {
+        uint8_t *g = realloc(*buf, (size_t)n);
+        if (!g) return PDLA_ENOMEM;
+        *buf = g;
+        *cap = (size_t)n;
+    }
+    uint64_t sum;
+    if (read_all(j->fd, *buf, (size_t)n, off + 16) != 1 || read_all(j->fd, &sum, 8, off + 16 + n) != 1 ||
+        fnv1a(fnv1a(FNV_START, head + 8, 8), *buf, (size_t)n) != sum)
+        return 0;
+    /* A checksum only says the bytes are as written: the record must also
+     * be one this ensemble's clusters would make (a record of another
+     * ensemble spliced in, or a forged one, would reach ensemble.h5). */
+    const pdla_ens_config *c = &j->cfg;
+    pdla_ens_record r;
+    char why[160];
+    const int rc = pdla_ens_record_decode(*buf, (size_t)n, &r, why, sizeof why);
+    if (rc == PDLA_ENOMEM) return rc;
+    const int ok = rc == PDLA_OK && r.index < c->clusters && r.seed == c->params.seed + r.index &&
+                   r.dim == c->params.dim && r.particles == c->params.target &&
+                   r.npos == (c->keep_positions ? r.particles : 0);
+    *idx = r.index;
+    pdla_ens_record_free(&r);
+    *len = n;
+    return ok;
+}
+
+/* The offset of the first record of this ensemble after `from`, or NONE:
+ * where the scan goes on after a damaged record. Reads the file in 1 MB
+ * windows looking for the record magic. */
+static int next_record(const pdla_ens_journal *j, uint64_t from, uint64_t size, uint8_t **buf, size_t *cap,
+                       uint64_t *found)
+{
+    enum { WIN = 1 << 20, M = sizeof REC_MAGIC - 1 };
+    *found = NONE;
+    uint8_t *w = malloc(WIN);
+    if (!w) return PDLA_ENOMEM;
+    int rc = PDLA_OK;
+    for (uint64_t at = from; at + 24 <= size && *found == NONE && rc == PDLA_OK;) {
+        const size_t n = size - at < WIN ? (size_t)(size - at) : WIN;
+        if (read_all(j->fd, w, n, at) != 1) break;
+        for (const uint8_t *p = w; p && p + M <= w + n;) {
+            p = memmem(p, (size_t)(w + n - p), REC_MAGIC, M);
+            if (!p) break;
+            uint64_t len, idx;
+            const int r = record_at(j, at + (uint64_t)(p - w), size, buf, cap, &len, &idx);
+            if (r < 0) {
+                rc = r;
+                break;
+            }
+            if (r == 1) {
+                *found = at + (uint64_t)(p - w);
+                break;
+            }
+            p++;
+        }
+        if (n < WIN) break;
+        at += n - (M - 1); /* a magic across the window's end is found in the next */
+    }
+    free(w);
+    return rc;
+}
+
+/* Scan the records after the header. A damaged record followed by a valid
+ * one (a bad sector, a stray write) is skipped and counted in j->damaged:
+ * cutting there would throw away every record after it. What follows the
+ * last valid record is the torn tail a crash left (j->torn), cut by
+ * pdla_ens_journal_begin_append. */
 static int scan_records(pdla_ens_journal *j, uint64_t size, char *err, size_t errlen)
 {
     uint64_t off = j->end;
@@ -286,28 +368,22 @@ static int scan_records(pdla_ens_journal *j, uint64_t size, char *err, size_t er
     size_t cap = 0;
     int rc = PDLA_OK;
     while (off + 24 <= size) {
-        uint8_t head[16];
-        if (read_all(j->fd, head, 16, off) != 1 || memcmp(head, REC_MAGIC, 8)) break;
-        uint64_t len;
-        memcpy(&len, head + 8, 8);
-        if (len > size - off - 24 || len < 16) break;
-        if (len > cap) {
-            uint8_t *g = realloc(buf, (size_t)len);
-            if (!g) {
-                rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory reading the journal");
-                break;
+        uint64_t len = 0, idx = 0;
+        int r = record_at(j, off, size, &buf, &cap, &len, &idx);
+        if (r == 0) {
+            uint64_t next;
+            r = next_record(j, off + 1, size, &buf, &cap, &next);
+            if (r == PDLA_OK && next == NONE) break;
+            if (r == PDLA_OK) {
+                j->damaged += next - off;
+                off = next;
+                continue;
             }
-            buf = g;
-            cap = (size_t)len;
         }
-        uint64_t sum;
-        if (read_all(j->fd, buf, (size_t)len, off + 16) != 1 || read_all(j->fd, &sum, 8, off + 16 + len) != 1)
+        if (r < 0) {
+            rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory reading the journal");
             break;
-        if (fnv1a(fnv1a(FNV_START, head + 8, 8), buf, (size_t)len) != sum) break;
-        uint64_t idx, seed;
-        memcpy(&idx, buf, 8);
-        memcpy(&seed, buf + 8, 8);
-        if (idx >= j->cfg.clusters || seed != j->cfg.params.seed + idx) break;
+        }
         if (j->offset[idx] == NONE) {
             j->offset[idx] = off + 16;
             j->length[idx] = len;
@@ -331,9 +407,15 @@ int pdla_ens_journal_open(const char *dir, pdla_ens_journal **out, char *err, si
     char why[600] = "";
     char *text = NULL;
     struct stat st;
-    j->fd = open(j->path, O_RDONLY | O_CLOEXEC);
+    /* O_NONBLOCK: a FIFO put in the journal's place would block open()
+     * for good, and SIGINT/SIGTERM only set a flag (SA_RESTART). */
+    j->fd = open(j->path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
     if (j->fd < 0 || fstat(j->fd, &st)) {
         snprintf(why, sizeof why, "%s", strerror(errno));
+        goto fail;
+    }
+    if (!S_ISREG(st.st_mode)) {
+        snprintf(why, sizeof why, "not a regular file");
         goto fail;
     }
     uint8_t head[16];
@@ -479,6 +561,7 @@ int pdla_ens_journal_extend(pdla_ens_journal *j, uint64_t clusters, pdla_ens_jou
 const pdla_ens_config *pdla_ens_journal_config(const pdla_ens_journal *j) { return &j->cfg; }
 uint64_t pdla_ens_journal_count(const pdla_ens_journal *j) { return j->count; }
 uint64_t pdla_ens_journal_torn_bytes(const pdla_ens_journal *j) { return j->torn; }
+uint64_t pdla_ens_journal_damaged_bytes(const pdla_ens_journal *j) { return j->damaged; }
 
 int pdla_ens_journal_has(const pdla_ens_journal *j, uint64_t i)
 {

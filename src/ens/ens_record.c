@@ -13,6 +13,10 @@
 int pdla_ens_config_check(const pdla_ens_config *c, char *err, size_t errlen)
 {
     if (c->clusters < 1) return pdla_errorf(PDLA_EINVAL, err, errlen, "the number of clusters must be at least 1, got 0");
+    if (c->clusters > PDLA_ENS_MAX_CLUSTERS)
+        return pdla_errorf(PDLA_EINVAL, err, errlen,
+                           "%llu clusters: an ensemble holds at most %llu (ensemble.h5 is written from memory)",
+                           (unsigned long long)c->clusters, (unsigned long long)PDLA_ENS_MAX_CLUSTERS);
     if (c->params.seed > UINT64_MAX - (c->clusters - 1))
         return pdla_errorf(PDLA_EINVAL, err, errlen,
                            "seed range overflows: seeds %llu + 0..%llu pass 2^64 - 1 (lower --seed or --clusters)",

@@ -323,6 +323,29 @@ static int write_sidecar(const pdla_ens_config *cfg, const char *path, char *err
     return PDLA_OK;
 }
 
+/* a * b + c, saturating at UINT64_MAX. */
+static uint64_t sat_muladd(uint64_t a, uint64_t b, uint64_t c)
+{
+    if (b && a > (UINT64_MAX - c) / b) return UINT64_MAX;
+    return a * b + c;
+}
+
+uint64_t pdla_ens_memory_bytes(const pdla_ens_config *c)
+{
+    /* R_g samples of one cluster: the log grid has rg_per_decade points a
+     * decade (strictly increasing integers, so never more than N), plus
+     * N = 1 and the last point. */
+    const uint64_t n = c->params.target;
+    const int pd = c->params.rg_per_decade;
+    double kd = pd > 0 && n > 0 ? pd * log10((double)n) + 2.0 : 0.0;
+    if (kd > (double)n) kd = (double)n;
+    const uint64_t k = kd >= 0x1p60 ? UINT64_C(1) << 60 : (uint64_t)kd;
+    /* Per cluster: the journal's offset and length (16), the columns
+     * (14 x 8 + 4), the bootstrap's pick (8), and the R_g row (8 K). */
+    const uint64_t per = sat_muladd(k, 8, 16 + 116 + 8);
+    return sat_muladd(c->clusters, per, sat_muladd(k, 64, 1 << 20));
+}
+
 int pdla_ens_write(const pdla_ens_journal *j, const pdla_run_info *info, const char *path, char *err,
                    size_t errlen)
 {

@@ -9,6 +9,7 @@
  *   physics2d  a 2D ensemble's D_f against 1.71 within its bootstrap interval
  * Usage: test_ensemble MODE [DIR]
  */
+#define _GNU_SOURCE /* memmem */
 #include <fcntl.h>
 #include <math.h>
 #include <pthread.h>
@@ -294,7 +295,52 @@ static void test_journal(const char *dir)
     }
     CHECK(pdla_ens_journal_open(dir, &j, err, sizeof err) == 0, "%s", err);
     CHECK(pdla_ens_journal_count(j) == 3 && !pdla_ens_journal_has(j, 4), "damaged record counted");
+    CHECK(pdla_ens_journal_damaged_bytes(j) == 0, "a damaged tail counted as damage inside");
     pdla_ens_journal_close(j);
+
+    /* A flipped byte in the first record: it is skipped, and the records
+     * after it still count (cutting there would drop them all). */
+    {
+        const off_t sz = file_size(path);
+        uint8_t *all = malloc((size_t)sz);
+        const int fd = open(path, O_RDWR);
+        CHECK(all && pread(fd, all, (size_t)sz, 0) == sz, "read");
+        const uint8_t *rec = all ? memmem(all, (size_t)sz, "PDLAREC1", 8) : NULL;
+        CHECK(rec != NULL, "no record in the journal");
+        if (rec) {
+            const off_t at = (off_t)(rec - all) + 16 + 20;
+            uint8_t b = all[at] ^ 0x40;
+            CHECK(pwrite(fd, &b, 1, at) == 1, "write");
+        }
+        close(fd);
+        free(all);
+    }
+    CHECK(pdla_ens_journal_open(dir, &j, err, sizeof err) == 0, "%s", err);
+    CHECK(pdla_ens_journal_count(j) == 2 && !pdla_ens_journal_has(j, 0) && pdla_ens_journal_has(j, 1) &&
+              pdla_ens_journal_has(j, 2) && pdla_ens_journal_damaged_bytes(j) > 0,
+          "a damaged first record: count %llu, damaged %llu", (unsigned long long)pdla_ens_journal_count(j),
+          (unsigned long long)pdla_ens_journal_damaged_bytes(j));
+    pdla_ens_journal_close(j);
+
+    /* Counts no machine could write are refused; the memory estimate
+     * saturates instead of wrapping. */
+    {
+        pdla_ens_config big = c;
+        big.clusters = PDLA_ENS_MAX_CLUSTERS + 1;
+        CHECK(pdla_ens_config_check(&big, err, sizeof err) == PDLA_EINVAL, "10^8 + 1 clusters accepted");
+        big.clusters = PDLA_ENS_MAX_CLUSTERS;
+        big.params.seed = 0;
+        CHECK(pdla_ens_config_check(&big, err, sizeof err) == 0, "10^8 clusters refused: %s", err);
+        big.clusters = UINT64_MAX;
+        big.params.target = UINT64_MAX;
+        CHECK(pdla_ens_memory_bytes(&big) == UINT64_MAX, "the estimate wrapped");
+        big.clusters = 1000;
+        big.params.target = 1000000;
+        const uint64_t m = pdla_ens_memory_bytes(&big);
+        /* 100 samples a decade to 10^6: 602 samples, 8 bytes each a cluster. */
+        CHECK(m > 1000 * 602 * 8 && m < 1000 * 602 * 8 + 1000 * 200 + (UINT64_C(2) << 20),
+              "estimate %llu for 1000 clusters of 10^6", (unsigned long long)m);
+    }
 
     /* A damaged header is refused. */
     {

@@ -8,7 +8,7 @@ spliced journals, two runs at once) a resume must end with the ensemble an
 uninterrupted run writes: every per-cluster dataset and /statistics equal
 (h5diff -c), cluster i always the cluster of seed S + i.
 
-fast (reliab suite, ~20 s): cluster counts past what can be written, a
+fast (reliab suite, ~15 s of CPU): cluster counts past what can be written, a
 resume extended to 2^64 - 1 clusters, a forged journal header claiming 2 x 10^8
 clusters, a damaged record inside the journal, a record of another ensemble
 spliced in, the journal cut at sampled lengths, two runs and two resumes at
@@ -38,6 +38,14 @@ shutil.rmtree(WORK, ignore_errors=True)
 os.makedirs(WORK)
 os.chdir(WORK)
 pdla = runner(PDLA, 300)
+T0 = time.monotonic()
+
+
+def section(name):
+    """Print where the time goes (the log of a slow run says which attack)."""
+    print("%6.1f s  %s" % (time.monotonic() - T0, name), flush=True)
+
+
 rng = random.Random(int(os.environ.get("ENS_ADV_SEED", time.time_ns() % 100000)))
 
 ldd = subprocess.run(["ldd", PDLA], capture_output=True, text=True).stdout
@@ -136,6 +144,7 @@ BASE = ["--clusters", "8", "--target", "600", "--seed", "5", "--keep-positions"]
 grow("ref")
 
 # ---- counts no machine could write: refused up front, memory bounded ----------
+section('counts no machine could write: refused up front, memory bounded')
 bad("1e12 clusters", "at most 100000000", "ensemble", "--clusters", "1e12", "--target", "10", "--out", "n1",
     rss_mb=100)
 bad("10^8 + 1 clusters", "at most 100000000", "ensemble", "--clusters", "100000001", "--target", "10",
@@ -179,6 +188,7 @@ for kind in ["fifo", "dir", "zero"]:
           "journal replaced by a %s: exit %s %r" % (kind, rc, err[:200]))
 
 # ---- a damaged record inside the journal: the records after it still count -----
+section('a damaged record inside the journal: the records after it still count')
 shutil.copytree("ref", "mid")
 os.unlink("mid/ensemble.h5")
 text, recs = journal("mid")
@@ -196,6 +206,7 @@ rc, err = resume("mid", what="second resume of a damaged journal")
 check("8 of 8 clusters recorded" in err, "second resume: %s" % err.strip()[:300])
 
 # ---- a record of another ensemble spliced in (valid checksum, 3D) ---------------
+section('a record of another ensemble spliced in (valid checksum, 3D)')
 rc, err = pdla("ensemble", *BASE, "--dim", "3", "--out", "ref3", "-q")
 check(rc == 0, "3D ensemble: %s" % err.strip())
 shutil.copytree("ref", "splice")
@@ -211,10 +222,12 @@ rc, err = resume("splice", what="spliced 3D record")
 same("ref", "splice", "a 3D cluster spliced into a 2D ensemble's journal, resumed")
 
 # ---- the journal cut at sampled lengths ------------------------------------------
+section('the journal cut at sampled lengths')
 text, recs = journal("ref")
 full = open("ref/clusters.journal", "rb").read()
-cuts = sorted({0, 7, 16, 23, 24 + len(text) - 1, 24 + len(text), 24 + len(text) + 8, len(full) - 1} |
-              {rng.randrange(1, len(full)) for _ in range(24 if SLOW else 4)} |
+cuts = sorted({7, 24 + len(text) - 1, 24 + len(text), 24 + len(text) + 8, len(full) - 1} |
+              ({0, 16, 23} if SLOW else set()) |
+              {rng.randrange(1, len(full)) for _ in range(24 if SLOW else 2)} |
               ({o + d for o, _ in recs for d in (0, 15, 16, 100)} if SLOW else set()))
 for n in cuts:
     shutil.rmtree("cut", ignore_errors=True)
@@ -231,6 +244,7 @@ for n in cuts:
             same("ref", "cut", "journal cut at %d bytes, resumed" % n)
 
 # ---- two new runs at once, a resume while a run is live, two resumes at once ----------
+section('two new runs at once, a resume while a run is live, two resumes at once')
 LONG = ["--clusters", "16", "--target", "3000", "--seed", "21", "--keep-positions"]
 rc, err = pdla("ensemble", *LONG, "--threads", "2", "--out", "refl", "-q")
 check(rc == 0, "reference of 16 x 3000: %s" % err.strip())
@@ -294,6 +308,7 @@ rc, err = resume("live", what="resume after two resumes")
 same("refl", "live", "killed while others were refused, then two resumes at once")
 
 # ---- SIGINT, then resume -----------------------------------------------------------
+section('SIGINT, then resume')
 interrupted = False
 for attempt in range(4):
     shutil.rmtree("int", ignore_errors=True)
@@ -314,6 +329,7 @@ for attempt in range(4):
 check(interrupted, "no SIGINT landed before the end of the ensemble")
 
 # ---- kill -9 chains: killed at random moments, resumed with other threads -------
+section('kill -9 chains: killed at random moments, resumed with other threads')
 chains = 3 if SLOW else 1
 for c in range(chains):
     d = "chain%d" % c
@@ -342,6 +358,7 @@ for c in range(chains):
     check(not glob.glob(d + "/*.tmp.*"), "kill -9 chain %d: temporaries left" % c)
 
 # ---- write faults at sampled offsets, then resume ------------------------------------
+section('write faults at sampled offsets, then resume')
 def faulted(d, env):
     e = dict(env, LD_PRELOAD=PRELOAD)
     rc, err = pdla("ensemble", *BASE, "--threads", "2", "--out", d, "-q", env=e)
@@ -352,8 +369,8 @@ shutil.rmtree("cnt", ignore_errors=True)
 faulted("cnt", {"FAULT_COUNT": os.path.abspath("count")})
 ncalls = int(open("count").read())
 check(ncalls > 20, "only %d counted write calls" % ncalls)
-ks = list(range(1, ncalls + 1)) if SLOW else sorted({1, 2, ncalls - 1, ncalls} |
-                                                    {rng.randrange(3, ncalls - 1) for _ in range(3)})
+ks = list(range(1, ncalls + 1)) if SLOW else sorted({1, 2, ncalls} |
+                                                    {rng.randrange(3, ncalls) for _ in range(2)})
 for k in ks:
     for errname in (["ENOSPC", "EIO", "SHORT"] if SLOW else ["ENOSPC"]):
         d = "fault"
@@ -372,6 +389,7 @@ for k in ks:
             same("ref", d, what)
 
 # ---- analyze of half-written ensembles, and a path JSON must escape -----------------------
+section('analyze of half-written ensembles, and a path JSON must escape')
 shutil.copytree("ref", "half")
 os.unlink("half/ensemble.h5")
 rc, err = pdla("analyze", "half/ensemble.h5")
@@ -391,5 +409,6 @@ try:
 except ValueError as e:
     check(False, "analyze --json of %r is not JSON: %s" % (odd, e))
 
+section("done")
 print("%d failures" % len(failures))
 sys.exit(1 if failures else 0)

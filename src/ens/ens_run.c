@@ -18,6 +18,7 @@
 #include <hwloc.h>
 
 #include "pdla/ensemble.h"
+#include "must.h"
 
 static double thread_cpu_seconds(void)
 {
@@ -184,12 +185,12 @@ typedef struct run_ctx {
 
 static void fail(run_ctx *x, int rc, const char *why)
 {
-    pthread_mutex_lock(&x->mu);
+    PDLA_MUST(pthread_mutex_lock(&x->mu));
     if (x->rc == PDLA_OK) {
         x->rc = rc;
         snprintf(x->err, sizeof x->err, "%s", why);
     }
-    pthread_mutex_unlock(&x->mu);
+    PDLA_MUST(pthread_mutex_unlock(&x->mu));
     atomic_store(&x->flags.stop, 1);
 }
 
@@ -259,13 +260,13 @@ int pdla_ens_run(const pdla_ens_config *c, int threads, const pdla_ens_scheduler
             atomic_store(&x->flags.stop, 1);
         }
     }
-    for (int k = 0; k < started; k++) pthread_join(tid[k], NULL);
+    for (int k = 0; k < started; k++) PDLA_MUST(pthread_join(tid[k], NULL));
     if (progress && !stopped) progress(user, atomic_load(&x->done), atomic_load(&x->flags.particles));
     rc = x->rc;
     if (rc) pdla_errorf(rc, err, errlen, "%s", x->err);
     else if (stopped) rc = pdla_errorf(PDLA_ESTOPPED, err, errlen, "stopped after %llu clusters",
                                        (unsigned long long)atomic_load(&x->done));
-    pthread_mutex_destroy(&x->mu);
+    PDLA_MUST(pthread_mutex_destroy(&x->mu));
     free(x);
     free(tid);
     return rc;

@@ -292,10 +292,11 @@ int pdla_ens_mpi_run_root(pdla_ens_journal *j, int threads, pdla_ens_progress_fn
     atomic_init(&x->run_finished, 0);
     atomic_init(&x->remote_done, 0);
     pthread_t tid;
-    if (pthread_create(&tid, NULL, root_run, x)) {
+    const int crc = pthread_create(&tid, NULL, root_run, x);
+    if (crc) {
         free(x->todo);
         free(x);
-        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot start rank 0's growth thread");
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot start rank 0's growth thread: %s", strerror(crc));
     }
     /* An MPI failure here leaves the others waiting: pdla_ens_mpi_finalize aborts the
      * job. Rank 0's own workers end first (no more work for them). */
@@ -473,19 +474,21 @@ int pdla_ens_mpi_run_worker(const pdla_ens_config *c, int threads, pdla_ens_prog
     m->threads = threads;
     m->progress = progress;
     m->user = user;
-    if (pthread_mutex_init(&m->mu, NULL)) {
+    int prc = pthread_mutex_init(&m->mu, NULL);
+    if (prc) {
         free(m);
-        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create a mutex");
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create a mutex: %s", strerror(prc));
     }
-    if (pthread_cond_init(&m->cv, NULL)) {
+    if ((prc = pthread_cond_init(&m->cv, NULL))) {
         PDLA_MUST(pthread_mutex_destroy(&m->mu));
         free(m);
-        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create a condition variable");
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create a condition variable: %s", strerror(prc));
     }
     pthread_t tid;
     int rc = PDLA_OK;
-    if (pthread_create(&tid, NULL, worker_run, m)) {
-        m->run_rc = pdla_errorf(PDLA_ENOMEM, m->run_err, sizeof m->run_err, "cannot start the growth thread");
+    if ((prc = pthread_create(&tid, NULL, worker_run, m))) {
+        m->run_rc = pdla_errorf(PDLA_ENOMEM, m->run_err, sizeof m->run_err, "cannot start the growth thread: %s",
+                                strerror(prc));
     } else {
         rc = worker_serve(m, err, errlen);
         if (pthread_join(tid, NULL) && rc == PDLA_OK)

@@ -236,18 +236,21 @@ int pdla_ens_run(const pdla_ens_config *c, int threads, const pdla_ens_scheduler
     }
     x->c = c;
     x->s = s;
-    if (pthread_mutex_init(&x->mu, NULL)) {
+    const int mrc = pthread_mutex_init(&x->mu, NULL);
+    if (mrc) {
         free(x);
         free(tid);
-        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create a mutex");
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create a mutex: %s", strerror(mrc));
     }
-    int started = 0;
+    int started = 0, crc = 0;
     atomic_store(&x->running, T);
     for (; started < T; started++)
-        if (pthread_create(&tid[started], NULL, worker, x)) break;
+        if ((crc = pthread_create(&tid[started], NULL, worker, x))) break;
     if (started < T) {
         atomic_fetch_sub(&x->running, T - started);
-        fail(x, PDLA_ENOMEM, "cannot start the worker threads");
+        char why[160];
+        snprintf(why, sizeof why, "cannot start worker thread %d of %d: %s", started + 1, T, strerror(crc));
+        fail(x, PDLA_ENOMEM, why);
     }
     /* This thread watches: progress, and the stop it may ask for. */
     int stopped = 0;

@@ -22,18 +22,14 @@ int ens_analyze_is_ensemble(const char *path)
 {
     struct stat st;
     if (stat(path, &st) || !S_ISREG(st.st_mode)) return 0;
-    H5E_auto2_t fn;
-    void *data;
-    H5Eget_auto2(H5E_DEFAULT, &fn, &data);
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+    if (pdla_hdf5_quiet()) return 0; /* cannot tell; the readers tried next say why */
     int yes = 0;
     const hid_t f = H5Fis_hdf5(path) > 0 ? H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT) : H5I_INVALID_HID;
     if (f >= 0) {
         char fmt[64];
         yes = pdla_h5_attr_str(f, "format", fmt, sizeof fmt) == 0 && strcmp(fmt, "pdla-ensemble") == 0;
-        H5Fclose(f);
+        if (H5Fclose(f) < 0) yes = 0; /* a failed close is a failed read */
     }
-    H5Eset_auto2(H5E_DEFAULT, fn, data);
     return yes;
 }
 
@@ -63,7 +59,13 @@ static double *read_f64(hid_t f, const char *path, const char *name, size_t *n, 
     } else {
         *n = (size_t)d.dims[0];
     }
-    pdla_h5_dset_close(&d);
+    /* A failed close is a failed read; after an earlier error, that one is kept. */
+    if (pdla_h5_dset_close(&d) < 0 && v) {
+        snprintf(err, errlen, "%s: cannot close %s (damaged?)", path, name);
+        free(v);
+        v = NULL;
+        *n = 0;
+    }
     return v;
 }
 
@@ -210,21 +212,23 @@ static void print_text(const ens_view *v, const char *path)
 
 int ens_analyze_main(const char *path, int json)
 {
-    H5E_auto2_t efn;
-    void *edata;
-    H5Eget_auto2(H5E_DEFAULT, &efn, &edata);
-    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
-    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    const hid_t f = pdla_hdf5_quiet() ? H5I_INVALID_HID : H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
     if (f < 0) {
         fprintf(stderr, "pdla analyze: cannot open %s\n", path);
-        H5Eset_auto2(H5E_DEFAULT, efn, edata);
         return TOOL_USAGE;
     }
     ens_view v;
     memset(&v, 0, sizeof v);
     char err[1024];
     int code = TOOL_OK;
-    if (view_read(&v, f, path, err, sizeof err)) {
+    int bad = view_read(&v, f, path, err, sizeof err);
+    /* A failed close of the file read to the end is a failed read; after a
+     * failed read, that error is the one to report. */
+    if (H5Fclose(f) < 0 && !bad) {
+        snprintf(err, sizeof err, "%s: cannot close it (damaged?)", path);
+        bad = 1;
+    }
+    if (bad) {
         fprintf(stderr, "pdla analyze: %s\n", err);
         code = TOOL_USAGE;
     } else {
@@ -233,7 +237,5 @@ int ens_analyze_main(const char *path, int json)
         if (fflush(stdout) || ferror(stdout)) code = TOOL_RUNTIME;
     }
     view_free(&v);
-    H5Fclose(f);
-    H5Eset_auto2(H5E_DEFAULT, efn, edata);
     return code;
 }

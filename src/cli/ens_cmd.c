@@ -586,12 +586,18 @@ static int run_steps(ens_cmd *c, int argc, char **argv, char **rest, const char 
     if (code == GO_ON) code = parse_all(c, argc, argv, rest);
     if (code != GO_ON) return code;
     const int threads = c->o.params.threads;
-    pdla_hdf5_quiet();
+    /* Checked once rank 0 owes its verdict (so the others hear of it); the
+     * other ranks read and write no HDF5 file. */
+    const int loud = pdla_hdf5_quiet();
 #ifdef PDLA_WITH_MPI
     /* From here on only rank 0 decides; the others wait for its verdict. */
     if (c->mpi_size > 1 && c->mpi_rank > 0) return worker_rank(threads, c->mpi_rank);
     c->verdict_pending = c->mpi_size > 1;
 #endif
+    if (loud) {
+        fprintf(stderr, "pdla ensemble: cannot turn HDF5's error printing off\n");
+        return EXIT_RUNTIME;
+    }
     code = c->o.resume ? open_resume(c) : open_new(c, threads);
     if (code != GO_ON) return code;
     return grow_and_write(c, threads, cmd, t0);

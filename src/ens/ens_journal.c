@@ -31,6 +31,7 @@
 
 #include "pdla/ensemble.h"
 #include "pdla/params.h"
+#include "must.h"
 
 #define HEAD_MAGIC "PDLAENS1"
 #define REC_MAGIC "PDLAREC1"
@@ -585,7 +586,7 @@ int pdla_ens_journal_append(pdla_ens_journal *j, const pdla_ens_record *rec, cha
     memcpy(head + 8, &len64, 8);
     const uint64_t sum = fnv1a(fnv1a(FNV_START, head + 8, 8), payload, len);
     int rc = PDLA_OK;
-    pthread_mutex_lock(&j->mu);
+    PDLA_MUST(pthread_mutex_lock(&j->mu));
     if (!j->appendable || j->broken) {
         rc = pdla_errorf(PDLA_EIO, err, errlen, "%s is not open for appending", j->path);
     } else if (j->offset[rec->index] == NONE) {
@@ -601,7 +602,7 @@ int pdla_ens_journal_append(pdla_ens_journal *j, const pdla_ens_record *rec, cha
             j->count++;
         }
     }
-    pthread_mutex_unlock(&j->mu);
+    PDLA_MUST(pthread_mutex_unlock(&j->mu));
     free(payload);
     return rc;
 }
@@ -626,7 +627,7 @@ void pdla_ens_journal_close(pdla_ens_journal *j)
 {
     if (!j) return;
     if (j->fd >= 0) close(j->fd);
-    pthread_mutex_destroy(&j->mu);
+    PDLA_MUST(pthread_mutex_destroy(&j->mu));
     free(j->offset);
     free(j->length);
     free(j);

@@ -22,6 +22,7 @@
 #include <time.h>
 
 #include "pdla/ensemble_mpi.h"
+#include "must.h"
 
 enum { TAG_NEXT = 101, TAG_INDEX, TAG_RECORD, TAG_ACK, TAG_BYE };
 
@@ -92,13 +93,12 @@ int pdla_ens_mpi_init(int *rank, int *size, char *err, size_t errlen)
 int pdla_ens_mpi_finalize(int code)
 {
     if (!ens_initialized) return PDLA_OK;
-    if (atomic_load(&ens_broken)) MPI_Abort(MPI_COMM_WORLD, code ? code : 1);
+    /* MPI_Abort ends every rank of the job and does not return. */
+    if (atomic_load(&ens_broken)) (void)MPI_Abort(MPI_COMM_WORLD, code ? code : 1);
     ens_initialized = 0;
-    if (ens_comm != MPI_COMM_NULL && MPI_Comm_free(&ens_comm) != MPI_SUCCESS) {
-        MPI_Finalize();
-        return PDLA_EIO;
-    }
-    return MPI_Finalize() == MPI_SUCCESS ? PDLA_OK : PDLA_EIO;
+    /* MPI_Finalize even after a failed free; either failure is PDLA_EIO. */
+    const int frc = ens_comm != MPI_COMM_NULL ? MPI_Comm_free(&ens_comm) : MPI_SUCCESS;
+    return MPI_Finalize() == MPI_SUCCESS && frc == MPI_SUCCESS ? PDLA_OK : PDLA_EIO;
 }
 
 /* What rank 0 broadcasts before the growth. */
@@ -292,10 +292,11 @@ int pdla_ens_mpi_run_root(pdla_ens_journal *j, int threads, pdla_ens_progress_fn
     atomic_init(&x->run_finished, 0);
     atomic_init(&x->remote_done, 0);
     pthread_t tid;
-    if (pthread_create(&tid, NULL, root_run, x)) {
+    const int crc = pthread_create(&tid, NULL, root_run, x);
+    if (crc) {
         free(x->todo);
         free(x);
-        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot start rank 0's growth thread");
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot start rank 0's growth thread: %s", strerror(crc));
     }
     /* An MPI failure here leaves the others waiting: pdla_ens_mpi_finalize aborts the
      * job. Rank 0's own workers end first (no more work for them). */
@@ -344,14 +345,14 @@ typedef struct mailbox {
  * answer; mu is held on entry and exit. */
 static void mb_ask(mailbox *m, int kind, uint8_t *buf, size_t len)
 {
-    while (m->busy) pthread_cond_wait(&m->cv, &m->mu);
+    while (m->busy) PDLA_MUST(pthread_cond_wait(&m->cv, &m->mu));
     m->busy = 1;
     m->buf = buf;
     m->len = len;
     m->kind = kind;
     m->answered = 0;
-    pthread_cond_broadcast(&m->cv);
-    while (!m->answered) pthread_cond_wait(&m->cv, &m->mu);
+    PDLA_MUST(pthread_cond_broadcast(&m->cv));
+    while (!m->answered) PDLA_MUST(pthread_cond_wait(&m->cv, &m->mu));
 }
 
 static void mb_release(mailbox *m)
@@ -360,18 +361,18 @@ static void mb_release(mailbox *m)
     m->buf = NULL;
     m->kind = REQ_NONE;
     m->answered = 0;
-    pthread_cond_broadcast(&m->cv);
+    PDLA_MUST(pthread_cond_broadcast(&m->cv));
 }
 
 static int worker_next(void *user, uint64_t *index)
 {
     mailbox *m = user;
-    pthread_mutex_lock(&m->mu);
+    PDLA_MUST(pthread_mutex_lock(&m->mu));
     mb_ask(m, REQ_NEXT, NULL, 0);
     const int has = m->has != 0;
     *index = m->index;
     mb_release(m);
-    pthread_mutex_unlock(&m->mu);
+    PDLA_MUST(pthread_mutex_unlock(&m->mu));
     return has;
 }
 
@@ -388,12 +389,12 @@ static int worker_done(void *user, const pdla_ens_record *rec, char *err, size_t
         return pdla_errorf(PDLA_EINVAL, err, errlen, "cluster %llu's record (%zu bytes) is too large for one MPI message",
                            (unsigned long long)rec->index, len);
     }
-    pthread_mutex_lock(&m->mu);
+    PDLA_MUST(pthread_mutex_lock(&m->mu));
     mb_ask(m, REQ_DONE, buf, len);
     const int rc = m->ack.rc;
     if (rc) pdla_errorf(rc < 0 ? rc : PDLA_EIO, err, errlen, "%s", m->ack.text);
     mb_release(m);
-    pthread_mutex_unlock(&m->mu);
+    PDLA_MUST(pthread_mutex_unlock(&m->mu));
     free(buf);
     return rc;
 }
@@ -403,11 +404,11 @@ static void *worker_run(void *arg)
     mailbox *m = arg;
     const pdla_ens_scheduler s = {worker_next, worker_done, m};
     const int rc = pdla_ens_run(m->c, m->threads, &s, m->progress, m->user, m->run_err, sizeof m->run_err);
-    pthread_mutex_lock(&m->mu);
+    PDLA_MUST(pthread_mutex_lock(&m->mu));
     m->run_rc = rc;
     m->finished = 1;
-    pthread_cond_broadcast(&m->cv);
-    pthread_mutex_unlock(&m->mu);
+    PDLA_MUST(pthread_cond_broadcast(&m->cv));
+    PDLA_MUST(pthread_mutex_unlock(&m->mu));
     return NULL;
 }
 
@@ -439,15 +440,15 @@ static int worker_exchange(mailbox *m, int kind, char *err, size_t errlen)
 static int worker_serve(mailbox *m, char *err, size_t errlen)
 {
     int rc = PDLA_OK;
-    pthread_mutex_lock(&m->mu);
+    PDLA_MUST(pthread_mutex_lock(&m->mu));
     for (;;) {
-        while (!m->finished && (m->kind == REQ_NONE || m->answered)) pthread_cond_wait(&m->cv, &m->mu);
+        while (!m->finished && (m->kind == REQ_NONE || m->answered)) PDLA_MUST(pthread_cond_wait(&m->cv, &m->mu));
         if (m->kind != REQ_NONE && !m->answered) {
             const int kind = m->kind;
             if (rc == PDLA_OK) {
-                pthread_mutex_unlock(&m->mu);
+                PDLA_MUST(pthread_mutex_unlock(&m->mu));
                 rc = worker_exchange(m, kind, err, errlen);
-                pthread_mutex_lock(&m->mu);
+                PDLA_MUST(pthread_mutex_lock(&m->mu));
             }
             if (rc) { /* no answer from rank 0: refuse, the workers end */
                 m->has = 0;
@@ -455,12 +456,12 @@ static int worker_serve(mailbox *m, char *err, size_t errlen)
                 snprintf(m->ack.text, sizeof m->ack.text, "lost contact with rank 0");
             }
             m->answered = 1;
-            pthread_cond_broadcast(&m->cv);
+            PDLA_MUST(pthread_cond_broadcast(&m->cv));
             continue;
         }
         if (m->finished) break;
     }
-    pthread_mutex_unlock(&m->mu);
+    PDLA_MUST(pthread_mutex_unlock(&m->mu));
     return rc;
 }
 
@@ -473,19 +474,21 @@ int pdla_ens_mpi_run_worker(const pdla_ens_config *c, int threads, pdla_ens_prog
     m->threads = threads;
     m->progress = progress;
     m->user = user;
-    if (pthread_mutex_init(&m->mu, NULL)) {
+    int prc = pthread_mutex_init(&m->mu, NULL);
+    if (prc) {
         free(m);
-        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create a mutex");
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create a mutex: %s", strerror(prc));
     }
-    if (pthread_cond_init(&m->cv, NULL)) {
-        pthread_mutex_destroy(&m->mu);
+    if ((prc = pthread_cond_init(&m->cv, NULL))) {
+        PDLA_MUST(pthread_mutex_destroy(&m->mu));
         free(m);
-        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create a condition variable");
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create a condition variable: %s", strerror(prc));
     }
     pthread_t tid;
     int rc = PDLA_OK;
-    if (pthread_create(&tid, NULL, worker_run, m)) {
-        m->run_rc = pdla_errorf(PDLA_ENOMEM, m->run_err, sizeof m->run_err, "cannot start the growth thread");
+    if ((prc = pthread_create(&tid, NULL, worker_run, m))) {
+        m->run_rc = pdla_errorf(PDLA_ENOMEM, m->run_err, sizeof m->run_err, "cannot start the growth thread: %s",
+                                strerror(prc));
     } else {
         rc = worker_serve(m, err, errlen);
         if (pthread_join(tid, NULL) && rc == PDLA_OK)
@@ -504,8 +507,8 @@ int pdla_ens_mpi_run_worker(const pdla_ens_config *c, int threads, pdla_ens_prog
         /* Rank 0 reports this rank's error (it came in the goodbye). */
         if (rc == PDLA_OK && m->run_rc == PDLA_ESTOPPED) rc = pdla_errorf(PDLA_ESTOPPED, err, errlen, "%s", m->run_err);
     }
-    pthread_cond_destroy(&m->cv);
-    pthread_mutex_destroy(&m->mu);
+    PDLA_MUST(pthread_cond_destroy(&m->cv));
+    PDLA_MUST(pthread_mutex_destroy(&m->mu));
     free(m);
     return rc;
 }

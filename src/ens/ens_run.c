@@ -18,6 +18,7 @@
 #include <hwloc.h>
 
 #include "pdla/ensemble.h"
+#include "must.h"
 
 static double thread_cpu_seconds(void)
 {
@@ -184,12 +185,12 @@ typedef struct run_ctx {
 
 static void fail(run_ctx *x, int rc, const char *why)
 {
-    pthread_mutex_lock(&x->mu);
+    PDLA_MUST(pthread_mutex_lock(&x->mu));
     if (x->rc == PDLA_OK) {
         x->rc = rc;
         snprintf(x->err, sizeof x->err, "%s", why);
     }
-    pthread_mutex_unlock(&x->mu);
+    PDLA_MUST(pthread_mutex_unlock(&x->mu));
     atomic_store(&x->flags.stop, 1);
 }
 
@@ -235,18 +236,21 @@ int pdla_ens_run(const pdla_ens_config *c, int threads, const pdla_ens_scheduler
     }
     x->c = c;
     x->s = s;
-    if (pthread_mutex_init(&x->mu, NULL)) {
+    const int mrc = pthread_mutex_init(&x->mu, NULL);
+    if (mrc) {
         free(x);
         free(tid);
-        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create a mutex");
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot create a mutex: %s", strerror(mrc));
     }
-    int started = 0;
+    int started = 0, crc = 0;
     atomic_store(&x->running, T);
     for (; started < T; started++)
-        if (pthread_create(&tid[started], NULL, worker, x)) break;
+        if ((crc = pthread_create(&tid[started], NULL, worker, x))) break;
     if (started < T) {
         atomic_fetch_sub(&x->running, T - started);
-        fail(x, PDLA_ENOMEM, "cannot start the worker threads");
+        char why[160];
+        snprintf(why, sizeof why, "cannot start worker thread %d of %d: %s", started + 1, T, strerror(crc));
+        fail(x, PDLA_ENOMEM, why);
     }
     /* This thread watches: progress, and the stop it may ask for. */
     int stopped = 0;
@@ -259,13 +263,13 @@ int pdla_ens_run(const pdla_ens_config *c, int threads, const pdla_ens_scheduler
             atomic_store(&x->flags.stop, 1);
         }
     }
-    for (int k = 0; k < started; k++) pthread_join(tid[k], NULL);
+    for (int k = 0; k < started; k++) PDLA_MUST(pthread_join(tid[k], NULL));
     if (progress && !stopped) progress(user, atomic_load(&x->done), atomic_load(&x->flags.particles));
     rc = x->rc;
     if (rc) pdla_errorf(rc, err, errlen, "%s", x->err);
     else if (stopped) rc = pdla_errorf(PDLA_ESTOPPED, err, errlen, "stopped after %llu clusters",
                                        (unsigned long long)atomic_load(&x->done));
-    pthread_mutex_destroy(&x->mu);
+    PDLA_MUST(pthread_mutex_destroy(&x->mu));
     free(x);
     free(tid);
     return rc;

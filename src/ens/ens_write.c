@@ -382,7 +382,10 @@ int pdla_ens_write_gz(const pdla_ens_journal *j, const pdla_run_info *info, cons
     rc = PDLA_EIO;
     if (h5u_silence(&q) == 0) {
         if (write_file(&w, tmp, j, &c, info, &pv, gzip) == 0) rc = PDLA_OK;
-        h5u_restore(&q);
+        if (h5u_restore(&q) < 0 && rc == PDLA_OK) {
+            h5u_fail_msg(&w, "cannot restore the HDF5 error handler");
+            rc = PDLA_EIO;
+        }
     } else {
         h5u_fail_msg(&w, "cannot silence the HDF5 error stack");
     }

@@ -4,7 +4,8 @@
 # reason, and no stale entry in that list (scripts/check-returns). First it
 # checks that the check can fail: on a scratch tree, each kind of discarded
 # call must be reported at its line (a bare statement, one split over lines
-# after an `if`, a cast to void, a comma at statement level, after a label),
+# after an `if`, a cast to void (after an `if` head or `else` too), a comma
+# at statement level, after a label),
 # the discarded status of a wrapper of an HDF5 close too, a call that can fail
 # at run time inside PDLA_MUST must be refused, a stale
 # or reasonless allow entry must be reported, and calls whose value is used
@@ -61,6 +62,11 @@ void wrapper(pdla_h5_dset *d)
 {
     pdla_h5_dset_close(d);
 }
+void guarded(hid_t f, int x)
+{
+    if (x) (void)H5Fclose(f);
+    else (void)H5Gclose(f);
+}
 C
 printf 'src/m/a.c gone H5Fclose a call that is no longer there\nsrc/m/a.c used\n' >"$tmp/allow"
 out=$(python3 "$cr" --allow "$tmp/allow" "$tmp/src")
@@ -72,13 +78,15 @@ for want in "a.c:3: H5Fclose(...) in bare: its return value is discarded" \
             "a.c:21: MPI_Finalize(...) in labelled" \
             "a.c:25: pthread_create(...) in must: can fail at run time, so not through PDLA_MUST" \
             "a.c:43: pdla_h5_dset_close(...) in wrapper: its return value is discarded" \
+            "a.c:47: H5Fclose(...) in guarded: its return value is cast to void" \
+            "a.c:48: H5Gclose(...) in guarded: its return value is cast to void" \
             "allow:1: src/m/a.c gone H5Fclose matches no discarded call" \
             "allow:2: want FILE FUNCTION CALL REASON"; do
     grep -qF -- "$want" <<<"$out" || { echo "FAIL: the check missed: $want"; fail=1; }
 done
 if [ $rc -eq 0 ]; then echo "FAIL: the check passed a tree with discarded returns"; fail=1; fi
 n=$(grep -c "^check-returns: .*a.c:" <<<"$out")
-if [ "$n" -ne 8 ]; then echo "FAIL: want 8 reports of a.c, got $n:"; echo "$out"; fail=1; fi
+if [ "$n" -ne 10 ]; then echo "FAIL: want 10 reports of a.c, got $n:"; echo "$out"; fail=1; fi
 # Listed with a reason, each is accepted; `(void)NAME` covers only the cast.
 cat >"$tmp/allow" <<'A'
 src/m/a.c bare H5Fclose reason
@@ -88,6 +96,8 @@ src/m/a.c comma H5Sclose reason
 src/m/a.c comma H5Dclose reason
 src/m/a.c labelled MPI_Finalize reason
 src/m/a.c wrapper pdla_h5_dset_close reason
+src/m/a.c guarded (void)H5Fclose reason
+src/m/a.c guarded (void)H5Gclose reason
 A
 out=$(python3 "$cr" --allow "$tmp/allow" "$tmp/src")
 if ! grep -q "in must: can fail at run time" <<<"$out" || [ "$(grep -c '^check-returns: .*a.c:' <<<"$out")" -ne 1 ]; then

@@ -153,6 +153,19 @@ PDLA_API int pdla_ens_journal_begin_append(pdla_ens_journal *j, char *err, size_
  * clusters <= M or a seed range past 2^64 - 1 (nothing written). */
 PDLA_API int pdla_ens_journal_extend(pdla_ens_journal *j, uint64_t clusters, pdla_ens_journal **out,
                                      char *err, size_t errlen);
+/* Before this build appends to a journal another build grew: add this
+ * build (pdla_build_revision) to the journal's list of builds, rewriting
+ * it as pdla_ens_journal_extend does (j is closed, the reopened journal
+ * returned in *out). A journal that lists this build already is returned
+ * as it is (*out = j, nothing written). A build's clusters are the same law
+ * as another's, not the same bits: the list says which builds grew the
+ * ensemble (ensemble.h5 /ensemble builds). */
+PDLA_API int pdla_ens_journal_join(pdla_ens_journal *j, pdla_ens_journal **out, char *err, size_t errlen);
+/* The builds that grew j's records, space-separated revisions in the order
+ * they joined; "" for a journal from before builds were recorded. Whether this
+ * build is among them. */
+PDLA_API const char *pdla_ens_journal_builds(const pdla_ens_journal *j);
+PDLA_API int pdla_ens_journal_built_here(const pdla_ens_journal *j);
 PDLA_API const pdla_ens_config *pdla_ens_journal_config(const pdla_ens_journal *j);
 /* Clusters recorded, and whether cluster i is. */
 PDLA_API uint64_t pdla_ens_journal_count(const pdla_ens_journal *j);

@@ -275,6 +275,9 @@ PDLA_API double pdla_clock_seconds(void);
 
 /* Library version string, e.g. "0.1.0". */
 PDLA_API const char *pdla_version(void);
+/* The source revision libpdla was built from (`git describe --always
+ * --dirty` at build time, as /Code git_revision), "unknown" outside git. */
+PDLA_API const char *pdla_build_revision(void);
 /* The compiler and the build flags libpdla was built with (as in /Code). */
 PDLA_API const char *pdla_build_compiler(void);
 PDLA_API const char *pdla_build_flags(void);

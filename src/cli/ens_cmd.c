@@ -374,6 +374,31 @@ static int parse_all(ens_cmd *c, int argc, char **argv, char **rest)
     return GO_ON;
 }
 
+/* A resume by a build that did not grow the journal's records, with
+ * clusters to grow (missing, or more asked: `grow`): one note, and the
+ * journal lists this build too (ensemble.h5 /ensemble builds), so a mixed
+ * ensemble says so. The note comes first; extending adds the build itself,
+ * then join_build writes nothing. */
+static void note_build(const ens_cmd *c, int grow)
+{
+    if (pdla_ens_journal_built_here(c->j) || !grow) return;
+    const char *was = *pdla_ens_journal_builds(c->j) ? pdla_ens_journal_builds(c->j) : "unknown (not recorded)";
+    fprintf(stderr, "pdla ensemble: note: %s/%s was grown by build %s; this build (%s) grows the rest: the same "
+                    "law, not the same bits as an uninterrupted run (ensemble.h5 /ensemble builds lists them)\n",
+            c->dir, PDLA_ENS_JOURNAL_NAME, was, pdla_build_revision());
+}
+
+/* Before appending: 0, or -1 with the line printed. */
+static int join_build(ens_cmd *c)
+{
+    if (pdla_ens_journal_count(c->j) >= pdla_ens_journal_config(c->j)->clusters) return 0;
+    pdla_ens_journal *next = NULL;
+    const int rc = pdla_ens_journal_join(c->j, &next, c->err, sizeof c->err);
+    c->j = next;
+    if (rc) fprintf(stderr, "pdla ensemble: %s\n", c->err);
+    return rc ? -1 : 0;
+}
+
 /* --resume DIR: lock, open and check the journal, make it appendable.
  * GO_ON or the exit status. */
 static int open_resume(ens_cmd *c)
@@ -425,6 +450,7 @@ static int open_resume(ens_cmd *c)
     if (pdla_ens_journal_torn_bytes(c->j))
         fprintf(stderr, "pdla ensemble: note: cutting a torn record of %" PRIu64 " bytes (a cluster in flight)\n",
                 pdla_ens_journal_torn_bytes(c->j));
+    note_build(c, extend || pdla_ens_journal_count(c->j) < pdla_ens_journal_config(c->j)->clusters);
     remove_named(c->dir, 0);
     if (extend) {
         pdla_ens_journal *wide = NULL;
@@ -435,6 +461,7 @@ static int open_resume(ens_cmd *c)
             return EXIT_RUNTIME;
         }
     }
+    if (join_build(c)) return EXIT_RUNTIME;
     if (pdla_ens_journal_begin_append(c->j, c->err, sizeof c->err)) {
         fprintf(stderr, "pdla ensemble: %s\n", c->err);
         return EXIT_RUNTIME;

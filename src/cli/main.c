@@ -736,7 +736,8 @@ static int print_help_or_version(const cli_options *o)
         fputs(help, stdout);
         free(help);
     } else {
-        printf("pdla %s\ncompiler %s\nbuild %s\n", pdla_version(), pdla_build_compiler(), pdla_build_flags());
+        printf("pdla %s\nrevision %s\ncompiler %s\nbuild %s\n", pdla_version(), pdla_build_revision(), pdla_build_compiler(),
+               pdla_build_flags());
     }
     if (fflush(stdout) || ferror(stdout)) {
         fprintf(stderr, "pdla: cannot write to stdout: %s\n", strerror(errno));

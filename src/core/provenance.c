@@ -168,4 +168,5 @@ int prov_collect(pdla_provenance *out)
 }
 
 const char *pdla_build_compiler(void) { return PDLA_COMPILER; }
+const char *pdla_build_revision(void) { return PDLA_GIT_REV; }
 const char *pdla_build_flags(void) { return PDLA_BUILD_FLAGS; }

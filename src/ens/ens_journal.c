@@ -15,8 +15,10 @@
  * Layout (native byte order, marked in the header):
  *   "PDLAENS1", u32 0x01020304, u32 L, L bytes of text, u64 FNV-1a(text)
  *   then records: "PDLAREC1", u64 P, P bytes (a record), u64 FNV-1a(P, bytes)
- * The text is "key=value" lines: format, every row of the parameter table
- * (exact values), clusters, keep_positions.
+ * The text is "key=value" lines: format, the builds of pdla that grew
+ * records ("build=REVISION", one line each, in the order they joined; none
+ * in journals from before builds were recorded), every row of the
+ * parameter table (exact values), clusters, keep_positions.
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -38,6 +40,7 @@
 #define BOM UINT32_C(0x01020304)
 #define FORMAT_LINE "format=pdla-ensemble-journal 1\n"
 #define NONE UINT64_MAX
+#define JOURNAL_BUILDS_MAX 2048
 
 struct pdla_ens_journal {
     char path[4200];
@@ -52,6 +55,7 @@ struct pdla_ens_journal {
     uint64_t end;           /* bytes of valid journal */
     uint64_t torn;          /* bytes after end (a torn or damaged tail) */
     uint64_t damaged;       /* bytes of damaged records skipped before end */
+    char builds[JOURNAL_BUILDS_MAX]; /* the builds that grew records, space-separated */
 };
 
 static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
@@ -97,14 +101,16 @@ static int read_all(int fd, void *buf, size_t n, uint64_t off)
 
 /* ---- the header text ---------------------------------------------------- */
 
-static char *header_text(const pdla_ens_config *c, size_t *len)
+static char *header_text(const pdla_ens_config *c, const char *builds, size_t *len)
 {
     size_t n;
     const pdla_param_desc *t = pdla_param_table(&n);
-    size_t cap = 4096, used = 0;
+    size_t cap = 4096 + JOURNAL_BUILDS_MAX * 2, used = 0;
     char *s = malloc(cap);
     if (!s) return NULL;
     used += (size_t)snprintf(s, cap, "%s", FORMAT_LINE);
+    for (const char *b = builds; *b; b += strcspn(b, " "), b += *b == ' ') /* one line a build */
+        used += (size_t)snprintf(s + used, cap - used, "build=%.*s\n", (int)strcspn(b, " "), b);
     for (size_t i = 0; i < n; i++) {
         char v[80];
         pdla_param_format(&t[i], &c->params, 1, v, sizeof v);
@@ -135,7 +141,21 @@ static int parse_u64(const char *v, uint64_t *out)
     return 0;
 }
 
-static int header_parse(char *text, pdla_ens_config *c, char *why, size_t whylen)
+/* Append revision v to builds (space-separated): -1 when it is not
+ * printable without blanks or the list is full. */
+static int builds_add(char *builds, const char *v)
+{
+    const size_t n = strlen(v);
+    size_t used = strlen(builds);
+    if (!n || n > 200 || used + n + 2 > JOURNAL_BUILDS_MAX) return -1;
+    for (size_t i = 0; i < n; i++)
+        if (v[i] < 0x21 || v[i] > 0x7e) return -1;
+    if (used) builds[used++] = ' ';
+    memcpy(builds + used, v, n + 1);
+    return 0;
+}
+
+static int header_parse(char *text, pdla_ens_config *c, char *builds, char *why, size_t whylen)
 {
     size_t n;
     const pdla_param_desc *t = pdla_param_table(&n);
@@ -157,6 +177,10 @@ static int header_parse(char *text, pdla_ens_config *c, char *why, size_t whylen
         if (!strcmp(line, "clusters")) {
             if (parse_u64(v, &c->clusters)) return snprintf(why, whylen, "a bad cluster count"), -1;
             have_m = 1;
+            continue;
+        }
+        if (!strcmp(line, "build")) {
+            if (builds_add(builds, v)) return snprintf(why, whylen, "a bad build line"), -1;
             continue;
         }
         if (!strcmp(line, "keep_positions")) {
@@ -218,6 +242,8 @@ static int journal_alloc_index(pdla_ens_journal *j)
     return 0;
 }
 
+static uint8_t *header_bytes(const pdla_ens_config *c, const char *builds, size_t *len);
+
 static int sync_dir(const char *dir)
 {
     const int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
@@ -239,31 +265,21 @@ int pdla_ens_journal_create(const char *dir, const pdla_ens_config *c, pdla_ens_
         pdla_ens_journal_close(j);
         return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the journal");
     }
-    size_t tl = 0;
-    char *text = header_text(c, &tl);
+    (void)builds_add(j->builds, pdla_build_revision()); /* refused only if not printable: then none */
+    size_t hl = 0;
+    uint8_t *buf = header_bytes(c, j->builds, &hl);
     char tmp[4300];
     snprintf(tmp, sizeof tmp, "%s.tmp.%ld", j->path, (long)getpid());
-    const int fd = text ? open(tmp, O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0666) : -1;
+    const int fd = buf ? open(tmp, O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0666) : -1;
     if (fd < 0) {
-        rc = text ? pdla_errorf(PDLA_EIO, err, errlen, "cannot create %s: %s", tmp, strerror(errno))
-                  : pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory");
-        free(text);
+        rc = buf ? pdla_errorf(PDLA_EIO, err, errlen, "cannot create %s: %s", tmp, strerror(errno))
+                 : pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory");
+        free(buf);
         pdla_ens_journal_close(j);
         return rc;
     }
-    const uint32_t h[2] = {BOM, (uint32_t)tl};
-    const uint64_t sum = fnv1a(FNV_START, text, tl);
-    uint8_t *buf = malloc(16 + tl + 8);
-    int bad = !buf;
-    if (buf) {
-        memcpy(buf, HEAD_MAGIC, 8);
-        memcpy(buf + 8, h, 8);
-        memcpy(buf + 16, text, tl);
-        memcpy(buf + 16 + tl, &sum, 8);
-        bad = write_all(fd, buf, 24 + tl, 0) || fsync(fd);
-    }
+    const int bad = write_all(fd, buf, hl, 0) || fsync(fd);
     free(buf);
-    free(text);
     if (bad || rename(tmp, j->path)) {
         const int e = errno;
         close(fd);
@@ -275,7 +291,7 @@ int pdla_ens_journal_create(const char *dir, const pdla_ens_config *c, pdla_ens_
     }
     sync_dir(dir);
     j->fd = fd;
-    j->head_end = j->end = 24 + tl;
+    j->head_end = j->end = hl;
     j->appendable = 1;
     *out = j;
     return PDLA_OK;
@@ -438,7 +454,7 @@ int pdla_ens_journal_open(const char *dir, pdla_ens_journal **out, char *err, si
         goto fail;
     }
     text[h[1]] = '\0';
-    if (header_parse(text, &j->cfg, why, sizeof why)) goto fail;
+    if (header_parse(text, &j->cfg, j->builds, why, sizeof why)) goto fail;
     if (journal_alloc_index(j)) {
         rc = PDLA_ENOMEM;
         snprintf(why, sizeof why, "out of memory");
@@ -478,10 +494,10 @@ int pdla_ens_journal_begin_append(pdla_ens_journal *j, char *err, size_t errlen)
 
 /* The header of c: "PDLAENS1", BOM, length, text, checksum. malloc'ed,
  * *len bytes; NULL when out of memory. */
-static uint8_t *header_bytes(const pdla_ens_config *c, size_t *len)
+static uint8_t *header_bytes(const pdla_ens_config *c, const char *builds, size_t *len)
 {
     size_t tl = 0;
-    char *text = header_text(c, &tl);
+    char *text = header_text(c, builds, &tl);
     uint8_t *buf = text ? malloc(24 + tl) : NULL;
     if (buf) {
         const uint32_t h[2] = {BOM, (uint32_t)tl};
@@ -510,23 +526,37 @@ static int copy_range(int fd, uint64_t from, uint64_t to, int out, uint64_t at)
     return bad ? -1 : 0;
 }
 
-/* pdla_ens_journal_extend's rewrite of j's file. */
-static int journal_extend_file(pdla_ens_journal *j, uint64_t clusters, char *err, size_t errlen)
+/* Is this build in j's list? */
+static int builds_has_this(const pdla_ens_journal *j)
+{
+    const char *me = pdla_build_revision();
+    const size_t n = strlen(me);
+    for (const char *b = j->builds; *b; b += strcspn(b, " "), b += *b == ' ')
+        if (strcspn(b, " ") == n && !memcmp(b, me, n)) return 1;
+    return 0;
+}
+
+/* Rewrite j's file for `clusters` clusters with this build in its list:
+ * the new header and the valid records into a temporary file, fsync'ed and
+ * renamed over it (a crash leaves the old or the new journal whole). */
+static int journal_rewrite_file(pdla_ens_journal *j, uint64_t clusters, char *err, size_t errlen)
 {
     pdla_ens_config c = j->cfg;
-    if (clusters <= c.clusters)
-        return pdla_errorf(PDLA_EINVAL, err, errlen, "cannot extend %s from %llu to %llu clusters", j->path,
-                           (unsigned long long)c.clusters, (unsigned long long)clusters);
     c.clusters = clusters;
     int rc = pdla_ens_config_check(&c, err, errlen);
     if (rc) return rc;
+    char builds[JOURNAL_BUILDS_MAX];
+    memcpy(builds, j->builds, sizeof builds);
+    /* Records of a journal from before builds were recorded: "unrecorded". */
+    if (!*builds && j->count) (void)builds_add(builds, "unrecorded");
+    if (!builds_has_this(j)) (void)builds_add(builds, pdla_build_revision()); /* a full list stays as it is */
     char dir[4200], tmp[4300];
     snprintf(dir, sizeof dir, "%s", j->path);
     char *slash = strrchr(dir, '/');
     if (slash) *slash = '\0';
     snprintf(tmp, sizeof tmp, "%s.tmp.%ld", j->path, (long)getpid());
     size_t hl = 0;
-    uint8_t *head = header_bytes(&c, &hl);
+    uint8_t *head = header_bytes(&c, builds, &hl);
     if (!head) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the journal header");
     const int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
     /* The valid records only: a torn tail is left behind. */
@@ -546,11 +576,12 @@ static int journal_extend_file(pdla_ens_journal *j, uint64_t clusters, char *err
 }
 
 
-int pdla_ens_journal_extend(pdla_ens_journal *j, uint64_t clusters, pdla_ens_journal **out, char *err,
-                            size_t errlen)
+/* Rewrite j for `clusters`, close it and reopen it into *out. */
+static int journal_rewrite(pdla_ens_journal *j, uint64_t clusters, pdla_ens_journal **out, char *err,
+                           size_t errlen)
 {
     *out = NULL;
-    const int rc0 = journal_extend_file(j, clusters, err, errlen);
+    const int rc0 = journal_rewrite_file(j, clusters, err, errlen);
     char dir[4200];
     snprintf(dir, sizeof dir, "%s", j->path);
     char *slash = strrchr(dir, '/');
@@ -559,6 +590,30 @@ int pdla_ens_journal_extend(pdla_ens_journal *j, uint64_t clusters, pdla_ens_jou
     return rc0 ? rc0 : pdla_ens_journal_open(dir, out, err, errlen);
 }
 
+int pdla_ens_journal_extend(pdla_ens_journal *j, uint64_t clusters, pdla_ens_journal **out, char *err,
+                            size_t errlen)
+{
+    if (clusters <= j->cfg.clusters) {
+        *out = NULL;
+        const int rc = pdla_errorf(PDLA_EINVAL, err, errlen, "cannot extend %s from %llu to %llu clusters",
+                                   j->path, (unsigned long long)j->cfg.clusters, (unsigned long long)clusters);
+        pdla_ens_journal_close(j);
+        return rc;
+    }
+    return journal_rewrite(j, clusters, out, err, errlen);
+}
+
+int pdla_ens_journal_join(pdla_ens_journal *j, pdla_ens_journal **out, char *err, size_t errlen)
+{
+    if (builds_has_this(j)) {
+        *out = j;
+        return PDLA_OK;
+    }
+    return journal_rewrite(j, j->cfg.clusters, out, err, errlen);
+}
+
+const char *pdla_ens_journal_builds(const pdla_ens_journal *j) { return j->builds; }
+int pdla_ens_journal_built_here(const pdla_ens_journal *j) { return builds_has_this(j); }
 const pdla_ens_config *pdla_ens_journal_config(const pdla_ens_journal *j) { return &j->cfg; }
 uint64_t pdla_ens_journal_count(const pdla_ens_journal *j) { return j->count; }
 uint64_t pdla_ens_journal_torn_bytes(const pdla_ens_journal *j) { return j->torn; }

@@ -5,7 +5,9 @@
  *   /                     format = "pdla-ensemble", format_version = 1, units
  *   /parameters           cluster 0's growth parameters (seed = the first seed)
  *   /ensemble             attrs clusters, first_seed, seed_rule, keep_positions,
- *                         particles (per cluster), total_cpu_seconds
+ *                         particles (per cluster), total_cpu_seconds, builds
+ *                         (the revisions of pdla that grew the clusters,
+ *                         space-separated, in the order they joined)
  *   /gyration/N           u64 [K], the shared log grid of R_g samples
  *   /clusters/rg_diam     f64 [M][K], R_g(N) of each cluster, diameters
  *   /clusters/index, seed, particles, walkers, jumps (u64 [M]),
@@ -257,18 +259,21 @@ fail:
     return h5u_close(w, rc, g, H5Gclose, "/clusters");
 }
 
-static int write_ensemble(const h5u_writer *w, hid_t file, const pdla_ens_config *cfg, const columns *c)
+static int write_ensemble(const h5u_writer *w, hid_t file, const pdla_ens_journal *j, const columns *c)
 {
+    const pdla_ens_config *cfg = pdla_ens_journal_config(j);
     hid_t g = H5I_INVALID_HID;
     int rc = -1;
     double cpu = 0;
     for (size_t i = 0; i < c->m; i++) cpu += c->cpu[i];
+    const char *builds = *pdla_ens_journal_builds(j) ? pdla_ens_journal_builds(j)
+                                                      : "unknown (a journal from before builds were recorded)";
     if ((g = h5u_group(w, file, "ensemble")) < 0) goto fail;
     if (h5u_attr_u64(w, g, "clusters", cfg->clusters) < 0 || h5u_attr_u64(w, g, "first_seed", cfg->params.seed) < 0 ||
         h5u_attr_str(w, g, "seed_rule", "cluster i is the serial DLA cluster of seed first_seed + i") < 0 ||
         h5u_attr_int(w, g, "keep_positions", cfg->keep_positions) < 0 ||
         h5u_attr_u64(w, g, "particles", cfg->params.target) < 0 ||
-        h5u_attr_f64(w, g, "total_cpu_seconds", cpu) < 0)
+        h5u_attr_f64(w, g, "total_cpu_seconds", cpu) < 0 || h5u_attr_str(w, g, "builds", builds) < 0)
         goto fail;
     rc = 0;
 fail:
@@ -292,7 +297,7 @@ static int write_file(const h5u_writer *w, const char *tmp, const pdla_ens_journ
     if ((file = h5u_create_file(w, tmp)) < 0) goto fail;
     if (h5u_attr_str(w, file, "format", "pdla-ensemble") < 0 || h5u_attr_int(w, file, "format_version", 1) < 0 ||
         h5u_attr_str(w, file, "units", units_text) < 0 || h5u_write_parameters(w, file, &cfg->params) < 0 ||
-        write_ensemble(w, file, cfg, c) < 0 || write_clusters(w, file, c) < 0 ||
+        write_ensemble(w, file, j, c) < 0 || write_clusters(w, file, c) < 0 ||
         (cfg->keep_positions && write_positions(w, file, j, c, gzip) < 0) ||
         write_statistics(w, file, c->grid, c->k, c->rg, c->m, c->df, cfg->params.target) < 0 ||
         h5u_write_code(w, file, pv, info ? info->command_line : NULL) < 0)

@@ -41,7 +41,7 @@ static void grid_free(distmap_grid *g)
     free(g);
 }
 
-/* ---- quad-bit tiles (2D, coarsened fine cells) ------------------------ */
+/* ---- leaf-bit tiles (2D, coarsened fine cells) ------------------------ */
 
 #define TSEG_TILES ((size_t)1 << DISTMAP_TSEG_SHIFT)
 #define TSEG_BYTES (TSEG_TILES * DISTMAP_TILE_WORDS * sizeof(uint64_t))
@@ -49,15 +49,28 @@ static void grid_free(distmap_grid *g)
 size_t distmap_tile_bytes(const distmap *m)
 {
     if (!m->tseg) return 0;
-    /* The segment table is calloc'd: only its first entries are touched. */
+    /* The segment table is mmap'd: only its first entries are touched. */
     return (size_t)(m->ntiles - 1) * DISTMAP_TILE_WORDS * sizeof(uint64_t);
 }
 
 static void tiles_free(distmap *m)
 {
     if (!m->tseg) return;
+#ifdef DISTMAP_TRACE
+    {
+        size_t nz = 0, bits = 0;
+        for (uint32_t id = 1; id < m->ntiles; id++)
+            for (int w = 0; w < DISTMAP_TILE_WORDS; w++) {
+                const uint64_t v = m->tseg[id >> DISTMAP_TSEG_SHIFT][(id & (TSEG_TILES - 1)) * DISTMAP_TILE_WORDS + w];
+                nz += v != 0;
+                bits += (size_t)__builtin_popcountll(v);
+            }
+        fprintf(stderr, "tiles %u: nonzero words %zu of %zu, bits %zu\n", m->ntiles - 1, nz,
+                (size_t)(m->ntiles - 1) * DISTMAP_TILE_WORDS, bits);
+    }
+#endif
     for (size_t i = 0; i < DISTMAP_TSEG_MAX && m->tseg[i]; i++) munmap((void *)m->tseg[i], TSEG_BYTES);
-    free(m->tseg);
+    munmap((void *)m->tseg, DISTMAP_TSEG_MAX * sizeof *m->tseg);
     m->tseg = NULL;
     m->ntiles = 1;
 }
@@ -68,18 +81,19 @@ static uint32_t tile_new(distmap *m)
     const uint32_t id = m->ntiles;
     const size_t seg = id >> DISTMAP_TSEG_SHIFT;
     if (seg >= DISTMAP_TSEG_MAX) return 0;
-    if (!m->tseg && !(m->tseg = calloc(DISTMAP_TSEG_MAX, sizeof *m->tseg))) return 0;
+    /* The segment table from mmap too: only its first page becomes resident. */
+    if (!m->tseg && !(m->tseg = cells_alloc(DISTMAP_TSEG_MAX * sizeof *m->tseg))) return 0;
     if (!m->tseg[seg] && !(m->tseg[seg] = cells_alloc(TSEG_BYTES))) return 0;
     m->ntiles++;
     return id;
 }
 
-/* Set the bit of the quad at absolute quad coordinates (lx, ly) in grid g
+/* Set the bit of the leaf at absolute leaf coordinates (lx, ly) in grid g
  * (which has tile ids and covers it), making its tile if needed. Returns 1
  * if the bit was new, 0 if it was set already, -1 out of memory. The tile
  * is zero before its id is published, and the bit is stored with release,
  * so a reader that sees either sees a valid word. */
-static int quadbit_set(distmap *m, distmap_grid *g, int64_t lx, int64_t ly)
+static int leafbit_set(distmap *m, distmap_grid *g, int64_t lx, int64_t ly)
 {
     const size_t slot = (size_t)((ly >> DISTMAP_TILE_SHIFT) + g->toff) * g->tw +
                         (size_t)((lx >> DISTMAP_TILE_SHIFT) + g->toff);
@@ -98,9 +112,9 @@ static int quadbit_set(distmap *m, distmap_grid *g, int64_t lx, int64_t ly)
     return 1;
 }
 
-static int quadbit_get(const distmap *m, const distmap_grid *g, int64_t lx, int64_t ly)
+static int leafbit_get(const distmap *m, const distmap_grid *g, int64_t lx, int64_t ly)
 {
-    return (int)((distmap_quad_word(m, g, lx >> 3, ly >> 3) >> ((ly & 7) * 8 + (lx & 7))) & 1);
+    return (int)((distmap_leaf_word(m, g, lx >> 3, ly >> 3) >> ((ly & 7) * 8 + (lx & 7))) & 1);
 }
 
 int distmap_init(distmap *m, int dim, int bits, int64_t margin_units)
@@ -283,7 +297,7 @@ static uint64_t fine_bytes(int dim, int64_t half, int bits)
  * aligned to absolute coordinates; half may be less than a tile). */
 static int64_t tile_off(int64_t half)
 {
-    const int shift = DISTMAP_QUAD_BITS + DISTMAP_TILE_SHIFT;
+    const int shift = DISTMAP_LEAFBIT_SHIFT + DISTMAP_TILE_SHIFT;
     return (half + ((int64_t)1 << shift) - 1) >> shift;
 }
 
@@ -292,7 +306,7 @@ static uint32_t tile_width(int64_t half)
     return (uint32_t)(2 * tile_off(half));
 }
 
-/* Mark in g (which has tile ids) the quads of the old grid's fine cells
+/* Mark in g (which has tile ids) the leaves of the old grid's fine cells
  * that hold a particle (its cells are the leaves): the first coarsening. */
 static int tiles_from_leaf_cells(distmap *m, distmap_grid *g, const distmap_grid *old)
 {
@@ -301,7 +315,7 @@ static int tiles_from_leaf_cells(distmap *m, distmap_grid *g, const distmap_grid
     for (int64_t y = 0; y < ow; y++)
         for (int64_t x = 0; x < ow; x++)
             if (cell_get(O, cell_index(O, x, y, 0)) == 0 &&
-                quadbit_set(m, g, (x - off) >> 1, (y - off) >> 1) < 0)
+                leafbit_set(m, g, x - off, y - off) < 0)
                 return -1;
     return 0;
 }
@@ -317,10 +331,10 @@ static distmap_grid *grid_make(distmap *m, const distmap_grid *old, int64_t h)
     for (;;) {
         const int64_t side = (int64_t)1 << (fb + DISTMAP_COARSE_SHIFT);
         half = (h + side - 1) / side * side;
-        /* Coarsened 2D cells come with the quad bits: the fine level
+        /* Coarsened 2D cells come with the leaf bits: the fine level
          * gets a share of the budget (distmap.h). */
         const double fine_budget =
-            dim == 2 && fb > TREE_LEAF_BITS ? budget / DISTMAP_QUAD_FINE_SHARE : budget;
+            dim == 2 && fb > TREE_LEAF_BITS ? budget / DISTMAP_LEAF_FINE_SHARE : budget;
 #ifdef DISTMAP_TRACE
         fprintf(stderr, "  try fb %d half %lld fine %llu budget %.0f fine_budget %.0f\n", fb, (long long)half,
                 (unsigned long long)fine_bytes(dim, half, fb), budget, fine_budget);
@@ -513,7 +527,7 @@ int distmap_needs_add(const distmap *m, const int64_t *p)
         for (int a = 0; a < m->dim; a++) c[a] = (p[a] + g->half) >> g->lv[l].bits;
         if (distmap_level_value(&g->lv[l], c, m->dim) != 0) return 1;
     }
-    if (g->tix && !quadbit_get(m, g, p[0] >> DISTMAP_QUAD_BITS, p[1] >> DISTMAP_QUAD_BITS)) return 1;
+    if (g->tix && !leafbit_get(m, g, p[0] >> DISTMAP_LEAFBIT_SHIFT, p[1] >> DISTMAP_LEAFBIT_SHIFT)) return 1;
     return 0;
 }
 
@@ -534,10 +548,10 @@ int distmap_add(distmap *m, const int64_t *p, uint64_t particles, int concurrent
         publish(m, ng, concurrent);
         g = ng;
     }
-    /* The quad bit first: a reader that sees the cells lowered may look
+    /* The leaf bit first: a reader that sees the cells lowered may look
      * for the leaf. */
     if (g->tix) {
-        const int set = quadbit_set(m, g, p[0] >> DISTMAP_QUAD_BITS, p[1] >> DISTMAP_QUAD_BITS);
+        const int set = leafbit_set(m, g, p[0] >> DISTMAP_LEAFBIT_SHIFT, p[1] >> DISTMAP_LEAFBIT_SHIFT);
         if (set < 0) {
             disable(m, concurrent);
             return 0;
@@ -578,7 +592,7 @@ static int zero_cells(const int64_t *p, void *user)
         cell_set(L, cell_index(L, c[0], c[1], c[2]), 0);
     }
     if (b->g->tix &&
-        quadbit_set(b->m, b->g, p[0] >> DISTMAP_QUAD_BITS, p[1] >> DISTMAP_QUAD_BITS) < 0)
+        leafbit_set(b->m, b->g, p[0] >> DISTMAP_LEAFBIT_SHIFT, p[1] >> DISTMAP_LEAFBIT_SHIFT) < 0)
         return -1;
     return 0;
 }

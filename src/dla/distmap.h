@@ -67,27 +67,27 @@
 #ifndef DISTMAP_BUDGET_PER_PARTICLE
 #define DISTMAP_BUDGET_PER_PARTICLE 0.04
 #endif
-/* 2D quad bits. Once the 2D fine cells coarsen, the map also keeps one bit
- * per quad (2 x 2 leaves, 512 units: the box of a level-1 tree node), set
- * when a particle lands in it, so the walk near the cluster keeps about
- * the resolution of leaf cells (search_block2: the 3 x 3 leaf block, whose
- * empty leaves it knows from the bits and the tree, and a chessboard quad
- * distance of up to DISTMAP_QUAD_REACH quads from the 3 x 3 words of 8 x 8
- * quads around the walker). Bits live in tiles of 32 x 32 quads (16 words,
- * 128 bytes), made only where a particle lands, from a pool of segments
- * that never move (2^DISTMAP_TSEG_SHIFT tiles each); each grid holds the
- * tile ids over its area (4 bytes per tile slot). One bit per leaf would
- * cost about 0.035 bytes/particle in 2D, one per quad about a third of
- * that. With the bits, the fine level gets a sixth of the budget (it then
- * serves only the bound beyond the bits' reach). */
-#define DISTMAP_QUAD_BITS (TREE_LEAF_BITS + 1) /* quad side 2^9 units */
-#define DISTMAP_TILE_SHIFT 5        /* tile side 2^5 quads */
-#define DISTMAP_TILE_WORDS 16       /* 4 x 4 words of 8 x 8 quads */
+/* 2D leaf bits. Once the 2D fine cells coarsen, the map also keeps one bit
+ * per leaf (256 units), set when a particle lands in it, so the walk near
+ * the cluster keeps the resolution of leaf cells (search_block2: the 3 x 3
+ * leaf block, and beyond it a chessboard leaf distance of up to
+ * DISTMAP_LEAF_REACH leaves, from the 3 x 3 words of 8 x 8 leaves around
+ * the walker). Bits live in tiles of 32 x 32 leaves (16 words, 128 bytes),
+ * made only where a particle lands, from a pool of segments that never move
+ * (2^DISTMAP_TSEG_SHIFT tiles each); each grid holds the tile ids over its
+ * area (4 bytes per tile slot). They cost about 0.035 bytes/particle in 2D
+ * (2D DLA: ~300 marked leaves a tile); the fine level then gets a share of
+ * the budget only (it serves the bound beyond the bits' reach). One bit per
+ * 2 x 2 leaves (a third of the tiles) was measured slower: more jumps and
+ * more tree look-ups (runs/bench-serial/issue12-map12-2026-11-25.md). */
+#define DISTMAP_LEAFBIT_SHIFT TREE_LEAF_BITS /* one bit a leaf */
+#define DISTMAP_TILE_SHIFT 5        /* tile side 2^5 leaves */
+#define DISTMAP_TILE_WORDS 16       /* 4 x 4 words of 8 x 8 leaves */
 #define DISTMAP_TSEG_SHIFT 10       /* tiles per pool segment: 2^10 (128 KiB) */
 #define DISTMAP_TSEG_MAX 4096       /* segments: 4M tiles */
-#define DISTMAP_QUAD_REACH 8
-#ifndef DISTMAP_QUAD_FINE_SHARE
-#define DISTMAP_QUAD_FINE_SHARE 6   /* the fine level's share of the budget: 1/6 */
+#define DISTMAP_LEAF_REACH 8
+#ifndef DISTMAP_LEAF_FINE_SHARE
+#define DISTMAP_LEAF_FINE_SHARE 6   /* the fine level's share of the budget: 1/6 */
 #endif
 /* 3D: the target is 6 bytes/particle at 1e6 and the tree takes ~4.8 in
  * peak RSS. Measured at 3D 1e6 (VmHWM difference to 1e4, seed 1): budget
@@ -107,9 +107,9 @@ typedef struct distmap_grid {
     int64_t half;                 /* covers [-half, half)^dim units, whole coarse cells */
     distmap_level lv[2];          /* 0 fine, 1 coarse */
     size_t bytes;                 /* of both levels' cells and the tile ids */
-    /* 2D with coarsened fine cells: the id of the quad-bit tile over each
-     * 32 x 32 quads of the grid (tw x tw, x fastest; 0: no particle there
-     * yet). NULL otherwise (no quad bits: the fine cells are the leaves,
+    /* 2D with coarsened fine cells: the id of the leaf-bit tile over each
+     * 32 x 32 leaves of the grid (tw x tw, x fastest; 0: no particle there
+     * yet). NULL otherwise (no leaf bits: the fine cells are the leaves,
      * or 3D). */
     _Atomic uint32_t *tix;
     uint32_t tw;                  /* 2 toff */
@@ -139,7 +139,7 @@ typedef struct distmap {
     distmap_grid *old;            /* retired grids, newest first */
     size_t retired_bytes;         /* their cells */
     size_t bytes;                 /* bytes of the current grid */
-    /* The quad-bit tiles (2D, coarsened): segments of 2^DISTMAP_TSEG_SHIFT
+    /* The leaf-bit tiles (2D, coarsened): segments of 2^DISTMAP_TSEG_SHIFT
      * tiles, each DISTMAP_TILE_WORDS words; tile id i (>= 1) is word
      * (i & mask) * 16 of segment i >> shift. A segment pointer is written
      * before any id in it is published (release), so readers that found
@@ -189,15 +189,15 @@ int distmap_rebuild(distmap *m, const tree *t);
 
 /* search_block2, the map-assisted search, is declared in search.h. */
 
-/* Bytes of the quad-bit tiles in use (0 when there are none). */
+/* Bytes of the leaf-bit tiles in use (0 when there are none). */
 size_t distmap_tile_bytes(const distmap *m);
 
-/* The word of 8 x 8 quad bits whose quads have absolute quad coordinates
- * (wx * 8.., wy * 8..) (quad coordinates: units >> DISTMAP_QUAD_BITS; bit
+/* The word of 8 x 8 leaf bits whose leaves have absolute leaf coordinates
+ * (wx * 8.., wy * 8..) (leaf coordinates: units >> DISTMAP_LEAFBIT_SHIFT; bit
  * (y & 7) * 8 + (x & 7)), from grid g, which must have tile ids. 0 when no
  * tile is there, or the word lies outside the grid (no particle lies
  * there). Readers call it without a lock. */
-static inline __attribute__((always_inline)) uint64_t distmap_quad_word(const distmap *m,
+static inline __attribute__((always_inline)) uint64_t distmap_leaf_word(const distmap *m,
                                                                         const distmap_grid *g,
                                                                         int64_t wx, int64_t wy)
 {

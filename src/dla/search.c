@@ -1033,7 +1033,7 @@ static inline __attribute__((always_inline)) uint32_t blk_lookup(const tree *t,
         if (distmap_level_value_k(L, nc, dim, 1) != 0) return k->blk_head[o] = BLK_EMPTY;
     }
     const uint32_t head = find_leaf_cached(t, nlo, k, dim);
-    /* Quad bits: the cache key is the tree's count (block_bits2). */
+    /* Leaf bits: the cache key is the tree's count (block_bits2). */
     return k->blk_head[o] = head ? head : bits ? BLK_EMPTY : BLK_UNKNOWN;
 }
 
@@ -1187,7 +1187,7 @@ __attribute__((destructor)) static void lb_report(void)
             (unsigned long long)lb_moves, (unsigned long long)lb_queries, (unsigned long long)lb_bounds);
 }
 #endif
-/* The walker's quad-bit rows (search_state lb_row) for the 3 x 3 words
+/* The walker's leaf-bit rows (search_state lb_row) for the 3 x 3 words
  * around word (wx, wy), as of cache key `key` (read before the grid). */
 static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, int64_t wx,
                     int64_t wy, uint64_t key)
@@ -1197,9 +1197,9 @@ static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, in
     if (k->lb_valid && k->lb_leaves == key) lb_moves++;
 #endif
     for (int j = 0; j < 3; j++) {
-        const uint64_t w0 = distmap_quad_word(m, g, wx - 1, wy - 1 + j);
-        const uint64_t w1 = distmap_quad_word(m, g, wx, wy - 1 + j);
-        const uint64_t w2 = distmap_quad_word(m, g, wx + 1, wy - 1 + j);
+        const uint64_t w0 = distmap_leaf_word(m, g, wx - 1, wy - 1 + j);
+        const uint64_t w1 = distmap_leaf_word(m, g, wx, wy - 1 + j);
+        const uint64_t w2 = distmap_leaf_word(m, g, wx + 1, wy - 1 + j);
         for (int r = 0; r < 8; r++)
             k->lb_row[8 * j + r] = (uint32_t)((w0 >> (8 * r)) & 255) |
                                    (uint32_t)((w1 >> (8 * r)) & 255) << 8 |
@@ -1211,59 +1211,48 @@ static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, in
     k->lb_valid = 1;
 }
 
-/* Leaves lx - 1, lx, lx + 1 lie in quads q - 1, q, q (lx even) or q, q,
- * q + 1 (lx odd): their occupancy from the bits of quads q - 1, q, q + 1
- * (bit i: quad q - 1 + i), bit j: leaf lx - 1 + j. */
-static const uint8_t quad_to_leaves[2][8] = {{0, 1, 6, 7, 0, 1, 6, 7}, {0, 0, 3, 3, 4, 4, 7, 7}};
-
-/* The 2D block search on the map's quad bits (coarsened fine cells; see
+/* The 2D block search on the map's leaf bits (coarsened fine cells; see
  * search_block2). `key`: the cache key, read before g: the tree's count
  * (with the top bit set, so it never equals a key of the leaf-cell mode),
  * which changes after every particle is published. A leaf the tree does
- * not have is then empty until the key changes, whether or not its quad is
- * marked. */
+ * not have is then empty until the key changes, whether or not its bit is
+ * set. */
 static uint64_t block_bits2(const tree *t, const search_config *c, const distmap *m,
                             const distmap_grid *g, const int64_t *p, uint64_t key,
                             search_state *k)
 {
-    const int64_t qx = p[0] >> DISTMAP_QUAD_BITS, qy = p[1] >> DISTMAP_QUAD_BITS;
-    if (!k->lb_valid || k->lb_w[0] != qx >> 3 || k->lb_w[1] != qy >> 3 || k->lb_leaves != key)
-        lb_fill(k, m, g, qx >> 3, qy >> 3, key);
+    const int64_t lx = p[0] >> DISTMAP_LEAFBIT_SHIFT, ly = p[1] >> DISTMAP_LEAFBIT_SHIFT;
+    if (!k->lb_valid || k->lb_w[0] != lx >> 3 || k->lb_w[1] != ly >> 3 || k->lb_leaves != key)
+        lb_fill(k, m, g, lx >> 3, ly >> 3, key);
 #ifdef DISTMAP_TRACE
     lb_queries++;
 #endif
-    /* p's quad in the rows: x, y in 8..15, so every square of up to 8
-     * quads around it lies in them. */
-    const int x = (int)(qx & 7) + 8, y = (int)(qy & 7) + 8;
+    /* p's leaf in the rows: x, y in 8..15, so every square of up to 8
+     * leaves around it lies in them. */
+    const int x = (int)(lx & 7) + 8, y = (int)(ly & 7) + 8;
     const uint32_t *row = k->lb_row;
     const uint32_t r0 = (row[y - 1] >> (x - 1)) & 7, r1 = (row[y] >> (x - 1)) & 7,
                    r2 = (row[y + 1] >> (x - 1)) & 7;
     if (!(r0 | r1 | r2)) {
-        /* The nearest marked quad is v >= 2 quads away (chessboard): the
-         * quads within v - 1 of p's are empty, and every particle lies at
-         * least (v - 1) quads plus p's distance to the edge of its own
-         * quad away (distmap_block_bound). */
+        /* The nearest marked leaf is v >= 2 leaves away (chessboard): the
+         * leaves within v - 1 of p's are empty, and every particle lies at
+         * least (v - 1) leaves plus p's distance to the edge of its own
+         * leaf away (distmap_block_bound). */
         uint32_t acc = row[y - 1] | row[y] | row[y + 1];
         int v = 2;
-        for (; v <= DISTMAP_QUAD_REACH; v++) {
+        for (; v <= DISTMAP_LEAF_REACH; v++) {
             acc |= row[y - v] | row[y + v];
             if (acc & (((2u << (2 * v)) - 1) << (x - v))) break;
         }
 #ifdef DISTMAP_TRACE
         lb_bounds++;
 #endif
-        const int64_t b = distmap_block_bound(p, DISTMAP_QUAD_BITS, v, 2);
+        const int64_t b = distmap_block_bound(p, DISTMAP_LEAFBIT_SHIFT, v, 2);
         return (uint64_t)(b * b);
     }
-    /* The 3 x 3 leaves around p's leaf: occupied only where their quad is
-     * marked (bit o = (dx + 1) + 3 (dy + 1), as block_off). */
-    const int64_t lx = p[0] >> TREE_LEAF_BITS, ly = p[1] >> TREE_LEAF_BITS;
-    const uint8_t *sx = quad_to_leaves[lx & 1];
-    const uint32_t rows3[3] = {r0, r1, r2};
-    const int ey = (int)(ly & 1);
-    /* Leaf row ly + dy lies in quad row (ey + dy) >> 1 (arithmetic) of
-     * p's: rows -1, 0, 0 (ly even) or 0, 0, +1 (ly odd). */
-    const uint32_t occ = sx[rows3[ey]] | (uint32_t)sx[r1] << 3 | (uint32_t)sx[rows3[1 + ey]] << 6;
+    /* The 3 x 3 leaves around p's leaf (bit o = (dx + 1) + 3 (dy + 1), as
+     * block_off). */
+    const uint32_t occ = r0 | r1 << 3 | r2 << 6;
     int64_t lo[3] = {lx * TREE_LEAF_SIDE, ly * TREE_LEAF_SIDE, 0};
     blk_recentre(k, lo, 2);
     if (key != k->blk_leaves) {

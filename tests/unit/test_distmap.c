@@ -15,8 +15,8 @@
  *    them within the reach is the search's;
  *  - a walker's cached block stays right while the grid grows under it;
  *  - the same with a small memory budget, where the fine cells coarsen
- *    while the grid grows; in 2D the block search then reads the quad bits
- *    (one per 2 x 2 leaves), each set exactly where a particle lies (brute
+ *    while the grid grows; in 2D the block search then reads the leaf bits
+ *    (one per leaf), each set exactly where a particle lies (brute
  *    force), and answers beyond the block from them (a bound, checked
  *    like every other);
  *  - distmap_rebuild from the tree gives the same cells as the map built one
@@ -51,24 +51,24 @@ static uint64_t brute(const int64_t (*pts)[3], size_t n, int dim, const int64_t 
     return best;
 }
 
-/* The quad bits of a coarsened 2D grid against brute force: set exactly on
- * the quads (2 x 2 leaves) that hold a particle, over the whole grid.
- * Returns the number of wrong quads. */
-static int check_quads(const distmap *m, const int64_t (*pts)[3], size_t n)
+/* The leaf bits of a coarsened 2D grid against brute force: set exactly on
+ * the leaves that hold a particle, over the whole grid. Returns the
+ * number of wrong leaves. */
+static int check_leafbits(const distmap *m, const int64_t (*pts)[3], size_t n)
 {
     const distmap_grid *g = atomic_load(&m->grid);
     if (!g || !g->tix) return 0;
-    const int64_t q0 = -g->half >> DISTMAP_QUAD_BITS, nq = (2 * g->half) >> DISTMAP_QUAD_BITS;
+    const int64_t q0 = -g->half >> DISTMAP_LEAFBIT_SHIFT, nq = (2 * g->half) >> DISTMAP_LEAFBIT_SHIFT;
     unsigned char *want = calloc((size_t)(nq * nq), 1);
     for (size_t i = 0; i < n; i++)
-        want[((pts[i][1] >> DISTMAP_QUAD_BITS) - q0) * nq + (pts[i][0] >> DISTMAP_QUAD_BITS) - q0] = 1;
+        want[((pts[i][1] >> DISTMAP_LEAFBIT_SHIFT) - q0) * nq + (pts[i][0] >> DISTMAP_LEAFBIT_SHIFT) - q0] = 1;
     int bad = 0;
     for (int64_t y = 0; y < nq; y++)
         for (int64_t x = 0; x < nq; x++) {
             const int64_t ax = x + q0, ay = y + q0;
-            const int got = (int)((distmap_quad_word(m, g, ax >> 3, ay >> 3) >> ((ay & 7) * 8 + (ax & 7))) & 1);
+            const int got = (int)((distmap_leaf_word(m, g, ax >> 3, ay >> 3) >> ((ay & 7) * 8 + (ax & 7))) & 1);
             if (got != want[y * nq + x] && bad++ < 5)
-                fprintf(stderr, "quad %lld %lld: bit %d, want %d\n", (long long)ax, (long long)ay, got,
+                fprintf(stderr, "leaf %lld %lld: bit %d, want %d\n", (long long)ax, (long long)ay, got,
                         want[y * nq + x]);
         }
     free(want);
@@ -140,7 +140,7 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
     int64_t(*pts)[3] = calloc(n, sizeof *pts);
     int64_t cur[3] = {0, 0, 0};
     int bad_bound = 0, bad_min = 0, useful = 0, bad_block = 0, block_used = 0, ball_scans = 0;
-    int quad_bounds = 0;
+    int far_bits = 0;
     search_config cfg;
     search_config_init(&cfg, 2.0, 32, 2);
     search_config exact;
@@ -220,7 +220,7 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
             }
             if (b2 == UINT64_MAX) continue;
             block_used++;
-            quad_bounds += b2 > 512 * 512; /* beyond the 3 x 3 leaves: from the quad bits */
+            far_bits += b2 > 512 * 512; /* >= 2 empty leaves all round: from the leaf bits */
             if ((b2 > truth || (truth < 256 * 256 && b2 != truth)) && bad_block++ < 5)
                 fprintf(stderr, "dim %d seed %llu n %zu: block %.1f, true %.1f\n", dim,
                         (unsigned long long)seed, i + 1, sqrt((double)b2), sqrt((double)truth));
@@ -246,8 +246,8 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
           (unsigned long long)seed, bad_block);
     if (!budget || dim == 2) CHECK(block_used > 1000, "dim %d: only %d block searches", dim, block_used);
     if (budget && dim == 2) {
-        CHECK(quad_bounds > 50, "only %d block answers from the quad bits", quad_bounds);
-        CHECK(check_quads(&m, (const int64_t(*)[3])pts, n) == 0, "seed %llu: quad bits wrong",
+        CHECK(far_bits > 50, "only %d block answers from the leaf bits", far_bits);
+        CHECK(check_leafbits(&m, (const int64_t(*)[3])pts, n) == 0, "seed %llu: leaf bits wrong",
               (unsigned long long)seed);
     }
     if (dim == 2) CHECK(ball_scans > 1000, "only %d ball scans answered", ball_scans);
@@ -294,8 +294,8 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
     CHECK(differ == 0, "dim %d seed %llu: rebuilt map differs in %d cells", dim,
           (unsigned long long)seed, differ);
     if (budget && dim == 2) {
-        CHECK(g2 && g2->tix != NULL, "the rebuilt coarsened map has no quad bits");
-        CHECK(check_quads(&m2, (const int64_t(*)[3])pts, n) == 0, "rebuilt quad bits wrong");
+        CHECK(g2 && g2->tix != NULL, "the rebuilt coarsened map has no leaf bits");
+        CHECK(check_leafbits(&m2, (const int64_t(*)[3])pts, n) == 0, "rebuilt leaf bits wrong");
     }
     for (int q = 0; q < 2000; q++) {
         int64_t p[3];
@@ -322,7 +322,7 @@ static void test_growth_cache(int dim, uint64_t seed, size_t budget)
     CHECK(tree_init(&t, dim) == 0, "tree_init");
     distmap m;
     distmap_init(&m, dim, 8, 2 * 32 + 8 * 256);
-    if (budget) { /* coarsened cells: 2D reads the quad bits */
+    if (budget) { /* coarsened cells: 2D reads the leaf bits */
         m.budget_min = budget;
         m.budget_per_particle = 0.0;
     }
@@ -428,7 +428,7 @@ static void test_needs_add(int dim, uint64_t seed, size_t budget)
     rng_seed(&r, seed);
     distmap m;
     distmap_init(&m, dim, 8, 2 * 32 + 8 * 256);
-    if (budget) { /* coarsened cells (2D: with quad bits) */
+    if (budget) { /* coarsened cells (2D: with leaf bits) */
         m.budget_min = budget;
         m.budget_per_particle = 0.0;
     }

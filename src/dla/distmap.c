@@ -5,9 +5,6 @@
 #include "distmap.h"
 
 #include <stdlib.h>
-#ifdef DISTMAP_TRACE
-#include <stdio.h>
-#endif
 #include <sys/mman.h>
 
 /* Grids beyond this many fine cells are not made: the map disables itself. */
@@ -56,19 +53,6 @@ size_t distmap_tile_bytes(const distmap *m)
 static void tiles_free(distmap *m)
 {
     if (!m->tseg) return;
-#ifdef DISTMAP_TRACE
-    {
-        size_t nz = 0, bits = 0;
-        for (uint32_t id = 1; id < m->ntiles; id++)
-            for (int w = 0; w < DISTMAP_TILE_WORDS; w++) {
-                const uint64_t v = m->tseg[id >> DISTMAP_TSEG_SHIFT][(id & (TSEG_TILES - 1)) * DISTMAP_TILE_WORDS + w];
-                nz += v != 0;
-                bits += (size_t)__builtin_popcountll(v);
-            }
-        fprintf(stderr, "tiles %u: nonzero words %zu of %zu, bits %zu\n", m->ntiles - 1, nz,
-                (size_t)(m->ntiles - 1) * DISTMAP_TILE_WORDS, bits);
-    }
-#endif
     for (size_t i = 0; i < DISTMAP_TSEG_MAX && m->tseg[i]; i++) munmap((void *)m->tseg[i], TSEG_BYTES);
     munmap((void *)m->tseg, DISTMAP_TSEG_MAX * sizeof *m->tseg);
     m->tseg = NULL;
@@ -320,7 +304,37 @@ static int tiles_from_leaf_cells(distmap *m, distmap_grid *g, const distmap_grid
     return 0;
 }
 
-static distmap_grid *grid_make(distmap *m, const distmap_grid *old, int64_t h)
+/* The tile ids of a new coarsened 2D grid g: the old grid's tiles (they
+ * stay where they are, in absolute leaf coordinates, so the new grid names
+ * the same ones), or, at the first coarsening, new tiles for the leaves the
+ * old grid's fine cells mark. Returns 0, or -1 out of memory. */
+static int grid_tiles(distmap *m, distmap_grid *g, const distmap_grid *old)
+{
+    g->tw = tile_width(g->half);
+    g->toff = tile_off(g->half);
+    g->tix = cells_alloc(tix_bytes(g));
+    if (!g->tix) {
+        g->tw = 0;
+        return -1;
+    }
+    g->bytes += tix_bytes(g);
+    if (old && old->tix) {
+        const int64_t d = g->toff - old->toff;
+        for (size_t y = 0; y < old->tw; y++)
+            for (size_t x = 0; x < old->tw; x++) {
+                const uint32_t id = atomic_load_explicit(&old->tix[y * old->tw + x], memory_order_relaxed);
+                if (id) atomic_init(&g->tix[(y + (size_t)d) * g->tw + x + (size_t)d], id);
+            }
+    } else if (old && old->lv[0].bits == TREE_LEAF_BITS) {
+        return tiles_from_leaf_cells(m, g, old);
+    }
+    return 0;
+}
+
+/* The fine cells' side (bits) for a grid that covers [-h, h)^dim, never
+ * finer than the old grid's: the finest whose level fits the memory budget;
+ * *half_out: h rounded up to whole coarse cells of that size. */
+static int fine_bits(const distmap *m, const distmap_grid *old, int64_t h, int64_t *half_out)
 {
     const int dim = m->dim;
     int fb = m->bits;
@@ -335,13 +349,18 @@ static distmap_grid *grid_make(distmap *m, const distmap_grid *old, int64_t h)
          * gets a share of the budget (distmap.h). */
         const double fine_budget =
             dim == 2 && fb > TREE_LEAF_BITS ? budget / DISTMAP_LEAF_FINE_SHARE : budget;
-#ifdef DISTMAP_TRACE
-        fprintf(stderr, "  try fb %d half %lld fine %llu budget %.0f fine_budget %.0f\n", fb, (long long)half,
-                (unsigned long long)fine_bytes(dim, half, fb), budget, fine_budget);
-#endif
         if ((double)fine_bytes(dim, half, fb) <= fine_budget || fb >= 24) break;
         fb++;
     }
+    *half_out = half;
+    return fb;
+}
+
+static distmap_grid *grid_make(distmap *m, const distmap_grid *old, int64_t h)
+{
+    const int dim = m->dim;
+    int64_t half;
+    const int fb = fine_bits(m, old, h, &half);
     const int64_t w = (half << 1) >> fb;
     if (w <= 0 || w >= (1 << 21)) return NULL;
     uint64_t n = (uint64_t)w * (uint64_t)w;
@@ -356,36 +375,9 @@ static distmap_grid *grid_make(distmap *m, const distmap_grid *old, int64_t h)
         return NULL;
     }
     g->bytes = g->lv[0].bytes + g->lv[1].bytes;
-#ifdef DISTMAP_TRACE
-    fprintf(stderr, "grid: particles %llu half %lld fb %d fine %zu coarse %zu tiles %u (%zu B) leaves %llu\n",
-            (unsigned long long)m->particles, (long long)half, fb, g->lv[0].bytes, g->lv[1].bytes,
-            m->ntiles - 1, distmap_tile_bytes(m), (unsigned long long)m->leaves);
-#endif
-    if (dim == 2 && fb > TREE_LEAF_BITS) {
-        g->tw = tile_width(half);
-        g->toff = tile_off(half);
-        g->tix = cells_alloc(tix_bytes(g));
-        if (!g->tix) {
-            g->tw = 0;
-            grid_free(g);
-            return NULL;
-        }
-        g->bytes += tix_bytes(g);
-        if (old && old->tix) {
-            /* The tiles stay where they are (absolute leaf coordinates):
-             * the new grid names the same ones. */
-            const int64_t d = g->toff - old->toff;
-            for (size_t y = 0; y < old->tw; y++)
-                for (size_t x = 0; x < old->tw; x++) {
-                    const uint32_t id =
-                        atomic_load_explicit(&old->tix[y * old->tw + x], memory_order_relaxed);
-                    if (id)
-                        atomic_init(&g->tix[(y + (size_t)d) * g->tw + x + (size_t)d], id);
-                }
-        } else if (old && old->lv[0].bits == TREE_LEAF_BITS && tiles_from_leaf_cells(m, g, old)) {
-            grid_free(g);
-            return NULL;
-        }
+    if (dim == 2 && fb > TREE_LEAF_BITS && grid_tiles(m, g, old)) {
+        grid_free(g);
+        return NULL;
     }
     if (!old) return g;
     if (old->lv[0].bits == fb) {

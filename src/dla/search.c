@@ -1178,32 +1178,21 @@ static inline __attribute__((always_inline)) uint64_t blk_scan(const tree *t,
     return best2;
 }
 
-#ifdef DISTMAP_TRACE
-uint64_t lb_fills, lb_moves, lb_queries, lb_bounds, lb_lookups;
-#include <stdio.h>
-__attribute__((destructor)) static void lb_report(void)
-{
-    fprintf(stderr, "lb: fills %llu (moves %llu) queries %llu bounds %llu\n", (unsigned long long)lb_fills,
-            (unsigned long long)lb_moves, (unsigned long long)lb_queries, (unsigned long long)lb_bounds);
-}
-#endif
-/* The walker's leaf-bit rows (search_state lb_row) for the 3 x 3 words
+/* The walker's leaf-bit rows (search_state lb_row) for the LB_WORDS^2 words
  * around word (wx, wy), as of cache key `key` (read before the grid). */
 static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, int64_t wx,
                     int64_t wy, uint64_t key)
 {
-#ifdef DISTMAP_TRACE
-    lb_fills++;
-    if (k->lb_valid && k->lb_leaves == key) lb_moves++;
-#endif
-    for (int j = 0; j < 3; j++) {
-        const uint64_t w0 = distmap_leaf_word(m, g, wx - 1, wy - 1 + j);
-        const uint64_t w1 = distmap_leaf_word(m, g, wx, wy - 1 + j);
-        const uint64_t w2 = distmap_leaf_word(m, g, wx + 1, wy - 1 + j);
-        for (int r = 0; r < 8; r++)
-            k->lb_row[8 * j + r] = (uint32_t)((w0 >> (8 * r)) & 255) |
-                                   (uint32_t)((w1 >> (8 * r)) & 255) << 8 |
-                                   (uint32_t)((w2 >> (8 * r)) & 255) << 16;
+    for (int j = 0; j < LB_WORDS; j++) {
+        uint64_t w[LB_WORDS], any = 0;
+        for (int i = 0; i < LB_WORDS; i++)
+            any |= w[i] = distmap_leaf_word(m, g, wx - LB_RING + i, wy - LB_RING + j);
+        for (int r = 0; r < 8; r++) {
+            uint64_t row = 0;
+            if (any)
+                for (int i = 0; i < LB_WORDS; i++) row |= ((w[i] >> (8 * r)) & 255) << (8 * i);
+            k->lb_row[8 * j + r] = row;
+        }
     }
     k->lb_w[0] = wx;
     k->lb_w[1] = wy;
@@ -1224,29 +1213,23 @@ static uint64_t block_bits2(const tree *t, const search_config *c, const distmap
     const int64_t lx = p[0] >> DISTMAP_LEAFBIT_SHIFT, ly = p[1] >> DISTMAP_LEAFBIT_SHIFT;
     if (!k->lb_valid || k->lb_w[0] != lx >> 3 || k->lb_w[1] != ly >> 3 || k->lb_leaves != key)
         lb_fill(k, m, g, lx >> 3, ly >> 3, key);
-#ifdef DISTMAP_TRACE
-    lb_queries++;
-#endif
-    /* p's leaf in the rows: x, y in 8..15, so every square of up to 8
-     * leaves around it lies in them. */
-    const int x = (int)(lx & 7) + 8, y = (int)(ly & 7) + 8;
-    const uint32_t *row = k->lb_row;
-    const uint32_t r0 = (row[y - 1] >> (x - 1)) & 7, r1 = (row[y] >> (x - 1)) & 7,
-                   r2 = (row[y + 1] >> (x - 1)) & 7;
+    /* p's leaf in the rows: x, y in 8 LB_RING.. + 7, so every square of
+     * up to DISTMAP_LEAF_REACH leaves around it lies in them. */
+    const int x = (int)(lx & 7) + 8 * LB_RING, y = (int)(ly & 7) + 8 * LB_RING;
+    const uint64_t *row = k->lb_row;
+    const uint32_t r0 = (uint32_t)(row[y - 1] >> (x - 1)) & 7, r1 = (uint32_t)(row[y] >> (x - 1)) & 7,
+                   r2 = (uint32_t)(row[y + 1] >> (x - 1)) & 7;
     if (!(r0 | r1 | r2)) {
         /* The nearest marked leaf is v >= 2 leaves away (chessboard): the
          * leaves within v - 1 of p's are empty, and every particle lies at
          * least (v - 1) leaves plus p's distance to the edge of its own
          * leaf away (distmap_block_bound). */
-        uint32_t acc = row[y - 1] | row[y] | row[y + 1];
+        uint64_t acc = row[y - 1] | row[y] | row[y + 1];
         int v = 2;
         for (; v <= DISTMAP_LEAF_REACH; v++) {
             acc |= row[y - v] | row[y + v];
-            if (acc & (((2u << (2 * v)) - 1) << (x - v))) break;
+            if (acc & (((UINT64_C(2) << (2 * v)) - 1) << (x - v))) break;
         }
-#ifdef DISTMAP_TRACE
-        lb_bounds++;
-#endif
         const int64_t b = distmap_block_bound(p, DISTMAP_LEAFBIT_SHIFT, v, 2);
         return (uint64_t)(b * b);
     }

@@ -23,6 +23,10 @@
 #define SEARCH_NB_MAX 1024
 #define SEARCH_NB_RADIUS 256
 #define SEARCH_NB_BUCKETS 64
+/* The leaf-bit rows: words within LB_RING of the walker's (the largest
+ * square they hold around its leaf reaches DISTMAP_LEAF_REACH leaves). */
+#define LB_RING (DISTMAP_LEAF_REACH / 8)
+#define LB_WORDS (2 * LB_RING + 1)
 
 typedef struct search_state {
     uint64_t node_visits;
@@ -41,13 +45,14 @@ typedef struct search_state {
     int64_t blk_c[3];
     uint32_t blk_head[27];
     /* 2D with the map's leaf bits (coarsened fine cells): the bits of the
-     * 24 x 24 leaves around the walker (the 3 x 3 words of 8 x 8 leaves
-     * centred on the word with absolute coordinates lb_w), one row of 24
-     * bits per leaf row, as of the map's leaf count lb_leaves. */
+     * 8 LB_WORDS x 8 LB_WORDS leaves around the walker (the words of 8 x 8
+     * leaves within LB_RING words of the word with absolute coordinates
+     * lb_w), one row of bits per leaf row, as of the cache key lb_leaves
+     * (search.c: block_bits2). */
     int lb_valid;
     uint64_t lb_leaves;
     int64_t lb_w[2];
-    uint32_t lb_row[24];
+    uint64_t lb_row[8 * LB_WORDS];
     /* The walker's neighbour list (search_near2, serial): every particle
      * centre within nb_r units of nb_c while the tree holds nb_count
      * particles, as offsets from nb_c sorted by distance from it (in

@@ -4,6 +4,7 @@
  */
 #include "distmap.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <sys/mman.h>
 
@@ -47,7 +48,7 @@ size_t distmap_tile_bytes(const distmap *m)
 {
     if (!m->tseg) return 0;
     /* The segment table is mmap'd: only its first entries are touched. */
-    return (size_t)(m->ntiles - 1) * DISTMAP_TILE_WORDS * sizeof(uint64_t);
+    return (size_t)(m->ntiles - 1 - m->nfree) * DISTMAP_TILE_WORDS * sizeof(uint64_t);
 }
 
 static void tiles_free(distmap *m)
@@ -57,11 +58,27 @@ static void tiles_free(distmap *m)
     munmap((void *)m->tseg, DISTMAP_TSEG_MAX * sizeof *m->tseg);
     m->tseg = NULL;
     m->ntiles = 1;
+    m->tfree = 0;
+    m->nfree = 0;
 }
 
-/* A new zeroed tile: its id, or 0 when out of memory or ids. */
+static _Atomic uint64_t *tile_at(const distmap *m, uint32_t id)
+{
+    return m->tseg[id >> DISTMAP_TSEG_SHIFT] + (size_t)(id & (TSEG_TILES - 1)) * DISTMAP_TILE_WORDS;
+}
+
+/* A new zeroed tile (a dropped one when there is one): its id, or 0 when
+ * out of memory or ids. */
 static uint32_t tile_new(distmap *m)
 {
+    if (m->tfree) {
+        const uint32_t id = m->tfree;
+        _Atomic uint64_t *tile = tile_at(m, id);
+        m->tfree = (uint32_t)atomic_load_explicit(&tile[0], memory_order_relaxed);
+        m->nfree--;
+        for (int w = 0; w < DISTMAP_TILE_WORDS; w++) atomic_init(&tile[w], 0);
+        return id;
+    }
     const uint32_t id = m->ntiles;
     const size_t seg = id >> DISTMAP_TSEG_SHIFT;
     if (seg >= DISTMAP_TSEG_MAX) return 0;
@@ -82,12 +99,12 @@ static int leafbit_set(distmap *m, distmap_grid *g, int64_t lx, int64_t ly)
     const size_t slot = (size_t)((ly >> DISTMAP_TILE_SHIFT) + g->toff) * g->tw +
                         (size_t)((lx >> DISTMAP_TILE_SHIFT) + g->toff);
     uint32_t id = atomic_load_explicit(&g->tix[slot], memory_order_relaxed);
+    if (id == DISTMAP_TILE_UNKNOWN) return 0; /* dropped: its bits are not kept */
     if (!id) {
         if (!(id = tile_new(m))) return -1;
         atomic_store_explicit(&g->tix[slot], id, memory_order_release);
     }
-    _Atomic uint64_t *tile = m->tseg[id >> DISTMAP_TSEG_SHIFT] +
-                             (size_t)(id & (TSEG_TILES - 1)) * DISTMAP_TILE_WORDS;
+    _Atomic uint64_t *tile = tile_at(m, id);
     _Atomic uint64_t *word = &tile[((ly >> 3) & 3) * 4 + ((lx >> 3) & 3)];
     const uint64_t bit = UINT64_C(1) << ((ly & 7) * 8 + (lx & 7));
     const uint64_t w = atomic_load_explicit(word, memory_order_relaxed);
@@ -96,9 +113,12 @@ static int leafbit_set(distmap *m, distmap_grid *g, int64_t lx, int64_t ly)
     return 1;
 }
 
+/* 1 if the leaf's bit is set or not kept (distmap_add would set nothing). */
 static int leafbit_get(const distmap *m, const distmap_grid *g, int64_t lx, int64_t ly)
 {
-    return (int)((distmap_leaf_word(m, g, lx >> 3, ly >> 3) >> ((ly & 7) * 8 + (lx & 7))) & 1);
+    int unknown = 0;
+    const uint64_t w = distmap_leaf_word(m, g, lx >> 3, ly >> 3, &unknown);
+    return unknown || (int)((w >> ((ly & 7) * 8 + (lx & 7))) & 1);
 }
 
 int distmap_init(distmap *m, int dim, int bits, int64_t margin_units)
@@ -118,6 +138,8 @@ int distmap_init(distmap *m, int dim, int bits, int64_t margin_units)
     m->bytes = 0;
     m->tseg = NULL;
     m->ntiles = 1;
+    m->tfree = 0;
+    m->nfree = 0;
     return 0;
 }
 
@@ -308,7 +330,18 @@ static int tiles_from_leaf_cells(distmap *m, distmap_grid *g, const distmap_grid
  * stay where they are, in absolute leaf coordinates, so the new grid names
  * the same ones), or, at the first coarsening, new tiles for the leaves the
  * old grid's fine cells mark. Returns 0, or -1 out of memory. */
-static int grid_tiles(distmap *m, distmap_grid *g, const distmap_grid *old)
+/* 1 if tile (tx, ty) (absolute tile coordinates) lies wholly within
+ * distance rin of the seed. */
+static int tile_inside(int64_t tx, int64_t ty, double rin)
+{
+    const int shift = DISTMAP_LEAFBIT_SHIFT + DISTMAP_TILE_SHIFT;
+    const double s = (double)((int64_t)1 << shift);
+    const double fx = fmax(fabs((double)tx * s), fabs((double)(tx + 1) * s));
+    const double fy = fmax(fabs((double)ty * s), fabs((double)(ty + 1) * s));
+    return fx * fx + fy * fy < rin * rin;
+}
+
+static int grid_tiles(distmap *m, distmap_grid *g, const distmap_grid *old, double rin)
 {
     g->tw = tile_width(g->half);
     g->toff = tile_off(g->half);
@@ -322,8 +355,16 @@ static int grid_tiles(distmap *m, distmap_grid *g, const distmap_grid *old)
         const int64_t d = g->toff - old->toff;
         for (size_t y = 0; y < old->tw; y++)
             for (size_t x = 0; x < old->tw; x++) {
-                const uint32_t id = atomic_load_explicit(&old->tix[y * old->tw + x], memory_order_relaxed);
-                if (id) atomic_init(&g->tix[(y + (size_t)d) * g->tw + x + (size_t)d], id);
+                uint32_t id = atomic_load_explicit(&old->tix[y * old->tw + x], memory_order_relaxed);
+                if (!id) continue;
+                if (id != DISTMAP_TILE_UNKNOWN &&
+                    tile_inside((int64_t)x - old->toff, (int64_t)y - old->toff, rin)) {
+                    atomic_store_explicit(&tile_at(m, id)[0], m->tfree, memory_order_relaxed);
+                    m->tfree = id;
+                    m->nfree++;
+                    id = DISTMAP_TILE_UNKNOWN;
+                }
+                atomic_init(&g->tix[(y + (size_t)d) * g->tw + x + (size_t)d], id);
             }
     } else if (old && old->lv[0].bits == TREE_LEAF_BITS) {
         return tiles_from_leaf_cells(m, g, old);
@@ -356,7 +397,8 @@ static int fine_bits(const distmap *m, const distmap_grid *old, int64_t h, int64
     return fb;
 }
 
-static distmap_grid *grid_make(distmap *m, const distmap_grid *old, int64_t h)
+/* rin: tiles of the old grid wholly within it are dropped (0: none). */
+static distmap_grid *grid_make(distmap *m, const distmap_grid *old, int64_t h, double rin)
 {
     const int dim = m->dim;
     int64_t half;
@@ -375,7 +417,7 @@ static distmap_grid *grid_make(distmap *m, const distmap_grid *old, int64_t h)
         return NULL;
     }
     g->bytes = g->lv[0].bytes + g->lv[1].bytes;
-    if (dim == 2 && fb > TREE_LEAF_BITS && grid_tiles(m, g, old)) {
+    if (dim == 2 && fb > TREE_LEAF_BITS && grid_tiles(m, g, old, rin)) {
         grid_free(g);
         return NULL;
     }
@@ -532,7 +574,11 @@ int distmap_add(distmap *m, const int64_t *p, uint64_t particles, int concurrent
          * per particle would move this cache line between inserting
          * threads. */
         m->particles = particles;
-        distmap_grid *ng = grid_make(m, g, wanted_half(m, p, g ? g->half : 0));
+        /* Interior tiles are dropped only while no other thread reads. */
+        double r = 0;
+        for (int a = 0; a < m->dim; a++) r += (double)p[a] * (double)p[a];
+        const double rin = concurrent ? 0.0 : DISTMAP_LEAF_INTERIOR * sqrt(r);
+        distmap_grid *ng = grid_make(m, g, wanted_half(m, p, g ? g->half : 0), rin);
         if (!ng) {
             disable(m, concurrent);
             return 0;
@@ -606,7 +652,7 @@ int distmap_rebuild(distmap *m, const tree *t)
     atomic_store_explicit(&m->leaves, atomic_load_explicit(&m->leaves, memory_order_relaxed) + 1,
                           memory_order_release);
     const int64_t p[3] = {b.r, b.r, b.r};
-    distmap_grid *g = grid_make(m, NULL, wanted_half(m, p, 0));
+    distmap_grid *g = grid_make(m, NULL, wanted_half(m, p, 0), 0.0);
     if (!g) {
         m->disabled = 1;
         return 0;

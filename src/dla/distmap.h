@@ -92,6 +92,16 @@
 #define DISTMAP_TILE_WORDS 16       /* 4 x 4 words of 8 x 8 leaves */
 #define DISTMAP_TSEG_SHIFT 10       /* tiles per pool segment: 2^10 (128 KiB) */
 #define DISTMAP_TSEG_MAX 4096       /* segments: 4M tiles */
+/* Tiles that lie wholly within DISTMAP_LEAF_INTERIOR of the farthest
+ * particle's distance from the seed when a grid grows are dropped from the
+ * new grid and reused (serial phases only: no other reader may hold them):
+ * their slot then reads "unknown" (DISTMAP_TILE_UNKNOWN), and queries there
+ * use the tree. Walkers seldom get that deep into a 2D cluster, and the
+ * interior holds about 0.6^1.71 = 42% of the leaves. */
+#ifndef DISTMAP_LEAF_INTERIOR
+#define DISTMAP_LEAF_INTERIOR 0.6
+#endif
+#define DISTMAP_TILE_UNKNOWN UINT32_MAX
 /* A multiple of 8, at most 24. 16 (5 x 5 words) saved 5% of the jumps but
  * cost 30% more instructions at forced-coarse 2D 1e5 (the rows' refills). */
 #ifndef DISTMAP_LEAF_REACH
@@ -157,6 +167,8 @@ typedef struct distmap {
      * the id read it without further ordering. */
     _Atomic uint64_t **tseg;      /* DISTMAP_TSEG_MAX pointers, NULL until used */
     uint32_t ntiles;              /* tiles handed out, plus the unused id 0 */
+    uint32_t tfree;               /* dropped tiles to reuse (linked by word 0), 0: none */
+    uint32_t nfree;
     PDLA_CACHE_PAD(pad_end_);
 } distmap;
 
@@ -207,16 +219,22 @@ size_t distmap_tile_bytes(const distmap *m);
  * (wx * 8.., wy * 8..) (leaf coordinates: units >> DISTMAP_LEAFBIT_SHIFT; bit
  * (y & 7) * 8 + (x & 7)), from grid g, which must have tile ids. 0 when no
  * tile is there, or the word lies outside the grid (no particle lies
- * there). Readers call it without a lock. */
+ * there); *unknown is set to 1 (else left) where the tile was dropped (the
+ * bits there are not kept). Readers call it without a lock. */
 static inline __attribute__((always_inline)) uint64_t distmap_leaf_word(const distmap *m,
                                                                         const distmap_grid *g,
-                                                                        int64_t wx, int64_t wy)
+                                                                        int64_t wx, int64_t wy,
+                                                                        int *unknown)
 {
     const int64_t tx = (wx >> 2) + g->toff, ty = (wy >> 2) + g->toff;
     if ((uint64_t)tx >= g->tw || (uint64_t)ty >= g->tw) return 0;
     const uint32_t id = atomic_load_explicit(&g->tix[(size_t)ty * g->tw + (size_t)tx],
                                              memory_order_acquire);
     if (!id) return 0;
+    if (id == DISTMAP_TILE_UNKNOWN) {
+        *unknown = 1;
+        return 0;
+    }
     const _Atomic uint64_t *tile =
         m->tseg[id >> DISTMAP_TSEG_SHIFT] + (size_t)(id & ((1u << DISTMAP_TSEG_SHIFT) - 1)) * DISTMAP_TILE_WORDS;
     return atomic_load_explicit(&tile[(wy & 3) * 4 + (wx & 3)], memory_order_acquire);

@@ -1183,10 +1183,11 @@ static inline __attribute__((always_inline)) uint64_t blk_scan(const tree *t,
 static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, int64_t wx,
                     int64_t wy, uint64_t key)
 {
+    int unknown = 0;
     for (int j = 0; j < LB_WORDS; j++) {
         uint64_t w[LB_WORDS], any = 0;
         for (int i = 0; i < LB_WORDS; i++)
-            any |= w[i] = distmap_leaf_word(m, g, wx - LB_RING + i, wy - LB_RING + j);
+            any |= w[i] = distmap_leaf_word(m, g, wx - LB_RING + i, wy - LB_RING + j, &unknown);
         for (int r = 0; r < 8; r++) {
             uint64_t row = 0;
             if (any)
@@ -1198,6 +1199,7 @@ static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, in
     k->lb_w[1] = wy;
     k->lb_leaves = key;
     k->lb_valid = 1;
+    k->lb_unknown = unknown;
 }
 
 /* The 2D block search on the map's leaf bits (coarsened fine cells; see
@@ -1213,6 +1215,7 @@ static uint64_t block_bits2(const tree *t, const search_config *c, const distmap
     const int64_t lx = p[0] >> DISTMAP_LEAFBIT_SHIFT, ly = p[1] >> DISTMAP_LEAFBIT_SHIFT;
     if (!k->lb_valid || k->lb_w[0] != lx >> 3 || k->lb_w[1] != ly >> 3 || k->lb_leaves != key)
         lb_fill(k, m, g, lx >> 3, ly >> 3, key);
+    if (k->lb_unknown) return UINT64_MAX; /* dropped interior tiles: the tree */
     /* p's leaf in the rows: x, y in 8 LB_RING.. + 7, so every square of
      * up to DISTMAP_LEAF_REACH leaves around it lies in them. */
     const int x = (int)(lx & 7) + 8 * LB_RING, y = (int)(ly & 7) + 8 * LB_RING;

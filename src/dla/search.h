@@ -50,6 +50,7 @@ typedef struct search_state {
      * lb_w), one row of bits per leaf row, as of the cache key lb_leaves
      * (search.c: block_bits2). */
     int lb_valid;
+    int lb_unknown;              /* some of the words were dropped (distmap.h) */
     uint64_t lb_leaves;
     int64_t lb_w[2];
     uint64_t lb_row[8 * LB_WORDS];

@@ -140,6 +140,7 @@ int distmap_init(distmap *m, int dim, int bits, int64_t margin_units)
     m->ntiles = 1;
     m->tfree = 0;
     m->nfree = 0;
+    m->leaf_interior = DISTMAP_LEAF_INTERIOR;
     return 0;
 }
 
@@ -577,7 +578,7 @@ int distmap_add(distmap *m, const int64_t *p, uint64_t particles, int concurrent
         /* Interior tiles are dropped only while no other thread reads. */
         double r = 0;
         for (int a = 0; a < m->dim; a++) r += (double)p[a] * (double)p[a];
-        const double rin = concurrent ? 0.0 : DISTMAP_LEAF_INTERIOR * sqrt(r);
+        const double rin = concurrent ? 0.0 : m->leaf_interior * sqrt(r);
         distmap_grid *ng = grid_make(m, g, wanted_half(m, p, g ? g->half : 0), rin);
         if (!ng) {
             disable(m, concurrent);

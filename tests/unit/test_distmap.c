@@ -130,7 +130,8 @@ static int check_cells(const distmap_grid *g, int l, int dim, const int64_t (*pt
 
 /* A random cluster: a few random walks with steps of about one diameter
  * (D = 32), reaching out several hundred diameters so the grid grows. */
-static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size_t budget)
+static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size_t budget,
+                         double interior)
 {
     pdla_rng r;
     rng_seed(&r, seed);
@@ -141,6 +142,7 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
     if (budget) { /* a small budget: the fine cells coarsen as the grid grows */
         m.budget_min = budget;
         m.budget_per_particle = 0.0;
+        m.leaf_interior = interior; /* 2D: interior tiles dropped */
     } else { /* leaf cells throughout, whatever the random cluster's extent */
         m.budget_min = (size_t)1 << 30;
     }
@@ -257,7 +259,9 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
         int unknown = 0;
         CHECK(check_leafbits(&m, (const int64_t(*)[3])pts, n, &unknown) == 0,
               "seed %llu: leaf bits wrong", (unsigned long long)seed);
-        fprintf(stderr, "seed %llu: %d leaves in dropped tiles\n", (unsigned long long)seed, unknown);
+        if (interior >= 0.5)
+            CHECK(unknown > 0, "seed %llu: no tile dropped at interior %.2f", (unsigned long long)seed,
+                  interior);
     }
     if (dim == 2) CHECK(ball_scans > 1000, "only %d ball scans answered", ball_scans);
     const distmap_grid *gf = atomic_load(&m.grid);
@@ -478,12 +482,12 @@ int main(void)
     test_growth_cache(2, 7, 0);
     test_growth_cache(3, 8, 0);
     test_growth_cache(2, 9, 512);
-    test_cluster(2, 2000, 1, 1, 0);
-    test_cluster(2, 10000, 2, 0, 0);
-    test_cluster(3, 1000, 3, 1, 0);
-    test_cluster(3, 5000, 4, 0, 0);
-    test_cluster(2, 4000, 5, 1, 2048);
-    test_cluster(2, 10000, 7, 0, 4096);
-    test_cluster(3, 2000, 6, 1, 4096);
+    test_cluster(2, 2000, 1, 1, 0, 0);
+    test_cluster(2, 10000, 2, 0, 0, 0);
+    test_cluster(3, 1000, 3, 1, 0, 0);
+    test_cluster(3, 5000, 4, 0, 0, 0);
+    test_cluster(2, 4000, 5, 1, 2048, DISTMAP_LEAF_INTERIOR);
+    test_cluster(2, 10000, 7, 0, 4096, 0.6);
+    test_cluster(3, 2000, 6, 1, 4096, DISTMAP_LEAF_INTERIOR);
     return check_finish();
 }

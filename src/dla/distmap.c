@@ -4,6 +4,7 @@
  */
 #include "distmap.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <sys/mman.h>
 
@@ -25,11 +26,99 @@ static void level_free(distmap_level *L)
     L->cell = NULL;
 }
 
+static size_t tix_bytes(const distmap_grid *g)
+{
+    return (size_t)g->tw * g->tw * sizeof *g->tix;
+}
+
 static void grid_free(distmap_grid *g)
 {
     if (!g) return;
     for (int l = 0; l < 2; l++) level_free(&g->lv[l]);
+    if (g->tix) munmap((void *)g->tix, tix_bytes(g));
     free(g);
+}
+
+/* ---- leaf-bit tiles (2D, coarsened fine cells) ------------------------ */
+
+#define TSEG_TILES ((size_t)1 << DISTMAP_TSEG_SHIFT)
+#define TSEG_BYTES (TSEG_TILES * DISTMAP_TILE_WORDS * sizeof(uint64_t))
+
+size_t distmap_tile_bytes(const distmap *m)
+{
+    if (!m->tseg) return 0;
+    /* The segment table is mmap'd: only its first entries are touched. */
+    return (size_t)(m->ntiles - 1 - m->nfree) * DISTMAP_TILE_WORDS * sizeof(uint64_t);
+}
+
+static void tiles_free(distmap *m)
+{
+    if (!m->tseg) return;
+    for (size_t i = 0; i < DISTMAP_TSEG_MAX && m->tseg[i]; i++) munmap((void *)m->tseg[i], TSEG_BYTES);
+    munmap((void *)m->tseg, DISTMAP_TSEG_MAX * sizeof *m->tseg);
+    m->tseg = NULL;
+    m->ntiles = 1;
+    m->tfree = 0;
+    m->nfree = 0;
+}
+
+static _Atomic uint64_t *tile_at(const distmap *m, uint32_t id)
+{
+    return m->tseg[id >> DISTMAP_TSEG_SHIFT] + (size_t)(id & (TSEG_TILES - 1)) * DISTMAP_TILE_WORDS;
+}
+
+/* A new zeroed tile (a dropped one when there is one): its id, or 0 when
+ * out of memory or ids. */
+static uint32_t tile_new(distmap *m)
+{
+    if (m->tfree) {
+        const uint32_t id = m->tfree;
+        _Atomic uint64_t *tile = tile_at(m, id);
+        m->tfree = (uint32_t)atomic_load_explicit(&tile[0], memory_order_relaxed);
+        m->nfree--;
+        for (int w = 0; w < DISTMAP_TILE_WORDS; w++) atomic_init(&tile[w], 0);
+        return id;
+    }
+    const uint32_t id = m->ntiles;
+    const size_t seg = id >> DISTMAP_TSEG_SHIFT;
+    if (seg >= DISTMAP_TSEG_MAX) return 0;
+    /* The segment table from mmap too: only its first page becomes resident. */
+    if (!m->tseg && !(m->tseg = cells_alloc(DISTMAP_TSEG_MAX * sizeof *m->tseg))) return 0;
+    if (!m->tseg[seg] && !(m->tseg[seg] = cells_alloc(TSEG_BYTES))) return 0;
+    m->ntiles++;
+    return id;
+}
+
+/* Set the bit of the leaf at absolute leaf coordinates (lx, ly) in grid g
+ * (which has tile ids and covers it), making its tile if needed. Returns 1
+ * if the bit was new, 0 if it was set already, -1 out of memory. The tile
+ * is zero before its id is published, and the bit is stored with release,
+ * so a reader that sees either sees a valid word. */
+static int leafbit_set(distmap *m, distmap_grid *g, int64_t lx, int64_t ly)
+{
+    const size_t slot = (size_t)((ly >> DISTMAP_TILE_SHIFT) + g->toff) * g->tw +
+                        (size_t)((lx >> DISTMAP_TILE_SHIFT) + g->toff);
+    uint32_t id = atomic_load_explicit(&g->tix[slot], memory_order_relaxed);
+    if (id == DISTMAP_TILE_UNKNOWN) return 0; /* dropped: its bits are not kept */
+    if (!id) {
+        if (!(id = tile_new(m))) return -1;
+        atomic_store_explicit(&g->tix[slot], id, memory_order_release);
+    }
+    _Atomic uint64_t *tile = tile_at(m, id);
+    _Atomic uint64_t *word = &tile[((ly >> 3) & 3) * 4 + ((lx >> 3) & 3)];
+    const uint64_t bit = UINT64_C(1) << ((ly & 7) * 8 + (lx & 7));
+    const uint64_t w = atomic_load_explicit(word, memory_order_relaxed);
+    if (w & bit) return 0;
+    atomic_store_explicit(word, w | bit, memory_order_release);
+    return 1;
+}
+
+/* 1 if the leaf's bit is set or not kept (distmap_add would set nothing). */
+static int leafbit_get(const distmap *m, const distmap_grid *g, int64_t lx, int64_t ly)
+{
+    int unknown = 0;
+    const uint64_t w = distmap_leaf_word(m, g, lx >> 3, ly >> 3, &unknown);
+    return unknown || (int)((w >> ((ly & 7) * 8 + (lx & 7))) & 1);
 }
 
 int distmap_init(distmap *m, int dim, int bits, int64_t margin_units)
@@ -47,6 +136,11 @@ int distmap_init(distmap *m, int dim, int bits, int64_t margin_units)
     m->retired_bytes = 0;
     m->old = NULL;
     m->bytes = 0;
+    m->tseg = NULL;
+    m->ntiles = 1;
+    m->tfree = 0;
+    m->nfree = 0;
+    m->leaf_interior = DISTMAP_LEAF_INTERIOR;
     return 0;
 }
 
@@ -82,6 +176,7 @@ void distmap_free(distmap *m)
     grid_free(atomic_load_explicit(&m->grid, memory_order_relaxed));
     atomic_store_explicit(&m->grid, NULL, memory_order_relaxed);
     m->bytes = 0;
+    tiles_free(m);
 }
 
 /* ---- one level's cells ---------------------------------------------- */
@@ -123,8 +218,7 @@ static void publish(distmap *m, distmap_grid *g, int concurrent)
 {
     distmap_grid *old = atomic_load_explicit(&m->grid, memory_order_relaxed);
     atomic_store_explicit(&m->grid, g, memory_order_release);
-    m->bytes = g ? (size_t)((level_cells(&g->lv[0], m->dim) + 1) / 2 + level_cells(&g->lv[1], m->dim))
-                 : 0;
+    m->bytes = g ? g->bytes : 0;
     if (!old) return;
     if (concurrent) {
         /* Retired at this epoch; readers that see a later one no longer
@@ -206,7 +300,83 @@ static uint64_t fine_bytes(int dim, int64_t half, int bits)
  * transform. The fine cells are the finest (>= m->bits, never finer than
  * the old grid's) whose level fits the memory budget; when they coarsen,
  * the new levels are made from the old fine level's occupied cells. */
-static distmap_grid *grid_make(const distmap *m, const distmap_grid *old, int64_t h)
+/* Tile slots on each side of 0 over a grid of half side `half` (tiles are
+ * aligned to absolute coordinates; half may be less than a tile). */
+static int64_t tile_off(int64_t half)
+{
+    const int shift = DISTMAP_LEAFBIT_SHIFT + DISTMAP_TILE_SHIFT;
+    return (half + ((int64_t)1 << shift) - 1) >> shift;
+}
+
+static uint32_t tile_width(int64_t half)
+{
+    return (uint32_t)(2 * tile_off(half));
+}
+
+/* Mark in g (which has tile ids) the leaves of the old grid's fine cells
+ * that hold a particle (its cells are the leaves): the first coarsening. */
+static int tiles_from_leaf_cells(distmap *m, distmap_grid *g, const distmap_grid *old)
+{
+    const distmap_level *O = &old->lv[0];
+    const int64_t ow = O->width, off = old->half >> TREE_LEAF_BITS;
+    for (int64_t y = 0; y < ow; y++)
+        for (int64_t x = 0; x < ow; x++)
+            if (cell_get(O, cell_index(O, x, y, 0)) == 0 &&
+                leafbit_set(m, g, x - off, y - off) < 0)
+                return -1;
+    return 0;
+}
+
+/* The tile ids of a new coarsened 2D grid g: the old grid's tiles (they
+ * stay where they are, in absolute leaf coordinates, so the new grid names
+ * the same ones), or, at the first coarsening, new tiles for the leaves the
+ * old grid's fine cells mark. Returns 0, or -1 out of memory. */
+/* 1 if tile (tx, ty) (absolute tile coordinates) lies wholly within
+ * distance rin of the seed. */
+static int tile_inside(int64_t tx, int64_t ty, double rin)
+{
+    const int shift = DISTMAP_LEAFBIT_SHIFT + DISTMAP_TILE_SHIFT;
+    const double s = (double)((int64_t)1 << shift);
+    const double fx = fmax(fabs((double)tx * s), fabs((double)(tx + 1) * s));
+    const double fy = fmax(fabs((double)ty * s), fabs((double)(ty + 1) * s));
+    return fx * fx + fy * fy < rin * rin;
+}
+
+static int grid_tiles(distmap *m, distmap_grid *g, const distmap_grid *old, double rin)
+{
+    g->tw = tile_width(g->half);
+    g->toff = tile_off(g->half);
+    g->tix = cells_alloc(tix_bytes(g));
+    if (!g->tix) {
+        g->tw = 0;
+        return -1;
+    }
+    g->bytes += tix_bytes(g);
+    if (old && old->tix) {
+        const int64_t d = g->toff - old->toff;
+        for (size_t y = 0; y < old->tw; y++)
+            for (size_t x = 0; x < old->tw; x++) {
+                uint32_t id = atomic_load_explicit(&old->tix[y * old->tw + x], memory_order_relaxed);
+                if (!id) continue;
+                if (id != DISTMAP_TILE_UNKNOWN &&
+                    tile_inside((int64_t)x - old->toff, (int64_t)y - old->toff, rin)) {
+                    atomic_store_explicit(&tile_at(m, id)[0], m->tfree, memory_order_relaxed);
+                    m->tfree = id;
+                    m->nfree++;
+                    id = DISTMAP_TILE_UNKNOWN;
+                }
+                atomic_init(&g->tix[(y + (size_t)d) * g->tw + x + (size_t)d], id);
+            }
+    } else if (old && old->lv[0].bits == TREE_LEAF_BITS) {
+        return tiles_from_leaf_cells(m, g, old);
+    }
+    return 0;
+}
+
+/* The fine cells' side (bits) for a grid that covers [-h, h)^dim, never
+ * finer than the old grid's: the finest whose level fits the memory budget;
+ * *half_out: h rounded up to whole coarse cells of that size. */
+static int fine_bits(const distmap *m, const distmap_grid *old, int64_t h, int64_t *half_out)
 {
     const int dim = m->dim;
     int fb = m->bits;
@@ -217,9 +387,23 @@ static distmap_grid *grid_make(const distmap *m, const distmap_grid *old, int64_
     for (;;) {
         const int64_t side = (int64_t)1 << (fb + DISTMAP_COARSE_SHIFT);
         half = (h + side - 1) / side * side;
-        if ((double)fine_bytes(dim, half, fb) <= budget || fb >= 24) break;
+        /* Coarsened 2D cells come with the leaf bits: the fine level
+         * gets a share of the budget (distmap.h). */
+        const double fine_budget =
+            dim == 2 && fb > TREE_LEAF_BITS ? budget / DISTMAP_LEAF_FINE_SHARE : budget;
+        if ((double)fine_bytes(dim, half, fb) <= fine_budget || fb >= 24) break;
         fb++;
     }
+    *half_out = half;
+    return fb;
+}
+
+/* rin: tiles of the old grid wholly within it are dropped (0: none). */
+static distmap_grid *grid_make(distmap *m, const distmap_grid *old, int64_t h, double rin)
+{
+    const int dim = m->dim;
+    int64_t half;
+    const int fb = fine_bits(m, old, h, &half);
     const int64_t w = (half << 1) >> fb;
     if (w <= 0 || w >= (1 << 21)) return NULL;
     uint64_t n = (uint64_t)w * (uint64_t)w;
@@ -234,6 +418,10 @@ static distmap_grid *grid_make(const distmap *m, const distmap_grid *old, int64_
         return NULL;
     }
     g->bytes = g->lv[0].bytes + g->lv[1].bytes;
+    if (dim == 2 && fb > TREE_LEAF_BITS && grid_tiles(m, g, old, rin)) {
+        grid_free(g);
+        return NULL;
+    }
     if (!old) return g;
     if (old->lv[0].bits == fb) {
         for (int l = 0; l < 2; l++) {
@@ -308,7 +496,14 @@ static int covers(const distmap *m, const distmap_grid *g, const int64_t *p)
  * changed on shell r - 1, and a shell where nothing drops ends it. A cell
  * looked at costs one load, where a breadth-first pass loads the 3^dim - 1
  * neighbours of every cell it lowers (and keeps a queue). */
-static void mark(distmap *m, distmap_level *L, const int64_t *c)
+static void count_leaf(distmap *m)
+{
+    atomic_store_explicit(&m->leaves, atomic_load_explicit(&m->leaves, memory_order_relaxed) + 1,
+                          memory_order_release);
+}
+
+/* count: the level's cells are the leaves (m->leaves counts them). */
+static void mark(distmap *m, distmap_level *L, const int64_t *c, int count)
 {
     const int dim = m->dim;
     const int64_t w = L->width;
@@ -316,9 +511,7 @@ static void mark(distmap *m, distmap_level *L, const int64_t *c)
     const size_t i0 = cell_index(L, cc[0], cc[1], cc[2]);
     if (cell_get(L, i0) == 0) return;
     cell_set(L, i0, 0);
-    if (L->nibble)
-        atomic_store_explicit(&m->leaves, atomic_load_explicit(&m->leaves, memory_order_relaxed) + 1,
-                              memory_order_release);
+    if (count) count_leaf(m);
     /* The box of the cells changed on the last shell: [blo, bhi] per axis. */
     int64_t blo[3], bhi[3];
     for (int a = 0; a < 3; a++) blo[a] = bhi[a] = cc[a];
@@ -369,6 +562,7 @@ int distmap_needs_add(const distmap *m, const int64_t *p)
         for (int a = 0; a < m->dim; a++) c[a] = (p[a] + g->half) >> g->lv[l].bits;
         if (distmap_level_value(&g->lv[l], c, m->dim) != 0) return 1;
     }
+    if (g->tix && !leafbit_get(m, g, p[0] >> DISTMAP_LEAFBIT_SHIFT, p[1] >> DISTMAP_LEAFBIT_SHIFT)) return 1;
     return 0;
 }
 
@@ -381,7 +575,11 @@ int distmap_add(distmap *m, const int64_t *p, uint64_t particles, int concurrent
          * per particle would move this cache line between inserting
          * threads. */
         m->particles = particles;
-        distmap_grid *ng = grid_make(m, g, wanted_half(m, p, g ? g->half : 0));
+        /* Interior tiles are dropped only while no other thread reads. */
+        double r = 0;
+        for (int a = 0; a < m->dim; a++) r += (double)p[a] * (double)p[a];
+        const double rin = concurrent ? 0.0 : m->leaf_interior * sqrt(r);
+        distmap_grid *ng = grid_make(m, g, wanted_half(m, p, g ? g->half : 0), rin);
         if (!ng) {
             disable(m, concurrent);
             return 0;
@@ -389,10 +587,20 @@ int distmap_add(distmap *m, const int64_t *p, uint64_t particles, int concurrent
         publish(m, ng, concurrent);
         g = ng;
     }
+    /* The leaf bit first: a reader that sees the cells lowered may look
+     * for the leaf. */
+    if (g->tix) {
+        const int set = leafbit_set(m, g, p[0] >> DISTMAP_LEAFBIT_SHIFT, p[1] >> DISTMAP_LEAFBIT_SHIFT);
+        if (set < 0) {
+            disable(m, concurrent);
+            return 0;
+        }
+        if (set) count_leaf(m);
+    }
     for (int l = 0; l < 2; l++) {
         int64_t c[3] = {0, 0, 0};
         for (int a = 0; a < m->dim; a++) c[a] = (p[a] + g->half) >> g->lv[l].bits;
-        mark(m, &g->lv[l], c);
+        mark(m, &g->lv[l], c, l == 0 && !g->tix);
     }
     return 0;
 }
@@ -422,6 +630,9 @@ static int zero_cells(const int64_t *p, void *user)
         for (int a = 0; a < b->m->dim; a++) c[a] = (p[a] + b->g->half) >> L->bits;
         cell_set(L, cell_index(L, c[0], c[1], c[2]), 0);
     }
+    if (b->g->tix &&
+        leafbit_set(b->m, b->g, p[0] >> DISTMAP_LEAFBIT_SHIFT, p[1] >> DISTMAP_LEAFBIT_SHIFT) < 0)
+        return -1;
     return 0;
 }
 
@@ -431,23 +642,28 @@ int distmap_rebuild(distmap *m, const tree *t)
     atomic_store_explicit(&m->grid, NULL, memory_order_relaxed);
     grid_free(old);
     distmap_quiesce(m);
+    tiles_free(m);
     m->disabled = 0;
     m->bytes = 0;
     m->particles = tree_count(t);
     if (m->particles == 0) return 0;
     rebuild_ctx b = {m, NULL, 0};
     tree_visit(t, max_coord, &b);
+    /* Cached views of the old map (search_block2) must look again. */
+    atomic_store_explicit(&m->leaves, atomic_load_explicit(&m->leaves, memory_order_relaxed) + 1,
+                          memory_order_release);
     const int64_t p[3] = {b.r, b.r, b.r};
-    distmap_grid *g = grid_make(m, NULL, wanted_half(m, p, 0));
+    distmap_grid *g = grid_make(m, NULL, wanted_half(m, p, 0), 0.0);
     if (!g) {
         m->disabled = 1;
         return 0;
     }
     b.g = g;
-    tree_visit(t, zero_cells, &b);
-    /* Cached views of the old map (search_block2) must look again. */
-    atomic_store_explicit(&m->leaves, atomic_load_explicit(&m->leaves, memory_order_relaxed) + 1,
-                          memory_order_release);
+    if (tree_visit(t, zero_cells, &b)) {
+        grid_free(g);
+        m->disabled = 1;
+        return 0;
+    }
     for (int l = 0; l < 2; l++) transform(&g->lv[l], m->dim);
     publish(m, g, 0);
     return 0;

@@ -27,7 +27,14 @@
  * the tree, so a reader that already sees a lowered cell gets a smaller
  * (conservative) bound, and one that sees a stale cell answers for the
  * cluster as it was a moment before, exactly like a tree search that misses
- * a particle appended meanwhile (the WALK_OVERLAP re-check path). A spot
+ * a particle appended meanwhile (the WALK_OVERLAP re-check path). The 2D
+ * leaf bits follow the same rule: a tile is zeroed before its id is stored
+ * (release) in the grid's tile ids, and a bit is set (release) before the
+ * particle is published; a tile never moves and is freed only with the map.
+ * A new grid names the old grid's tiles before it is published, and new
+ * tiles are made in the current grid only, so a reader that caches bits
+ * keys them by the tree's count, read (acquire) before the grid: a bit set
+ * for a particle published by then is in the grid it then reads. A spot
  * the insertion re-check then turns down leaves its cells marked: a fine
  * cell at 0 then has no leaf behind it, which search_block2 allows for, and
  * the bounds around it are merely smaller than they could be. A grid
@@ -59,8 +66,52 @@
  * bytes/particle target at 1e7, where the tree alone takes 3.9
  * (runs/perf-notes.md). */
 #define DISTMAP_BITS TREE_LEAF_BITS
+/* The budget macros may be set at build time (-D) to force coarsened
+ * cells at small N, for measurements (callgrind at 1e5) only. */
+#ifndef DISTMAP_BUDGET_MIN
 #define DISTMAP_BUDGET_MIN ((size_t)1 << 19)
+#endif
+#ifndef DISTMAP_BUDGET_PER_PARTICLE
 #define DISTMAP_BUDGET_PER_PARTICLE 0.04
+#endif
+/* 2D leaf bits. Once the 2D fine cells coarsen, the map also keeps one bit
+ * per leaf (256 units), set when a particle lands in it, so the walk near
+ * the cluster keeps the resolution of leaf cells (search_block2: the 3 x 3
+ * leaf block, and beyond it a chessboard leaf distance of up to
+ * DISTMAP_LEAF_REACH leaves, from the words of 8 x 8 leaves around
+ * the walker). Bits live in tiles of 32 x 32 leaves (16 words, 128 bytes),
+ * made only where a particle lands, from a pool of segments that never move
+ * (2^DISTMAP_TSEG_SHIFT tiles each); each grid holds the tile ids over its
+ * area (4 bytes per tile slot). They cost about 0.035 bytes/particle in 2D
+ * (2D DLA: ~300 marked leaves a tile); the fine level then gets a share of
+ * the budget only (it serves the bound beyond the bits' reach). One bit per
+ * 2 x 2 leaves (a third of the tiles) was measured slower: more jumps and
+ * more tree look-ups (runs/bench-serial/issue12-map12-2026-11-25.md). */
+#define DISTMAP_LEAFBIT_SHIFT TREE_LEAF_BITS /* one bit a leaf */
+#define DISTMAP_TILE_SHIFT 5        /* tile side 2^5 leaves */
+#define DISTMAP_TILE_WORDS 16       /* 4 x 4 words of 8 x 8 leaves */
+#define DISTMAP_TSEG_SHIFT 10       /* tiles per pool segment: 2^10 (128 KiB) */
+#define DISTMAP_TSEG_MAX 4096       /* segments: 4M tiles */
+/* Tiles that lie wholly within DISTMAP_LEAF_INTERIOR of the farthest
+ * particle's distance from the seed when a grid grows are dropped from the
+ * new grid and reused (serial phases only: no other reader may hold them):
+ * their slot then reads "unknown" (DISTMAP_TILE_UNKNOWN), and queries there
+ * use the tree. The interior within 0.35 holds about 0.35^1.71 = 17% of
+ * the leaves; at 2D 1e7 dropping it cost no measurable time, while 0.6
+ * (42%) gave back half the speed-up: walkers do reach deep into the
+ * fjords. */
+#ifndef DISTMAP_LEAF_INTERIOR
+#define DISTMAP_LEAF_INTERIOR 0.35
+#endif
+#define DISTMAP_TILE_UNKNOWN UINT32_MAX
+/* A multiple of 8, at most 24. 16 (5 x 5 words) saved 5% of the jumps but
+ * cost 30% more instructions at forced-coarse 2D 1e5 (the rows' refills). */
+#ifndef DISTMAP_LEAF_REACH
+#define DISTMAP_LEAF_REACH 8
+#endif
+#ifndef DISTMAP_LEAF_FINE_SHARE
+#define DISTMAP_LEAF_FINE_SHARE 6   /* the fine level's share of the budget: 1/6 */
+#endif
 /* 3D: the target is 6 bytes/particle at 1e6 and the tree takes ~4.8 in
  * peak RSS. Measured at 3D 1e6 (VmHWM difference to 1e4, seed 1): budget
  * 2.0 -> 6.18 B/p, 22.4 s; 1.5 -> 5.83 B/p, 22.9 s; 1.0 -> 4.69 B/p, 26.1 s. */
@@ -78,7 +129,14 @@ typedef struct distmap_level {
 typedef struct distmap_grid {
     int64_t half;                 /* covers [-half, half)^dim units, whole coarse cells */
     distmap_level lv[2];          /* 0 fine, 1 coarse */
-    size_t bytes;                 /* of both levels' cells */
+    size_t bytes;                 /* of both levels' cells and the tile ids */
+    /* 2D with coarsened fine cells: the id of the leaf-bit tile over each
+     * 32 x 32 leaves of the grid (tw x tw, x fastest; 0: no particle there
+     * yet). NULL otherwise (no leaf bits: the fine cells are the leaves,
+     * or 3D). */
+    _Atomic uint32_t *tix;
+    uint32_t tw;                  /* 2 toff */
+    int64_t toff;                 /* slot of the tile at absolute tile coordinate 0 */
     uint64_t retired_at;          /* the map's epoch when it was replaced */
     struct distmap_grid *retired; /* older grids a reader may still hold */
 } distmap_grid;
@@ -104,6 +162,16 @@ typedef struct distmap {
     distmap_grid *old;            /* retired grids, newest first */
     size_t retired_bytes;         /* their cells */
     size_t bytes;                 /* bytes of the current grid */
+    /* The leaf-bit tiles (2D, coarsened): segments of 2^DISTMAP_TSEG_SHIFT
+     * tiles, each DISTMAP_TILE_WORDS words; tile id i (>= 1) is word
+     * (i & mask) * 16 of segment i >> shift. A segment pointer is written
+     * before any id in it is published (release), so readers that found
+     * the id read it without further ordering. */
+    _Atomic uint64_t **tseg;      /* DISTMAP_TSEG_MAX pointers, NULL until used */
+    uint32_t ntiles;              /* tiles handed out, plus the unused id 0 */
+    uint32_t tfree;               /* dropped tiles to reuse (linked by word 0), 0: none */
+    uint32_t nfree;
+    double leaf_interior;         /* DISTMAP_LEAF_INTERIOR (tests may change it) */
     PDLA_CACHE_PAD(pad_end_);
 } distmap;
 
@@ -146,6 +214,34 @@ void distmap_reclaim(distmap *m, uint64_t oldest_seen);
 int distmap_rebuild(distmap *m, const tree *t);
 
 /* search_block2, the map-assisted search, is declared in search.h. */
+
+/* Bytes of the leaf-bit tiles in use (0 when there are none). */
+size_t distmap_tile_bytes(const distmap *m);
+
+/* The word of 8 x 8 leaf bits whose leaves have absolute leaf coordinates
+ * (wx * 8.., wy * 8..) (leaf coordinates: units >> DISTMAP_LEAFBIT_SHIFT; bit
+ * (y & 7) * 8 + (x & 7)), from grid g, which must have tile ids. 0 when no
+ * tile is there, or the word lies outside the grid (no particle lies
+ * there); *unknown is set to 1 (else left) where the tile was dropped (the
+ * bits there are not kept). Readers call it without a lock. */
+static inline __attribute__((always_inline)) uint64_t distmap_leaf_word(const distmap *m,
+                                                                        const distmap_grid *g,
+                                                                        int64_t wx, int64_t wy,
+                                                                        int *unknown)
+{
+    const int64_t tx = (wx >> 2) + g->toff, ty = (wy >> 2) + g->toff;
+    if ((uint64_t)tx >= g->tw || (uint64_t)ty >= g->tw) return 0;
+    const uint32_t id = atomic_load_explicit(&g->tix[(size_t)ty * g->tw + (size_t)tx],
+                                             memory_order_acquire);
+    if (!id) return 0;
+    if (id == DISTMAP_TILE_UNKNOWN) {
+        *unknown = 1;
+        return 0;
+    }
+    const _Atomic uint64_t *tile =
+        m->tseg[id >> DISTMAP_TSEG_SHIFT] + (size_t)(id & ((1u << DISTMAP_TSEG_SHIFT) - 1)) * DISTMAP_TILE_WORDS;
+    return atomic_load_explicit(&tile[(wy & 3) * 4 + (wx & 3)], memory_order_acquire);
+}
 
 /* The value of cell (c) of a level whose L->nibble is `nibble` (a constant
  * where the level is known: the fine level is always 4-bit, the coarse one

@@ -1020,15 +1020,21 @@ static inline __attribute__((always_inline)) void blk_recentre(search_state *k, 
  * precedes an insertion. */
 static inline __attribute__((always_inline)) uint32_t blk_lookup(const tree *t,
                                                                  const distmap_level *L,
-                                                                 const int64_t *cc, int o,
-                                                                 const int64_t *nlo,
-                                                                 search_state *k, const int dim)
+                                                                 const int64_t *cc, uint32_t occ,
+                                                                 int o, const int64_t *nlo,
+                                                                 search_state *k, const int dim,
+                                                                 const int bits)
 {
-    int64_t nc[3];
-    for (int a = 0; a < dim; a++) nc[a] = cc[a] + block_off[o][a];
-    if (distmap_level_value_k(L, nc, dim, 1) != 0) return k->blk_head[o] = BLK_EMPTY;
+    if (bits) { /* occ: the block's leaf bits, bit o for leaf o */
+        if (!((occ >> o) & 1)) return k->blk_head[o] = BLK_EMPTY;
+    } else {
+        int64_t nc[3];
+        for (int a = 0; a < dim; a++) nc[a] = cc[a] + block_off[o][a];
+        if (distmap_level_value_k(L, nc, dim, 1) != 0) return k->blk_head[o] = BLK_EMPTY;
+    }
     const uint32_t head = find_leaf_cached(t, nlo, k, dim);
-    return k->blk_head[o] = head ? head : BLK_UNKNOWN;
+    /* Leaf bits: the cache key is the tree's count (block_bits2). */
+    return k->blk_head[o] = head ? head : bits ? BLK_EMPTY : BLK_UNKNOWN;
 }
 
 #if defined(__SSE2__) && defined(__x86_64__) /* _mm_cvttss_si64 */
@@ -1101,8 +1107,8 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf2(const tree *t, 
  * box is not nearer than best2, else scanned. Returns the new best2. */
 static inline __attribute__((always_inline)) uint64_t
 blk_visit(const tree *t, const search_config *c, const distmap_level *L, const int64_t *p,
-          const int64_t *lo, const int64_t *cc, const uint64_t (*col2)[3], int o, uint64_t best2,
-          search_state *k, const int dim)
+          const int64_t *lo, const int64_t *cc, uint32_t occ, const uint64_t (*col2)[3], int o,
+          uint64_t best2, search_state *k, const int dim, const int bits)
 {
     uint32_t head = k->blk_head[o];
     if (head == BLK_EMPTY) return best2;
@@ -1112,7 +1118,7 @@ blk_visit(const tree *t, const search_config *c, const distmap_level *L, const i
     int64_t nlo[3];
     for (int a = 0; a < dim; a++) nlo[a] = lo[a] + (int64_t)block_off[o][a] * TREE_LEAF_SIDE;
     if (head <= BLK_EMPTY) {
-        head = blk_lookup(t, L, cc, o, nlo, k, dim);
+        head = blk_lookup(t, L, cc, occ, o, nlo, k, dim, bits);
         if (head <= BLK_EMPTY) return best2;
     }
     int64_t q[3];
@@ -1130,8 +1136,9 @@ static inline __attribute__((always_inline)) uint64_t blk_scan(const tree *t,
                                                                const search_config *c,
                                                                const distmap_level *L,
                                                                const int64_t *p, const int64_t *lo,
-                                                               const int64_t *cc, uint64_t best2,
-                                                               search_state *k, const int dim)
+                                                               const int64_t *cc, uint32_t occ,
+                                                               uint64_t best2, search_state *k,
+                                                               const int dim, const int bits)
 {
     const int n = dim == 2 ? 9 : 27;
     const uint8_t *order = dim == 2 ? block_order2 : block_order3;
@@ -1152,22 +1159,98 @@ static inline __attribute__((always_inline)) uint64_t blk_scan(const tree *t,
          * (same answer, fewer compares). */
         const uint64_t mx = col2[0][0] < col2[0][2] ? col2[0][0] : col2[0][2];
         const uint64_t my = col2[1][0] < col2[1][2] ? col2[1][0] : col2[1][2];
-        best2 = blk_visit(t, c, L, p, lo, cc, (const uint64_t(*)[3])col2, 4, best2, k, 2);
+        best2 = blk_visit(t, c, L, p, lo, cc, occ, (const uint64_t(*)[3])col2, 4, best2, k, 2, bits);
         if (best2 <= (mx < my ? mx : my)) return best2;
 #pragma GCC unroll 4
         for (int i = 1; i < 5; i++)
-            best2 = blk_visit(t, c, L, p, lo, cc, (const uint64_t(*)[3])col2, block_order2[i],
-                              best2, k, 2);
+            best2 = blk_visit(t, c, L, p, lo, cc, occ, (const uint64_t(*)[3])col2,
+                              block_order2[i], best2, k, 2, bits);
         if (best2 <= mx + my) return best2;
 #pragma GCC unroll 4
         for (int i = 5; i < 9; i++)
-            best2 = blk_visit(t, c, L, p, lo, cc, (const uint64_t(*)[3])col2, block_order2[i],
-                              best2, k, 2);
+            best2 = blk_visit(t, c, L, p, lo, cc, occ, (const uint64_t(*)[3])col2,
+                              block_order2[i], best2, k, 2, bits);
         return best2;
     }
     for (int i = 0; i < n; i++)
-        best2 = blk_visit(t, c, L, p, lo, cc, (const uint64_t(*)[3])col2, order[i], best2, k, dim);
+        best2 = blk_visit(t, c, L, p, lo, cc, occ, (const uint64_t(*)[3])col2, order[i], best2, k,
+                          dim, bits);
     return best2;
+}
+
+/* The walker's leaf-bit rows (search_state lb_row) for the LB_WORDS^2 words
+ * around word (wx, wy), as of cache key `key` (read before the grid). */
+static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, int64_t wx,
+                    int64_t wy, uint64_t key)
+{
+    int unknown = 0;
+    for (int j = 0; j < LB_WORDS; j++) {
+        uint64_t w[LB_WORDS], any = 0;
+        for (int i = 0; i < LB_WORDS; i++)
+            any |= w[i] = distmap_leaf_word(m, g, wx - LB_RING + i, wy - LB_RING + j, &unknown);
+        for (int r = 0; r < 8; r++) {
+            uint64_t row = 0;
+            if (any)
+                for (int i = 0; i < LB_WORDS; i++) row |= ((w[i] >> (8 * r)) & 255) << (8 * i);
+            k->lb_row[8 * j + r] = row;
+        }
+    }
+    k->lb_w[0] = wx;
+    k->lb_w[1] = wy;
+    k->lb_leaves = key;
+    k->lb_valid = 1;
+    k->lb_unknown = unknown;
+}
+
+/* The 2D block search on the map's leaf bits (coarsened fine cells; see
+ * search_block2). `key`: the cache key, read before g: the tree's count
+ * (with the top bit set, so it never equals a key of the leaf-cell mode),
+ * which changes after every particle is published. A leaf the tree does
+ * not have is then empty until the key changes, whether or not its bit is
+ * set. */
+static uint64_t block_bits2(const tree *t, const search_config *c, const distmap *m,
+                            const distmap_grid *g, const int64_t *p, uint64_t key,
+                            search_state *k)
+{
+    const int64_t lx = p[0] >> DISTMAP_LEAFBIT_SHIFT, ly = p[1] >> DISTMAP_LEAFBIT_SHIFT;
+    if (!k->lb_valid || k->lb_w[0] != lx >> 3 || k->lb_w[1] != ly >> 3 || k->lb_leaves != key)
+        lb_fill(k, m, g, lx >> 3, ly >> 3, key);
+    if (k->lb_unknown) return UINT64_MAX; /* dropped interior tiles: the tree */
+    /* p's leaf in the rows: x, y in 8 LB_RING.. + 7, so every square of
+     * up to DISTMAP_LEAF_REACH leaves around it lies in them. */
+    const int x = (int)(lx & 7) + 8 * LB_RING, y = (int)(ly & 7) + 8 * LB_RING;
+    const uint64_t *row = k->lb_row;
+    const uint32_t r0 = (uint32_t)(row[y - 1] >> (x - 1)) & 7, r1 = (uint32_t)(row[y] >> (x - 1)) & 7,
+                   r2 = (uint32_t)(row[y + 1] >> (x - 1)) & 7;
+    if (!(r0 | r1 | r2)) {
+        /* The nearest marked leaf is v >= 2 leaves away (chessboard): the
+         * leaves within v - 1 of p's are empty, and every particle lies at
+         * least (v - 1) leaves plus p's distance to the edge of its own
+         * leaf away (distmap_block_bound). */
+        uint64_t acc = row[y - 1] | row[y] | row[y + 1];
+        int v = 2;
+        for (; v <= DISTMAP_LEAF_REACH; v++) {
+            acc |= row[y - v] | row[y + v];
+            if (acc & (((UINT64_C(2) << (2 * v)) - 1) << (x - v))) break;
+        }
+        const int64_t b = distmap_block_bound(p, DISTMAP_LEAFBIT_SHIFT, v, 2);
+        return (uint64_t)(b * b);
+    }
+    /* The 3 x 3 leaves around p's leaf (bit o = (dx + 1) + 3 (dy + 1), as
+     * block_off). */
+    const uint32_t occ = r0 | r1 << 3 | r2 << 6;
+    int64_t lo[3] = {lx * TREE_LEAF_SIDE, ly * TREE_LEAF_SIDE, 0};
+    blk_recentre(k, lo, 2);
+    if (key != k->blk_leaves) {
+        for (int o = 0; o < 9; o++)
+            if (k->blk_head[o] == BLK_EMPTY) k->blk_head[o] = BLK_UNKNOWN;
+        k->blk_leaves = key;
+    }
+    const uint64_t out2 = inside_margin2(p, (const int64_t[3]){lo[0] - TREE_LEAF_SIDE,
+                                                              lo[1] - TREE_LEAF_SIDE, 0},
+                                         3 * TREE_LEAF_SIDE, 2);
+    const uint64_t best2 = blk_scan(t, c, NULL, p, lo, NULL, occ, UINT64_MAX, k, 2, 1);
+    return best2 < out2 ? best2 : out2;
 }
 
 static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
@@ -1175,10 +1258,15 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
                                                                 const distmap *m, const int64_t *p,
                                                                 search_state *k, const int dim)
 {
+    /* The counts before the grid: a grid replaced after a particle counted
+     * here was seen is then the new one (or newer), which has its marks. */
+    const uint64_t leaves = atomic_load_explicit(&m->leaves, memory_order_acquire);
+    const uint64_t key = tree_count(t) | UINT64_C(1) << 63;
     const distmap_grid *g = atomic_load_explicit(&m->grid, memory_order_acquire);
     if (!g) return UINT64_MAX;
     const distmap_level *L = &g->lv[0];
-    if (L->bits != TREE_LEAF_BITS) return UINT64_MAX; /* coarsened: not the leaves */
+    if (L->bits != TREE_LEAF_BITS) /* coarsened: not the leaves */
+        return dim == 2 && g->tix ? block_bits2(t, c, m, g, p, key, k) : UINT64_MAX;
     const int64_t w = L->width;
     int64_t cc[3];
     for (int a = 0; a < dim; a++) {
@@ -1195,7 +1283,6 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
     blk_recentre(k, lo, dim);
     /* A leaf made since (by an earlier walker's particle) may be one seen
      * empty: look at those again. */
-    const uint64_t leaves = atomic_load_explicit(&m->leaves, memory_order_acquire);
     if (leaves != k->blk_leaves) {
         for (int o = 0; o < (dim == 2 ? 9 : 27); o++)
             if (k->blk_head[o] == BLK_EMPTY) k->blk_head[o] = BLK_UNKNOWN;
@@ -1212,7 +1299,7 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
      * 1e5 but was slower in user CPU time in paired runs (runs/bench-serial/
      * issue12-speed3-2026-11-24.md). */
     const uint64_t start2 = SEARCH_SEEDED(dim) ? (seed2 < out2 ? seed2 : out2) : UINT64_MAX;
-    const uint64_t best2 = blk_scan(t, c, L, p, lo, cc, start2, k, dim);
+    const uint64_t best2 = blk_scan(t, c, L, p, lo, cc, 0, start2, k, dim, 0);
     if (best2 < out2) {
         if (SEARCH_SEEDED(dim)) note_exact(k, p, best2, dim);
         return best2;

@@ -23,6 +23,10 @@
 #define SEARCH_NB_MAX 1024
 #define SEARCH_NB_RADIUS 256
 #define SEARCH_NB_BUCKETS 64
+/* The leaf-bit rows: words within LB_RING of the walker's (the largest
+ * square they hold around its leaf reaches DISTMAP_LEAF_REACH leaves). */
+#define LB_RING (DISTMAP_LEAF_REACH / 8)
+#define LB_WORDS (2 * LB_RING + 1)
 
 typedef struct search_state {
     uint64_t node_visits;
@@ -40,6 +44,16 @@ typedef struct search_state {
     uint64_t blk_leaves;         /* the map's leaf count when they were cached */
     int64_t blk_c[3];
     uint32_t blk_head[27];
+    /* 2D with the map's leaf bits (coarsened fine cells): the bits of the
+     * 8 LB_WORDS x 8 LB_WORDS leaves around the walker (the words of 8 x 8
+     * leaves within LB_RING words of the word with absolute coordinates
+     * lb_w), one row of bits per leaf row, as of the cache key lb_leaves
+     * (search.c: block_bits2). */
+    int lb_valid;
+    int lb_unknown;              /* some of the words were dropped (distmap.h) */
+    uint64_t lb_leaves;
+    int64_t lb_w[2];
+    uint64_t lb_row[8 * LB_WORDS];
     /* The walker's neighbour list (search_near2, serial): every particle
      * centre within nb_r units of nb_c while the tree holds nb_count
      * particles, as offsets from nb_c sorted by distance from it (in
@@ -79,6 +93,7 @@ static inline void search_state_reset(search_state *s)
     s->particle_checks = 0;
     s->root = 0;
     s->blk_valid = 0;
+    s->lb_valid = 0;
     s->nb_valid = 0;
     s->nb_last2 = 0;
     s->ub_d2 = UINT64_MAX;
@@ -151,9 +166,14 @@ int search_ball_points2(const tree *t, const int64_t *p, uint64_t near2, uint64_
  * of the 3^dim block around p's leaf that the map's fine level marks
  * occupied (the fine cells are the leaves), scanned exactly: exact whenever
  * the nearest particle is nearer than the outside of the block (so always
- * near contact), else the distance to the outside of the block. Returns
- * UINT64_MAX when the map cannot answer (none, or p near the grid's edge):
- * then search_lower_bound2 does. The leaves' first chunks are cached in k
+ * near contact), else the distance to the outside of the block. In 2D once
+ * the fine cells coarsen, the map's leaf bits say which leaves are
+ * occupied instead; and when none of the 3 x 3 leaves is, the answer is
+ * the leaf bound: the distance to the outside of the largest empty square
+ * of leaves around p's leaf, up to DISTMAP_LEAF_REACH leaves (at least one
+ * leaf). Returns UINT64_MAX when the map cannot answer (none, coarsened
+ * cells without leaf bits, or p near the grid's edge): then
+ * search_lower_bound2 does. The leaves' first chunks are cached in k
  * (a leaf once seen never moves; one not seen yet is looked up again when
  * the map marks its cell). */
 uint64_t search_block2(const tree *t, const search_config *c, const distmap *m, const int64_t *p,

@@ -15,7 +15,10 @@
  *    them within the reach is the search's;
  *  - a walker's cached block stays right while the grid grows under it;
  *  - the same with a small memory budget, where the fine cells coarsen
- *    while the grid grows;
+ *    while the grid grows; in 2D the block search then reads the leaf bits
+ *    (one per leaf), each set exactly where a particle lies (brute
+ *    force), and answers beyond the block from them (a bound, checked
+ *    like every other);
  *  - distmap_rebuild from the tree gives the same cells as the map built one
  *    particle at a time, and the same bounds.
  * Fixed seeds; a failure prints the seed, point and both values.
@@ -46,6 +49,37 @@ static uint64_t brute(const int64_t (*pts)[3], size_t n, int dim, const int64_t 
         if (d2 < best) best = d2;
     }
     return best;
+}
+
+/* The leaf bits of a coarsened 2D grid against brute force: set exactly on
+ * the leaves that hold a particle, over the whole grid, except in tiles
+ * dropped as interior (counted in *unknown). Returns the number of wrong
+ * leaves. */
+static int check_leafbits(const distmap *m, const int64_t (*pts)[3], size_t n, int *unknown)
+{
+    const distmap_grid *g = atomic_load(&m->grid);
+    if (!g || !g->tix) return 0;
+    const int64_t q0 = -g->half >> DISTMAP_LEAFBIT_SHIFT, nq = (2 * g->half) >> DISTMAP_LEAFBIT_SHIFT;
+    unsigned char *want = calloc((size_t)(nq * nq), 1);
+    for (size_t i = 0; i < n; i++)
+        want[((pts[i][1] >> DISTMAP_LEAFBIT_SHIFT) - q0) * nq + (pts[i][0] >> DISTMAP_LEAFBIT_SHIFT) - q0] = 1;
+    int bad = 0;
+    for (int64_t y = 0; y < nq; y++)
+        for (int64_t x = 0; x < nq; x++) {
+            const int64_t ax = x + q0, ay = y + q0;
+            int unk = 0;
+            const uint64_t word = distmap_leaf_word(m, g, ax >> 3, ay >> 3, &unk);
+            const int got = (int)((word >> ((ay & 7) * 8 + (ax & 7))) & 1);
+            if (unk) {
+                ++*unknown;
+                continue;
+            }
+            if (got != want[y * nq + x] && bad++ < 5)
+                fprintf(stderr, "leaf %lld %lld: bit %d, want %d\n", (long long)ax, (long long)ay, got,
+                        want[y * nq + x]);
+        }
+    free(want);
+    return bad;
 }
 
 static unsigned level_at(const distmap_level *L, int dim, const int64_t *c)
@@ -96,7 +130,8 @@ static int check_cells(const distmap_grid *g, int l, int dim, const int64_t (*pt
 
 /* A random cluster: a few random walks with steps of about one diameter
  * (D = 32), reaching out several hundred diameters so the grid grows. */
-static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size_t budget)
+static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size_t budget,
+                         double interior)
 {
     pdla_rng r;
     rng_seed(&r, seed);
@@ -107,12 +142,14 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
     if (budget) { /* a small budget: the fine cells coarsen as the grid grows */
         m.budget_min = budget;
         m.budget_per_particle = 0.0;
+        m.leaf_interior = interior; /* 2D: interior tiles dropped */
     } else { /* leaf cells throughout, whatever the random cluster's extent */
         m.budget_min = (size_t)1 << 30;
     }
     int64_t(*pts)[3] = calloc(n, sizeof *pts);
     int64_t cur[3] = {0, 0, 0};
     int bad_bound = 0, bad_min = 0, useful = 0, bad_block = 0, block_used = 0, ball_scans = 0;
+    int far_bits = 0;
     search_config cfg;
     search_config_init(&cfg, 2.0, 32, 2);
     search_config exact;
@@ -192,6 +229,7 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
             }
             if (b2 == UINT64_MAX) continue;
             block_used++;
+            far_bits += b2 > 512 * 512; /* >= 2 empty leaves all round: from the leaf bits */
             if ((b2 > truth || (truth < 256 * 256 && b2 != truth)) && bad_block++ < 5)
                 fprintf(stderr, "dim %d seed %llu n %zu: block %.1f, true %.1f\n", dim,
                         (unsigned long long)seed, i + 1, sqrt((double)b2), sqrt((double)truth));
@@ -215,7 +253,16 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
     CHECK(m.disabled == 0, "map disabled");
     CHECK(bad_block == 0, "dim %d seed %llu: %d block searches wrong", dim,
           (unsigned long long)seed, bad_block);
-    if (!budget) CHECK(block_used > 1000, "dim %d: only %d block searches", dim, block_used);
+    if (!budget || dim == 2) CHECK(block_used > 1000, "dim %d: only %d block searches", dim, block_used);
+    if (budget && dim == 2) {
+        CHECK(far_bits > 50, "only %d block answers from the leaf bits", far_bits);
+        int unknown = 0;
+        CHECK(check_leafbits(&m, (const int64_t(*)[3])pts, n, &unknown) == 0,
+              "seed %llu: leaf bits wrong", (unsigned long long)seed);
+        if (interior >= 0.5)
+            CHECK(unknown > 0, "seed %llu: no tile dropped at interior %.2f", (unsigned long long)seed,
+                  interior);
+    }
     if (dim == 2) CHECK(ball_scans > 1000, "only %d ball scans answered", ball_scans);
     const distmap_grid *gf = atomic_load(&m.grid);
     if (budget) CHECK(gf && gf->lv[0].bits > 8, "dim %d: the fine cells did not coarsen", dim);
@@ -259,6 +306,12 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
         }
     CHECK(differ == 0, "dim %d seed %llu: rebuilt map differs in %d cells", dim,
           (unsigned long long)seed, differ);
+    if (budget && dim == 2) {
+        CHECK(g2 && g2->tix != NULL, "the rebuilt coarsened map has no leaf bits");
+        int unknown = 0;
+        CHECK(check_leafbits(&m2, (const int64_t(*)[3])pts, n, &unknown) == 0 && unknown == 0,
+              "rebuilt leaf bits wrong (%d leaves unknown)", unknown);
+    }
     for (int q = 0; q < 2000; q++) {
         int64_t p[3];
         const int64_t *s = pts[rng_next(&r) % n];
@@ -276,7 +329,7 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
 /* A walker's cached block must survive the grid growing under it (its
  * origin moves): query, grow the grid by far particles, query again in the
  * same and nearby leaves. */
-static void test_growth_cache(int dim, uint64_t seed)
+static void test_growth_cache(int dim, uint64_t seed, size_t budget)
 {
     pdla_rng r;
     rng_seed(&r, seed);
@@ -284,6 +337,10 @@ static void test_growth_cache(int dim, uint64_t seed)
     CHECK(tree_init(&t, dim) == 0, "tree_init");
     distmap m;
     distmap_init(&m, dim, 8, 2 * 32 + 8 * 256);
+    if (budget) { /* coarsened cells: 2D reads the leaf bits */
+        m.budget_min = budget;
+        m.budget_per_particle = 0.0;
+    }
     search_config cfg;
     search_config_init(&cfg, 2.0, 32, 2);
     search_state ss;
@@ -380,12 +437,16 @@ static void test_reclaim(int dim)
 /* distmap_needs_add, the workers' lock-free test, says 0 exactly when
  * distmap_add would change nothing (no new grid, no newly marked leaf), and
  * 0 for every point once it has been added. */
-static void test_needs_add(int dim, uint64_t seed)
+static void test_needs_add(int dim, uint64_t seed, size_t budget)
 {
     pdla_rng r;
     rng_seed(&r, seed);
     distmap m;
     distmap_init(&m, dim, 8, 2 * 32 + 8 * 256);
+    if (budget) { /* coarsened cells (2D: with leaf bits) */
+        m.budget_min = budget;
+        m.budget_per_particle = 0.0;
+    }
     int zeros = 0, ones = 0;
     for (uint64_t n = 1; n <= 3000; n++) {
         int64_t p[3] = {0, 0, 0};
@@ -407,22 +468,26 @@ static void test_needs_add(int dim, uint64_t seed)
               (unsigned long long)n);
     }
     CHECK(zeros > 100 && ones > 100, "dim %d: both answers occur (%d, %d)", dim, zeros, ones);
+    if (budget) CHECK(atomic_load(&m.grid)->lv[0].bits > 8, "dim %d: no coarsening", dim);
     distmap_free(&m);
 }
 
 int main(void)
 {
-    test_needs_add(2, 31);
-    test_needs_add(3, 32);
+    test_needs_add(2, 31, 0);
+    test_needs_add(3, 32, 0);
+    test_needs_add(2, 33, 1024);
     test_reclaim(2);
     test_reclaim(3);
-    test_growth_cache(2, 7);
-    test_growth_cache(3, 8);
-    test_cluster(2, 2000, 1, 1, 0);
-    test_cluster(2, 10000, 2, 0, 0);
-    test_cluster(3, 1000, 3, 1, 0);
-    test_cluster(3, 5000, 4, 0, 0);
-    test_cluster(2, 4000, 5, 1, 2048);
-    test_cluster(3, 2000, 6, 1, 4096);
+    test_growth_cache(2, 7, 0);
+    test_growth_cache(3, 8, 0);
+    test_growth_cache(2, 9, 512);
+    test_cluster(2, 2000, 1, 1, 0, 0);
+    test_cluster(2, 10000, 2, 0, 0, 0);
+    test_cluster(3, 1000, 3, 1, 0, 0);
+    test_cluster(3, 5000, 4, 0, 0, 0);
+    test_cluster(2, 4000, 5, 1, 2048, DISTMAP_LEAF_INTERIOR);
+    test_cluster(2, 10000, 7, 0, 4096, 0.6);
+    test_cluster(3, 2000, 6, 1, 4096, DISTMAP_LEAF_INTERIOR);
     return check_finish();
 }

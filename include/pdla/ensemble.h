@@ -64,6 +64,14 @@ PDLA_API int pdla_ens_config_check(const pdla_ens_config *c, char *err, size_t e
  * K the R_g samples of one cluster); saturates at UINT64_MAX. */
 PDLA_API uint64_t pdla_ens_memory_bytes(const pdla_ens_config *c);
 
+/* At most how many R_g samples one cluster of c records (the log grid:
+ * rg_per_decade a decade, strictly increasing integers, so never more than
+ * N, plus N = 1 and the last point), and so the largest cluster record c's
+ * clusters make, in bytes (the journal refuses a longer one as damaged
+ * before reading it). Saturate at 2^60. */
+PDLA_API uint64_t pdla_ens_rg_samples_max(const pdla_ens_config *c);
+PDLA_API uint64_t pdla_ens_record_max_bytes(const pdla_ens_config *c);
+
 /* The growth parameters of cluster i (seed = params.seed + i). */
 PDLA_API void pdla_ens_cluster_params(const pdla_ens_config *c, uint64_t i, pdla_params *out);
 
@@ -153,14 +161,16 @@ PDLA_API int pdla_ens_journal_begin_append(pdla_ens_journal *j, char *err, size_
  * clusters <= M or a seed range past 2^64 - 1 (nothing written). */
 PDLA_API int pdla_ens_journal_extend(pdla_ens_journal *j, uint64_t clusters, pdla_ens_journal **out,
                                      char *err, size_t errlen);
-/* Before this build appends to a journal another build grew: add this
- * build (pdla_build_revision) to the journal's list of builds, rewriting
- * it as pdla_ens_journal_extend does (j is closed, the reopened journal
- * returned in *out). A journal that lists this build already is returned
- * as it is (*out = j, nothing written). A build's clusters are the same law
- * as another's, not the same bits: the list says which builds grew the
- * ensemble (ensemble.h5 /ensemble builds). */
-PDLA_API int pdla_ens_journal_join(pdla_ens_journal *j, pdla_ens_journal **out, char *err, size_t errlen);
+/* Before this build grows clusters of a journal another build grew (after
+ * pdla_ens_journal_begin_append): append a build record naming this build
+ * (pdla_build_revision; "unrecorded" first for the records of a journal
+ * from before builds were recorded), made durable like a cluster record:
+ * the journal is not rewritten, whatever its size. Nothing is written when
+ * the journal lists this build already, or its list is full (2 KB of
+ * names). A build's clusters are the same law as another's, not the same
+ * bits: the list says which builds grew the ensemble (ensemble.h5
+ * /ensemble builds). */
+PDLA_API int pdla_ens_journal_join(pdla_ens_journal *j, char *err, size_t errlen);
 /* The builds that grew j's records, space-separated revisions in the order
  * they joined; "" for a journal from before builds were recorded. Whether this
  * build is among them. */

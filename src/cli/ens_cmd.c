@@ -392,9 +392,7 @@ static void note_build(const ens_cmd *c, int grow)
 static int join_build(ens_cmd *c)
 {
     if (pdla_ens_journal_count(c->j) >= pdla_ens_journal_config(c->j)->clusters) return 0;
-    pdla_ens_journal *next = NULL;
-    const int rc = pdla_ens_journal_join(c->j, &next, c->err, sizeof c->err);
-    c->j = next;
+    const int rc = pdla_ens_journal_join(c->j, c->err, sizeof c->err);
     if (rc) fprintf(stderr, "pdla ensemble: %s\n", c->err);
     return rc ? -1 : 0;
 }
@@ -461,11 +459,11 @@ static int open_resume(ens_cmd *c)
             return EXIT_RUNTIME;
         }
     }
-    if (join_build(c)) return EXIT_RUNTIME;
     if (pdla_ens_journal_begin_append(c->j, c->err, sizeof c->err)) {
         fprintf(stderr, "pdla ensemble: %s\n", c->err);
         return EXIT_RUNTIME;
     }
+    if (join_build(c)) return EXIT_RUNTIME;
     if (!c->o.quiet)
         fprintf(stderr, "pdla ensemble: resuming %s: %" PRIu64 " of %" PRIu64 " clusters recorded%s\n", c->dir,
                 pdla_ens_journal_count(c->j), pdla_ens_journal_config(c->j)->clusters,

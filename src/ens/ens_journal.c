@@ -15,6 +15,8 @@
  * Layout (native byte order, marked in the header):
  *   "PDLAENS1", u32 0x01020304, u32 L, L bytes of text, u64 FNV-1a(text)
  *   then records: "PDLAREC1", u64 P, P bytes (a record), u64 FNV-1a(P, bytes)
+ *   and build records: "PDLABLD1", u64 P, P bytes (a revision), u64 FNV-1a(P, bytes),
+ *   appended when another build resumes the ensemble (pdla_ens_journal_join)
  * The text is "key=value" lines: format, the builds of pdla that grew
  * records ("build=REVISION", one line each, in the order they joined; none
  * in journals from before builds were recorded), every row of the
@@ -37,6 +39,7 @@
 
 #define HEAD_MAGIC "PDLAENS1"
 #define REC_MAGIC "PDLAREC1"
+#define BLD_MAGIC "PDLABLD1"
 #define BOM UINT32_C(0x01020304)
 #define FORMAT_LINE "format=pdla-ensemble-journal 1\n"
 #define NONE UINT64_MAX
@@ -56,6 +59,7 @@ struct pdla_ens_journal {
     uint64_t torn;          /* bytes after end (a torn or damaged tail) */
     uint64_t damaged;       /* bytes of damaged records skipped before end */
     char builds[JOURNAL_BUILDS_MAX]; /* the builds that grew records, space-separated */
+    uint64_t max_record;    /* the longest record this ensemble makes (a longer length is damage) */
 };
 
 static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
@@ -105,7 +109,9 @@ static char *header_text(const pdla_ens_config *c, const char *builds, size_t *l
 {
     size_t n;
     const pdla_param_desc *t = pdla_param_table(&n);
-    size_t cap = 4096 + JOURNAL_BUILDS_MAX * 2, used = 0;
+    /* Each build line adds 7 bytes to its name and separator: at most
+     * 1024 names in JOURNAL_BUILDS_MAX, so 4 x that holds every line. */
+    size_t cap = 4096 + JOURNAL_BUILDS_MAX * 4, used = 0;
     char *s = malloc(cap);
     if (!s) return NULL;
     used += (size_t)snprintf(s, cap, "%s", FORMAT_LINE);
@@ -153,6 +159,19 @@ static int builds_add(char *builds, const char *v)
     if (used) builds[used++] = ' ';
     memcpy(builds + used, v, n + 1);
     return 0;
+}
+
+/* Is revision `name` (n bytes) in the list? */
+static int builds_has(const char *builds, const char *name, size_t n)
+{
+    for (const char *b = builds; *b; b += strcspn(b, " "), b += *b == ' ')
+        if (strcspn(b, " ") == n && !memcmp(b, name, n)) return 1;
+    return 0;
+}
+
+static int builds_has_this(const pdla_ens_journal *j)
+{
+    return builds_has(j->builds, pdla_build_revision(), strlen(pdla_build_revision()));
 }
 
 static int header_parse(char *text, pdla_ens_config *c, char *builds, char *why, size_t whylen)
@@ -224,6 +243,7 @@ static pdla_ens_journal *journal_new(const char *dir, const pdla_ens_config *c)
     j->fd = -1;
     snprintf(j->path, sizeof j->path, "%s/%s", dir, PDLA_ENS_JOURNAL_NAME);
     if (c) j->cfg = *c;
+    if (c) j->max_record = pdla_ens_record_max_bytes(c);
     if (pthread_mutex_init(&j->mu, NULL)) {
         free(j);
         return NULL;
@@ -306,10 +326,13 @@ static int record_at(const pdla_ens_journal *j, uint64_t off, uint64_t size, uin
                      uint64_t *len, uint64_t *idx)
 {
     uint8_t head[16];
-    if (off + 24 > size || read_all(j->fd, head, 16, off) != 1 || memcmp(head, REC_MAGIC, 8)) return 0;
+    if (off + 24 > size) return 0;
+    const int hr = read_all(j->fd, head, 16, off);
+    if (hr < 0) return PDLA_EIO;
+    if (hr == 0 || memcmp(head, REC_MAGIC, 8)) return 0;
     uint64_t n;
     memcpy(&n, head + 8, 8);
-    if (n > size - off - 24 || n < 16) return 0;
+    if (n > size - off - 24 || n < 16 || n > j->max_record) return 0;
     if (n > *cap) {
         uint8_t *g = realloc(*buf, (size_t)n);
         if (!g) return PDLA_ENOMEM;
@@ -317,9 +340,9 @@ static int record_at(const pdla_ens_journal *j, uint64_t off, uint64_t size, uin
         *cap = (size_t)n;
     }
     uint64_t sum;
-    if (read_all(j->fd, *buf, (size_t)n, off + 16) != 1 || read_all(j->fd, &sum, 8, off + 16 + n) != 1 ||
-        fnv1a(fnv1a(FNV_START, head + 8, 8), *buf, (size_t)n) != sum)
-        return 0;
+    const int pr = read_all(j->fd, *buf, (size_t)n, off + 16), sr = pr == 1 ? read_all(j->fd, &sum, 8, off + 16 + n) : 0;
+    if (pr < 0 || sr < 0) return PDLA_EIO;
+    if (pr == 0 || sr == 0 || fnv1a(fnv1a(FNV_START, head + 8, 8), *buf, (size_t)n) != sum) return 0;
     /* A checksum only says the bytes are as written: the record must also
      * be one this ensemble's clusters would make (a record of another
      * ensemble spliced in, or a forged one, would reach ensemble.h5). */
@@ -350,7 +373,9 @@ static int next_record(const pdla_ens_journal *j, uint64_t from, uint64_t size, 
     int rc = PDLA_OK;
     for (uint64_t at = from; at + 24 <= size && *found == NONE && rc == PDLA_OK;) {
         const size_t n = size - at < WIN ? (size_t)(size - at) : WIN;
-        if (read_all(j->fd, w, n, at) != 1) break;
+        const int got = read_all(j->fd, w, n, at);
+        if (got < 0) rc = PDLA_EIO;
+        if (got != 1) break;
         for (const uint8_t *p = w; p && p + M <= w + n;) {
             p = memmem(p, (size_t)(w + n - p), REC_MAGIC, M);
             if (!p) break;
@@ -373,6 +398,30 @@ static int next_record(const pdla_ens_journal *j, uint64_t from, uint64_t size, 
     return rc;
 }
 
+/* A build record at off ("PDLABLD1", u64 n, n bytes of revision, u64
+ * FNV-1a): 1 (its revision added to j->builds unless listed, *len = n),
+ * 0 when there is none, PDLA_EIO when the file cannot be read. */
+static int build_at(pdla_ens_journal *j, uint64_t off, uint64_t size, uint64_t *len)
+{
+    uint8_t head[16];
+    char name[208];
+    uint64_t n, sum;
+    if (off + 24 > size) return 0;
+    const int hr = read_all(j->fd, head, 16, off);
+    if (hr < 0) return PDLA_EIO;
+    if (hr == 0 || memcmp(head, BLD_MAGIC, 8)) return 0;
+    memcpy(&n, head + 8, 8);
+    if (n < 1 || n > 200 || n > size - off - 24) return 0;
+    const int nr = read_all(j->fd, name, (size_t)n, off + 16), sr = nr == 1 ? read_all(j->fd, &sum, 8, off + 16 + n) : 0;
+    if (nr < 0 || sr < 0) return PDLA_EIO;
+    if (nr == 0 || sr == 0 || fnv1a(fnv1a(FNV_START, head + 8, 8), name, (size_t)n) != sum) return 0;
+    name[n] = '\0';
+    if (strlen(name) != n) return 0;
+    if (!builds_has(j->builds, name, (size_t)n)) (void)builds_add(j->builds, name); /* full: not listed */
+    *len = n;
+    return 1;
+}
+
 /* Scan the records after the header. A damaged record followed by a valid
  * one (a bad sector, a stray write) is skipped and counted in j->damaged:
  * cutting there would throw away every record after it. What follows the
@@ -386,7 +435,12 @@ static int scan_records(pdla_ens_journal *j, uint64_t size, char *err, size_t er
     int rc = PDLA_OK;
     while (off + 24 <= size) {
         uint64_t len = 0, idx = 0;
-        int r = record_at(j, off, size, &buf, &cap, &len, &idx);
+        int r = build_at(j, off, size, &len);
+        if (r == 1) {
+            off += 24 + len;
+            continue;
+        }
+        if (r == 0) r = record_at(j, off, size, &buf, &cap, &len, &idx);
         if (r == 0) {
             uint64_t next;
             r = next_record(j, off + 1, size, &buf, &cap, &next);
@@ -398,7 +452,10 @@ static int scan_records(pdla_ens_journal *j, uint64_t size, char *err, size_t er
             }
         }
         if (r < 0) {
-            rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory reading the journal");
+            /* Never a torn tail: cutting there would lose the records after. */
+            rc = r == PDLA_ENOMEM ? pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory reading the journal")
+                                  : pdla_errorf(PDLA_EIO, err, errlen, "cannot read %s near byte %llu: %s", j->path,
+                                                (unsigned long long)off, strerror(errno));
             break;
         }
         if (j->offset[idx] == NONE) {
@@ -455,6 +512,7 @@ int pdla_ens_journal_open(const char *dir, pdla_ens_journal **out, char *err, si
     }
     text[h[1]] = '\0';
     if (header_parse(text, &j->cfg, j->builds, why, sizeof why)) goto fail;
+    j->max_record = pdla_ens_record_max_bytes(&j->cfg);
     if (journal_alloc_index(j)) {
         rc = PDLA_ENOMEM;
         snprintf(why, sizeof why, "out of memory");
@@ -526,16 +584,6 @@ static int copy_range(int fd, uint64_t from, uint64_t to, int out, uint64_t at)
     return bad ? -1 : 0;
 }
 
-/* Is this build in j's list? */
-static int builds_has_this(const pdla_ens_journal *j)
-{
-    const char *me = pdla_build_revision();
-    const size_t n = strlen(me);
-    for (const char *b = j->builds; *b; b += strcspn(b, " "), b += *b == ' ')
-        if (strcspn(b, " ") == n && !memcmp(b, me, n)) return 1;
-    return 0;
-}
-
 /* Rewrite j's file for `clusters` clusters with this build in its list:
  * the new header and the valid records into a temporary file, fsync'ed and
  * renamed over it (a crash leaves the old or the new journal whole). */
@@ -603,13 +651,50 @@ int pdla_ens_journal_extend(pdla_ens_journal *j, uint64_t clusters, pdla_ens_jou
     return journal_rewrite(j, clusters, out, err, errlen);
 }
 
-int pdla_ens_journal_join(pdla_ens_journal *j, pdla_ens_journal **out, char *err, size_t errlen)
+/* Append one record: magic, u64 length, payload, u64 FNV-1a, then
+ * fdatasync, under the append mutex; on success *at = its payload offset.
+ * A failed write breaks the journal for appends (a torn tail, cut on the
+ * next open). */
+static int append_raw(pdla_ens_journal *j, const char *magic, const void *payload, size_t len, uint64_t *at,
+                      char *err, size_t errlen)
 {
-    if (builds_has_this(j)) {
-        *out = j;
-        return PDLA_OK;
+    uint8_t head[16];
+    const uint64_t len64 = len;
+    memcpy(head, magic, 8);
+    memcpy(head + 8, &len64, 8);
+    const uint64_t sum = fnv1a(fnv1a(FNV_START, head + 8, 8), payload, len);
+    if (!j->appendable || j->broken) return pdla_errorf(PDLA_EIO, err, errlen, "%s is not open for appending", j->path);
+    if (write_all(j->fd, head, 16, j->end) || write_all(j->fd, payload, len, j->end + 16) ||
+        write_all(j->fd, &sum, 8, j->end + 16 + len) || fdatasync(j->fd)) {
+        j->broken = 1;
+        return pdla_errorf(PDLA_EIO, err, errlen, "cannot append to %s: %s", j->path, strerror(errno));
     }
-    return journal_rewrite(j, j->cfg.clusters, out, err, errlen);
+    *at = j->end + 16;
+    j->end += 24 + len;
+    return PDLA_OK;
+}
+
+/* A build record for revision `name` (listed unless the list is full). */
+static int append_build(pdla_ens_journal *j, const char *name, char *err, size_t errlen)
+{
+    char probe[JOURNAL_BUILDS_MAX];
+    memcpy(probe, j->builds, sizeof probe);
+    if (builds_add(probe, name)) return PDLA_OK; /* full, or not printable: not recorded */
+    uint64_t at;
+    PDLA_MUST(pthread_mutex_lock(&j->mu));
+    const int rc = append_raw(j, BLD_MAGIC, name, strlen(name), &at, err, errlen);
+    if (rc == PDLA_OK) memcpy(j->builds, probe, sizeof probe);
+    PDLA_MUST(pthread_mutex_unlock(&j->mu));
+    return rc;
+}
+
+int pdla_ens_journal_join(pdla_ens_journal *j, char *err, size_t errlen)
+{
+    if (builds_has_this(j)) return PDLA_OK;
+    /* Records of a journal from before builds were recorded. */
+    int rc = !*j->builds && j->count ? append_build(j, "unrecorded", err, errlen) : PDLA_OK;
+    if (rc == PDLA_OK) rc = append_build(j, pdla_build_revision(), err, errlen);
+    return rc;
 }
 
 const char *pdla_ens_journal_builds(const pdla_ens_journal *j) { return j->builds; }
@@ -635,27 +720,14 @@ int pdla_ens_journal_append(pdla_ens_journal *j, const pdla_ens_record *rec, cha
     size_t len = 0;
     if (pdla_ens_record_encode(rec, &payload, &len))
         return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot encode cluster record %llu", (unsigned long long)rec->index);
-    uint8_t head[16];
-    const uint64_t len64 = len;
-    memcpy(head, REC_MAGIC, 8);
-    memcpy(head + 8, &len64, 8);
-    const uint64_t sum = fnv1a(fnv1a(FNV_START, head + 8, 8), payload, len);
     int rc = PDLA_OK;
+    uint64_t at;
     PDLA_MUST(pthread_mutex_lock(&j->mu));
-    if (!j->appendable || j->broken) {
-        rc = pdla_errorf(PDLA_EIO, err, errlen, "%s is not open for appending", j->path);
-    } else if (j->offset[rec->index] == NONE) {
-        /* One record, written in order, then made durable before it counts. */
-        if (write_all(j->fd, head, 16, j->end) || write_all(j->fd, payload, len, j->end + 16) ||
-            write_all(j->fd, &sum, 8, j->end + 16 + len) || fdatasync(j->fd)) {
-            j->broken = 1;
-            rc = pdla_errorf(PDLA_EIO, err, errlen, "cannot append to %s: %s", j->path, strerror(errno));
-        } else {
-            j->offset[rec->index] = j->end + 16;
-            j->length[rec->index] = len;
-            j->end += 24 + len;
-            j->count++;
-        }
+    /* One record, written in order, then made durable before it counts. */
+    if (j->offset[rec->index] == NONE && (rc = append_raw(j, REC_MAGIC, payload, len, &at, err, errlen)) == PDLA_OK) {
+        j->offset[rec->index] = at;
+        j->length[rec->index] = len;
+        j->count++;
     }
     PDLA_MUST(pthread_mutex_unlock(&j->mu));
     free(payload);

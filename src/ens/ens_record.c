@@ -4,6 +4,7 @@
  * and what a distributed scheduler ships between processes
  * (include/pdla/ensemble.h).
  */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -27,6 +28,15 @@ int pdla_ens_config_check(const pdla_ens_config *c, char *err, size_t errlen)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "each cluster of an ensemble grows serially: threads must be 1 "
                                                      "and bind none in its parameters");
     return pdla_params_validate(&c->params, err, errlen);
+}
+
+uint64_t pdla_ens_rg_samples_max(const pdla_ens_config *c)
+{
+    const uint64_t n = c->params.target;
+    const int pd = c->params.rg_per_decade;
+    double kd = pd > 0 && n > 0 ? pd * log10((double)n) + 2.0 : 0.0;
+    if (kd > (double)n) kd = (double)n;
+    return kd >= 0x1p60 ? UINT64_C(1) << 60 : (uint64_t)kd;
 }
 
 void pdla_ens_cluster_params(const pdla_ens_config *c, uint64_t i, pdla_params *out)
@@ -66,6 +76,16 @@ static const uint8_t *get(const uint8_t *p, void *v, size_t n)
 {
     memcpy(v, p, n);
     return p + n;
+}
+
+uint64_t pdla_ens_record_max_bytes(const pdla_ens_config *c)
+{
+    const uint64_t cap = UINT64_C(1) << 60, k = pdla_ens_rg_samples_max(c);
+    const uint64_t pos = c->keep_positions ? c->params.target : 0, dim = (uint64_t)c->params.dim;
+    if (k > cap / 64 || pos > cap / 16) return cap;
+    /* Twice the samples and 64 more: a slack, as a valid record refused
+     * here would be grown again. */
+    return REC_FIXED + (2 * k + 64) * 16 + pos * dim * 4;
 }
 
 int pdla_ens_record_encode(const pdla_ens_record *r, uint8_t **buf, size_t *len)

@@ -337,14 +337,7 @@ static uint64_t sat_muladd(uint64_t a, uint64_t b, uint64_t c)
 
 uint64_t pdla_ens_memory_bytes(const pdla_ens_config *c)
 {
-    /* R_g samples of one cluster: the log grid has rg_per_decade points a
-     * decade (strictly increasing integers, so never more than N), plus
-     * N = 1 and the last point. */
-    const uint64_t n = c->params.target;
-    const int pd = c->params.rg_per_decade;
-    double kd = pd > 0 && n > 0 ? pd * log10((double)n) + 2.0 : 0.0;
-    if (kd > (double)n) kd = (double)n;
-    const uint64_t k = kd >= 0x1p60 ? UINT64_C(1) << 60 : (uint64_t)kd;
+    const uint64_t k = pdla_ens_rg_samples_max(c);
     /* Per cluster: the journal's offset and length (16), the columns
      * (14 x 8 + 4), the bootstrap's pick (8), and the R_g row (8 K). */
     const uint64_t per = sat_muladd(k, 8, 16 + 116 + 8);

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """test_ens_builds.py - which builds of pdla grew an ensemble.
 
-Usage: test_ens_builds.py PDLA WORKDIR
+Usage: test_ens_builds.py PDLA WORKDIR FAULTSHIM
 
 A week-long ensemble may be resumed by another build of pdla (an upgrade
 between two allocations). Its clusters are then the same law, not the same
@@ -9,15 +9,20 @@ bits as an uninterrupted run, and the files must say so:
  - a new journal lists the build that made it (`pdla --version`'s
    revision), and ensemble.h5 /ensemble builds says it;
  - a resume by another build (the journal's build line forged, its last
-   record cut so that clusters are missing) prints one note naming both
-   builds, adds this build to the journal, and /ensemble builds lists both
-   in order; the clusters equal the uninterrupted run's (same build here);
+   records cut so that clusters are missing) prints one note naming both
+   builds, appends a build record (the journal is not rewritten: its bytes
+   before stay as they were), and /ensemble builds lists both in order; the
+   clusters equal the uninterrupted run's (same build here);
  - a second resume with nothing to grow prints no note and changes nothing;
  - a journal from before builds were recorded (no build line) resumed:
    /ensemble builds is "unrecorded REV";
  - extending (`--clusters M2`) by another build adds it too;
  - a build line that is empty or holds a control character is a damaged
-   header: one line, exit 2, nothing written.
+   header: one line, exit 2, nothing written;
+ - a read error (EIO from pread, as a bad sector gives; faultshim) at each
+   read of a resume: never taken for a torn tail - the journal's bytes are
+   kept (appended to at most), the run fails with one line or finishes
+   right, and a resume afterwards gives the uninterrupted ensemble.
 """
 import os
 import shutil
@@ -28,7 +33,11 @@ import sys
 import h5py
 import numpy as np
 
-PDLA, WORK = os.path.abspath(sys.argv[1]), sys.argv[2]
+PDLA, WORK, SHIM = os.path.abspath(sys.argv[1]), sys.argv[2], os.path.abspath(sys.argv[3])
+# Under ASan the sanitizer's runtime must be loaded before the shim.
+LDD = subprocess.run(["ldd", PDLA], capture_output=True, text=True).stdout
+PRELOAD = ":".join([ln.split("=>")[1].split()[0] for ln in LDD.splitlines() if "libasan" in ln and "=>" in ln]
+                   + [SHIM])
 fails = 0
 
 
@@ -39,8 +48,9 @@ def check(ok, what):
         print("FAIL:", what)
 
 
-def pdla(*args):
-    p = subprocess.run([PDLA] + list(args), capture_output=True, text=True, timeout=300)
+def pdla(*args, env=None):
+    p = subprocess.run([PDLA] + list(args), capture_output=True, text=True, timeout=300,
+                       env=dict(os.environ, **(env or {})))
     return p.returncode, p.stderr
 
 
@@ -52,7 +62,8 @@ def fnv1a(data):
 
 
 def read_journal(path):
-    """(header text, [record bytes]) of a journal (native order)."""
+    """(header text, [record bytes]) of a journal (native order); each
+    record starts with its magic (PDLAREC1 clusters, PDLABLD1 builds)."""
     raw = open(path, "rb").read()
     assert raw[:8] == b"PDLAENS1"
     _, tl = struct.unpack("=II", raw[8:16])
@@ -98,6 +109,7 @@ rc, err = pdla("ensemble", "--clusters", "4", "--out", "ref", *GROW)
 check(rc == 0, "reference ensemble: %d %s" % (rc, err))
 check(builds_attr("ref") == rev, "a new ensemble's builds: %r, want %r" % (builds_attr("ref"), rev))
 text, recs = read_journal("ref/clusters.journal")
+check(all(r[:8] == b"PDLAREC1" for r in recs), "a new journal holds cluster records only")
 check(text.count("build=") == 1 and ("build=%s\n" % rev) in text, "journal header: %r" % text[:200])
 check(len(recs) == 4, "4 records, got %d" % len(recs))
 
@@ -117,8 +129,11 @@ note = [line for line in err.splitlines() if "note:" in line and "build" in line
 check(len(note) == 1 and "v0.0.9-other" in note[0] and rev in note[0], "the note: %r" % err)
 check(builds_attr("other") == "v0.0.9-other " + rev, "builds after the resume: %r" % builds_attr("other"))
 t2, r2 = read_journal("other/clusters.journal")
-check("build=v0.0.9-other\nbuild=%s\n" % rev in t2, "journal lists both builds in order: %r" % t2[:200])
-check(len(r2) == 4, "resumed journal has 4 records: %d" % len(r2))
+check(t2 == other, "the header was rewritten: %r" % t2[:200])
+check([r[:8] for r in r2] == [b"PDLAREC1"] * 2 + [b"PDLABLD1"] + [b"PDLAREC1"] * 2,
+      "records: two clusters, this build, two clusters: %r" % [r[:8] for r in r2])
+check(r2[2][16:-8] == rev.encode(), "the build record names %r: %r" % (rev, r2[2][16:-8]))
+check(r2[:2] == recs[:2], "the records before the resume changed")
 check(same_clusters("ref", "other"), "resumed clusters equal the uninterrupted run's")
 before = open("other/clusters.journal", "rb").read()
 rc, err = pdla("ensemble", "--resume", "other", "-q")
@@ -130,6 +145,9 @@ old = text.replace("build=%s\n" % rev, "")
 forged("old", old, 3)
 rc, err = pdla("ensemble", "--resume", "old", "-q")
 check(rc == 0 and "unknown (not recorded)" in err, "resume of an old journal: %d %r" % (rc, err))
+_, r3 = read_journal("old/clusters.journal")
+check([r[16:-8] for r in r3 if r[:8] == b"PDLABLD1"] == [b"unrecorded", rev.encode()],
+      "old journal's build records: %r" % [r[:8] for r in r3])
 check(builds_attr("old") == "unrecorded " + rev, "builds of an old journal: %r" % builds_attr("old"))
 check(same_clusters("ref", "old"), "old journal's clusters")
 
@@ -148,6 +166,31 @@ for tag, line in (("empty", "build=\n"), ("control", "build=v1\x01x\n"), ("blank
     check(rc == 2 and len(lines) == 1 and "bad build line" in err, "%s build line: %d %r" % (tag, rc, err))
     check(open("bad-%s/clusters.journal" % tag, "rb").read() == before, "%s: journal changed" % tag)
     check(not os.path.exists("bad-%s/ensemble.h5" % tag), "%s: ensemble.h5 written" % tag)
+
+# Read errors: each pread of a resume fails once in turn.
+forged("pr", text, 2)
+counter = os.path.join(WORK, "preads")
+rc, err = pdla("ensemble", "--resume", "pr", "-q",
+               env={"LD_PRELOAD": PRELOAD, "FAULT_OP": "pread", "FAULT_AT": "0", "FAULT_COUNT": counter})
+shutil.rmtree("pr")
+n = int(open(counter).read())
+check(rc == 0 and n >= 4, "counting preads: %d %r, %d" % (rc, err, n))
+for k in range(1, n + 1):
+    tag = "pr%d" % k
+    forged(tag, text, 2)
+    jpath = os.path.join(tag, "clusters.journal")
+    before = open(jpath, "rb").read()
+    rc, err = pdla("ensemble", "--resume", tag, "-q",
+                   env={"LD_PRELOAD": PRELOAD, "FAULT_OP": "pread", "FAULT_AT": str(k), "FAULT_ERR": "EIO"})
+    lines = err.strip().splitlines()
+    check(rc == 0 or len(lines) == 1, "pread %d: %d %r" % (k, rc, err))
+    check("torn" not in err, "pread %d taken for a torn tail: %r" % (k, err))
+    # Appends only: what was there stays (a failure after the growth, in
+    # reading records back for ensemble.h5, leaves the new records too).
+    check(open(jpath, "rb").read()[:len(before)] == before, "pread %d: journal bytes lost or overwritten" % k)
+    rc, err = pdla("ensemble", "--resume", tag, "-q")
+    check(rc == 0 and same_clusters("ref", tag), "pread %d: the resume after it: %d %r" % (k, rc, err))
+    shutil.rmtree(tag)
 
 print("%s (%d failures)" % ("ok" if not fails else "FAILED", fails))
 sys.exit(1 if fails else 0)

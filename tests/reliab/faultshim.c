@@ -4,12 +4,14 @@
  * broken disk would.
  *
  *   FAULT_AT=k      the k-th counted call fails (1-based); 0 or unset: none
- *   FAULT_OP=write|fsync|fallocate|stdio|any   which calls are counted
+ *   FAULT_OP=write|fsync|fallocate|stdio|any|pread   which calls are counted
  *                   (default any). stdio: fflush and fclose of a stream
  *                   writing a regular file - glibc's stdio writes through
  *                   internal calls no preload can see, so a failure there is
  *                   made by dropping the stream's buffer (__fpurge) and
- *                   returning EOF with the error, as a failed flush does
+ *                   returning EOF with the error, as a failed flush does;
+ *                   pread (only when asked, never in any): pread and
+ *                   pread64 fail with the error, as a bad sector does
  *   FAULT_ERR=ENOSPC|EIO|EDQUOT|SHORT    the error; SHORT writes half the
  *                   bytes and reports that, which a correct caller retries
  *   FAULT_STICKY=1  every counted call after the k-th fails too (a full disk)
@@ -35,7 +37,7 @@
 #include <sys/uio.h>
 #include <unistd.h>
 
-enum { OP_WRITE = 1, OP_FSYNC = 2, OP_FALLOC = 4, OP_STDIO = 8 };
+enum { OP_WRITE = 1, OP_FSYNC = 2, OP_FALLOC = 4, OP_STDIO = 8, OP_PREAD = 16 };
 
 static atomic_long calls;
 static long fault_at = -1;
@@ -53,6 +55,7 @@ static void init(void)
         else if (!strcmp(s, "fsync")) ops = OP_FSYNC;
         else if (!strcmp(s, "fallocate")) ops = OP_FALLOC;
         else if (!strcmp(s, "stdio")) ops = OP_STDIO;
+        else if (!strcmp(s, "pread")) ops = OP_PREAD;
     }
     if ((s = getenv("FAULT_ERR"))) {
         if (!strcmp(s, "EIO")) err_no = EIO;
@@ -106,6 +109,26 @@ ssize_t write(int fd, const void *buf, size_t n)
         return -1;
     }
     return real_write(fd, buf, n);
+}
+
+ssize_t pread(int fd, void *buf, size_t n, off_t off)
+{
+    REAL(pread, ssize_t, int, void *, size_t, off_t);
+    if (n > 0 && hit(fd, OP_PREAD)) {
+        errno = shortw ? EIO : err_no;
+        return -1;
+    }
+    return real_pread(fd, buf, n, off);
+}
+
+ssize_t pread64(int fd, void *buf, size_t n, off_t off)
+{
+    REAL(pread64, ssize_t, int, void *, size_t, off_t);
+    if (n > 0 && hit(fd, OP_PREAD)) {
+        errno = shortw ? EIO : err_no;
+        return -1;
+    }
+    return real_pread64(fd, buf, n, off);
 }
 
 ssize_t pwrite(int fd, const void *buf, size_t n, off_t off)

@@ -91,7 +91,12 @@
 #define DISTMAP_TILE_SHIFT 5        /* tile side 2^5 leaves */
 #define DISTMAP_TILE_WORDS 16       /* 4 x 4 words of 8 x 8 leaves */
 #define DISTMAP_TSEG_SHIFT 10       /* tiles per pool segment: 2^10 (128 KiB) */
-#define DISTMAP_TSEG_MAX 4096       /* segments: 4M tiles */
+/* Segments: 2^28 tiles, 32 GiB of tiles at most, more than a cluster of
+ * 2^32 particles marks at any resolution (about 340 particles a tile at
+ * resolution 128, 3600 at 32); the table is mmap'd, so only the pages of
+ * the segments in use become resident. Running out disables the map (a
+ * grid without bits would be needed, as readers trust a missing tile). */
+#define DISTMAP_TSEG_MAX ((size_t)1 << 18)
 /* Tiles that lie wholly within DISTMAP_LEAF_INTERIOR of the farthest
  * particle's distance from the seed when a grid grows are dropped from the
  * new grid and reused (serial phases only: no other reader may hold them):

@@ -69,43 +69,6 @@ static double *read_f64(hid_t f, const char *path, const char *name, size_t *n, 
     return v;
 }
 
-/* Length of the valid UTF-8 sequence at c (1-4), or 0 if it is not one
- * (as info.c: overlong forms, surrogates, past U+10FFFF). */
-static int utf8_len(const unsigned char *c)
-{
-    int n;
-    unsigned cp;
-    if (c[0] < 0x80) return 1;
-    if (c[0] >= 0xc2 && c[0] <= 0xdf) n = 2, cp = c[0] & 0x1fu;
-    else if (c[0] >= 0xe0 && c[0] <= 0xef) n = 3, cp = c[0] & 0x0fu;
-    else if (c[0] >= 0xf0 && c[0] <= 0xf4) n = 4, cp = c[0] & 0x07u;
-    else return 0;
-    for (int i = 1; i < n; i++) {
-        if ((c[i] & 0xc0) != 0x80) return 0; /* also stops at the NUL */
-        cp = cp << 6 | (c[i] & 0x3fu);
-    }
-    if ((n == 3 && cp < 0x800) || (n == 4 && (cp < 0x10000 || cp > 0x10ffff)) || (cp >= 0xd800 && cp <= 0xdfff))
-        return 0;
-    return n;
-}
-
-/* The file name as a JSON string: a path may hold quotes, backslashes,
- * control characters or bytes that are not UTF-8 (then U+FFFD), and the
- * output must still parse. */
-static void json_str(FILE *o, const char *s)
-{
-    fputc('"', o);
-    for (const unsigned char *c = (const unsigned char *)s; *c; c++) {
-        const int u = utf8_len(c);
-        if (u == 0) fputs("\\ufffd", o);
-        else if (u > 1) fwrite(c, 1, (size_t)u, o), c += u - 1;
-        else if (*c == '"' || *c == '\\') fprintf(o, "\\%c", *c);
-        else if (*c < 0x20 || *c == 0x7f) fprintf(o, "\\u%04x", *c);
-        else fputc(*c, o);
-    }
-    fputc('"', o);
-}
-
 static void jnum(FILE *o, const char *name, double v, int comma)
 {
     if (isfinite(v)) fprintf(o, "  \"%s\": %.17g%s\n", name, v, comma ? "," : "");
@@ -158,7 +121,7 @@ static int view_read(ens_view *v, hid_t f, const char *path, char *err, size_t e
 static void print_json(const ens_view *v, const char *path)
 {
     fputs("{\n  \"file\": ", stdout);
-    json_str(stdout, path);
+    tool_json_str(stdout, path); /* a path may hold quotes or bytes that are not UTF-8 */
     fputs(",\n", stdout);
     jnum(stdout, "clusters", h5r_attr_num(&v->en, "clusters"), 1);
     jnum(stdout, "particles", h5r_attr_num(&v->en, "particles"), 1);

@@ -49,7 +49,7 @@ static int utf8_len(const unsigned char *c)
 
 /* A JSON string: what is not valid UTF-8 becomes U+FFFD, so the output
  * always parses. */
-static void json_str(FILE *o, const char *s)
+void tool_json_str(FILE *o, const char *s)
 {
     fputc('"', o);
     for (const unsigned char *c = (const unsigned char *)s; *c; c++) {
@@ -84,18 +84,18 @@ static void json_attr(FILE *o, const h5r_attr *a)
     case 'i': fprintf(o, "%lld", (long long)a->i); break;
     case 'u': fprintf(o, "%llu", (unsigned long long)a->u); break;
     case 'f': json_num(o, a->f); break;
-    default: json_str(o, a->s ? a->s : ""); break;
+    default: tool_json_str(o, a->s ? a->s : ""); break;
     }
 }
 
 static void json_group(FILE *o, const char *name, const h5r_attrs *g, int last)
 {
     fprintf(o, "  ");
-    json_str(o, name);
+    tool_json_str(o, name);
     fprintf(o, ": {");
     for (size_t i = 0; i < g->n; i++) {
         fprintf(o, "%s\n    ", i ? "," : "");
-        json_str(o, g->a[i].name);
+        tool_json_str(o, g->a[i].name);
         fprintf(o, ": ");
         json_attr(o, &g->a[i]);
     }
@@ -178,11 +178,11 @@ static void print_json(FILE *o, const h5r_file *f, size_t k, const h5r_attrs *pa
                        const h5r_attrs *res, const h5r_attrs *code)
 {
     fprintf(o, "{\n  \"file\": ");
-    json_str(o, f->path);
+    tool_json_str(o, f->path);
     fprintf(o, ",\n  \"format\": \"pdla-cluster\",\n  \"format_version\": %d,\n", f->format_version);
     fprintf(o, "  \"particles\": %llu,\n  \"dim\": %d,\n  \"diameter_units\": %d,\n  \"order\": ",
             (unsigned long long)f->n, f->dim, f->diameter_units);
-    json_str(o, f->order);
+    tool_json_str(o, f->order);
     fprintf(o, ",\n  \"rg_samples\": %zu,\n  \"D_f\": ", k);
     json_num(o, h5r_attr_num(res, "D_f"));
     fprintf(o, ",\n  \"D_f_err\": ");

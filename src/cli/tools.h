@@ -9,6 +9,7 @@
  */
 #ifndef PDLA_CLI_TOOLS_H
 #define PDLA_CLI_TOOLS_H
+#include <stdio.h>
 
 enum { TOOL_OK = 0, TOOL_RUNTIME = 1, TOOL_USAGE = 2 };
 
@@ -16,6 +17,9 @@ int tool_info(int argc, char **argv);
 int tool_render(int argc, char **argv);
 int tool_analyze(int argc, char **argv);
 int tool_export(int argc, char **argv);
+/* s as a JSON string (quoted, escaped; bytes that are not UTF-8 as
+ * U+FFFD), for every tool's --json (info.c). */
+void tool_json_str(FILE *o, const char *s);
 /* `pdla analyze` of an ensemble file (ens_analyze.c). */
 int ens_analyze_is_ensemble(const char *path);
 int ens_analyze_main(const char *path, int json);

@@ -16,6 +16,7 @@
 #    says how to resume; the resumed ensemble is equal again.
 # Exit 77 (skipped) without mpirun or h5diff.
 set -u
+here=$(cd "$(dirname "$0")" && pwd)
 PDLA=${1:?usage: test_mpi.sh PDLA}
 case $PDLA in /*) ;; *) PDLA=$(pwd)/$PDLA ;; esac
 command -v mpirun >/dev/null || { echo "mpirun not installed (apt-get install openmpi-bin): skipped"; exit 77; }
@@ -24,29 +25,9 @@ command -v h5diff >/dev/null || { echo "h5diff not installed: skipped"; exit 77;
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/pdla-mpi.XXXXXX") || exit 1
 trap 'rm -rf "$tmp"' EXIT
 cd "$tmp" || exit 1
-# A container without network or ptrace: shared memory between local ranks
-# only, no single-copy (CMA) transfers, no ssh agent.
-export OMPI_MCA_btl=self,vader OMPI_MCA_btl_vader_single_copy_mechanism=none OMPI_MCA_plm_rsh_agent=
-MPIRUN=(timeout 300 mpirun --oversubscribe --allow-run-as-root)
-checks=0
-fails=0
-fail() {
-    echo "FAIL: $*" >&2
-    fails=$((fails + 1))
-}
-DATA="/gyration/N /clusters/rg_diam /clusters/index /clusters/seed /clusters/particles /clusters/walkers
-/clusters/jumps /clusters/rg_final_diam /clusters/r_ext_diam /clusters/D_f /clusters/D_f_err
-/clusters/prefactor_diam /clusters/fit_n_lo /clusters/fit_n_hi /clusters/fit_points /clusters/positions
-/statistics"
-same() { # same A B WHAT: the datasets above are bit-identical
-    local ds
-    [ -f "$2/ensemble.h5" ] || { fail "$3: no $2/ensemble.h5"; return; }
-    for ds in $DATA; do
-        checks=$((checks + 1))
-        # -c: h5diff exits 0 for datasets of other shapes ("not
-        # comparable") and only says so with -c.
-        [ -z "$(h5diff -q -c "$1/ensemble.h5" "$2/ensemble.h5" "$ds" "$ds" 2>&1)" ] || fail "$3: $ds differs"
-    done
+. "$here/mpi_common.sh"
+same() { # same A B WHAT: the datasets are bit-identical, and the sidecars
+    same_data "$@" || return
     # The ParaView sidecar (kept positions): the same text.
     checks=$((checks + 1))
     cmp -s "$1/ensemble.xdmf2" "$2/ensemble.xdmf2" || fail "$3: ensemble.xdmf2 differs or is missing"

@@ -17,6 +17,7 @@
 # must never hold a cluster twice (counted from its records).
 # Exit 77 (skipped) without mpirun or h5diff.
 set -u
+here=$(cd "$(dirname "$0")" && pwd)
 PDLA=${1:?usage: test_mpi_adversary.sh PDLA}
 case $PDLA in /*) ;; *) PDLA=$(pwd)/$PDLA ;; esac
 command -v mpirun >/dev/null || { echo "mpirun not installed (apt-get install openmpi-bin): skipped"; exit 77; }
@@ -29,26 +30,9 @@ cleanup() {
 }
 trap cleanup EXIT
 cd "$tmp" || exit 1
-# As test_mpi.sh: shared memory between local ranks only, no CMA, no ssh.
-export OMPI_MCA_btl=self,vader OMPI_MCA_btl_vader_single_copy_mechanism=none OMPI_MCA_plm_rsh_agent=
-MPIRUN=(timeout 300 mpirun --oversubscribe --allow-run-as-root)
-checks=0
-fails=0
-fail() {
-    echo "FAIL: $*" >&2
-    fails=$((fails + 1))
-}
-DATA="/gyration/N /clusters/rg_diam /clusters/index /clusters/seed /clusters/particles /clusters/walkers
-/clusters/jumps /clusters/rg_final_diam /clusters/r_ext_diam /clusters/D_f /clusters/D_f_err
-/clusters/prefactor_diam /clusters/fit_n_lo /clusters/fit_n_hi /clusters/fit_points /clusters/positions
-/statistics"
-same() { # same A B WHAT: the datasets above are bit-identical
-    local ds
-    [ -f "$2/ensemble.h5" ] || { fail "$3: no $2/ensemble.h5"; return; }
-    for ds in $DATA; do
-        checks=$((checks + 1))
-        [ -z "$(h5diff -q -c "$1/ensemble.h5" "$2/ensemble.h5" "$ds" "$ds" 2>&1)" ] || fail "$3: $ds differs"
-    done
+. "$here/mpi_common.sh"
+same() { # same A B WHAT: the datasets are bit-identical, no temporaries left
+    same_data "$@" || return
     checks=$((checks + 1))
     ls "$2" | grep -q '\.tmp\.' && fail "$3: temporaries left: $(ls "$2")"
 }

@@ -33,25 +33,14 @@ import sys
 import h5py
 import numpy as np
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "reliab"))
+from reliab_util import check, failures, runner, shim_preload  # noqa: E402
+
 PDLA, WORK, SHIM = os.path.abspath(sys.argv[1]), sys.argv[2], os.path.abspath(sys.argv[3])
-# Under ASan the sanitizer's runtime must be loaded before the shim.
-LDD = subprocess.run(["ldd", PDLA], capture_output=True, text=True).stdout
-PRELOAD = ":".join([ln.split("=>")[1].split()[0] for ln in LDD.splitlines() if "libasan" in ln and "=>" in ln]
-                   + [SHIM])
-fails = 0
+PRELOAD = shim_preload(PDLA, SHIM)
 
 
-def check(ok, what):
-    global fails
-    if not ok:
-        fails += 1
-        print("FAIL:", what)
-
-
-def pdla(*args, env=None):
-    p = subprocess.run([PDLA] + list(args), capture_output=True, text=True, timeout=300,
-                       env=dict(os.environ, **(env or {})))
-    return p.returncode, p.stderr
+pdla = runner(PDLA, 300)
 
 
 def fnv1a(data):
@@ -192,5 +181,5 @@ for k in range(1, n + 1):
     check(rc == 0 and same_clusters("ref", tag), "pread %d: the resume after it: %d %r" % (k, rc, err))
     shutil.rmtree(tag)
 
-print("%s (%d failures)" % ("ok" if not fails else "FAILED", fails))
-sys.exit(1 if fails else 0)
+print("%s (%d failures)" % ("ok" if not failures else "FAILED", len(failures)))
+sys.exit(1 if failures else 0)

@@ -15,17 +15,14 @@ import time
 import h5py
 import numpy as np
 
-from reliab_util import check, failures, one_line, runner
+from reliab_util import check, failures, one_line, runner, shim_preload
 
 PDLA, SHIM, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
 pdla = runner(PDLA, 60)
 
 
 def preload():
-    """LD_PRELOAD value for the shim; an ASan build needs its runtime first."""
-    ldd = subprocess.run(["ldd", PDLA], capture_output=True, text=True).stdout
-    asan = [l.split("=>")[1].split()[0] for l in ldd.splitlines() if "libasan" in l and "=>" in l]
-    return ":".join(asan + [SHIM])
+    return shim_preload(PDLA, SHIM)
 
 
 def positions(path):

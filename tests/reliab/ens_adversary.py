@@ -29,7 +29,7 @@ import sys
 import tempfile
 import time
 
-from reliab_util import check, failures, one_line, run_rss, runner
+from reliab_util import check, failures, one_line, run_rss, runner, shim_preload
 
 PDLA, SHIM, WORK = (os.path.abspath(a) for a in sys.argv[1:4])
 MODE = sys.argv[4] if len(sys.argv) > 4 else "fast"
@@ -48,9 +48,7 @@ def section(name):
 
 rng = random.Random(int(os.environ.get("ENS_ADV_SEED", time.time_ns() % 100000)))
 
-ldd = subprocess.run(["ldd", PDLA], capture_output=True, text=True).stdout
-ASAN = [l.split("=>")[1].split()[0] for l in ldd.splitlines() if "libasan" in l and "=>" in l]
-PRELOAD = ":".join(ASAN + [SHIM])
+PRELOAD = shim_preload(PDLA, SHIM)
 
 # Every dataset that must not depend on threads, order or interruptions.
 DATA = ["/gyration/N", "/clusters/rg_diam", "/clusters/index", "/clusters/seed", "/clusters/particles",

@@ -25,15 +25,13 @@ import sys
 import h5py
 import numpy as np
 
-from reliab_util import check, failures
+from reliab_util import check, failures, shim_preload
 
 PDLA, SHIM, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
 runs = 0
 
 
-ldd = subprocess.run(["ldd", PDLA], capture_output=True, text=True).stdout
-ASAN = [l.split("=>")[1].split()[0] for l in ldd.splitlines() if "libasan" in l and "=>" in l]
-PRELOAD = ":".join(ASAN + [SHIM])
+PRELOAD = shim_preload(PDLA, SHIM)
 
 
 def pdla(args, fault=None, fsize=None, count=None):

@@ -23,7 +23,7 @@ import subprocess
 import sys
 import time
 
-from reliab_util import check, failures, one_line, runner
+from reliab_util import check, failures, one_line, runner, shim_preload
 
 PDLA, SHIM, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
 pdla = runner(PDLA, 120)
@@ -126,9 +126,7 @@ check(not left, "event: temporary files of a killed writer left after a resume: 
 # cluster.h5 or checkpoint.h5 before renaming them (a machine crash could
 # leave an empty checkpoint with the previous one gone): the first fsync
 # failing left the new cluster.h5 in place; now it keeps the old one.
-ldd = subprocess.run(["ldd", PDLA], capture_output=True, text=True).stdout
-PRELOAD = ":".join([ln.split("=>")[1].split()[0] for ln in ldd.splitlines() if "libasan" in ln and "=>" in ln] +
-                   [SHIM])
+PRELOAD = shim_preload(PDLA, SHIM)
 
 
 def content(path, model):
@@ -185,7 +183,7 @@ for model, args in FAULTED.items():
 # (memory without bound; out of memory, one line per pass: 13 million lines
 # a minute). Now one snapshot an attempt at worst, and the run ends.
 d = os.path.join(WORK, "dlca-snap-tiny")
-asan = "libasan" in ldd
+asan = "libasan" in PRELOAD
 
 
 def cap_memory():

@@ -1,6 +1,8 @@
 """reliab_util.py - the helpers the reliab scripts share (imported by
-models_cli.py, cli_items.py, faults.py, hostile.py and hostile_models.py; each runs as
-`python3 SCRIPT.py`, so this file, beside them, is on sys.path)."""
+models_cli.py, cli_items.py, faults.py, hostile.py, hostile_models.py,
+ens_adversary.py and scene_models.py; each runs as `python3 SCRIPT.py`, so
+this file, beside them, is on sys.path; tests/ensemble/test_ens_builds.py
+puts this folder on its path)."""
 import os
 import subprocess
 import time
@@ -30,6 +32,14 @@ def runner(exe, timeout):
             return None, "timeout"
         return p.returncode, p.stderr.decode("utf-8", "replace")
     return pdla
+
+
+def shim_preload(exe, shim):
+    """LD_PRELOAD value for faultshim under `exe`: an ASan build needs its
+    runtime loaded before the shim."""
+    ldd = subprocess.run(["ldd", exe], capture_output=True, text=True).stdout
+    asan = [ln.split("=>")[1].split()[0] for ln in ldd.splitlines() if "libasan" in ln and "=>" in ln]
+    return ":".join(asan + [shim])
 
 
 def one_line(err):

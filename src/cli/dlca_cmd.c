@@ -10,7 +10,9 @@
  * run; what was reached is written. With checkpoints on (as in the DLA
  * command: --checkpoint, --checkpoint-every T, --checkpoint-attempts N) a
  * checkpoint is written too and pdla exits 0; without, a signal ends pdla by
- * that signal once the output is written.
+ * that signal once the output is written. A signal that arrives after the
+ * run reached its own stop (while cluster.h5 is written) stopped nothing:
+ * the summary says why the run stopped and the exit status is the writes'.
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -720,7 +722,9 @@ static void print_summary(const dlca_sim *s, const dlca_params *p, const char *d
 }
 
 /* The exit: a stop asked for with checkpoints on is a clean exit (as the
- * DLA command); a signal without ends pdla by that signal. */
+ * DLA command); a signal without ends pdla by that signal, but only one that
+ * stopped the run (asked): one caught during the final writes interrupted
+ * nothing, and the summary already said the run finished. */
 static int exit_status(int status, int asked, int final_ck, uint64_t attempts, const char *dir)
 {
     if (asked != ASKED_NONE && final_ck) {
@@ -734,7 +738,7 @@ static int exit_status(int status, int asked, int final_ck, uint64_t attempts, c
         }
         return status;
     }
-    if (stop_signal) {
+    if (stop_signal && asked == ASKED_SIGNAL) {
         signal((int)stop_signal, SIG_DFL);
         raise((int)stop_signal);
     }

@@ -12,7 +12,12 @@
  * Exit status: 0 done; 1 runtime failure; 2 bad usage or input, before
  * anything is written. SIGINT/SIGTERM stop the ensemble: the clusters
  * finished stay in DIR/clusters.journal (resume with --resume DIR), those in
- * flight are lost, and pdla ends by the same signal.
+ * flight are lost, and pdla ends by the same signal. A signal that arrives
+ * once every cluster is recorded (the last record's sync, the write of
+ * ensemble.h5) stops nothing: ensemble.h5 is written, success is reported
+ * and the exit status is 0 (1 if the write failed), as for `pdla` itself -
+ * ending by the signal after printing success told a batch script to
+ * resubmit a finished job.
  *
  * MPI (built with PDLA_WITH_MPI; include/pdla/ensemble_mpi.h has the
  * design): started by an MPI launcher with more than one rank (mpirun,
@@ -317,6 +322,7 @@ typedef struct ens_cmd {
     char dir[4096];
     int lock, mpi_rank, mpi_size;
     int verdict_pending;    /* MPI: rank 0 owes the other ranks its verdict */
+    int grown;              /* every cluster recorded: a signal now stops nothing */
     pdla_ens_journal *j;
     char err[4600];
 } ens_cmd;
@@ -549,15 +555,18 @@ static int grow_and_write(ens_cmd *c, int threads, const char *cmd, double t0)
     const int rc = pdla_ens_run_local(c->j, threads, on_progress, &pc, err, errlen);
 #endif
     const uint64_t have = pdla_ens_journal_count(c->j);
-    if (rc == PDLA_OK) progress_ensemble(&pc.prog, have, cfg->clusters, pc.particles_total, pc.particles_total, 1);
+    /* A stop asked after the last record was synced (the workers saw the
+     * signal on their way out) lost nothing: write the file. */
+    c->grown = (rc == PDLA_OK || rc == PDLA_ESTOPPED) && have == cfg->clusters;
+    if (c->grown) progress_ensemble(&pc.prog, have, cfg->clusters, pc.particles_total, pc.particles_total, 1);
     else if (pc.prog.enabled && tty) fputc('\n', stderr);
-    if (rc == PDLA_ESTOPPED || (rc == PDLA_OK && stop_signal && have < cfg->clusters)) {
+    if (!c->grown && (rc == PDLA_ESTOPPED || (rc == PDLA_OK && stop_signal))) {
         fprintf(stderr, "pdla ensemble: stopped by signal: %" PRIu64 " of %" PRIu64 " clusters recorded in %s/%s; "
                         "resume with pdla ensemble --resume %s\n",
                 have, cfg->clusters, c->dir, PDLA_ENS_JOURNAL_NAME, c->dir);
         return EXIT_RUNTIME;
     }
-    if (rc) {
+    if (rc && !c->grown) {
         fprintf(stderr, "pdla ensemble: %s (%" PRIu64 " of %" PRIu64 " clusters recorded; resume with "
                         "pdla ensemble --resume %s)\n",
                 err, have, cfg->clusters, c->dir);
@@ -577,6 +586,8 @@ static int grow_and_write(ens_cmd *c, int threads, const char *cmd, double t0)
                cfg->params.seed + cfg->clusters - 1, h5);
         printf("wall time %.3f s; statistics: pdla analyze %s\n", pdla_clock_seconds() - t0, h5);
     }
+    if (stop_signal)
+        fprintf(stderr, "pdla ensemble: signal received after every cluster was recorded; %s complete\n", h5);
     return fflush(stdout) ? EXIT_RUNTIME : 0;
 }
 
@@ -642,10 +653,13 @@ int ens_cmd_main(int argc, char **argv)
         c->mpi_size = 1;
         code = finish(c, run_steps(c, argc, argv, rest, cmd, t0));
     }
-    free(c);
     free(rest);
     free(cmd);
-    const int sig = stop_signal;
+    /* End by the signal only when it stopped something (the growth, or the
+     * steps before it); once every cluster is recorded the exit status
+     * says how the write went. */
+    const int sig = c && c->grown ? 0 : stop_signal;
+    free(c);
     if (sig) {
         fflush(NULL);
         signal(sig, SIG_DFL);

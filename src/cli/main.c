@@ -9,7 +9,10 @@
  * run directory that exists or cannot be made, detected before any growth.
  * SIGINT/SIGTERM stop the growth at the next progress callback; the partial
  * cluster is written, then pdla ends by the same signal so that shells and
- * loops see an interrupted command (status 130/143).
+ * loops see an interrupted command (status 130/143). A signal that arrives
+ * after the growth had finished (while cluster.h5 is written) interrupted
+ * nothing: the run reports success (with a note on stderr) and the exit
+ * status is that of the writes, 0 or 1 - never success on stdout and 143.
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -1057,8 +1060,10 @@ int main(int argc, char **argv)
     run_close(&R);
 
     /* Interrupted while growing: end by the same signal (the handler was
-     * reset on delivery), so a calling shell sees it and stops its loop too. */
-    const int sig = R.grew ? stop_signal : 0;
+     * reset on delivery), so a calling shell sees it and stops its loop too.
+     * Growth that finished (PDLA_OK) was not interrupted: the signal came
+     * during the final writes, which completed; outcome() noted it. */
+    const int sig = R.grew && R.grc != PDLA_OK ? stop_signal : 0;
     if (sig) {
         fflush(NULL);
         signal(sig, SIG_DFL);

@@ -18,6 +18,12 @@
  *   FAULT_COUNT=F   at exit, write the number of counted calls to file F
  *   FAULT_FLOCK=1   flock(LOCK_NB) answers EWOULDBLOCK: another process won
  *                   the run directory's lock (a deterministic lost race)
+ *   FAULT_PATH=S    count only calls on files whose path contains S (e.g.
+ *                   "ensemble.h5.tmp.": the final write of an ensemble)
+ *   FAULT_SIGNAL=N  the k-th counted call does not fail: it raises signal N
+ *                   in the calling thread, then goes through - a signal
+ *                   delivered exactly during that write (a SIGTERM from a
+ *                   batch system at the worst moment), without sleeps
  *
  * Counted: write, pwrite, pwrite64, writev, fsync, fdatasync, fallocate,
  * posix_fallocate - only on regular files, so stderr and pipes are left alone.
@@ -27,6 +33,7 @@
 #include <dlfcn.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <signal.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdio_ext.h>
@@ -41,8 +48,8 @@ enum { OP_WRITE = 1, OP_FSYNC = 2, OP_FALLOC = 4, OP_STDIO = 8, OP_PREAD = 16 };
 
 static atomic_long calls;
 static long fault_at = -1;
-static int ops = OP_WRITE | OP_FSYNC | OP_FALLOC | OP_STDIO, err_no = ENOSPC, shortw, sticky, inited;
-static const char *count_file;
+static int ops = OP_WRITE | OP_FSYNC | OP_FALLOC | OP_STDIO, err_no = ENOSPC, shortw, sticky, inited, sig_no;
+static const char *count_file, *path_part;
 
 static void init(void)
 {
@@ -64,6 +71,8 @@ static void init(void)
     }
     sticky = (s = getenv("FAULT_STICKY")) && *s == '1';
     count_file = getenv("FAULT_COUNT");
+    path_part = getenv("FAULT_PATH");
+    sig_no = (s = getenv("FAULT_SIGNAL")) ? atoi(s) : 0;
 }
 
 __attribute__((destructor)) static void report(void)
@@ -84,16 +93,24 @@ static int hit(int fd, int op)
     struct stat st;
     if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) return 0;
     /* Memory files (memfd_create) are not on the disk that fails. */
-    char link[64], target[32];
+    char link[64], target[4200];
     snprintf(link, sizeof link, "/proc/self/fd/%d", fd);
     const ssize_t n = readlink(link, target, sizeof target - 1);
     if (n > 0) {
         target[n] = '\0';
         if (!strncmp(target, "/memfd:", 7)) return 0;
     }
+    if (path_part && (n <= 0 || !strstr(target, path_part))) return 0;
     const long k = atomic_fetch_add(&calls, 1) + 1;
     if (fault_at <= 0) return 0;
-    return k == fault_at || (sticky && k > fault_at);
+    const int now = k == fault_at || (sticky && k > fault_at);
+    if (now && sig_no > 0) {
+        const int saved = errno;
+        raise(sig_no); /* the handler runs before raise returns */
+        errno = saved;
+        return 0;
+    }
+    return now;
 }
 
 #define REAL(name, ret, ...)                                                       \

@@ -382,9 +382,9 @@ static int parse_all(ens_cmd *c, int argc, char **argv, char **rest)
 
 /* A resume by a build that did not grow the journal's records, with
  * clusters to grow (missing, or more asked: `grow`): one note, and the
- * journal lists this build too (ensemble.h5 /ensemble builds), so a mixed
- * ensemble says so. The note comes first; extending adds the build itself,
- * then join_build writes nothing. */
+ * journal lists this build too (join_build: ensemble.h5 /ensemble builds),
+ * so a mixed ensemble says so. The note comes first, before an extension
+ * rewrites the journal (which keeps its list as it was). */
 static void note_build(const ens_cmd *c, int grow)
 {
     if (pdla_ens_journal_built_here(c->j) || !grow) return;

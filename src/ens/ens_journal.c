@@ -584,27 +584,25 @@ static int copy_range(int fd, uint64_t from, uint64_t to, int out, uint64_t at)
     return bad ? -1 : 0;
 }
 
-/* Rewrite j's file for `clusters` clusters with this build in its list:
- * the new header and the valid records into a temporary file, fsync'ed and
- * renamed over it (a crash leaves the old or the new journal whole). */
+/* Rewrite j's file for `clusters` clusters: the new header and the valid
+ * records into a temporary file, fsync'ed and renamed over it (a crash
+ * leaves the old or the new journal whole). The header keeps j's list of
+ * builds (its own line merged with the build records, which are copied
+ * too); this build is added, like any resume's, by pdla_ens_journal_join
+ * before it grows anything - one place that lists builds. */
 static int journal_rewrite_file(pdla_ens_journal *j, uint64_t clusters, char *err, size_t errlen)
 {
     pdla_ens_config c = j->cfg;
     c.clusters = clusters;
     int rc = pdla_ens_config_check(&c, err, errlen);
     if (rc) return rc;
-    char builds[JOURNAL_BUILDS_MAX];
-    memcpy(builds, j->builds, sizeof builds);
-    /* Records of a journal from before builds were recorded: "unrecorded". */
-    if (!*builds && j->count) (void)builds_add(builds, "unrecorded");
-    if (!builds_has_this(j)) (void)builds_add(builds, pdla_build_revision()); /* a full list stays as it is */
     char dir[4200], tmp[4300];
     snprintf(dir, sizeof dir, "%s", j->path);
     char *slash = strrchr(dir, '/');
     if (slash) *slash = '\0';
     snprintf(tmp, sizeof tmp, "%s.tmp.%ld", j->path, (long)getpid());
     size_t hl = 0;
-    uint8_t *head = header_bytes(&c, builds, &hl);
+    uint8_t *head = header_bytes(&c, j->builds, &hl);
     if (!head) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the journal header");
     const int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
     /* The valid records only: a torn tail is left behind. */

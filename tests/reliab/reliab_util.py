@@ -52,6 +52,13 @@ def run_rss(exe, args, limit, errf, env=None):
     or -signal, stderr bytes, peak RSS in KB of this run alone - wait4 gives
     each child's own rusage), or (None, b"", None) when it did not end within
     `limit` seconds (then it is killed)."""
+    rc, err, ru = run_usage(exe, args, limit, errf, env)
+    return rc, err, ru.ru_maxrss if ru else None
+
+
+def run_usage(exe, args, limit, errf, env=None):
+    """As run_rss, with the run's whole rusage (CPU times, peak RSS) in
+    place of its peak RSS."""
     pid = os.fork()
     if pid == 0:
         try:
@@ -75,4 +82,4 @@ def run_rss(exe, args, limit, errf, env=None):
     errf.seek(0)
     err = errf.read()
     rc = os.WEXITSTATUS(status) if os.WIFEXITED(status) else -os.WTERMSIG(status)
-    return rc, err, ru.ru_maxrss
+    return rc, err, ru

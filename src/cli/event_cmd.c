@@ -27,10 +27,13 @@
 #include "pdla/event.h"
 #include "pdla/pdla.h"
 
+/* Set by SIGINT/SIGTERM: the engine stops at its next check; the signal's
+ * number is kept so that a run stopped without checkpoints ends by it. */
 static volatile int ev_stop_flag;
+static volatile sig_atomic_t ev_stop_signal;
 static void on_signal(int sig)
 {
-    (void)sig;
+    ev_stop_signal = sig;
     ev_stop_flag = 1;
 }
 
@@ -579,7 +582,15 @@ int event_cmd_main(int argc, char **argv)
     ev_free(s);
     pdla_rundir_unlock(c.lock);
     /* Interrupted with checkpoints on: the run is saved, exit 0 (as the
-     * DLA CLI); without: 130, the state is lost but cluster.h5 written. */
-    if (why == EV_STOP_INTERRUPT && !rc && !c.checkpoint) return 130;
+     * DLA CLI); without: the state is lost but cluster.h5 written, and pdla
+     * ends by the same signal (130/143), so a calling shell sees it. A
+     * signal after the run's own stop interrupted nothing (why says so). */
+    if (why == EV_STOP_INTERRUPT && !rc && !c.checkpoint) {
+        const int sig = ev_stop_signal ? (int)ev_stop_signal : SIGINT;
+        fflush(NULL);
+        signal(sig, SIG_DFL);
+        raise(sig);
+        return 128 + sig;
+    }
     return rc;
 }

@@ -68,5 +68,25 @@ cmp -s "$t/sa" "$t/sb" || fail "summaries differ: $(cat "$t/sa" "$t/sb")"
 "$pdla" --model event --resume "$t/A" >/dev/null 2>"$t/err"
 [ $? -eq 2 ] && [ "$(wc -l <"$t/err")" -eq 1 ] || fail "resume without checkpoint: $(cat "$t/err")"
 
+# Without checkpoints a signal ends pdla by that signal (130/143, as the DLA
+# and DLCA commands), after cluster.h5 is written with stop_reason
+# "interrupted". A gas that never sticks and a far t-max: the run cannot end
+# on its own before the signal.
+for sig in TERM INT; do
+    d="$t/C$sig"
+    "$pdla" --model event --dim 2 --particles 20000 --packing 0.2 --stick-p 0 --t-max 1e9 --seed 5 \
+        --out "$d" >"$t/outC" 2>&1 &
+    pid=$!
+    n=0
+    while [ ! -d "$d" ] && [ $n -lt 600 ]; do sleep 0.05; n=$((n + 1)); done
+    sleep 0.3
+    kill -"$sig" $pid
+    wait $pid
+    rc=$?
+    want=143; [ $sig = INT ] && want=130
+    [ $rc -eq $want ] || fail "SIG$sig without checkpoints: exit $rc, want $want: $(cat "$t/outC")"
+    interrupted "$d" || fail "SIG$sig without checkpoints: cluster.h5 not written as interrupted"
+done
+
 [ $fails -eq 0 ] && echo "event resume: all passed"
 exit $((fails > 0))

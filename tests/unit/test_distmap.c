@@ -291,6 +291,27 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
                         (unsigned long long)seed, i + 1, sqrt((double)b2), sqrt((double)truth));
         }
         if (i % 50 != 49) continue;
+        /* Leaf bounds from points up to ~20 leaves off the cluster (a
+         * walker of its own each), where the square's edge can decide. */
+        if (dim == 2 && budget) {
+            const distmap_grid *gq = atomic_load(&m.grid);
+            for (int q = 0; gq && gq->lv[0].bits > 8 && q < 40; q++) {
+                int64_t p[3] = {0, 0, 0};
+                const int64_t *s = pts[rng_next(&r) % (i + 1)];
+                for (int a = 0; a < 2; a++) p[a] = s[a] + rand_range(&r, -5000, 5000);
+                search_state s2;
+                search_state_reset(&s2);
+                const uint64_t b2 = search_block2(&t, &cfg, &m, p, &s2);
+                uint64_t chess2 = 0;
+                const uint64_t want = leaf_bound_ref(pts, i + 1, p, &chess2);
+                if (b2 == UINT64_MAX || want == UINT64_MAX) continue;
+                leaf_bounds++;
+                if ((b2 != want || b2 < chess2 || b2 > brute(pts, i + 1, 2, p)) && bad_block++ < 5)
+                    fprintf(stderr, "seed %llu n %zu: far leaf bound %.1f, brute force %.1f, chessboard %.1f\n",
+                            (unsigned long long)seed, i + 1, sqrt((double)b2), sqrt((double)want),
+                            sqrt((double)chess2));
+            }
+        }
         for (int q = 0; q < 40; q++) {
             int64_t p[3];
             const int64_t *s = pts[rng_next(&r) % (i + 1)];

@@ -1184,6 +1184,7 @@ static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, in
                     int64_t wy, uint64_t key)
 {
     int unknown = 0;
+    uint32_t nz = 0;
     for (int j = 0; j < LB_WORDS; j++) {
         uint64_t w[LB_WORDS], any = 0;
         for (int i = 0; i < LB_WORDS; i++)
@@ -1192,8 +1193,10 @@ static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, in
         /* Row r is byte r of each word side by side: two byte and two
          * word interleaves give it in a 32-bit lane (a tenth of the scalar
          * loop's instructions; a fill follows most moves to a new word). */
-        (void)any;
         const __m128i z = _mm_setzero_si128();
+        /* Rows with a bit set: bytes of the OR of the words that are not 0. */
+        nz |= (uint32_t)(~_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_cvtsi64_si128((long long)any), z)) & 255)
+              << (8 * j);
         const __m128i ab = _mm_unpacklo_epi8(_mm_cvtsi64_si128((long long)w[0]),
                                              _mm_cvtsi64_si128((long long)w[1]));
         const __m128i c = _mm_unpacklo_epi8(_mm_cvtsi64_si128((long long)w[2]), z);
@@ -1209,6 +1212,7 @@ static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, in
             if (any)
                 for (int i = 0; i < LB_WORDS; i++) row |= ((w[i] >> (8 * r)) & 255) << (8 * i);
             k->lb_row[8 * j + r] = row;
+            nz |= (uint32_t)(row != 0) << (8 * j + r);
         }
 #endif
     }
@@ -1217,6 +1221,7 @@ static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, in
     k->lb_leaves = key;
     k->lb_valid = 1;
     k->lb_unknown = unknown;
+    k->lb_nz = nz;
 }
 
 /* The squared x gap in units from p (offset ox in its leaf, at column x
@@ -1245,8 +1250,8 @@ static inline __attribute__((always_inline)) uint64_t row_gap2(uint64_t w, int x
  * on diagonals and more than a leaf less where p sits off-centre in its
  * leaf: forced-coarse 2D 1e5 (seed 1) took 40.65 jumps/particle with
  * them, 28.47 with this (runs/bench-serial/issue12-far13-2026-11-25.md). */
-static inline __attribute__((always_inline)) uint64_t leaf_bound2(const uint64_t *row, int x, int y,
-                                                                 const int64_t *p)
+static inline __attribute__((always_inline)) uint64_t leaf_bound2(const uint64_t *row, uint32_t nz,
+                                                                 int x, int y, const int64_t *p)
 {
     const int n = 8 * LB_WORDS;
     const int64_t ox = p[0] & (TREE_LEAF_SIDE - 1), oy = p[1] & (TREE_LEAF_SIDE - 1);
@@ -1261,20 +1266,23 @@ static inline __attribute__((always_inline)) uint64_t leaf_bound2(const uint64_t
     uint64_t best2 = (uint64_t)(cap * cap);
     uint64_t g2 = row_gap2(row[y], x, ox);
     if (g2 < best2) best2 = g2;
-    /* Rows above p's (r > y): y gap (r - y) * 256 - oy; below: (y - r - 1) * 256 + oy + 1.
-     * The square's edge rows are beyond the cap, so r stays in it. */
-    int64_t gy = TREE_LEAF_SIDE - oy;
-    for (int r = y + 1;; r++, gy += TREE_LEAF_SIDE) {
+    /* Rows d above p's: y gap d * 256 - oy; d below: (d - 1) * 256 + oy + 1.
+     * Only rows with a bit set (nz) are read; rows outside the square are
+     * not in nz (the cap covers them). */
+    for (uint32_t m = nz >> (y + 1); m; m &= m - 1) {
+        const int d = __builtin_ctz(m) + 1;
+        const int64_t gy = ((int64_t)d << TREE_LEAF_BITS) - oy;
         const uint64_t gy2 = (uint64_t)(gy * gy);
         if (gy2 >= best2) break;
-        g2 = gy2 + row_gap2(row[r], x, ox);
+        g2 = gy2 + row_gap2(row[y + d], x, ox);
         if (g2 < best2) best2 = g2;
     }
-    gy = oy + 1;
-    for (int r = y - 1;; r--, gy += TREE_LEAF_SIDE) {
+    for (uint32_t m = nz << (32 - y); m; m &= ~(UINT32_C(1) << 31 >> __builtin_clz(m))) {
+        const int d = __builtin_clz(m) + 1;
+        const int64_t gy = ((int64_t)(d - 1) << TREE_LEAF_BITS) + oy + 1;
         const uint64_t gy2 = (uint64_t)(gy * gy);
         if (gy2 >= best2) break;
-        g2 = gy2 + row_gap2(row[r], x, ox);
+        g2 = gy2 + row_gap2(row[y - d], x, ox);
         if (g2 < best2) best2 = g2;
     }
     return best2;
@@ -1300,7 +1308,7 @@ static uint64_t block_bits2(const tree *t, const search_config *c, const distmap
     const uint64_t *row = k->lb_row;
     const uint32_t r0 = (uint32_t)(row[y - 1] >> (x - 1)) & 7, r1 = (uint32_t)(row[y] >> (x - 1)) & 7,
                    r2 = (uint32_t)(row[y + 1] >> (x - 1)) & 7;
-    if (!(r0 | r1 | r2)) return leaf_bound2(row, x, y, p);
+    if (!(r0 | r1 | r2)) return leaf_bound2(row, k->lb_nz, x, y, p);
     /* The 3 x 3 leaves around p's leaf (bit o = (dx + 1) + 3 (dy + 1), as
      * block_off). */
     const uint32_t occ = r0 | r1 << 3 | r2 << 6;

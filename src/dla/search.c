@@ -1251,11 +1251,8 @@ static inline __attribute__((always_inline)) uint64_t row_gap2(uint64_t w, int x
  * leaf: forced-coarse 2D 1e5 (seed 1) took 40.65 jumps/particle with
  * them, 28.47 with this (runs/bench-serial/issue12-far13-2026-11-25.md). */
 static inline __attribute__((always_inline)) uint64_t leaf_bound2(const uint64_t *row, uint32_t nz,
-                                                                 int x, int y, const int64_t *p,
-                                                                 const int cut)
+                                                                 int x, int y, const int64_t *p)
 {
-    /* cut: leave out the 3 x 3 leaves around p's (the block scan's). */
-    const uint64_t keep = cut ? ~(UINT64_C(7) << (x - 1)) : ~UINT64_C(0);
     const int n = 8 * LB_WORDS;
     const int64_t ox = p[0] & (TREE_LEAF_SIDE - 1), oy = p[1] & (TREE_LEAF_SIDE - 1);
     /* The square's edges: x + 1 columns left, n - x right (as row_gap2). */
@@ -1267,7 +1264,7 @@ static inline __attribute__((always_inline)) uint64_t leaf_bound2(const uint64_t
     if (c2 < cap) cap = c2;
     if (c3 < cap) cap = c3;
     uint64_t best2 = (uint64_t)(cap * cap);
-    uint64_t g2 = row_gap2(row[y] & keep, x, ox);
+    uint64_t g2 = row_gap2(row[y], x, ox);
     if (g2 < best2) best2 = g2;
     /* Rows d above p's: y gap d * 256 - oy; d below: (d - 1) * 256 + oy + 1.
      * Only rows with a bit set (nz) are read; rows outside the square are
@@ -1277,7 +1274,7 @@ static inline __attribute__((always_inline)) uint64_t leaf_bound2(const uint64_t
         const int64_t gy = ((int64_t)d << TREE_LEAF_BITS) - oy;
         const uint64_t gy2 = (uint64_t)(gy * gy);
         if (gy2 >= best2) break;
-        g2 = gy2 + row_gap2(row[y + d] & (d == 1 ? keep : ~UINT64_C(0)), x, ox);
+        g2 = gy2 + row_gap2(row[y + d], x, ox);
         if (g2 < best2) best2 = g2;
     }
     for (uint32_t m = nz << (32 - y); m; m &= ~(UINT32_C(1) << 31 >> __builtin_clz(m))) {
@@ -1285,7 +1282,7 @@ static inline __attribute__((always_inline)) uint64_t leaf_bound2(const uint64_t
         const int64_t gy = ((int64_t)(d - 1) << TREE_LEAF_BITS) + oy + 1;
         const uint64_t gy2 = (uint64_t)(gy * gy);
         if (gy2 >= best2) break;
-        g2 = gy2 + row_gap2(row[y - d] & (d == 1 ? keep : ~UINT64_C(0)), x, ox);
+        g2 = gy2 + row_gap2(row[y - d], x, ox);
         if (g2 < best2) best2 = g2;
     }
     return best2;
@@ -1311,7 +1308,7 @@ static uint64_t block_bits2(const tree *t, const search_config *c, const distmap
     const uint64_t *row = k->lb_row;
     const uint32_t r0 = (uint32_t)(row[y - 1] >> (x - 1)) & 7, r1 = (uint32_t)(row[y] >> (x - 1)) & 7,
                    r2 = (uint32_t)(row[y + 1] >> (x - 1)) & 7;
-    if (!(r0 | r1 | r2)) return leaf_bound2(row, k->lb_nz, x, y, p, 0);
+    if (!(r0 | r1 | r2)) return leaf_bound2(row, k->lb_nz, x, y, p);
     /* The 3 x 3 leaves around p's leaf (bit o = (dx + 1) + 3 (dy + 1), as
      * block_off). */
     const uint32_t occ = r0 | r1 << 3 | r2 << 6;
@@ -1326,11 +1323,7 @@ static uint64_t block_bits2(const tree *t, const search_config *c, const distmap
                                                               lo[1] - TREE_LEAF_SIDE, 0},
                                          3 * TREE_LEAF_SIDE, 2);
     const uint64_t best2 = blk_scan(t, c, NULL, p, lo, NULL, occ, UINT64_MAX, k, 2, 1);
-    if (best2 < out2) return best2; /* exact */
-    /* No particle of the block nearer than its edge: the marked leaves
-     * outside it bound the rest (leaf_bound2, never below out2). */
-    const uint64_t rest2 = leaf_bound2(row, k->lb_nz, x, y, p, 1);
-    return best2 < rest2 ? best2 : rest2;
+    return best2 < out2 ? best2 : out2;
 }
 
 static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,

@@ -60,17 +60,15 @@ static int64_t gap_ref(int64_t d, int64_t o)
     return d > 0 ? d * 256 - o : (-d - 1) * 256 + o + 1;
 }
 
-/* What block_bits2 must answer at p (2D, coarsened, no tile dropped), by
- * brute force over the particles: the squared Euclidean distance from p to
- * the nearest box of a leaf that holds a particle, outside the 3 x 3
- * leaves around p's and within the 24 x 24 leaves around p's word of 8 x 8
- * leaves (or to the outside of those, if nearer), or to a particle in the
- * 3 x 3 leaves if nearer still (the block scan, exact). *in_block: whether
- * the 3 x 3 leaves hold a particle. *chess2 (3 x 3 empty only, else 0):
- * the chessboard ring bound the code gave before (distmap_block_bound
- * with the ring of the nearest such leaf, at most 9). */
-static uint64_t leaf_bound_ref(const int64_t (*pts)[3], size_t n, const int64_t *p, uint64_t *chess2,
-                               int *in_block)
+/* What block_bits2's leaf bound must answer at p (2D, coarsened, no tile
+ * dropped), by brute force over the particles: UINT64_MAX when a particle
+ * lies in the 3 x 3 leaves around p's (the block scan answers then); else
+ * the squared Euclidean distance from p to the nearest box of a leaf that
+ * holds a particle within the 24 x 24 leaves around p's word of 8 x 8
+ * leaves, or to the outside of those leaves if nearer. *chess2: the
+ * chessboard ring bound the code gave before (distmap_block_bound with the
+ * ring of the nearest such leaf, at most 9). */
+static uint64_t leaf_bound_ref(const int64_t (*pts)[3], size_t n, const int64_t *p, uint64_t *chess2)
 {
     const int64_t lx = p[0] >> 8, ly = p[1] >> 8, ox = p[0] & 255, oy = p[1] & 255;
     const int64_t x0 = ((lx >> 3) - 1) * 8, y0 = ((ly >> 3) - 1) * 8; /* window corner (leaves) */
@@ -80,17 +78,10 @@ static uint64_t leaf_bound_ref(const int64_t (*pts)[3], size_t n, const int64_t 
         if (c[i] < cap) cap = c[i];
     uint64_t best = (uint64_t)(cap * cap);
     int64_t ring = 9;
-    *in_block = 0;
     for (size_t i = 0; i < n; i++) {
         const int64_t dx = (pts[i][0] >> 8) - lx, dy = (pts[i][1] >> 8) - ly;
         const int64_t adx = dx < 0 ? -dx : dx, ady = dy < 0 ? -dy : dy;
-        if (adx <= 1 && ady <= 1) { /* the block scan's: exact */
-            *in_block = 1;
-            const int64_t ex = pts[i][0] - p[0], ey = pts[i][1] - p[1];
-            const uint64_t d2 = (uint64_t)(ex * ex + ey * ey);
-            if (d2 < best) best = d2;
-            continue;
-        }
+        if (adx <= 1 && ady <= 1) return UINT64_MAX;
         const int64_t v = adx > ady ? adx : ady;
         if (v < ring) ring = v;
         if (lx + dx < x0 || lx + dx >= x0 + 24 || ly + dy < y0 || ly + dy >= y0 + 24) continue;
@@ -99,7 +90,7 @@ static uint64_t leaf_bound_ref(const int64_t (*pts)[3], size_t n, const int64_t 
         if (d2 < best) best = d2;
     }
     const int64_t b = distmap_block_bound(p, 8, ring, 2);
-    *chess2 = *in_block ? 0 : (uint64_t)(b * b);
+    *chess2 = (uint64_t)(b * b);
     return best;
 }
 
@@ -201,7 +192,7 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
     int64_t(*pts)[3] = calloc(n, sizeof *pts);
     int64_t cur[3] = {0, 0, 0};
     int bad_bound = 0, bad_min = 0, useful = 0, bad_block = 0, block_used = 0, ball_scans = 0;
-    int far_bits = 0, leaf_bounds = 0, cut_bounds = 0;
+    int far_bits = 0, leaf_bounds = 0;
     search_config cfg;
     search_config_init(&cfg, 2.0, 32, 2);
     search_config exact;
@@ -285,17 +276,12 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
             if (dim == 2 && budget) {
                 const distmap_grid *gq = atomic_load(&m.grid);
                 uint64_t chess2 = 0;
-                int in_block = 0;
-                const uint64_t want = gq && gq->lv[0].bits > 8
-                                          ? leaf_bound_ref(pts, i + 1, walker, &chess2, &in_block)
-                                          : UINT64_MAX;
+                const uint64_t want = gq && gq->lv[0].bits > 8 ? leaf_bound_ref(pts, i + 1, walker, &chess2)
+                                                               : UINT64_MAX;
                 if (want != UINT64_MAX) {
-                    if (in_block)
-                        cut_bounds += want >= 300 * 300; /* from beyond the block's edge, mostly */
-                    else
-                        leaf_bounds++;
+                    leaf_bounds++;
                     if ((b2 != want || b2 < chess2) && bad_block++ < 5)
-                        fprintf(stderr, "seed %llu n %zu: block/leaf bound %.1f, brute force %.1f, chessboard %.1f\n",
+                        fprintf(stderr, "seed %llu n %zu: leaf bound %.1f, brute force %.1f, chessboard %.1f\n",
                                 (unsigned long long)seed, i + 1, sqrt((double)b2), sqrt((double)want),
                                 sqrt((double)chess2));
                 }
@@ -317,13 +303,9 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
                 search_state_reset(&s2);
                 const uint64_t b2 = search_block2(&t, &cfg, &m, p, &s2);
                 uint64_t chess2 = 0;
-                int in_block = 0;
-                const uint64_t want = leaf_bound_ref(pts, i + 1, p, &chess2, &in_block);
-                if (b2 == UINT64_MAX) continue;
-                if (in_block)
-                    cut_bounds += want >= 300 * 300;
-                else
-                    leaf_bounds++;
+                const uint64_t want = leaf_bound_ref(pts, i + 1, p, &chess2);
+                if (b2 == UINT64_MAX || want == UINT64_MAX) continue;
+                leaf_bounds++;
                 if ((b2 != want || b2 < chess2 || b2 > brute(pts, i + 1, 2, p)) && bad_block++ < 5)
                     fprintf(stderr, "seed %llu n %zu: far leaf bound %.1f, brute force %.1f, chessboard %.1f\n",
                             (unsigned long long)seed, i + 1, sqrt((double)b2), sqrt((double)want),
@@ -352,7 +334,6 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
     if (budget && dim == 2) {
         CHECK(far_bits > 50, "only %d block answers from the leaf bits", far_bits);
         CHECK(leaf_bounds > 200, "only %d leaf bounds checked", leaf_bounds);
-        CHECK(cut_bounds > 50, "only %d block answers beyond the block's edge checked", cut_bounds);
         int unknown = 0;
         CHECK(check_leafbits(&m, (const int64_t(*)[3])pts, n, &unknown) == 0,
               "seed %llu: leaf bits wrong", (unsigned long long)seed);

@@ -1184,7 +1184,7 @@ static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, in
                     int64_t wy, uint64_t key)
 {
     int unknown = 0;
-    uint32_t nz = 0;
+    uint64_t nz = 0;
     for (int j = 0; j < LB_WORDS; j++) {
         uint64_t w[LB_WORDS], any = 0;
         for (int i = 0; i < LB_WORDS; i++)
@@ -1195,7 +1195,7 @@ static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, in
          * loop's instructions; a fill follows most moves to a new word). */
         const __m128i z = _mm_setzero_si128();
         /* Rows with a bit set: bytes of the OR of the words that are not 0. */
-        nz |= (uint32_t)(~_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_cvtsi64_si128((long long)any), z)) & 255)
+        nz |= (uint64_t)(~_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_cvtsi64_si128((long long)any), z)) & 255)
               << (8 * j);
         const __m128i ab = _mm_unpacklo_epi8(_mm_cvtsi64_si128((long long)w[0]),
                                              _mm_cvtsi64_si128((long long)w[1]));
@@ -1212,7 +1212,7 @@ static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, in
             if (any)
                 for (int i = 0; i < LB_WORDS; i++) row |= ((w[i] >> (8 * r)) & 255) << (8 * i);
             k->lb_row[8 * j + r] = row;
-            nz |= (uint32_t)(row != 0) << (8 * j + r);
+            nz |= (uint64_t)(row != 0) << (8 * j + r);
         }
 #endif
     }
@@ -1225,11 +1225,14 @@ static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, in
 }
 
 /* The squared x gap in units from p (offset ox in its leaf, at column x
- * of the rows, 8 <= x < 16) to the nearest leaf with its bit set in row
- * w, 0 when that is p's own column; above every cap of leaf_bound2 when
- * there is none. A leaf k columns right of p's is k * 256 - ox away, one
- * k columns left (k - 1) * 256 + ox + 1: ctz and clz give k, branch-free,
- * with a sentinel bit 40 columns out on each side. */
+ * of the rows, 8 LB_RING <= x < 8 LB_RING + 8) to the nearest leaf with its
+ * bit set in row w, 0 when that is p's own column; above every cap of
+ * leaf_bound2 when there is none. A leaf k columns right of p's is
+ * k * 256 - ox away, one k columns left (k - 1) * 256 + ox + 1: ctz and
+ * clz give k, branch-free, with sentinel bits 40 and 64 columns out (the
+ * cap is at most 4 LB_WORDS leaves, <= 28). */
+_Static_assert(DISTMAP_LEAF_REACH <= 24 && 8 * LB_WORDS - 8 * LB_RING <= 40,
+               "row_gap2's sentinels must lie beyond the rows");
 static inline __attribute__((always_inline)) uint64_t row_gap2(uint64_t w, int x, int64_t ox)
 {
     const int64_t right = ((int64_t)__builtin_ctzll((w >> x) | UINT64_C(1) << 40) << TREE_LEAF_BITS) - ox;
@@ -1250,7 +1253,7 @@ static inline __attribute__((always_inline)) uint64_t row_gap2(uint64_t w, int x
  * on diagonals and more than a leaf less where p sits off-centre in its
  * leaf: forced-coarse 2D 1e5 (seed 1) took 40.65 jumps/particle with
  * them, 28.47 with this (runs/bench-serial/issue12-far13-2026-11-25.md). */
-static inline __attribute__((always_inline)) uint64_t leaf_bound2(const uint64_t *row, uint32_t nz,
+static inline __attribute__((always_inline)) uint64_t leaf_bound2(const uint64_t *row, uint64_t nz,
                                                                  int x, int y, const int64_t *p)
 {
     const int n = 8 * LB_WORDS;
@@ -1269,16 +1272,16 @@ static inline __attribute__((always_inline)) uint64_t leaf_bound2(const uint64_t
     /* Rows d above p's: y gap d * 256 - oy; d below: (d - 1) * 256 + oy + 1.
      * Only rows with a bit set (nz) are read; rows outside the square are
      * not in nz (the cap covers them). */
-    for (uint32_t m = nz >> (y + 1); m; m &= m - 1) {
-        const int d = __builtin_ctz(m) + 1;
+    for (uint64_t m = nz >> (y + 1); m; m &= m - 1) {
+        const int d = __builtin_ctzll(m) + 1;
         const int64_t gy = ((int64_t)d << TREE_LEAF_BITS) - oy;
         const uint64_t gy2 = (uint64_t)(gy * gy);
         if (gy2 >= best2) break;
         g2 = gy2 + row_gap2(row[y + d], x, ox);
         if (g2 < best2) best2 = g2;
     }
-    for (uint32_t m = nz << (32 - y); m; m &= ~(UINT32_C(1) << 31 >> __builtin_clz(m))) {
-        const int d = __builtin_clz(m) + 1;
+    for (uint64_t m = nz << (64 - y); m; m &= ~(UINT64_C(1) << 63 >> __builtin_clzll(m))) {
+        const int d = __builtin_clzll(m) + 1;
         const int64_t gy = ((int64_t)(d - 1) << TREE_LEAF_BITS) + oy + 1;
         const uint64_t gy2 = (uint64_t)(gy * gy);
         if (gy2 >= best2) break;

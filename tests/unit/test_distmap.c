@@ -20,7 +20,7 @@
  *    force), and answers beyond the block from them: a bound, checked
  *    like every other, and equal to the brute-force Euclidean distance
  *    to the nearest particle's leaf box within the walker's 24 x 24
- *    leaves (or to their edge), never below the chessboard ring bound;
+ *    leaves (or to their edge; the square follows DISTMAP_LEAF_REACH), never below the chessboard ring bound;
  *  - distmap_rebuild from the tree gives the same cells as the map built one
  *    particle at a time, and the same bounds.
  * Fixed seeds; a failure prints the seed, point and both values.
@@ -64,16 +64,18 @@ static int64_t gap_ref(int64_t d, int64_t o)
  * dropped), by brute force over the particles: UINT64_MAX when a particle
  * lies in the 3 x 3 leaves around p's (the block scan answers then); else
  * the squared Euclidean distance from p to the nearest box of a leaf that
- * holds a particle within the 24 x 24 leaves around p's word of 8 x 8
- * leaves, or to the outside of those leaves if nearer. *chess2: the
+ * holds a particle within the square of 8 LB_WORDS leaves (24 by default)
+ * around p's word of 8 x 8 leaves, or to the outside of the square if
+ * nearer. *chess2: the
  * chessboard ring bound the code gave before (distmap_block_bound with the
  * ring of the nearest such leaf, at most 9). */
 static uint64_t leaf_bound_ref(const int64_t (*pts)[3], size_t n, const int64_t *p, uint64_t *chess2)
 {
     const int64_t lx = p[0] >> 8, ly = p[1] >> 8, ox = p[0] & 255, oy = p[1] & 255;
-    const int64_t x0 = ((lx >> 3) - 1) * 8, y0 = ((ly >> 3) - 1) * 8; /* window corner (leaves) */
+    /* The window: words within LB_RING of p's, nw leaves a side. */
+    const int64_t nw = 8 * LB_WORDS, x0 = ((lx >> 3) - LB_RING) * 8, y0 = ((ly >> 3) - LB_RING) * 8;
     int64_t cap = gap_ref(x0 - 1 - lx, ox);
-    const int64_t c[3] = {gap_ref(x0 + 24 - lx, ox), gap_ref(y0 - 1 - ly, oy), gap_ref(y0 + 24 - ly, oy)};
+    const int64_t c[3] = {gap_ref(x0 + nw - lx, ox), gap_ref(y0 - 1 - ly, oy), gap_ref(y0 + nw - ly, oy)};
     for (int i = 0; i < 3; i++)
         if (c[i] < cap) cap = c[i];
     uint64_t best = (uint64_t)(cap * cap);
@@ -84,7 +86,7 @@ static uint64_t leaf_bound_ref(const int64_t (*pts)[3], size_t n, const int64_t 
         if (adx <= 1 && ady <= 1) return UINT64_MAX;
         const int64_t v = adx > ady ? adx : ady;
         if (v < ring) ring = v;
-        if (lx + dx < x0 || lx + dx >= x0 + 24 || ly + dy < y0 || ly + dy >= y0 + 24) continue;
+        if (lx + dx < x0 || lx + dx >= x0 + nw || ly + dy < y0 || ly + dy >= y0 + nw) continue;
         const int64_t gx = dx ? gap_ref(dx, ox) : 0, gy = dy ? gap_ref(dy, oy) : 0;
         const uint64_t d2 = (uint64_t)(gx * gx + gy * gy);
         if (d2 < best) best = d2;

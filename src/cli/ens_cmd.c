@@ -292,8 +292,11 @@ static int refuse_options(const cli_options *o, char *err, size_t errlen)
 
 #ifdef PDLA_WITH_MPI
 /* A rank > 0: wait for rank 0's verdict, then grow what it hands out. Its
- * errors are its own (rank 0 reports the ensemble's). */
-static int worker_rank(int threads, int rank)
+ * errors are its own (rank 0 reports the ensemble's). *grown: the ensemble
+ * was grown to the end (a signal then stopped nothing on this rank either:
+ * a batch system's SIGTERM to every rank while rank 0 writes ensemble.h5
+ * must not end the workers by the signal and fail a finished job). */
+static int worker_rank(int threads, int rank, int *grown)
 {
     char err[1024];
     int verdict = 0;
@@ -307,6 +310,7 @@ static int worker_rank(int threads, int rank)
     memset(&pc, 0, sizeof pc);
     progress_init(&pc.prog, stderr, 0, 0, 0);
     const int rc = pdla_ens_mpi_run_worker(&c, threads, on_progress, &pc, err, sizeof err);
+    *grown = rc == PDLA_OK;
     if (rc == PDLA_OK || rc == PDLA_ESTOPPED) return rc ? EXIT_RUNTIME : 0;
     /* An MPI failure: pdla_ens_mpi_finalize ends the job. */
     fprintf(stderr, "pdla ensemble: rank %d: %s\n", rank, err);
@@ -627,7 +631,7 @@ static int run_steps(ens_cmd *c, int argc, char **argv, char **rest, const char 
     const int loud = pdla_hdf5_quiet();
 #ifdef PDLA_WITH_MPI
     /* From here on only rank 0 decides; the others wait for its verdict. */
-    if (c->mpi_size > 1 && c->mpi_rank > 0) return worker_rank(threads, c->mpi_rank);
+    if (c->mpi_size > 1 && c->mpi_rank > 0) return worker_rank(threads, c->mpi_rank, &c->grown);
     c->verdict_pending = c->mpi_size > 1;
 #endif
     if (loud) {

@@ -558,10 +558,12 @@ int event_cmd_main(int argc, char **argv)
     ev_series ser = {0};
     char dir[4096];
     int rc;
-    ev_sim *s = start_sim(&c, &ser, dir, sizeof dir, &rc);
-    if (!s) return rc;
+    /* Before the start: a signal while the run directory is made (a slow
+     * disk) is then seen at the first event, not lost or fatal. */
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
+    ev_sim *s = start_sim(&c, &ser, dir, sizeof dir, &rc);
+    if (!s) return rc;
     char *cmd = joined(argc, argv);
     ev_ticker tk;
     ticker_init(&tk, &c, &ser, s, dir, cmd);

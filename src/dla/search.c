@@ -1231,8 +1231,8 @@ static void lb_fill(search_state *k, const distmap *m, const distmap_grid *g, in
  * k * 256 - ox away, one k columns left (k - 1) * 256 + ox + 1: ctz and
  * clz give k, branch-free, with sentinel bits 40 and 64 columns out (the
  * cap is at most 4 LB_WORDS leaves, <= 28). */
-_Static_assert(DISTMAP_LEAF_REACH <= 24 && 8 * LB_WORDS - 8 * LB_RING <= 40,
-               "row_gap2's sentinels must lie beyond the rows");
+_Static_assert(DISTMAP_LEAF_REACH >= 8 && DISTMAP_LEAF_REACH <= 24 && 8 * LB_WORDS - 8 * LB_RING <= 40,
+               "row_gap2's sentinels must lie beyond the rows, and p's column must be >= 8 (no shift by 64)");
 static inline __attribute__((always_inline)) uint64_t row_gap2(uint64_t w, int x, int64_t ox)
 {
     const int64_t right = ((int64_t)__builtin_ctzll((w >> x) | UINT64_C(1) << 40) << TREE_LEAF_BITS) - ox;

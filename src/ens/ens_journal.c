@@ -40,6 +40,7 @@
 #define HEAD_MAGIC "PDLAENS1"
 #define REC_MAGIC "PDLAREC1"
 #define BLD_MAGIC "PDLABLD1"
+_Static_assert(sizeof REC_MAGIC == sizeof BLD_MAGIC, "next_record finds both magics by their common prefix PDLA");
 #define BOM UINT32_C(0x01020304)
 #define FORMAT_LINE "format=pdla-ensemble-journal 1\n"
 #define NONE UINT64_MAX
@@ -361,12 +362,16 @@ static int record_at(const pdla_ens_journal *j, uint64_t off, uint64_t size, uin
 }
 
 /* The offset of the first record of this ensemble after `from`, or NONE:
- * where the scan goes on after a damaged record. Reads the file in 1 MB
+ * where the scan goes on after a damaged record. A build record counts too
+ * (an extension's or resume's build record after the damage would else be
+ * cut as torn tail when no cluster record follows it). Reads the file in 1 MB
  * windows looking for the record magic, skipping holes: a sparse region
  * reads as zeros and holds no record, and reading one costs as much as
  * reading data (about 2.5 s of system time a GB on this project's machines:
  * a forged length over gigabytes of hole made every resume that slow). */
-static int next_record(const pdla_ens_journal *j, uint64_t from, uint64_t size, uint8_t **buf, size_t *cap,
+static int build_at(pdla_ens_journal *j, uint64_t off, uint64_t size, uint64_t *len);
+
+static int next_record(pdla_ens_journal *j, uint64_t from, uint64_t size, uint8_t **buf, size_t *cap,
                        uint64_t *found)
 {
     enum { WIN = 1 << 20, M = sizeof REC_MAGIC - 1 };
@@ -384,10 +389,13 @@ static int next_record(const pdla_ens_journal *j, uint64_t from, uint64_t size, 
         if (got < 0) rc = PDLA_EIO;
         if (got != 1) break;
         for (const uint8_t *p = w; p && p + M <= w + n;) {
-            p = memmem(p, (size_t)(w + n - p), REC_MAGIC, M);
-            if (!p) break;
+            p = memmem(p, (size_t)(w + n - p), "PDLA", 4); /* both magics begin so */
+            if (!p || p + M > w + n) break;
+            const uint64_t pos = at + (uint64_t)(p - w);
             uint64_t len, idx;
-            const int r = record_at(j, at + (uint64_t)(p - w), size, buf, cap, &len, &idx);
+            const int r = !memcmp(p, BLD_MAGIC, M)   ? build_at(j, pos, size, &len)
+                          : !memcmp(p, REC_MAGIC, M) ? record_at(j, pos, size, buf, cap, &len, &idx)
+                                                     : 0;
             if (r < 0) {
                 rc = r;
                 break;

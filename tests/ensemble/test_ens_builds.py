@@ -129,6 +129,21 @@ rc, err = pdla("ensemble", "--resume", "other", "-q")
 check(rc == 0 and "build" not in err, "second resume: %d %r" % (rc, err))
 check(open("other/clusters.journal", "rb").read() == before, "second resume rewrote the journal")
 
+# Damage before a build record that ends the journal: the scan goes on past
+# the damage to the build record (not only to cluster records), so the build
+# stays listed instead of being cut as a torn tail.
+name = b"v0.0.8-third"
+third = b"PDLABLD1" + struct.pack("=Q", len(name)) + name + struct.pack("=Q", fnv1a(struct.pack("=Q", len(name)) + name))
+bad = bytearray(r2[1])
+bad[40] ^= 0xFF
+forged("dmgbld", other, 0)
+write_journal("dmgbld/clusters.journal", other, [r2[0], bytes(bad), third])
+rc, err = pdla("ensemble", "--resume", "dmgbld", "-q")
+check(rc == 0, "resume past damage before a build record: %d %r" % (rc, err))
+check(builds_attr("dmgbld").split() == ["v0.0.9-other", "v0.0.8-third", rev],
+      "the build record after the damage was lost: builds %r" % builds_attr("dmgbld"))
+check(same_clusters("ref", "dmgbld"), "clusters after damage before a build record")
+
 # A journal from before builds were recorded.
 old = text.replace("build=%s\n" % rev, "")
 forged("old", old, 3)

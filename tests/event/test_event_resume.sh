@@ -77,9 +77,17 @@ for sig in TERM INT; do
     "$pdla" --model event --dim 2 --particles 20000 --packing 0.2 --stick-p 0 --t-max 1e9 --seed 5 \
         --out "$d" >"$t/outC" 2>&1 &
     pid=$!
+    # Wait until pdla catches SIGINT and SIGTERM (SigCgt bits 1 and 14): a
+    # background job of sh starts with SIGINT ignored, and a signal sent
+    # before the handlers would be lost or fatal.
     n=0
-    while [ ! -d "$d" ] && [ $n -lt 600 ]; do sleep 0.05; n=$((n + 1)); done
-    sleep 0.3
+    while [ $n -lt 1200 ]; do
+        m=$(awk '/^SigCgt/ {print $2}' /proc/$pid/status 2>/dev/null)
+        [ -n "$m" ] && [ $((0x$m & 0x4002)) -eq $((0x4002)) ] && break
+        sleep 0.05
+        n=$((n + 1))
+    done
+    sleep 0.1
     kill -"$sig" $pid
     wait $pid
     rc=$?

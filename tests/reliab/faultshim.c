@@ -106,6 +106,16 @@ static int hit(int fd, int op)
     const int now = k == fault_at || (sticky && k > fault_at);
     if (now && sig_no > 0) {
         const int saved = errno;
+        /* A signal ignored or left at its default (SIGINT is ignored in a
+         * background job started without job control) would test nothing:
+         * say so and exit 99, which no test accepts. */
+        struct sigaction sa;
+        if (sigaction(sig_no, NULL, &sa) || (!(sa.sa_flags & SA_SIGINFO) &&
+                                              (sa.sa_handler == SIG_IGN || sa.sa_handler == SIG_DFL))) {
+            static const char msg[] = "faultshim: FAULT_SIGNAL is not caught by the program\n";
+            (void)!write(2, msg, sizeof msg - 1);
+            _exit(99);
+        }
         raise(sig_no); /* the handler runs before raise returns */
         errno = saved;
         return 0;

@@ -82,6 +82,7 @@ for sig in (signal.SIGTERM, signal.SIGINT):
     check(rc == 0, "%s: exit %d, want 0 (all clusters were recorded): %r" % (what, rc, err))
     check("ensemble: 3 clusters" in out, "%s: no success line: %r" % (what, out))
     check("stopped" not in err and "resume with" not in err, "%s: claims an interruption: %r" % (what, err))
+    check("signal received after every cluster was recorded" in err, "%s: no note of the late signal: %r" % (what, err))
     check(os.path.exists(d + "/ensemble.h5") and same_h5(d + "/ensemble.h5", "ens-ref/ensemble.h5", ENS_DATA),
           "%s: ensemble.h5 missing or not the uninterrupted one" % what)
 
@@ -135,6 +136,7 @@ for model, (args, said) in MODELS.items():
               "%s: claims an interruption: %r / %r" % (what, out, err))
         check(os.path.exists(d + "/cluster.h5"), "%s: no cluster.h5" % what)
         if model == "dla":
+            check("signal received after growth had finished" in err, "%s: no note of the late signal: %r" % (what, err))
             check(same_h5(d + "/cluster.h5", ref + "/cluster.h5", ["/cluster/positions"]),
                   "%s: cluster.h5 is not the uninterrupted one" % what)
 

@@ -35,41 +35,14 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "reliab"))
 from reliab_util import check, failures, runner, shim_preload  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from journal_util import fnv1a, read_journal, write_journal  # noqa: E402
 
 PDLA, WORK, SHIM = os.path.abspath(sys.argv[1]), sys.argv[2], os.path.abspath(sys.argv[3])
 PRELOAD = shim_preload(PDLA, SHIM)
 
 
 pdla = runner(PDLA, 300)
-
-
-def fnv1a(data):
-    h = 0xcbf29ce484222325
-    for b in data:
-        h = ((h ^ b) * 0x100000001b3) & 0xFFFFFFFFFFFFFFFF
-    return h
-
-
-def read_journal(path):
-    """(header text, [record bytes]) of a journal (native order); each
-    record starts with its magic (PDLAREC1 clusters, PDLABLD1 builds)."""
-    raw = open(path, "rb").read()
-    assert raw[:8] == b"PDLAENS1"
-    _, tl = struct.unpack("=II", raw[8:16])
-    text = raw[16:16 + tl].decode()
-    off, recs = 24 + tl, []
-    while off < len(raw):
-        (n,) = struct.unpack("=Q", raw[off + 8:off + 16])
-        recs.append(raw[off:off + 24 + n])
-        off += 24 + n
-    return text, recs
-
-
-def write_journal(path, text, recs):
-    t = text.encode()
-    head = b"PDLAENS1" + struct.pack("=II", 0x01020304, len(t)) + t + struct.pack("=Q", fnv1a(t))
-    with open(path, "wb") as fh:
-        fh.write(head + b"".join(recs))
 
 
 def builds_attr(d):

@@ -20,7 +20,6 @@ the join wrote nothing.
 """
 import os
 import shutil
-import struct
 import subprocess
 import sys
 
@@ -28,34 +27,11 @@ import h5py
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "reliab"))
 from reliab_util import check, failures, runner  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from journal_util import read_journal, write_journal  # noqa: E402
 
 PDLA, WORK = os.path.abspath(sys.argv[1]), sys.argv[2]
 pdla = runner(PDLA, 300)
-
-
-def fnv1a(data):
-    h = 0xcbf29ce484222325
-    for b in data:
-        h = ((h ^ b) * 0x100000001b3) & 0xFFFFFFFFFFFFFFFF
-    return h
-
-
-def read_journal(path):
-    raw = open(path, "rb").read()
-    _, tl = struct.unpack("=II", raw[8:16])
-    off, recs = 24 + tl, []
-    while off < len(raw):
-        (n,) = struct.unpack("=Q", raw[off + 8:off + 16])
-        recs.append(raw[off:off + 24 + n])
-        off += 24 + n
-    return raw[16:16 + tl].decode(), recs
-
-
-def write_journal(path, text, recs):
-    t = text.encode()
-    head = b"PDLAENS1" + struct.pack("=II", 0x01020304, len(t)) + t + struct.pack("=Q", fnv1a(t))
-    with open(path, "wb") as fh:
-        fh.write(head + b"".join(recs))
 
 
 def builds_attr(d):

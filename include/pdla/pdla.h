@@ -219,7 +219,8 @@ typedef struct pdla_fit {
 typedef struct pdla_engine pdla_engine;
 
 /* Progress callback: called from inside pdla_engine_grow about every
- * `every` particles; returning non-zero stops growth (PDLA_ESTOPPED). */
+ * `every` particles while the cluster holds fewer than n_until (never once
+ * growth is complete); returning non-zero stops growth (PDLA_ESTOPPED). */
 typedef int (*pdla_progress_fn)(const pdla_engine *e, void *user);
 
 PDLA_API int pdla_engine_create(pdla_engine **out, const pdla_params *p,

@@ -34,7 +34,10 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
         }
         if (e->params.snap_contact) walker_snap_to_contact(&e->tree, p, D, stick2, &e->walker.ss);
         rc = engine_add_particle(e, p, err, errlen);
-        if (rc == PDLA_OK && progress && tree_count(&e->tree) % every == 0) {
+        /* Not at n_until: a stop asked there would cut nothing short, yet
+         * report the complete cluster as stopped (the CLI would then end by
+         * the signal after writing it whole). */
+        if (rc == PDLA_OK && progress && tree_count(&e->tree) % every == 0 && tree_count(&e->tree) < n_until) {
             e->grow_seconds += pdla_clock_seconds() - t0;
             const int stop = progress(e, user);
             e->grow_seconds -= pdla_clock_seconds() - t0;

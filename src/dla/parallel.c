@@ -517,7 +517,7 @@ static int phase_run(pdla_engine *e, phase *ph, uint64_t n_until, pdla_progress_
            tree_count(&e->tree) < n_until) {
         sleep_ms(20);
         reclaim_grids(e, ph->ks, ph->started);
-        if (progress && progress(e, user)) {
+        if (progress && tree_count(&e->tree) < n_until && progress(e, user)) {
             atomic_store_explicit(&e->stop, 1, memory_order_relaxed);
             rc = pdla_errorf(PDLA_ESTOPPED, err, errlen, "stopped at %llu particles",
                              (unsigned long long)tree_count(&e->tree));

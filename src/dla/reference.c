@@ -86,7 +86,7 @@ int reference_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, 
             const uint64_t before = tree_count(&e->tree);
             rc = reference_insert(e, w, p, status, err, errlen);
             if (rc == PDLA_OK && progress && tree_count(&e->tree) != before &&
-                tree_count(&e->tree) % every == 0 && progress(e, user)) {
+                tree_count(&e->tree) % every == 0 && tree_count(&e->tree) < n_until && progress(e, user)) {
                 rc = pdla_errorf(PDLA_ESTOPPED, err, errlen, "stopped at %llu particles",
                                  (unsigned long long)tree_count(&e->tree));
             }

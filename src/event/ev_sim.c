@@ -848,27 +848,46 @@ double ev_pressure(const ev_sim *s, double dvir, double dt)
 }
 
 /* At most EV_SERIES_MAX rows: when full, neighbouring rows are merged in
- * pairs (the later row's values, the mean of the two pressures, which cover
- * equal intervals) and the interval doubles. A run that goes on for ever
- * (one particle that never finds the cluster) thus keeps bounded memory. */
+ * pairs (the later row's values; the pressures' mean weighted by the two
+ * intervals' lengths, a row's pressure being its interval's mean) and the
+ * interval doubles. Row 0 (the start) is kept, so a full series leaves one
+ * row without a partner: it stays last and the row pushed next merges into
+ * it (until test event-thin it was dropped, and the next row's pressure
+ * covered only half its span). A run that goes on for ever (one particle
+ * that never finds the cluster) thus keeps bounded memory. */
 enum { EV_SERIES_MAX = 1 << 16 };
-static void series_thin(ev_series *ser, ev_sim *s)
+static double series_pmerge(double pa, double ta, double pb, double tb)
 {
-    size_t w = 1;
-    for (size_t r = 1; r + 1 < ser->n; r += 2, w++) {
+    return (pa * ta + pb * tb) / (ta + tb);
+}
+static int series_thin(ev_series *ser, ev_sim *s)
+{
+    size_t w = 1, r = 1;
+    for (; r + 1 < ser->n; r += 2, w++) {
+        ser->pressure[w] = series_pmerge(ser->pressure[r], ser->t[r] - ser->t[r - 1], ser->pressure[r + 1],
+                                         ser->t[r + 1] - ser->t[r]);
         ser->t[w] = ser->t[r + 1];
         ser->ke[w] = ser->ke[r + 1];
         ser->stuck[w] = ser->stuck[r + 1];
         ser->collisions[w] = ser->collisions[r + 1];
-        ser->pressure[w] = 0.5 * (ser->pressure[r] + ser->pressure[r + 1]);
+    }
+    const int left = r < ser->n; /* the last row, unpaired */
+    if (left) {
+        ser->t[w] = ser->t[r];
+        ser->ke[w] = ser->ke[r];
+        ser->pressure[w] = ser->pressure[r];
+        ser->stuck[w] = ser->stuck[r];
+        ser->collisions[w] = ser->collisions[r];
+        w++;
     }
     ser->n = w;
     s->series_dt *= 2;
+    return left;
 }
 
 static int series_push(ev_series *ser, ev_sim *s, double pressure)
 {
-    if (ser->n >= EV_SERIES_MAX) series_thin(ser, s);
+    const int left = ser->n >= EV_SERIES_MAX ? series_thin(ser, s) : 0;
     if (ser->n == ser->cap) {
         const size_t cap = ser->cap ? 2 * ser->cap : 256;
         double *a = realloc(ser->t, cap * sizeof *a);
@@ -886,12 +905,17 @@ static int series_push(ev_series *ser, ev_sim *s, double pressure)
     }
     ev_stats st;
     ev_get_stats(s, &st);
-    ser->t[ser->n] = st.t;
-    ser->ke[ser->n] = st.ke_free;
-    ser->pressure[ser->n] = pressure;
-    ser->stuck[ser->n] = st.stuck;
-    ser->collisions[ser->n] = st.collisions;
-    ser->n++;
+    size_t i = ser->n;
+    if (left) { /* the new row covers (t[n - 1], st.t]: merge it into that unpaired row */
+        i--;
+        pressure = series_pmerge(ser->pressure[i], ser->t[i] - ser->t[i - 1], pressure, st.t - ser->t[i]);
+    }
+    ser->t[i] = st.t;
+    ser->ke[i] = st.ke_free;
+    ser->pressure[i] = pressure;
+    ser->stuck[i] = st.stuck;
+    ser->collisions[i] = st.collisions;
+    ser->n = i + 1;
     return 0;
 }
 

@@ -747,6 +747,95 @@ static inline __attribute__((always_inline)) void collide(ev_sim *s, const int D
     heap_fix(s, j);
 }
 
+/* ---- look-ahead: the next events' lines, fetched while this one runs ------
+ *
+ * Once the arrays leave the L2 (N >~ 3e4), an event's time is mostly load
+ * latency: the particle's record and event, its cell, the heads of the 9 or
+ * 27 cells around it, then their particles' records. Each event's own loads
+ * overlap only among themselves; but the queue already names the particles
+ * of the next few events: the heap's entries after its top, then the heads
+ * of the next bucket lists. So every event first prefetches, in two stages,
+ * for particles that come one to three events later:
+ *  - stage 1 (the heads of buckets cq+2, cq+3, the second of cq+1): the
+ *    particle's record, event, cell, counter and queue links;
+ *  - stage 2 (heap[1], heap[2], the head of bucket cq+1), whose lines stage
+ *    1 fetched an event ago: the cell heads its next event will scan (the
+ *    3^D block; for a cell crossing, the new slab) and, for a pair event,
+ *    the partner's lines.
+ * A guess that turns out wrong (a new event jumps the queue) only wastes a
+ * few prefetches: nothing here changes the state or the event order. Cell
+ * rows are taken without wrapping, clamped to the grid: at the box's faces
+ * a few prefetches miss, nothing more. */
+
+static inline __attribute__((always_inline)) void la_particle(const ev_sim *s, const int D,
+                                                              uint32_t id)
+{
+    const double *p = EV_P(s, id);
+    __builtin_prefetch(p);
+    if (D == 2) __builtin_prefetch(p + 5); /* 48-byte records straddle lines */
+    __builtin_prefetch(&s->evt[id]);
+    __builtin_prefetch(&s->cell[id]);
+    __builtin_prefetch(&s->count[id]);
+    __builtin_prefetch(&s->hpos[id]);
+    __builtin_prefetch(&s->qslot[id]);
+    __builtin_prefetch(&s->qnext[id]);
+}
+
+/* Prefetch the cell heads of the block around cell c: offsets -1..1 in
+ * every dimension, or only `off` in dimension sk (sk >= 0). */
+static inline __attribute__((always_inline)) void la_block(const ev_sim *s, const int D,
+                                                           uint32_t c, int sk, int off)
+{
+    const int64_t nc = s->nc, ncell = D == 2 ? nc * nc : nc * nc * nc;
+    const int64_t st1 = nc, st2 = nc * nc;
+    const int lo0 = sk == 0 ? off : -1, hi0 = sk == 0 ? off : 1;
+    const int lo1 = sk == 1 ? off : -1, hi1 = sk == 1 ? off : 1;
+    const int lo2 = D == 3 ? (sk == 2 ? off : -1) : 0, hi2 = D == 3 ? (sk == 2 ? off : 1) : 0;
+    for (int a = lo2; a <= hi2; a++)
+        for (int b = lo1; b <= hi1; b++) {
+            const int64_t row = (int64_t)c + a * st2 + b * st1;
+            int64_t x0 = row + lo0, x1 = row + hi0;
+            x0 = x0 < 0 ? 0 : x0 >= ncell ? ncell - 1 : x0;
+            x1 = x1 < 0 ? 0 : x1 >= ncell ? ncell - 1 : x1;
+            __builtin_prefetch(&s->chead[x0]);
+            __builtin_prefetch(&s->chead[x1]);
+        }
+}
+
+static inline __attribute__((always_inline)) void la_cells(const ev_sim *s, const int D,
+                                                           uint32_t id)
+{
+    const ev_evt *e = &s->evt[id];
+    const uint32_t c = s->cell[id];
+    if (e->t_cell <= e->t_pair) {
+        if (e->cell_what < 0) return;
+        const int k = e->cell_what >> 1, up = e->cell_what & 1;
+        la_block(s, D, c, k, up ? 2 : -2);
+        return;
+    }
+    la_block(s, D, c, -1, 0);
+    if (e->kind == EV_K_PAIR && e->partner < s->ntot) la_particle(s, D, e->partner);
+}
+
+static inline __attribute__((always_inline)) void lookahead(const ev_sim *s, const int D)
+{
+    if (s->hn > 1) la_cells(s, D, s->heap[1].id);
+    if (s->hn > 2) la_cells(s, D, s->heap[2].id);
+    const uint32_t cq = s->cq, nb = s->qnb;
+    if (cq + 1 < nb) {
+        const uint32_t h = s->qhead[cq + 1];
+        if (h != QNONE) {
+            la_cells(s, D, h);
+            const uint32_t h2 = s->qnext[h];
+            if (h2 != QNONE) la_particle(s, D, h2);
+        }
+    }
+    for (uint32_t k = 2; k <= 3 && cq + k < nb; k++) {
+        const uint32_t h = s->qhead[cq + k];
+        if (h != QNONE) la_particle(s, D, h);
+    }
+}
+
 /* Process the earliest event. 0, or -1 when none is left. */
 static inline __attribute__((always_inline)) int step(ev_sim *s, const int D)
 {
@@ -754,6 +843,7 @@ static inline __attribute__((always_inline)) int step(ev_sim *s, const int D)
     const uint32_t i = s->heap[0].id;
     ev_evt *e = &s->evt[i];
     s->events++;
+    if (s->lookahead) lookahead(s, D);
     if (e->t_cell <= e->t_pair) {
         /* Cell crossing: the stored state does not change (periodic: the
          * position moves by one box side). Scan only the new slab. */
@@ -811,6 +901,8 @@ static inline __attribute__((always_inline)) int step(ev_sim *s, const int D)
         hit_stuck(s, D, i, j, now);
         return 0;
     }
+    /* j's cell heads load while i's neighbours are scanned */
+    if (s->lookahead) la_block(s, D, s->cell[j], -1, 0);
     advance(s, D, j, now);
     collide(s, D, i, j, now);
     return 0;

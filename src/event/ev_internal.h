@@ -11,6 +11,13 @@
 
 enum { EV_K_NONE = 0, EV_K_PAIR = 1, EV_K_WALL = 2 };
 
+/* From this many particles on, each event prefetches the lines of the next
+ * few (ev_core.c, "look-ahead"). Below it the arrays sit in the L2 and the
+ * prefetches only cost instructions: 2D +5% at 1e4 and +11% at 3e3, 3D
+ * about even at 1e4 and 3e4; from 1e5 on they save 10-20% (AMD EPYC VM,
+ * runs/event/speed-session14.md). */
+#define EV_LOOKAHEAD_MIN 50000u
+
 /* A particle's pending events: its earliest pair or wall event and its
  * next cell crossing (see ev_core.c). 32 bytes. */
 typedef struct ev_evt {
@@ -38,6 +45,7 @@ struct ev_sim {
     uint32_t nsticky;     /* particles of sticky kinds (n when there is no bath) */
     int has_bath;         /* 1 when a kind never sticks (STICKY 0 in --species) */
     double L, half, V;    /* box side, L/2, volume */
+    int lookahead;        /* prefetch the next events' lines (ev_core.c) */
     int nc;               /* cells per dimension */
     int nc_order;         /* cells per dimension of the numbering grid (ev_sim.c) */
     double w;             /* cell side */

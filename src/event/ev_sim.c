@@ -572,6 +572,7 @@ static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
     if (!p->seeds[0]) s->nseeds = p->seed_radius > 0;
     s->has_seed = s->nseeds > 0;
     s->ntot = s->n + s->nseeds;
+    s->lookahead = s->ntot >= EV_LOOKAHEAD_MIN;
     s->nfree_total = s->has_seed && s->stick_p > 0 && s->nsticky > 0;
     s->V = vol / p->packing;
     s->L = pow(s->V, 1.0 / D);

@@ -1619,6 +1619,89 @@ static void test_place(void)
     place_case("2d periodic two radii jammed", q, 0);
 }
 
+/* ---- look-ahead prefetch (ev_core.c): the same events with and without --
+ * From EV_LOOKAHEAD_MIN particles on, every event prefetches the lines of
+ * the next few. It reads the queue and the particles' cells (under ASan
+ * those reads are checked) and must change nothing: the same run with it
+ * switched off gives the same trace, bit for bit, and the same end state. */
+static void hash_ev(const ev_trace_event *e, void *u)
+{
+    uint64_t *h = u;
+    const unsigned char *c = (const unsigned char *)&e->t;
+    for (size_t b = 0; b < sizeof e->t; b++) *h = (*h ^ c[b]) * 1099511628211ull;
+    *h = (*h ^ e->i) * 1099511628211ull;
+    *h = (*h ^ e->j) * 1099511628211ull;
+    *h = (*h ^ (uint64_t)e->kind) * 1099511628211ull;
+}
+
+static void lookahead_case(const char *what, ev_params q)
+{
+    uint64_t h[2], ev[2], coll[2], nstuck[2];
+    double *end[2] = {NULL, NULL};
+    size_t bytes = 0;
+    for (int r = 0; r < 2; r++) {
+        char err[256];
+        ev_sim *s = ev_create(&q, err, sizeof err);
+        CHECK(s != NULL, "%s: %s", what, err);
+        if (!s) return;
+        CHECK(s->lookahead == 1, "%s: %u particles, look-ahead off", what, s->ntot);
+        s->lookahead = r == 0; /* run 1: switched off */
+        h[r] = 1469598103934665603ull;
+        ev_set_trace(s, hash_ev, &h[r]);
+        ev_loop(s, INFINITY, NULL); /* bounded by q.max_events */
+        ev[r] = s->events;
+        coll[r] = s->collisions;
+        nstuck[r] = s->nstuck;
+        bytes = (size_t)s->ntot * (size_t)(2 * s->dim + 2) * sizeof(double);
+        end[r] = malloc(bytes);
+        if (end[r]) memcpy(end[r], s->ps, bytes);
+        ev_free(s);
+    }
+    fprintf(stderr, "%s: %llu events, %llu collisions, %llu stuck\n", what, (unsigned long long)ev[0],
+            (unsigned long long)coll[0], (unsigned long long)nstuck[0]);
+    CHECK(ev[0] == q.max_events, "%s: stopped after %llu events", what, (unsigned long long)ev[0]);
+    CHECK(h[0] == h[1] && ev[0] == ev[1] && coll[0] == coll[1] && nstuck[0] == nstuck[1],
+          "%s: look-ahead changed the events", what);
+    CHECK(end[0] && end[1] && !memcmp(end[0], end[1], bytes), "%s: look-ahead changed the end state", what);
+    free(end[0]);
+    free(end[1]);
+}
+
+static void test_lookahead(void)
+{
+    ev_params q = base(2, EV_LOOKAHEAD_MIN + 10000, 0.3, 1, 0, 1);
+    q.max_events = 150000;
+    lookahead_case("2D periodic gas", q);
+    q = base(3, EV_LOOKAHEAD_MIN + 10000, 0.3, 1, 0, 1);
+    q.max_events = 150000;
+    lookahead_case("3D periodic gas", q);
+    /* walls and sticking with p < 1 (wall events, stuck partners, offers):
+     * a grid of seeds through the box, so that thousands stick */
+    char dir[] = "/tmp/pdla-ev-la-XXXXXX";
+    CHECK(mkdtemp(dir) != NULL, "mkdtemp");
+    for (int dim = 2; dim <= 3; dim++) {
+        q = base(dim, EV_LOOKAHEAD_MIN, dim == 2 ? 0.05 : 0.1, 0, 1, 0.5);
+        q.max_events = 150000;
+        ev_sim *s = ev_create(&q, NULL, 0); /* for the box side */
+        CHECK(s != NULL, "create");
+        if (!s) return;
+        const double L = s->L, step = dim == 2 ? 20 : 6;
+        ev_free(s);
+        snprintf(q.seeds, sizeof q.seeds, "%s/seeds%d.txt", dir, dim);
+        FILE *f = fopen(q.seeds, "w");
+        if (!f) abort();
+        for (double x = step; x < 0.9 * L; x += step)
+            for (double y = step; y < 0.9 * L; y += step)
+                for (double z = step; dim == 2 ? z == step : z < 0.9 * L; z += step)
+                    if (dim == 2) fprintf(f, "%g %g 1\n", x, y);
+                    else fprintf(f, "%g %g %g 1\n", x, y, z);
+        fclose(f);
+        lookahead_case(dim == 2 ? "2D walls, seeds, sticking" : "3D walls, seeds, sticking", q);
+    }
+    snprintf(q.seeds, sizeof q.seeds, "rm -rf '%s'", dir);
+    CHECK(system(q.seeds) == 0, "cleanup");
+}
+
 int main(int argc, char **argv)
 {
     if (argc > 2 && !strcmp(argv[1], "bath-oldckpt")) {
@@ -1667,5 +1750,6 @@ int main(int argc, char **argv)
     if (all || !strcmp(what, "bath")) test_bath();
     if (all || !strcmp(what, "bath-brute")) test_bath_brute();
     if (all || !strcmp(what, "place")) test_place();
+    if (all || !strcmp(what, "lookahead")) test_lookahead();
     return check_finish();
 }

@@ -521,6 +521,7 @@ scan_batch_per(const ev_sim *s, const int D, const int per, uint32_t i, const do
             if ((t < *bt || (t == *bt && *bj != UINT32_MAX && j < *bj)) && j != i) {
                 *bt = t;
                 *bj = j;
+                __builtin_prefetch(&s->count[j]); /* read when the scan ends */
             }
         }
     }
@@ -570,6 +571,7 @@ scan_pairs_body(ev_sim *s, const int D, const int batch, uint32_t i, double now,
             if (t < bt || (t == bt && bj != UINT32_MAX && j < bj)) {
                 bt = t;
                 bj = j;
+                __builtin_prefetch(&s->count[j]); /* read when the scan ends */
             }
         }
     });

@@ -761,7 +761,7 @@ static inline __attribute__((always_inline)) void collide(ev_sim *s, const int D
  *  - stage 1 (the heads of buckets cq+2, cq+3, the second of cq+1): the
  *    particle's record, event, cell, counter and queue links;
  *  - stage 2 (heap[1], heap[2], the head of bucket cq+1), whose lines stage
- *    1 fetched an event ago: the cell heads its next event will scan (the
+ *    1 often fetched an event ago: the cell heads its next event will scan (the
  *    3^D block; for a cell crossing, the new slab) and, for a pair event,
  *    the partner's lines.
  * A guess that turns out wrong (a new event jumps the queue) only wastes a

@@ -13,10 +13,10 @@ enum { EV_K_NONE = 0, EV_K_PAIR = 1, EV_K_WALL = 2 };
 
 /* From this many particles on, each event prefetches the lines of the next
  * few (ev_core.c, "look-ahead"). Below it the arrays sit in the caches and
- * the prefetches only cost instructions (always on: 2D +5-11% at 3e3-1e4,
- * 3D even at 1e4 and 3e4); at 1e5 they are even, at 3e5 and 1e6 they save
- * 8-9% (3D) and 20% (2D) of the engine's CPU (AMD EPYC VM,
- * runs/event/speed-session14.md). */
+ * the prefetches only cost instructions (always on: 2D +5-11% and 3D +4%
+ * at 3e3-1e4, 3D even at 1e4 and 3e4); at 1e5 they are even, at 1e6 they
+ * save 9% (3D) and 20% (2D) of the engine's CPU in quiet rounds (AMD EPYC
+ * VM, runs/event/speed-session14.md). */
 #define EV_LOOKAHEAD_MIN 50000u
 
 /* A particle's pending events: its earliest pair or wall event and its

@@ -850,15 +850,21 @@ double ev_pressure(const ev_sim *s, double dvir, double dt)
 
 /* At most EV_SERIES_MAX rows: when full, neighbouring rows are merged in
  * pairs (the later row's values; the pressures' mean weighted by the two
- * intervals' lengths, a row's pressure being its interval's mean) and the
- * interval doubles. Row 0 (the start) is kept, so a full series leaves one
- * row without a partner: it stays last and the row pushed next merges into
- * it (until test event-thin it was dropped, and the next row's pressure
- * covered only half its span). A run that goes on for ever (one particle
- * that never finds the cluster) thus keeps bounded memory. */
+ * intervals' lengths: a row's virial part is its interval's mean, its
+ * kinetic part the free energy at the row's end, which changes only when a
+ * particle sticks) and the interval doubles. Row 0 (the start) is kept, so
+ * a full series leaves one row without a partner: it stays last and the row
+ * being pushed merges into it (until test event-thin it was dropped, and
+ * the next row's pressure covered only half its span). A run that goes on
+ * for ever (one particle that never finds the cluster) thus keeps bounded
+ * memory. */
 enum { EV_SERIES_MAX = 1 << 16 };
 static double series_pmerge(double pa, double ta, double pb, double tb)
 {
+    /* an interval of no length (a finished run resumed) has no pressure
+     * (NaN): the other's stands */
+    if (!(tb > 0)) return pa;
+    if (!(ta > 0)) return pb;
     return (pa * ta + pb * tb) / (ta + tb);
 }
 static int series_thin(ev_series *ser, ev_sim *s)

@@ -1636,7 +1636,7 @@ static void hash_ev(const ev_trace_event *e, void *u)
 
 static void lookahead_case(const char *what, ev_params q)
 {
-    uint64_t h[2], ev[2], coll[2], nstuck[2];
+    uint64_t h[2], ev[2], coll[2], nstuck[2], walls = 0, cross = 0;
     double *end[2] = {NULL, NULL};
     size_t bytes = 0;
     for (int r = 0; r < 2; r++) {
@@ -1652,6 +1652,8 @@ static void lookahead_case(const char *what, ev_params q)
         ev[r] = s->events;
         coll[r] = s->collisions;
         nstuck[r] = s->nstuck;
+        walls = s->wall_hits;
+        cross = s->cell_crossings;
         bytes = (size_t)s->ntot * (size_t)(2 * s->dim + 2) * sizeof(double);
         end[r] = malloc(bytes);
         if (end[r]) memcpy(end[r], s->ps, bytes);
@@ -1660,6 +1662,11 @@ static void lookahead_case(const char *what, ev_params q)
     fprintf(stderr, "%s: %llu events, %llu collisions, %llu stuck\n", what, (unsigned long long)ev[0],
             (unsigned long long)coll[0], (unsigned long long)nstuck[0]);
     CHECK(ev[0] == q.max_events, "%s: stopped after %llu events", what, (unsigned long long)ev[0]);
+    /* the paths the look-ahead meets: crossings always, walls and sticking
+     * in a box with walls and seeds */
+    CHECK(cross > 0 && (q.walls == EV_WALLS_PERIODIC || (walls > 0 && nstuck[0] > 100)),
+          "%s: %llu crossings, %llu wall hits, %llu stuck", what, (unsigned long long)cross,
+          (unsigned long long)walls, (unsigned long long)nstuck[0]);
     CHECK(h[0] == h[1] && ev[0] == ev[1] && coll[0] == coll[1] && nstuck[0] == nstuck[1],
           "%s: look-ahead changed the events", what);
     CHECK(end[0] && end[1] && !memcmp(end[0], end[1], bytes), "%s: look-ahead changed the end state", what);

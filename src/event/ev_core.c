@@ -172,6 +172,13 @@ void ev_heap_push(ev_sim *s, uint32_t i)
     q_insert(s, i);
 }
 
+/* The bucket list head that q_insert of i's current key will read. */
+static inline void q_prefetch(const ev_sim *s, uint32_t i)
+{
+    const uint32_t b = bucket_of(s, ev_key(s, i));
+    if (b > s->cq && b < s->qnb) __builtin_prefetch(&s->qhead[b]);
+}
+
 /* Key of i changed: move it to its place. */
 static void heap_fix(ev_sim *s, uint32_t i)
 {
@@ -743,9 +750,15 @@ static inline __attribute__((always_inline)) void collide(ev_sim *s, const int D
     s->count[i]++;
     s->count[j]++;
     if (s->trace) s->trace(&(ev_trace_event){now, i, j, EV_EV_PAIR}, s->trace_user);
+    /* Both predictions first, then both queue updates (in the same order as
+     * ever: the queue ends the same). A queue update's first load, the
+     * head of the bucket list of the new key, is a random line at large N;
+     * prefetched after i's prediction, it arrives while j's runs. */
     predict_all(s, D, i, now);
-    heap_fix(s, i);
+    if (s->lookahead) q_prefetch(s, i);
     predict_all(s, D, j, now);
+    if (s->lookahead) q_prefetch(s, j);
+    heap_fix(s, i);
     heap_fix(s, j);
 }
 

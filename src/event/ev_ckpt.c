@@ -41,8 +41,11 @@
 
 #define CK_FORMAT "pdla-event-checkpoint"
 /* 2: the cell grid changed (finer cells, event4); a version 1 state names
- * cells of another grid, so it is refused. */
-#define CK_VERSION 2
+ * cells of another grid, so it is refused. 3: cells no larger than the
+ * largest contact distance when a seed is larger than the particles
+ * (ev_sim.c size_box); a version 2 state is read when its grid is the same
+ * (no such seed), else refused. */
+#define CK_VERSION 3
 enum { CK_NCOUNT = 13, CK_NREAL = 8 };
 
 static int wds(const h5u_writer *w, hid_t g, const char *name, hid_t ftype, hid_t mtype,
@@ -523,7 +526,7 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     long long ver = 0, dim = 0, n = 0, ntot = 0;
     if (!rc && (rattr_str(&r, "format", fmt, sizeof fmt) || strcmp(fmt, CK_FORMAT) != 0))
         rc = rfail(&r, "%s", "not an event-model checkpoint");
-    if (!rc && (rattr_int(&r, "format_version", &ver) || ver != CK_VERSION)) {
+    if (!rc && (rattr_int(&r, "format_version", &ver) || (ver != CK_VERSION && ver != 2))) {
         char vm[96];
         snprintf(vm, sizeof vm, "format version %lld, not %d", ver, CK_VERSION);
         rc = rfail(&r, "%s (made by another pdla)", vm);
@@ -538,6 +541,12 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     if (!rc && !(s = ev_alloc(&p, e2, sizeof e2))) rc = rfail(&r, "%s", e2);
     if (!rc && ((long long)s->dim != dim || (long long)s->n != n || (long long)s->ntot != ntot))
         rc = rfail(&r, "%s", "its parameters do not give its particle count (damaged)");
+    if (!rc && ver == 2 && s->nc_v2 != s->nc) {
+        char vm[160];
+        snprintf(vm, sizeof vm, "format version 2 with a seed larger than the particles names cells of an "
+                                "older grid (%d a side, now %d)", s->nc_v2, s->nc);
+        rc = rfail(&r, "%s: resume it with the pdla that wrote it", vm);
+    }
     if (!rc) rc = read_state(&r, s);
     if (!rc) rc = check_state(&r, s);
     if (!rc) rc = check_values(&r, s);

@@ -330,6 +330,9 @@ static void crowded_cells(ev_params q)
     fprintf(stderr, "crowded cells (dim %d): %zu cells, up to %u particles in one, %u listed of %u, "
             "%u in a wrong cell\n", s->dim, ncell, most, listed, s->ntot, bad);
     CHECK(most >= 10, "crowded cells: at most %u particles in a cell (the test needs >= 10)", most);
+    const double rs = q.seed_radius, rp = q.species[0] ? 0.8 : q.radius;
+    CHECK(s->w >= (rs + rp) * (1 + 1e-9) && s->w < 2 * rs,
+          "crowded cells: cell side %g for a seed of radius %g and particles of %g", s->w, rs, rp);
     CHECK(bad == 0 && listed == s->ntot, "crowded cells: cell lists inconsistent");
     ev_free(s);
 }
@@ -353,18 +356,29 @@ static void test_brute(void)
     strcpy(q.species, "150:0.5:1,150:0.8:3");
     q.max_events = 100000;
     cmp_brute("2d walls two species", q, 30000, 1);
-    /* Crowded cells: a big seed sizes the cells (side >= its diameter), so
-     * a cell holds ~10-40 particles: long cell lists (and in 3D, scans of
-     * more candidates than one batch) against the brute force, bit for bit. The seed reflects (p = 0), so
-     * the gas keeps moving between the crowded cells. */
-    q = base(2, 300, 0.3, 0, 4.0, 0);
+    /* Crowded cells: a big seed sizes the cells (side >= its contact
+     * distance, seed radius + particle radius), so a cell holds ~10-40
+     * particles: long cell lists (and in 3D, scans of more candidates than
+     * one batch) against the brute force, bit for bit. The seed reflects
+     * (p = 0), so the gas keeps moving between the crowded cells. The cells
+     * are no larger than they must be (below twice the seed's radius, the
+     * rule until checkpoint version 3), so a contact with the seed at the
+     * far side of a neighbour cell is found or the sequences part. */
+    q = base(2, 300, 0.3, 0, 5.0, 0);
     q.max_events = 20000;
     crowded_cells(q);
     cmp_brute("2d walls crowded cells", q, 8000, 1);
-    q = base(3, 250, 0.2, 0, 1.5, 0);
+    q = base(3, 250, 0.2, 0, 2.5, 0);
     q.max_events = 20000;
     crowded_cells(q);
     cmp_brute("3d walls crowded cells", q, 8000, 1);
+    /* sticking onto a big seed with the tight cells */
+    q = base(2, 300, 0.1, 0, 4.0, 1);
+    q.max_events = 200000;
+    cmp_brute("2d walls big seed sticking", q, 1000, 1);
+    q = base(3, 250, 0.1, 0, 2.0, 0.5);
+    q.max_events = 200000;
+    cmp_brute("3d walls big seed sticking p=0.5", q, 1000, 1);
     /* periodic: wrapping at the box edge changes the stored position by L,
      * so times agree to round-off only (chaos ends the agreement later). */
     q = base(2, 300, 0.2, 1, 0, 1);

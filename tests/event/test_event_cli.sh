@@ -152,5 +152,18 @@ printf 'model = event\nspecies = 40:0.5:1,300:0.5:1:0\npacking = 0.2\nmax_events
 "$pdla" --scene "$t/bath.txt" --out "$t/bs" >"$t/out" 2>"$t/err" || fail "bath scene: $(cat "$t/err")"
 grep -q "(300 of a bath kind)" "$t/out" || fail "bath scene: $(cat "$t/out")"
 
+# A checkpoint of format version 2 (pdla 9b2d578) with a seed larger than the
+# particles names cells of the older, coarser grid: resuming it is refused
+# with one line and exit 2, and its directory is left as it was.
+if [ -n "${3:-}" ]; then
+    mkdir "$t/v2"
+    cp "$3" "$t/v2/checkpoint.h5"
+    before=$(cksum "$t/v2/checkpoint.h5")
+    expect_usage "version-2 checkpoint, big seed" --model event --resume "$t/v2" --t-max 10
+    grep -q "format version 2 with a seed larger than the particles" "$t/err" || fail "v2 big seed: $(cat "$t/err")"
+    [ "$(cksum "$t/v2/checkpoint.h5")" = "$before" ] || fail "v2 big seed: checkpoint changed"
+    [ "$(ls "$t/v2")" = "checkpoint.h5" ] || fail "v2 big seed: files left: $(ls "$t/v2")"
+fi
+
 [ $fails -eq 0 ] && echo "event cli: all passed"
 exit $((fails > 0))

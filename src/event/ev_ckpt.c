@@ -44,7 +44,7 @@
  * cells of another grid, so it is refused. 3: cells no larger than the
  * largest contact distance when a seed is larger than the particles
  * (ev_sim.c size_box); a version 2 state is read when its grid is the same
- * (no such seed), else refused. */
+ * (always without such a seed), else refused. */
 #define CK_VERSION 3
 enum { CK_NCOUNT = 13, CK_NREAL = 8 };
 
@@ -349,6 +349,10 @@ static int check_particle(const rd *r, const ev_sim *s, uint32_t i)
         return rfail(r, "%s", "a particle's time outside [0, now] (damaged)");
     if (i < s->n ? p[2 * D + 1] != s->sp[s->species[i]].radius : !(p[2 * D + 1] > 0))
         return rfail(r, "%s", "a particle's radius is not its kind's (damaged)");
+    /* the cells were sized by the parameters' largest seed: a larger one
+     * would touch particles the cell scans never visit */
+    if (i >= s->n && !(p[2 * D + 1] <= s->rmax))
+        return rfail(r, "%s", "a seed larger than its parameters' seeds (damaged)");
     uint32_t c = s->cell[i];
     const double tol = 1e-6 * s->w;
     for (int k = 0; k < D; k++, c /= (uint32_t)s->nc) {
@@ -528,7 +532,7 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
         rc = rfail(&r, "%s", "not an event-model checkpoint");
     if (!rc && (rattr_int(&r, "format_version", &ver) || (ver != CK_VERSION && ver != 2))) {
         char vm[96];
-        snprintf(vm, sizeof vm, "format version %lld, not %d", ver, CK_VERSION);
+        snprintf(vm, sizeof vm, "format version %lld, not 2 or %d", ver, CK_VERSION);
         rc = rfail(&r, "%s (made by another pdla)", vm);
     }
     if (!rc && (rattr_int(&r, "dim", &dim) || rattr_int(&r, "particles", &n) ||

@@ -17,7 +17,17 @@
  *  - a pair prediction depends only on the two stored states: both are
  *    moved to max(t_i, t_j) first, so predicting again later (after a cell
  *    crossing) gives the same bits, and the brute-force reference in the
- *    tests produces the same event sequence.
+ *    tests produces the same event sequence. In a periodic box the image
+ *    is the one nearest at the time of the prediction (`now`), not at
+ *    max(t_i, t_j): a particle keeps its stored state through cell
+ *    crossings, so in a dilute gas it may have flown more than half the
+ *    box since, and the image nearest then was the wrong one (3D, 1e4
+ *    particles at packing 0.001: particles passed through each other, 0.83
+ *    diameters deep, until session 14; test event-periodic-few). Now the
+ *    two are in neighbouring cells, which with >= 4 cells a side is at most
+ *    half the box apart, so the nearest image is the one that meets; when
+ *    it is also the nearest at max(t_i, t_j), as nearly always, the bits
+ *    are those of before.
  * Stability rules (Bannerman 2014), each tested in tests/event:
  *  - overlapping by round-off and approaching (r.v < 0): collide now;
  *    overlapping and receding: no event (they separate, no pass-through);
@@ -308,12 +318,16 @@ pred_pp(const int D, const double *pi, const double *pj, double now, int per, do
 {
     const double ti = pi[2 * D], tj = pj[2 * D];
     const double tr = ti > tj ? ti : tj;
-    const double di = tr - ti, dj = tr - tj;
+    const double di = tr - ti, dj = tr - tj, dn = now - tr;
     double b = 0, rr = 0, vv = 0;
     for (int k = 0; k < D; k++) {
         double r = (pj[k] + pj[D + k] * dj) - (pi[k] + pi[D + k] * di);
-        if (per && fabs(r) > half) r = r > 0 ? r - L : r + L;
         const double v = pj[D + k] - pi[D + k];
+        if (per) {
+            /* the image is the nearest one now, not at tr (see the top) */
+            const double rn = r + v * dn;
+            if (fabs(rn) > half) r = rn > 0 ? r - L : r + L;
+        }
         b += r * v;
         rr += r * r;
         vv += v * v;
@@ -467,19 +481,22 @@ pred_pp2(const int D, const double *pi, const double *pa, const double *pb, doub
     const __m128d ti = _mm_set1_pd(pi[2 * D]), tj = _mm_set_pd(pb[2 * D], pa[2 * D]);
     const __m128d tr = _mm_max_pd(ti, tj); /* ti > tj ? ti : tj */
     const __m128d di = _mm_sub_pd(tr, ti), dj = _mm_sub_pd(tr, tj);
+    const __m128d dn = _mm_sub_pd(_mm_set1_pd(now), tr);
     __m128d b = zero, rr = zero, vv = zero;
 #pragma GCC unroll 3
     for (int k = 0; k < D; k++) {
         const __m128d xj = _mm_set_pd(pb[k], pa[k]), vj = _mm_set_pd(pb[D + k], pa[D + k]);
         const __m128d xi = _mm_set1_pd(pi[k]), vi = _mm_set1_pd(pi[D + k]);
         __m128d r = _mm_sub_pd(_mm_add_pd(xj, _mm_mul_pd(vj, dj)), _mm_add_pd(xi, _mm_mul_pd(vi, di)));
+        const __m128d v = _mm_sub_pd(vj, vi);
         if (per) {
-            /* |r| > half: r - copysign(L, r), i.e. r - L or r + L exactly */
-            const __m128d far = _mm_cmpgt_pd(_mm_andnot_pd(sgn, r), _mm_set1_pd(half));
-            const __m128d sl = _mm_or_pd(_mm_and_pd(sgn, r), _mm_set1_pd(L));
+            /* |rn| > half (rn = r + v dn, the separation now): r -
+             * copysign(L, rn), i.e. r - L or r + L exactly */
+            const __m128d rn = _mm_add_pd(r, _mm_mul_pd(v, dn));
+            const __m128d far = _mm_cmpgt_pd(_mm_andnot_pd(sgn, rn), _mm_set1_pd(half));
+            const __m128d sl = _mm_or_pd(_mm_and_pd(sgn, rn), _mm_set1_pd(L));
             r = _mm_sub_pd(r, _mm_and_pd(far, sl));
         }
-        const __m128d v = _mm_sub_pd(vj, vi);
         b = _mm_add_pd(b, _mm_mul_pd(r, v));
         rr = _mm_add_pd(rr, _mm_mul_pd(r, r));
         vv = _mm_add_pd(vv, _mm_mul_pd(v, v));

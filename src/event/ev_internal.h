@@ -49,6 +49,7 @@ struct ev_sim {
     int lookahead;        /* prefetch the next events' lines (ev_core.c) */
     int nc;               /* cells per dimension */
     int nc_v2;            /* cells per dimension by checkpoint version 2's rule */
+    double rmax;          /* largest radius, particles and seeds, the cells were sized by */
     int nc_order;         /* cells per dimension of the numbering grid (ev_sim.c) */
     double w;             /* cell side */
     /* Particle i: ps[i*S ..]: x[D], v[D], t_i, radius (S = 2D + 2). */

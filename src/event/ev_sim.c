@@ -598,28 +598,37 @@ static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
      * of a particle and a seed (seed radius + rpmax; seeds never meet each
      * other); up to checkpoint version 2 it was taken as 2 rmax, cells
      * twice the seed's size, so a seed larger than the particles made every
-     * scan test up to 2^D times more candidates than needed (3D 1e5,
-     * packing 0.1, seed radius 5: 61 us an event against 0.65 with a seed
-     * of the particles' size, runs/event/session14/seed-radius-cost.txt).
-     * nc_v2 keeps that grid so an old checkpoint is refused only when the
-     * grids differ (ev_ckpt.c). */
+     * scan test up to 2^D times more candidates than needed (3D, 20000
+     * particles, packing 0.1, seed radius 5: 121 us a collision against 21
+     * now and 1.7 with a seed of the particles' size,
+     * runs/event/session14/seed-radius-cost.txt). nc_v2 keeps that grid so
+     * an old checkpoint is refused only when the grids differ (ev_ckpt.c).
+     * A periodic box needs 4 cells a side: particles in neighbouring cells
+     * are then at most half the box apart on each axis, so the minimum
+     * image that pred_pp takes is the one that meets (with 3, two particles
+     * two cells apart approaching across the cell between them are taken
+     * by their nearer image through the wrap, as receding, and pass through
+     * each other). */
     const double rseed = rmax > rpmax ? rmax : rpmax;
     const double cmin = fmax(2 * rpmax, rseed + rpmax) * (1 + 1e-9);
     const double cap = floor(pow(EV_CELLS_PER_PARTICLE(D) * (double)s->ntot + 27, 1.0 / D));
     const double cap1 = floor(pow((double)s->ntot + 27, 1.0 / D));
     double ncd = floor(s->L / cmin), nc2 = floor(s->L / (2 * rmax * (1 + 1e-9)));
     /* the numbering grid keeps version 2's rule: particles are numbered as
-     * before, so a run's events are the same as before, bit for bit */
+     * before (the events of the runs compared in runs/event/speed-session14.md
+     * are the same) */
     s->nc_order = (int)fmax(1, fmin(nc2, cap1));
     if (ncd > cap) ncd = cap;
     if (ncd < 1) ncd = 1;
     if (nc2 > cap) nc2 = cap;
     if (nc2 < 1) nc2 = 1;
+    if (s->periodic && ncd < 4 && floor(s->L / cmin) >= 4) ncd = 4; /* few particles: cap below 4 */
     s->nc = (int)ncd;
     s->nc_v2 = (int)nc2;
+    s->rmax = rmax;
     s->w = s->L / s->nc;
-    if (s->periodic && s->nc < 3)
-        return pdla_errorf(-1, err, errlen, "box too small for periodic walls: side %g is under 3 cells of %g",
+    if (s->periodic && s->nc < 4)
+        return pdla_errorf(-1, err, errlen, "box too small for periodic walls: side %g is under 4 cells of %g",
                     s->L, cmin);
     return 0;
 }

@@ -76,11 +76,12 @@ static double bf_pair(const bf *b, uint32_t i, uint32_t j)
     double rv = 0, rr = 0, vv = 0;
     for (int k = 0; k < D; k++) {
         double r = (b->x[j * 3 + k] + b->v[j * 3 + k] * dj) - (b->x[i * 3 + k] + b->v[i * 3 + k] * di);
-        if (b->periodic) {
-            if (r > b->half) r -= b->L;
-            else if (r < -b->half) r += b->L;
-        }
         const double v = b->v[j * 3 + k] - b->v[i * 3 + k];
+        if (b->periodic) { /* the image nearest now, as the engine takes it */
+            const double rn = r + v * (b->now - tr);
+            if (rn > b->half) r -= b->L;
+            else if (rn < -b->half) r += b->L;
+        }
         rv += r * v;
         rr += r * r;
         vv += v * v;
@@ -1633,6 +1634,49 @@ static void test_place(void)
     place_case("2d periodic two radii jammed", q, 0);
 }
 
+/* A periodic box of few cells: two spheres approaching along x from 0.1 and
+ * 2.6 in a box of side 4.71 (3D, 2 particles, packing 0.01) are 2.5 apart,
+ * more than half the box, so their nearest image at the start is through
+ * the wrap, receding. Until session 14 they passed through each other: the
+ * box had 3 cells a side, and the image was chosen at the pair's older
+ * stored time, when they were that far apart. Closing at speed 2 from 2.5
+ * to contact at 1, they must collide once (t = 0.75) before t = 1 and
+ * never overlap; also in 2D (side 5.6); and a periodic box with under 4
+ * cells of the contact distance a side is refused. Fails with the image
+ * taken at max(t_i, t_j) (0 collisions in 3D), whatever the cells. */
+static void test_periodic_few(void)
+{
+    for (int dim = 2; dim <= 3; dim++) {
+        ev_params q = base(dim, 2, dim == 3 ? 0.01 : 0.05, 1, 0, 1);
+        char err[256];
+        ev_sim *s = ev_create(&q, err, sizeof err);
+        CHECK(s != NULL, "%dd periodic few: %s", dim, err);
+        if (!s) continue;
+        CHECK(s->nc >= 4, "%dd periodic few: %d cells a side", dim, s->nc);
+        for (uint32_t i = 0; i < 2; i++) {
+            double *p = EV_P_ANY(s, i);
+            for (int k = 0; k < 2 * dim; k++) p[k] = 0.5 * s->L;
+            p[0] = i ? 2.6 : 0.1;
+            p[dim] = i ? -1 : 1;
+            for (int k = 1; k < dim; k++) p[dim + k] = 0;
+            p[2 * dim] = 0;
+        }
+        ev_rebuild(s);
+        ev_loop(s, 1.0, NULL);
+        const double ov = ev_max_overlap_now(s);
+        fprintf(stderr, "%dd periodic few: side %g, %d cells, %llu collisions, overlap %g\n", dim, s->L, s->nc,
+                (unsigned long long)s->collisions, ov);
+        CHECK(s->collisions == 1 && ov < TOL, "%dd periodic few: %llu collisions, overlap %g", dim,
+              (unsigned long long)s->collisions, ov);
+        ev_free(s);
+    }
+    ev_params q = base(2, 3, 0.4, 1, 0, 1); /* side 2.4: under 4 cells of 1 */
+    char err[256] = "";
+    ev_sim *s = ev_create(&q, err, sizeof err);
+    CHECK(s == NULL && strstr(err, "under 4 cells"), "periodic box of under 4 cells: %s", s ? "accepted" : err);
+    ev_free(s);
+}
+
 /* ---- look-ahead prefetch (ev_core.c): the same events with and without --
  * From EV_LOOKAHEAD_MIN particles on, every event prefetches the lines of
  * the next few. It reads the queue and the particles' cells (under ASan
@@ -1772,5 +1816,6 @@ int main(int argc, char **argv)
     if (all || !strcmp(what, "bath-brute")) test_bath_brute();
     if (all || !strcmp(what, "place")) test_place();
     if (all || !strcmp(what, "lookahead")) test_lookahead();
+    if (all || !strcmp(what, "periodic-few")) test_periodic_few();
     return check_finish();
 }

@@ -284,6 +284,10 @@ ev_cases.update({
     "series_dt_zero": ev_values("state/reals", ev_set(1, 0.0)),
     "rng_zero": ev_values("state/counters", lambda a: np.concatenate([a[:9], np.zeros(4, dtype="u8")])),
     "particles_1e8": ev_param("particles", "100000000", {"particles": 10**8, "ntot": 10**8 + 1}),
+    # the seed (index 300, radius 1) grown to 1.4: the cells are sized by the
+    # parameters' seed (side >= 1 + 0.5 since session 14), so particles could
+    # touch it from cells the scans never visit; accepted before session 14
+    "seed_radius_grown": ev_values("state/ps", ev_set(300 * 6 + 5, 1.4)),
 })
 for name, fn in ev_cases.items():
     expect("event-ckpt-%s/resume" % name, ev_resume(ev_copy("eventck-" + name.replace("^", ""), fn)), "fail")

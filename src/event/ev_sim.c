@@ -549,6 +549,8 @@ static void *big_zalloc(size_t n, size_t size, size_t align)
         if (!(ptr)) goto oom;                                              \
     } while (0)
 
+static int size_cells(ev_sim *s, double rmax, double rpmax, char *err, size_t errlen);
+
 /* The particle count, the box (side from the packing) and the cells of p:
  * 0, or -1 with one line in err when the box is too small. */
 static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
@@ -584,6 +586,14 @@ static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
         return pdla_errorf(-1, err, errlen, "--seeds %s: a seed of radius %g is above 10 particle radii (the "
                     "cell size)", p->seeds, rmax);
     if (p->seeds[0] && ev_seeds_check(s, err, errlen)) return -1;
+    return size_cells(s, rmax, rpmax, err, errlen);
+}
+
+/* The cell grid for particles of radius up to rpmax and seeds (and
+ * particles) of radius up to rmax: 0, or -1 with one line in err. */
+static int size_cells(ev_sim *s, double rmax, double rpmax, char *err, size_t errlen)
+{
+    const int D = s->dim;
     /* Cells no smaller than the largest contact distance (a hair more, so a
      * particle assigned by round-off to the next cell is still found), and
      * at low packing no more than EV_CELLS_PER_PARTICLE(D) cells per particle

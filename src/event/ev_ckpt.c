@@ -44,8 +44,11 @@
  * cells of another grid, so it is refused. 3: cells no larger than the
  * largest contact distance when a seed is larger than the particles
  * (ev_sim.c size_box); a version 2 state is read when its grid is the same
- * (always without such a seed), else refused. */
-#define CK_VERSION 3
+ * (always without such a seed), else refused. 4: a seed larger than the
+ * particles leaves the cell lists (ev_big.c), the cells are sized by the
+ * particles alone; a version 2 or 3 state is read when its grid is the
+ * same (always without such a seed), else refused. */
+#define CK_VERSION 4
 enum { CK_NCOUNT = 13, CK_NREAL = 8 };
 
 static int wds(const h5u_writer *w, hid_t g, const char *name, hid_t ftype, hid_t mtype,
@@ -483,7 +486,8 @@ static void rebuild_derived(ev_sim *s)
     }
     const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (D == 3 ? (uint64_t)s->nc : 1);
     for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
-    for (uint32_t i = s->ntot; i-- > 0;) ev_cell_insert(s, i, s->cell[i]);
+    for (uint32_t i = s->ntot; i-- > 0;)
+        if (ev_in_cells(s, i)) ev_cell_insert(s, i, s->cell[i]);
     ev_queue_reset(s);
     for (uint32_t i = 0; i < s->n; i++)
         if (!s->stuck[i]) ev_heap_push(s, i);
@@ -530,9 +534,9 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     long long ver = 0, dim = 0, n = 0, ntot = 0;
     if (!rc && (rattr_str(&r, "format", fmt, sizeof fmt) || strcmp(fmt, CK_FORMAT) != 0))
         rc = rfail(&r, "%s", "not an event-model checkpoint");
-    if (!rc && (rattr_int(&r, "format_version", &ver) || (ver != CK_VERSION && ver != 2))) {
+    if (!rc && (rattr_int(&r, "format_version", &ver) || ver < 2 || ver > CK_VERSION)) {
         char vm[96];
-        snprintf(vm, sizeof vm, "format version %lld, not 2 or %d", ver, CK_VERSION);
+        snprintf(vm, sizeof vm, "format version %lld, not 2 to %d", ver, CK_VERSION);
         rc = rfail(&r, "%s (made by another pdla)", vm);
     }
     if (!rc && (rattr_int(&r, "dim", &dim) || rattr_int(&r, "particles", &n) ||
@@ -545,15 +549,18 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     if (!rc && !(s = ev_alloc(&p, e2, sizeof e2))) rc = rfail(&r, "%s", e2);
     if (!rc && ((long long)s->dim != dim || (long long)s->n != n || (long long)s->ntot != ntot))
         rc = rfail(&r, "%s", "its parameters do not give its particle count (damaged)");
-    if (!rc && ver == 2 && s->nc_v2 != s->nc) {
+    const int nc_then = !s ? 0 : ver == 2 ? s->nc_v2 : ver == 3 ? s->nc_v3 : s->nc;
+    if (!rc && nc_then != s->nc) {
         char vm[160];
-        snprintf(vm, sizeof vm, "format version 2 with a seed larger than the particles names cells of an "
-                                "older grid (%d a side, now %d)", s->nc_v2, s->nc);
+        snprintf(vm, sizeof vm, "format version %lld names cells of an older grid (%d a side, now %d)", ver,
+                 nc_then, s->nc);
         rc = rfail(&r, "%s: resume it with the pdla that wrote it", vm);
     }
     if (!rc) rc = read_state(&r, s);
     if (!rc) rc = check_state(&r, s);
     if (!rc) rc = check_values(&r, s);
+    /* the seeds' near lists from the seeds as stored */
+    if (!rc && ev_big_build(s)) rc = rfail(&r, "%s", "out of memory for the cells near the seeds");
     if (!rc) rc = read_series(&r, ser);
     if (r.file >= 0 && H5Fclose(r.file) < 0 && !rc) rc = rfail(&r, "%s", "cannot close it");
     if (h5u_restore(&q) < 0 && !rc) rc = rfail(&r, "%s", "cannot restore the HDF5 error handler");

@@ -622,6 +622,35 @@ scan_pairs(ev_sim *s, const int D, uint32_t i, double now, int sk, int slab)
     else scan_pairs3(s, i, now, sk, slab);
 }
 
+/* The big seeds i may meet from its cell (out of the cell lists, ev_big.c)
+ * into its pair event, with the scans' rule: the least (time, index), a
+ * wall event winning a tie. */
+static __attribute__((noinline)) void scan_big(ev_sim *s, const int D, uint32_t i, double now)
+{
+    uint32_t lo, hi;
+    ev_big_list(s, s->cell[i], &lo, &hi);
+    if (lo == hi) return;
+    ev_evt *e = &s->evt[i];
+    const double *pi = EV_P(s, i);
+    double bt = e->t_pair;
+    const uint32_t bj0 = e->kind == EV_K_PAIR ? e->partner : UINT32_MAX;
+    uint32_t bj = bj0;
+    for (uint32_t a = lo; a < hi; a++) {
+        const uint32_t j = s->bg_idx[a];
+        const double t = pred_pp(D, pi, EV_P(s, j), now, s->periodic, s->half, s->L);
+        if (t < bt || (t == bt && bj != UINT32_MAX && j < bj)) {
+            bt = t;
+            bj = j;
+        }
+    }
+    if (bj != bj0 || bt != e->t_pair) {
+        e->t_pair = bt;
+        e->kind = EV_K_PAIR;
+        e->partner = bj;
+        e->pcount = s->count[bj];
+    }
+}
+
 /* Full prediction of i's events. */
 static inline __attribute__((always_inline)) void predict_all(ev_sim *s, const int D, uint32_t i,
                                                               double now)
@@ -639,6 +668,7 @@ static inline __attribute__((always_inline)) void predict_all(ev_sim *s, const i
         }
     }
     scan_pairs(s, D, i, now, -1, 0);
+    if (__builtin_expect(s->nbig != 0, 0)) scan_big(s, D, i, now);
     int what = -1;
     e->t_cell = pred_cell(s, D, i, now, &what);
     e->cell_what = (int8_t)what;
@@ -898,6 +928,7 @@ static inline __attribute__((always_inline)) int step(ev_sim *s, const int D)
         cell_remove(s, i);
         ev_cell_insert(s, i, c);
         scan_pairs(s, D, i, now, k, up ? 1 : -1);
+        if (__builtin_expect(s->nbig != 0, 0)) scan_big(s, D, i, now); /* the new cell's big seeds */
         int what = -1;
         e->t_cell = pred_cell(s, D, i, now, &what);
         e->cell_what = (int8_t)what;
@@ -983,6 +1014,22 @@ int ev_loop(ev_sim *s, double t_end, volatile const int *interrupt)
     }
 }
 
+/* Largest overlap/(r_i + r_j) of particle i, at xi, with a big seed of
+ * its cell's list (-INF when none). */
+static double big_overlap(const ev_sim *s, const int D, uint32_t i, const double *xi)
+{
+    uint32_t lo, hi;
+    double worst = -INFINITY;
+    ev_big_list(s, s->cell[i], &lo, &hi);
+    for (uint32_t a = lo; a < hi; a++) {
+        const double *pj = EV_P(s, s->bg_idx[a]);
+        const double sig = EV_P(s, i)[2 * D + 1] + pj[2 * D + 1];
+        const double ov = (sig - sqrt(ev_dist2(s, xi, pj))) / sig;
+        if (ov > worst) worst = ov;
+    }
+    return worst;
+}
+
 /* Largest overlap/(r_i + r_j) over all pairs at the current time, each
  * particle's position taken at s->now without changing the state. */
 double ev_max_overlap_now(ev_sim *s)
@@ -1012,6 +1059,10 @@ double ev_max_overlap_now(ev_sim *s)
             const double ov = (sig - sqrt(rr)) / sig;
             if (ov > worst) worst = ov;
         });
+        if (s->nbig && i < s->n) {
+            const double ov = big_overlap(s, D, i, xi);
+            if (ov > worst) worst = ov;
+        }
     }
     return worst;
 }

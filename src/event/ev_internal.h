@@ -49,7 +49,9 @@ struct ev_sim {
     int lookahead;        /* prefetch the next events' lines (ev_core.c) */
     int nc;               /* cells per dimension */
     int nc_v2;            /* cells per dimension by checkpoint version 2's rule */
-    double rmax;          /* largest radius, particles and seeds, the cells were sized by */
+    int nc_v3;            /* cells per dimension by checkpoint version 3's rule */
+    double rmax;          /* largest radius, particles and seeds */
+    double rpmax;         /* largest particle radius: the cells are sized by it */
     int nc_order;         /* cells per dimension of the numbering grid (ev_sim.c) */
     double w;             /* cell side */
     /* Particle i: ps[i*S ..]: x[D], v[D], t_i, radius (S = 2D + 2). */
@@ -68,6 +70,11 @@ struct ev_sim {
     uint32_t qnb, cq;    /* buckets now, current bucket */
     uint32_t qover;      /* slot of the overflow list (>= any qnb) */
     double qbase, qinv;  /* bucket b covers [qbase + b / qinv, qbase + (b + 1) / qinv) */
+    /* seeds larger than the particles, out of the cell lists (ev_big.c) */
+    uint32_t nbig;
+    uint64_t *bg_near, *bg_inside; /* a bit per cell */
+    uint32_t *bg_rank;             /* near bits before each 64-bit word */
+    uint32_t *bg_start, *bg_idx;   /* near cell of rank r: bg_idx[bg_start[r] .. bg_start[r + 1]) */
     /* stuck particles in arrival order */
     uint32_t *stuck_idx, nstuck;
     double *stuck_t;
@@ -109,6 +116,29 @@ static inline double ev_dist2(const ev_sim *s, const double *a, const double *b)
 }
 #define EV_P_ANY(s, i) ((s)->ps + (size_t)(i) * (size_t)(2 * (s)->dim + 2))
 void ev_rebuild(ev_sim *s);
+
+/* Is i a seed larger than every particle (in no cell list, ev_big.c)? */
+static inline int ev_is_big(const ev_sim *s, uint32_t i)
+{
+    return i >= s->n && EV_P_ANY(s, i)[2 * s->dim + 1] > s->rpmax;
+}
+/* Cell lists for every particle and seed but the big seeds. */
+static inline int ev_in_cells(const ev_sim *s, uint32_t i) { return !ev_is_big(s, i); }
+int ev_big_build(ev_sim *s);
+void ev_big_free(ev_sim *s);
+/* The big seeds a particle in cell c may meet: bg_idx[*lo .. *hi) (empty
+ * unless c's "near" bit is set; its rank indexes the lists). */
+static inline void ev_big_list(const ev_sim *s, uint64_t c, uint32_t *lo, uint32_t *hi)
+{
+    const uint64_t w = s->bg_near[c >> 6], bit = (uint64_t)1 << (c & 63);
+    *lo = *hi = 0;
+    if (!(w & bit)) return;
+    const uint32_t r = s->bg_rank[c >> 6] + (uint32_t)__builtin_popcountll(w & (bit - 1));
+    *lo = s->bg_start[r];
+    *hi = s->bg_start[r + 1];
+}
+/* Does a particle of radius r <= rpmax at x, in cell c, overlap a big seed? */
+int ev_big_overlaps(const ev_sim *s, uint64_t c, const double *x, double r);
 ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen);
 double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi);
 

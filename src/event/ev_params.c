@@ -241,20 +241,12 @@ int ev_params_check(const ev_params *p, char *err, size_t errlen)
     int nsp;
     if (ev_parse_species(p, sp, &nsp, err, errlen)) return -1;
     uint64_t total = 0, nsticky = 0;
-    double rmax = p->seed_radius;
     for (int k = 0; k < nsp; k++) {
         total += sp[k].count;
         if (sp[k].sticky) nsticky += sp[k].count;
-        if (sp[k].radius > rmax) rmax = sp[k].radius;
     }
     if (total >= UINT32_MAX - 1) return pdla_errorf(-1, err, errlen, "too many particles (%" PRIu64 ")", total);
-    double rpmax = 0;
-    for (int k = 0; k < nsp; k++)
-        if (sp[k].radius > rpmax) rpmax = sp[k].radius;
     const int seeded = p->seeds[0] || p->seed_radius > 0;
-    if (!p->seeds[0] && p->seed_radius > 10 * rpmax)
-        return pdla_errorf(-1, err, errlen, "--seed-radius %g is above 10 particle radii (the cell size)",
-                    p->seed_radius);
     /* Without a sticky kind nothing can end the run but time or events (a
      * bath alone is a plain gas around the cluster), and --max-stuck could
      * never be reached: both refused, as with no seed. */

@@ -40,6 +40,7 @@ void ev_free(ev_sim *s)
     free(s->qhead);
     free(s->stuck_idx);
     free(s->stuck_t);
+    ev_big_free(s);
     free(s);
 }
 
@@ -118,7 +119,7 @@ static int overlaps_in(const ev_sim *s, const double *x, double r, const uint32_
 {
     for (int a = 0; a < ncn; a++)
         if (overlaps_cell(s, x, r, cn[a])) return 1;
-    return 0;
+    return s->nbig && ev_big_overlaps(s, cell_of(s, x), x, r);
 }
 
 /* Does a particle of radius r at x overlap anything placed (cells)? The
@@ -131,14 +132,15 @@ static inline __attribute__((always_inline)) int overlaps(const ev_sim *s, const
 {
     const int D = s->dim;
     int cc[3];
-    cell_coords(s, cell_of(s, x), cc);
+    const uint32_t c = cell_of(s, x);
+    cell_coords(s, c, cc);
     for (int oz = D == 3 ? -1 : 0; oz <= (D == 3 ? 1 : 0); oz++)
         for (int oy = -1; oy <= 1; oy++)
             for (int ox = -1; ox <= 1; ox++) {
                 uint32_t cn;
                 if (offset_cell(s, cc, ox, oy, oz, &cn) && overlaps_cell(s, x, r, cn)) return 1;
             }
-    return 0;
+    return s->nbig && ev_big_overlaps(s, c, x, r);
 }
 
 static void put(ev_sim *s, uint32_t i, const double *x)
@@ -146,7 +148,8 @@ static void put(ev_sim *s, uint32_t i, const double *x)
     const int D = s->dim;
     double *p = EV_P(s, i);
     for (int k = 0; k < D; k++) p[k] = x[k];
-    ev_cell_insert(s, i, cell_of(s, x));
+    if (ev_in_cells(s, i)) ev_cell_insert(s, i, cell_of(s, x));
+    else s->cell[i] = cell_of(s, x);
 }
 
 /* Random sequential addition: particle i goes to the first of uniformly
@@ -496,7 +499,8 @@ static int sort_by_cell(ev_sim *s)
     free(order), free(key), free(start), free(ps), free(m), free(sp);
     const uint64_t nce = (uint64_t)s->nc * (uint64_t)s->nc * (D == 3 ? (uint64_t)s->nc : 1);
     for (uint64_t c = 0; c < nce; c++) s->chead[c] = UINT32_MAX;
-    for (uint32_t i = 0; i < s->ntot; i++) ev_cell_insert(s, i, cell_of(s, EV_P(s, i)));
+    for (uint32_t i = 0; i < s->ntot; i++)
+        if (ev_in_cells(s, i)) ev_cell_insert(s, i, cell_of(s, EV_P(s, i)));
     return 0;
 }
 
@@ -569,6 +573,7 @@ static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
         if (s->sp[k].radius > rpmax) rpmax = s->sp[k].radius;
     }
     s->n = (uint32_t)n;
+    s->rpmax = rpmax;
     s->nsticky = (uint32_t)nsticky;
     s->has_bath = nsticky < n;
     if (!p->seeds[0]) s->nseeds = p->seed_radius > 0;
@@ -580,66 +585,72 @@ static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
     s->L = pow(s->V, 1.0 / D);
     s->half = 0.5 * s->L;
     if (s->L < 2 * rmax * 1.5 || (s->has_seed && !p->seeds[0] && s->L < 2 * p->seed_radius + 4 * rpmax))
-        return pdla_errorf(-1, err, errlen, "box too small: side %g for particles of radius up to %g", s->L,
-                    rmax);
-    if (p->seeds[0] && rmax > 10 * rpmax)
-        return pdla_errorf(-1, err, errlen, "--seeds %s: a seed of radius %g is above 10 particle radii (the "
-                    "cell size)", p->seeds, rmax);
+        return pdla_errorf(-1, err, errlen, "box too small: side %g for %s of radius %g", s->L,
+                    rmax > rpmax ? "a seed" : "particles", rmax);
     if (p->seeds[0] && ev_seeds_check(s, err, errlen)) return -1;
     return size_cells(s, rmax, rpmax, err, errlen);
 }
 
-/* The cell grid for particles of radius up to rpmax and seeds (and
- * particles) of radius up to rmax: 0, or -1 with one line in err. */
+/* Cells per side for cells no smaller than cmin (times 1 + 1e-9, so a
+ * particle assigned by round-off to the next cell is still found), and at
+ * low packing no more than EV_CELLS_PER_PARTICLE(D) cells per particle. */
+static double cells_for(const ev_sim *s, double cmin)
+{
+    const double cap = floor(pow(EV_CELLS_PER_PARTICLE(s->dim) * (double)s->ntot + 27, 1.0 / s->dim));
+    const double nc = fmin(floor(s->L / (cmin * (1 + 1e-9))), cap);
+    return nc < 1 ? 1 : nc;
+}
+
+/* The cell grid for particles of radius up to rpmax and seeds of radius
+ * up to rmax: 0, or -1 with one line in err. */
 static int size_cells(ev_sim *s, double rmax, double rpmax, char *err, size_t errlen)
 {
-    const int D = s->dim;
-    /* Cells no smaller than the largest contact distance (a hair more, so a
-     * particle assigned by round-off to the next cell is still found), and
-     * at low packing no more than EV_CELLS_PER_PARTICLE(D) cells per particle
-     * (bigger cells there mean fewer crossing events). The smaller the cells,
-     * the fewer candidates a scan tests (a full scan covers 3^D cells) but
-     * the more crossing events: callgrind of the event loop (N = 1e4,
-     * periodic, runs/event/speed.md, 2026-11-24 event4) has 3D cheapest
-     * with the smallest cells at every packing tried (0.05 .. 0.3: 4 cells
-     * per particle -44% instructions at 0.05, -30% at 0.3 against 1) and 2D
-     * cheapest at about 2 per particle (0.05, 0.15; at 0.3 the smallest). */
-    /* The largest contact distance is that of two particles (2 rpmax) or
-     * of a particle and a seed (seed radius + rpmax; seeds never meet each
-     * other); up to checkpoint version 2 it was taken as 2 rmax, cells
-     * twice the seed's size, so a seed larger than the particles made every
-     * scan test up to 2^D times more candidates than needed (3D, 20000
-     * particles, packing 0.1, seed radius 5: 121 us a collision against 21
-     * now and 1.7 with a seed of the particles' size,
-     * runs/event/session14/seed-radius-cost.txt). nc_v2 keeps that grid so
-     * an old checkpoint is refused only when the grids differ (ev_ckpt.c).
-     * A periodic box needs 4 cells a side: particles in neighbouring cells
+    /* Cells no smaller than the largest contact distance of what is in the
+     * cell lists, and at low packing no more than EV_CELLS_PER_PARTICLE(D)
+     * per particle (bigger cells there mean fewer crossing events). The
+     * smaller the cells, the fewer candidates a scan tests (a full scan
+     * covers 3^D cells) but the more crossing events: callgrind of the event
+     * loop (N = 1e4, periodic, runs/event/speed.md, 2026-11-24 event4) has
+     * 3D cheapest with the smallest cells at every packing tried (0.05 ..
+     * 0.3: 4 cells per particle -44% instructions at 0.05, -30% at 0.3
+     * against 1) and 2D cheapest at about 2 per particle (0.05, 0.15; at
+     * 0.3 the smallest). The largest contact distance in the lists is 2
+     * rpmax: a seed no larger than the particles is listed (contact <= 2
+     * rpmax), a larger one is not (ev_big.c). Earlier rules, kept so that an
+     * old checkpoint is refused only when its grid differs (ev_ckpt.c):
+     * version 2, twice the largest radius of anything (nc_v2); version 3,
+     * max(2 rpmax, seed radius + rpmax) (nc_v3), big seeds listed. A
+     * periodic box needs 4 cells a side: particles in neighbouring cells
      * are then at most half the box apart on each axis, so the minimum
      * image that pred_pp takes is the one that meets (with 3, two particles
      * two cells apart approaching across the cell between them are taken
      * by their nearer image through the wrap, as receding, and pass through
      * each other). */
-    const double rseed = rmax > rpmax ? rmax : rpmax;
-    const double cmin = fmax(2 * rpmax, rseed + rpmax) * (1 + 1e-9);
-    const double cap = floor(pow(EV_CELLS_PER_PARTICLE(D) * (double)s->ntot + 27, 1.0 / D));
-    const double cap1 = floor(pow((double)s->ntot + 27, 1.0 / D));
-    double ncd = floor(s->L / cmin), nc2 = floor(s->L / (2 * rmax * (1 + 1e-9)));
+    const double cmin = 2 * rpmax;
+    double ncd = cells_for(s, cmin);
+    if (s->periodic && ncd < 4 && floor(s->L / (cmin * (1 + 1e-9))) >= 4) ncd = 4; /* few particles */
     /* the numbering grid keeps version 2's rule: particles are numbered as
      * before (the events of the runs compared in runs/event/speed-session14.md
      * are the same) */
-    s->nc_order = (int)fmax(1, fmin(nc2, cap1));
-    if (ncd > cap) ncd = cap;
-    if (ncd < 1) ncd = 1;
-    if (nc2 > cap) nc2 = cap;
-    if (nc2 < 1) nc2 = 1;
-    if (s->periodic && ncd < 4 && floor(s->L / cmin) >= 4) ncd = 4; /* few particles: cap below 4 */
+    s->nc_order = (int)fmax(1, fmin(floor(s->L / (2 * rmax * (1 + 1e-9))),
+                                    floor(pow((double)s->ntot + 27, 1.0 / s->dim))));
     s->nc = (int)ncd;
-    s->nc_v2 = (int)nc2;
+    s->nc_v2 = (int)cells_for(s, 2 * rmax);
+    s->nc_v3 = (int)cells_for(s, fmax(2 * rpmax, rmax + rpmax));
+    if (s->periodic && s->nc_v3 < 4 && floor(s->L / (fmax(2 * rpmax, rmax + rpmax) * (1 + 1e-9))) >= 4)
+        s->nc_v3 = 4;
     s->rmax = rmax;
     s->w = s->L / s->nc;
     if (s->periodic && s->nc < 4)
         return pdla_errorf(-1, err, errlen, "box too small for periodic walls: side %g is under 4 cells of %g",
                     s->L, cmin);
+    /* A big seed in a periodic box: a particle that meets it is within
+     * R + rpmax + w of it on each axis when it predicts the contact (from
+     * its cell), which must be under half the box for pred_pp's nearest
+     * image to be the one that meets. */
+    if (s->periodic && rmax > rpmax && s->L <= 2 * (rmax + rpmax + s->w) * (1 + 1e-9))
+        return pdla_errorf(-1, err, errlen, "box too small for periodic walls: side %g is under 2 (seed radius "
+                                            "%g + particle radius %g + cell %g)", s->L, rmax, rpmax, s->w);
     return 0;
 }
 
@@ -735,6 +746,10 @@ ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen)
         goto bad;
     }
     fill_particles(s, p);
+    if (ev_big_build(s)) {
+        pdla_errorf(-1, err, errlen, "out of memory for the cells near the seeds");
+        goto bad;
+    }
     return s;
 bad:
     ev_free(s);
@@ -1030,7 +1045,9 @@ void ev_rebuild(ev_sim *s)
     for (uint32_t i = 0; i < s->ntot && s->periodic; i++)
         for (int k = 0; k < s->dim; k++) EV_P_ANY(s, i)[k] -= s->L * floor(EV_P_ANY(s, i)[k] / s->L);
     for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
-    for (uint32_t i = 0; i < s->ntot; i++) ev_cell_insert(s, i, cell_of(s, EV_P_ANY(s, i)));
+    for (uint32_t i = 0; i < s->ntot; i++)
+        if (ev_in_cells(s, i)) ev_cell_insert(s, i, cell_of(s, EV_P_ANY(s, i)));
+        else s->cell[i] = cell_of(s, EV_P_ANY(s, i)); /* seeds do not move: ev_big.c's lists hold */
     ev_queue_reset(s);
     for (uint32_t i = 0; i < s->n; i++)
         if (!s->stuck[i]) ev_predict(s, i, s->now);

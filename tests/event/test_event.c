@@ -276,13 +276,14 @@ static ev_params base(int dim, uint64_t n, double packing, int periodic, double 
 
 /* Engine and brute force from the same start: compare the first nev events.
  * exact: times bit-identical; else within rel. tolerance 1e-9 until the
- * first divergence of the pair sequence, which must come late. */
-static void cmp_brute(const char *what, ev_params q, size_t nev, int exact)
+ * first divergence of the pair sequence, which must come late. The
+ * engine's stuck count. */
+static uint32_t cmp_brute(const char *what, ev_params q, size_t nev, int exact)
 {
     char err[256];
     ev_sim *s = ev_create(&q, err, sizeof err);
     CHECK(s != NULL, "%s: %s", what, err);
-    if (!s) return;
+    if (!s) return 0;
     bf *b = bf_from(s);
     trace te = {0}, tb = {0};
     ev_set_trace(s, rec, &te);
@@ -298,8 +299,9 @@ static void cmp_brute(const char *what, ev_params q, size_t nev, int exact)
         if (d > worst) worst = d;
         if (exact ? a->t != c->t : d > 1e-9) break;
     }
-    fprintf(stderr, "%s: %zu engine events, %zu brute, %zu identical, worst rel dt %.3g\n", what,
-            te.n, tb.n, same, worst);
+    const uint32_t nstuck = s->nstuck;
+    fprintf(stderr, "%s: %zu engine events, %zu brute, %zu identical, worst rel dt %.3g, %u stuck\n", what,
+            te.n, tb.n, same, worst, nstuck);
     CHECK(te.n >= nev, "%s: engine stopped early", what);
     /* periodic: chaos amplifies the wrap's round-off; demand the first 1000 */
     CHECK(exact ? same == te.n : same >= 1000, "%s: sequences differ at event %zu of %zu", what,
@@ -308,86 +310,149 @@ static void cmp_brute(const char *what, ev_params q, size_t nev, int exact)
     free(tb.e);
     bf_free(b);
     ev_free(s);
+    return nstuck;
+}
+
+/* Cell lists of s: the most particles in one cell, how many are listed,
+ * and how many sit in a list other than their own cell's. */
+static void cell_census(const ev_sim *s, uint32_t *most, uint32_t *listed, uint32_t *bad)
+{
+    const size_t ncell = (size_t)s->nc * (size_t)s->nc * (s->dim == 3 ? (size_t)s->nc : 1);
+    *most = *listed = *bad = 0;
+    for (size_t c = 0; c < ncell; c++) {
+        uint32_t m = 0;
+        for (uint32_t j = s->chead[c]; j != UINT32_MAX && m <= s->ntot; j = s->cnext[j], m++)
+            if (s->cell[j] != c) (*bad)++;
+        *listed += m;
+        if (m > *most) *most = m;
+    }
 }
 
 /* The start of q has crowded cells (so the cell lists are long, the case
- * cmp_brute then tests), and every cell's list agrees with the particles'
- * `cell` (each particle listed once, in its own cell). */
-static void crowded_cells(ev_params q)
+ * cmp_brute then tests): a few large particles of radius rbig size the
+ * cells, no larger than they must be, and every cell's list agrees with
+ * the particles' `cell` (each particle listed once, in its own cell). */
+static void crowded_cells(ev_params q, double rbig)
 {
     char err[256];
     ev_sim *s = ev_create(&q, err, sizeof err);
     CHECK(s != NULL, "crowded cells: %s", err);
     if (!s) return;
-    const size_t ncell = (size_t)s->nc * (size_t)s->nc * (s->dim == 3 ? (size_t)s->nc : 1);
-    uint32_t most = 0, listed = 0, bad = 0;
-    for (size_t c = 0; c < ncell; c++) {
-        uint32_t m = 0;
-        for (uint32_t j = s->chead[c]; j != UINT32_MAX && m <= s->ntot; j = s->cnext[j], m++)
-            if (s->cell[j] != c) bad++;
-        listed += m;
-        if (m > most) most = m;
-    }
-    fprintf(stderr, "crowded cells (dim %d): %zu cells, up to %u particles in one, %u listed of %u, "
-            "%u in a wrong cell\n", s->dim, ncell, most, listed, s->ntot, bad);
+    uint32_t most, listed, bad;
+    cell_census(s, &most, &listed, &bad);
+    fprintf(stderr, "crowded cells (dim %d): cell side %g, up to %u particles in one, %u listed of %u, "
+            "%u in a wrong cell\n", s->dim, s->w, most, listed, s->ntot, bad);
     CHECK(most >= 10, "crowded cells: at most %u particles in a cell (the test needs >= 10)", most);
-    const double rs = q.seed_radius, rp = q.species[0] ? 0.8 : q.radius;
-    CHECK(s->w >= (rs + rp) * (1 + 1e-9) && s->w < 2 * rs,
-          "crowded cells: cell side %g for a seed of radius %g and particles of %g", s->w, rs, rp);
+    CHECK(s->w >= 2 * rbig * (1 + 1e-9) && s->w < 3 * rbig, "crowded cells: cell side %g for particles of "
+          "radius up to %g", s->w, rbig);
     CHECK(bad == 0 && listed == s->ntot, "crowded cells: cell lists inconsistent");
     ev_free(s);
 }
 
+/* A seed larger than the particles (radius rs, particles rp) is in no cell
+ * list and does not widen the cells; every other particle is listed once,
+ * in its own cell; and every point at the contact distance rs + rp from the
+ * seed lies in a cell whose near list names it (ev_big.c: a particle there
+ * would otherwise pass through the seed). */
+static void big_seed_cells(ev_params q, double rs, double rp)
+{
+    char err[256];
+    ev_sim *s = ev_create(&q, err, sizeof err);
+    CHECK(s != NULL, "big seed cells: %s", err);
+    if (!s) return;
+    const int D = s->dim;
+    uint32_t most, listed, bad, miss = 0, npts = 0;
+    cell_census(s, &most, &listed, &bad);
+    const double *x = EV_P(s, s->n);
+    for (int a = 0; a < 2000; a++) {
+        /* points on the contact sphere (a spiral), and a hair inside it */
+        const double z = D == 3 ? 1 - 2 * (a + 0.5) / 2000 : 0, ph = a * 2.399963229728653;
+        const double rho = sqrt(1 - z * z), u[3] = {rho * cos(ph), rho * sin(ph), z};
+        for (int h = 0; h < 2; h++, npts++) {
+            const double d = (rs + rp) * (h ? 1 - 1e-12 : 1);
+            double y[3] = {0, 0, 0};
+            int in = 1;
+            for (int k = 0; k < D; k++) {
+                y[k] = x[k] + d * u[k];
+                if (s->periodic) y[k] -= s->L * floor(y[k] / s->L);
+                else if (y[k] < 0 || y[k] >= s->L) in = 0;
+            }
+            if (!in) continue;
+            uint64_t c = 0;
+            for (int k = D - 1; k >= 0; k--) c = c * (uint64_t)s->nc + (uint64_t)fmin(s->nc - 1, floor(y[k] / s->w));
+            uint32_t lo, hi, found = 0;
+            ev_big_list(s, c, &lo, &hi);
+            for (uint32_t m = lo; m < hi; m++) found |= s->bg_idx[m] == s->n;
+            miss += !found;
+        }
+    }
+    fprintf(stderr, "big seed cells (dim %d): cell side %g, seed %g, particles %g, %u listed of %u, %u of %u "
+            "contact points in no near list\n", D, s->w, rs, rp, listed, s->ntot, miss, npts);
+    CHECK(s->nbig == 1 && s->w >= 2 * rp * (1 + 1e-9) && s->w < rs + rp,
+          "big seed cells: %u big seeds, cell side %g for a seed of radius %g and particles of %g", s->nbig,
+          s->w, rs, rp);
+    CHECK(bad == 0 && listed == s->ntot - 1, "big seed cells: cell lists inconsistent (%u listed)", listed);
+    CHECK(miss == 0, "big seed cells: %u contact points in no near list", miss);
+    ev_free(s);
+}
+
+/* The cases of test_brute. check: 1, crowded cells (rbig = the large
+ * particles' radius); 2, one big seed out of the cell lists. sticks: some
+ * particle must stick (else the case tests no sticking). */
+typedef struct {
+    const char *what;
+    int dim;
+    uint64_t n;
+    double packing;
+    int periodic;
+    double seed_r, p;
+    const char *species;
+    uint64_t max_events;
+    size_t nev;
+    int exact, check;
+    double rbig;
+    int sticks;
+} brute_case;
+
+static const brute_case brute_cases[] = {
+    {"2d walls gas", 2, 300, 0.2, 0, 0, 1, NULL, 150000, 40000, 1, 0, 0, 0},
+    {"3d walls gas", 3, 250, 0.25, 0, 0, 1, NULL, 150000, 40000, 1, 0, 0, 0},
+    {"2d walls sticking p=1", 2, 300, 0.1, 0, 1.0, 1, NULL, 200000, 1000, 1, 0, 0, 1},
+    {"3d walls sticking p=0.3", 3, 200, 0.1, 0, 1.0, 0.3, NULL, 200000, 2000, 1, 0, 0, 1},
+    {"2d walls two species", 2, 300, 0.2, 0, 0, 1, "150:0.5:1,150:0.8:3", 100000, 30000, 1, 0, 0, 0},
+    /* Crowded cells: a few large particles size the cells (side >= their
+     * diameter), so a cell holds ~10-40 small ones: long cell lists (and in
+     * 3D, scans of more candidates than one batch), bit for bit. */
+    {"2d walls crowded cells", 2, 300, 0.3, 0, 0, 1, "10:5:1,290:0.5:1", 20000, 8000, 1, 1, 5.0, 0},
+    {"3d walls crowded cells", 3, 250, 0.2, 0, 0, 1, "6:2.5:1,244:0.5:1", 20000, 8000, 1, 1, 2.5, 0},
+    /* A seed of 4-10 particle radii: in no cell list, the cells sized by the
+     * particles, its contacts found from the near lists (ev_big.c). It
+     * reflects (p = 0), so the gas keeps hitting it, or it collects. */
+    {"2d walls big seed reflecting", 2, 300, 0.3, 0, 5.0, 0, NULL, 20000, 8000, 1, 2, 0, 0},
+    {"3d walls big seed reflecting", 3, 250, 0.2, 0, 2.5, 0, NULL, 20000, 8000, 1, 2, 0, 0},
+    {"2d walls big seed sticking", 2, 300, 0.1, 0, 4.0, 1, NULL, 200000, 1000, 1, 2, 0, 1},
+    {"3d walls big seed sticking p=0.5", 3, 250, 0.1, 0, 2.0, 0.5, NULL, 200000, 1000, 1, 2, 0, 1},
+    /* periodic: wrapping at the box edge changes the stored position by L,
+     * so times agree to round-off only (chaos ends the agreement later). */
+    {"2d periodic gas", 2, 300, 0.2, 1, 0, 1, NULL, 20000, 5000, 0, 0, 0, 0},
+    {"3d periodic gas", 3, 250, 0.2, 1, 0, 1, NULL, 20000, 5000, 0, 0, 0, 0},
+    {"2d periodic big seed sticking p=0.3", 2, 300, 0.1, 1, 3.0, 0.3, NULL, 20000, 2000, 0, 2, 0, 1},
+    {"3d periodic big seed reflecting", 3, 250, 0.2, 1, 2.0, 0, NULL, 20000, 3000, 0, 2, 0, 0},
+};
+
 /* ev_loop runs until the heap is empty or t_end: bound it by events. */
 static void test_brute(void)
 {
-    ev_params q = base(2, 300, 0.2, 0, 0, 1);
-    q.max_events = 150000;
-    cmp_brute("2d walls gas", q, 40000, 1);
-    q = base(3, 250, 0.25, 0, 0, 1);
-    q.max_events = 150000;
-    cmp_brute("3d walls gas", q, 40000, 1);
-    q = base(2, 300, 0.1, 0, 1.0, 1);
-    q.max_events = 200000;
-    cmp_brute("2d walls sticking p=1", q, 1000, 1);
-    q = base(3, 200, 0.1, 0, 1.0, 0.3);
-    q.max_events = 200000;
-    cmp_brute("3d walls sticking p=0.3", q, 2000, 1);
-    q = base(2, 300, 0.2, 0, 0, 1);
-    strcpy(q.species, "150:0.5:1,150:0.8:3");
-    q.max_events = 100000;
-    cmp_brute("2d walls two species", q, 30000, 1);
-    /* Crowded cells: a big seed sizes the cells (side >= its contact
-     * distance, seed radius + particle radius), so a cell holds ~10-40
-     * particles: long cell lists (and in 3D, scans of more candidates than
-     * one batch) against the brute force, bit for bit. The seed reflects
-     * (p = 0), so the gas keeps moving between the crowded cells. The cells
-     * are no larger than they must be (below twice the seed's radius, the
-     * rule until checkpoint version 3), so a contact with the seed at the
-     * far side of a neighbour cell is found or the sequences part. */
-    q = base(2, 300, 0.3, 0, 5.0, 0);
-    q.max_events = 20000;
-    crowded_cells(q);
-    cmp_brute("2d walls crowded cells", q, 8000, 1);
-    q = base(3, 250, 0.2, 0, 2.5, 0);
-    q.max_events = 20000;
-    crowded_cells(q);
-    cmp_brute("3d walls crowded cells", q, 8000, 1);
-    /* sticking onto a big seed with the tight cells */
-    q = base(2, 300, 0.1, 0, 4.0, 1);
-    q.max_events = 200000;
-    cmp_brute("2d walls big seed sticking", q, 1000, 1);
-    q = base(3, 250, 0.1, 0, 2.0, 0.5);
-    q.max_events = 200000;
-    cmp_brute("3d walls big seed sticking p=0.5", q, 1000, 1);
-    /* periodic: wrapping at the box edge changes the stored position by L,
-     * so times agree to round-off only (chaos ends the agreement later). */
-    q = base(2, 300, 0.2, 1, 0, 1);
-    q.max_events = 20000;
-    cmp_brute("2d periodic gas", q, 5000, 0);
-    q = base(3, 250, 0.2, 1, 0, 1);
-    q.max_events = 20000;
-    cmp_brute("3d periodic gas", q, 5000, 0);
+    for (size_t k = 0; k < sizeof brute_cases / sizeof brute_cases[0]; k++) {
+        const brute_case *c = &brute_cases[k];
+        ev_params q = base(c->dim, c->n, c->packing, c->periodic, c->seed_r, c->p);
+        if (c->species) snprintf(q.species, sizeof q.species, "%s", c->species);
+        q.max_events = c->max_events;
+        if (c->check == 1) crowded_cells(q, c->rbig);
+        if (c->check == 2) big_seed_cells(q, c->seed_r, q.radius);
+        const uint32_t stuck = cmp_brute(c->what, q, c->nev, c->exact);
+        CHECK(!c->sticks || stuck > 0, "%s: nothing stuck", c->what);
+    }
 }
 
 static void momentum(const ev_sim *s, double *p, double *scale)

@@ -26,7 +26,8 @@ expect_usage "bad species" --model event --species 10:0.5:-2 --out "$t/a"
 expect_usage "unknown option" --model event --frobnicate 3 --out "$t/a"
 expect_usage "packing too high" --model event --dim 3 --particles 2000 --packing 0.45 --out "$t/a"
 expect_usage "box too small" --model event --particles 4 --packing 0.5 --out "$t/a"
-expect_usage "seed above cell size" --model event --seed-radius 40 --out "$t/a"
+expect_usage "seed above the box" --model event --seed-radius 1e4 --out "$t/a"
+grep -q "box too small: side .* for a seed of radius 10000" "$t/err" || fail "seed above the box: $(cat "$t/err")"
 expect_usage "gas without an end" --model event --seed-radius 0 --out "$t/a"
 expect_usage "bad walls" --model event --box-walls sticky --out "$t/a"
 [ -e "$t/a" ] && fail "run directory made for bad input"
@@ -152,6 +153,12 @@ printf 'model = event\nspecies = 40:0.5:1,300:0.5:1:0\npacking = 0.2\nmax_events
 "$pdla" --scene "$t/bath.txt" --out "$t/bs" >"$t/out" 2>"$t/err" || fail "bath scene: $(cat "$t/err")"
 grep -q "(300 of a bath kind)" "$t/out" || fail "bath scene: $(cat "$t/out")"
 
+# A seed of 80 particle radii (above 10, refused before session 15) is out
+# of the cell lists: the run collects every particle.
+"$pdla" --model event --particles 2000 --packing 0.05 --seed-radius 40 --out "$t/big" >"$t/out" 2>"$t/err" ||
+    fail "seed of radius 40: $(cat "$t/err")"
+grep -q "stopped: all stuck" "$t/out" || fail "seed of radius 40: $(cat "$t/out")"
+
 # A checkpoint of format version 2 (pdla 9b2d578) with a seed larger than the
 # particles names cells of the older, coarser grid: resuming it is refused
 # with one line and exit 2, and its directory is left as it was.
@@ -160,9 +167,37 @@ if [ -n "${3:-}" ]; then
     cp "$3" "$t/v2/checkpoint.h5"
     before=$(cksum "$t/v2/checkpoint.h5")
     expect_usage "version-2 checkpoint, big seed" --model event --resume "$t/v2" --t-max 10
-    grep -q "format version 2 with a seed larger than the particles" "$t/err" || fail "v2 big seed: $(cat "$t/err")"
+    grep -q "format version 2 names cells of an older grid (4 a side, now 10)" "$t/err" || fail "v2 big seed: $(cat "$t/err")"
     [ "$(cksum "$t/v2/checkpoint.h5")" = "$before" ] || fail "v2 big seed: checkpoint changed"
     [ "$(ls "$t/v2")" = "checkpoint.h5" ] || fail "v2 big seed: files left: $(ls "$t/v2")"
+fi
+
+# Format version 3 (pdla 7d825c4, session 14), 200 particles at packing
+# 0.1, seed 7, stopped at 3000 events. With a seed of radius 3 its cells were
+# sized by the seed (listed then; out of the lists since version 4): refused
+# like the version 2 one. With a seed of the particles' size the grid is the
+# same: it resumes, and at 6000 events equals a fresh run (h5diff).
+if [ -n "${4:-}" ] && [ -n "${5:-}" ]; then
+    mkdir "$t/v3" "$t/v3ok"
+    cp "$4" "$t/v3/checkpoint.h5"
+    before=$(cksum "$t/v3/checkpoint.h5")
+    expect_usage "version-3 checkpoint, big seed" --model event --resume "$t/v3" --t-max 10
+    grep -q "format version 3 names cells of an older grid (11 a side, now 20)" "$t/err" ||
+        fail "v3 big seed: $(cat "$t/err")"
+    [ "$(cksum "$t/v3/checkpoint.h5")" = "$before" ] || fail "v3 big seed: checkpoint changed"
+    cp "$5" "$t/v3ok/checkpoint.h5"
+    "$pdla" --model event --resume "$t/v3ok" --max-events 6000 >"$t/out" 2>"$t/err" ||
+        fail "v3 resume: $(cat "$t/err")"
+    "$pdla" --model event --particles 200 --packing 0.1 --seed-radius 0.5 --max-events 6000 --seed 7 \
+        --out "$t/v3fresh" >"$t/out" 2>"$t/err" || fail "v3 fresh run: $(cat "$t/err")"
+    if command -v h5diff >/dev/null; then
+        for g in /cluster /free /series; do
+            h5diff "$t/v3ok/cluster.h5" "$t/v3fresh/cluster.h5" $g $g >/dev/null ||
+                fail "v3 resume: $g differs from a fresh run"
+        done
+    else
+        echo "h5diff not installed: the v3 resume's comparison skipped"
+    fi
 fi
 
 [ $fails -eq 0 ] && echo "event cli: all passed"

@@ -1136,9 +1136,12 @@ static void test_resume(void)
 /* README, cluster.h5: beyond 65536 rows neighbouring rows of /series are
  * merged in pairs and the interval doubles. One 2D run to t = 14000.03
  * (280000 intervals of the first series_dt 0.05, three thinnings; 133305
- * intervals run as the interval doubles, 5-6 collisions each at first): 80
- * bath disks and 20 sticky ones (stick_p 0.003, so the stuck count and the
- * free kinetic energy change all through the run) around a seed, periodic;
+ * intervals run as the interval doubles, 5-6 collisions each at first): 60
+ * bath disks and 40 sticky ones (stick_p 0.0005, so the stuck count and the
+ * free kinetic energy change all through the run) around a seed, periodic.
+ * The run must reach t_max, so not every sticky disk may stick: with seeds
+ * 1-12 of these parameters 3-18 of the 40 stuck (with 20 sticky ones at
+ * stick_p 0.003, as until session 15, all 20 stuck for one seed of 6);
  * t_max is off the grid (the last row is short). The row count, seen by the
  * tick (at the start of each interval with an event), reaches 65536 and
  * never more; times go from 0 to
@@ -1167,7 +1170,8 @@ static int thin_tick(ev_sim *s, void *u)
 static void test_thin(void)
 {
     ev_params q = base(2, 1, 0.3, 1, 0.5, 0.003);
-    strcpy(q.species, "80:0.5:1:0,20:0.5:1");
+    strcpy(q.species, "60:0.5:1:0,40:0.5:1");
+    q.stick_p = 0.0005;
     q.series_dt = 0.05;
     q.t_max = 14000.03; /* thinnings near t = 3277, 6554, 13107 */
     const double dt0 = q.series_dt;
@@ -1185,7 +1189,7 @@ static void test_thin(void)
           dt0);
     CHECK(tw.max_rows == THIN_MAX && n <= THIN_MAX && n > THIN_MAX / 2,
           "thin: rows at most %zu during the run, %zu at the end (limit %d)", tw.max_rows, n, THIN_MAX);
-    CHECK(a->nstuck > 5 && a->nstuck < 20, "thin: %u stuck (sticking should go on all run)", a->nstuck);
+    CHECK(a->nstuck >= 2 && a->nstuck < 40, "thin: %u stuck (sticking should go on all run)", a->nstuck);
     /* times: from 0, strictly increasing, spaced by the final (8x) interval,
      * the last row short and at t_max */
     size_t bad_t = 0, first_bad = 0;

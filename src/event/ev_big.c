@@ -181,6 +181,9 @@ int ev_big_build(ev_sim *s)
     if (!s->bg_start) goto oom;
     for (uint32_t j = s->n; j < s->ntot; j++)
         if (ev_is_big(s, j) && seed_pass(s, j, BIG_COUNT)) goto oom;
+    uint64_t total = 0;
+    for (uint64_t r = 0; r < nnear; r++) total += s->bg_start[r + 1];
+    if (total >= UINT32_MAX) goto oom; /* the lists are indexed by 32 bits */
     for (uint64_t r = 0; r < nnear; r++) s->bg_start[r + 1] += s->bg_start[r];
     s->bg_idx = malloc((size_t)(s->bg_start[nnear] ? s->bg_start[nnear] : 1) * sizeof *s->bg_idx);
     if (!s->bg_idx) goto oom;

@@ -97,10 +97,13 @@ static int write_state(const h5u_writer *w, hid_t file, const ev_sim *s)
     if (g < 0) return -1;
     double *tp = malloc((N ? N : 1) * sizeof *tp), *tc = malloc((N ? N : 1) * sizeof *tc);
     uint32_t *pa = malloc((N ? N : 1) * sizeof *pa), *pc = malloc((N ? N : 1) * sizeof *pc);
+    uint32_t *co = malloc((N ? N : 1) * sizeof *co), *ce = malloc((N ? N : 1) * sizeof *ce);
     int8_t *kd = malloc(N ? N : 1), *cw = malloc(N ? N : 1);
     int rc = 0;
-    if (!tp || !tc || !pa || !pc || !kd || !cw) rc = h5u_fail_msg(w, "out of memory writing /state");
+    if (!tp || !tc || !pa || !pc || !co || !ce || !kd || !cw) rc = h5u_fail_msg(w, "out of memory writing /state");
     for (uint32_t i = 0; !rc && i < N; i++) {
+        co[i] = s->lk[i].count;
+        ce[i] = s->lk[i].cell;
         tp[i] = s->evt[i].t_pair;
         tc[i] = s->evt[i].t_cell;
         pa[i] = s->evt[i].partner;
@@ -118,9 +121,9 @@ static int write_state(const h5u_writer *w, hid_t file, const ev_sim *s)
     if (!rc) rc = wds(w, g, "ps", F, H5T_NATIVE_DOUBLE, (size_t)N * (size_t)(2 * s->dim + 2), s->ps);
     if (!rc) rc = wds(w, g, "species", H5T_STD_U8LE, H5T_NATIVE_UINT8, N, s->species);
     if (!rc) rc = wds(w, g, "stuck", H5T_STD_U8LE, H5T_NATIVE_UINT8, N, s->stuck);
-    if (!rc) rc = wds(w, g, "count", U, H5T_NATIVE_UINT32, N, s->count);
+    if (!rc) rc = wds(w, g, "count", U, H5T_NATIVE_UINT32, N, co);
     if (!rc) rc = wds(w, g, "parent", U, H5T_NATIVE_UINT32, N, s->parent);
-    if (!rc) rc = wds(w, g, "cell", U, H5T_NATIVE_UINT32, N, s->cell);
+    if (!rc) rc = wds(w, g, "cell", U, H5T_NATIVE_UINT32, N, ce);
     if (!rc) rc = wds(w, g, "t_pair", F, H5T_NATIVE_DOUBLE, N, tp);
     if (!rc) rc = wds(w, g, "t_cell", F, H5T_NATIVE_DOUBLE, N, tc);
     if (!rc) rc = wds(w, g, "partner", U, H5T_NATIVE_UINT32, N, pa);
@@ -131,7 +134,7 @@ static int write_state(const h5u_writer *w, hid_t file, const ev_sim *s)
     if (!rc) rc = wds(w, g, "stuck_t", F, H5T_NATIVE_DOUBLE, s->nstuck, s->stuck_t);
     if (!rc) rc = wds(w, g, "counters", H5T_STD_U64LE, H5T_NATIVE_UINT64, CK_NCOUNT, cnt);
     if (!rc) rc = wds(w, g, "reals", F, H5T_NATIVE_DOUBLE, CK_NREAL, re);
-    free(tp), free(tc), free(pa), free(pc), free(kd), free(cw);
+    free(tp), free(tc), free(pa), free(pc), free(co), free(ce), free(kd), free(cw);
     return h5u_close(w, rc, g, H5Gclose, "/state");
 }
 
@@ -303,7 +306,7 @@ static int check_state(const rd *r, const ev_sim *s)
 {
     const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (s->dim == 3 ? (uint64_t)s->nc : 1);
     for (uint32_t i = 0; i < s->ntot; i++) {
-        if (s->cell[i] >= ncell) return rfail(r, "%s", "a cell index out of range (damaged)");
+        if (s->lk[i].cell >= ncell) return rfail(r, "%s", "a cell index out of range (damaged)");
         if (s->evt[i].kind == EV_K_PAIR && s->evt[i].partner >= s->ntot)
             return rfail(r, "%s", "a partner index out of range (damaged)");
         if (i < s->n && s->species[i] >= s->nspecies)
@@ -352,11 +355,11 @@ static int check_particle(const rd *r, const ev_sim *s, uint32_t i)
         return rfail(r, "%s", "a particle's time outside [0, now] (damaged)");
     if (i < s->n ? p[2 * D + 1] != s->sp[s->species[i]].radius : !(p[2 * D + 1] > 0))
         return rfail(r, "%s", "a particle's radius is not its kind's (damaged)");
-    /* the cells were sized by the parameters' largest seed: a larger one
-     * would touch particles the cell scans never visit */
+    /* the box checks (and, periodic, the nearest-image condition of
+     * size_cells) hold for the parameters' largest seed, not a larger one */
     if (i >= s->n && !(p[2 * D + 1] <= s->rmax))
         return rfail(r, "%s", "a seed larger than its parameters' seeds (damaged)");
-    uint32_t c = s->cell[i];
+    uint32_t c = s->lk[i].cell;
     const double tol = 1e-6 * s->w;
     for (int k = 0; k < D; k++, c /= (uint32_t)s->nc) {
         const double lo = (double)(c % (uint32_t)s->nc) * s->w;
@@ -434,17 +437,18 @@ static int read_state(const rd *r, ev_sim *s)
     const uint32_t N = s->ntot;
     double *tp = malloc((N ? N : 1) * sizeof *tp), *tc = malloc((N ? N : 1) * sizeof *tc);
     uint32_t *pa = malloc((N ? N : 1) * sizeof *pa), *pc = malloc((N ? N : 1) * sizeof *pc);
+    uint32_t *co = malloc((N ? N : 1) * sizeof *co), *ce = malloc((N ? N : 1) * sizeof *ce);
     int8_t *kd = malloc(N ? N : 1), *cw = malloc(N ? N : 1);
     uint64_t cnt[CK_NCOUNT];
     double re[CK_NREAL];
-    int rc = (!tp || !tc || !pa || !pc || !kd || !cw) ? rfail(r, "%s", "out of memory") : 0;
+    int rc = (!tp || !tc || !pa || !pc || !co || !ce || !kd || !cw) ? rfail(r, "%s", "out of memory") : 0;
     if (!rc &&
         (rds(r, "state/ps", PDLA_H5_F64, (size_t)N * (size_t)(2 * s->dim + 2), s->ps) ||
          rds(r, "state/species", PDLA_H5_U8, N, s->species) ||
          rds(r, "state/stuck", PDLA_H5_U8, N, s->stuck) ||
-         rds(r, "state/count", PDLA_H5_U32, N, s->count) ||
+         rds(r, "state/count", PDLA_H5_U32, N, co) ||
          rds(r, "state/parent", PDLA_H5_U32, N, s->parent) ||
-         rds(r, "state/cell", PDLA_H5_U32, N, s->cell) ||
+         rds(r, "state/cell", PDLA_H5_U32, N, ce) ||
          rds(r, "state/t_pair", PDLA_H5_F64, N, tp) ||
          rds(r, "state/t_cell", PDLA_H5_F64, N, tc) ||
          rds(r, "state/partner", PDLA_H5_U32, N, pa) ||
@@ -463,6 +467,8 @@ static int read_state(const rd *r, ev_sim *s)
     if (!rc) {
         for (uint32_t i = 0; i < N; i++) {
             s->evt[i] = (ev_evt){tp[i], tc[i], pa[i], pc[i], kd[i], cw[i]};
+            s->lk[i].count = co[i];
+            s->lk[i].cell = ce[i];
         }
         s->events = cnt[0], s->collisions = cnt[1], s->wall_hits = cnt[2], s->sticks = cnt[3];
         s->cell_crossings = cnt[4], s->invalid = cnt[5];
@@ -471,23 +477,18 @@ static int read_state(const rd *r, ev_sim *s)
         s->now = re[0], s->series_dt = re[1], s->ke_stuck = re[2], s->virial = re[3];
         s->wall_impulse = re[4], s->max_overlap = re[5], s->iv_t0 = re[6], s->iv_v0 = re[7];
     }
-    free(tp), free(tc), free(pa), free(pc), free(kd), free(cw);
+    free(tp), free(tc), free(pa), free(pc), free(co), free(ce), free(kd), free(cw);
     return rc;
 }
 
-/* Masses from the species (as ev_alloc makes them), cells from `cell`,
- * the queue from the pending events. */
+/* Cells from `cell`, the queue from the pending events. */
 static void rebuild_derived(ev_sim *s)
 {
     const int D = s->dim;
-    for (uint32_t i = 0; i < s->n; i++) {
-        const ev_species *sp = &s->sp[s->species[i]];
-        s->mass[i] = sp->density * ev_particle_volume(D, sp->radius);
-    }
     const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (D == 3 ? (uint64_t)s->nc : 1);
     for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
     for (uint32_t i = s->ntot; i-- > 0;)
-        if (ev_in_cells(s, i)) ev_cell_insert(s, i, s->cell[i]);
+        if (ev_in_cells(s, i)) ev_cell_insert(s, i, s->lk[i].cell);
     ev_queue_reset(s);
     for (uint32_t i = 0; i < s->n; i++)
         if (!s->stuck[i]) ev_heap_push(s, i);

@@ -91,11 +91,11 @@ static void heap_up(ev_sim *s, uint32_t pos, ev_hent x)
         const ev_hent p = s->heap[parent];
         if (!hless(x, p)) break;
         s->heap[pos] = p;
-        s->hpos[p.id] = pos;
+        s->lk[p.id].hpos = pos;
         pos = parent;
     }
     s->heap[pos] = x;
-    s->hpos[x.id] = pos;
+    s->lk[x.id].hpos = pos;
 }
 
 static void heap_down(ev_sim *s, uint32_t pos, ev_hent x)
@@ -108,25 +108,25 @@ static void heap_down(ev_sim *s, uint32_t pos, ev_hent x)
         const ev_hent ch = s->heap[c];
         if (!hless(ch, x)) break;
         s->heap[pos] = ch;
-        s->hpos[ch.id] = pos;
+        s->lk[ch.id].hpos = pos;
         pos = c;
     }
     s->heap[pos] = x;
-    s->hpos[x.id] = pos;
+    s->lk[x.id].hpos = pos;
 }
 
 static inline void heap_push(ev_sim *s, uint32_t i, double t)
 {
-    s->qslot[i] = QNONE;
+    s->lk[i].qslot = QNONE;
     s->hn++;
     heap_up(s, s->hn - 1, (ev_hent){t, i});
 }
 
 static void heap_remove(ev_sim *s, uint32_t i)
 {
-    const uint32_t pos = s->hpos[i];
+    const uint32_t pos = s->lk[i].hpos;
     s->hn--;
-    s->hpos[i] = QNONE;
+    s->lk[i].hpos = QNONE;
     if (pos == s->hn) return;
     const ev_hent last = s->heap[s->hn];
     if (pos > 0 && hless(last, s->heap[(pos - 1) / 2])) heap_up(s, pos, last);
@@ -144,20 +144,20 @@ static inline uint32_t bucket_of(const ev_sim *s, double t)
 static inline void list_add(ev_sim *s, uint32_t i, uint32_t slot)
 {
     const uint32_t h = s->qhead[slot];
-    s->qslot[i] = slot;
-    s->qprev[i] = QNONE;
-    s->qnext[i] = h;
-    if (h != QNONE) s->qprev[h] = i;
+    s->lk[i].qslot = slot;
+    s->lk[i].qprev = QNONE;
+    s->lk[i].qnext = h;
+    if (h != QNONE) s->lk[h].qprev = i;
     s->qhead[slot] = i;
 }
 
 static inline void list_del(ev_sim *s, uint32_t i)
 {
-    const uint32_t slot = s->qslot[i], nx = s->qnext[i], pv = s->qprev[i];
-    if (pv != QNONE) s->qnext[pv] = nx;
+    const uint32_t slot = s->lk[i].qslot, nx = s->lk[i].qnext, pv = s->lk[i].qprev;
+    if (pv != QNONE) s->lk[pv].qnext = nx;
     else s->qhead[slot] = nx;
-    if (nx != QNONE) s->qprev[nx] = pv;
-    s->qslot[i] = QNONE;
+    if (nx != QNONE) s->lk[nx].qprev = pv;
+    s->lk[i].qslot = QNONE;
     if (slot != s->qover) s->qnlist--;
 }
 
@@ -192,11 +192,11 @@ static inline void q_prefetch(const ev_sim *s, uint32_t i)
 /* Key of i changed: move it to its place. */
 static void heap_fix(ev_sim *s, uint32_t i)
 {
-    if (s->qslot[i] == QNONE) {
+    if (s->lk[i].qslot == QNONE) {
         const double t = ev_key(s, i);
         const uint32_t b = bucket_of(s, t);
         if (b <= s->cq && b < s->qnb) {
-            const uint32_t pos = s->hpos[i];
+            const uint32_t pos = s->lk[i].hpos;
             const ev_hent x = {t, i};
             if (pos > 0 && hless(x, s->heap[(pos - 1) / 2])) heap_up(s, pos, x);
             else heap_down(s, pos, x);
@@ -211,7 +211,7 @@ static void heap_fix(ev_sim *s, uint32_t i)
 
 static void q_remove(ev_sim *s, uint32_t i)
 {
-    if (s->qslot[i] == QNONE) heap_remove(s, i);
+    if (s->lk[i].qslot == QNONE) heap_remove(s, i);
     else list_del(s, i);
     s->qn--;
 }
@@ -221,7 +221,7 @@ static void q_rebucket(ev_sim *s)
 {
     uint32_t nf = 0;
     double tmin = INFINITY, sum = 0;
-    for (uint32_t i = s->qhead[s->qover]; i != QNONE; i = s->qnext[i]) {
+    for (uint32_t i = s->qhead[s->qover]; i != QNONE; i = s->lk[i].qnext) {
         const double t = ev_key(s, i);
         if (t == INFINITY) continue;
         nf++;
@@ -240,7 +240,7 @@ static void q_rebucket(ev_sim *s)
     uint32_t i = s->qhead[s->qover];
     s->qhead[s->qover] = QNONE;
     while (i != QNONE) {
-        const uint32_t nx = s->qnext[i];
+        const uint32_t nx = s->lk[i].qnext;
         q_insert(s, i);
         i = nx;
     }
@@ -260,8 +260,8 @@ static inline int q_ready(ev_sim *s)
         uint32_t i = s->qhead[s->cq];
         s->qhead[s->cq] = QNONE;
         while (i != QNONE) {
-            const uint32_t nx = s->qnext[i];
-            s->qslot[i] = QNONE;
+            const uint32_t nx = s->lk[i].qnext;
+            s->lk[i].qslot = QNONE;
             s->qnlist--;
             heap_push(s, i, ev_key(s, i));
             i = nx;
@@ -280,7 +280,7 @@ void ev_queue_reset(ev_sim *s)
     s->cq = 0;
     s->qbase = 0;
     s->qinv = 0;
-    for (uint32_t i = 0; i < s->ntot; i++) s->hpos[i] = s->qslot[i] = QNONE;
+    for (uint32_t i = 0; i < s->ntot; i++) s->lk[i].hpos = s->lk[i].qslot = QNONE;
     for (uint32_t b = 0; b <= s->qover; b++) s->qhead[b] = QNONE;
 }
 
@@ -293,14 +293,14 @@ void ev_queue_reset(ev_sim *s)
  * back links (insert at the head, unlink in place). */
 void ev_cell_insert(ev_sim *s, uint32_t i, uint32_t c)
 {
-    s->cell[i] = c;
+    s->lk[i].cell = c;
     s->cnext[i] = s->chead[c];
     s->chead[c] = i;
 }
 
 static void cell_remove(ev_sim *s, uint32_t i)
 {
-    uint32_t *p = &s->chead[s->cell[i]];
+    uint32_t *p = &s->chead[s->lk[i].cell];
     while (*p != i) p = &s->cnext[*p];
     *p = s->cnext[i];
 }
@@ -387,7 +387,7 @@ pred_cell(const ev_sim *s, const int D, uint32_t i, double now, int *what)
 {
     const double *p = EV_P(s, i);
     int32_t cc[3];
-    cell_coords(s, D, s->cell[i], cc);
+    cell_coords(s, D, s->lk[i].cell, cc);
     double best = EV_INF;
     *what = -1;
     for (int k = 0; k < D; k++) {
@@ -545,7 +545,7 @@ scan_batch_per(const ev_sim *s, const int D, const int per, uint32_t i, const do
             if ((t < *bt || (t == *bt && *bj != UINT32_MAX && j < *bj)) && j != i) {
                 *bt = t;
                 *bj = j;
-                __builtin_prefetch(&s->count[j]); /* read when the scan ends */
+                __builtin_prefetch(&s->lk[j].count); /* read when the scan ends */
             }
         }
     }
@@ -572,7 +572,7 @@ scan_pairs_body(ev_sim *s, const int D, const int batch, uint32_t i, double now,
 {
     ev_evt *e = &s->evt[i];
     int32_t cc[3] = {0, 0, 0};
-    cell_coords(s, D, s->cell[i], cc);
+    cell_coords(s, D, s->lk[i].cell, cc);
     const double *const ps = s->ps, *const pi = EV_P(s, i);
     const int per = s->periodic;
     const double half = s->half, L = s->L;
@@ -595,7 +595,7 @@ scan_pairs_body(ev_sim *s, const int D, const int batch, uint32_t i, double now,
             if (t < bt || (t == bt && bj != UINT32_MAX && j < bj)) {
                 bt = t;
                 bj = j;
-                __builtin_prefetch(&s->count[j]); /* read when the scan ends */
+                __builtin_prefetch(&s->lk[j].count); /* read when the scan ends */
             }
         }
     });
@@ -604,7 +604,7 @@ scan_pairs_body(ev_sim *s, const int D, const int batch, uint32_t i, double now,
         e->t_pair = bt;
         e->kind = EV_K_PAIR;
         e->partner = bj;
-        e->pcount = s->count[bj];
+        e->pcount = s->lk[bj].count;
     }
 }
 
@@ -628,7 +628,7 @@ scan_pairs(ev_sim *s, const int D, uint32_t i, double now, int sk, int slab)
 static __attribute__((noinline)) void scan_big(ev_sim *s, const int D, uint32_t i, double now)
 {
     uint32_t lo, hi;
-    ev_big_list(s, s->cell[i], &lo, &hi);
+    ev_big_list(s, s->lk[i].cell, &lo, &hi);
     if (lo == hi) return;
     ev_evt *e = &s->evt[i];
     const double *pi = EV_P(s, i);
@@ -647,7 +647,7 @@ static __attribute__((noinline)) void scan_big(ev_sim *s, const int D, uint32_t 
         e->t_pair = bt;
         e->kind = EV_K_PAIR;
         e->partner = bj;
-        e->pcount = s->count[bj];
+        e->pcount = s->lk[bj].count;
     }
 }
 
@@ -690,7 +690,7 @@ static inline __attribute__((always_inline)) double kinetic(const ev_sim *s, con
     const double *p = EV_P(s, i);
     double v2 = 0;
     for (int k = 0; k < D; k++) v2 += p[D + k] * p[D + k];
-    return 0.5 * s->mass[i] * v2;
+    return 0.5 * ev_pmass(s, i) * v2;
 }
 
 /* i (just stuck, at rest) offers itself as a partner to every free
@@ -699,7 +699,7 @@ static inline __attribute__((always_inline)) void offer_stuck(ev_sim *s, const i
                                                               double now)
 {
     int32_t cc[3] = {0, 0, 0};
-    cell_coords(s, D, s->cell[i], cc);
+    cell_coords(s, D, s->lk[i].cell, cc);
     EV_FOR_NEIGHBOURS(s, D, cc, -1, 0, {
         if (j == i || s->stuck[j]) continue;
         const double t = pred_pair(s, D, j, i, now);
@@ -708,7 +708,7 @@ static inline __attribute__((always_inline)) void offer_stuck(ev_sim *s, const i
             e->t_pair = t;
             e->kind = EV_K_PAIR;
             e->partner = i;
-            e->pcount = s->count[i];
+            e->pcount = s->lk[i].count;
             heap_fix(s, j);
         }
     });
@@ -749,7 +749,7 @@ static inline __attribute__((always_inline)) void hit_stuck(ev_sim *s, const int
         s->stuck_t[s->nstuck] = now;
         s->nstuck++;
         s->sticks++;
-        s->count[i]++;
+        s->lk[i].count++;
         q_remove(s, i);
         if (s->trace) s->trace(&(ev_trace_event){now, i, j, EV_EV_STICK}, s->trace_user);
         offer_stuck(s, D, i, now);
@@ -758,9 +758,9 @@ static inline __attribute__((always_inline)) void hit_stuck(ev_sim *s, const int
     /* Reflect: dp_i = -2 m (v.r) r / rr; virial r_ij . dp_i. */
     const double f = 2 * rv / rr;
     for (int k = 0; k < D; k++) pi[D + k] -= f * r[k];
-    s->virial += -s->mass[i] * f * rr;
+    s->virial += -ev_pmass(s, i) * f * rr;
     s->collisions++;
-    s->count[i]++;
+    s->lk[i].count++;
     if (s->trace) s->trace(&(ev_trace_event){now, i, j, EV_EV_PAIR}, s->trace_user);
     predict_all(s, D, i, now);
     heap_fix(s, i);
@@ -784,7 +784,7 @@ static inline __attribute__((always_inline)) void collide(ev_sim *s, const int D
     const double sig = pi[2 * D + 1] + pj[2 * D + 1];
     const double ov = (sig - sqrt(rr)) / sig;
     if (ov > s->max_overlap) s->max_overlap = ov;
-    const double mi = s->mass[i], mj = s->mass[j];
+    const double mi = ev_pmass(s, i), mj = ev_pmass(s, j);
     /* Reflection along r with r.r in the denominator: exact for any |r|. */
     const double f = 2 * rv / (rr * (mi + mj));
     for (int k = 0; k < D; k++) {
@@ -794,8 +794,8 @@ static inline __attribute__((always_inline)) void collide(ev_sim *s, const int D
     /* r_ij = -r, dp_i = mi mj f r: r_ij . dp_i = -mi mj f rr (> 0, f < 0). */
     s->virial += -mi * mj * f * rr;
     s->collisions++;
-    s->count[i]++;
-    s->count[j]++;
+    s->lk[i].count++;
+    s->lk[j].count++;
     if (s->trace) s->trace(&(ev_trace_event){now, i, j, EV_EV_PAIR}, s->trace_user);
     /* Both predictions first, then both queue updates (in the same order as
      * ever: the queue ends the same). A queue update's first load, the
@@ -836,11 +836,7 @@ static inline __attribute__((always_inline)) void la_particle(const ev_sim *s, c
     __builtin_prefetch(p);
     if (D == 2) __builtin_prefetch(p + 5); /* 48-byte records straddle lines */
     __builtin_prefetch(&s->evt[id]);
-    __builtin_prefetch(&s->cell[id]);
-    __builtin_prefetch(&s->count[id]);
-    __builtin_prefetch(&s->hpos[id]);
-    __builtin_prefetch(&s->qslot[id]);
-    __builtin_prefetch(&s->qnext[id]);
+    __builtin_prefetch(&s->lk[id]); /* cell, counter, queue fields: one line */
 }
 
 /* Prefetch the cell heads of the block around cell c: offsets -1..1 in
@@ -868,7 +864,7 @@ static inline __attribute__((always_inline)) void la_cells(const ev_sim *s, cons
                                                            uint32_t id)
 {
     const ev_evt *e = &s->evt[id];
-    const uint32_t c = s->cell[id];
+    const uint32_t c = s->lk[id].cell;
     if (e->t_cell <= e->t_pair) {
         if (e->cell_what < 0) return;
         const int k = e->cell_what >> 1, up = e->cell_what & 1;
@@ -888,7 +884,7 @@ static inline __attribute__((always_inline)) void lookahead(const ev_sim *s, con
         const uint32_t h = s->qhead[cq + 1];
         if (h != QNONE) {
             la_cells(s, D, h);
-            const uint32_t h2 = s->qnext[h];
+            const uint32_t h2 = s->lk[h].qnext;
             if (h2 != QNONE) la_particle(s, D, h2);
         }
     }
@@ -914,7 +910,7 @@ static inline __attribute__((always_inline)) int step(ev_sim *s, const int D)
         s->cell_crossings++;
         const int k = e->cell_what >> 1, up = e->cell_what & 1;
         int32_t cc[3] = {0, 0, 0};
-        cell_coords(s, D, s->cell[i], cc);
+        cell_coords(s, D, s->lk[i].cell, cc);
         cc[k] += up ? 1 : -1;
         if (cc[k] == s->nc) {
             cc[k] = 0;
@@ -942,17 +938,17 @@ static inline __attribute__((always_inline)) int step(ev_sim *s, const int D)
         double *p = EV_P(s, i);
         const int k = (int)e->partner >> 1, up = (int)e->partner & 1;
         /* Hitting the upper wall leaves with v < 0, the lower with v > 0. */
-        s->wall_impulse += 2 * s->mass[i] * fabs(p[D + k]);
+        s->wall_impulse += 2 * ev_pmass(s, i) * fabs(p[D + k]);
         p[D + k] = up ? -fabs(p[D + k]) : fabs(p[D + k]);
         s->wall_hits++;
-        s->count[i]++;
+        s->lk[i].count++;
         if (s->trace) s->trace(&(ev_trace_event){now, i, UINT32_MAX, EV_EV_WALL}, s->trace_user);
         predict_all(s, D, i, now);
         heap_fix(s, i);
         return 0;
     }
     const uint32_t j = e->partner;
-    if (e->kind != EV_K_PAIR || s->count[j] != e->pcount) {
+    if (e->kind != EV_K_PAIR || s->lk[j].count != e->pcount) {
         /* Stale: the partner moved on. Predict again from the stored state. */
         s->invalid++;
         predict_all(s, D, i, now);
@@ -965,7 +961,7 @@ static inline __attribute__((always_inline)) int step(ev_sim *s, const int D)
         return 0;
     }
     /* j's cell heads load while i's neighbours are scanned */
-    if (s->lookahead) la_block(s, D, s->cell[j], -1, 0);
+    if (s->lookahead) la_block(s, D, s->lk[j].cell, -1, 0);
     advance(s, D, j, now);
     collide(s, D, i, j, now);
     return 0;
@@ -1014,19 +1010,28 @@ int ev_loop(ev_sim *s, double t_end, volatile const int *interrupt)
     }
 }
 
+static double seed_overlap(const ev_sim *s, const int D, uint32_t i, const double *xi, uint32_t j)
+{
+    const double *pj = EV_P(s, j);
+    const double sig = EV_P(s, i)[2 * D + 1] + pj[2 * D + 1];
+    return (sig - sqrt(ev_dist2(s, xi, pj))) / sig;
+}
+
 /* Largest overlap/(r_i + r_j) of particle i, at xi, with a big seed of
- * its cell's list (-INF when none). */
+ * its cell's list (-INF when none); in a cell wholly inside a big seed,
+ * where no particle can be, with every big seed. */
 static double big_overlap(const ev_sim *s, const int D, uint32_t i, const double *xi)
 {
-    uint32_t lo, hi;
+    const uint64_t c = s->lk[i].cell;
     double worst = -INFINITY;
-    ev_big_list(s, s->cell[i], &lo, &hi);
-    for (uint32_t a = lo; a < hi; a++) {
-        const double *pj = EV_P(s, s->bg_idx[a]);
-        const double sig = EV_P(s, i)[2 * D + 1] + pj[2 * D + 1];
-        const double ov = (sig - sqrt(ev_dist2(s, xi, pj))) / sig;
-        if (ov > worst) worst = ov;
+    if ((s->bg_inside[c >> 6] >> (c & 63)) & 1) {
+        for (uint32_t j = s->n; j < s->ntot; j++)
+            if (ev_is_big(s, j)) worst = fmax(worst, seed_overlap(s, D, i, xi, j));
+        return worst;
     }
+    uint32_t lo, hi;
+    ev_big_list(s, c, &lo, &hi);
+    for (uint32_t a = lo; a < hi; a++) worst = fmax(worst, seed_overlap(s, D, i, xi, s->bg_idx[a]));
     return worst;
 }
 
@@ -1042,7 +1047,7 @@ double ev_max_overlap_now(ev_sim *s)
         double xi[3];
         for (int k = 0; k < D; k++) xi[k] = pi[k] + pi[D + k] * (s->now - pi[2 * D]);
         int32_t cc[3] = {0, 0, 0};
-        cell_coords(s, D, s->cell[i], cc);
+        cell_coords(s, D, s->lk[i].cell, cc);
         EV_FOR_NEIGHBOURS(s, D, cc, -1, 0, {
             if (j <= i) continue;
             const double *pj = EV_P(s, j);

@@ -29,6 +29,22 @@ typedef struct ev_evt {
     int8_t cell_what; /* 2k + (direction > 0), -1: none */
 } ev_evt;
 
+/* A particle's 4-byte fields that the event loop reads and writes, in one
+ * 32-byte record (two to a cache line, never straddling one): at N ~ 1e6
+ * every event touches the particle, its partner and its neighbours at
+ * random, and these fields, each in an array of its own until session 15,
+ * cost a cache line each (the list link of every neighbour scanned, the
+ * partner's counter, the cell and the four queue fields of each particle
+ * whose event changes). */
+typedef struct ev_link {
+    uint32_t count;        /* collision counter (stale events) */
+    uint32_t cell;         /* its cell */
+    uint32_t hpos;         /* place in the heap, or none */
+    uint32_t qslot;        /* its bucket list, or none (in the heap) */
+    uint32_t qnext, qprev; /* bucket list links */
+    uint32_t pad[2];
+} ev_link;
+
 typedef struct ev_hent {
     double t;
     uint32_t id;
@@ -57,15 +73,16 @@ struct ev_sim {
     /* Particle i: ps[i*S ..]: x[D], v[D], t_i, radius (S = 2D + 2). */
     double *ps;
     int S;
-    double *mass;
+    double spmass[EV_MAX_SPECIES]; /* mass of each kind (density x volume) */
     uint8_t *species, *stuck;
-    uint32_t *count, *parent;
-    uint32_t *cell, *cnext, *chead;
+    uint32_t *parent;
+    ev_link *lk;      /* per particle: counter, cell, queue place (one line) */
+    uint32_t *cnext, *chead;
     ev_evt *evt;
     /* event queue (ev_core.c): heap of the current bucket, bucket lists */
     ev_hent *heap;
-    uint32_t *hpos, hn;
-    uint32_t *qnext, *qprev, *qslot, *qhead;
+    uint32_t hn;
+    uint32_t *qhead;
     uint32_t qn, qnlist; /* queued particles; those in bucket lists */
     uint32_t qnb, cq;    /* buckets now, current bucket */
     uint32_t qover;      /* slot of the overflow list (>= any qnb) */
@@ -115,7 +132,15 @@ static inline double ev_dist2(const ev_sim *s, const double *a, const double *b)
     return rr;
 }
 #define EV_P_ANY(s, i) ((s)->ps + (size_t)(i) * (size_t)(2 * (s)->dim + 2))
-void ev_rebuild(ev_sim *s);
+int ev_rebuild(ev_sim *s);
+
+/* Mass of particle i < n: its kind's (the event loop reads no per-particle
+ * mass: at N ~ 1e6 an array of them cost a cache miss per particle of each
+ * collision; the kinds' masses sit in one line, the kinds in 1 byte each). */
+static inline double ev_pmass(const ev_sim *s, uint32_t i)
+{
+    return s->spmass[s->nspecies == 1 ? 0 : s->species[i]];
+}
 
 /* Is i a seed larger than every particle (in no cell list, ev_big.c)? */
 static inline int ev_is_big(const ev_sim *s, uint32_t i)

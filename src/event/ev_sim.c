@@ -23,20 +23,14 @@ void ev_free(ev_sim *s)
     if (!s) return;
     free(s->seed_xr);
     free(s->ps);
-    free(s->mass);
     free(s->species);
     free(s->stuck);
-    free(s->count);
     free(s->parent);
-    free(s->cell);
+    free(s->lk);
     free(s->cnext);
     free(s->chead);
     free(s->evt);
     free(s->heap);
-    free(s->hpos);
-    free(s->qnext);
-    free(s->qprev);
-    free(s->qslot);
     free(s->qhead);
     free(s->stuck_idx);
     free(s->stuck_t);
@@ -149,7 +143,7 @@ static void put(ev_sim *s, uint32_t i, const double *x)
     double *p = EV_P(s, i);
     for (int k = 0; k < D; k++) p[k] = x[k];
     if (ev_in_cells(s, i)) ev_cell_insert(s, i, cell_of(s, x));
-    else s->cell[i] = cell_of(s, x);
+    else s->lk[i].cell = cell_of(s, x);
 }
 
 /* Random sequential addition: particle i goes to the first of uniformly
@@ -474,10 +468,9 @@ static int sort_by_cell(ev_sim *s)
     uint32_t *order = malloc(n1 * sizeof *order), *key = malloc(n1 * sizeof *key);
     uint32_t *start = calloc((size_t)ncell + 1, sizeof *start);
     double *ps = malloc(n1 * (size_t)S * sizeof *ps);
-    double *m = malloc(n1 * sizeof *m);
     uint8_t *sp = malloc(n1);
-    if (!order || !key || !start || !ps || !m || !sp) {
-        free(order), free(key), free(start), free(ps), free(m), free(sp);
+    if (!order || !key || !start || !ps || !sp) {
+        free(order), free(key), free(start), free(ps), free(sp);
         return -1;
     }
     /* counting sort by cell; filling from the highest index down gives the
@@ -490,13 +483,11 @@ static int sort_by_cell(ev_sim *s)
     for (uint32_t j = s->n; j-- > 0;) order[start[key[j]]++] = j;
     for (uint32_t a = 0; a < s->n; a++) {
         memcpy(ps + (size_t)a * S, EV_P(s, order[a]), (size_t)S * sizeof *ps);
-        m[a] = s->mass[order[a]];
         sp[a] = s->species[order[a]];
     }
     memcpy(s->ps, ps, (size_t)s->n * (size_t)S * sizeof *ps);
-    memcpy(s->mass, m, s->n * sizeof *m);
     memcpy(s->species, sp, s->n);
-    free(order), free(key), free(start), free(ps), free(m), free(sp);
+    free(order), free(key), free(start), free(ps), free(sp);
     const uint64_t nce = (uint64_t)s->nc * (uint64_t)s->nc * (D == 3 ? (uint64_t)s->nc : 1);
     for (uint64_t c = 0; c < nce; c++) s->chead[c] = UINT32_MAX;
     for (uint32_t i = 0; i < s->ntot; i++)
@@ -666,20 +657,15 @@ static int alloc_arrays(ev_sim *s)
         s->ps = big_zalloc((size_t)N * (size_t)(2 * D + 2), sizeof(double), 64);
         if (!s->ps) goto oom;
     }
-    ALLOC(s->mass, N);
     ALLOC(s->species, N);
     ALLOC(s->stuck, N);
-    ALLOC(s->count, N);
     ALLOC(s->parent, N);
-    ALLOC(s->cell, N);
+    s->lk = big_zalloc(N, sizeof *s->lk, 64); /* 32-byte records in whole lines */
+    if (!s->lk) goto oom;
     ALLOC(s->cnext, N);
     ALLOC(s->chead, ncell);
     ALLOC(s->evt, N);
     ALLOC(s->heap, N);
-    ALLOC(s->hpos, N);
-    ALLOC(s->qnext, N);
-    ALLOC(s->qprev, N);
-    ALLOC(s->qslot, N);
     s->qover = N < 16 ? 16 : N;
     ALLOC(s->qhead, (size_t)s->qover + 1);
     ALLOC(s->stuck_idx, N);
@@ -699,7 +685,6 @@ static void fill_particles(ev_sim *s, const ev_params *p)
     for (int k = 0; k < s->nspecies; k++)
         for (uint64_t q = 0; q < s->sp[k].count; q++, i++) {
             EV_P(s, i)[2 * D + 1] = s->sp[k].radius;
-            s->mass[i] = s->sp[k].density * ev_particle_volume(D, s->sp[k].radius);
             s->species[i] = (uint8_t)k;
             s->parent[i] = UINT32_MAX;
         }
@@ -713,7 +698,6 @@ static void fill_particles(ev_sim *s, const ev_params *p)
             r = q[D];
         }
         EV_P(s, sd)[2 * D + 1] = r;
-        s->mass[sd] = INFINITY;
         s->stuck[sd] = 1;
         s->species[sd] = UINT8_MAX;
         s->parent[sd] = UINT32_MAX;
@@ -739,6 +723,8 @@ ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen)
     s->stick_p = p->stick_p;
     rng_seed(&s->rng, p->seed);
     ev_parse_species(p, s->sp, &s->nspecies, NULL, 0);
+    for (int k = 0; k < s->nspecies; k++)
+        s->spmass[k] = s->sp[k].density * ev_particle_volume(s->dim, s->sp[k].radius);
     if (p->seeds[0] && ev_seeds_read(s, p->seeds, err, errlen)) goto bad;
     if (size_box(s, p, err, errlen)) goto bad;
     if (alloc_arrays(s)) {
@@ -770,7 +756,7 @@ ev_sim *ev_create(const ev_params *p, char *err, size_t errlen)
     if (sort_by_cell(s)) goto oom;
     for (uint32_t i = 0; i < s->n; i++) {
         double *q = EV_P(s, i);
-        const double m = s->mass[i];
+        const double m = ev_pmass(s, i);
         if (p->velocities == EV_VEL_MAXWELL) {
             const double sd = sqrt(p->kT / m);
             for (int k = 0; k < D; k++) q[D + k] = sd * gauss(&s->rng);
@@ -852,7 +838,7 @@ void ev_get_stats(const ev_sim *s, ev_stats *st)
         const double *p = EV_P(s, i);
         double v2 = 0;
         for (int k = 0; k < D; k++) v2 += p[D + k] * p[D + k];
-        ke += 0.5 * s->mass[i] * v2;
+        ke += 0.5 * ev_pmass(s, i) * v2;
     }
     st->ke_free = ke;
     st->ke_stuck = s->ke_stuck;
@@ -879,7 +865,7 @@ double ev_radius(const ev_sim *s, size_t i)
     const int D = s->dim;
     return EV_P(s, i)[2 * D + 1];
 }
-double ev_mass(const ev_sim *s, size_t i) { return s->mass[i]; }
+double ev_mass(const ev_sim *s, size_t i) { return i < s->n ? ev_pmass(s, (uint32_t)i) : INFINITY; }
 int ev_species_of(const ev_sim *s, size_t i) { return s->species[i] == UINT8_MAX ? -1 : s->species[i]; }
 size_t ev_sticky_count(const ev_sim *s) { return s->nsticky; }
 int ev_species_sticky(const ev_sim *s, int k) { return k >= 0 && k < s->nspecies && s->sp[k].sticky; }
@@ -1037,8 +1023,9 @@ const char *ev_stop_name(int why)
 }
 
 /* Tests set positions, velocities or stuck flags by hand, then call this:
- * cells, events and the heap are rebuilt from the stored states. */
-void ev_rebuild(ev_sim *s)
+ * cells, the big seeds' lists, events and the heap are rebuilt from the
+ * stored states. 0, or -1 when out of memory (the lists). */
+int ev_rebuild(ev_sim *s)
 {
     const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (s->dim == 3 ? (uint64_t)s->nc : 1);
     ev_sync(s);
@@ -1047,10 +1034,12 @@ void ev_rebuild(ev_sim *s)
     for (uint64_t c = 0; c < ncell; c++) s->chead[c] = UINT32_MAX;
     for (uint32_t i = 0; i < s->ntot; i++)
         if (ev_in_cells(s, i)) ev_cell_insert(s, i, cell_of(s, EV_P_ANY(s, i)));
-        else s->cell[i] = cell_of(s, EV_P_ANY(s, i)); /* seeds do not move: ev_big.c's lists hold */
+        else s->lk[i].cell = cell_of(s, EV_P_ANY(s, i));
+    if (ev_big_build(s)) return -1; /* a test may have moved a seed */
     ev_queue_reset(s);
     for (uint32_t i = 0; i < s->n; i++)
         if (!s->stuck[i]) ev_predict(s, i, s->now);
     for (uint32_t i = 0; i < s->n; i++)
         if (!s->stuck[i]) ev_heap_push(s, i);
+    return 0;
 }

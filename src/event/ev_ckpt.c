@@ -104,12 +104,12 @@ static int write_state(const h5u_writer *w, hid_t file, const ev_sim *s)
     for (uint32_t i = 0; !rc && i < N; i++) {
         co[i] = s->lk[i].count;
         ce[i] = s->lk[i].cell;
-        tp[i] = s->evt[i].t_pair;
-        tc[i] = s->evt[i].t_cell;
-        pa[i] = s->evt[i].partner;
-        pc[i] = s->evt[i].pcount;
-        kd[i] = s->evt[i].kind;
-        cw[i] = s->evt[i].cell_what;
+        tp[i] = s->lk[i].ev.t_pair;
+        tc[i] = s->lk[i].ev.t_cell;
+        pa[i] = s->lk[i].ev.partner;
+        pc[i] = s->lk[i].ev.pcount;
+        kd[i] = s->lk[i].ev.kind;
+        cw[i] = s->lk[i].ev.cell_what;
     }
     const uint64_t cnt[CK_NCOUNT] = {s->events, s->collisions, s->wall_hits, s->sticks,
                                      s->cell_crossings, s->invalid, s->nstuck,
@@ -307,7 +307,7 @@ static int check_state(const rd *r, const ev_sim *s)
     const uint64_t ncell = (uint64_t)s->nc * (uint64_t)s->nc * (s->dim == 3 ? (uint64_t)s->nc : 1);
     for (uint32_t i = 0; i < s->ntot; i++) {
         if (s->lk[i].cell >= ncell) return rfail(r, "%s", "a cell index out of range (damaged)");
-        if (s->evt[i].kind == EV_K_PAIR && s->evt[i].partner >= s->ntot)
+        if (s->lk[i].ev.kind == EV_K_PAIR && s->lk[i].ev.partner >= s->ntot)
             return rfail(r, "%s", "a partner index out of range (damaged)");
         if (i < s->n && s->species[i] >= s->nspecies)
             return rfail(r, "%s", "a species index out of range (damaged)");
@@ -327,7 +327,7 @@ static int check_state(const rd *r, const ev_sim *s)
  * event time before `now` or NaN would send the queue's buckets astray). */
 static int check_events(const rd *r, const ev_sim *s, uint32_t i)
 {
-    const ev_evt *e = &s->evt[i];
+    const ev_evt *e = &s->lk[i].ev;
     const int D = s->dim;
     if (!(e->t_pair >= s->now) || !(e->t_cell >= s->now))
         return rfail(r, "%s", "a pending event before the checkpoint's time or not a number (damaged)");
@@ -466,7 +466,7 @@ static int read_state(const rd *r, ev_sim *s)
     }
     if (!rc) {
         for (uint32_t i = 0; i < N; i++) {
-            s->evt[i] = (ev_evt){tp[i], tc[i], pa[i], pc[i], kd[i], cw[i]};
+            s->lk[i].ev = (ev_evt){tp[i], tc[i], pa[i], pc[i], kd[i], cw[i]};
             s->lk[i].count = co[i];
             s->lk[i].cell = ce[i];
         }

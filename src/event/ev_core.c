@@ -77,7 +77,7 @@
 
 static inline double ev_key(const ev_sim *s, uint32_t i)
 {
-    const ev_evt *e = &s->evt[i];
+    const ev_evt *e = &s->lk[i].ev;
     return e->t_pair < e->t_cell ? e->t_pair : e->t_cell;
 }
 
@@ -570,7 +570,7 @@ scan_batch(const ev_sim *s, const int D, uint32_t i, const double *pi, const uin
 static inline __attribute__((always_inline)) void
 scan_pairs_body(ev_sim *s, const int D, const int batch, uint32_t i, double now, int sk, int slab)
 {
-    ev_evt *e = &s->evt[i];
+    ev_evt *e = &s->lk[i].ev;
     int32_t cc[3] = {0, 0, 0};
     cell_coords(s, D, s->lk[i].cell, cc);
     const double *const ps = s->ps, *const pi = EV_P(s, i);
@@ -630,7 +630,7 @@ static __attribute__((noinline)) void scan_big(ev_sim *s, const int D, uint32_t 
     uint32_t lo, hi;
     ev_big_list(s, s->lk[i].cell, &lo, &hi);
     if (lo == hi) return;
-    ev_evt *e = &s->evt[i];
+    ev_evt *e = &s->lk[i].ev;
     const double *pi = EV_P(s, i);
     double bt = e->t_pair;
     const uint32_t bj0 = e->kind == EV_K_PAIR ? e->partner : UINT32_MAX;
@@ -655,7 +655,7 @@ static __attribute__((noinline)) void scan_big(ev_sim *s, const int D, uint32_t 
 static inline __attribute__((always_inline)) void predict_all(ev_sim *s, const int D, uint32_t i,
                                                               double now)
 {
-    ev_evt *e = &s->evt[i];
+    ev_evt *e = &s->lk[i].ev;
     e->t_pair = EV_INF;
     e->kind = EV_K_NONE;
     if (!s->periodic) {
@@ -703,7 +703,7 @@ static inline __attribute__((always_inline)) void offer_stuck(ev_sim *s, const i
     EV_FOR_NEIGHBOURS(s, D, cc, -1, 0, {
         if (j == i || s->stuck[j]) continue;
         const double t = pred_pair(s, D, j, i, now);
-        ev_evt *e = &s->evt[j];
+        ev_evt *e = &s->lk[j].ev;
         if (t < e->t_pair || (t == e->t_pair && e->kind == EV_K_PAIR && i < e->partner)) {
             e->t_pair = t;
             e->kind = EV_K_PAIR;
@@ -835,7 +835,7 @@ static inline __attribute__((always_inline)) void la_particle(const ev_sim *s, c
     const double *p = EV_P(s, id);
     __builtin_prefetch(p);
     if (D == 2) __builtin_prefetch(p + 5); /* 48-byte records straddle lines */
-    __builtin_prefetch(&s->evt[id]);
+    __builtin_prefetch(&s->lk[id].ev);
     __builtin_prefetch(&s->lk[id]); /* cell, counter, queue fields: one line */
 }
 
@@ -863,7 +863,7 @@ static inline __attribute__((always_inline)) void la_block(const ev_sim *s, cons
 static inline __attribute__((always_inline)) void la_cells(const ev_sim *s, const int D,
                                                            uint32_t id)
 {
-    const ev_evt *e = &s->evt[id];
+    const ev_evt *e = &s->lk[id].ev;
     const uint32_t c = s->lk[id].cell;
     if (e->t_cell <= e->t_pair) {
         if (e->cell_what < 0) return;
@@ -899,7 +899,7 @@ static inline __attribute__((always_inline)) int step(ev_sim *s, const int D)
 {
     if (q_ready(s)) return -1;
     const uint32_t i = s->heap[0].id;
-    ev_evt *e = &s->evt[i];
+    ev_evt *e = &s->lk[i].ev;
     s->events++;
     if (s->lookahead) lookahead(s, D);
     if (e->t_cell <= e->t_pair) {

@@ -29,14 +29,17 @@ typedef struct ev_evt {
     int8_t cell_what; /* 2k + (direction > 0), -1: none */
 } ev_evt;
 
-/* A particle's 4-byte fields that the event loop reads and writes, in one
- * 32-byte record (two to a cache line, never straddling one): at N ~ 1e6
- * every event touches the particle, its partner and its neighbours at
- * random, and these fields, each in an array of its own until session 15,
- * cost a cache line each (the list link of every neighbour scanned, the
- * partner's counter, the cell and the four queue fields of each particle
- * whose event changes). */
+/* What the event loop reads and writes of a particle, besides its
+ * kinematics (ps): its pending events, collision counter, cell and queue
+ * place, in one 64-byte record, one cache line. At N ~ 1e6 every event
+ * touches the particle and its partner at random; with the events in one
+ * array and each 4-byte field in an array of its own (until session 15),
+ * that cost up to six lines a particle, none of them in the caches. The
+ * cell lists' links (cnext) stay a dense array of their own: a scan walks
+ * them for every neighbour, and 4 bytes a particle mostly sit in the
+ * last-level cache where 64 would not (simulated: runs/event/speed-session15.md). */
 typedef struct ev_link {
+    ev_evt ev;             /* its pending events */
     uint32_t count;        /* collision counter (stale events) */
     uint32_t cell;         /* its cell */
     uint32_t hpos;         /* place in the heap, or none */
@@ -44,6 +47,7 @@ typedef struct ev_link {
     uint32_t qnext, qprev; /* bucket list links */
     uint32_t pad[2];
 } ev_link;
+_Static_assert(sizeof(ev_link) == 64, "ev_link is one cache line");
 
 typedef struct ev_hent {
     double t;
@@ -76,9 +80,8 @@ struct ev_sim {
     double spmass[EV_MAX_SPECIES]; /* mass of each kind (density x volume) */
     uint8_t *species, *stuck;
     uint32_t *parent;
-    ev_link *lk;      /* per particle: counter, cell, queue place (one line) */
+    ev_link *lk;      /* per particle: events, counter, cell, queue place */
     uint32_t *cnext, *chead;
-    ev_evt *evt;
     /* event queue (ev_core.c): heap of the current bucket, bucket lists */
     ev_hent *heap;
     uint32_t hn;

@@ -29,7 +29,6 @@ void ev_free(ev_sim *s)
     free(s->lk);
     free(s->cnext);
     free(s->chead);
-    free(s->evt);
     free(s->heap);
     free(s->qhead);
     free(s->stuck_idx);
@@ -660,11 +659,10 @@ static int alloc_arrays(ev_sim *s)
     ALLOC(s->species, N);
     ALLOC(s->stuck, N);
     ALLOC(s->parent, N);
-    s->lk = big_zalloc(N, sizeof *s->lk, 64); /* 32-byte records in whole lines */
+    s->lk = big_zalloc(N, sizeof *s->lk, 64); /* one line each */
     if (!s->lk) goto oom;
     ALLOC(s->cnext, N);
     ALLOC(s->chead, ncell);
-    ALLOC(s->evt, N);
     ALLOC(s->heap, N);
     s->qover = N < 16 ? 16 : N;
     ALLOC(s->qhead, (size_t)s->qover + 1);

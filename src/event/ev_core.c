@@ -835,8 +835,7 @@ static inline __attribute__((always_inline)) void la_particle(const ev_sim *s, c
     const double *p = EV_P(s, id);
     __builtin_prefetch(p);
     if (D == 2) __builtin_prefetch(p + 5); /* 48-byte records straddle lines */
-    __builtin_prefetch(&s->lk[id].ev);
-    __builtin_prefetch(&s->lk[id]); /* cell, counter, queue fields: one line */
+    __builtin_prefetch(&s->lk[id]); /* events, counter, cell, queue place: one line */
 }
 
 /* Prefetch the cell heads of the block around cell c: offsets -1..1 in

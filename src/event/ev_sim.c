@@ -591,6 +591,15 @@ static double cells_for(const ev_sim *s, double cmin)
     return nc < 1 ? 1 : nc;
 }
 
+/* cells_for, and in a periodic box at least 4 a side where cells of cmin
+ * allow it (few particles; see size_cells) */
+static int grid_cells(const ev_sim *s, double cmin)
+{
+    const double nc = cells_for(s, cmin);
+    if (s->periodic && nc < 4 && floor(s->L / (cmin * (1 + 1e-9))) >= 4) return 4;
+    return (int)nc;
+}
+
 /* The cell grid for particles of radius up to rpmax and seeds of radius
  * up to rmax: 0, or -1 with one line in err. */
 static int size_cells(ev_sim *s, double rmax, double rpmax, char *err, size_t errlen)
@@ -617,18 +626,14 @@ static int size_cells(ev_sim *s, double rmax, double rpmax, char *err, size_t er
      * by their nearer image through the wrap, as receding, and pass through
      * each other). */
     const double cmin = 2 * rpmax;
-    double ncd = cells_for(s, cmin);
-    if (s->periodic && ncd < 4 && floor(s->L / (cmin * (1 + 1e-9))) >= 4) ncd = 4; /* few particles */
     /* the numbering grid keeps version 2's rule: particles are numbered as
      * before (the events of the runs compared in runs/event/speed-session14.md
      * are the same) */
     s->nc_order = (int)fmax(1, fmin(floor(s->L / (2 * rmax * (1 + 1e-9))),
                                     floor(pow((double)s->ntot + 27, 1.0 / s->dim))));
-    s->nc = (int)ncd;
-    s->nc_v2 = (int)cells_for(s, 2 * rmax);
-    s->nc_v3 = (int)cells_for(s, fmax(2 * rpmax, rmax + rpmax));
-    if (s->periodic && s->nc_v3 < 4 && floor(s->L / (fmax(2 * rpmax, rmax + rpmax) * (1 + 1e-9))) >= 4)
-        s->nc_v3 = 4;
+    s->nc = grid_cells(s, cmin);
+    s->nc_v2 = (int)cells_for(s, 2 * rmax); /* version 2 had no periodic minimum */
+    s->nc_v3 = grid_cells(s, fmax(2 * rpmax, rmax + rpmax));
     s->rmax = rmax;
     s->w = s->L / s->nc;
     if (s->periodic && s->nc < 4)

@@ -295,10 +295,35 @@ static inline __attribute__((always_inline)) int64_t distmap_block_bound(const i
     return (v - 1) * ((int64_t)1 << bits) + distmap_cell_edge(u, bits, dim);
 }
 
+/* p outside grid g: every particle of g lies in [-half + margin, half -
+ * margin) on every axis (distmap_add grows the grid before one would not),
+ * so the largest gap from p to that box on one axis bounds its distance to
+ * them (chessboard, never above the Euclidean), and it is at least the
+ * margin. The grid is a square about the farthest particle's largest
+ * coordinate, while the birth circle's radius is its Euclidean distance:
+ * a cluster whose farthest arms lie off the axes leaves parts of the circle
+ * outside the grid. Walkers there got no map bound, and in 2D after the
+ * fine cells coarsen the leaf bits bounded them by at most ~8 leaves a jump
+ * (runs/bench-serial/issue12-outside16-2026-11-29.md: 2D 1e8 seed 1 with
+ * the Euclidean leaf bound took 143 jumps a particle, 7.3 returns). */
+static inline __attribute__((always_inline)) int64_t distmap_outside_bound(const distmap *m,
+                                                                           const distmap_grid *g,
+                                                                           const int64_t *p,
+                                                                           const int dim)
+{
+    const int64_t lo = m->margin - g->half, hi = g->half - m->margin - 1;
+    int64_t b = 0;
+    for (int a = 0; a < dim; a++) {
+        const int64_t d = p[a] > hi ? p[a] - hi : p[a] < lo ? lo - p[a] : 0;
+        if (d > b) b = d;
+    }
+    return b;
+}
+
 /* Lower bound (units) on the distance from p to every particle, or 0 when
- * the map has nothing useful (p outside the grid, or within one fine cell of
- * an occupied cell): then the caller searches the tree. A non-zero bound is
- * at least one fine cell. */
+ * the map has nothing useful (within one fine cell of an occupied cell):
+ * then the caller searches the tree. A non-zero bound is at least one fine
+ * cell, or the grid's margin when p lies outside the grid. */
 static inline __attribute__((always_inline)) int64_t distmap_bound(const distmap *m,
                                                                    const int64_t *p,
                                                                    const int dim)
@@ -310,7 +335,7 @@ static inline __attribute__((always_inline)) int64_t distmap_bound(const distmap
     const int cb = g->lv[1].bits, fb = g->lv[0].bits;
     for (int a = 0; a < dim; a++) {
         u[a] = p[a] + g->half;
-        if ((uint64_t)u[a] >= span) return 0;
+        if (__builtin_expect((uint64_t)u[a] >= span, 0)) return distmap_outside_bound(m, g, p, dim);
         c[a] = u[a] >> fb;
     }
     /* The fine cell first: near the cluster (half the look-ups) it is

@@ -472,8 +472,60 @@ static void test_needs_add(int dim, uint64_t seed, size_t budget)
     distmap_free(&m);
 }
 
+/* A walker outside the grid (the birth circle reaches beyond the square
+ * when the farthest particles lie off the axes) gets the gap from it to the
+ * box that holds every particle, [-half + margin, half - margin): never
+ * above the true distance, equal to it straight out from a particle on the
+ * box's face, and at least the margin. Particles are put on every face of
+ * the box of the grid the first one made (they are covered, so it stays). */
+static void test_outside(int dim, uint64_t seed)
+{
+    pdla_rng r;
+    rng_seed(&r, seed);
+    distmap m;
+    distmap_init(&m, dim, 8, 2 * 32 + 8 * 256);
+    int64_t pts[7][3] = {{0, 0, 0}};
+    size_t n = 0;
+    CHECK(distmap_add(&m, pts[n++], 1, 0) == 0, "dim %d: add", dim);
+    const distmap_grid *g = atomic_load(&m.grid);
+    CHECK(g != NULL, "dim %d: no grid", dim);
+    const int64_t half = g->half, hi = half - m.margin - 1, lo = m.margin - half;
+    for (int a = 0; a < dim; a++)
+        for (int s = 0; s < 2; s++) {
+            for (int b = 0; b < 3; b++) pts[n][b] = 0;
+            pts[n][a] = s ? hi : lo;
+            CHECK(distmap_add(&m, pts[n], n + 1, 0) == 0, "dim %d: add", dim);
+            n++;
+        }
+    CHECK(atomic_load(&m.grid) == g, "dim %d: the face particles grew the grid", dim);
+    int bad = 0, tight = 0;
+    static const int64_t out[] = {0, 1, 7, 1000, 20000};
+    for (int a = 0; a < dim; a++)
+        for (int s = 0; s < 2; s++)
+            for (int k = 0; k < 5; k++)
+                for (int off = 0; off < 4; off++) {
+                    int64_t q[3] = {0, 0, 0};
+                    q[a] = s ? half + out[k] : -half - 1 - out[k];
+                    /* off 0: straight out from the face particle; else
+                     * anywhere along the other axes (also outside). */
+                    for (int b = 0; b < dim; b++)
+                        if (b != a && off) q[b] = rand_range(&r, -2 * half, 2 * half);
+                    const int64_t bound = distmap_bound(&m, q, dim);
+                    const uint64_t truth = brute((const int64_t(*)[3])pts, n, dim, q);
+                    if (((uint64_t)bound * (uint64_t)bound > truth || bound < m.margin) && bad++ < 5)
+                        fprintf(stderr, "dim %d: outside bound %lld, true %.1f, margin %lld\n", dim,
+                                (long long)bound, sqrt((double)truth), (long long)m.margin);
+                    if (!off) tight += (uint64_t)bound * (uint64_t)bound == truth;
+                }
+    CHECK(bad == 0, "dim %d: %d outside bounds wrong", dim, bad);
+    CHECK(tight == 2 * dim * 5, "dim %d: %d of %d straight-out bounds tight", dim, tight, 2 * dim * 5);
+    distmap_free(&m);
+}
+
 int main(void)
 {
+    test_outside(2, 41);
+    test_outside(3, 42);
     test_needs_add(2, 31, 0);
     test_needs_add(3, 32, 0);
     test_needs_add(2, 33, 1024);

@@ -77,16 +77,17 @@
 /* 2D leaf bits. Once the 2D fine cells coarsen, the map also keeps one bit
  * per leaf (256 units), set when a particle lands in it, so the walk near
  * the cluster keeps the resolution of leaf cells (search_block2: the 3 x 3
- * leaf block, and beyond it a chessboard leaf distance of up to
- * DISTMAP_LEAF_REACH leaves, from the words of 8 x 8 leaves around
- * the walker). Bits live in tiles of 32 x 32 leaves (16 words, 128 bytes),
- * made only where a particle lands, from a pool of segments that never move
- * (2^DISTMAP_TSEG_SHIFT tiles each); each grid holds the tile ids over its
- * area (4 bytes per tile slot). They cost about 0.035 bytes/particle in 2D
- * (2D DLA: ~300 marked leaves a tile); the fine level then gets a share of
- * the budget only (it serves the bound beyond the bits' reach). One bit per
- * 2 x 2 leaves (a third of the tiles) was measured slower: more jumps and
- * more tree look-ups (runs/bench-serial/issue12-map12-2026-11-25.md). */
+ * leaf block, and beyond it the Euclidean distance to the nearest marked
+ * leaf within the words of 8 x 8 leaves around the walker, which reach at
+ * least DISTMAP_LEAF_REACH leaves). Bits live in tiles of 32 x 32 leaves (16
+ * words, 128 bytes), made only where a particle lands, from a pool of
+ * segments that never move (2^DISTMAP_TSEG_SHIFT tiles each); each grid
+ * holds the tile ids over its area (4 bytes per tile slot). They cost about
+ * 0.035 bytes/particle in 2D (2D DLA: ~300 marked leaves a tile); the fine
+ * level then gets a share of the budget only (it serves the bound beyond the
+ * bits' reach). One bit per 2 x 2 leaves (a third of the tiles) was measured
+ * slower: more jumps and more tree look-ups
+ * (runs/bench-serial/issue12-map12-2026-11-25.md). */
 #define DISTMAP_LEAFBIT_SHIFT TREE_LEAF_BITS /* one bit a leaf */
 #define DISTMAP_TILE_SHIFT 5        /* tile side 2^5 leaves */
 #define DISTMAP_TILE_WORDS 16       /* 4 x 4 words of 8 x 8 leaves */

@@ -54,6 +54,7 @@ typedef struct search_state {
     uint64_t lb_leaves;
     int64_t lb_w[2];
     uint64_t lb_row[8 * LB_WORDS];
+    uint64_t lb_nz;              /* bit r: lb_row[r] is not 0 */
     /* The walker's neighbour list (search_near2, serial): every particle
      * centre within nb_r units of nb_c while the tree holds nb_count
      * particles, as offsets from nb_c sorted by distance from it (in

@@ -17,8 +17,10 @@
  *  - the same with a small memory budget, where the fine cells coarsen
  *    while the grid grows; in 2D the block search then reads the leaf bits
  *    (one per leaf), each set exactly where a particle lies (brute
- *    force), and answers beyond the block from them (a bound, checked
- *    like every other);
+ *    force), and answers beyond the block from them: a bound, checked
+ *    like every other, and equal to the brute-force Euclidean distance
+ *    to the nearest particle's leaf box within the walker's 24 x 24
+ *    leaves (or to their edge; the square follows DISTMAP_LEAF_REACH), never below the chessboard ring bound;
  *  - distmap_rebuild from the tree gives the same cells as the map built one
  *    particle at a time, and the same bounds.
  * Fixed seeds; a failure prints the seed, point and both values.
@@ -48,6 +50,49 @@ static uint64_t brute(const int64_t (*pts)[3], size_t n, int dim, const int64_t 
         }
         if (d2 < best) best = d2;
     }
+    return best;
+}
+
+/* The gap in units from offset o (0..255) in a leaf to the leaf d leaves on
+ * (d != 0); written apart from search.c's. */
+static int64_t gap_ref(int64_t d, int64_t o)
+{
+    return d > 0 ? d * 256 - o : (-d - 1) * 256 + o + 1;
+}
+
+/* What block_bits2's leaf bound must answer at p (2D, coarsened, no tile
+ * dropped), by brute force over the particles: UINT64_MAX when a particle
+ * lies in the 3 x 3 leaves around p's (the block scan answers then); else
+ * the squared Euclidean distance from p to the nearest box of a leaf that
+ * holds a particle within the square of 8 LB_WORDS leaves (24 by default)
+ * around p's word of 8 x 8 leaves, or to the outside of the square if
+ * nearer. *chess2: the
+ * chessboard ring bound the code gave before (distmap_block_bound with the
+ * ring of the nearest such leaf, at most 9). */
+static uint64_t leaf_bound_ref(const int64_t (*pts)[3], size_t n, const int64_t *p, uint64_t *chess2)
+{
+    const int64_t lx = p[0] >> 8, ly = p[1] >> 8, ox = p[0] & 255, oy = p[1] & 255;
+    /* The window: words within LB_RING of p's, nw leaves a side. */
+    const int64_t nw = 8 * LB_WORDS, x0 = ((lx >> 3) - LB_RING) * 8, y0 = ((ly >> 3) - LB_RING) * 8;
+    int64_t cap = gap_ref(x0 - 1 - lx, ox);
+    const int64_t c[3] = {gap_ref(x0 + nw - lx, ox), gap_ref(y0 - 1 - ly, oy), gap_ref(y0 + nw - ly, oy)};
+    for (int i = 0; i < 3; i++)
+        if (c[i] < cap) cap = c[i];
+    uint64_t best = (uint64_t)(cap * cap);
+    int64_t ring = 9;
+    for (size_t i = 0; i < n; i++) {
+        const int64_t dx = (pts[i][0] >> 8) - lx, dy = (pts[i][1] >> 8) - ly;
+        const int64_t adx = dx < 0 ? -dx : dx, ady = dy < 0 ? -dy : dy;
+        if (adx <= 1 && ady <= 1) return UINT64_MAX;
+        const int64_t v = adx > ady ? adx : ady;
+        if (v < ring) ring = v;
+        if (lx + dx < x0 || lx + dx >= x0 + nw || ly + dy < y0 || ly + dy >= y0 + nw) continue;
+        const int64_t gx = dx ? gap_ref(dx, ox) : 0, gy = dy ? gap_ref(dy, oy) : 0;
+        const uint64_t d2 = (uint64_t)(gx * gx + gy * gy);
+        if (d2 < best) best = d2;
+    }
+    const int64_t b = distmap_block_bound(p, 8, ring, 2);
+    *chess2 = (uint64_t)(b * b);
     return best;
 }
 
@@ -149,7 +194,7 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
     int64_t(*pts)[3] = calloc(n, sizeof *pts);
     int64_t cur[3] = {0, 0, 0};
     int bad_bound = 0, bad_min = 0, useful = 0, bad_block = 0, block_used = 0, ball_scans = 0;
-    int far_bits = 0;
+    int far_bits = 0, leaf_bounds = 0;
     search_config cfg;
     search_config_init(&cfg, 2.0, 32, 2);
     search_config exact;
@@ -230,11 +275,45 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
             if (b2 == UINT64_MAX) continue;
             block_used++;
             far_bits += b2 > 512 * 512; /* >= 2 empty leaves all round: from the leaf bits */
+            if (dim == 2 && budget) {
+                const distmap_grid *gq = atomic_load(&m.grid);
+                uint64_t chess2 = 0;
+                const uint64_t want = gq && gq->lv[0].bits > 8 ? leaf_bound_ref(pts, i + 1, walker, &chess2)
+                                                               : UINT64_MAX;
+                if (want != UINT64_MAX) {
+                    leaf_bounds++;
+                    if ((b2 != want || b2 < chess2) && bad_block++ < 5)
+                        fprintf(stderr, "seed %llu n %zu: leaf bound %.1f, brute force %.1f, chessboard %.1f\n",
+                                (unsigned long long)seed, i + 1, sqrt((double)b2), sqrt((double)want),
+                                sqrt((double)chess2));
+                }
+            }
             if ((b2 > truth || (truth < 256 * 256 && b2 != truth)) && bad_block++ < 5)
                 fprintf(stderr, "dim %d seed %llu n %zu: block %.1f, true %.1f\n", dim,
                         (unsigned long long)seed, i + 1, sqrt((double)b2), sqrt((double)truth));
         }
         if (i % 50 != 49) continue;
+        /* Leaf bounds from points up to ~20 leaves off the cluster (a
+         * walker of its own each), where the square's edge can decide. */
+        if (dim == 2 && budget) {
+            const distmap_grid *gq = atomic_load(&m.grid);
+            for (int q = 0; gq && gq->lv[0].bits > 8 && q < 40; q++) {
+                int64_t p[3] = {0, 0, 0};
+                const int64_t *s = pts[rng_next(&r) % (i + 1)];
+                for (int a = 0; a < 2; a++) p[a] = s[a] + rand_range(&r, -5000, 5000);
+                search_state s2;
+                search_state_reset(&s2);
+                const uint64_t b2 = search_block2(&t, &cfg, &m, p, &s2);
+                uint64_t chess2 = 0;
+                const uint64_t want = leaf_bound_ref(pts, i + 1, p, &chess2);
+                if (b2 == UINT64_MAX || want == UINT64_MAX) continue;
+                leaf_bounds++;
+                if ((b2 != want || b2 < chess2 || b2 > brute(pts, i + 1, 2, p)) && bad_block++ < 5)
+                    fprintf(stderr, "seed %llu n %zu: far leaf bound %.1f, brute force %.1f, chessboard %.1f\n",
+                            (unsigned long long)seed, i + 1, sqrt((double)b2), sqrt((double)want),
+                            sqrt((double)chess2));
+            }
+        }
         for (int q = 0; q < 40; q++) {
             int64_t p[3];
             const int64_t *s = pts[rng_next(&r) % (i + 1)];
@@ -256,6 +335,7 @@ static void test_cluster(int dim, size_t n, uint64_t seed, int exact_cells, size
     if (!budget || dim == 2) CHECK(block_used > 1000, "dim %d: only %d block searches", dim, block_used);
     if (budget && dim == 2) {
         CHECK(far_bits > 50, "only %d block answers from the leaf bits", far_bits);
+        CHECK(leaf_bounds > 200, "only %d leaf bounds checked", leaf_bounds);
         int unknown = 0;
         CHECK(check_leafbits(&m, (const int64_t(*)[3])pts, n, &unknown) == 0,
               "seed %llu: leaf bits wrong", (unsigned long long)seed);

@@ -37,6 +37,13 @@ static int check_cluster(const dlca_sim *s, uint32_t c, uint64_t *ks, uint64_t *
     if (*m + dlca_n(s, c) > s->N) BAD("cluster sizes add up to more than N = %llu", (unsigned long long)s->N);
     dlca_view v;
     view_of(s, c, &v);
+    /* The moves find the face that wraps by window() (dlca.c), which needs
+     * the anchor inside the box and its own offset (0) in the bounding box:
+     * sites alone wrap, so an anchor shifted by L matched them and a
+     * resumed run stepped monomers off the lattice (heap overflow). */
+    for (int a = 0; a < d; a++)
+        if (v.anc[a] < 0 || v.anc[a] >= s->L[a] || v.lo[a] > 0 || v.hi[a] < 0)
+            BAD("cluster %u: anchor or bounding box outside the box", c);
     int32_t tlo[DLCA_MAX_DIM], thi[DLCA_MAX_DIM];
     for (int a = 0; a < d; a++) tlo[a] = thi[a] = v.off[a];
     for (uint32_t i = 0; i < v.n; i++) {

@@ -180,6 +180,41 @@ dlca_ck_cases.update({
     "count_2e8_box_16384": lambda f: (dlca_u64(14, 2 * 10**8)(f),
                                       f["parameters"].attrs.__setitem__("box", np.array([16384, 16384], dtype="u8"))),
 })
+
+
+L0 = 48  # the base run's box side
+
+
+def dlca_anchor(shift, off_shift=0):
+    """The largest cluster's anchor moved by shift sites along axis 0 (None:
+    by -off_shift, wrapped into the box) and its offsets (and bounding box)
+    by off_shift: the sites, which wrap, still
+    match (audit-dlca: an anchor outside the box or a bounding box without
+    the anchor's own offset 0 resumed, and window() then stepped monomers
+    off the lattice: a heap overflow)."""
+    def damage(f):
+        d = int(f["parameters"].attrs["dim"])
+        sn = f["slot_n"][()]
+        g = f["geom"][()].reshape(-1, 3 * d)
+        c = int(np.argmax(sn))
+        g[c, 0] += shift if shift is not None else (g[c, 0] - off_shift) % L0 - g[c, 0]
+        g[c, d] += off_shift
+        g[c, 2 * d] += off_shift
+        first = int(sn[:c].sum())
+        off = f["offset"][()].reshape(-1, d)
+        off[first:first + sn[c], 0] += off_shift
+        for name, v in (("geom", g), ("offset", off)):
+            del f[name]
+            f[name] = v.reshape(-1).astype("i4")
+    return damage
+
+
+dlca_ck_cases.update({
+    "anchor_plus_L": dlca_anchor(L0),
+    "anchor_minus_L": dlca_anchor(-L0),
+    "anchor_plus_5L": dlca_anchor(5 * L0),
+    "bbox_without_anchor": dlca_anchor(None, 40),
+})
 for name, fn in dlca_ck_cases.items():
     d, path = forged(CK, "dlcack-" + name.replace("^", ""), fn)
     expect("dlca-ckpt-%s/resume" % name, ["--model", "dlca", "--resume", path, "--out", os.path.join(d, "o"), "-q"],

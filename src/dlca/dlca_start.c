@@ -62,6 +62,35 @@ static int nul_read(FILE *f, long at, const char *line)
     return at >= 0 && now >= at && (size_t)(now - at) != strlen(line);
 }
 
+/* The box's sites: a start holds fewer monomers (N < V), so a file of
+ * more is refused as soon as it passes them, not read to its end (an
+ * endless stream grew without bound). */
+static uint64_t box_sites(const dlca_params *p)
+{
+    uint64_t V = 1;
+    for (int a = 0; a < p->dim; a++) V *= p->box[a];
+    return V;
+}
+
+static int too_many(const start_buf *b, const dlca_params *p, const char *path, char *err, size_t errlen)
+{
+    const uint64_t V = box_sites(p);
+    if (b->n + 1 < V) return 0;
+    return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: more monomers than the box of %llu sites can hold (N < V)", path,
+                       (unsigned long long)V);
+}
+
+/* Did fgets stop inside a line longer than the buffer (no newline, and
+ * more to read)? Its tail would be read as a line of its own: the end of
+ * a long comment became a monomer. */
+static int line_too_long(FILE *f, const char *line, size_t size)
+{
+    const size_t len = strlen(line);
+    if (len + 1 < size || line[len - 1] == '\n') return 0;
+    const int ch = fgetc(f);
+    return ch != EOF && ch != '\n'; /* a newline right after: the line fitted */
+}
+
 static int read_text(FILE *f, const char *path, const dlca_params *p, start_buf *b, char *err, size_t errlen)
 {
     char line[4096];
@@ -70,6 +99,9 @@ static int read_text(FILE *f, const char *path, const dlca_params *p, start_buf 
         if (nul_read(f, at, line))
             return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: line %llu: a NUL byte in the line", path,
                                (unsigned long long)ln);
+        if (line_too_long(f, line, sizeof line))
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: line %llu: longer than %zu bytes", path,
+                               (unsigned long long)ln, sizeof line - 1);
         char *h = strchr(line, '#');
         if (h) *h = '\0';
         long long x[DLCA_MAX_DIM + 1];
@@ -92,6 +124,7 @@ static int read_text(FILE *f, const char *path, const dlca_params *p, start_buf 
                                (unsigned long long)ln, n, p->dim, p->dim);
         uint32_t k = 0;
         if (site_of(p, x, &k, path, "line", ln, err, errlen)) return PDLA_EINVAL;
+        if (too_many(b, p, path, err, errlen)) return PDLA_EINVAL;
         if (push(b, k, ln)) return pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", path);
     }
     if (ferror(f)) return pdla_errorf(PDLA_EIO, err, errlen, "%s: read error", path);
@@ -116,6 +149,9 @@ static int read_h5(const char *path, const dlca_params *p, start_buf *b, char *e
     else if (d.dims[1] != (uint64_t)p->dim)
         pdla_errorf(PDLA_EINVAL, err, errlen, "%s: its monomers have %llu coordinates, --dim %d needs %d", path,
                     (unsigned long long)d.dims[1], p->dim, p->dim);
+    else if (d.dims[0] >= box_sites(p))
+        pdla_errorf(PDLA_EINVAL, err, errlen, "%s: %llu monomers, more than the box of %llu sites can hold (N < V)",
+                    path, (unsigned long long)d.dims[0], (unsigned long long)box_sites(p));
     else if (stored != PDLA_H5_STORED)
         pdla_errorf(PDLA_EINVAL, err, errlen, "%s: /monomers/position declares %llu rows, more than the file stores",
                     path, (unsigned long long)d.dims[0]);

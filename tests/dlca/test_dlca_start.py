@@ -91,7 +91,28 @@ bad = {
     "junk": write("junk.txt", "1 x\n"),
     "empty": write("empty.txt", "# nothing\n"),
     "missing": path("nosuch.txt"),
+    # audit-dlca: fgets split a line past 4095 bytes and read its tail as a
+    # line of its own: the end of a long comment became monomer (7, 7).
+    "long_comment": write("longc.txt", "# " + "a" * 4092 + " 7 7\n5 5\n"),
+    "long_line": write("longl.txt", "1 2" + " " * 4093 + "\n3 3\n"),
 }
+# A line of exactly 4095 bytes and its newline is a line.
+fits = write("fits.txt", "1 2" + " " * 4092 + "\n3 3\n")
+rc, err = run("--box", "32", "--start", fits, "--until-clusters", "2", "--out", path("fits"), "-q")
+check(rc == 0, f"--start with a 4095-byte line: exit {rc} {err!r}")
+# An endless start (audit-dlca: read to its end before any check, memory
+# without bound): refused once it passes the box's sites (N < V).
+yes = subprocess.Popen(["yes", "0 0"], stdout=subprocess.PIPE)
+try:
+    p = subprocess.run([pdla, "--model", "dlca", "--box", "32", "--start", "/dev/stdin", "--out", path("bad")],
+                       stdin=yes.stdout, stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=20)
+    rc, err = p.returncode, p.stderr.decode(errors="replace")
+except subprocess.TimeoutExpired:
+    rc, err = None, "did not end within 20 s"
+finally:
+    yes.kill()
+    yes.wait()
+check(rc == 2 and err.count("\n") == 1 and not os.path.exists(path("bad")), f"--start endless: exit {rc} {err!r}")
 for what, f in bad.items():
     rc, err = run("--box", "32", "--start", f, "--out", path("bad"))
     check(rc == 2 and err.count("\n") == 1 and err.startswith("pdla: ") and not os.path.exists(path("bad")),

@@ -181,10 +181,14 @@ int dlca_param_set(dlca_params *p, const pdla_param_desc *d, const char *text, c
         char *end;
         errno = 0;
         const unsigned long long u = strtoull(text, &end, 10);
-        if (v >= 18446744073709551616.0 || (d->type == PDLA_PT_INT && v > (double)d->hi_u))
+        const int exact = *end == '\0' && !errno;
+        /* The range of an exact integer by the integer: 2^64 - 1 rounds to
+         * 2^64 as a double and was refused as above "at most 2^64 - 1". */
+        if (exact ? d->type == PDLA_PT_INT && u > d->hi_u
+                  : v >= 18446744073709551616.0 || (d->type == PDLA_PT_INT && v > (double)d->hi_u))
             return pdla_errorf(PDLA_EINVAL, err, errlen, "invalid --%s '%s' (at most %llu)", d->option, text,
                                (unsigned long long)d->hi_u);
-        pdla_param_set_u(d, p, (*end == '\0' && !errno) ? (uint64_t)u : (uint64_t)v);
+        pdla_param_set_u(d, p, exact ? (uint64_t)u : (uint64_t)v);
     }
     /* The row's own range and rule, now, so that a scene names its line. */
     char why[256];

@@ -47,6 +47,11 @@ refused --checkpoint-every 0
 refused --checkpoint-every 5x
 refused --checkpoint-attempts 0
 refused --checkpoint --no-output
+# The largest seed is a seed (audit-dlca: 2^64 - 1 rounded to 2^64 as a
+# double and was refused as "at most 18446744073709551615"); 2^64 is not.
+"$pdla" --model dlca --box 16 --seed 18446744073709551615 --max-attempts 10 --no-output -q 2>"$tmp/err" ||
+    fail "--seed 18446744073709551615 refused: $(cat "$tmp/err")"
+refused --box 16 --seed 18446744073709551616
 
 d="$tmp/run"
 "$pdla" --model dlca --dim 2 --box 64x48 --fill 0.05 --until-clusters 10 --seed 3 --out "$d" --check >"$tmp/out" 2>"$tmp/err" ||

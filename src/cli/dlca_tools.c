@@ -104,14 +104,18 @@ static int read_box(hid_t f, const char *path, dfile *o, char *err, size_t errle
     pdla_h5_value box;
     int ok = g >= 0 && pdla_h5_attr_number(g, "dim", PDLA_H5_I32, &o->dim) == 0 && o->dim >= 2 && o->dim <= MAXD &&
              pdla_h5_attr_value(g, "box", &box) == 0 && box.read && box.kind == 'u' && box.n == o->dim;
+    /* The model's own limits (a length up to DLCA_MAX_AXIS, fewer than 2^31
+     * sites): a forged box of 10^5 x 10^5 overflowed analyze's int strides
+     * (UBSan) and was then called a cluster spanning the box. */
+    uint64_t V = 1;
     for (int a = 0; ok && a < o->dim; a++) {
         o->L[a] = box.u[a];
-        ok = o->L[a] >= 1 && o->L[a] <= UINT32_MAX;
+        ok = o->L[a] >= 1 && o->L[a] <= DLCA_MAX_AXIS && (V *= o->L[a]) < (UINT64_C(1) << 31);
     }
     if (g >= 0 && H5Gclose(g) < 0) ok = 0;
     if (ok) return 0;
-    return pdla_errorf(-1, err, errlen, "%s: /parameters dim (2 to %d) or box (dim lengths of 1 to 2^32-1) "
-                       "missing or bad", path, MAXD);
+    return pdla_errorf(-1, err, errlen, "%s: /parameters dim (2 to %d) or box (dim lengths of 1 to %d, fewer than "
+                       "2^31 sites) missing or bad", path, MAXD, DLCA_MAX_AXIS);
 }
 
 /* The contents' checks, after the shapes: every cluster id names a row of
@@ -332,7 +336,7 @@ static int unwrap(const dfile *f, const size_t *idx, size_t m, int64_t *u)
     for (size_t j = 0; j < m; j++) key[j] = (uint64_t)f->site[idx[j]] << 32 | j;
     qsort(key, m, sizeof *key, cmp_u64);
     uint64_t stride[MAXD];
-    for (int a = 0, s = 1; a < d; a++) stride[a] = (uint64_t)s, s *= (int)f->L[a];
+    for (uint64_t a = 0, s = 1; a < (uint64_t)d; a++) stride[a] = s, s *= f->L[a];
     for (int a = 0; a < d; a++) u[a] = f->pos[idx[0] * d + a];
     seen[0] = 1;
     size_t head = 0, tail = 0, reached = 1;

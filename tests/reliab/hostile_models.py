@@ -132,6 +132,10 @@ tool_cases = {
                                       f.create_dataset("/clusters/rg", data=np.array([b"x"] * 4, dtype="S8"))),
     "box_array_1000": lambda f: f["/parameters"].attrs.__setitem__("box", np.ones(1000, dtype="u8")),
     "box_float": lambda f: f["/parameters"].attrs.__setitem__("box", np.array([48.0, 48.0])),
+    # audit-dlca: lengths past the model's (16384, < 2^31 sites) overflowed
+    # analyze's int strides (UBSan) and render drew them.
+    "box_100000": lambda f: f["/parameters"].attrs.__setitem__("box", np.array([100000, 100000], dtype="u8")),
+    "box_2^32-1": lambda f: f["/parameters"].attrs.__setitem__("box", np.array([2**32 - 1] * 2, dtype="u8")),
 }
 for name, fn in tool_cases.items():
     d, path = forged(CL, "dlca-" + name.replace("^", ""), fn)

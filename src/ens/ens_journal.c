@@ -26,6 +26,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <inttypes.h>
+#include <math.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -323,6 +324,22 @@ int pdla_ens_journal_create(const char *dir, const pdla_ens_config *c, pdla_ens_
  * particles and positions. 1 (with its payload length in *len and its index
  * in *idx), 0 when it is not, or PDLA_ENOMEM. *buf, *cap: a scratch buffer
  * kept between calls. */
+/* Are a decoded record's values ones a cluster of c makes? Its R_g
+ * samples on an increasing grid in [1, N], no more than the ensemble
+ * takes, and every R_g, R_ext finite and >= 0 (a record forged with NaN
+ * R_g and its checksum recomputed was taken, and ensemble.h5 got D_f nan). */
+static int record_values_ok(const pdla_ens_config *c, const pdla_ens_record *r)
+{
+    if (r->rg_count > pdla_ens_rg_samples_max(c) || !isfinite(r->rg_diam) || r->rg_diam < 0 ||
+        !isfinite(r->r_ext_diam) || r->r_ext_diam < 0)
+        return 0;
+    for (uint64_t k = 0; k < r->rg_count; k++)
+        if (r->rg_n[k] < 1 || r->rg_n[k] > c->params.target || (k && r->rg_n[k] <= r->rg_n[k - 1]) ||
+            !isfinite(r->rg[k]) || r->rg[k] < 0)
+            return 0;
+    return 1;
+}
+
 static int record_at(const pdla_ens_journal *j, uint64_t off, uint64_t size, uint8_t **buf, size_t *cap,
                      uint64_t *len, uint64_t *idx)
 {
@@ -354,7 +371,7 @@ static int record_at(const pdla_ens_journal *j, uint64_t off, uint64_t size, uin
     if (rc == PDLA_ENOMEM) return rc;
     const int ok = rc == PDLA_OK && r.index < c->clusters && r.seed == c->params.seed + r.index &&
                    r.dim == c->params.dim && r.particles == c->params.target &&
-                   r.npos == (c->keep_positions ? r.particles : 0);
+                   r.npos == (c->keep_positions ? r.particles : 0) && record_values_ok(c, &r);
     *idx = r.index;
     pdla_ens_record_free(&r);
     *len = n;

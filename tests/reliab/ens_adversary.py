@@ -220,6 +220,32 @@ open("splice/clusters.journal", "wb").write(header_bytes(text) + b"".join(record
 rc, err = resume("splice", what="spliced 3D record")
 same("ref", "splice", "a 3D cluster spliced into a 2D ensemble's journal, resumed")
 
+# ---- records forged with values no cluster makes (valid checksums) ----------------
+# audit-dlca: cluster 3's R_g series (and final R_g) set to NaN, or to -1,
+# checksum recomputed: taken as the cluster's, and ensemble.h5 got D_f nan.
+# Damage now: cluster 3 grows again, and the ensemble is the reference's.
+section('records forged with NaN or negative R_g (valid checksums)')
+
+
+def forged_rg(p, v):
+    b = bytearray(p)
+    k = struct.unpack_from("<Q", b, 120)[0]
+    struct.pack_into("<d", b, 40, v)
+    for i in range(k):
+        struct.pack_into("<d", b, 136 + 8 * k + 8 * i, v)
+    return bytes(b)
+
+
+for tag, v in (("nanrg", float("nan")), ("negrg", -1.0)):
+    shutil.copytree("ref", tag)
+    os.unlink(tag + "/ensemble.h5")
+    text, recs = journal(tag)
+    open(tag + "/clusters.journal", "wb").write(
+        header_bytes(text) + b"".join(record_bytes(forged_rg(p, v) if idx(p) == 3 else p) for _, p in recs))
+    rc, err = resume(tag, what="forged R_g %r" % v)
+    check("7 of 8 clusters recorded" in err, "forged R_g %r: %s" % (v, err.strip()[:300]))
+    same("ref", tag, "a record forged with R_g %r, resumed" % v)
+
 # ---- a record longer than any cluster makes, in a multi-GB journal ---------------
 # A record header declaring 4.5 GiB (past 32 bits, far past
 # pdla_ens_record_max_bytes: a few kB here), its "payload" a hole of a sparse

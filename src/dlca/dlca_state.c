@@ -421,7 +421,11 @@ static int load_counters(dlca_sim *s, hid_t f, const uint64_t *u, const double *
     /* What the dynamics trust (session 11: each of these resumed without a
      * word; a zero RNG state moves every cluster the same way forever) */
     if (!isfinite(s->t) || s->t < 0) LOAD_FAIL(PDLA_EIO, "its time is negative or not finite");
-    if (u[CK_U_SPAN] > 1 || u[CK_U_STOP] > DLCA_STOP_CALLER) LOAD_FAIL(PDLA_EIO, "its stop state is out of range");
+    /* Stopped by spanning with no cluster spanning: the resumed run ended at
+     * once, "stop: spanning" (a spanning cluster without the flag fails
+     * dlca_check). */
+    if (u[CK_U_SPAN] > 1 || u[CK_U_STOP] > DLCA_STOP_CALLER || (u[CK_U_STOP] == DLCA_STOP_SPANNING && !u[CK_U_SPAN]))
+        LOAD_FAIL(PDLA_EIO, "its stop state is out of range");
     if (!(s->rng.s[0] | s->rng.s[1] | s->rng.s[2] | s->rng.s[3])) LOAD_FAIL(PDLA_EIO, "its random state is all zero");
     if (s->size_count)
         for (uint64_t j = 0; j < s->nc; j++) s->size_count[dlca_n(s, s->act[j])]++;

@@ -180,6 +180,9 @@ dlca_ck_cases.update({
                              f.move("f64_x", "f64")),
     "stop_99": dlca_u64(13, 99),
     "spanning_7": dlca_u64(12, 7),
+    # audit-dlca: stopped by spanning with no cluster spanning resumed as
+    # "stop: spanning" at once, whatever the stops asked.
+    "stop_spanning_unflagged": dlca_u64(13, 3),
     "rng_zero": lambda f: (f.__delitem__("rng"), f.__setitem__("rng", np.zeros(4, dtype="u8"))),
     "count_2e8_box_16384": lambda f: (dlca_u64(14, 2 * 10**8)(f),
                                       f["parameters"].attrs.__setitem__("box", np.array([16384, 16384], dtype="u8"))),

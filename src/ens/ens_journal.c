@@ -319,11 +319,6 @@ int pdla_ens_journal_create(const char *dir, const pdla_ens_config *c, pdla_ens_
     return PDLA_OK;
 }
 
-/* The record at off, if it is one of this ensemble's: magic, a length that
- * fits in the file, its checksum, and (decoded) its index, seed, dimension,
- * particles and positions. 1 (with its payload length in *len and its index
- * in *idx), 0 when it is not, or PDLA_ENOMEM. *buf, *cap: a scratch buffer
- * kept between calls. */
 /* Are a decoded record's values ones a cluster of c makes? Its R_g
  * samples on an increasing grid in [1, N], no more than the ensemble
  * takes, and every R_g, R_ext finite and >= 0 (a record forged with NaN
@@ -340,6 +335,11 @@ static int record_values_ok(const pdla_ens_config *c, const pdla_ens_record *r)
     return 1;
 }
 
+/* The record at off, if it is one of this ensemble's: magic, a length that
+ * fits in the file, its checksum, and (decoded) its index, seed, dimension,
+ * particles and positions. 1 (with its payload length in *len and its index
+ * in *idx), 0 when it is not, or PDLA_ENOMEM. *buf, *cap: a scratch buffer
+ * kept between calls. */
 static int record_at(const pdla_ens_journal *j, uint64_t off, uint64_t size, uint8_t **buf, size_t *cap,
                      uint64_t *len, uint64_t *idx)
 {

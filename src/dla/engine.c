@@ -83,6 +83,7 @@ int pdla_engine_create(pdla_engine **out, const pdla_params *p, char *err, size_
     }
     rng_seed(&e->walker.rng, p->seed);
     search_state_reset(&e->walker.ss);
+    e->compact_first = p->dim == 3 ? ENGINE_COMPACT_FIRST : 0; /* 2D gains nothing (engine.h) */
     atomic_init(&e->r_ext, 0);
     atomic_init(&e->stop, 0);
     const int mu_rc = engine_mutexes_init(e, err, errlen);

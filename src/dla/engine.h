@@ -109,6 +109,18 @@ typedef struct engine_hooks {
 
 struct recent_ring;
 
+/* Tree compaction in the serial phase (tree_compact, grow.c): first at this
+ * count, then each time the count has grown by an eighth, while it is at
+ * most 4/5 of the target, so that the borrowed index arrays (4 bytes a
+ * record) never raise the peak memory, which the final tree sets. 3D only:
+ * 3D 1e6 took 7-10% less user CPU, while 2D (whose near queries keep the
+ * block's chunk heads per walker) gained nothing at 1e6, 1e7 or 1e8; steps
+ * of a tenth beat steps of a half at 3D 1e6 in 2 of 2 pairs (-5%, -1%)
+ * (runs/bench-serial/issue12-compact17-2026-11-29.md). It starts small so
+ * that tests/unit/test_pinned (3D: 15000 particles, with a checkpoint
+ * half-way) runs through it. */
+#define ENGINE_COMPACT_FIRST ((uint64_t)1 << 12)
+
 struct pdla_engine {
     /* Read by every walker step; written once (or, r_ext and stop, rarely).
      * The groups below are kept a cache line apart (PDLA_CACHE_PAD) so that
@@ -149,6 +161,7 @@ struct pdla_engine {
     uint64_t arrival_cap;     /* particles it has room for */
     /* The caller's thread only. */
     walker_ctx walker;        /* the serial phase's walker */
+    uint64_t compact_first;   /* serial phase: first tree compaction at this count (0: none; grow.c) */
     double grow_seconds;
     double parallel_seconds;
     double tick_ns;            /* ns per timestamp tick, measured in the parallel phase */

@@ -8,6 +8,23 @@
 #include "parallel.h"
 #include "reference.h"
 
+/* The compaction count after `at` (engine.h). */
+static uint64_t compact_next(uint64_t at)
+{
+    return at + (at >> 3 ? at >> 3 : 1);
+}
+
+/* Compact the tree at the serial phase's compaction counts (engine.h);
+ * out of memory it stays as it is (the layout is only for speed). */
+static void compact_serial(pdla_engine *e, uint64_t *at)
+{
+    const uint64_t n = tree_count(&e->tree);
+    if (!*at || n < *at) return;
+    while (*at <= n) *at = compact_next(*at);
+    if (n / 4 * 5 <= e->params.target && tree_compact(&e->tree) == 0)
+        search_state_forget_indices(&e->walker.ss);
+}
+
 int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, uint64_t every,
                      void *user, char *err, size_t errlen)
 {
@@ -25,8 +42,11 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
                                     : e->params.serial_until;
     const int64_t D = e->params.resolution;
     const uint64_t stick2 = (uint64_t)(D + e->params.eps) * (uint64_t)(D + e->params.eps);
+    uint64_t compact_at = e->compact_first;
+    while (compact_at && compact_at <= tree_count(&e->tree)) compact_at = compact_next(compact_at);
     while (rc == PDLA_OK && tree_count(&e->tree) < serial_end) {
         int64_t p[3];
+        compact_serial(e, &compact_at);
         if (walker_run(e, &e->walker, p) != WALK_CONTACT) {
             rc = pdla_errorf(PDLA_EINVAL, err, errlen,
                       "internal error: a serial walker stopped closer than one diameter");

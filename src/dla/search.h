@@ -101,6 +101,16 @@ static inline void search_state_reset(search_state *s)
     s->nq_valid = 0;
 }
 
+/* Forget the tree indices a state caches (its path from the root and the
+ * block's first chunks), as after tree_compact moved the records. Nothing
+ * else is needed: the other caches hold coordinates and distances, and no
+ * answer depends on what is cached, only the work to find it. */
+static inline void search_state_forget_indices(search_state *s)
+{
+    s->root = 0;
+    s->blk_valid = 0;
+}
+
 /* Per-level squared far thresholds: a non-empty node at level L whose box is
  * at squared distance > far2[L] from the query is not opened; its box
  * distance is used as the lower bound. UINT64_MAX disables it (exact). */

@@ -9,6 +9,7 @@
 
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 
 static int pool_init(tree_pool *p, uint32_t elem)
 {
@@ -416,5 +417,121 @@ int tree_verify(const tree *t, tree_verify_sums *sums, const char **bad)
     if (!c.bad && unseen) c.bad = "chunks that no leaf holds";
     *bad = c.bad;
     *sums = c.sums;
+    return 0;
+}
+
+/* ---- compaction: records renumbered in depth-first order ----------------- */
+
+/* The new index of every old record (UINT32_MAX: none yet), and the next
+ * new index to hand out, for the inner nodes and the chunks. */
+typedef struct tree_perm {
+    uint32_t *inner, *chunk;
+    uint32_t next_inner, next_chunk;
+} tree_perm;
+
+/* Number the records below `node` (a node at `level`) in visiting order:
+ * the node, then its children in index order, each leaf's chunks in list
+ * order. Recursion depth <= TREE_MAX_LEVEL. */
+static void perm_number(const tree *t, tree_perm *m, uint32_t node, int level)
+{
+    m->inner[node] = m->next_inner++;
+    for (int k = 0; k < t->nchild; k++) {
+        const uint32_t child = tree_child(tree_children(t, node), (uint32_t)k);
+        if (!child) continue;
+        if (level > 1) {
+            perm_number(t, m, child, level - 1);
+            continue;
+        }
+        for (uint32_t c = child;;) {
+            m->chunk[c] = m->next_chunk++;
+            const uint32_t link = tree_chunk_link(t, tree_chunk_at(t, c));
+            if (link <= TREE_CHUNK_CAP) break;
+            c = link;
+        }
+    }
+}
+
+/* Rewrite every index held below `node` (child indices, chunk links) to
+ * its new value; the records themselves have not moved yet. */
+static void perm_relink(tree *t, const tree_perm *m, uint32_t node, int level)
+{
+    _Atomic uint32_t *ch = children_mut(t, node);
+    for (int k = 0; k < t->nchild; k++) {
+        const uint32_t child = atomic_load_explicit(&ch[k], memory_order_relaxed);
+        if (!child) continue;
+        if (level > 1) {
+            perm_relink(t, m, child, level - 1);
+            atomic_store_explicit(&ch[k], m->inner[child], memory_order_relaxed);
+            continue;
+        }
+        for (uint32_t c = child;;) {
+            const uint32_t link = tree_chunk_link(t, tree_chunk_at(t, c));
+            if (link <= TREE_CHUNK_CAP) break;
+            chunk_set_link(t, c, m->chunk[link]);
+            c = link;
+        }
+        atomic_store_explicit(&ch[k], m->chunk[child], memory_order_relaxed);
+    }
+}
+
+/* Move record i of the pool to perm[i] for every i >= first, following
+ * the permutation's cycles (each record is copied once or twice); perm
+ * ends as the identity. */
+static void pool_permute(tree_pool *p, uint32_t *perm, uint32_t first)
+{
+    uint8_t tmp[64];
+    for (uint32_t i = first; i < p->count; i++)
+        while (perm[i] != i) {
+            const uint32_t j = perm[i];
+            uint8_t *a = pool_at(p, i), *b = pool_at(p, j);
+            memcpy(tmp, b, p->elem);
+            memcpy(b, a, p->elem);
+            memcpy(a, tmp, p->elem);
+            perm[i] = perm[j];
+            perm[j] = j;
+        }
+}
+
+/* The index arrays come from mmap, not malloc: freeing a large malloc'd
+ * block raises glibc's mmap threshold, after which the pools' segments
+ * would come from the heap and be zeroed (made resident) whole by calloc
+ * (distmap.c's cells_alloc, the same reason). */
+static uint32_t *index_alloc(size_t n)
+{
+    void *p = mmap(NULL, n * sizeof(uint32_t), PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    return p == MAP_FAILED ? NULL : p;
+}
+
+static void index_free(uint32_t *p, size_t n)
+{
+    if (p) munmap(p, n * sizeof(uint32_t));
+}
+
+int tree_compact(tree *t)
+{
+    _Static_assert(TREE_INNER_BYTES3 <= 64 && TREE_CHUNK_BYTES3 <= 64, "pool_permute's buffer");
+    const size_t ni = t->inner.count, nc = t->chunks.count;
+    tree_perm m = {index_alloc(ni), index_alloc(nc), 1, TREE_CHUNK_CAP + 1};
+    if (!m.inner || !m.chunk) {
+        index_free(m.inner, ni);
+        index_free(m.chunk, nc);
+        return -1;
+    }
+    memset(m.inner, 0xff, ni * sizeof *m.inner);
+    const tree_root root = tree_root_get(t);
+    perm_number(t, &m, root.node, root.level);
+    /* Every chunk is reached; the inner records no path reaches (the roots
+     * that growth replaced) go last, cleared so they name nothing. */
+    for (uint32_t i = 1; i < t->inner.count; i++)
+        if (m.inner[i] == UINT32_MAX) {
+            memset(pool_at(&t->inner, i), 0, t->inner.elem);
+            m.inner[i] = m.next_inner++;
+        }
+    perm_relink(t, &m, root.node, root.level);
+    pool_permute(&t->chunks, m.chunk, TREE_CHUNK_CAP + 1);
+    pool_permute(&t->inner, m.inner, 1);
+    atomic_store_explicit(&t->root_word, (uint64_t)root.level << 32 | 1u, memory_order_release);
+    index_free(m.inner, ni);
+    index_free(m.chunk, nc);
     return 0;
 }

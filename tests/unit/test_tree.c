@@ -15,11 +15,16 @@
  *    force and the variable-precision search (so the walk is unchanged),
  *    it does answer (the test fails if it never does), it sees a point
  *    inserted next to a list it made, and it declines (no wrong answer)
- *    where more points are near than a list holds.
+ *    where more points are near than a list holds;
+ *  - tree_compact: the same points visited in the same order, the same
+ *    exact and bounded answers, the tree verifies (roots replaced by growth
+ *    included), each leaf's chunks consecutive and the leaves in visiting
+ *    order, and inserting after it works (into partial and new chunks).
  * Fixed seeds; any failure prints the seed, point and both values.
  */
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "check.h"
 #include "rng.h"
@@ -366,9 +371,108 @@ static void test_ceil_sqrt(void)
     CHECK(guess_off > 0, "the first guess never needed raising (the test reached no such case)");
 }
 
+/* The chunk indices in visiting order must run 11, 12, ... after
+ * tree_compact: every leaf's chunks consecutive, leaves in visiting order.
+ * Returns the number of chunks out of that order. */
+static uint64_t chunks_out_of_order(const tree *t, uint32_t node, int level, uint32_t *next)
+{
+    uint64_t bad = 0;
+    for (int k = 0; k < t->nchild; k++) {
+        const uint32_t child = tree_child(tree_children(t, node), (uint32_t)k);
+        if (!child) continue;
+        if (level > 1) {
+            bad += chunks_out_of_order(t, child, level - 1, next);
+            continue;
+        }
+        for (uint32_t c = child;;) {
+            bad += c != (*next)++;
+            const uint32_t link = tree_chunk_link(t, tree_chunk_at(t, c));
+            if (link <= TREE_CHUNK_CAP) break;
+            c = link;
+        }
+    }
+    return bad;
+}
+
+/* Visit order and exact/bounded answers of t, to compare across a compaction. */
+static void snapshot(const tree *t, int dim, const pt *queries, int nq, pt *order, size_t n,
+                     uint64_t *answers)
+{
+    collect c = {order, 0, n, dim};
+    CHECK(tree_visit(t, collect_visit, &c) == 0 && c.n == n, "visit: %zu of %zu", c.n, n);
+    search_config exact, vp;
+    search_config_init(&exact, 0.0, 32, 2);
+    search_config_init(&vp, 2.0, 32, 2);
+    search_state k;
+    search_state_reset(&k);
+    for (int q = 0; q < nq; q++) {
+        answers[2 * q] = search_lower_bound2(t, &exact, queries[q].x, UINT64_MAX, &k);
+        answers[2 * q + 1] = search_lower_bound2(t, &vp, queries[q].x, UINT64_MAX, &k);
+    }
+}
+
+static void test_compact(int dim, int kind, size_t n, uint64_t seed)
+{
+    enum { NQ = 300 };
+    pdla_rng r;
+    rng_seed(&r, seed);
+    tree t;
+    CHECK(tree_init(&t, dim) == 0, "tree_init");
+    pt *in = malloc(2 * n * sizeof *in), *before = malloc(2 * n * sizeof *before);
+    pt *after = malloc(2 * n * sizeof *after), q[NQ];
+    uint64_t ans0[2 * NQ], ans1[2 * NQ];
+    for (size_t i = 0; i < n; i++) {
+        random_point(&r, dim, kind, in[i].x);
+        CHECK(tree_insert(&t, in[i].x) == 0, "insert");
+    }
+    for (int i = 0; i < NQ; i++) {
+        const pt *s = &in[rng_next(&r) % n];
+        for (int a = 0; a < dim; a++) q[i].x[a] = s->x[a] + rand_range(&r, -600, 600);
+    }
+    const uint32_t ninner = t.inner.count, nchunk = t.chunks.count;
+    snapshot(&t, dim, q, NQ, before, n, ans0);
+    uint32_t next = TREE_CHUNK_CAP + 1;
+    const uint64_t disorder = chunks_out_of_order(&t, tree_root_get(&t).node, tree_root_get(&t).level, &next);
+    CHECK(tree_compact(&t) == 0, "tree_compact");
+    CHECK(t.inner.count == ninner && t.chunks.count == nchunk, "pool sizes changed");
+    snapshot(&t, dim, q, NQ, after, n, ans1);
+    int same = 1;
+    for (size_t i = 0; same && i < n; i++) same = cmp_pt(&before[i], &after[i]) == 0;
+    CHECK(same, "dim %d kind %d: visiting order changed by the compaction", dim, kind);
+    CHECK(memcmp(ans0, ans1, sizeof ans0) == 0, "dim %d kind %d: answers changed", dim, kind);
+    tree_verify_sums sums;
+    const char *bad = NULL;
+    CHECK(tree_verify(&t, &sums, &bad) == 0 && !bad, "verify after compaction: %s", bad ? bad : "-");
+    CHECK(tree_root_get(&t).node == 1, "root not first");
+    next = TREE_CHUNK_CAP + 1;
+    CHECK(chunks_out_of_order(&t, tree_root_get(&t).node, tree_root_get(&t).level, &next) == 0,
+          "dim %d kind %d: chunks not in visiting order after compaction", dim, kind);
+    CHECK(next == nchunk, "visited %u chunks of %u", next, nchunk);
+    for (size_t i = n; i < 2 * n; i++) {
+        random_point(&r, dim, kind, in[i].x);
+        CHECK(tree_insert(&t, in[i].x) == 0, "insert after compaction");
+    }
+    collect c = {after, 0, 2 * n, dim};
+    CHECK(tree_visit(&t, collect_visit, &c) == 0 && c.n == 2 * n, "visit after inserting more");
+    dim_g = dim;
+    qsort(in, 2 * n, sizeof *in, cmp_pt);
+    qsort(after, 2 * n, sizeof *after, cmp_pt);
+    same = 1;
+    for (size_t i = 0; same && i < 2 * n; i++) same = cmp_pt(&in[i], &after[i]) == 0;
+    CHECK(same, "dim %d kind %d: points lost or changed by inserting after compaction", dim, kind);
+    fprintf(stderr, "dim %d kind %d n %zu: %llu chunks out of order before compaction, 0 after\n",
+            dim, kind, n, (unsigned long long)disorder);
+    free(in);
+    free(before);
+    free(after);
+    tree_free(&t);
+}
+
 int main(void)
 {
     test_ceil_sqrt();
+    for (int dim = 2; dim <= 3; dim++)
+        for (int kind = 0; kind < 4; kind++) test_compact(dim, kind, kind == 0 ? 3000 : 800, 99 + (uint64_t)kind);
     for (int dim = 2; dim <= 3; dim++)
         for (int kind = 0; kind < 4; kind++) test_find_slot(dim, kind, 4242 + (uint64_t)kind);
     for (int dim = 2; dim <= 3; dim++) {

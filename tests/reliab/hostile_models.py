@@ -306,5 +306,31 @@ for name, fn in ev_file_cases.items():
     d, path = forged(EC, "evfile-" + name.replace("^", ""), fn)
     expect("event-file-%s/analyze" % name, ["analyze", path], "fail")
 
+# ---- event cluster.h5 through pdla render --------------------------------
+# A radius for each position, free positions of the cluster's dimension,
+# finite numbers: before, a short /cluster/radii or /free/radii, or a
+# 1-column /free/positions, were read past their end (ASan: heap overflow),
+# a NaN position made the disc bounds undefined, and a radius of 6e4 box
+# sides drew its disc in 1e12 pixel steps (no end within the time limit).
+def ev_render(path):
+    return ["render", path, "-o", os.path.join(os.path.dirname(path), "x.png")]
+
+
+expect("event-clean/render", ev_render(forged(EC, "evrender-clean", lambda f: None)[1]), "pass")
+ev_render_cases = {
+    "cluster_radii_short": ev_values("cluster/radii", lambda a: a[:1]),
+    "free_radii_short": ev_values("free/radii", lambda a: a[:1]),
+    "free_positions_1_column": ev_values("free/positions", lambda a: a[:, :1].copy()),
+    "free_position_nan": ev_values("free/positions", lambda a: a * np.nan),
+    "free_radius_inf": ev_values("free/radii", ev_set(0, np.inf)),
+    "box_side_nan": lambda f: f["results"].attrs.__setitem__("box_side", np.nan),
+}
+for name, fn in ev_render_cases.items():
+    d, path = forged(EC, "evrender-" + name, fn)
+    expect("event-file-%s/render" % name, ev_render(path), "fail")
+# a disc far larger than the image is drawn in the image's pixels, not its own
+expect("event-file-free_radius_1e5_boxes/render",
+       ev_render(forged(EC, "evrender-bigdisc", ev_values("free/radii", ev_set(0, 4e6)))[1]), "pass")
+
 print("hostile-models: %d runs, %d failures" % (len(runs), len(failures)))
 sys.exit(1 if failures else 0)

@@ -201,6 +201,8 @@ int ev_parse_species(const ev_params *p, ev_species *sp, int *nsp, char *err, si
     }
     int n = 0;
     const char *c = p->species;
+    const double rhi = pdla_param_find(ev_rows, N_EV_ROWS, "radius")->hi_r;
+    const double dhi = pdla_param_find(ev_rows, N_EV_ROWS, "density")->hi_r;
     while (*c) {
         if (n == EV_MAX_SPECIES) return pdla_errorf(-1, err, errlen, "--species: more than %d kinds", EV_MAX_SPECIES);
         char *end;
@@ -209,13 +211,16 @@ int ev_parse_species(const ev_params *p, ev_species *sp, int *nsp, char *err, si
         if (end == c || *end != ':' || cnt < 1 || cnt != floor(cnt) || cnt > 4e9)
             return pdla_errorf(-1, err, errlen, "--species: kind %d: bad COUNT (want COUNT:RADIUS:DENSITY)", n + 1);
         c = end + 1;
+        /* the ranges of --radius and --density: a kind of radius 1e300 made
+         * a box of infinite side, one of density 1e300 a gas that never
+         * reached the seed; both ran */
         const double r = strtod(c, &end);
-        if (end == c || *end != ':' || !(r > 0) || !isfinite(r))
-            return pdla_errorf(-1, err, errlen, "--species: kind %d: RADIUS must be > 0", n + 1);
+        if (end == c || *end != ':' || !(r > 0) || !(r <= rhi))
+            return pdla_errorf(-1, err, errlen, "--species: kind %d: RADIUS must be in (0, %g]", n + 1, rhi);
         c = end + 1;
         const double rho = strtod(c, &end);
-        if (end == c || (*end != ',' && *end != ':' && *end) || !(rho > 0) || !isfinite(rho))
-            return pdla_errorf(-1, err, errlen, "--species: kind %d: DENSITY must be > 0", n + 1);
+        if (end == c || (*end != ',' && *end != ':' && *end) || !(rho > 0) || !(rho <= dhi))
+            return pdla_errorf(-1, err, errlen, "--species: kind %d: DENSITY must be in (0, %g]", n + 1, dhi);
         int sticky = 1;
         if (*end == ':') {
             /* STICKY: exactly "0" or "1" */

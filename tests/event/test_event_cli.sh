@@ -30,6 +30,18 @@ expect_usage "seed above the box" --model event --seed-radius 1e4 --out "$t/a"
 grep -q "box too small: side .* for a seed of radius 10000" "$t/err" || fail "seed above the box: $(cat "$t/err")"
 expect_usage "gas without an end" --model event --seed-radius 0 --out "$t/a"
 expect_usage "bad walls" --model event --box-walls sticky --out "$t/a"
+# a kind's RADIUS and DENSITY in the ranges of --radius and --density (a
+# radius of 1e300 ran in a box of side Infinity; a density of 1e300 in a gas
+# that never reached the seed), and a box that positions resolve (packing
+# 1e-300: side Infinity in 3D, 1e151 radii in 2D; both ran without end)
+expect_usage "species radius 1e300" --model event --species 1:1e300:1 --out "$t/a"
+grep -q "kind 1: RADIUS must be in (0, 1e+06]" "$t/err" || fail "species radius 1e300: $(cat "$t/err")"
+expect_usage "species density 1e300" --model event --species 10:0.5:1e300 --out "$t/a"
+grep -q "kind 1: DENSITY must be in (0, 1e+12]" "$t/err" || fail "species density 1e300: $(cat "$t/err")"
+expect_usage "packing 1e-300 3d" --model event --dim 3 --packing 1e-300 --out "$t/a"
+grep -q "box too large" "$t/err" || fail "packing 1e-300 3d: $(cat "$t/err")"
+expect_usage "packing 1e-200 2d" --model event --packing 1e-200 --out "$t/a"
+grep -q "box too large" "$t/err" || fail "packing 1e-200 2d: $(cat "$t/err")"
 [ -e "$t/a" ] && fail "run directory made for bad input"
 
 "$pdla" --model event --help >"$t/help" || fail "--help exit"

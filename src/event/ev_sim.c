@@ -907,7 +907,6 @@ double ev_pressure(const ev_sim *s, double dvir, double dt)
  * the next row's pressure covered only half its span). A run that goes on
  * for ever (one particle that never finds the cluster) thus keeps bounded
  * memory. */
-enum { EV_SERIES_MAX = 1 << 16 };
 static double series_pmerge(double pa, double ta, double pb, double tb)
 {
     /* an interval of no length (a finished run resumed) has no pressure

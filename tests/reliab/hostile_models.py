@@ -289,6 +289,31 @@ ev_cases.update({
     # touch it from cells the scans never visit; accepted before session 14
     "seed_radius_grown": ev_values("state/ps", ev_set(300 * 6 + 5, 1.4)),
 })
+
+
+def ev_series_rows(n, compress):
+    """Every /series dataset n rows of zeros (stored: gzip where compress)."""
+    def damage(f):
+        for k, t in (("time", "f8"), ("kinetic_energy", "f8"), ("pressure", "f8"), ("stuck", "u8"),
+                     ("collisions", "u8")):
+            del f["series/" + k]
+            f.create_dataset("series/" + k, data=np.zeros(n, dtype=t), chunks=(1 << 20,) if compress else None,
+                             compression="gzip" if compress else None)
+    return damage
+
+
+# Accepted before session 16: a series interval of 1e-300 (not the
+# parameter's times a power of 2: a million empty rows, one at a time), a
+# series longer than a run keeps (65536 rows; 1.5e7 gzip rows in a 1 MB file
+# took 600 MB), series times not in order or NaN.
+ev_cases.update({
+    "series_dt_1e-300": ev_values("state/reals", ev_set(1, 1e-300)),
+    "series_dt_3x": ev_values("state/reals", lambda a: np.concatenate([a[:1], a[1:2] * 3, a[2:]])),
+    "series_65537_rows": ev_series_rows(65537, False),
+    "series_1.5e7_rows_gzip": ev_series_rows(15 * 10**6, True),
+    "series_time_nan": ev_values("series/time", ev_set(-1, np.nan)),
+    "series_time_backwards": ev_values("series/time", lambda a: a[::-1].copy()),
+})
 for name, fn in ev_cases.items():
     expect("event-ckpt-%s/resume" % name, ev_resume(ev_copy("eventck-" + name.replace("^", ""), fn)), "fail")
 

@@ -83,6 +83,14 @@ assert a['rg'] > 0 and a['max_distance_from_seed'] > a['rg'], a
 df = r.get('D_f_rg')
 assert (a['D_f'] is None and df in (None, 'NaN')) or abs(a['D_f'] - df) < 1e-9, (a['D_f'], df)
 " "$t/an.json" "$t/info.json" || fail "analyze --json disagrees with info"
+# a file name with a quote and a backslash is escaped in info --json (it
+# was printed raw: JSON no reader took)
+cp "$t/r/cluster.h5" "$t/q\"x\\y.h5"
+"$pdla" info --json "$t/q\"x\\y.h5" >"$t/q.json" || fail "info --json of q\"x\\y.h5: exit"
+python3 -c "
+import json, sys
+assert json.load(open(sys.argv[1]))['file'].endswith('q\"x\\\\y.h5')
+" "$t/q.json" || fail "info --json: the file name with a quote is not JSON: $(head -3 "$t/q.json")"
 # --seeds FILE: three seeds (box side 68.6 for 300 disks at packing 0.05),
 # all stick, /cluster holds the seeds; bad files refused with one line
 printf '# x y r\n20 20 1\n50 50 1.5\n\n20 50 0.5  # small\n' >"$t/seeds"

@@ -17,8 +17,10 @@ declarations ask for GBs). The undamaged copies must be read (exit 0), so
 the test cannot pass by refusing everything. hostile.py does the same for
 the DLA files.
 """
+import json
 import os
 import shutil
+import subprocess
 import sys
 
 import h5py
@@ -330,6 +332,21 @@ ev_file_cases = {
 for name, fn in ev_file_cases.items():
     d, path = forged(EC, "evfile-" + name.replace("^", ""), fn)
     expect("event-file-%s/analyze" % name, ["analyze", path], "fail")
+
+# A NaN cluster position gave R_g 0, a distance inf and exit 0 (refused
+# now); an infinite series value printed "inf" in --json, which is no JSON
+# (null now).
+d, path = forged(EC, "evfile-position_nan", ev_values("cluster/positions", ev_set(0, np.nan)))
+expect("event-file-position_nan/analyze", ["analyze", path], "fail")
+d, path = forged(EC, "evfile-ke_inf", ev_values("series/kinetic_energy", ev_set(-1, np.inf)))
+expect("event-file-ke_inf/analyze", ["analyze", "--json", path], "pass")
+try:
+    with open(os.path.join(WORK, "an.json"), "w+b") as out:
+        subprocess.run([PDLA, "analyze", "--json", path], stdout=out, stderr=subprocess.DEVNULL, timeout=TIME_LIMIT)
+        out.seek(0)
+        check(json.loads(out.read())["kinetic_energy_last"] is None, "event-file-ke_inf: kinetic_energy_last")
+except ValueError as e:
+    check(False, "event-file-ke_inf/analyze --json: not JSON: %s" % e)
 
 # ---- event cluster.h5 through pdla render --------------------------------
 # A radius for each position, free positions of the cluster's dimension,

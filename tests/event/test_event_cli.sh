@@ -38,6 +38,11 @@ expect_usage "species radius 1e300" --model event --species 1:1e300:1 --out "$t/
 grep -q "kind 1: RADIUS must be in (0, 1e+06]" "$t/err" || fail "species radius 1e300: $(cat "$t/err")"
 expect_usage "species density 1e300" --model event --species 10:0.5:1e300 --out "$t/a"
 grep -q "kind 1: DENSITY must be in (0, 1e+12]" "$t/err" || fail "species density 1e300: $(cat "$t/err")"
+# a run that cannot fit in memory is refused before it allocates (each array
+# alone fit the kernel's overcommit: its pages were written, then pdla killed)
+expect_usage "4e9 particles" --model event --dim 3 --particles 4000000000 --out "$t/a"
+grep -q "4000000000 particles need about .* GiB, more than 80% of this machine's memory" "$t/err" ||
+    fail "4e9 particles: $(cat "$t/err")"
 expect_usage "packing 1e-300 3d" --model event --dim 3 --packing 1e-300 --out "$t/a"
 grep -q "box too large" "$t/err" || fail "packing 1e-300 3d: $(cat "$t/err")"
 expect_usage "packing 1e-200 2d" --model event --packing 1e-200 --out "$t/a"

@@ -282,10 +282,16 @@ static int read_params(const rd *r, ev_params *p)
     char *t = calloc((size_t)n + 1, 1);
     if (!t) return rfail(r, "%s", "out of memory");
     int rc = rds(r, "parameters", PDLA_H5_U8, (size_t)n, t);
+    /* whole lines, as written: a NUL byte or a last line without its newline
+     * ended the reading there, and what followed took its default */
+    if (!rc && (strlen(t) != (size_t)n || t[n - 1] != '\n'))
+        rc = rfail(r, "%s", "parameters with a NUL byte or a cut last line (damaged)");
     ev_params_default(p);
+    size_t np;
+    const pdla_param_desc *pt = ev_param_table(&np);
+    uint32_t seen = 0; /* a key twice: the later won */
     for (char *line = t, *nl; !rc && *line; line = nl + 1) {
         nl = strchr(line, '\n');
-        if (!nl) break;
         *nl = '\0';
         char *eq = strchr(line, '=');
         char e[400];
@@ -295,8 +301,11 @@ static int read_params(const rd *r, ev_params *p)
         }
         *eq = '\0';
         const char *v = eq + 1;
+        const pdla_param_desc *d = pdla_param_find(pt, np, line);
+        if (d && (seen & d->bit)) rc = rfail(r, "parameter %s given twice (damaged)", line);
+        else if (d) seen |= d->bit;
         /* an empty string parameter is written as "" */
-        if (ev_param_set(p, line, v, e, sizeof e)) rc = rfail(r, "%s", e);
+        if (!rc && ev_param_set(p, line, v, e, sizeof e)) rc = rfail(r, "%s", e);
     }
     free(t);
     return rc;

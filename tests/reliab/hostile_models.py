@@ -316,6 +316,22 @@ ev_cases.update({
     "series_time_nan": ev_values("series/time", ev_set(-1, np.nan)),
     "series_time_backwards": ev_values("series/time", lambda a: a[::-1].copy()),
 })
+def ev_params_text(fn):
+    """The parameters' text changed by fn(str)."""
+    def damage(f):
+        t = fn(bytes(f["parameters"][()]).decode())
+        del f["parameters"]
+        f["parameters"] = np.frombuffer(t.encode(), dtype="u1")
+    return damage
+
+
+# Read silently before session 16: a last line cut of its newline, or what
+# follows a NUL byte, took its default; a key given twice, the later value.
+ev_cases.update({
+    "params_last_line_cut": ev_params_text(lambda t: t + "t-max=2.5"),
+    "params_nul": ev_params_text(lambda t: t.replace("\nseed=", "\0seed=")),
+    "params_t_max_twice": ev_params_text(lambda t: t + "t-max=2.5\n"),
+})
 for name, fn in ev_cases.items():
     expect("event-ckpt-%s/resume" % name, ev_resume(ev_copy("eventck-" + name.replace("^", ""), fn)), "fail")
 

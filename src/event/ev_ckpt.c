@@ -415,6 +415,8 @@ static int check_values(const rd *r, const ev_sim *s)
         if (seen[i]++) rc = rfail(r, "%s", "a particle twice in the stuck list (damaged)");
         else if (!(s->stuck_t[a] >= t_prev && s->stuck_t[a] <= s->now))
             rc = rfail(r, "%s", "sticking times out of order or after now (damaged)");
+        else if (s->parent[i] < s->n && !seen[s->parent[i]]) /* a cycle was written to /cluster/parent */
+            rc = rfail(r, "%s", "a stuck particle's parent is no seed and stuck after it (damaged)");
         else t_prev = s->stuck_t[a];
     }
     if (!rc && flagged != s->nstuck) rc = rfail(r, "%s", "the stuck flags do not match the stuck list (damaged)");

@@ -316,6 +316,13 @@ ev_cases.update({
     "series_time_nan": ev_values("series/time", ev_set(-1, np.nan)),
     "series_time_backwards": ev_values("series/time", lambda a: a[::-1].copy()),
 })
+def ev_swap_parents(f, a):
+    """The first two stuck particles made each other's parent."""
+    i, j = (int(k) for k in f["state/stuck_idx"][:2])
+    a[i], a[j] = j, i
+    return a
+
+
 def ev_params_text(fn):
     """The parameters' text changed by fn(str)."""
     def damage(f):
@@ -331,6 +338,8 @@ ev_cases.update({
     "params_last_line_cut": ev_params_text(lambda t: t + "t-max=2.5"),
     "params_nul": ev_params_text(lambda t: t.replace("\nseed=", "\0seed=")),
     "params_t_max_twice": ev_params_text(lambda t: t + "t-max=2.5\n"),
+    # two stuck particles each the other's parent: a cycle in /cluster/parent
+    "parent_cycle": lambda f: ev_values("state/parent", lambda a: ev_swap_parents(f, a))(f),
 })
 for name, fn in ev_cases.items():
     expect("event-ckpt-%s/resume" % name, ev_resume(ev_copy("eventck-" + name.replace("^", ""), fn)), "fail")

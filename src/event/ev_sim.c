@@ -995,7 +995,9 @@ int ev_run_series(ev_sim *s, ev_series *ser, volatile const int *interrupt)
         if (series_push(ser, s, NAN)) return -1;
         s->started = 1;
     }
-    const double tstop = stop_time(s);
+    /* never back in time: a stop time already passed (a resume's --t-max)
+     * ends the run where it is */
+    const double tstop = fmax(stop_time(s), s->now);
     for (;;) {
         if (!s->iv_open) {
             s->iv_t0 = s->now;

@@ -1091,6 +1091,29 @@ static void test_quiet_rows(void)
     }
 }
 
+/* A stop time already passed (a resume's --t-max below the checkpoint's
+ * time) ends the run where it is: before, the clock was set back to it
+ * ("time reached at time 5" for a state at 12, particles' local times after
+ * `now`: a checkpoint its own loader refused). */
+static void test_past_stop(void)
+{
+    ev_params q = base(2, 100, 0.1, 0, 0.5, 1);
+    char err[512];
+    ev_sim *s = ev_create(&q, err, sizeof err);
+    CHECK(s != NULL, "past stop: %s", err);
+    if (!s) return;
+    ev_series ser = {0};
+    s->par.t_max = 4;
+    CHECK(ev_run_series(s, &ser, NULL) == EV_STOP_TIME && s->now == 4, "past stop: first leg to %g", s->now);
+    s->par.t_max = 2;
+    const int why = ev_run_series(s, &ser, NULL);
+    CHECK(why == EV_STOP_TIME && s->now == 4 && ser.n && ser.t[ser.n - 1] == 4,
+          "past stop: stop %s at %g, last row %g (want time reached at 4)", ev_stop_name(why), s->now,
+          ser.n ? ser.t[ser.n - 1] : -1.0);
+    ev_series_free(&ser);
+    ev_free(s);
+}
+
 /* The collision counters of a and b's first N particles are the same. */
 static int same_counts(const ev_sim *a, const ev_sim *b, size_t N)
 {
@@ -1996,6 +2019,7 @@ int main(int argc, char **argv)
     if (all || !strcmp(what, "seeds")) test_seeds();
     if (all || !strcmp(what, "resume")) test_resume();
     if (all || !strcmp(what, "quiet-rows")) test_quiet_rows();
+    if (all || !strcmp(what, "past-stop")) test_past_stop();
     if (all || !strcmp(what, "thin")) test_thin();
     if (all || !strcmp(what, "bath")) test_bath();
     if (all || !strcmp(what, "bath-brute")) test_bath_brute();

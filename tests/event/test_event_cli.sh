@@ -96,6 +96,18 @@ python3 -c "
 import json, sys
 assert json.load(open(sys.argv[1]))['file'].endswith('q\"x\\\\y.h5')
 " "$t/q.json" || fail "info --json: the file name with a quote is not JSON: $(head -3 "$t/q.json")"
+# --resume with a --t-max the checkpoint's time has passed stops where it
+# is (the idiom for "stop at once"): before, the clock was set back to it
+# ("time reached at time 1e-06" for a state at t > 1) and the checkpoint
+# then written was refused by its own loader (a particle's time after now)
+"$pdla" --model event --particles 200 --packing 0.1 --max-events 3000 --checkpoint --out "$t/past" --quiet ||
+    fail "past: base run"
+"$pdla" --model event --resume "$t/past" --t-max 1e-6 --max-events 0 >"$t/out" 2>"$t/err" ||
+    fail "resume --t-max passed: $(cat "$t/err")"
+grep -q "stopped: time reached at time 1e-06" "$t/out" && fail "resume --t-max passed: the clock went back"
+"$pdla" --model event --resume "$t/past" --max-events 3001 --quiet 2>"$t/err" ||
+    fail "resume after --t-max passed: $(cat "$t/err")"
+[ -s "$t/err" ] && fail "resume after --t-max passed: $(cat "$t/err")"
 # --seeds FILE: three seeds (box side 68.6 for 300 disks at packing 0.05),
 # all stick, /cluster holds the seeds; bad files refused with one line
 printf '# x y r\n20 20 1\n50 50 1.5\n\n20 50 0.5  # small\n' >"$t/seeds"

@@ -78,6 +78,9 @@ static int cluster_summary(hid_t f, ev_summary *m, char *err, size_t errlen)
     if (!pos || (int)cols != m->dim)
         return free(pos), snprintf(err, errlen, "no readable /cluster/positions"), -1;
     m->stuck = rows;
+    for (size_t k = 0; k < rows * cols; k++) /* NaN gave R_g 0 and a distance inf, exit 0 */
+        if (!isfinite(pos[k]))
+            return free(pos), snprintf(err, errlen, "a /cluster/positions value is not finite"), -1;
     /* the seeds: a --seeds file's dataset, or the one seed's attributes */
     size_t ns = 0, nc = 0;
     double one[3], *seeds = read_doubles(f, "/cluster/seed_positions", &ns, &nc);
@@ -140,21 +143,30 @@ static int series_summary(hid_t f, ev_summary *m, char *err, size_t errlen)
     return rc;
 }
 
+/* "  "KEY": V" and `end`, V with `digits` digits, null when not finite
+ * (JSON has no NaN or inf: a forged series value printed "inf", which no
+ * JSON reader takes). */
+static void json_num(const char *key, double v, int digits, const char *end)
+{
+    if (isfinite(v)) printf("  \"%s\": %.*g%s", key, digits, v, end);
+    else printf("  \"%s\": null%s", key, end);
+}
+
 static void print_summary(const ev_summary *m, int json)
 {
     if (json) {
-        printf("{\n  \"model\": \"event\",\n  \"dim\": %d,\n  \"stuck\": %zu,\n  \"free\": %zu,\n"
-               "  \"rg\": %.10g,\n  \"max_distance_from_seed\": %.10g,\n",
-               m->dim, m->stuck, m->free_n, m->rg, m->rmax_seed);
-        if (isfinite(m->df)) printf("  \"D_f\": %.10g,\n", m->df);
-        else printf("  \"D_f\": null,\n");
-        printf("  \"D_f_k_lo\": %llu,\n  \"D_f_k_hi\": %llu,\n  \"series_rows\": %zu,\n"
-               "  \"time\": %.10g,\n  \"kinetic_energy_first\": %.10g,\n"
-               "  \"kinetic_energy_last\": %.10g,\n  \"collisions\": %.17g,\n",
-               (unsigned long long)m->k_lo, (unsigned long long)m->k_hi, m->rows, m->t1, m->ke0,
-               m->ke1, m->coll1);
-        if (isfinite(m->p_mean)) printf("  \"pressure_mean_second_half\": %.10g\n}\n", m->p_mean);
-        else printf("  \"pressure_mean_second_half\": null\n}\n");
+        printf("{\n  \"model\": \"event\",\n  \"dim\": %d,\n  \"stuck\": %zu,\n  \"free\": %zu,\n", m->dim,
+               m->stuck, m->free_n);
+        json_num("rg", m->rg, 10, ",\n");
+        json_num("max_distance_from_seed", m->rmax_seed, 10, ",\n");
+        json_num("D_f", m->df, 10, ",\n");
+        printf("  \"D_f_k_lo\": %llu,\n  \"D_f_k_hi\": %llu,\n  \"series_rows\": %zu,\n",
+               (unsigned long long)m->k_lo, (unsigned long long)m->k_hi, m->rows);
+        json_num("time", m->t1, 10, ",\n");
+        json_num("kinetic_energy_first", m->ke0, 10, ",\n");
+        json_num("kinetic_energy_last", m->ke1, 10, ",\n");
+        json_num("collisions", m->coll1, 17, ",\n");
+        json_num("pressure_mean_second_half", m->p_mean, 10, "\n}\n");
         return;
     }
     printf("model event, %dd, box %.6g\n", m->dim, m->box);

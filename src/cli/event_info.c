@@ -63,6 +63,17 @@ int event_checkpoint_refused(const char *tool, int argc, char **argv)
     return 1;
 }
 
+/* s as a JSON string: quoted, " and \\ escaped, control bytes left out. */
+static void json_str(FILE *o, const char *s)
+{
+    fputc('"', o);
+    for (const char *c = s; *c; c++) {
+        if (*c == '"' || *c == '\\') fputc('\\', o);
+        if ((unsigned char)*c >= 0x20) fputc(*c, o);
+    }
+    fputc('"', o);
+}
+
 typedef struct pr {
     FILE *o;
     int json, first;
@@ -96,14 +107,11 @@ static herr_t print_attr(hid_t loc, const char *name, const H5A_info_t *info, vo
         snprintf(val, sizeof val, "(array of %lld)", (long long)v.n);
     }
     if (p->json) {
-        fprintf(p->o, "%s\n    \"%s\": ", p->first ? "" : ",", name);
+        fprintf(p->o, "%s\n    ", p->first ? "" : ",");
+        json_str(p->o, name); /* a forged file's attribute names too */
+        fputs(": ", p->o);
         if (isstr) {
-            fputc('"', p->o);
-            for (const char *c = val; *c; c++) {
-                if (*c == '"' || *c == '\\') fputc('\\', p->o);
-                if ((unsigned char)*c >= 0x20) fputc(*c, p->o);
-            }
-            fputc('"', p->o);
+            json_str(p->o, val);
         } else {
             fputs(val, p->o);
         }
@@ -201,8 +209,11 @@ int event_info_main(int argc, char **argv)
         (void)H5Fclose(f); /* the error to report is the one above */
         return 2;
     }
-    if (json) fprintf(stdout, "{\n  \"file\": \"%s\",\n  \"stuck\": %lld,\n  \"free\": %lld,\n"
-                              "  \"series_rows\": %lld,\n", path, ns, nf, nr);
+    if (json) { /* the path escaped: a name with " or \\ made the whole JSON unreadable */
+        fputs("{\n  \"file\": ", stdout);
+        json_str(stdout, path);
+        fprintf(stdout, ",\n  \"stuck\": %lld,\n  \"free\": %lld,\n  \"series_rows\": %lld,\n", ns, nf, nr);
+    }
     else fprintf(stdout, "%s: event model, %lld stuck, %lld free, %lld series rows\n", path, ns, nf, nr);
     if (group(stdout, f, "/", json, 0) || group(stdout, f, "/parameters", json, 0) ||
         group(stdout, f, "/results", json, 0) || species_table(stdout, f, json) ||

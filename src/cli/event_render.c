@@ -48,13 +48,30 @@ typedef struct img {
     float *depth;
 } img;
 
+/* The pixels [lo, hi] of the image that a span [a, b] covers (empty when
+ * lo > hi): clamped to the image before any conversion to int, so a disc
+ * far larger than the image (a forged radius of 1e5 box sides took 1e12
+ * steps) costs no more than the image. */
+static void span(const img *im, double a, double b, int *lo, int *hi)
+{
+    if (!(a <= b)) { /* NaN from inf - inf (a tiny box side scales far positions to inf) */
+        *lo = 0;
+        *hi = -1;
+        return;
+    }
+    *lo = a < 0 ? 0 : a >= im->n ? im->n : (int)floor(a);
+    *hi = b < 0 ? -1 : b >= im->n ? im->n - 1 : (int)ceil(b);
+}
+
 static void disc(img *im, const double *x, int dim, double r, const unsigned char *col)
 {
     const double cx = x[0] * im->scale, cy = x[1] * im->scale, rr = fmax(r * im->scale, 0.7);
     const double z = dim == 3 ? x[2] : 0;
-    for (int py = (int)floor(cy - rr); py <= (int)ceil(cy + rr); py++)
-        for (int px = (int)floor(cx - rr); px <= (int)ceil(cx + rr); px++) {
-            if (px < 0 || py < 0 || px >= im->n || py >= im->n) continue;
+    int ylo, yhi, xlo, xhi;
+    span(im, cy - rr, cy + rr, &ylo, &yhi);
+    span(im, cx - rr, cx + rr, &xlo, &xhi);
+    for (int py = ylo; py <= yhi; py++)
+        for (int px = xlo; px <= xhi; px++) {
             const double dx = px + 0.5 - cx, dy = py + 0.5 - cy;
             if (dx * dx + dy * dy > rr * rr) continue;
             const size_t k = (size_t)(im->n - 1 - py) * (size_t)im->n + (size_t)px;
@@ -103,6 +120,26 @@ static int write_png(const char *out, int size, const unsigned char *rgb)
         return 1;
     }
     return 0;
+}
+
+/* The four arrays agree (a radius per position, the free positions of the
+ * cluster's dimension: a shorter /cluster/radii or 1-column /free/positions
+ * was read past its end) and every number is finite (NaN made the disc
+ * bounds undefined), radii not negative; L a finite box side > 0. */
+static int consistent(const double *cp, size_t ns, size_t dim, const double *cr, size_t nr, const double *fp,
+                      size_t nf, size_t fdim, const double *fr, size_t nfr, double L)
+{
+    if (!(L > 0 && L < INFINITY) || nr != ns || nfr != nf || (dim != 2 && dim != 3) || (nf && fdim != dim))
+        return 0;
+    for (size_t k = 0; k < ns * dim; k++)
+        if (!isfinite(cp[k])) return 0;
+    for (size_t k = 0; k < nf * dim; k++)
+        if (!isfinite(fp[k])) return 0;
+    for (size_t k = 0; k < ns; k++)
+        if (!(cr[k] >= 0 && cr[k] < INFINITY)) return 0;
+    for (size_t k = 0; k < nf; k++)
+        if (!(fr[k] >= 0 && fr[k] < INFINITY)) return 0;
+    return 1;
 }
 
 int event_render_main(int argc, char **argv)
@@ -159,7 +196,8 @@ int event_render_main(int argc, char **argv)
     int rc = 0;
     img im = {size, size / (L > 0 ? L : 1), calloc((size_t)size * size * 3, 1),
               malloc((size_t)size * size * sizeof(float))};
-    if (!ok || !im.rgb || !im.depth || (dim != 2 && dim != 3)) {
+    if (!ok || !im.rgb || !im.depth || !consistent(cp, ns, dim, cr, nr, fp, nf, fdim, fr, nfr, L) ||
+        !(isfinite(sr) && sr >= 0 && isfinite(seed[0]) && isfinite(seed[1]) && isfinite(seed[2]))) {
         fprintf(stderr, "pdla render: %s: malformed event file\n", in);
         rc = 2;
         goto done;

@@ -282,10 +282,16 @@ static int read_params(const rd *r, ev_params *p)
     char *t = calloc((size_t)n + 1, 1);
     if (!t) return rfail(r, "%s", "out of memory");
     int rc = rds(r, "parameters", PDLA_H5_U8, (size_t)n, t);
+    /* whole lines, as written: a NUL byte or a last line without its newline
+     * ended the reading there, and what followed took its default */
+    if (!rc && (strlen(t) != (size_t)n || t[n - 1] != '\n'))
+        rc = rfail(r, "%s", "parameters with a NUL byte or a cut last line (damaged)");
     ev_params_default(p);
+    size_t np;
+    const pdla_param_desc *pt = ev_param_table(&np);
+    uint32_t seen = 0; /* a key twice: the later won */
     for (char *line = t, *nl; !rc && *line; line = nl + 1) {
         nl = strchr(line, '\n');
-        if (!nl) break;
         *nl = '\0';
         char *eq = strchr(line, '=');
         char e[400];
@@ -295,8 +301,11 @@ static int read_params(const rd *r, ev_params *p)
         }
         *eq = '\0';
         const char *v = eq + 1;
+        const pdla_param_desc *d = pdla_param_find(pt, np, line);
+        if (d && (seen & d->bit)) rc = rfail(r, "parameter %s given twice (damaged)", line);
+        else if (d) seen |= d->bit;
         /* an empty string parameter is written as "" */
-        if (ev_param_set(p, line, v, e, sizeof e)) rc = rfail(r, "%s", e);
+        if (!rc && ev_param_set(p, line, v, e, sizeof e)) rc = rfail(r, "%s", e);
     }
     free(t);
     return rc;
@@ -379,6 +388,11 @@ static int check_values(const rd *r, const ev_sim *s)
         return rfail(r, "%s", "a time or sum not finite, or a negative time (damaged)");
     if ((s->started != 0 && s->started != 1) || (s->iv_open != 0 && s->iv_open != 1))
         return rfail(r, "%s", "a run flag other than 0 or 1 (damaged)");
+    /* the interval is the parameter's, doubled at each thinning (exact):
+     * a forged 1e-300 made a run of 1e6 empty rows a row at a time */
+    int e2;
+    if (s->started && !(s->series_dt >= s->par.series_dt && frexp(s->series_dt / s->par.series_dt, &e2) == 0.5))
+        return rfail(r, "%s", "a series interval that is not the parameter's times a power of 2 (damaged)");
     if (!(s->rng.s[0] | s->rng.s[1] | s->rng.s[2] | s->rng.s[3]))
         return rfail(r, "%s", "an all-zero random state (damaged)");
     uint8_t *seen = calloc(s->n ? s->n : 1, 1);
@@ -401,6 +415,8 @@ static int check_values(const rd *r, const ev_sim *s)
         if (seen[i]++) rc = rfail(r, "%s", "a particle twice in the stuck list (damaged)");
         else if (!(s->stuck_t[a] >= t_prev && s->stuck_t[a] <= s->now))
             rc = rfail(r, "%s", "sticking times out of order or after now (damaged)");
+        else if (s->parent[i] < s->n && !seen[s->parent[i]]) /* a cycle was written to /cluster/parent */
+            rc = rfail(r, "%s", "a stuck particle's parent is no seed and stuck after it (damaged)");
         else t_prev = s->stuck_t[a];
     }
     if (!rc && flagged != s->nstuck) rc = rfail(r, "%s", "the stuck flags do not match the stuck list (damaged)");
@@ -408,10 +424,22 @@ static int check_values(const rd *r, const ev_sim *s)
     return rc;
 }
 
-static int read_series(const rd *r, ev_series *ser)
+/* The series' times: finite, in order, none after now. */
+static int check_series(const rd *r, const ev_series *ser, double now)
+{
+    for (size_t k = 0; k < ser->n; k++)
+        if (!(ser->t[k] >= (k ? ser->t[k - 1] : 0) && ser->t[k] <= now))
+            return rfail(r, "%s", "series times out of order, not finite or after now (damaged)");
+    return 0;
+}
+
+/* The rows so far: no more than a run keeps (EV_SERIES_MAX; a gzip-forged
+ * length of 5e7 rows in a 2 MB file took 2.3 GB before). */
+static int read_series(const rd *r, ev_series *ser, double now)
 {
     const hssize_t n = rlen(r, "series/time");
     if (n < 0) return rfail(r, "%s", "no /series");
+    if (n > EV_SERIES_MAX) return rfail(r, "%s", "a series longer than a run keeps (damaged)");
     const size_t cap = n > 256 ? (size_t)n : 256;
     ser->t = malloc(cap * sizeof *ser->t);
     ser->ke = malloc(cap * sizeof *ser->ke);
@@ -429,7 +457,7 @@ static int read_series(const rd *r, ev_series *ser)
         rds(r, "series/stuck", PDLA_H5_U64, m, ser->stuck) ||
         rds(r, "series/collisions", PDLA_H5_U64, m, ser->collisions))
         return -1;
-    return 0;
+    return check_series(r, ser, now);
 }
 
 static int read_state(const rd *r, ev_sim *s)
@@ -562,7 +590,7 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     if (!rc) rc = check_values(&r, s);
     /* the seeds' near lists from the seeds as stored */
     if (!rc && ev_big_build(s)) rc = rfail(&r, "%s", "out of memory for the cells near the seeds");
-    if (!rc) rc = read_series(&r, ser);
+    if (!rc) rc = read_series(&r, ser, s->now);
     if (r.file >= 0 && H5Fclose(r.file) < 0 && !rc) rc = rfail(&r, "%s", "cannot close it");
     if (h5u_restore(&q) < 0 && !rc) rc = rfail(&r, "%s", "cannot restore the HDF5 error handler");
     if (rc) {

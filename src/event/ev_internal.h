@@ -170,6 +170,10 @@ int ev_big_overlaps(const ev_sim *s, uint64_t c, const double *x, double r);
 ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen);
 double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi);
 
+/* The series keeps at most this many rows (ev_sim.c series_push thins it:
+ * a checkpoint never holds more). */
+enum { EV_SERIES_MAX = 1 << 16 };
+
 void ev_queue_reset(ev_sim *s);
 void ev_heap_push(ev_sim *s, uint32_t i);
 void ev_cell_insert(ev_sim *s, uint32_t i, uint32_t c);

@@ -545,6 +545,9 @@ static void *big_zalloc(size_t n, size_t size, size_t align)
 
 static int size_cells(ev_sim *s, double rmax, double rpmax, char *err, size_t errlen);
 
+/* The largest box side, in radii of the smallest particle. */
+#define EV_BOX_MAX_RADII 1e9
+
 /* The particle count, the box (side from the packing) and the cells of p:
  * 0, or -1 with one line in err when the box is too small. */
 static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
@@ -555,7 +558,9 @@ static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
     for (uint32_t a = 0; a < s->nseeds && p->seeds[0]; a++)
         rmax = fmax(rmax, s->seed_xr[(size_t)a * (size_t)(D + 1) + (size_t)D]);
     uint64_t nsticky = 0;
+    double rpmin = INFINITY;
     for (int k = 0; k < s->nspecies; k++) {
+        rpmin = fmin(rpmin, s->sp[k].radius);
         n += s->sp[k].count;
         if (s->sp[k].sticky) nsticky += s->sp[k].count;
         vol += (double)s->sp[k].count * ev_particle_volume(D, s->sp[k].radius);
@@ -574,6 +579,12 @@ static int size_box(ev_sim *s, const ev_params *p, char *err, size_t errlen)
     s->V = vol / p->packing;
     s->L = pow(s->V, 1.0 / D);
     s->half = 0.5 * s->L;
+    /* A box of 1e9 radii of the smallest particle resolves its positions to
+     * 2e-7 radii (doubles); a lower packing (1e-300: side infinite, or 1e151
+     * radii) ran without end and wrote box_side Infinity. */
+    if (!(s->L <= EV_BOX_MAX_RADII * rpmin))
+        return pdla_errorf(-1, err, errlen, "box too large: side %g is over %g radii of the smallest particle (%g), "
+                           "beyond what positions resolve: raise --packing", s->L, EV_BOX_MAX_RADII, rpmin);
     if (s->L < 2 * rmax * 1.5 || (s->has_seed && !p->seeds[0] && s->L < 2 * p->seed_radius + 4 * rpmax))
         return pdla_errorf(-1, err, errlen, "box too small: side %g for %s of radius %g", s->L,
                     rmax > rpmax ? "a seed" : "particles", rmax);
@@ -896,7 +907,6 @@ double ev_pressure(const ev_sim *s, double dvir, double dt)
  * the next row's pressure covered only half its span). A run that goes on
  * for ever (one particle that never finds the cluster) thus keeps bounded
  * memory. */
-enum { EV_SERIES_MAX = 1 << 16 };
 static double series_pmerge(double pa, double ta, double pb, double tb)
 {
     /* an interval of no length (a finished run resumed) has no pressure
@@ -985,7 +995,9 @@ int ev_run_series(ev_sim *s, ev_series *ser, volatile const int *interrupt)
         if (series_push(ser, s, NAN)) return -1;
         s->started = 1;
     }
-    const double tstop = stop_time(s);
+    /* never back in time: a stop time already passed (a resume's --t-max)
+     * ends the run where it is */
+    const double tstop = fmax(stop_time(s), s->now);
     for (;;) {
         if (!s->iv_open) {
             s->iv_t0 = s->now;

@@ -1063,6 +1063,57 @@ static int tick_at(ev_sim *s, void *u)
     return ++t->calls == t->at;
 }
 
+/* A series row without events still polls the interrupt and calls the tick
+ * (pdla/event.h: "at each series row"): before, ev_loop returned at such a
+ * row's end before its poll, so a run whose rows held no event (series-dt
+ * far below the time between events: here 1e-9 against ~0.1) went on deaf
+ * to SIGINT/SIGTERM, progress and --checkpoint-every until the next event
+ * (about 1e6 rows later here, minutes with more particles). */
+static void test_quiet_rows(void)
+{
+    ev_params q = base(2, 20, 0.001, 0, 0.5, 1);
+    q.series_dt = 1e-9;
+    char err[512];
+    for (int by_flag = 0; by_flag < 2; by_flag++) {
+        ev_sim *s = ev_create(&q, err, sizeof err);
+        CHECK(s != NULL, "quiet rows: %s", err);
+        if (!s) return;
+        ev_series ser = {0};
+        tick_stop tk = {0, 1};
+        volatile int stop = by_flag;
+        if (!by_flag) ev_set_tick(s, tick_at, &tk);
+        const int why = ev_run_series(s, &ser, &stop);
+        CHECK(why == EV_STOP_INTERRUPT && s->events == 0 && ser.n <= 2,
+              "quiet rows (%s): stop %s after %llu events and %zu rows, want interrupted at the first row",
+              by_flag ? "flag" : "tick", ev_stop_name(why), (unsigned long long)s->events, ser.n);
+        ev_series_free(&ser);
+        ev_free(s);
+    }
+}
+
+/* A stop time already passed (a resume's --t-max below the checkpoint's
+ * time) ends the run where it is: before, the clock was set back to it
+ * ("time reached at time 5" for a state at 12, particles' local times after
+ * `now`: a checkpoint its own loader refused). */
+static void test_past_stop(void)
+{
+    ev_params q = base(2, 100, 0.1, 0, 0.5, 1);
+    char err[512];
+    ev_sim *s = ev_create(&q, err, sizeof err);
+    CHECK(s != NULL, "past stop: %s", err);
+    if (!s) return;
+    ev_series ser = {0};
+    s->par.t_max = 4;
+    CHECK(ev_run_series(s, &ser, NULL) == EV_STOP_TIME && s->now == 4, "past stop: first leg to %g", s->now);
+    s->par.t_max = 2;
+    const int why = ev_run_series(s, &ser, NULL);
+    CHECK(why == EV_STOP_TIME && s->now == 4 && ser.n && ser.t[ser.n - 1] == 4,
+          "past stop: stop %s at %g, last row %g (want time reached at 4)", ev_stop_name(why), s->now,
+          ser.n ? ser.t[ser.n - 1] : -1.0);
+    ev_series_free(&ser);
+    ev_free(s);
+}
+
 /* The collision counters of a and b's first N particles are the same. */
 static int same_counts(const ev_sim *a, const ev_sim *b, size_t N)
 {
@@ -1967,6 +2018,8 @@ int main(int argc, char **argv)
     if (all || !strcmp(what, "dffit")) test_dffit();
     if (all || !strcmp(what, "seeds")) test_seeds();
     if (all || !strcmp(what, "resume")) test_resume();
+    if (all || !strcmp(what, "quiet-rows")) test_quiet_rows();
+    if (all || !strcmp(what, "past-stop")) test_past_stop();
     if (all || !strcmp(what, "thin")) test_thin();
     if (all || !strcmp(what, "bath")) test_bath();
     if (all || !strcmp(what, "bath-brute")) test_bath_brute();

@@ -30,6 +30,23 @@ expect_usage "seed above the box" --model event --seed-radius 1e4 --out "$t/a"
 grep -q "box too small: side .* for a seed of radius 10000" "$t/err" || fail "seed above the box: $(cat "$t/err")"
 expect_usage "gas without an end" --model event --seed-radius 0 --out "$t/a"
 expect_usage "bad walls" --model event --box-walls sticky --out "$t/a"
+# a kind's RADIUS and DENSITY in the ranges of --radius and --density (a
+# radius of 1e300 ran in a box of side Infinity; a density of 1e300 in a gas
+# that never reached the seed), and a box that positions resolve (packing
+# 1e-300: side Infinity in 3D, 1e151 radii in 2D; both ran without end)
+expect_usage "species radius 1e300" --model event --species 1:1e300:1 --out "$t/a"
+grep -q "kind 1: RADIUS must be in (0, 1e+06]" "$t/err" || fail "species radius 1e300: $(cat "$t/err")"
+expect_usage "species density 1e300" --model event --species 10:0.5:1e300 --out "$t/a"
+grep -q "kind 1: DENSITY must be in (0, 1e+12]" "$t/err" || fail "species density 1e300: $(cat "$t/err")"
+# a run that cannot fit in memory is refused before it allocates (each array
+# alone fit the kernel's overcommit: its pages were written, then pdla killed)
+expect_usage "4e9 particles" --model event --dim 3 --particles 4000000000 --out "$t/a"
+grep -q "4000000000 particles need about .* GiB, more than 80% of this machine's memory" "$t/err" ||
+    fail "4e9 particles: $(cat "$t/err")"
+expect_usage "packing 1e-300 3d" --model event --dim 3 --packing 1e-300 --out "$t/a"
+grep -q "box too large" "$t/err" || fail "packing 1e-300 3d: $(cat "$t/err")"
+expect_usage "packing 1e-200 2d" --model event --packing 1e-200 --out "$t/a"
+grep -q "box too large" "$t/err" || fail "packing 1e-200 2d: $(cat "$t/err")"
 [ -e "$t/a" ] && fail "run directory made for bad input"
 
 "$pdla" --model event --help >"$t/help" || fail "--help exit"
@@ -71,6 +88,26 @@ assert a['rg'] > 0 and a['max_distance_from_seed'] > a['rg'], a
 df = r.get('D_f_rg')
 assert (a['D_f'] is None and df in (None, 'NaN')) or abs(a['D_f'] - df) < 1e-9, (a['D_f'], df)
 " "$t/an.json" "$t/info.json" || fail "analyze --json disagrees with info"
+# a file name with a quote and a backslash is escaped in info --json (it
+# was printed raw: JSON no reader took)
+cp "$t/r/cluster.h5" "$t/q\"x\\y.h5"
+"$pdla" info --json "$t/q\"x\\y.h5" >"$t/q.json" || fail "info --json of q\"x\\y.h5: exit"
+python3 -c "
+import json, sys
+assert json.load(open(sys.argv[1]))['file'].endswith('q\"x\\\\y.h5')
+" "$t/q.json" || fail "info --json: the file name with a quote is not JSON: $(head -3 "$t/q.json")"
+# --resume with a --t-max the checkpoint's time has passed stops where it
+# is (the idiom for "stop at once"): before, the clock was set back to it
+# ("time reached at time 1e-06" for a state at t > 1) and the checkpoint
+# then written was refused by its own loader (a particle's time after now)
+"$pdla" --model event --particles 200 --packing 0.1 --max-events 3000 --checkpoint --out "$t/past" --quiet ||
+    fail "past: base run"
+"$pdla" --model event --resume "$t/past" --t-max 1e-6 --max-events 0 >"$t/out" 2>"$t/err" ||
+    fail "resume --t-max passed: $(cat "$t/err")"
+grep -q "stopped: time reached at time 1e-06" "$t/out" && fail "resume --t-max passed: the clock went back"
+"$pdla" --model event --resume "$t/past" --max-events 3001 --quiet 2>"$t/err" ||
+    fail "resume after --t-max passed: $(cat "$t/err")"
+[ -s "$t/err" ] && fail "resume after --t-max passed: $(cat "$t/err")"
 # --seeds FILE: three seeds (box side 68.6 for 300 disks at packing 0.05),
 # all stick, /cluster holds the seeds; bad files refused with one line
 printf '# x y r\n20 20 1\n50 50 1.5\n\n20 50 0.5  # small\n' >"$t/seeds"

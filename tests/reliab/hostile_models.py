@@ -17,8 +17,10 @@ declarations ask for GBs). The undamaged copies must be read (exit 0), so
 the test cannot pass by refusing everything. hostile.py does the same for
 the DLA files.
 """
+import json
 import os
 import shutil
+import subprocess
 import sys
 
 import h5py
@@ -331,6 +333,56 @@ ev_cases.update({
     # touch it from cells the scans never visit; accepted before session 14
     "seed_radius_grown": ev_values("state/ps", ev_set(300 * 6 + 5, 1.4)),
 })
+
+
+def ev_series_rows(n, compress):
+    """Every /series dataset n rows of zeros (stored: gzip where compress)."""
+    def damage(f):
+        for k, t in (("time", "f8"), ("kinetic_energy", "f8"), ("pressure", "f8"), ("stuck", "u8"),
+                     ("collisions", "u8")):
+            del f["series/" + k]
+            f.create_dataset("series/" + k, data=np.zeros(n, dtype=t), chunks=(1 << 20,) if compress else None,
+                             compression="gzip" if compress else None)
+    return damage
+
+
+# Accepted before session 16: a series interval of 1e-300 (not the
+# parameter's times a power of 2: a million empty rows, one at a time), a
+# series longer than a run keeps (65536 rows; 1.5e7 gzip rows in a 1 MB file
+# took 600 MB), series times not in order or NaN.
+ev_cases.update({
+    "series_dt_1e-300": ev_values("state/reals", ev_set(1, 1e-300)),
+    "series_dt_3x": ev_values("state/reals", lambda a: np.concatenate([a[:1], a[1:2] * 3, a[2:]])),
+    "series_65537_rows": ev_series_rows(65537, False),
+    "series_1.5e7_rows_gzip": ev_series_rows(15 * 10**6, True),
+    "series_time_nan": ev_values("series/time", ev_set(-1, np.nan)),
+    "series_time_backwards": ev_values("series/time", lambda a: a[::-1].copy()),
+})
+def ev_swap_parents(f, a):
+    """The first two stuck particles made each other's parent."""
+    i, j = (int(k) for k in f["state/stuck_idx"][:2])
+    a[i], a[j] = j, i
+    return a
+
+
+def ev_params_text(fn):
+    """The parameters' text changed by fn(str)."""
+    def damage(f):
+        t = fn(bytes(f["parameters"][()]).decode())
+        del f["parameters"]
+        f["parameters"] = np.frombuffer(t.encode(), dtype="u1")
+    return damage
+
+
+# Read silently before session 16: a last line cut of its newline, or what
+# follows a NUL byte, took its default; a key given twice, the later value.
+ev_cases.update({
+    "params_last_line_cut": ev_params_text(lambda t: t + "t-max=2.5"),
+    "params_nul": ev_params_text(lambda t: t.replace("\nseed=", "\0seed=")),
+    "params_t_max_twice": ev_params_text(lambda t: t + "t-max=2.5\n"),
+    # two stuck particles each the other's parent: a cycle in /cluster/parent
+    "parent_cycle": lambda f: ev_values("state/parent", lambda a: ev_swap_parents(f, a))(f),
+})
 for name, fn in ev_cases.items():
     expect("event-ckpt-%s/resume" % name, ev_resume(ev_copy("eventck-" + name.replace("^", ""), fn)), "fail")
 
@@ -347,6 +399,47 @@ ev_file_cases = {
 for name, fn in ev_file_cases.items():
     d, path = forged(EC, "evfile-" + name.replace("^", ""), fn)
     expect("event-file-%s/analyze" % name, ["analyze", path], "fail")
+
+# A NaN cluster position gave R_g 0, a distance inf and exit 0 (refused
+# now); an infinite series value printed "inf" in --json, which is no JSON
+# (null now).
+d, path = forged(EC, "evfile-position_nan", ev_values("cluster/positions", ev_set(0, np.nan)))
+expect("event-file-position_nan/analyze", ["analyze", path], "fail")
+d, path = forged(EC, "evfile-ke_inf", ev_values("series/kinetic_energy", ev_set(-1, np.inf)))
+expect("event-file-ke_inf/analyze", ["analyze", "--json", path], "pass")
+try:
+    with open(os.path.join(WORK, "an.json"), "w+b") as out:
+        subprocess.run([PDLA, "analyze", "--json", path], stdout=out, stderr=subprocess.DEVNULL, timeout=TIME_LIMIT)
+        out.seek(0)
+        check(json.loads(out.read())["kinetic_energy_last"] is None, "event-file-ke_inf: kinetic_energy_last")
+except ValueError as e:
+    check(False, "event-file-ke_inf/analyze --json: not JSON: %s" % e)
+
+# ---- event cluster.h5 through pdla render --------------------------------
+# A radius for each position, free positions of the cluster's dimension,
+# finite numbers: before, a short /cluster/radii or /free/radii, or a
+# 1-column /free/positions, were read past their end (ASan: heap overflow),
+# a NaN position made the disc bounds undefined, and a radius of 6e4 box
+# sides drew its disc in 1e12 pixel steps (no end within the time limit).
+def ev_render(path):
+    return ["render", path, "-o", os.path.join(os.path.dirname(path), "x.png")]
+
+
+expect("event-clean/render", ev_render(forged(EC, "evrender-clean", lambda f: None)[1]), "pass")
+ev_render_cases = {
+    "cluster_radii_short": ev_values("cluster/radii", lambda a: a[:1]),
+    "free_radii_short": ev_values("free/radii", lambda a: a[:1]),
+    "free_positions_1_column": ev_values("free/positions", lambda a: a[:, :1].copy()),
+    "free_position_nan": ev_values("free/positions", lambda a: a * np.nan),
+    "free_radius_inf": ev_values("free/radii", ev_set(0, np.inf)),
+    "box_side_nan": lambda f: f["results"].attrs.__setitem__("box_side", np.nan),
+}
+for name, fn in ev_render_cases.items():
+    d, path = forged(EC, "evrender-" + name, fn)
+    expect("event-file-%s/render" % name, ev_render(path), "fail")
+# a disc far larger than the image is drawn in the image's pixels, not its own
+expect("event-file-free_radius_1e5_boxes/render",
+       ev_render(forged(EC, "evrender-bigdisc", ev_values("free/radii", ev_set(0, 4e6)))[1]), "pass")
 
 print("hostile-models: %d runs, %d failures" % (len(runs), len(failures)))
 sys.exit(1 if failures else 0)

@@ -398,6 +398,10 @@ PDLA_API int pdla_rundir_probe(const char *dir);
  * (what a killed pdla left half written; hold the lock, so no live writer
  * owns them). */
 PDLA_API void pdla_rundir_remove_prefixed(const char *dir, const char *const *prefixes, size_t n);
+/* fsync the directory itself, so that renames and links in it are on disk
+ * (a file system that cannot sync a directory counts as synced). 0, or -1
+ * with errno. */
+PDLA_API int pdla_rundir_fsync(const char *dir);
 /* Remove the temporary files an interrupted checkpoint write left in dir
  * (hold the lock). Returns how many were removed, or -1. */
 PDLA_API int pdla_checkpoint_remove_stale(const char *dir);

@@ -371,6 +371,8 @@ static void remove_stale(const char *dir, int old_checkpoints)
     unlink(p);
     snprintf(p, sizeof p, "%s/checkpoint.prev.h5", dir);
     unlink(p);
+    snprintf(p, sizeof p, "%s/checkpoint.damaged.h5", dir);
+    unlink(p);
 }
 
 /* Can a file be made in dir? Seen before the run (chattr +i, a read-only
@@ -383,6 +385,34 @@ static int dir_takes_files(const char *dir)
     if (!e) return 0;
     fprintf(stderr, "pdla: run directory '%s' takes no files: %s\n", dir, strerror(e));
     return 2;
+}
+
+/* checkpoint.h5 is damaged and the run resumes from checkpoint.prev.h5:
+ * the damaged file goes aside (checkpoint.damaged.h5, kept, not lost) and
+ * the previous one becomes checkpoint.h5 too (a hard link, else renamed).
+ * The next write moves checkpoint.h5 to checkpoint.prev.h5 before it puts
+ * the new one in place; without this it moved the damaged file over the
+ * good previous one, and a crash before the new file was in place left no
+ * whole checkpoint under either name. 0, or 1 with the line printed. */
+static int promote_previous(const char *dir)
+{
+    char cur[4200], prev[4200], bad[4200];
+    snprintf(cur, sizeof cur, "%s/checkpoint.h5", dir);
+    snprintf(prev, sizeof prev, "%s/checkpoint.prev.h5", dir);
+    snprintf(bad, sizeof bad, "%s/checkpoint.damaged.h5", dir);
+    if (rename(cur, bad) != 0 && errno != ENOENT) {
+        fprintf(stderr, "pdla: cannot set the damaged %s aside: %s\n", cur, strerror(errno));
+        return 1;
+    }
+    if (link(prev, cur) != 0 && rename(prev, cur) != 0) {
+        fprintf(stderr, "pdla: cannot make %s the current checkpoint: %s\n", prev, strerror(errno));
+        return 1;
+    }
+    if (pdla_rundir_fsync(dir) != 0) {
+        fprintf(stderr, "pdla: cannot sync directory %s: %s\n", dir, strerror(errno));
+        return 1;
+    }
+    return 0;
 }
 
 /* --resume PATH: a run directory (its checkpoint.h5, or the previous one if
@@ -423,6 +453,11 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
             return NULL;
         }
         fprintf(stderr, "pdla: %s; resuming from the previous checkpoint\n", err);
+        if (promote_previous(dir)) {
+            ev_free(s);
+            ev_series_free(ser);
+            return NULL;
+        }
     }
     /* the table's resume rule: stop conditions may change, the rest must match */
     ev_params *p = ev_params_of(s);

@@ -4,6 +4,7 @@
  * stale lock). pdla_rundir_lock / pdla_rundir_unlock in pdla.h.
  */
 #include "pdla/pdla.h"
+#include "h5util.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -53,6 +54,11 @@ int pdla_rundir_probe(const char *dir)
         return e;
     }
     return unlink(p) == 0 ? 0 : errno;
+}
+
+int pdla_rundir_fsync(const char *dir)
+{
+    return h5u_fsync_dir(dir);
 }
 
 void pdla_rundir_remove_prefixed(const char *dir, const char *const *prefixes, size_t n)

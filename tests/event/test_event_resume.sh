@@ -62,6 +62,24 @@ grep "^stuck" "$t/outA" >"$t/sa"
 grep "^stuck" "$t/outB3" >"$t/sb"
 cmp -s "$t/sa" "$t/sb" || fail "summaries differ: $(cat "$t/sa" "$t/sb")"
 
+# A damaged checkpoint.h5: the resume falls back to checkpoint.prev.h5, sets
+# the damaged file aside (checkpoint.damaged.h5) and keeps the good previous
+# one as checkpoint.prev.h5 through its own next write (until session 17 that
+# write moved the damaged file over it: a crash before the new file was in
+# place then left no whole checkpoint), and the run equals one never stopped.
+fargs="--model event --dim 2 --particles 3000 --packing 0.2 --seed-radius 1 --series-dt 1 --seed 4"
+"$pdla" $fargs --t-max 12 --out "$t/E" >"$t/outE" 2>&1 || fail "reference run to t 12: $(cat "$t/outE")"
+"$pdla" $fargs --t-max 4 --checkpoint --out "$t/F" >"$t/outF" 2>&1 || fail "run to t 4: $(cat "$t/outF")"
+"$pdla" --model event --resume "$t/F" --t-max 8 >"$t/outF" 2>&1 || fail "resume to t 8: $(cat "$t/outF")"
+cp "$t/F/checkpoint.prev.h5" "$t/good.h5"
+head -c 5000 "$t/F/checkpoint.h5" >"$t/bad.h5" && cp "$t/bad.h5" "$t/F/checkpoint.h5"
+"$pdla" --model event --resume "$t/F" --t-max 12 >"$t/outF" 2>&1 || fail "resume past a damaged checkpoint: $(cat "$t/outF")"
+grep -q "resuming from the previous checkpoint" "$t/outF" || fail "no fallback said: $(cat "$t/outF")"
+cmp -s "$t/good.h5" "$t/F/checkpoint.prev.h5" || fail "the good previous checkpoint was not kept as checkpoint.prev.h5"
+cmp -s "$t/bad.h5" "$t/F/checkpoint.damaged.h5" || fail "the damaged checkpoint was not kept as checkpoint.damaged.h5"
+h5diff --exclude-path /Code "$t/E/cluster.h5" "$t/F/cluster.h5" >"$t/diff" 2>&1 ||
+    fail "run resumed from the previous checkpoint differs from the one never stopped: $(head -5 "$t/diff")"
+
 # --resume refuses other parameters, and a directory without a checkpoint
 "$pdla" --model event --resume "$t/B" --packing 0.3 >/dev/null 2>"$t/err"
 [ $? -eq 2 ] && [ "$(wc -l <"$t/err")" -eq 1 ] || fail "changed parameter on --resume: $(cat "$t/err")"

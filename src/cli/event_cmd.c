@@ -534,10 +534,14 @@ static int write_outputs(const ev_cli *c, ev_sim *s, const ev_series *ser, const
     return rc;
 }
 
-static void print_summary(const ev_cli *c, ev_sim *s, const char *dir, int why, double cpu)
+/* The rates use this session's events and collisions (before: the run's
+ * since its start, so a resumed run's read 2.7e9 collisions/s): `at0` is
+ * the stats when this session began. */
+static void print_summary(const ev_cli *c, ev_sim *s, const char *dir, int why, double cpu, const ev_stats *at0)
 {
     ev_stats st;
     ev_get_stats(s, &st);
+    const double coll = (double)(st.collisions - at0->collisions), events = (double)(st.events - at0->events);
     char bath[64] = "";
     if (ev_sticky_count(s) < ev_count(s))
         snprintf(bath, sizeof bath, " (%zu of a bath kind)", ev_count(s) - ev_sticky_count(s));
@@ -548,8 +552,7 @@ static void print_summary(const ev_cli *c, ev_sim *s, const char *dir, int why, 
            ev_dim(s), ev_count(s), bath, st.box,
            ev_params_of(s)->walls == EV_WALLS_PERIODIC ? "periodic" : "elastic",
            ev_stop_name(why), st.t, st.stuck, st.events, st.collisions, st.wall_hits, cpu,
-           cpu > 0 ? (double)st.collisions / cpu : 0.0,
-           st.events ? 1e6 * cpu / (double)st.events : 0.0, peak_rss() / 1e6, dir);
+           cpu > 0 ? coll / cpu : 0.0, events > 0 ? 1e6 * cpu / events : 0.0, peak_rss() / 1e6, dir);
     if (c->checkpoint)
         printf("checkpoint %s/checkpoint.h5%s\n", dir,
                why == EV_STOP_INTERRUPT ? " (continue with: pdla --model event --resume DIR)" : "");
@@ -602,6 +605,8 @@ int event_cmd_main(int argc, char **argv)
     char *cmd = joined(argc, argv);
     ev_ticker tk;
     ticker_init(&tk, &c, &ser, s, dir, cmd);
+    ev_stats at0;
+    ev_get_stats(s, &at0);
     const clock_t c0 = clock();
     const int why = ev_run_series(s, &ser, &ev_stop_flag);
     const double cpu = (double)(clock() - c0) / CLOCKS_PER_SEC;
@@ -613,7 +618,7 @@ int event_cmd_main(int argc, char **argv)
     } else if (write_outputs(&c, s, &ser, dir, cmd, why)) {
         rc = 1;
     }
-    if (!rc && !c.quiet) print_summary(&c, s, dir, why, cpu);
+    if (!rc && !c.quiet) print_summary(&c, s, dir, why, cpu, &at0);
     free(cmd);
     ev_series_free(&ser);
     ev_free(s);

@@ -237,5 +237,19 @@ if [ -n "${4:-}" ] && [ -n "${5:-}" ]; then
     fi
 fi
 
+# A resumed run's summary rates count its own session only (until session 17
+# all collisions since the start over this session's CPU: after a long first
+# part, a rate tens of times too high). First part to t 8, the resume to
+# 8.5 (1/16 of the collisions): its rate within 5x of the first part's.
+rate() { sed -n 's/^cpu [0-9.]* s, \([0-9.e+]*\) collisions.*/\1/p' "$1"; }
+ra="--model event --dim 2 --particles 20000 --packing 0.3 --box-walls periodic --seed-radius 0 --seed 5"
+if "$pdla" $ra --t-max 8 --checkpoint --out "$t/rate" >"$t/rate1.txt" 2>&1 &&
+    "$pdla" --model event --resume "$t/rate" --t-max 8.5 >"$t/rate2.txt" 2>&1; then
+    awk -v a="$(rate "$t/rate1.txt")" -v b="$(rate "$t/rate2.txt")" 'BEGIN { exit !(a > 0 && b > 0 && b < 5 * a && a < 5 * b) }' ||
+        fail "resumed run's collisions/s $(rate "$t/rate2.txt") against $(rate "$t/rate1.txt") before"
+else
+    fail "rate runs: $(cat "$t/rate1.txt" "$t/rate2.txt")"
+fi
+
 [ $fails -eq 0 ] && echo "event cli: all passed"
 exit $((fails > 0))

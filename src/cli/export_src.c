@@ -7,6 +7,7 @@
 #include "export_src.h"
 
 #include <stdio.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -174,6 +175,17 @@ int exp_src_open(exp_src *s, const char *path, int64_t cluster, char *err, size_
     return 0;
 }
 
+/* Real positions finite and radii finite and >= 0 (an event file forged
+ * with a NaN position was exported as NaN, exit 0): 1 if so. */
+static int slab_numbers_ok(const double *pos, size_t npos, const double *radius, size_t rows)
+{
+    for (size_t i = 0; i < npos; i++)
+        if (!isfinite(pos[i])) return 0;
+    for (size_t i = 0; radius && i < rows; i++)
+        if (!isfinite(radius[i]) || radius[i] < 0) return 0;
+    return 1;
+}
+
 int exp_src_stream(exp_src *s, size_t slab_rows, exp_fn fn, void *user, char *err, size_t errlen)
 {
     if (slab_rows < 1 || slab_rows > H5R_MAX_SLAB_ROWS) slab_rows = H5R_MAX_SLAB_ROWS;
@@ -198,6 +210,12 @@ int exp_src_stream(exp_src *s, size_t slab_rows, exp_fn fn, void *user, char *er
         if (bad) {
             rc = pdla_errorf(-1, err, errlen, "%s: cannot read rows %llu..%llu of the %s (damaged?)", s->path,
                       (unsigned long long)row, (unsigned long long)(row + rows - 1), bad);
+            break;
+        }
+        if (s->real && !slab_numbers_ok(pos, rows * dim, radius, rows)) {
+            rc = pdla_errorf(-1, err, errlen, "%s: rows %llu..%llu hold a position or radius that is not a finite "
+                             "number (or a negative radius)", s->path, (unsigned long long)row,
+                             (unsigned long long)(row + rows - 1));
             break;
         }
         for (size_t i = 0; i < rows; i++) {

@@ -441,5 +441,23 @@ for name, fn in ev_render_cases.items():
 expect("event-file-free_radius_1e5_boxes/render",
        ev_render(forged(EC, "evrender-bigdisc", ev_values("free/radii", ev_set(0, 4e6)))[1]), "pass")
 
+# ---- event cluster.h5 through pdla export --------------------------------
+# A stuck particle's position NaN or radius inf or negative: refused, and no
+# output file left (before session 17: exit 0 and NaN written to the file).
+def ev_export(path, fmt):
+    return ["export", path, "--format", fmt, "-o", os.path.join(os.path.dirname(path), "x." + fmt)]
+
+
+for fmt in ("ply", "csv", "xyz"):
+    expect("event-clean/export-" + fmt, ev_export(forged(EC, "evexport-clean-" + fmt, lambda f: None)[1], fmt),
+           "pass")
+for name, fn in {"cluster_position_nan": ev_values("cluster/positions", lambda a: a * np.nan),
+                 "cluster_radius_inf": ev_values("cluster/radii", ev_set(0, np.inf)),
+                 "cluster_radius_negative": ev_values("cluster/radii", ev_set(0, -1.0))}.items():
+    for fmt in ("ply", "csv", "xyz"):
+        d, path = forged(EC, "evexport-%s-%s" % (name, fmt), fn)
+        expect("event-file-%s/export-%s" % (name, fmt), ev_export(path, fmt), "fail")
+        check(not os.path.exists(os.path.join(d, "x." + fmt)), "event-file-%s/export-%s: output left" % (name, fmt))
+
 print("hostile-models: %d runs, %d failures" % (len(runs), len(failures)))
 sys.exit(1 if failures else 0)

@@ -13,6 +13,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "parse.h"
 #include "event_cmd.h"
 #include "pdla/h5check.h"
 
@@ -145,11 +146,17 @@ static int consistent(const double *cp, size_t ns, size_t dim, const double *cr,
 int event_render_main(int argc, char **argv)
 {
     const char *in = NULL, *out = NULL;
-    int size = 1024, force = 0;
+    long size = 1024;
+    int force = 0;
     for (int k = 1; k < argc; k++) {
         if ((!strcmp(argv[k], "-o") || !strcmp(argv[k], "--output")) && k + 1 < argc) out = argv[++k];
-        else if (!strcmp(argv[k], "--size") && k + 1 < argc) size = atoi(argv[++k]);
-        else if (!strcmp(argv[k], "--force")) force = 1;
+        else if (!strcmp(argv[k], "--size") && k + 1 < argc) {
+            /* the whole word a number (atoi took "100abc" as 100) */
+            if (cli_parse_long_in(argv[++k], 16, 8192, &size)) {
+                fprintf(stderr, "pdla render: --size: want a whole number in [16, 8192]\n");
+                return 2;
+            }
+        } else if (!strcmp(argv[k], "--force")) force = 1;
         else if (argv[k][0] != '-') in = argv[k];
         else {
             fprintf(stderr, "pdla render: option '%s' is not known for event files "

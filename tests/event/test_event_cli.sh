@@ -131,6 +131,11 @@ expect_usage "seeds file missing" --model event --seeds "$t/nonexistent" --out "
 [ $? -eq 2 ] && [ "$(wc -l <"$t/err")" -eq 1 ] || fail "analyze bad option: $(cat "$t/err")"
 "$pdla" render "$t/r/cluster.h5" -o "$t/r.png" --size 64 || fail "render"
 [ -s "$t/r.png" ] || fail "render wrote nothing"
+# --size is a whole number in [16, 8192] (it was read by atoi: "100abc" drew 100)
+for sz in 100abc 15 8193 -64 ""; do
+    "$pdla" render "$t/r/cluster.h5" -o "$t/rs.png" --size "$sz" >/dev/null 2>"$t/err"
+    [ $? -eq 2 ] && [ "$(wc -l <"$t/err")" -eq 1 ] && [ ! -e "$t/rs.png" ] || fail "render --size '$sz': $(cat "$t/err")"
+done
 expect_usage "existing dir" --model event --particles 300 --packing 0.05 --out "$t/r"
 "$pdla" --model event --dim 3 --particles 200 --packing 0.05 --seed 4 --out "$t/r" --force >/dev/null ||
     fail "--force"

@@ -21,7 +21,6 @@
 #include <getopt.h>
 #include <hdf5.h>
 #include <math.h>
-#include <png.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -179,27 +178,6 @@ static void cluster_colour(uint32_t id, double shade, unsigned char *rgb)
     for (int k = 0; k < 3; k++) rgb[k] = (unsigned char)lround(255 * c[i % 6][k]);
 }
 
-static int png_out(const char *path, int w, int h, const unsigned char *rgb)
-{
-    FILE *fp = fopen(path, "wb");
-    if (!fp) return -1;
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
-    png_infop info = png ? png_create_info_struct(png) : NULL;
-    if (!png || !info || setjmp(png_jmpbuf(png))) {
-        png_destroy_write_struct(&png, &info);
-        fclose(fp);
-        return -1;
-    }
-    png_init_io(png, fp);
-    png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
-                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-    png_write_info(png, info);
-    for (int y = 0; y < h; y++) png_write_row(png, (png_bytep)(rgb + (size_t)y * w * 3));
-    png_write_end(png, NULL);
-    png_destroy_write_struct(&png, &info);
-    return fclose(fp) ? -1 : 0;
-}
-
 /* The parsed command line of `pdla render`. */
 typedef struct render_args {
     const char *out;
@@ -304,8 +282,9 @@ int dlca_render_main(int argc, char **argv)
         goto done;
     }
     render_paint(&f, scale, w, h, rgb, depth);
-    if (png_out(out, w, h, rgb)) {
-        fprintf(stderr, "pdla render: cannot write %s\n", out);
+    char werr[600];
+    if (tools_png_write(out, w, h, rgb, a.force, werr, sizeof werr)) {
+        fprintf(stderr, "pdla render: %s\n", werr);
         rc = TOOL_RUNTIME;
     }
 done:

@@ -7,12 +7,12 @@
 #include <errno.h>
 #include <hdf5.h>
 #include <math.h>
-#include <png.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 
+#include "h5read.h"
 #include "parse.h"
 #include "event_cmd.h"
 #include "pdla/h5check.h"
@@ -93,36 +93,6 @@ static void arrival_colour(double u, unsigned char *c)
     for (int q = 0; q < 3; q++) c[q] = (unsigned char)(k[i][q] + f * (k[i + 1][q] - k[i][q]));
 }
 
-static int write_png(const char *out, int size, const unsigned char *rgb)
-{
-    FILE *fo = fopen(out, "wb");
-    if (!fo) {
-        fprintf(stderr, "pdla render: cannot write %s: %s\n", out, strerror(errno));
-        return 1;
-    }
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
-    png_infop info = png ? png_create_info_struct(png) : NULL;
-    if (!png || !info || setjmp(png_jmpbuf(png))) {
-        png_destroy_write_struct(&png, &info);
-        fclose(fo);
-        fprintf(stderr, "pdla render: cannot write %s\n", out);
-        return 1;
-    }
-    png_init_io(png, fo);
-    png_set_compression_level(png, 9);
-    png_set_IHDR(png, info, (png_uint_32)size, (png_uint_32)size, 8, PNG_COLOR_TYPE_RGB,
-                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-    png_write_info(png, info);
-    for (int y = 0; y < size; y++) png_write_row(png, (png_bytep)(rgb + (size_t)y * size * 3));
-    png_write_end(png, NULL);
-    png_destroy_write_struct(&png, &info);
-    if (fclose(fo)) {
-        fprintf(stderr, "pdla render: cannot write %s\n", out);
-        return 1;
-    }
-    return 0;
-}
-
 /* The four arrays agree (a radius per position, the free positions of the
  * cluster's dimension: a shorter /cluster/radii or 1-column /free/positions
  * was read past its end) and every number is finite (NaN made the disc
@@ -143,31 +113,38 @@ static int consistent(const double *cp, size_t ns, size_t dim, const double *cr,
     return 1;
 }
 
-int event_render_main(int argc, char **argv)
+/* The render's options: 0, or 2 with the line printed. */
+static int render_args(int argc, char **argv, const char **in, const char **out, long *size, int *force)
 {
-    const char *in = NULL, *out = NULL;
-    long size = 1024;
-    int force = 0;
     for (int k = 1; k < argc; k++) {
-        if ((!strcmp(argv[k], "-o") || !strcmp(argv[k], "--output")) && k + 1 < argc) out = argv[++k];
+        if ((!strcmp(argv[k], "-o") || !strcmp(argv[k], "--output")) && k + 1 < argc) *out = argv[++k];
         else if (!strcmp(argv[k], "--size") && k + 1 < argc) {
             /* the whole word a number (atoi took "100abc" as 100) */
-            if (cli_parse_long_in(argv[++k], 16, 8192, &size)) {
+            if (cli_parse_long_in(argv[++k], 16, 8192, size)) {
                 fprintf(stderr, "pdla render: --size: want a whole number in [16, 8192]\n");
                 return 2;
             }
-        } else if (!strcmp(argv[k], "--force")) force = 1;
-        else if (argv[k][0] != '-') in = argv[k];
+        } else if (!strcmp(argv[k], "--force")) *force = 1;
+        else if (argv[k][0] != '-') *in = argv[k];
         else {
             fprintf(stderr, "pdla render: option '%s' is not known for event files "
                             "(use -o PNG, --size N, --force)\n", argv[k]);
             return 2;
         }
     }
-    if (!in || !out || size < 16 || size > 8192) {
+    if (!*in || !*out) {
         fprintf(stderr, "pdla render: need FILE and -o PNG (--size 16..8192)\n");
         return 2;
     }
+    return 0;
+}
+
+int event_render_main(int argc, char **argv)
+{
+    const char *in = NULL, *out = NULL;
+    long size = 1024;
+    int force = 0;
+    if (render_args(argc, argv, &in, &out, &size, &force)) return 2;
     struct stat st;
     if (!force && stat(out, &st) == 0) {
         fprintf(stderr, "pdla render: %s exists; not overwriting it (use --force)\n", out);
@@ -219,7 +196,9 @@ int event_render_main(int argc, char **argv)
         disc(&im, cp + i * dim, (int)dim, cr[i], c);
     }
     if (sr > 0) disc(&im, seed, (int)dim, sr, white);
-    rc = write_png(out, size, im.rgb);
+    char werr[600];
+    rc = tools_png_write(out, (int)size, (int)size, im.rgb, force, werr, sizeof werr) ? 1 : 0;
+    if (rc) fprintf(stderr, "pdla render: %s\n", werr);
 done:
     free(cp), free(cr), free(fp), free(fr), free(im.rgb), free(im.depth);
     return rc;

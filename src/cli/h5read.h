@@ -104,5 +104,10 @@ FILE *tools_out_open(const char *path, char *tmp, size_t tmplen, char *err, size
 int tools_out_commit(FILE *fp, const char *tmp, const char *path, int force, char *err,
                      size_t errlen);
 void tools_out_abort(FILE *fp, const char *tmp);
+/* An 8-bit RGB picture (w x h x 3, top row first) as the PNG at path,
+ * through tools_out_* (png_out.c); force: it may replace a file. 0, or -1
+ * with the one line in err. */
+int tools_png_write(const char *path, int w, int h, const unsigned char *rgb, int force, char *err,
+                    size_t errlen);
 
 #endif

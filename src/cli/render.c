@@ -30,6 +30,7 @@
 #include "dlca_cmd.h"
 #include "h5read.h"
 #include "parse.h"
+#include "png_out.h"
 #include "tools.h"
 
 static const char render_help[] =
@@ -179,27 +180,13 @@ static int splat_pass(const int32_t *xyz, size_t rows, uint64_t first, void *use
     return 0;
 }
 
-static void png_error_fn(png_structp png, png_const_charp msg)
-{
-    char *const buf = png_get_error_ptr(png);
-    const int e = errno;
-    snprintf(buf, 160, "%s%s%s", msg, e ? ", " : "", e ? strerror(e) : "");
-    png_longjmp(png, 1);
-}
-
-static void png_warning_fn(png_structp png, png_const_charp msg)
-{
-    (void)png;
-    (void)msg;
-}
-
 static int write_png(FILE *fp, const canvas *c, char *err, size_t errlen)
 {
     /* libpng's own handlers print to stderr; ours keep the message for
      * the one line pdla prints (with errno: a failed write sets it). */
     static char png_msg[160];
     png_msg[0] = '\0';
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, png_msg, png_error_fn, png_warning_fn);
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, png_msg, tools_png_error, tools_png_warning);
     png_infop info = png ? png_create_info_struct(png) : NULL;
     unsigned char *row = malloc((size_t)c->size * 3);
     if (!png || !info || !row) {

@@ -107,6 +107,19 @@ def main():
             rc, _, se = run([pdla] + args)
             check(rc == 2 and len(se.strip().splitlines()) == 1 and se.startswith("pdla "),
                   "%s: exit %d, stderr %r" % (args, rc, se))
+        # A render that cannot be written (a 512-byte file size limit) says so
+        # in one line and leaves the PNG already there as it was, and no
+        # temporary file (it was written in place until session 17).
+        png = os.path.join(tmp, "keep.png")
+        rc, _, se = run([pdla, "render", h5, "-o", png])
+        with open(png, "rb") as fh:
+            before = fh.read()
+        lim = "trap '' XFSZ; ulimit -f 1; exec \"$0\" render \"$1\" -o \"$2\" --size 2048 --force"
+        rc, _, se = run(["sh", "-c", lim, pdla, h5, png])
+        check(rc == 1 and len(se.strip().splitlines()) == 1, "render past ulimit -f: exit %d, stderr %r" % (rc, se))
+        with open(png, "rb") as fh:
+            check(fh.read() == before, "render past ulimit -f changed the PNG already there")
+        check(not [n for n in os.listdir(tmp) if ".tmp" in n], "render past ulimit -f left a temporary file")
     finally:
         shutil.rmtree(tmp)
 

@@ -131,6 +131,13 @@ expect_usage "seeds file missing" --model event --seeds "$t/nonexistent" --out "
 [ $? -eq 2 ] && [ "$(wc -l <"$t/err")" -eq 1 ] || fail "analyze bad option: $(cat "$t/err")"
 "$pdla" render "$t/r/cluster.h5" -o "$t/r.png" --size 64 || fail "render"
 [ -s "$t/r.png" ] || fail "render wrote nothing"
+# A render that cannot be written (ulimit -f) leaves the PNG already there as
+# it was and no temporary file (it was written in place until session 17)
+cp "$t/r.png" "$t/r0.png"
+(trap '' XFSZ; ulimit -f 1; exec "$pdla" render "$t/r/cluster.h5" -o "$t/r.png" --size 2048 --force) >/dev/null 2>"$t/err"
+[ $? -eq 1 ] && [ "$(wc -l <"$t/err")" -eq 1 ] || fail "render past ulimit -f: $(cat "$t/err")"
+cmp -s "$t/r0.png" "$t/r.png" || fail "render past ulimit -f changed the PNG already there"
+ls "$t" | grep -q 'r.png.tmp' && fail "render past ulimit -f left $(ls "$t" | grep tmp)"
 # --size is a whole number in [16, 8192] (it was read by atoi: "100abc" drew 100)
 for sz in 100abc 15 8193 -64 ""; do
     "$pdla" render "$t/r/cluster.h5" -o "$t/rs.png" --size "$sz" >/dev/null 2>"$t/err"

@@ -113,7 +113,7 @@ struct recent_ring;
  * count, then each time the count has grown by an eighth, while it is at
  * most 4/5 of the target, so that the borrowed index arrays (4 bytes a
  * record) never raise the peak memory, which the final tree sets. 3D only:
- * 3D 1e6 took 7-10% less user CPU, while 2D (whose near queries keep the
+ * 3D 1e6 took 6-10% less user CPU, while 2D (whose near queries keep the
  * block's chunk heads per walker) gained nothing at 1e6, 1e7 or 1e8; steps
  * of a tenth beat steps of a half at 3D 1e6 in 2 of 2 pairs (-5%, -1%)
  * (runs/bench-serial/issue12-compact17-2026-11-29.md). It starts small so

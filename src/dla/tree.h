@@ -231,7 +231,7 @@ int tree_verify(const tree *t, tree_verify_sums *sums, const char **bad);
  * children in index order, a leaf's chunks in list order), so that a leaf's
  * chunks lie one after another and nearby leaves near each other: a search
  * around a point then touches fewer cache lines and pages (3D 1e6 and 1e7
- * 7-10% less CPU, runs/bench-serial/issue12-compact17-2026-11-29.md). Every particle
+ * 6-10% less CPU, runs/bench-serial/issue12-compact17-2026-11-29.md). Every particle
  * keeps its leaf and slot, so visits and searches answer the same, in the
  * same order. Pools keep their sizes; 4 bytes a record are borrowed while it
  * runs. Serial only: no reader may run, and indices cached before

@@ -57,9 +57,7 @@ static int png_rows(FILE *fp, int w, int h, const unsigned char *rgb, char *msg)
 int tools_png_write(const char *path, int w, int h, const unsigned char *rgb, int force, char *err,
                     size_t errlen)
 {
-    char tmp[4300];
-    static char msg[160];
-    msg[0] = '\0';
+    char tmp[4300], msg[160] = "";
     FILE *fp = tools_out_open(path, tmp, sizeof tmp, err, errlen);
     if (!fp) return -1;
     if (png_rows(fp, w, h, rgb, msg)) {

@@ -11,15 +11,6 @@
 /* Grids beyond this many fine cells are not made: the map disables itself. */
 #define DISTMAP_MAX_CELLS (UINT64_C(1) << 33)
 
-/* Cell arrays come straight from mmap: freeing a large malloc block raises
- * glibc's mmap threshold, after which the tree's pool segments would come
- * from the heap and be zeroed (made resident) whole by calloc. */
-static void *cells_alloc(size_t bytes)
-{
-    void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-    return p == MAP_FAILED ? NULL : p;
-}
-
 static void level_free(distmap_level *L)
 {
     if (L->cell) munmap((void *)L->cell, L->bytes);
@@ -83,8 +74,8 @@ static uint32_t tile_new(distmap *m)
     const size_t seg = id >> DISTMAP_TSEG_SHIFT;
     if (seg >= DISTMAP_TSEG_MAX) return 0;
     /* The segment table from mmap too: only its first page becomes resident. */
-    if (!m->tseg && !(m->tseg = cells_alloc(DISTMAP_TSEG_MAX * sizeof *m->tseg))) return 0;
-    if (!m->tseg[seg] && !(m->tseg[seg] = cells_alloc(TSEG_BYTES))) return 0;
+    if (!m->tseg && !(m->tseg = tree_mmap(DISTMAP_TSEG_MAX * sizeof *m->tseg))) return 0;
+    if (!m->tseg[seg] && !(m->tseg[seg] = tree_mmap(TSEG_BYTES))) return 0;
     m->ntiles++;
     return id;
 }
@@ -282,7 +273,7 @@ static int level_alloc(distmap_level *L, int dim, int bits, int nibble, unsigned
     const uint64_t n = level_cells(L, dim);
     const size_t bytes = (size_t)(nibble ? (n + 1) / 2 : n);
     L->bytes = bytes;
-    L->cell = cells_alloc(bytes);
+    L->cell = tree_mmap(bytes);
     if (!L->cell) return -1;
     const uint8_t fill = (uint8_t)(nibble ? cap | cap << 4 : cap);
     for (size_t i = 0; i < bytes; i++) atomic_init(&L->cell[i], fill);
@@ -346,7 +337,7 @@ static int grid_tiles(distmap *m, distmap_grid *g, const distmap_grid *old, doub
 {
     g->tw = tile_width(g->half);
     g->toff = tile_off(g->half);
-    g->tix = cells_alloc(tix_bytes(g));
+    g->tix = tree_mmap(tix_bytes(g));
     if (!g->tix) {
         g->tw = 0;
         return -1;

@@ -115,7 +115,8 @@ struct recent_ring;
  * record) never raise the peak memory, which the final tree sets. 3D only:
  * 3D 1e6 took 6-10% less user CPU, while 2D (whose near queries keep the
  * block's chunk heads per walker) gained nothing at 1e6, 1e7 or 1e8; steps
- * of a tenth beat steps of a half at 3D 1e6 in 2 of 2 pairs (-5%, -1%)
+ * of a tenth beat steps of a half at 3D 1e6 in 2 of 2 pairs (-5%, -1%),
+ * the eighth itself was not compared with either
  * (runs/bench-serial/issue12-compact17-2026-11-29.md). It starts small so
  * that tests/unit/test_pinned (3D: 15000 particles, with a checkpoint
  * half-way) runs through it. */

@@ -492,13 +492,9 @@ static void pool_permute(tree_pool *p, uint32_t *perm, uint32_t first)
         }
 }
 
-/* The index arrays come from mmap, not malloc: freeing a large malloc'd
- * block raises glibc's mmap threshold, after which the pools' segments
- * would come from the heap and be zeroed (made resident) whole by calloc
- * (distmap.c's cells_alloc, the same reason). */
-static uint32_t *index_alloc(size_t n)
+void *tree_mmap(size_t bytes)
 {
-    void *p = mmap(NULL, n * sizeof(uint32_t), PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
     return p == MAP_FAILED ? NULL : p;
 }
 
@@ -511,7 +507,7 @@ int tree_compact(tree *t)
 {
     _Static_assert(TREE_INNER_BYTES3 <= 64 && TREE_CHUNK_BYTES3 <= 64, "pool_permute's buffer");
     const size_t ni = t->inner.count, nc = t->chunks.count;
-    tree_perm m = {index_alloc(ni), index_alloc(nc), 1, TREE_CHUNK_CAP + 1};
+    tree_perm m = {tree_mmap(ni * sizeof(uint32_t)), tree_mmap(nc * sizeof(uint32_t)), 1, TREE_CHUNK_CAP + 1};
     if (!m.inner || !m.chunk) {
         index_free(m.inner, ni);
         index_free(m.chunk, nc);

@@ -227,6 +227,12 @@ enum { TREE_VERIFY_ENOMEM = -2 }; /* = PDLA_ENOMEM */
  * NULL (or a short static reason) and the sums, or TREE_VERIFY_ENOMEM. */
 int tree_verify(const tree *t, tree_verify_sums *sums, const char **bad);
 
+/* Zeroed memory straight from mmap (NULL when none; munmap it), for large
+ * arrays that come and go beside the tree: freeing a large malloc block
+ * raises glibc's mmap threshold, after which the pools' segments would come
+ * from the heap and be zeroed (made resident) whole by calloc. */
+void *tree_mmap(size_t bytes);
+
 /* Renumber the inner nodes and the chunks in visiting order (depth first,
  * children in index order, a leaf's chunks in list order), so that a leaf's
  * chunks lie one after another and nearby leaves near each other: a search

@@ -999,7 +999,7 @@ int ev_loop(ev_sim *s, double t_end, volatile const int *interrupt)
         if (q_ready(s)) return EV_STOP_NO_EVENTS; /* everything free is at rest */
         const double next = s->heap[0].t;
         if (next == EV_INF) return EV_STOP_NO_EVENTS; /* everything free is at rest */
-        /* Polled before a row without events returns (until session 16 after:
+        /* Polled before a row without events returns (until session 17 after:
          * with series rows far shorter than the time between events a run
          * went on for minutes deaf to SIGINT/SIGTERM, with no progress line
          * and no --checkpoint-every) */

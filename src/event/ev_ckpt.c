@@ -349,6 +349,107 @@ static int check_events(const rd *r, const ev_sim *s, uint32_t i)
     return 0;
 }
 
+/* How far from touching (relative to r_i + r_j, or to the radius at a
+ * wall) and how fast receding (relative to the contact distance times the
+ * relative speed) a live pending event may find its particles at its time
+ * and still be one the loop made. Its predictions hit the contact to
+ * round-off (overlaps of 1e-10 are the engine's stated bound, tests/event
+ * TOL); the slack above that covers states moved since the prediction
+ * without a new one (see check_pending), and long flights: the contact
+ * time comes from the squared distance at the pair's older stored time,
+ * whose rounding grows with that distance. */
+#define CK_TOUCH 1e-6
+
+/* Do free i and j (j any, i != j) touch at time t, approaching? Positions
+ * at t from the stored states, the image nearest then (as collide takes
+ * it). */
+static int pair_touches(const ev_sim *s, uint32_t i, uint32_t j, double t)
+{
+    const int D = s->dim;
+    const double *pi = EV_P_ANY(s, i), *pj = EV_P_ANY(s, j);
+    double rr = 0, rv = 0, vv = 0;
+    for (int k = 0; k < D; k++) {
+        double r = (pj[k] + pj[D + k] * (t - pj[2 * D])) - (pi[k] + pi[D + k] * (t - pi[2 * D]));
+        if (s->periodic) {
+            if (r > s->half) r -= s->L;
+            else if (r < -s->half) r += s->L;
+        }
+        const double v = pj[D + k] - pi[D + k];
+        rr += r * r;
+        rv += r * v;
+        vv += v * v;
+    }
+    const double sig = pi[2 * D + 1] + pj[2 * D + 1];
+    return fabs(sqrt(rr) - sig) <= CK_TOUCH * sig && rv <= CK_TOUCH * sig * sqrt(vv);
+}
+
+/* Is free i at wall `what` (2k + side) at time t, moving into it? */
+static int wall_touches(const ev_sim *s, uint32_t i, uint32_t what, double t)
+{
+    const int D = s->dim, k = (int)(what >> 1), up = (int)(what & 1);
+    const double *p = EV_P_ANY(s, i);
+    const double v = p[D + k], r = p[2 * D + 1], x = p[k] + v * (t - p[2 * D]);
+    const double gap = up ? s->L - r - x : x - r;
+    return (up ? v > 0 : v < 0) && fabs(gap) <= CK_TOUCH * r;
+}
+
+/* Does i meet a wall some time (ev_core.c pred_wall finds a finite time)? */
+static int meets_wall(const ev_sim *s, uint32_t i)
+{
+    const int D = s->dim;
+    const double *p = EV_P_ANY(s, i);
+    for (int k = 0; k < D; k++) {
+        const double v = p[D + k], r = p[2 * D + 1];
+        const double t = v > 0 ? (s->L - r - p[k]) / v : v < 0 ? (p[k] - r) / -v : INFINITY;
+        if ((t > 0 ? p[2 * D] + t : p[2 * D]) < INFINITY) return 1;
+    }
+    return 0;
+}
+
+/* What is wrong with free i's pending pair or wall event, or NULL. The loop
+ * acts on a live event (a wall, or a partner whose collision counter is
+ * still the one recorded) without looking again: a partner that is i
+ * itself divides by a zero distance (NaN velocities), one that is not at
+ * contact is hit, or stuck to, from afar. So a live event must find its
+ * pair touching and approaching (or its wall) at its time. This is checked
+ * within CK_TOUCH, not by predicting it again bit for bit: a stored state can
+ * move without a new prediction (a periodic wrap by L at a cell crossing,
+ * ev_sync), and predicting every event again on loading changes the
+ * events (stale ones are counted) of a resumed run. A stale event (the
+ * partner's counter moved on) is only predicted again when it comes up;
+ * its counter cannot be ahead of the partner's (counters only grow). In a
+ * box with walls every particle that would meet a wall has an event: that
+ * wall, or an earlier pair (a prediction starts from the wall). */
+static const char *pending_fault(const ev_sim *s, uint32_t i)
+{
+    const ev_evt *e = &s->lk[i].ev;
+    if (e->kind == EV_K_NONE)
+        return !s->periodic && meets_wall(s, i)
+                   ? "a moving particle without a pending event in a box with walls (damaged)"
+                   : NULL;
+    if (e->kind == EV_K_WALL)
+        return wall_touches(s, i, e->partner, e->t_pair) ? NULL
+               : "a pending wall event whose particle does not meet that wall then (damaged)";
+    const uint32_t j = e->partner;
+    if (j == i) return "a pending event names its own particle as the partner (damaged)";
+    if (e->pcount > s->lk[j].count)
+        return "a pending event records a partner's collision count not yet reached (damaged)";
+    if (e->pcount < s->lk[j].count || e->t_pair == INFINITY) return NULL; /* stale, or never */
+    return pair_touches(s, i, j, e->t_pair) ? NULL
+           : "a pending pair event whose particles do not meet then (apart, or receding) (damaged)";
+}
+
+/* Every free particle's pending event (pending_fault), after check_values
+ * (every particle's numbers finite, every partner in range). */
+static int check_pending(const rd *r, const ev_sim *s)
+{
+    for (uint32_t i = 0; i < s->n; i++) {
+        const char *bad = s->stuck[i] ? NULL : pending_fault(s, i);
+        if (bad) return rfail(r, "%s", bad);
+    }
+    return 0;
+}
+
 /* Particle i's stored numbers: finite, its radius its kind's, its local
  * time in [0, now], and its position at `now` inside its cell up to
  * round-off (the cell lists are rebuilt from `cell`, so a particle far from
@@ -588,6 +689,7 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     if (!rc) rc = read_state(&r, s);
     if (!rc) rc = check_state(&r, s);
     if (!rc) rc = check_values(&r, s);
+    if (!rc) rc = check_pending(&r, s);
     /* the seeds' near lists from the seeds as stored */
     if (!rc && ev_big_build(s)) rc = rfail(&r, "%s", "out of memory for the cells near the seeds");
     if (!rc) rc = read_series(&r, ser, s->now);

@@ -1,0 +1,196 @@
+#!/usr/bin/env python3
+"""test_event_forged.py PDLA - event checkpoints whose pending events are
+forged (h5py) but in range, through `pdla --model event --resume`.
+
+The loader checked that a pending event's partner index is in range and its
+time at or after the checkpoint's, nothing more; the loop acts on a live
+event (a wall, or a partner whose collision counter is the one recorded)
+without looking again. So a checkpoint whose pending event named the
+particle itself (a collision at distance 0: NaN velocities), a particle or
+the seed across the box (hit, or stuck to, from afar), a time at which the
+pair does not touch or recedes, a partner counter never reached, or a wall
+the particle does not meet was resumed. Each forged copy must now be refused
+with one line naming the fault, exit 2, within a time limit; the untouched
+copies (a box with walls and a sticking seed, a periodic gas) must resume.
+"""
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+import h5py
+import numpy as np
+
+PDLA = sys.argv[1]
+TIME_LIMIT = 60
+fails = 0
+
+
+def check(cond, msg):
+    global fails
+    if not cond:
+        print("FAIL: " + msg)
+        fails += 1
+
+
+def run(args):
+    """(exit status, stderr lines), or (None, []) past TIME_LIMIT."""
+    try:
+        p = subprocess.run([PDLA] + args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                           timeout=TIME_LIMIT)
+    except subprocess.TimeoutExpired:
+        return None, []
+    err = p.stderr.decode("utf-8", "replace").rstrip("\n")
+    return p.returncode, err.split("\n") if err else []
+
+
+work = tempfile.mkdtemp()
+
+
+class State:
+    """The checkpoint's /state as numpy arrays (copies)."""
+
+    def __init__(self, path):
+        with h5py.File(path, "r") as f:
+            self.dim = int(f.attrs["dim"])
+            self.n = int(f.attrs["particles"])
+            g = f["state"]
+            self.a = {k: g[k][()].copy() for k in ("ps", "count", "stuck", "t_pair", "t_cell", "partner",
+                                                   "pcount", "kind")}
+            self.now = float(g["reals"][0])
+        self.ps = self.a["ps"].reshape(-1, 2 * self.dim + 2)
+
+    def pos(self, i, t):
+        D, p = self.dim, self.ps[i]
+        return p[:D] + p[D:2 * D] * (t - p[2 * D])
+
+    def sep(self, i, j, t):
+        """r_j - r_i at t (a box with walls), v_j - v_i."""
+        D = self.dim
+        return self.pos(j, t) - self.pos(i, t), self.ps[j][D:2 * D] - self.ps[i][D:2 * D]
+
+    def live_pairs(self):
+        a = self.a
+        out = []
+        for i in range(self.n):
+            j = int(a["partner"][i])
+            if (not a["stuck"][i] and a["kind"][i] == 1 and j < len(self.ps) and j != i
+                    and a["pcount"][i] == a["count"][j] and np.isfinite(a["t_pair"][i])):
+                out.append((i, j))
+        return out
+
+
+def base(tag, args):
+    d = os.path.join(work, tag)
+    rc, lines = run(args + ["--out", d, "--checkpoint", "--quiet"])
+    if rc != 0:
+        sys.exit("base run %s failed: %r" % (tag, lines))
+    return os.path.join(d, "checkpoint.h5")
+
+
+def forged(src, tag, fn):
+    """A run directory holding only a copy of src with fn(state arrays)
+    applied (no checkpoint.prev.h5 to fall back on)."""
+    d = os.path.join(work, "f-" + tag)
+    os.makedirs(d)
+    path = os.path.join(d, "checkpoint.h5")
+    shutil.copy(src, path)
+    if fn is not None:
+        st = State(path)
+        fn(st.a)
+        with h5py.File(path, "r+") as f:
+            for k, v in st.a.items():
+                if not np.array_equal(f["state/" + k][()], v, equal_nan=True):
+                    del f["state/" + k]
+                    f["state/" + k] = v
+    return d
+
+
+def expect(tag, d, t_max, want):
+    """want None: resumed (exit 0); else refused, exit 2, one line holding want."""
+    rc, lines = run(["--model", "event", "--resume", d, "--t-max", str(t_max), "--quiet"])
+    if rc is None:
+        check(False, "%s: did not end within %d s" % (tag, TIME_LIMIT))
+        return
+    if want is None:
+        check(rc == 0, "%s: exit %d, want 0 (resumed): %r" % (tag, rc, lines[:3]))
+        return
+    check(rc == 2, "%s: exit %d, want 2 (refused): %r" % (tag, rc, lines[:3]))
+    check(len(lines) == 1, "%s: %d lines on stderr, want 1: %r" % (tag, len(lines), lines[:3]))
+    check(bool(lines) and want in lines[0], "%s: the line does not say %r: %r" % (tag, want, lines[:1]))
+
+
+def setv(name, i, v):
+    def fn(a):
+        a[name][i] = v
+    return fn
+
+
+def setm(changes):
+    def fn(a):
+        for name, i, v in changes:
+            a[name][i] = v
+    return fn
+
+
+# ---- a box with walls, a seed that sticks ---------------------------------
+WA = base("walls", ["--model", "event", "--dim", "2", "--particles", "300", "--packing", "0.1", "--seed-radius",
+                    "1", "--t-max", "2", "--series-dt", "0.5", "--seed", "3"])
+S = State(WA)
+n, D = S.n, S.dim
+pairs = S.live_pairs()
+free_pairs = [(i, j) for i, j in pairs if j < n and not S.a["stuck"][j]]
+check(len(free_pairs) >= 2, "walls: only %d live pair events between free particles" % len(free_pairs))
+i, j = free_pairs[0]
+tp = float(S.a["t_pair"][i])
+r, v = S.sep(i, j, tp)
+sig = S.ps[i][2 * D + 1] + S.ps[j][2 * D + 1]
+check(abs(np.linalg.norm(r) - sig) < 1e-9 * sig and r @ v < 0, "walls: the live pair %d-%d does not touch" % (i, j))
+expect("walls clean", forged(WA, "walls-clean", None), 3, None)
+
+NOT_MEET = "do not meet then"
+# the particle itself as its partner (its own counter): collide(i, i)
+expect("self partner", forged(WA, "self", setm([("partner", i, i), ("pcount", i, S.a["count"][i])])), 3,
+       "names its own particle")
+# a counter the partner never had (counters only grow)
+expect("counter ahead", forged(WA, "ahead", setv("pcount", i, S.a["count"][j] + 1)), 3,
+       "collision count not yet reached")
+# a free particle far from i at the event's time, its counter matching
+far = [k for k in range(n) if k not in (i, j) and not S.a["stuck"][k]
+       and np.linalg.norm(S.sep(i, k, tp)[0]) > 3 * sig]
+expect("far partner", forged(WA, "far", setm([("partner", i, far[0]), ("pcount", i, S.a["count"][far[0]])])), 3,
+       NOT_MEET)
+# the seed (index n, stuck, counter 0) as the partner, far from i
+seed_far = [(a, b) for a, b in free_pairs if np.linalg.norm(S.sep(a, n, float(S.a["t_pair"][a]))[0]) > 5]
+a0 = seed_far[0][0]
+expect("far seed", forged(WA, "seed", setm([("partner", a0, n), ("pcount", a0, 0)])), 3, NOT_MEET)
+# the right pair at another time: half way there, or when it would part
+expect("time halved", forged(WA, "half", setv("t_pair", i, S.now + 0.5 * (tp - S.now))), 3, NOT_MEET)
+r0, v0 = S.sep(i, j, tp)
+# from contact at tp: |r0 + v0 u| = sig again at u = -2 r0.v0 / v0.v0 (receding then)
+t_out = tp - 2 * float(r0 @ v0) / float(v0 @ v0)
+expect("receding", forged(WA, "receding", setv("t_pair", i, t_out)), 3, NOT_MEET)
+# before the particle's own time (refused before this test too)
+expect("before now", forged(WA, "before", setv("t_pair", i, S.ps[i][2 * D] - 1)), 3, "before the checkpoint's time")
+# walls: the time moved, the other wall, no event at all for a moving particle
+walls = [k for k in range(n) if not S.a["stuck"][k] and S.a["kind"][k] == 2]
+w = walls[0]
+expect("wall time", forged(WA, "wall-time", setv("t_pair", w, S.a["t_pair"][w] + 0.5)), 3, "does not meet that wall")
+expect("wall side", forged(WA, "wall-side", setv("partner", w, S.a["partner"][w] ^ 1)), 3, "does not meet that wall")
+expect("no event", forged(WA, "no-event", setm([("kind", w, 0), ("t_pair", w, np.inf)])), 3,
+       "without a pending event")
+
+# ---- a periodic gas: the image nearest at the event's time ----------------
+PA = base("periodic", ["--model", "event", "--dim", "3", "--particles", "400", "--packing", "0.2", "--box-walls",
+                       "periodic", "--seed-radius", "0", "--t-max", "1", "--seed", "5"])
+P = State(PA)
+ppairs = P.live_pairs()
+check(len(ppairs) >= 1, "periodic: no live pair event")
+expect("periodic clean", forged(PA, "periodic-clean", None), 2, None)
+pi_, pj_ = ppairs[0]
+expect("periodic time", forged(PA, "periodic-time", setv("t_pair", pi_, P.a["t_pair"][pi_] + 0.5)), 2, NOT_MEET)
+
+shutil.rmtree(work, ignore_errors=True)
+print("%d failures" % fails)
+sys.exit(1 if fails else 0)

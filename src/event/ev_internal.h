@@ -111,6 +111,12 @@ struct ev_sim {
     /* run state kept in checkpoints: series started, the open interval */
     int started, iv_open;
     double iv_t0, iv_v0;
+    /* the series' free kinetic energy (ev_sim.c series_ke): the last full
+     * sum, the collision and stick counts it was made at (ke_valid 0: none
+     * yet, or states set by hand since), and how many full sums were made */
+    int ke_valid;
+    uint64_t ke_collisions, ke_sticks, ke_sums;
+    double ke_free;
     /* species table actually used */
     int nspecies;
     ev_species sp[EV_MAX_SPECIES];

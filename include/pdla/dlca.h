@@ -82,6 +82,12 @@ typedef struct dlca_params {
     uint64_t seed;
     int search;               /* dlca_search */
     int grid_box;             /* first box side A of BOXES (a power of two) */
+    /* How many lengths the --box text gave (dlca_param_set): 1 is one for
+     * every axis, any other count must be dim. Kept because box[] cannot
+     * tell "64" from "64x64x64" (both fill every axis with 64), and
+     * --box 64x64x64 --dim 2 ran a 64x64 box without a word. 0: box[] was
+     * filled otherwise (the default, a file, the caller): no rule. */
+    int box_lengths;
 } dlca_params;
 
 PDLA_API void dlca_params_default(dlca_params *p);

@@ -28,6 +28,19 @@ static int check_grid_box(const void *s, char *err, size_t errlen)
     return 0;
 }
 
+/* A box written out axis by axis must have dim lengths (box_lengths, set
+ * by parse_box; the lengths alone cannot say how many were written). Run
+ * before the range check, which words this case less well. */
+static int check_box_lengths(const void *s, char *err, size_t errlen)
+{
+    const dlca_params *p = s;
+    if (p->box_lengths > 1 && p->box_lengths != p->dim)
+        return pdla_errorf(PDLA_EINVAL, err, errlen,
+                           "box gives %d lengths but dim is %d (one length per axis, or one for every axis)",
+                           p->box_lengths, p->dim);
+    return 0;
+}
+
 /* ---- the table ---------------------------------------------------------- */
 
 static const char *const search_words[] = {"lattice", "boxes", "allpairs", NULL};
@@ -48,7 +61,7 @@ static const pdla_param_desc table[] = {
      .help = "box lengths, one per axis (one number: the same on every axis)", .group = G,
      .example = "64x48", .type = PDLA_PT_BOX, .offset = AT(box), .count_offset = AT(dim),
      .bit = DLCA_PARAM_BOX, .models = M, .show_default = 1, .def_u = 256, .lo_u = 2,
-     .hi_u = DLCA_MAX_AXIS},
+     .hi_u = DLCA_MAX_AXIS, .check = check_box_lengths},
     {.name = "fill", .option = "fill", .label = "fill fraction", .unit = "", .metavar = "PHI",
      .help = "fill fraction: N = round(PHI V) monomers (unless --count)", .group = G,
      .example = "0.05", .type = PDLA_PT_REAL, .offset = AT(fill), .bit = DLCA_PARAM_FILL,
@@ -158,6 +171,7 @@ static int parse_box(const pdla_param_desc *d, dlca_params *p, const char *text,
     }
     for (int i = n; i < PDLA_PARAM_BOX_MAX; i++) L[i] = n == 1 ? L[0] : 0;
     memcpy((char *)p + d->offset, L, sizeof L);
+    p->box_lengths = n; /* held against dim once every option is read (check_box_lengths) */
     return 0;
 }
 

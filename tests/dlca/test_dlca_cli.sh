@@ -26,6 +26,19 @@ refused --fill 1
 refused --fill 1.5
 refused --box 4x4 --fill 0.01
 refused --box 1x64
+# A box written axis by axis has --dim lengths, in either order of the two
+# options (64x64x64 with --dim 2 ran as 64x64 without a word: its lengths
+# looked like the one-length form); one length still means every axis.
+for a in "--box 64x64x64 --dim 2" "--dim 2 --box 64x64x64" "--box 64x64 --dim 3" "--box 16x16x16x16x16 --dim 3"; do
+    refused $a --until-clusters 5
+    grep -q 'box gives [0-9] lengths but dim is [0-9]' "$tmp/err" || fail "$a -> $(cat "$tmp/err")"
+done
+printf 'model = dlca\ndim = 2\nbox = 64x64x64\nuntil_clusters = 5\n' >"$tmp/box-scene"
+refused --scene "$tmp/box-scene"
+grep -q 'box gives 3 lengths but dim is 2' "$tmp/err" || fail "3 lengths in a 2D scene -> $(cat "$tmp/err")"
+for a in "--box 16 --dim 3" "--dim 3 --box 16x12x8" "--box 16x12"; do
+    "$pdla" --model dlca $a --fill 0.1 --until-clusters 5 --no-output -q 2>"$tmp/err" || fail "$a refused: $(cat "$tmp/err")"
+done
 refused --dim 3 --box 2000
 refused --dim 3 --box 2048x1024x1024   # 2^31 sites: a site shares its word with a tag bit (dlca_sim.h)
 grep -q 'at most 2^31 - 1' "$tmp/err" || fail "2^31 sites -> $(cat "$tmp/err")"

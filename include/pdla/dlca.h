@@ -211,6 +211,14 @@ PDLA_API int dlca_write_snapshots_h5(const char *path, const dlca_params *p, con
  * 0, or PDLA_EIO with nothing left allocated. */
 PDLA_API int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot **snaps, size_t *n,
                                     double *every, char *err, size_t errlen);
+/* Could the run s have taken these snapshots (as read from its checkpoint
+ * with their period `every`)? every finite and above 0 (0 only with no
+ * snapshots); in time order, none later than s (time, attempts) nor with
+ * fewer clusters than s now; n_clusters in [1, N] and falling; every site
+ * in the box and every cluster number below n_clusters. 0, or PDLA_EINVAL
+ * with one line naming the snapshot and the value. */
+PDLA_API int dlca_snapshots_check(const dlca_sim *s, const dlca_snapshot *snaps, size_t n, double every, char *err,
+                                  size_t errlen);
 
 /* ParaView's XDMF 2 sidecar (xdmf.h) of a DLCA cluster.h5 just written
  * with n monomers: points at /monomers/position (site coordinates, lattice

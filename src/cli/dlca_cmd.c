@@ -578,6 +578,12 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
         *s = NULL;
         return EXIT_USAGE;
     }
+    if (dlca_snapshots_check(*s, c->snaps, c->nsnaps, every, err, sizeof err)) {
+        fprintf(stderr, "pdla: cannot resume from %s: %s\n", ckpath, err);
+        dlca_destroy(*s);
+        *s = NULL;
+        return EXIT_USAGE; /* the snapshots are freed at the end, as after a failed read */
+    }
     if (!(c->snapshot_every > 0)) c->snapshot_every = every;
     /* The stops not given stay the checkpoint's: a resumed run ends where
      * the interrupted one would have. */

@@ -473,3 +473,26 @@ int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot 
     *n = 0;
     return pdla_errorf(PDLA_EIO, err, errlen, "cannot read the snapshots of %s", path);
 }
+
+/* The values a resumed run writes back into its cluster.h5 as they are (a
+ * forged NaN time, 10^9 clusters or a site outside the box went there
+ * without a word, and a NaN or negative period was taken as the run's). */
+int dlca_snapshots_check(const dlca_sim *s, const dlca_snapshot *snaps, size_t n, double every, char *err,
+                         size_t errlen)
+{
+    if (n ? !(isfinite(every) && every > 0) : !(every == 0 || (isfinite(every) && every > 0)))
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "its snapshot period %g is not a time above 0", every);
+    for (size_t i = 0; i < n; i++) {
+        const dlca_snapshot *sn = &snaps[i], *prev = i ? &snaps[i - 1] : NULL;
+        const char *bad = NULL;
+        if (!isfinite(sn->t) || sn->t < (prev ? prev->t : 0) || sn->t > s->t) bad = "t";
+        else if (sn->attempts > s->attempts || (prev && sn->attempts < prev->attempts)) bad = "attempts";
+        else if (sn->n_clusters < s->nc || sn->n_clusters > (prev ? prev->n_clusters : s->N)) bad = "n_clusters";
+        for (uint64_t m = 0; !bad && m < s->N; m++) {
+            if (sn->site[m] >= s->V) bad = "a site";
+            else if (sn->cluster[m] >= sn->n_clusters) bad = "a cluster number";
+        }
+        if (bad) return pdla_errorf(PDLA_EINVAL, err, errlen, "its snapshot %zu has %s out of range (or out of order)", i, bad);
+    }
+    return 0;
+}

@@ -402,6 +402,57 @@ static int load_clusters(dlca_sim *s, const ck_arrays *a, char *why, size_t whyl
     return 0;
 }
 
+/* The counters the dynamics never read but cluster.h5 and the summary
+ * print, against what the run could have counted (a forged checkpoint
+ * resumed with 10^9 joins of 115 monomers and wrote them): a join is one
+ * cluster fewer, a move moves 1 to `largest` monomers, an attempt moves at
+ * most once and pair-tests at most N clusters; row_nc is N_c at the last
+ * row (the dynamics read it: 0 stopped the series, 10^12 added a row each
+ * attempt) and smin the smallest size (1 when no mobility needs it). */
+static int check_counters(const dlca_sim *s, char *why, size_t whylen)
+{
+    const double att = (double)s->attempts, mov = (double)s->moves;
+    if (s->merges != s->N - s->nc)
+        LOAD_FAIL(PDLA_EIO, "its merges counter %llu is not N - N_c = %llu", (unsigned long long)s->merges,
+                  (unsigned long long)(s->N - s->nc));
+    if (s->moves > s->attempts)
+        LOAD_FAIL(PDLA_EIO, "its moves counter %llu is more than its %llu attempts", (unsigned long long)s->moves,
+                  (unsigned long long)s->attempts);
+    if (s->monomer_moves < s->moves || (double)s->monomer_moves > mov * (double)s->largest)
+        LOAD_FAIL(PDLA_EIO, "its monomer moves counter %llu is not in [moves, moves x largest]",
+                  (unsigned long long)s->monomer_moves);
+    if ((double)s->candidates > att * (double)s->N)
+        LOAD_FAIL(PDLA_EIO, "its candidates counter %llu is more than attempts x N", (unsigned long long)s->candidates);
+    if (s->row_nc < s->nc || s->row_nc > s->N)
+        LOAD_FAIL(PDLA_EIO, "its series counter row_nc %llu is not in [N_c, N]", (unsigned long long)s->row_nc);
+    if (s->smin < 1 || s->smin > s->largest)
+        LOAD_FAIL(PDLA_EIO, "its smallest cluster size %llu is not in [1, largest]", (unsigned long long)s->smin);
+    return 0;
+}
+
+/* Row r of the series after row r - 1 (prev, NULL for the first), against
+ * the state: times and attempts in order and not past the state's, N_c
+ * not rising and not below the state's, each row later than the one before
+ * (fewer clusters: N_c fell by 1%; or more attempts: the row of a stop),
+ * the largest size growing and not above the state's, the two average
+ * sizes finite in [1, N] (the series is written to cluster.h5 as it is: a
+ * forged NaN or 10^9 clusters went there without a word). */
+static int check_row(const dlca_sim *s, size_t r, const dlca_row *w, const dlca_row *prev, char *why, size_t whylen)
+{
+    const double N = (double)s->N;
+    const char *bad = NULL;
+    if (!isfinite(w->t) || w->t < (prev ? prev->t : 0) || w->t > s->t) bad = "t";
+    else if (w->attempts > s->attempts || (prev && w->attempts < prev->attempts)) bad = "attempts";
+    else if (w->n_clusters < s->nc || w->n_clusters > (prev ? prev->n_clusters : s->N) ||
+             (prev && w->n_clusters == prev->n_clusters && w->attempts == prev->attempts))
+        bad = "n_clusters";
+    else if (w->largest < 1 || w->largest > s->largest || (prev && w->largest < prev->largest)) bad = "largest";
+    else if (!(w->mean_size >= 1 && w->mean_size <= N)) bad = "mean_size";
+    else if (!(w->weight_size >= 1 && w->weight_size <= N)) bad = "weight_size";
+    if (bad) LOAD_FAIL(PDLA_EIO, "its series row %zu has %s out of range (or out of order)", r, bad);
+    return 0;
+}
+
 /* The counters, the active list and the series. */
 static int load_counters(dlca_sim *s, hid_t f, const uint64_t *u, const double *dv, char *why, size_t whylen)
 {
@@ -427,6 +478,8 @@ static int load_counters(dlca_sim *s, hid_t f, const uint64_t *u, const double *
     if (u[CK_U_SPAN] > 1 || u[CK_U_STOP] > DLCA_STOP_CALLER || (u[CK_U_STOP] == DLCA_STOP_SPANNING && !u[CK_U_SPAN]))
         LOAD_FAIL(PDLA_EIO, "its stop state is out of range");
     if (!(s->rng.s[0] | s->rng.s[1] | s->rng.s[2] | s->rng.s[3])) LOAD_FAIL(PDLA_EIO, "its random state is all zero");
+    const int crc = check_counters(s, why, whylen);
+    if (crc) return crc;
     if (s->size_count)
         for (uint64_t j = 0; j < s->nc; j++) s->size_count[dlca_n(s, s->act[j])]++;
     const size_t nr = ck_rows(f, "rows_u64", PDLA_H5_U64, 3);
@@ -437,8 +490,10 @@ static int load_counters(dlca_sim *s, hid_t f, const uint64_t *u, const double *
     if (!rt || !ru || !s->rows) rc = PDLA_ENOMEM, snprintf(why, whylen, "out of memory");
     else if (ck_read(f, "rows_f64", PDLA_H5_F64, rt, 3 * nr) || ck_read(f, "rows_u64", PDLA_H5_U64, ru, 3 * nr))
         rc = PDLA_EIO, snprintf(why, whylen, "its series is damaged");
-    for (size_t r = 0; rc == 0 && r < nr; r++)
+    for (size_t r = 0; rc == 0 && r < nr; r++) {
         s->rows[r] = (dlca_row){rt[3 * r], ru[3 * r], ru[3 * r + 1], ru[3 * r + 2], rt[3 * r + 1], rt[3 * r + 2]};
+        rc = check_row(s, r, &s->rows[r], r ? &s->rows[r - 1] : NULL, why, whylen);
+    }
     s->nrows = rc ? 0 : nr;
     s->caprows = s->rows ? nr + 1 : 0;
     free(rt), free(ru);

@@ -229,6 +229,64 @@ for name, fn in dlca_ck_cases.items():
     expect("dlca-ckpt-%s/resume" % name, ["--model", "dlca", "--resume", path, "--out", os.path.join(d, "o"), "-q"],
            "fail")
 
+
+
+# The values a resumed run only carries into its cluster.h5 (counters, the
+# series, the snapshots) resumed without a word however forged: each must
+# be refused with one line naming it (want), exit 2, no run directory made.
+def dlca_set(name, i, v):
+    """Entry i of the checkpoint's dataset `name` set to v."""
+    def damage(f):
+        a = f[name][()]
+        a[i] = v
+        del f[name]
+        f[name] = a
+    return damage
+
+
+def dlca_attr(group, key, v):
+    return lambda f: f[group].attrs.__setitem__(key, v)
+
+
+R = 3 * 2  # the series' third row (three values a row)
+dlca_ck_values = {
+    "merges_1e9": (dlca_u64(3, 10**9), "merges"),
+    "moves_past_attempts": (dlca_u64(1, 10**12), "moves counter"),
+    "monomer_moves_1": (dlca_u64(2, 1), "monomer moves"),
+    "candidates_2^63": (dlca_u64(5, 2**63), "candidates"),
+    "row_nc_0": (dlca_u64(8, 0), "row_nc"),
+    "row_nc_1e12": (dlca_u64(8, 10**12), "row_nc"),
+    "smin_1e9": (dlca_u64(9, 10**9), "smallest cluster size"),
+    "row_t_nan": (dlca_set("rows_f64", R, np.nan), "series row 2 has t"),
+    "row_t_negative": (dlca_set("rows_f64", R, -5.0), "series row 2 has t"),
+    "row_t_after_state": (dlca_set("rows_f64", R, 1e9), "series row 2 has t"),
+    "row_mean_inf": (dlca_set("rows_f64", R + 1, np.inf), "series row 2 has mean_size"),
+    "row_weight_negative": (dlca_set("rows_f64", R + 2, -1.0), "series row 2 has weight_size"),
+    "row_attempts_1e15": (dlca_set("rows_u64", R, 10**15), "series row 2 has attempts"),
+    "row_clusters_1e9": (dlca_set("rows_u64", R + 1, 10**9), "series row 2 has n_clusters"),
+    "row_clusters_0": (dlca_set("rows_u64", R + 1, 0), "series row 2 has n_clusters"),
+    "row_largest_1e9": (dlca_set("rows_u64", R + 2, 10**9), "series row 2 has largest"),
+    "snapshots_every_nan": (dlca_attr("snapshots", "every", np.nan), "snapshot period"),
+    "snapshots_every_negative": (dlca_attr("snapshots", "every", -2.0), "snapshot period"),
+    "snapshots_every_inf": (dlca_attr("snapshots", "every", np.inf), "snapshot period"),
+    "snapshot_t_nan": (dlca_attr("snapshots/3", "t", np.nan), "snapshot 3 has t"),
+    "snapshot_t_negative": (dlca_attr("snapshots/3", "t", -1.0), "snapshot 3 has t"),
+    "snapshot_t_after_state": (dlca_attr("snapshots/3", "t", 1e9), "snapshot 3 has t"),
+    "snapshot_attempts_1e15": (dlca_attr("snapshots/3", "attempts", np.uint64(10**15)), "snapshot 3 has attempts"),
+    "snapshot_clusters_1e9": (dlca_attr("snapshots/3", "n_clusters", np.uint64(10**9)), "snapshot 3 has n_clusters"),
+    "snapshot_clusters_0": (dlca_attr("snapshots/3", "n_clusters", np.uint64(0)), "snapshot 3 has n_clusters"),
+    "snapshot_site_2^31": (dlca_set("snapshots/3/site", 0, 2**31), "snapshot 3 has a site"),
+    "snapshot_cluster_2^31": (dlca_set("snapshots/3/cluster", 0, 2**31), "snapshot 3 has a cluster number"),
+}
+for name, (fn, want) in dlca_ck_values.items():
+    d, path = forged(CK, "dlcack-" + name.replace("^", ""), fn)
+    tag = "dlca-ckpt-%s/resume" % name
+    runs.append(tag)
+    rc, lines, _ = run(["--model", "dlca", "--resume", path, "--out", os.path.join(d, "o"), "-q"])
+    check(rc == 2 and len(lines) == 1 and want in lines[0], "%s: exit %s, want 2 and one line with %r: %r"
+          % (tag, rc, want, lines[:3]))
+    check(not os.path.exists(os.path.join(d, "o")), tag + ": the run directory was made")
+
 # ---- DLCA --search boxes checkpoint: the box side A ------------------------
 # A box side of 0, or one that is no power of two >= --grid-box, looped for
 # ever in dlca_search_init (A *= 2 never reaches the clusters' extent; the

@@ -186,6 +186,11 @@ PDLA_API uint64_t pdla_ens_journal_torn_bytes(const pdla_ens_journal *j);
  * a stray write): skipped, not cut, so the records after them still count;
  * the clusters they held are missing and grow again. 0: none. */
 PDLA_API uint64_t pdla_ens_journal_damaged_bytes(const pdla_ens_journal *j);
+/* Why open refused the first record whose checksum held, as damage (inside
+ * or at the tail): "cluster I: " and the value no cluster of the ensemble
+ * makes (R_g samples off the ensemble's grid of N, a NaN R_g, ...); "" when
+ * none was (a failed checksum names no cluster). */
+PDLA_API const char *pdla_ens_journal_refused(const pdla_ens_journal *j);
 /* Append rec (one write, then fdatasync) unless cluster rec->index is
  * already recorded. Thread-safe. */
 PDLA_API int pdla_ens_journal_append(pdla_ens_journal *j, const pdla_ens_record *rec,

@@ -66,6 +66,13 @@ pdla_fit fit_powerlaw(const uint64_t *n, const double *rg, size_t count, uint64_
     return fit;
 }
 
+uint64_t fit_rg_grid_n(uint64_t k, int per_decade, uint64_t prev)
+{
+    const double x = pow(10.0, (double)k / per_decade);
+    uint64_t n = x >= 0x1p63 ? UINT64_MAX : (uint64_t)llround(x);
+    return n > prev ? n : prev + 1;
+}
+
 void fit_default_range(uint64_t n_final, uint64_t *n_lo, uint64_t *n_hi)
 {
     uint64_t lo = n_final / 10;

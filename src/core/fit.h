@@ -18,4 +18,11 @@ pdla_fit fit_powerlaw(const uint64_t *n, const double *rg, size_t count, uint64_
  * [max(10, min(1000, n_final / 10)), n_final]. Corrections to scaling are
  * small above ~1e3 particles in off-lattice DLA. */
 void fit_default_range(uint64_t n_final, uint64_t *n_lo, uint64_t *n_hi);
+
+/* N of R_g grid point k (k = 0 is N = 1): round(10^(k / per_decade)),
+ * forced above prev (the point before) so that the grid strictly
+ * increases. The engine samples R_g at every point, so a cluster grown one
+ * particle at a time to n holds exactly the points <= n: one grid, which
+ * the ensemble journal holds each record's against (ens_journal.c). */
+uint64_t fit_rg_grid_n(uint64_t k, int per_decade, uint64_t prev);
 #endif

@@ -22,18 +22,10 @@ const char *pdla_version(void) { return PDLA_VERSION; }
 
 /* pdla_params_default and pdla_params_validate: params.c, from the table. */
 
-/* N of grid point k: round(10^(k / per_decade)), forced strictly increasing. */
-static uint64_t rg_grid_n(uint64_t k, int per_decade, uint64_t prev)
-{
-    const double x = pow(10.0, (double)k / per_decade);
-    uint64_t n = x >= 0x1p63 ? UINT64_MAX : (uint64_t)llround(x);
-    return n > prev ? n : prev + 1;
-}
-
 static void rg_advance(pdla_engine *e)
 {
     e->rg_next_k++;
-    e->rg_next_n = rg_grid_n(e->rg_next_k, e->params.rg_per_decade, e->rg_next_n);
+    e->rg_next_n = fit_rg_grid_n(e->rg_next_k, e->params.rg_per_decade, e->rg_next_n);
 }
 
 /* The engine's three mutexes, adaptive where glibc has them: the critical

@@ -36,6 +36,7 @@
 
 #include "pdla/ensemble.h"
 #include "pdla/params.h"
+#include "fit.h"
 #include "must.h"
 
 #define HEAD_MAGIC "PDLAENS1"
@@ -62,6 +63,9 @@ struct pdla_ens_journal {
     uint64_t damaged;       /* bytes of damaged records skipped before end */
     char builds[JOURNAL_BUILDS_MAX]; /* the builds that grew records, space-separated */
     uint64_t max_record;    /* the longest record this ensemble makes (a longer length is damage) */
+    uint64_t *grid;         /* open: the N of the R_g samples every cluster of it records */
+    uint64_t grid_k;
+    char refused[160];      /* open: why the first record with a valid checksum was refused, or "" */
 };
 
 static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
@@ -319,20 +323,37 @@ int pdla_ens_journal_create(const char *dir, const pdla_ens_config *c, pdla_ens_
     return PDLA_OK;
 }
 
-/* Are a decoded record's values ones a cluster of c makes? Its R_g
- * samples on an increasing grid in [1, N], no more than the ensemble
- * takes, and every R_g, R_ext finite and >= 0 (a record forged with NaN
- * R_g and its checksum recomputed was taken, and ensemble.h5 got D_f nan). */
-static int record_values_ok(const pdla_ens_config *c, const pdla_ens_record *r)
+/* The N of the R_g samples of every cluster of j's ensemble (each grows
+ * one particle at a time to the target: fit_rg_grid_n's points up to it),
+ * for record_values_ok. 0 or -1 (no memory). */
+static int journal_grid(pdla_ens_journal *j)
 {
-    if (r->rg_count > pdla_ens_rg_samples_max(c) || !isfinite(r->rg_diam) || r->rg_diam < 0 ||
-        !isfinite(r->r_ext_diam) || r->r_ext_diam < 0)
-        return 0;
+    const int pd = j->cfg.params.rg_per_decade;
+    const uint64_t target = j->cfg.params.target, cap = pdla_ens_rg_samples_max(&j->cfg);
+    if (cap > SIZE_MAX / sizeof *j->grid || !(j->grid = malloc((size_t)(cap ? cap : 1) * sizeof *j->grid)))
+        return -1;
+    j->grid_k = 0;
+    for (uint64_t k = 0, n = 1; pd > 0 && n <= target && j->grid_k < cap; n = fit_rg_grid_n(++k, pd, n))
+        j->grid[j->grid_k++] = n;
+    return 0;
+}
+
+/* Are a decoded record's values ones a cluster of j's ensemble makes? Its
+ * R_g samples at the ensemble's grid points (ensemble.h5 is written on
+ * the grid of cluster 0's record, so a forged one there, increasing and in
+ * [1, N], refused every other cluster as off the grid: the ensemble could
+ * no longer be written), and every R_g, R_ext finite and >= 0 (a record
+ * forged with NaN R_g and its checksum recomputed was taken, and
+ * ensemble.h5 got D_f nan). NULL, or the value that is not. */
+static const char *record_values_bad(const pdla_ens_journal *j, const pdla_ens_record *r)
+{
+    if (r->rg_count != j->grid_k || (r->rg_count && memcmp(r->rg_n, j->grid, (size_t)r->rg_count * 8)))
+        return "its R_g samples are not at the ensemble's grid of N";
+    if (!isfinite(r->rg_diam) || r->rg_diam < 0) return "its final R_g is negative or not finite";
+    if (!isfinite(r->r_ext_diam) || r->r_ext_diam < 0) return "its R_ext is negative or not finite";
     for (uint64_t k = 0; k < r->rg_count; k++)
-        if (r->rg_n[k] < 1 || r->rg_n[k] > c->params.target || (k && r->rg_n[k] <= r->rg_n[k - 1]) ||
-            !isfinite(r->rg[k]) || r->rg[k] < 0)
-            return 0;
-    return 1;
+        if (!isfinite(r->rg[k]) || r->rg[k] < 0) return "an R_g sample is negative or not finite";
+    return NULL;
 }
 
 /* The record at off, if it is one of this ensemble's: magic, a length that
@@ -340,7 +361,7 @@ static int record_values_ok(const pdla_ens_config *c, const pdla_ens_record *r)
  * particles and positions. 1 (with its payload length in *len and its index
  * in *idx), 0 when it is not, or PDLA_ENOMEM. *buf, *cap: a scratch buffer
  * kept between calls. */
-static int record_at(const pdla_ens_journal *j, uint64_t off, uint64_t size, uint8_t **buf, size_t *cap,
+static int record_at(pdla_ens_journal *j, uint64_t off, uint64_t size, uint8_t **buf, size_t *cap,
                      uint64_t *len, uint64_t *idx)
 {
     uint8_t head[16];
@@ -369,9 +390,14 @@ static int record_at(const pdla_ens_journal *j, uint64_t off, uint64_t size, uin
     char why[160];
     const int rc = pdla_ens_record_decode(*buf, (size_t)n, &r, why, sizeof why);
     if (rc == PDLA_ENOMEM) return rc;
-    const int ok = rc == PDLA_OK && r.index < c->clusters && r.seed == c->params.seed + r.index &&
-                   r.dim == c->params.dim && r.particles == c->params.target &&
-                   r.npos == (c->keep_positions ? r.particles : 0) && record_values_ok(c, &r);
+    const char *bad = rc != PDLA_OK ? NULL
+                      : r.index >= c->clusters || r.seed != c->params.seed + r.index || r.dim != c->params.dim ||
+                              r.particles != c->params.target || r.npos != (c->keep_positions ? r.particles : 0)
+                          ? "it is not one of this ensemble's (index, seed, dimension, particles or positions)"
+                          : record_values_bad(j, &r);
+    const int ok = rc == PDLA_OK && !bad;
+    if (bad && !j->refused[0]) /* the first, for the note (pdla_ens_journal_refused) */
+        snprintf(j->refused, sizeof j->refused, "cluster %llu: %s", (unsigned long long)r.index, bad);
     *idx = r.index;
     pdla_ens_record_free(&r);
     *len = n;
@@ -545,7 +571,7 @@ int pdla_ens_journal_open(const char *dir, pdla_ens_journal **out, char *err, si
     text[h[1]] = '\0';
     if (header_parse(text, &j->cfg, j->builds, why, sizeof why)) goto fail;
     j->max_record = pdla_ens_record_max_bytes(&j->cfg);
-    if (journal_alloc_index(j)) {
+    if (journal_alloc_index(j) || journal_grid(j)) {
         rc = PDLA_ENOMEM;
         snprintf(why, sizeof why, "out of memory");
         goto fail;
@@ -733,6 +759,7 @@ const pdla_ens_config *pdla_ens_journal_config(const pdla_ens_journal *j) { retu
 uint64_t pdla_ens_journal_count(const pdla_ens_journal *j) { return j->count; }
 uint64_t pdla_ens_journal_torn_bytes(const pdla_ens_journal *j) { return j->torn; }
 uint64_t pdla_ens_journal_damaged_bytes(const pdla_ens_journal *j) { return j->damaged; }
+const char *pdla_ens_journal_refused(const pdla_ens_journal *j) { return j->refused; }
 
 int pdla_ens_journal_has(const pdla_ens_journal *j, uint64_t i)
 {
@@ -787,6 +814,7 @@ void pdla_ens_journal_close(pdla_ens_journal *j)
     PDLA_MUST(pthread_mutex_destroy(&j->mu));
     free(j->offset);
     free(j->length);
+    free(j->grid);
     free(j);
 }
 

@@ -246,6 +246,37 @@ for tag, v in (("nanrg", float("nan")), ("negrg", -1.0)):
     check("7 of 8 clusters recorded" in err, "forged R_g %r: %s" % (v, err.strip()[:300]))
     same("ref", tag, "a record forged with R_g %r, resumed" % v)
 
+# A record whose R_g samples are off the ensemble's grid of N (increasing,
+# in [1, N], checksum recomputed): ensemble.h5 is written on cluster 0's
+# grid, so cluster 0's forged one refused every other cluster ("cluster 1's
+# R_g samples are not on the shared grid"), exit 1 on every resume: no
+# ensemble.h5 ever again; another cluster's blocked it as well. Now the
+# record is damage, the note names it, the cluster grows again and the
+# ensemble is the reference's.
+section('a record forged with R_g samples off the grid (valid checksum)')
+
+
+def forged_grid(p):
+    b = bytearray(p)
+    k = struct.unpack_from("<Q", b, 120)[0]
+    last = struct.unpack_from("<Q", b, 136 + 8 * (k - 1))[0]
+    struct.pack_into("<Q", b, 136 + 8 * (k - 1), last + 1)  # still increasing and <= N
+    return bytes(b)
+
+
+for c in (0, 5):
+    tag = "grid%d" % c
+    shutil.copytree("ref", tag)
+    os.unlink(tag + "/ensemble.h5")
+    text, recs = journal(tag)
+    open(tag + "/clusters.journal", "wb").write(
+        header_bytes(text) + b"".join(record_bytes(forged_grid(p) if idx(p) == c else p) for _, p in recs))
+    rc, err = resume(tag, what="cluster %d's R_g grid forged" % c)
+    check("7 of 8 clusters recorded" in err and "cluster %d: its R_g samples are not at the ensemble's grid" % c in err,
+          "cluster %d's R_g grid forged: %s" % (c, err.strip()[:400]))
+    check(os.path.exists(tag + "/ensemble.h5") and same("ref", tag, "cluster %d's R_g grid forged, resumed" % c),
+          "cluster %d's R_g grid forged: no ensemble.h5 like the reference's" % c)
+
 # ---- a record longer than any cluster makes, in a multi-GB journal ---------------
 # A record header declaring 4.5 GiB (past 32 bits, far past
 # pdla_ens_record_max_bytes: a few kB here), its "payload" a hole of a sparse

@@ -338,6 +338,32 @@ static int journal_grid(pdla_ens_journal *j)
     return 0;
 }
 
+/* Its own D_f fit (pdla_engine_fit), the CPU and wall seconds and the
+ * walkers as a cluster of n particles gives them (a forged D_f of inf, a
+ * negative CPU time were taken: ensemble.h5 got that D_f for the cluster,
+ * the mean D_f without it, and a negative total_cpu_seconds): the default
+ * fit range for n, and either no fit (points 0, D_f, its error and the
+ * prefactor NaN) or one of 3 or more samples with D_f finite, its error
+ * finite and >= 0, the prefactor finite and > 0; the seconds finite and
+ * >= 0; a walker a particle but the seed, at least. NULL, or the value
+ * that is not. */
+static const char *record_fit_bad(const pdla_ens_record *r)
+{
+    const pdla_fit *f = &r->fit;
+    uint64_t lo, hi;
+    fit_default_range(r->particles, &lo, &hi);
+    if (f->n_lo != lo || f->n_hi != hi) return "its D_f fit range is not the default one for its N";
+    if (f->points == 0 ? !(isnan(f->df) && isnan(f->df_err) && isnan(f->prefactor_diam))
+                       : f->points < 3 || (uint64_t)f->points > r->rg_count || !isfinite(f->df) ||
+                             !(isfinite(f->df_err) && f->df_err >= 0) ||
+                             !(isfinite(f->prefactor_diam) && f->prefactor_diam > 0))
+        return "its D_f fit (D_f, error, prefactor or points) is not finite or out of range";
+    if (!(isfinite(r->cpu_seconds) && r->cpu_seconds >= 0)) return "its CPU seconds are negative or not finite";
+    if (!(isfinite(r->wall_seconds) && r->wall_seconds >= 0)) return "its wall seconds are negative or not finite";
+    if (r->particles && r->walkers < r->particles - 1) return "it has fewer walkers than particles after the seed";
+    return NULL;
+}
+
 /* Are a decoded record's values ones a cluster of j's ensemble makes? Its
  * R_g samples at the ensemble's grid points (ensemble.h5 is written on
  * the grid of cluster 0's record, so a forged one there, increasing and in
@@ -353,7 +379,7 @@ static const char *record_values_bad(const pdla_ens_journal *j, const pdla_ens_r
     if (!isfinite(r->r_ext_diam) || r->r_ext_diam < 0) return "its R_ext is negative or not finite";
     for (uint64_t k = 0; k < r->rg_count; k++)
         if (!isfinite(r->rg[k]) || r->rg[k] < 0) return "an R_g sample is negative or not finite";
-    return NULL;
+    return record_fit_bad(r);
 }
 
 /* The record at off, if it is one of this ensemble's: magic, a length that

@@ -177,7 +177,10 @@ static void fake_record(pdla_ens_record *r, const pdla_ens_config *c, uint64_t i
     r->particles = c->params.target;
     r->dim = c->params.dim;
     r->rg_diam = 1.5 + (double)i;
-    r->fit.df = 1.7;
+    /* No fit (too few samples) over the default range, and a walker a
+     * particle: what the journal takes as a cluster's. */
+    r->fit = (pdla_fit){.df = NAN, .df_err = NAN, .prefactor_diam = NAN, .n_lo = 10, .n_hi = c->params.target};
+    r->walkers = c->params.target - 1;
     /* The ensemble's R_g grid (test_journal: one sample a decade, target
      * 50): the journal refuses a record off it. */
     r->rg_count = 2;

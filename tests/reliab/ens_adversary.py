@@ -277,6 +277,42 @@ for c in (0, 5):
     check(os.path.exists(tag + "/ensemble.h5") and same("ref", tag, "cluster %d's R_g grid forged, resumed" % c),
           "cluster %d's R_g grid forged: no ensemble.h5 like the reference's" % c)
 
+# The record's own D_f fit, CPU and wall seconds and walkers forged
+# (checksum recomputed) were taken: ensemble.h5 got D_f inf for the
+# cluster, a mean D_f without it and a negative total_cpu_seconds. Now each
+# is damage: the note names the cluster and the value, it grows again.
+section('records forged with a D_f fit, seconds or walkers no cluster has (valid checksums)')
+
+
+def forged_at(fmt, off, v):
+    def fn(p):
+        b = bytearray(p)
+        struct.pack_into(fmt, b, off, v)
+        return bytes(b)
+    return fn
+
+
+# Payload offsets: walkers 24; D_f 56, its error 64, prefactor 72; fit
+# n_lo 80; points 96; CPU 104 and wall 112 seconds.
+for tag, fn, want in (("dfinf", forged_at("<d", 56, float("inf")), "D_f fit"),
+                      ("dfnan", forged_at("<d", 56, float("nan")), "D_f fit"),
+                      ("dferrneg", forged_at("<d", 64, -1.0), "D_f fit"),
+                      ("prefnan", forged_at("<d", 72, float("nan")), "D_f fit"),
+                      ("points2", forged_at("<i", 96, 2), "D_f fit"),
+                      ("nlo", forged_at("<Q", 80, 10**9), "fit range"),
+                      ("cpuneg", forged_at("<d", 104, -5.0), "CPU seconds"),
+                      ("wallinf", forged_at("<d", 112, float("inf")), "wall seconds"),
+                      ("walkers0", forged_at("<Q", 24, 0), "walkers")):
+    shutil.copytree("ref", tag)
+    os.unlink(tag + "/ensemble.h5")
+    text, recs = journal(tag)
+    open(tag + "/clusters.journal", "wb").write(
+        header_bytes(text) + b"".join(record_bytes(fn(p) if idx(p) == 3 else p) for _, p in recs))
+    rc, err = resume(tag, what="forged " + tag)
+    check("7 of 8 clusters recorded" in err and "(cluster 3: " in err and want in err,
+          "forged %s: want cluster 3's %s named: %s" % (tag, want, err.strip()[:400]))
+    same("ref", tag, "a record forged with %s, resumed" % tag)
+
 # ---- a record longer than any cluster makes, in a multi-GB journal ---------------
 # A record header declaring 4.5 GiB (past 32 bits, far past
 # pdla_ens_record_max_bytes: a few kB here), its "payload" a hole of a sparse

@@ -45,6 +45,7 @@ typedef struct dlca_cli {
     double checkpoint_every;      /* seconds of wall time; 0: none */
     uint64_t checkpoint_attempts; /* 0: none */
     uint32_t given;               /* DLCA_PARAM_* bits of the rows set by options or the scene */
+    int box_lengths;              /* --resume without --dim: --box's length count, checked after the load */
     const char *resume;
     const char *start;            /* --start FILE: the monomers' sites */
     double snapshot_every;        /* --snapshot-every T (model time); 0: none */
@@ -506,6 +507,13 @@ static int read_command(int argc, char **argv, dlca_cli *c, scene *sc)
         prc = -1;
     }
     if (prc == 0 && c->resume) c->checkpoint = 1; /* as in the DLA command: a resumed run goes on checkpointing */
+    /* Resumed without --dim, the dimension is the checkpoint's, not the
+     * default 2: --box's lengths are checked here as of the dimension they
+     * give, and their count against the checkpoint's after the load. */
+    if (prc == 0 && c->resume && !(c->given & DLCA_PARAM_DIM) && c->p.box_lengths > 1) {
+        c->box_lengths = c->p.box_lengths;
+        c->p.dim = c->box_lengths < 3 ? c->box_lengths : 3;
+    }
     if (prc == 0 && c->no_output && c->checkpoint) {
         snprintf(err, sizeof err, "checkpoints need a run directory: --no-output excludes them");
         prc = -1;
@@ -561,7 +569,10 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
     size_t n;
     const pdla_param_desc *t = dlca_param_table(&n);
     dlca_params p = *dlca_get_params(*s);
-    if (pdla_param_check_asked(t, n, c->given, &p, &c->p, err, sizeof err)) {
+    if (c->box_lengths > 1 && c->box_lengths != p.dim)
+        snprintf(err, sizeof err, "--box gives %d lengths but the checkpoint is %dD", c->box_lengths, p.dim);
+    if ((c->box_lengths > 1 && c->box_lengths != p.dim) ||
+        pdla_param_check_asked(t, n, c->given, &p, &c->p, err, sizeof err)) {
         fprintf(stderr, "pdla: %s: %s\n", ckpath, err);
         dlca_destroy(*s);
         *s = NULL;

@@ -104,6 +104,20 @@ c="$tmp/ck"
 [ $? -eq 2 ] && [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "--resume with --seed: $(cat "$tmp/err")"
 "$pdla" --model dlca --resume "$d/cluster.h5" >/dev/null 2>"$tmp/err"
 [ $? -eq 2 ] && [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "--resume from a cluster.h5: $(cat "$tmp/err")"
+# Resumed without --dim, --box's lengths are held against the checkpoint's
+# dimension, not the default 2 (a 3D run's own --box was refused).
+c3="$tmp/ck3"
+"$pdla" --model dlca --dim 3 --box 16x16x12 --fill 0.05 --until-clusters 40 --seed 3 --out "$c3" --checkpoint -q ||
+    fail "3D --checkpoint run"
+"$pdla" --model dlca --resume "$c3" --box 16x16x12 --until-clusters 30 -q 2>"$tmp/err" ||
+    fail "3D --resume with its own --box: $(cat "$tmp/err")"
+for b in 16x16; do
+    "$pdla" --model dlca --resume "$c3" --box $b >/dev/null 2>"$tmp/err"
+    [ $? -eq 2 ] && grep -q "box gives [0-9] lengths but the checkpoint is 3D" "$tmp/err" ||
+        fail "3D --resume with --box $b: $(cat "$tmp/err")"
+done
+"$pdla" --model dlca --resume "$c3" --box 16x16x12x4 >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] && [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "3D --resume with 4 box lengths: $(cat "$tmp/err")"
 
 # A real signal: SIGTERM after the first interval checkpoint (every 50000
 # attempts) of a long run (to 1 cluster: tens of millions of attempts). With

@@ -439,12 +439,49 @@ static const char *pending_fault(const ev_sim *s, uint32_t i)
            : "a pending pair event whose particles do not meet then (apart, or receding) (damaged)";
 }
 
-/* Every free particle's pending event (pending_fault), after check_values
- * (every particle's numbers finite, every partner in range). */
+/* What is wrong with free i's pending cell crossing, or NULL. The loop
+ * moves i to the next cell only at that event, so it must come when i
+ * reaches that face of its cell, moving out, and i must not leave the
+ * cell through another face before (a forged t_cell of 1e159 left every
+ * particle in its first cell: the run went on without meeting its
+ * neighbours, and wrote a checkpoint its own loader refused; fuzz_mut_event).
+ * A particle with no crossing (walls) must be unable to leave. The line is
+ * straight and i is in its cell now (check_particle), so being in the cell
+ * at t_cell on every axis it can cross, within the same round-off, is never
+ * leaving (an axis where it flies into a wall is met by the wall event). */
+static const char *cell_fault(const ev_sim *s, uint32_t i)
+{
+    const ev_evt *e = &s->lk[i].ev;
+    const int D = s->dim, face = e->cell_what;
+    const double *p = EV_P_ANY(s, i), tol = 1e-6 * s->w;
+    uint32_t c = s->lk[i].cell;
+    for (int k = 0; k < D; k++, c /= (uint32_t)s->nc) {
+        const int cc = (int)(c % (uint32_t)s->nc);
+        const double lo = (double)cc * s->w, v = p[D + k];
+        if (face < 0) {
+            const int out = v > 0 ? s->periodic || cc < s->nc - 1 : v < 0 ? s->periodic || cc > 0 : 0;
+            if (out) return "a moving particle without its next cell crossing (damaged)";
+            continue;
+        }
+        /* an axis whose wall comes first is not crossed (pred_cell) */
+        if (!s->periodic && ((v > 0 && cc == s->nc - 1) || (v < 0 && cc == 0))) continue;
+        const double x = p[k] + v * (e->t_cell - p[2 * D]);
+        if (!(x >= lo - tol && x <= lo + s->w + tol))
+            return "a cell crossing after the particle has left its cell (damaged)";
+        if (k == face >> 1 && ((face & 1) ? !(v > 0 && x >= lo + s->w - tol) : !(v < 0 && x <= lo + tol)))
+            return "a cell crossing whose particle is not at that face then, moving out (damaged)";
+    }
+    return NULL;
+}
+
+/* Every free particle's pending event (pending_fault) and cell crossing
+ * (cell_fault), after check_values (every particle's numbers finite, every
+ * partner in range). */
 static int check_pending(const rd *r, const ev_sim *s)
 {
     for (uint32_t i = 0; i < s->n; i++) {
         const char *bad = s->stuck[i] ? NULL : pending_fault(s, i);
+        if (!bad && !s->stuck[i]) bad = cell_fault(s, i);
         if (bad) return rfail(r, "%s", bad);
     }
     return 0;

@@ -12,6 +12,7 @@ pair does not touch or recedes, a partner counter never reached, or a wall
 the particle does not meet was resumed. Each forged copy must now be refused
 with one line naming the fault, exit 2, within a time limit; the untouched
 copies (a box with walls and a sticking seed, a periodic gas) must resume.
+The same for forged cell crossings (t_cell, cell_what).
 """
 import os
 import shutil
@@ -57,7 +58,7 @@ class State:
             self.n = int(f.attrs["particles"])
             g = f["state"]
             self.a = {k: g[k][()].copy() for k in ("ps", "count", "stuck", "t_pair", "t_cell", "partner",
-                                                   "pcount", "kind")}
+                                                   "pcount", "kind", "cell_what")}
             self.now = float(g["reals"][0])
         self.ps = self.a["ps"].reshape(-1, 2 * self.dim + 2)
 
@@ -190,6 +191,24 @@ check(len(ppairs) >= 1, "periodic: no live pair event")
 expect("periodic clean", forged(PA, "periodic-clean", None), 2, None)
 pi_, pj_ = ppairs[0]
 expect("periodic time", forged(PA, "periodic-time", setv("t_pair", pi_, P.a["t_pair"][pi_] + 0.5)), 2, NOT_MEET)
+
+# ---- cell crossings: when a particle reaches that face of its cell ---------
+# The loop moves a particle to the next cell only at that event: a forged
+# t_cell of 1e159 for every particle (fuzz_mut_event) resumed, ran with no
+# particle ever leaving its first cell, and wrote a checkpoint its own
+# loader refused ("a particle outside its cell").
+CROSS_LEFT = "after the particle has left its cell"
+CROSS_FACE = "not at that face then"
+movers = [k for k in range(n) if not S.a["stuck"][k] and S.a["cell_what"][k] >= 0 and np.isfinite(S.a["t_cell"][k])]
+c0 = movers[0]
+expect("t_cell all late", forged(WA, "tcell-all", lambda a: a["t_cell"].__setitem__(a["cell_what"] >= 0, 1e159)),
+       3, CROSS_LEFT)
+expect("t_cell early", forged(WA, "tcell-early", setv("t_cell", c0, S.now + 0.5 * (S.a["t_cell"][c0] - S.now))), 3,
+       CROSS_FACE)
+expect("t_cell face", forged(WA, "tcell-face", setv("cell_what", c0, S.a["cell_what"][c0] ^ 1)), 3, CROSS_FACE)
+pm = [k for k in range(P.n) if not P.a["stuck"][k] and P.a["cell_what"][k] >= 0][0]
+expect("no crossing", forged(PA, "no-crossing", setm([("cell_what", pm, -1), ("t_cell", pm, np.inf)])), 2,
+       "without its next cell crossing")
 
 shutil.rmtree(work, ignore_errors=True)
 print("%d failures" % fails)

@@ -8,6 +8,7 @@
  * Any outcome is fine except a crash, a hang, a sanitizer report, memory
  * past -rss_limit_mb, an error message that is empty or spans lines, or a
  * loaded state that does not run a little, write back and load again.
+ * H5MUT_KEEP=FILE keeps a copy of the forged file, to replay a failure.
  */
 #include <stdint.h>
 #include <stdio.h>
@@ -166,7 +167,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     char path[64];
     snprintf(path, sizeof path, "/tmp/pdla-fuzz-mut-%ld.h5", (long)getpid());
-    if (h5mut_make(data, size, path) == 0) check(path);
+    if (h5mut_make(data, size, path) != 0) return 0;
+    /* H5MUT_KEEP=FILE: keep a copy of the forged file (to replay a crash) */
+    const char *keep = getenv("H5MUT_KEEP");
+    if (keep) {
+        char cmd[512];
+        snprintf(cmd, sizeof cmd, "cp %s %s", path, keep);
+        if (system(cmd) != 0) abort();
+    }
+    check(path);
     unlink(path);
     return 0;
 }

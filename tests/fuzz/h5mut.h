@@ -252,7 +252,12 @@ static void h5mut_resize(h5mut_in *in, hid_t file, const char *name)
         const hid_t ns = H5Screate_simple(rank, nd, NULL);
         const hid_t pl = H5Pcreate(H5P_DATASET_CREATE);
         hsize_t ch[8];
-        for (int a = 0; a < rank; a++) ch[a] = nd[a] ? (nd[a] < 1024 ? nd[a] : 1024) : 1;
+        /* chunks of up to 2^20 rows: HDF5's index of a chunked dataset
+         * has an entry per chunk, so 2^36 rows take 512 KiB of it (sparse
+         * on disk), which every reader walks; smaller chunks would make
+         * the file's own size, not its declared one, the slow part */
+        for (int a = 0; a < rank; a++)
+            ch[a] = nd[a] ? (nd[a] < ((hsize_t)1 << 20) ? nd[a] : ((hsize_t)1 << 20)) : 1;
         if (n1 > 4096) H5Pset_chunk(pl, rank, ch);
         const hid_t nd_id = H5Dcreate2(file, name, t, ns, H5P_DEFAULT, pl, H5P_DEFAULT);
         const hsize_t keep = n0 < n1 ? n0 : n1;

@@ -1,0 +1,211 @@
+/*
+ * fuzz_journal.c - libFuzzer target for the ensemble journal's reader with
+ * forged records whose checksums are right: real records of a small
+ * ensemble (grown once), with fields set from the input (counts, seeds,
+ * R_g, the fit, times, the R_g grid, positions), appended through the
+ * library's own writer, then the journal is opened and, when it holds
+ * every cluster, ensemble.h5 written. Any outcome is fine except a crash,
+ * a sanitizer report, a message that is empty or spans lines, or a journal
+ * that opens with every cluster and then cannot be written (a record the
+ * reader takes must be one the writer can use: a forged R_g grid in
+ * cluster 0 once blocked every later write). Built by scripts/fuzz.
+ */
+#include <dirent.h>
+#include <errno.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "pdla/ensemble.h"
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+#define M 3
+
+static pdla_ens_config cfg[2];          /* without and with kept positions */
+static pdla_ens_record tmpl[2][M];
+
+static void one_line(const char *err)
+{
+    if (!err[0] || strchr(err, '\n')) abort();
+}
+
+static void setup(void)
+{
+    for (int k = 0; k < 2; k++) {
+        pdla_params_default(&cfg[k].params);
+        cfg[k].params.target = 300;
+        cfg[k].params.rg_per_decade = 10;
+        cfg[k].clusters = M;
+        cfg[k].keep_positions = k;
+        char err[512];
+        for (uint64_t i = 0; i < M; i++)
+            if (pdla_ens_grow_one(&cfg[k], i, &tmpl[k][i], err, sizeof err) != PDLA_OK) {
+                fprintf(stderr, "grow: %s\n", err);
+                abort();
+            }
+    }
+}
+
+/* A deep copy of a template record. */
+static void copy_record(pdla_ens_record *r, const pdla_ens_record *t)
+{
+    *r = *t;
+    r->rg_n = malloc((t->rg_count ? t->rg_count : 1) * sizeof *r->rg_n);
+    r->rg = malloc((t->rg_count ? t->rg_count : 1) * sizeof *r->rg);
+    r->positions = malloc((t->npos ? t->npos * (uint64_t)t->dim : 1) * sizeof *r->positions);
+    if (!r->rg_n || !r->rg || !r->positions) abort();
+    memcpy(r->rg_n, t->rg_n, t->rg_count * sizeof *r->rg_n);
+    memcpy(r->rg, t->rg, t->rg_count * sizeof *r->rg);
+    memcpy(r->positions, t->positions, t->npos * (uint64_t)t->dim * sizeof *r->positions);
+}
+
+typedef struct {
+    const uint8_t *p;
+    size_t n;
+} input;
+
+static unsigned byte(input *in)
+{
+    if (!in->n) return 0;
+    in->n--;
+    return *in->p++;
+}
+
+static uint64_t u64(input *in)
+{
+    const unsigned sel = byte(in) % 12;
+    static const uint64_t pick[8] = {0, 1, 2, UINT64_MAX, (uint64_t)1 << 63, 299, 300, 301};
+    if (sel < 8) return pick[sel];
+    uint64_t v = 0;
+    for (int i = 0; i < 8; i++) v = v << 8 | byte(in);
+    return v;
+}
+
+static double real(input *in, double was)
+{
+    static const double pick[10] = {0, -0.0, 1, -1, NAN, INFINITY, -INFINITY, 1e308, 5e-324, 1.7};
+    const unsigned sel = byte(in) % 14;
+    if (sel < 10) return pick[sel];
+    if (sel < 13) return was * (1 + 1e-9 * (double)(int)(sel - 11)); /* nearly right */
+    uint64_t v = 0;
+    for (int i = 0; i < 8; i++) v = v << 8 | byte(in);
+    double d;
+    memcpy(&d, &v, sizeof d);
+    return d;
+}
+
+/* One field of r from the input. Array lengths only shrink, so the
+ * record's arrays stay within what was allocated. */
+static void forge(input *in, pdla_ens_record *r)
+{
+    const unsigned f = byte(in) % 19;
+    const uint64_t k = r->rg_count ? u64(in) % r->rg_count : 0;
+    switch (f) {
+    case 0: r->index = u64(in); break;
+    case 1: r->seed = u64(in); break;
+    case 2: r->particles = u64(in); break;
+    case 3: r->walkers = u64(in); break;
+    case 4: r->jumps = u64(in); break;
+    case 5: r->rg_diam = real(in, r->rg_diam); break;
+    case 6: r->r_ext_diam = real(in, r->r_ext_diam); break;
+    case 7: r->fit.df = real(in, r->fit.df); break;
+    case 8: r->fit.df_err = real(in, r->fit.df_err); break;
+    case 9: r->fit.prefactor_diam = real(in, r->fit.prefactor_diam); break;
+    case 10: r->fit.n_lo = u64(in); break;
+    case 11: r->fit.n_hi = u64(in); break;
+    case 12: r->fit.points = (int)(u64(in) & 0xffff); break;
+    case 13: r->cpu_seconds = real(in, r->cpu_seconds); break;
+    case 14: r->wall_seconds = real(in, r->wall_seconds); break;
+    case 15: if (r->rg_count) r->rg_n[k] = u64(in); break;
+    case 16: if (r->rg_count) r->rg[k] = real(in, r->rg[k]); break;
+    case 17: r->rg_count = r->rg_count ? u64(in) % (r->rg_count + 1) : 0; break;
+    default:
+        if (r->npos && byte(in) & 1) r->npos = u64(in) % (r->npos + 1);
+        else if (r->npos) r->positions[u64(in) % (r->npos * (uint64_t)r->dim)] = (int32_t)u64(in);
+        break;
+    }
+}
+
+static void scratch(char *dir, size_t n)
+{
+    snprintf(dir, n, "/tmp/pdla-fuzz-journal-%ld", (long)getpid());
+    if (mkdir(dir, 0700) != 0 && errno != EEXIST) abort();
+    DIR *d = opendir(dir);
+    if (!d) abort();
+    struct dirent *de;
+    while ((de = readdir(d))) {
+        if (de->d_name[0] == '.') continue;
+        char f[512];
+        snprintf(f, sizeof f, "%s/%s", dir, de->d_name);
+        unlink(f);
+    }
+    closedir(d);
+}
+
+/* Open the journal written; with every cluster in it, ensemble.h5 must be
+ * written from it. */
+static void read_back(const char *dir, int keep)
+{
+    pdla_ens_journal *j = NULL;
+    char err[1024] = "";
+    if (pdla_ens_journal_open(dir, &j, err, sizeof err) != PDLA_OK) {
+        one_line(err);
+        return;
+    }
+    const char *why = pdla_ens_journal_refused(j);
+    if (why && strchr(why, '\n')) abort();
+    for (uint64_t i = 0; i < M; i++) {
+        if (!pdla_ens_journal_has(j, i)) continue;
+        pdla_ens_record r;
+        if (pdla_ens_journal_read(j, i, &r, err, sizeof err) != PDLA_OK) {
+            fprintf(stderr, "read of a recorded cluster: %s\n", err);
+            abort();
+        }
+        if (r.index != i || r.particles != cfg[keep].params.target) abort();
+        pdla_ens_record_free(&r);
+    }
+    if (pdla_ens_journal_count(j) == M) {
+        char path[600];
+        snprintf(path, sizeof path, "%s/%s", dir, PDLA_ENS_FILE_NAME);
+        const pdla_run_info info = {"fuzz", 0, 0};
+        if (pdla_ens_write(j, &info, path, err, sizeof err) != PDLA_OK) {
+            fprintf(stderr, "a journal of every cluster that cannot be written: %s\n", err);
+            abort();
+        }
+    }
+    pdla_ens_journal_close(j);
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    static int ready;
+    if (!ready) {
+        setup();
+        ready = 1;
+    }
+    input in = {data, size};
+    const int keep = (int)(byte(&in) & 1);
+    char dir[128], err[1024] = "";
+    scratch(dir, sizeof dir);
+    pdla_ens_journal *j = NULL;
+    if (pdla_ens_journal_create(dir, &cfg[keep], &j, err, sizeof err) != PDLA_OK) {
+        fprintf(stderr, "create: %s\n", err);
+        abort();
+    }
+    for (int i = 0; i < M; i++) {
+        pdla_ens_record r;
+        copy_record(&r, &tmpl[keep][i]);
+        const unsigned edits = byte(&in) % 4;
+        for (unsigned e = 0; e < edits; e++) forge(&in, &r);
+        if (pdla_ens_journal_append(j, &r, err, sizeof err) != PDLA_OK) one_line(err);
+        pdla_ens_record_free(&r);
+    }
+    pdla_ens_journal_close(j);
+    read_back(dir, keep);
+    return 0;
+}

@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "pdla/pdla.h"
+#include "fuzz_util.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
@@ -23,27 +24,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (!f) abort();
     if (size && fwrite(data, 1, size, f) != size) abort();
     if (fclose(f)) abort();
-    pdla_engine *e = NULL;
-    char err[1024] = "";
-    const int rc = pdla_checkpoint_load(&e, path, NULL, 0, NULL, err, sizeof err);
-    if (rc != PDLA_OK && (!err[0] || strchr(err, '\n') || e)) abort();
-    if (rc == PDLA_OK) {
-        /* What loads must also grow a little and survive a round trip. */
-        char dir[64];
-        snprintf(dir, sizeof dir, "/tmp/pdla-fuzz-%ld.d", (long)getpid());
-        char cmd[128];
-        snprintf(cmd, sizeof cmd, "mkdir -p %s", dir);
-        if (system(cmd) != 0) abort();
-        const pdla_params *p = pdla_engine_params(e);
-        if (pdla_engine_count(e) < p->target && pdla_engine_count(e) < 5000)
-            pdla_engine_grow(e, pdla_engine_count(e) + 10, NULL, 1000, NULL, err, sizeof err);
-        if (pdla_checkpoint_write(e, dir, NULL, NULL, err, sizeof err) != PDLA_OK) abort();
-        pdla_engine *r = NULL;
-        if (pdla_checkpoint_load(&r, dir, NULL, 0, NULL, err, sizeof err) != PDLA_OK) abort();
-        if (pdla_engine_count(r) != pdla_engine_count(e)) abort();
-        pdla_engine_destroy(r);
-    }
-    pdla_engine_destroy(e);
+    fuzz_dla_check(path);
     unlink(path);
     return 0;
 }

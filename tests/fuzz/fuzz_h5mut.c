@@ -15,10 +15,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-#include <errno.h>
-#include <sys/stat.h>
-
-#include "h5mut.h"
 
 #if MUT_TARGET == 1
 #include "pdla/pdla.h"
@@ -29,54 +25,12 @@
 #else
 #include "tools.h"
 #endif
+#include "h5mut.h" /* after pdla.h: fuzz_util.h then has fuzz_dla_check */
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
-/* A message is one non-empty line. */
-static void one_line(const char *err)
-{
-    if (!err[0] || strchr(err, '\n')) abort();
-}
-
-/* An empty scratch directory (no system(): a shell per run is slow). */
-static void scratch_dir(char *dir, size_t n)
-{
-    snprintf(dir, n, "/tmp/pdla-fuzz-mut-%ld.d", (long)getpid());
-    if (mkdir(dir, 0700) != 0 && errno != EEXIST) abort();
-    DIR *d = opendir(dir);
-    if (!d) abort();
-    struct dirent *de;
-    while ((de = readdir(d))) {
-        if (de->d_name[0] == '.') continue;
-        char f[512];
-        snprintf(f, sizeof f, "%s/%s", dir, de->d_name);
-        unlink(f);
-    }
-    closedir(d);
-}
-
 #if MUT_TARGET == 1
-static void check(const char *path)
-{
-    pdla_engine *e = NULL;
-    char err[1024] = "";
-    if (pdla_checkpoint_load(&e, path, NULL, 0, NULL, err, sizeof err) != PDLA_OK) {
-        one_line(err);
-        if (e) abort();
-        return;
-    }
-    char dir[64];
-    scratch_dir(dir, sizeof dir);
-    const pdla_params *p = pdla_engine_params(e);
-    if (pdla_engine_count(e) < p->target && pdla_engine_count(e) < 5000)
-        pdla_engine_grow(e, pdla_engine_count(e) + 10, NULL, 1000, NULL, err, sizeof err);
-    if (pdla_checkpoint_write(e, dir, NULL, NULL, err, sizeof err) != PDLA_OK) abort();
-    pdla_engine *r = NULL;
-    if (pdla_checkpoint_load(&r, dir, NULL, 0, NULL, err, sizeof err) != PDLA_OK) abort();
-    if (pdla_engine_count(r) != pdla_engine_count(e)) abort();
-    pdla_engine_destroy(r);
-    pdla_engine_destroy(e);
-}
+static void check(const char *path) { fuzz_dla_check(path); }
 #elif MUT_TARGET == 2
 static void check(const char *path)
 {
@@ -84,7 +38,7 @@ static void check(const char *path)
     char err[1024] = "";
     ev_sim *s = ev_checkpoint_load(path, &ser, err, sizeof err);
     if (!s) {
-        one_line(err);
+        fuzz_one_line(err);
         ev_series_free(&ser);
         return;
     }
@@ -96,7 +50,7 @@ static void check(const char *path)
     p->max_stuck = 0;
     ev_run(s, NULL);
     char dir[64];
-    scratch_dir(dir, sizeof dir);
+    fuzz_scratch_dir(dir, sizeof dir, "mut");
     if (ev_checkpoint_write(s, &ser, dir, "fuzz", err, sizeof err) != 0) {
         fprintf(stderr, "write back: %s\n", err);
         abort();
@@ -120,13 +74,13 @@ static void check(const char *path)
     dlca_sim *s = NULL;
     char err[1024] = "";
     if (dlca_checkpoint_load(&s, path, err, sizeof err) != 0) {
-        one_line(err);
+        fuzz_one_line(err);
         if (s) abort();
         return;
     }
     dlca_run(s, 2000);
     char dir[64];
-    scratch_dir(dir, sizeof dir);
+    fuzz_scratch_dir(dir, sizeof dir, "mut");
     char again[128];
     snprintf(again, sizeof again, "%s/checkpoint.h5", dir);
     if (dlca_checkpoint_write(s, again, err, sizeof err) != 0) {

@@ -10,17 +10,14 @@
  * reader takes must be one the writer can use: a forged R_g grid in
  * cluster 0 once blocked every later write). Built by scripts/fuzz.
  */
-#include <dirent.h>
-#include <errno.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include "pdla/ensemble.h"
+#include "fuzz_util.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
@@ -28,11 +25,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 static pdla_ens_config cfg[2];          /* without and with kept positions */
 static pdla_ens_record tmpl[2][M];
-
-static void one_line(const char *err)
-{
-    if (!err[0] || strchr(err, '\n')) abort();
-}
 
 static void setup(void)
 {
@@ -64,36 +56,21 @@ static void copy_record(pdla_ens_record *r, const pdla_ens_record *t)
     memcpy(r->positions, t->positions, t->npos * (uint64_t)t->dim * sizeof *r->positions);
 }
 
-typedef struct {
-    const uint8_t *p;
-    size_t n;
-} input;
-
-static unsigned byte(input *in)
+static uint64_t u64(fuzz_in *in)
 {
-    if (!in->n) return 0;
-    in->n--;
-    return *in->p++;
-}
-
-static uint64_t u64(input *in)
-{
-    const unsigned sel = byte(in) % 12;
+    const unsigned sel = fuzz_byte(in) % 12;
     static const uint64_t pick[8] = {0, 1, 2, UINT64_MAX, (uint64_t)1 << 63, 299, 300, 301};
     if (sel < 8) return pick[sel];
-    uint64_t v = 0;
-    for (int i = 0; i < 8; i++) v = v << 8 | byte(in);
-    return v;
+    return fuzz_bytes(in, 8);
 }
 
-static double real(input *in, double was)
+static double real(fuzz_in *in, double was)
 {
     static const double pick[10] = {0, -0.0, 1, -1, NAN, INFINITY, -INFINITY, 1e308, 5e-324, 1.7};
-    const unsigned sel = byte(in) % 14;
+    const unsigned sel = fuzz_byte(in) % 14;
     if (sel < 10) return pick[sel];
     if (sel < 13) return was * (1 + 1e-9 * (double)(int)(sel - 11)); /* nearly right */
-    uint64_t v = 0;
-    for (int i = 0; i < 8; i++) v = v << 8 | byte(in);
+    const uint64_t v = fuzz_bytes(in, 8);
     double d;
     memcpy(&d, &v, sizeof d);
     return d;
@@ -101,9 +78,9 @@ static double real(input *in, double was)
 
 /* One field of r from the input. Array lengths only shrink, so the
  * record's arrays stay within what was allocated. */
-static void forge(input *in, pdla_ens_record *r)
+static void forge(fuzz_in *in, pdla_ens_record *r)
 {
-    const unsigned f = byte(in) % 19;
+    const unsigned f = fuzz_byte(in) % 19;
     const uint64_t k = r->rg_count ? u64(in) % r->rg_count : 0;
     switch (f) {
     case 0: r->index = u64(in); break;
@@ -125,26 +102,10 @@ static void forge(input *in, pdla_ens_record *r)
     case 16: if (r->rg_count) r->rg[k] = real(in, r->rg[k]); break;
     case 17: r->rg_count = r->rg_count ? u64(in) % (r->rg_count + 1) : 0; break;
     default:
-        if (r->npos && byte(in) & 1) r->npos = u64(in) % (r->npos + 1);
+        if (r->npos && fuzz_byte(in) & 1) r->npos = u64(in) % (r->npos + 1);
         else if (r->npos) r->positions[u64(in) % (r->npos * (uint64_t)r->dim)] = (int32_t)u64(in);
         break;
     }
-}
-
-static void scratch(char *dir, size_t n)
-{
-    snprintf(dir, n, "/tmp/pdla-fuzz-journal-%ld", (long)getpid());
-    if (mkdir(dir, 0700) != 0 && errno != EEXIST) abort();
-    DIR *d = opendir(dir);
-    if (!d) abort();
-    struct dirent *de;
-    while ((de = readdir(d))) {
-        if (de->d_name[0] == '.') continue;
-        char f[512];
-        snprintf(f, sizeof f, "%s/%s", dir, de->d_name);
-        unlink(f);
-    }
-    closedir(d);
 }
 
 /* Open the journal written; with every cluster in it, ensemble.h5 must be
@@ -154,7 +115,7 @@ static void read_back(const char *dir, int keep)
     pdla_ens_journal *j = NULL;
     char err[1024] = "";
     if (pdla_ens_journal_open(dir, &j, err, sizeof err) != PDLA_OK) {
-        one_line(err);
+        fuzz_one_line(err);
         return;
     }
     const char *why = pdla_ens_journal_refused(j);
@@ -188,10 +149,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         setup();
         ready = 1;
     }
-    input in = {data, size};
-    const int keep = (int)(byte(&in) & 1);
+    fuzz_in in = {data, size};
+    const int keep = (int)(fuzz_byte(&in) & 1);
     char dir[128], err[1024] = "";
-    scratch(dir, sizeof dir);
+    fuzz_scratch_dir(dir, sizeof dir, "journal");
     pdla_ens_journal *j = NULL;
     if (pdla_ens_journal_create(dir, &cfg[keep], &j, err, sizeof err) != PDLA_OK) {
         fprintf(stderr, "create: %s\n", err);
@@ -200,9 +161,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     for (int i = 0; i < M; i++) {
         pdla_ens_record r;
         copy_record(&r, &tmpl[keep][i]);
-        const unsigned edits = byte(&in) % 4;
+        const unsigned edits = fuzz_byte(&in) % 4;
         for (unsigned e = 0; e < edits; e++) forge(&in, &r);
-        if (pdla_ens_journal_append(j, &r, err, sizeof err) != PDLA_OK) one_line(err);
+        if (pdla_ens_journal_append(j, &r, err, sizeof err) != PDLA_OK) fuzz_one_line(err);
         pdla_ens_record_free(&r);
     }
     pdla_ens_journal_close(j);

@@ -14,13 +14,9 @@
 
 #include "pdla/dlca.h"
 #include "pdla/event.h"
+#include "fuzz_util.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
-
-static void one_line(const char *err)
-{
-    if (!err[0] || strchr(err, '\n')) abort();
-}
 
 static void dlca_start(const char *path, int dim)
 {
@@ -32,12 +28,12 @@ static void dlca_start(const char *path, int dim)
     uint64_t n = 0;
     char err[1024] = "";
     if (dlca_read_start(path, &p, &sites, &n, err, sizeof err) != 0) {
-        one_line(err);
+        fuzz_one_line(err);
         free(sites);
         return;
     }
     dlca_sim *s = NULL;
-    if (dlca_create_sites(&s, &p, sites, n, err, sizeof err) != 0) one_line(err);
+    if (dlca_create_sites(&s, &p, sites, n, err, sizeof err) != 0) fuzz_one_line(err);
     else dlca_run(s, 200);
     dlca_destroy(s);
     free(sites);
@@ -55,7 +51,7 @@ static void event_seeds(const char *path, int dim)
     char err[1024] = "";
     ev_sim *s = ev_create(&p, err, sizeof err);
     if (!s) {
-        one_line(err);
+        fuzz_one_line(err);
         return;
     }
     ev_run(s, NULL);

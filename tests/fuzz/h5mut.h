@@ -24,6 +24,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "fuzz_util.h"
+
 #define H5MUT_MAX_SEEDS 16
 #define H5MUT_MAX_OBJ 256
 #define H5MUT_MAX_BYTES ((size_t)1 << 26) /* a dataset read whole for a resize */
@@ -64,25 +66,6 @@ static void h5mut_load_seeds(void)
         fprintf(stderr, "h5mut: no seed files in %s\n", dir);
         abort();
     }
-}
-
-typedef struct {
-    const uint8_t *p;
-    size_t n;
-} h5mut_in;
-
-static unsigned h5mut_byte(h5mut_in *in)
-{
-    if (!in->n) return 0;
-    in->n--;
-    return *in->p++;
-}
-
-static uint32_t h5mut_u32(h5mut_in *in)
-{
-    uint32_t v = 0;
-    for (int i = 0; i < 4; i++) v = v << 8 | h5mut_byte(in);
-    return v;
 }
 
 /* The objects a script can name: datasets, and attributes of any object. */
@@ -143,12 +126,12 @@ static void h5mut_list_make(hid_t file, h5mut_list *l)
 }
 
 /* One element's bytes for type t: a class-wise special value or raw bytes. */
-static void h5mut_value(h5mut_in *in, hid_t t, unsigned char *buf, size_t sz)
+static void h5mut_value(fuzz_in *in, hid_t t, unsigned char *buf, size_t sz)
 {
-    const unsigned sel = h5mut_byte(in) % 16;
+    const unsigned sel = fuzz_byte(in) % 16;
     memset(buf, 0, sz);
     if (sel >= 11) {
-        for (size_t i = 0; i < sz; i++) buf[i] = (unsigned char)h5mut_byte(in);
+        for (size_t i = 0; i < sz; i++) buf[i] = (unsigned char)fuzz_byte(in);
         return;
     }
     const H5T_class_t c = H5Tget_class(t);
@@ -177,7 +160,7 @@ static void h5mut_value(h5mut_in *in, hid_t t, unsigned char *buf, size_t sz)
 static int h5mut_plain(hid_t t) { return t >= 0 && H5Tdetect_class(t, H5T_VLEN) <= 0 && !H5Tis_variable_str(t); }
 
 /* Write element (or, fill: every element) of dataset d. */
-static void h5mut_dset_write(h5mut_in *in, hid_t d, uint32_t elem, int fill)
+static void h5mut_dset_write(fuzz_in *in, hid_t d, uint32_t elem, int fill)
 {
     const hid_t t = H5Dget_type(d), fs = H5Dget_space(d);
     const hssize_t np = fs >= 0 ? H5Sget_simple_extent_npoints(fs) : -1;
@@ -199,7 +182,7 @@ static void h5mut_dset_write(h5mut_in *in, hid_t d, uint32_t elem, int fill)
     H5Tclose(t);
 }
 
-static void h5mut_attr_write(h5mut_in *in, hid_t file, const char *obj, const char *name, uint32_t elem)
+static void h5mut_attr_write(fuzz_in *in, hid_t file, const char *obj, const char *name, uint32_t elem)
 {
     const hid_t a = H5Aopen_by_name(file, obj, name, H5P_DEFAULT, H5P_DEFAULT);
     if (a < 0) return;
@@ -222,7 +205,7 @@ static void h5mut_attr_write(h5mut_in *in, hid_t file, const char *obj, const ch
 /* Replace dataset `name` by one of the same type whose first axis has a
  * new length (copying what fits); a huge length is chunked and never
  * written beyond the copy, so the file stays small. */
-static void h5mut_resize(h5mut_in *in, hid_t file, const char *name)
+static void h5mut_resize(fuzz_in *in, hid_t file, const char *name)
 {
     const hid_t d = H5Dopen2(file, name, H5P_DEFAULT);
     if (d < 0) return;
@@ -242,9 +225,9 @@ static void h5mut_resize(h5mut_in *in, hid_t file, const char *name)
     const int ok = old && H5Dread(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, old) >= 0;
     H5Dclose(d);
     const hsize_t n0 = dims[0];
-    const unsigned how = h5mut_byte(in) % 7;
+    const unsigned how = fuzz_byte(in) % 7;
     const hsize_t n1 = how == 0 ? 0 : how == 1 ? 1 : how == 2 ? (n0 ? n0 - 1 : 0) : how == 3 ? n0 + 1
-                     : how == 4 ? 2 * n0 + 3 : how == 5 ? ((hsize_t)1 << 36) : h5mut_u32(in) % 100000;
+                     : how == 4 ? 2 * n0 + 3 : how == 5 ? ((hsize_t)1 << 36) : (uint32_t)fuzz_bytes(in, 4) % 100000;
     if (ok && H5Ldelete(file, name, H5P_DEFAULT) >= 0) {
         hsize_t nd[8];
         memcpy(nd, dims, sizeof nd);
@@ -279,11 +262,11 @@ static void h5mut_resize(h5mut_in *in, hid_t file, const char *name)
     H5Tclose(t);
 }
 
-static void h5mut_op(h5mut_in *in, hid_t file, const h5mut_list *l)
+static void h5mut_op(fuzz_in *in, hid_t file, const h5mut_list *l)
 {
-    const unsigned kind = h5mut_byte(in) % 5;
-    const int k = (int)(h5mut_byte(in) % (unsigned)l->n);
-    const uint32_t elem = h5mut_u32(in);
+    const unsigned kind = fuzz_byte(in) % 5;
+    const int k = (int)(fuzz_byte(in) % (unsigned)l->n);
+    const uint32_t elem = (uint32_t)fuzz_bytes(in, 4);
     const int is_attr = l->attr[k][0] != '\0';
     if (kind == 3) { /* delete */
         if (is_attr) H5Adelete_by_name(file, l->name[k], l->attr[k], H5P_DEFAULT);
@@ -312,8 +295,8 @@ static int h5mut_make(const uint8_t *data, size_t size, const char *path)
         h5mut_load_seeds();
         H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
     }
-    h5mut_in in = {data, size};
-    const h5mut_file *s = &h5mut_seeds[h5mut_byte(&in) % (unsigned)h5mut_nseeds];
+    fuzz_in in = {data, size};
+    const h5mut_file *s = &h5mut_seeds[fuzz_byte(&in) % (unsigned)h5mut_nseeds];
     FILE *f = fopen(path, "wb");
     if (!f) abort();
     if (fwrite(s->data, 1, s->size, f) != s->size) abort();

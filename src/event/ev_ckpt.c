@@ -28,6 +28,7 @@
  */
 #include <errno.h>
 #include <inttypes.h>
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -342,23 +343,34 @@ static int check_events(const rd *r, const ev_sim *s, uint32_t i)
         return rfail(r, "%s", "a pending event before the checkpoint's time or not a number (damaged)");
     if (e->kind != EV_K_NONE && e->kind != EV_K_PAIR && e->kind != EV_K_WALL)
         return rfail(r, "%s", "an unknown event kind (damaged)");
-    if (e->kind == EV_K_WALL && e->partner >= (uint32_t)(2 * D))
+    if (e->kind == EV_K_WALL && (e->partner >= (uint32_t)(2 * D) || s->periodic))
         return rfail(r, "%s", "a wall event names no wall (damaged)");
     if (e->cell_what < -1 || e->cell_what >= 2 * D || (e->cell_what < 0 && e->t_cell < INFINITY))
         return rfail(r, "%s", "a cell crossing names no cell face (damaged)");
     return 0;
 }
 
-/* How far from touching (relative to r_i + r_j, or to the radius at a
- * wall) and how fast receding (relative to the contact distance times the
- * relative speed) a live pending event may find its particles at its time
- * and still be one the loop made. Its predictions hit the contact to
- * round-off (overlaps of 1e-10 are the engine's stated bound, tests/event
- * TOL); the slack above that covers states moved since the prediction
- * without a new one (see check_pending), and long flights: the contact
- * time comes from the squared distance at the pair's older stored time,
- * whose rounding grows with that distance. */
+/* How far from touching a live pending event may find its particles at
+ * its time (and how fast receding, as that distance times the relative
+ * speed) and still be one the loop made. Its predictions hit the contact
+ * to round-off, which has two parts: one relative to the contact distance
+ * (overlaps of 1e-10 are the engine's stated bound, tests/event TOL; the
+ * slack above it covers states moved since the prediction without a new
+ * one, see pending_fault), and one absolute, of the doubles that make a
+ * position at time t: the box side, and |v| times the clock (a time of
+ * 1e10 carries 1e-6 of round-off by itself: a walled gas of packing 1e-12
+ * at t = 1e10 met its walls 3e-5 radii off and was refused, though valid). */
 #define CK_TOUCH 1e-6
+#define CK_ROUND (64 * DBL_EPSILON)
+
+/* The absolute part for particle p at time t (see CK_TOUCH). */
+static double round_off(const ev_sim *s, const double *p, double t)
+{
+    const int D = s->dim;
+    double v2 = 0;
+    for (int k = 0; k < D; k++) v2 += p[D + k] * p[D + k];
+    return CK_ROUND * (s->L + sqrt(v2) * (fabs(t) + fabs(p[2 * D])));
+}
 
 /* Do free i and j (j any, i != j) touch at time t, approaching? Positions
  * at t from the stored states, the image nearest then (as collide takes
@@ -380,7 +392,8 @@ static int pair_touches(const ev_sim *s, uint32_t i, uint32_t j, double t)
         vv += v * v;
     }
     const double sig = pi[2 * D + 1] + pj[2 * D + 1];
-    return fabs(sqrt(rr) - sig) <= CK_TOUCH * sig && rv <= CK_TOUCH * sig * sqrt(vv);
+    const double tol = CK_TOUCH * sig + round_off(s, pi, t) + round_off(s, pj, t);
+    return fabs(sqrt(rr) - sig) <= tol && rv <= tol * sqrt(vv);
 }
 
 /* Is free i at wall `what` (2k + side) at time t, moving into it? */
@@ -390,7 +403,7 @@ static int wall_touches(const ev_sim *s, uint32_t i, uint32_t what, double t)
     const double *p = EV_P_ANY(s, i);
     const double v = p[D + k], r = p[2 * D + 1], x = p[k] + v * (t - p[2 * D]);
     const double gap = up ? s->L - r - x : x - r;
-    return (up ? v > 0 : v < 0) && fabs(gap) <= CK_TOUCH * r;
+    return (up ? v > 0 : v < 0) && fabs(gap) <= CK_TOUCH * r + round_off(s, p, t);
 }
 
 /* Does i meet a wall some time (ev_core.c pred_wall finds a finite time)? */
@@ -412,12 +425,11 @@ static int meets_wall(const ev_sim *s, uint32_t i)
  * itself divides by a zero distance (NaN velocities), one that is not at
  * contact is hit, or stuck to, from afar. So a live event must find its
  * pair touching and approaching (or its wall) at its time. This is checked
- * within CK_TOUCH, not by predicting it again bit for bit: a stored state can
+ * within CK_TOUCH and CK_ROUND, not by predicting it again bit for bit: a stored state can
  * move without a new prediction (a periodic wrap by L at a cell crossing,
  * ev_sync), and predicting every event again on loading changes the
  * events (stale ones are counted) of a resumed run. A stale event (the
- * partner's counter moved on) is only predicted again when it comes up;
- * its counter cannot be ahead of the partner's (counters only grow). In a
+ * partner's counter moved on) is only predicted again when it comes up. In a
  * box with walls every particle that would meet a wall has an event: that
  * wall, or an earlier pair (a prediction starts from the wall). */
 static const char *pending_fault(const ev_sim *s, uint32_t i)
@@ -432,9 +444,10 @@ static const char *pending_fault(const ev_sim *s, uint32_t i)
                : "a pending wall event whose particle does not meet that wall then (damaged)";
     const uint32_t j = e->partner;
     if (j == i) return "a pending event names its own particle as the partner (damaged)";
-    if (e->pcount > s->lk[j].count)
-        return "a pending event records a partner's collision count not yet reached (damaged)";
-    if (e->pcount < s->lk[j].count || e->t_pair == INFINITY) return NULL; /* stale, or never */
+    /* Any other count is a stale event, which the loop predicts again
+     * (counters are 32 bits and wrap, so "ahead" is no fault: after a
+     * partner's 2^32-th event a valid checkpoint held one). */
+    if (e->pcount != s->lk[j].count || e->t_pair == INFINITY) return NULL; /* stale, or never */
     return pair_touches(s, i, j, e->t_pair) ? NULL
            : "a pending pair event whose particles do not meet then (apart, or receding) (damaged)";
 }
@@ -453,7 +466,8 @@ static const char *cell_fault(const ev_sim *s, uint32_t i)
 {
     const ev_evt *e = &s->lk[i].ev;
     const int D = s->dim, face = e->cell_what;
-    const double *p = EV_P_ANY(s, i), tol = 1e-6 * s->w;
+    const double *p = EV_P_ANY(s, i);
+    const double tol = CK_TOUCH * s->w + (face >= 0 ? round_off(s, p, e->t_cell) : 0);
     uint32_t c = s->lk[i].cell;
     for (int k = 0; k < D; k++, c /= (uint32_t)s->nc) {
         const int cc = (int)(c % (uint32_t)s->nc);
@@ -463,8 +477,12 @@ static const char *cell_fault(const ev_sim *s, uint32_t i)
             if (out) return "a moving particle without its next cell crossing (damaged)";
             continue;
         }
-        /* an axis whose wall comes first is not crossed (pred_cell) */
-        if (!s->periodic && ((v > 0 && cc == s->nc - 1) || (v < 0 && cc == 0))) continue;
+        /* an axis whose wall comes first is not crossed (pred_cell); a
+         * crossing through that wall would wrap i by L (the step wraps) */
+        if (!s->periodic && ((v > 0 && cc == s->nc - 1) || (v < 0 && cc == 0))) {
+            if (k == face >> 1) return "a cell crossing through a wall of the box (damaged)";
+            continue;
+        }
         const double x = p[k] + v * (e->t_cell - p[2 * D]);
         if (!(x >= lo - tol && x <= lo + s->w + tol))
             return "a cell crossing after the particle has left its cell (damaged)";

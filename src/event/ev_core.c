@@ -978,27 +978,40 @@ void ev_predict(ev_sim *s, uint32_t i, double now)
     else predict3(s, i, now);
 }
 
+/* The stuck-count stop of a run. With a bath the queue never empties: the
+ * run ends when every sticky particle is stuck, folded into the stuck-count
+ * stop so that a run without a bath makes the same test per event as
+ * before. */
+static uint64_t stuck_stop_of(const ev_sim *s)
+{
+    const uint64_t stuck_stop = s->par.max_stuck;
+    if (s->has_bath && s->nfree_total && (!stuck_stop || stuck_stop > s->nsticky)) return s->nsticky;
+    return stuck_stop;
+}
+
+/* The stop condition that holds before the next event, or 0. */
+static inline int stop_before(ev_sim *s, uint64_t stuck_stop)
+{
+    if (s->qn == 0) return s->nfree_total && s->nstuck == s->n ? EV_STOP_ALL_STUCK : EV_STOP_NO_EVENTS;
+    if (stuck_stop && s->nstuck >= stuck_stop)
+        return s->has_bath && s->nfree_total && s->nstuck >= s->nsticky ? EV_STOP_ALL_STUCK : EV_STOP_STUCK;
+    if (s->par.max_events && s->events >= s->par.max_events) return EV_STOP_EVENTS;
+    if (q_ready(s)) return EV_STOP_NO_EVENTS; /* everything free is at rest */
+    if (s->heap[0].t == EV_INF) return EV_STOP_NO_EVENTS; /* everything free is at rest */
+    return 0;
+}
+
+int ev_stop_now(ev_sim *s) { return stop_before(s, stuck_stop_of(s)); }
+
 /* Process events while the next is at or before t_end and no stop
  * condition holds; returns the stop reason or 0 when t_end was reached. */
 int ev_loop(ev_sim *s, double t_end, volatile const int *interrupt)
 {
     int (*const stepf)(ev_sim *) = s->dim == 2 ? step2 : step3;
-    const ev_params *p = &s->par;
-    /* With a bath the queue never empties: the run ends when every sticky
-     * particle is stuck, folded into the stuck-count stop so that a run
-     * without a bath makes the same test per event as before. */
-    uint64_t stuck_stop = p->max_stuck;
-    if (s->has_bath && s->nfree_total && (!stuck_stop || stuck_stop > s->nsticky)) stuck_stop = s->nsticky;
+    const uint64_t stuck_stop = stuck_stop_of(s);
     for (uint64_t n = 0;; n++) {
-        if (s->qn == 0) return s->nfree_total && s->nstuck == s->n ? EV_STOP_ALL_STUCK
-                                                                   : EV_STOP_NO_EVENTS;
-        if (stuck_stop && s->nstuck >= stuck_stop)
-            return s->has_bath && s->nfree_total && s->nstuck >= s->nsticky ? EV_STOP_ALL_STUCK
-                                                                            : EV_STOP_STUCK;
-        if (p->max_events && s->events >= p->max_events) return EV_STOP_EVENTS;
-        if (q_ready(s)) return EV_STOP_NO_EVENTS; /* everything free is at rest */
-        const double next = s->heap[0].t;
-        if (next == EV_INF) return EV_STOP_NO_EVENTS; /* everything free is at rest */
+        const int why = stop_before(s, stuck_stop);
+        if (why) return why;
         /* Polled before a row without events returns (until session 17 after:
          * with series rows far shorter than the time between events a run
          * went on for minutes deaf to SIGINT/SIGTERM, with no progress line
@@ -1008,7 +1021,7 @@ int ev_loop(ev_sim *s, double t_end, volatile const int *interrupt)
             /* between two events: the state is whole (progress, checkpoints) */
             if (s->tick && s->tick(s, s->tick_user)) return EV_STOP_INTERRUPT;
         }
-        if (next > t_end) return 0;
+        if (s->heap[0].t > t_end) return 0;
         stepf(s);
     }
 }

@@ -185,6 +185,8 @@ void ev_heap_push(ev_sim *s, uint32_t i);
 void ev_cell_insert(ev_sim *s, uint32_t i, uint32_t c);
 void ev_predict(ev_sim *s, uint32_t i, double now);
 int ev_loop(ev_sim *s, double t_end, volatile const int *interrupt);
+/* The stop reason that holds now, before the next event (ev_loop's), or 0. */
+int ev_stop_now(ev_sim *s);
 /* Species list from p (the string, or one species): 0 or -1 with err. */
 int ev_parse_species(const ev_params *p, ev_species *sp, int *nsp, char *err, size_t errlen);
 double ev_particle_volume(int dim, double r);

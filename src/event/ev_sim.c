@@ -1021,6 +1021,7 @@ void ev_series_free(ev_series *ser)
  * t0 + series_dt with the same sums as a run never stopped. */
 int ev_run_series(ev_sim *s, ev_series *ser, volatile const int *interrupt)
 {
+    const int between = s->started && !s->iv_open; /* resumed from the checkpoint of a run that had ended */
     if (!s->started) {
         s->series_dt = s->par.series_dt;
         if (series_push(ser, s, NAN)) return -1;
@@ -1029,6 +1030,14 @@ int ev_run_series(ev_sim *s, ev_series *ser, volatile const int *interrupt)
     /* never back in time: a stop time already passed (a resume's --t-max)
      * ends the run where it is */
     const double tstop = fmax(stop_time(s), s->now);
+    /* A run that had ended and still has: no interval is opened. Before, a
+     * resume of its checkpoint (the final one of a run whose cluster.h5
+     * failed, or a run killed while it wrote cluster.h5) closed one of no
+     * length at once and wrote the last row twice. */
+    if (between) {
+        const int why = s->now >= tstop ? EV_STOP_TIME : ev_stop_now(s);
+        if (why) return why;
+    }
     for (;;) {
         if (!s->iv_open) {
             s->iv_t0 = s->now;

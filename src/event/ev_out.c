@@ -355,7 +355,7 @@ int ev_write_h5(const ev_sim *s, const ev_series *ser, const char *path, const c
  * arrival_time, species, parent) and NAME-free.xdmf2 for the free ones.
  * Positions in the model's length units (units_per_diameter 1). A sidecar
  * with no rows is not written and an older one removed (it would describe
- * another file). */
+ * another file), as is the free one when the first cannot be written. */
 int ev_write_xdmf(const ev_sim *s, const char *h5_path, char *err, size_t errlen)
 {
     const size_t len = strlen(h5_path) + 16;
@@ -386,10 +386,9 @@ int ev_write_xdmf(const ev_sim *s, const char *h5_path, char *err, size_t errlen
                                 free_arrays, 2};
         if (ps.n == 0) unlink(side);
         else rc = xdmf_write_points(side, &ps, err, errlen);
-        if (!rc) {
-            if (pf.n == 0) unlink(free_side);
-            else rc = xdmf_write_points(free_side, &pf, err, errlen);
-        }
+        if (rc) unlink(free_side); /* not written: an older one describes the older cluster.h5 */
+        else if (pf.n == 0) unlink(free_side);
+        else rc = xdmf_write_points(free_side, &pf, err, errlen);
     }
     free(side);
     free(free_side);

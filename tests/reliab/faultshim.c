@@ -4,14 +4,18 @@
  * broken disk would.
  *
  *   FAULT_AT=k      the k-th counted call fails (1-based); 0 or unset: none
- *   FAULT_OP=write|fsync|fallocate|stdio|any|pread   which calls are counted
- *                   (default any). stdio: fflush and fclose of a stream
+ *   FAULT_OP=write|fsync|fallocate|stdio|any|pread|rename|dirsync   which
+ *                   calls are counted (default any). stdio: fflush and fclose of a stream
  *                   writing a regular file - glibc's stdio writes through
  *                   internal calls no preload can see, so a failure there is
  *                   made by dropping the stream's buffer (__fpurge) and
  *                   returning EOF with the error, as a failed flush does;
  *                   pread (only when asked, never in any): pread and
- *                   pread64 fail with the error, as a bad sector does
+ *                   pread64 fail with the error, as a bad sector does;
+ *                   rename (only when asked): rename, renameat, link and
+ *                   linkat fail with the error (FAULT_PATH is matched
+ *                   against either name); dirsync (only when asked): fsync
+ *                   and fdatasync of a directory
  *   FAULT_ERR=ENOSPC|EIO|EDQUOT|SHORT    the error; SHORT writes half the
  *                   bytes and reports that, which a correct caller retries
  *   FAULT_STICKY=1  every counted call after the k-th fails too (a full disk)
@@ -23,10 +27,13 @@
  *   FAULT_SIGNAL=N  the k-th counted call does not fail: it raises signal N
  *                   in the calling thread, then goes through - a signal
  *                   delivered exactly during that write (a SIGTERM from a
- *                   batch system at the worst moment), without sleeps
+ *                   batch system at the worst moment), without sleeps;
+ *                   FAULT_SIGNAL=9 is kill -9 just before that call (no
+ *                   handler needed: the process ends there)
  *
  * Counted: write, pwrite, pwrite64, writev, fsync, fdatasync, fallocate,
- * posix_fallocate - only on regular files, so stderr and pipes are left alone.
+ * posix_fallocate - only on regular files, so stderr and pipes are left alone;
+ * rename, renameat, link, linkat and a directory's fsync only when asked.
  */
 #undef _FILE_OFFSET_BITS /* define pwrite and pwrite64 both, as libc does */
 #define _GNU_SOURCE
@@ -44,7 +51,7 @@
 #include <sys/uio.h>
 #include <unistd.h>
 
-enum { OP_WRITE = 1, OP_FSYNC = 2, OP_FALLOC = 4, OP_STDIO = 8, OP_PREAD = 16 };
+enum { OP_WRITE = 1, OP_FSYNC = 2, OP_FALLOC = 4, OP_STDIO = 8, OP_PREAD = 16, OP_RENAME = 32, OP_DIRSYNC = 64 };
 
 static atomic_long calls;
 static long fault_at = -1;
@@ -63,6 +70,8 @@ static void init(void)
         else if (!strcmp(s, "fallocate")) ops = OP_FALLOC;
         else if (!strcmp(s, "stdio")) ops = OP_STDIO;
         else if (!strcmp(s, "pread")) ops = OP_PREAD;
+        else if (!strcmp(s, "rename")) ops = OP_RENAME;
+        else if (!strcmp(s, "dirsync")) ops = OP_DIRSYNC;
     }
     if ((s = getenv("FAULT_ERR"))) {
         if (!strcmp(s, "EIO")) err_no = EIO;
@@ -85,25 +94,14 @@ __attribute__((destructor)) static void report(void)
     }
 }
 
-/* 1: this call fails (or, SHORT, is cut); 0: it goes through. */
-static int hit(int fd, int op)
+/* The k-th counted call: 1 when it fails (or, SHORT, is cut); 0 when it
+ * goes through (after raising FAULT_SIGNAL, when that is set). */
+static int count_hit(void)
 {
-    init();
-    if (!(ops & op)) return 0;
-    struct stat st;
-    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) return 0;
-    /* Memory files (memfd_create) are not on the disk that fails. */
-    char link[64], target[4200];
-    snprintf(link, sizeof link, "/proc/self/fd/%d", fd);
-    const ssize_t n = readlink(link, target, sizeof target - 1);
-    if (n > 0) {
-        target[n] = '\0';
-        if (!strncmp(target, "/memfd:", 7)) return 0;
-    }
-    if (path_part && (n <= 0 || !strstr(target, path_part))) return 0;
     const long k = atomic_fetch_add(&calls, 1) + 1;
     if (fault_at <= 0) return 0;
     const int now = k == fault_at || (sticky && k > fault_at);
+    if (now && sig_no == SIGKILL) raise(SIGKILL); /* kill -9 right before this call */
     if (now && sig_no > 0) {
         const int saved = errno;
         /* A signal ignored or left at its default (SIGINT is ignored in a
@@ -121,6 +119,36 @@ static int hit(int fd, int op)
         return 0;
     }
     return now;
+}
+
+/* 1: this call on fd fails (or, SHORT, is cut); 0: it goes through.
+ * Counted: regular files (directories for OP_DIRSYNC) not in memory. */
+static int hit(int fd, int op)
+{
+    init();
+    if (!(ops & op)) return 0;
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !(op == OP_DIRSYNC ? S_ISDIR(st.st_mode) : S_ISREG(st.st_mode))) return 0;
+    /* Memory files (memfd_create) are not on the disk that fails. */
+    char link[64], target[4200];
+    snprintf(link, sizeof link, "/proc/self/fd/%d", fd);
+    const ssize_t n = readlink(link, target, sizeof target - 1);
+    if (n > 0) {
+        target[n] = '\0';
+        if (!strncmp(target, "/memfd:", 7)) return 0;
+    }
+    if (path_part && (n <= 0 || !strstr(target, path_part))) return 0;
+    return count_hit();
+}
+
+/* The same for a call on names (rename, link): counted when either name
+ * holds FAULT_PATH (or without it). */
+static int hit_names(const char *a, const char *b)
+{
+    init();
+    if (!(ops & OP_RENAME)) return 0;
+    if (path_part && !strstr(a, path_part) && !strstr(b, path_part)) return 0;
+    return count_hit();
 }
 
 #define REAL(name, ret, ...)                                                       \
@@ -195,7 +223,7 @@ ssize_t writev(int fd, const struct iovec *iov, int cnt)
 int fsync(int fd)
 {
     REAL(fsync, int, int);
-    if (hit(fd, OP_FSYNC)) {
+    if (hit(fd, OP_FSYNC) || hit(fd, OP_DIRSYNC)) {
         errno = shortw ? EIO : err_no;
         return -1;
     }
@@ -205,7 +233,7 @@ int fsync(int fd)
 int fdatasync(int fd)
 {
     REAL(fdatasync, int, int);
-    if (hit(fd, OP_FSYNC)) {
+    if (hit(fd, OP_FSYNC) || hit(fd, OP_DIRSYNC)) {
         errno = shortw ? EIO : err_no;
         return -1;
     }
@@ -244,6 +272,46 @@ int posix_fallocate64(int fd, off_t off, off_t len)
     REAL(posix_fallocate64, int, int, off_t, off_t);
     if (hit(fd, OP_FALLOC)) return shortw ? ENOSPC : err_no;
     return real_posix_fallocate64(fd, off, len);
+}
+
+int rename(const char *from, const char *to)
+{
+    REAL(rename, int, const char *, const char *);
+    if (hit_names(from, to)) {
+        errno = shortw ? EIO : err_no;
+        return -1;
+    }
+    return real_rename(from, to);
+}
+
+int renameat(int fd1, const char *from, int fd2, const char *to)
+{
+    REAL(renameat, int, int, const char *, int, const char *);
+    if (hit_names(from, to)) {
+        errno = shortw ? EIO : err_no;
+        return -1;
+    }
+    return real_renameat(fd1, from, fd2, to);
+}
+
+int link(const char *from, const char *to)
+{
+    REAL(link, int, const char *, const char *);
+    if (hit_names(from, to)) {
+        errno = shortw ? EIO : err_no;
+        return -1;
+    }
+    return real_link(from, to);
+}
+
+int linkat(int fd1, const char *from, int fd2, const char *to, int flags)
+{
+    REAL(linkat, int, int, const char *, int, const char *, int);
+    if (hit_names(from, to)) {
+        errno = shortw ? EIO : err_no;
+        return -1;
+    }
+    return real_linkat(fd1, from, fd2, to, flags);
 }
 
 int flock(int fd, int op)

@@ -362,17 +362,23 @@ static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, con
         unlink(tmp);
         return -1;
     }
-    if (sync_path(dir, 1) != 0) {
-        snprintf(err, errlen, "wrote %.900s, but cannot sync its directory: %s", path, strerror(errno));
-        return -1;
-    }
-    if (what[1] == 'l') { /* ParaView's sidecar, for the file under its final name */
+    const int unsynced = sync_path(dir, 1) != 0;
+    if (unsynced) snprintf(err, errlen, "wrote %.900s, but cannot sync its directory: %s", path, strerror(errno));
+    /* ParaView's sidecar, for the file under its final name; also when the
+     * directory did not sync: before, the older run's stayed beside the new
+     * cluster.h5, describing another number of monomers */
+    if (what[1] == 'l') {
         dlca_stats st;
         dlca_get_stats(s, &st);
-        if (dlca_write_xdmf(path, dlca_get_params(s)->dim, st.n_monomers, c->snaps, c->nsnaps, st.t, err, errlen))
+        char xerr[1024];
+        if (dlca_write_xdmf(path, dlca_get_params(s)->dim, st.n_monomers, c->snaps, c->nsnaps, st.t, xerr,
+                            sizeof xerr) &&
+            !unsynced) {
+            snprintf(err, errlen, "%s", xerr);
             return -1;
+        }
     }
-    return 0;
+    return unsynced ? -1 : 0;
 }
 
 enum { ASKED_NONE = 0, ASKED_SIGNAL, ASKED_FILE };

@@ -671,6 +671,13 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
             fprintf(stderr, "pdla: run directory '%s' takes no files: %s\n", dir, strerror(pe));
             drc = EXIT_USAGE;
         }
+        if (!drc) {
+            /* Under the lock, what a pdla killed while it wrote here left:
+             * cluster.xdmf2.tmp.PID stayed for good (kill -9 during the
+             * sidecar); the .new names are taken again, but not at once. */
+            static const char *const stale[] = {".cluster.h5.new", ".checkpoint.h5.new", "cluster.xdmf2.tmp"};
+            pdla_rundir_remove_prefixed(dir, stale, sizeof stale / sizeof stale[0]);
+        }
         if (!drc && !c->resume) {
             /* A new run (--force) replaces an older run's checkpoint: a
              * later --resume would otherwise grow the old run and write it

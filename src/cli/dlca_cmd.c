@@ -53,6 +53,8 @@ typedef struct dlca_cli {
     size_t nsnaps;
     uint64_t n_monomers;          /* of the run (set when it starts) */
     int lock, lock_out;           /* flocks (pdla_rundir_lock) of the checkpoint's and the run directory, -1: none */
+    char why[1200];               /* the first failure: the run's one line on stderr at the end ("": none) */
+    char also[96];                /* what failed after it ("cluster.h5, the final checkpoint") */
 } dlca_cli;
 
 static volatile sig_atomic_t stop_signal;
@@ -335,6 +337,20 @@ static int sync_path(const char *p, int is_dir)
     return r;
 }
 
+/* A failure of the run. Printed once, at the end, as one line: the first
+ * one's message, then what else failed (before, each failed checkpoint,
+ * cluster.h5 and the final checkpoint printed a line of its own: six lines
+ * for a full disk). */
+static void note_failure(dlca_cli *c, const char *what, const char *fmt, const char *msg)
+{
+    if (!c->why[0]) {
+        snprintf(c->why, sizeof c->why, fmt, msg);
+        return;
+    }
+    const size_t n = strlen(c->also);
+    if (what && n + strlen(what) + 3 < sizeof c->also) snprintf(c->also + n, sizeof c->also - n, "%s%s", n ? ", " : "", what);
+}
+
 /* Write what = "cluster" or "checkpoint" as DIR/what.h5 (beside, then
  * renamed, so that a reader never sees half a file). 0 or -1 with err. */
 static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, const char *what, const char *cmd,
@@ -381,7 +397,7 @@ static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, con
     return unsynced ? -1 : 0;
 }
 
-enum { ASKED_NONE = 0, ASKED_SIGNAL, ASKED_FILE };
+enum { ASKED_NONE = 0, ASKED_SIGNAL, ASKED_FILE, ASKED_CKFAIL };
 
 /* The run loop: chunks of attempts between which the signal flag, the
  * checkpoint triggers and RUN_DIR/STOP are looked at. Returns the stop
@@ -442,9 +458,11 @@ static int snapshot_due(const dlca_sim *s, dlca_cli *c, double *next)
     if (take_snapshot(s, c) == 0) return 0;
     /* Once, and no more snapshots: before, the line was printed on every
      * pass of the loop (13 million lines in a minute). The run goes on; its
-     * exit status says a write failed. */
-    fprintf(stderr, "pdla: no memory for more snapshots at t = %g (%zu taken, %.3g GiB); none taken after it\n",
-            dlca_time(s), c->nsnaps, (double)c->nsnaps * 8.0 * (double)c->n_monomers / 1073741824.0);
+     * exit status and its line at the end say so. */
+    char msg[200];
+    snprintf(msg, sizeof msg, "no memory for more snapshots at t = %g (%zu taken, %.3g GiB); none taken after it",
+             dlca_time(s), c->nsnaps, (double)c->nsnaps * 8.0 * (double)c->n_monomers / 1073741824.0);
+    note_failure(c, "snapshots", "%s", msg);
     *next = 0;
     return -1;
 }
@@ -478,8 +496,16 @@ static int run_loop(dlca_sim *s, dlca_cli *c, const char *dir, const char *cmd, 
         const double now = pdla_clock_seconds();
         if ((next_att && att >= next_att) || (next_time > 0 && now >= next_time)) {
             if (write_file(s, c, dir, "checkpoint", cmd, 0, err, sizeof err)) {
-                fprintf(stderr, "pdla: checkpoint failed: %s\n", err);
+                /* The run stops, as the event model's: it would go on
+                 * without its safety net (a full disk: for days). cluster.h5
+                 * and a checkpoint of here are still tried. */
+                char msg[1100];
+                snprintf(msg, sizeof msg, "checkpoint failed after %llu attempts, the run stopped there: %s",
+                         (unsigned long long)att, err);
+                note_failure(c, "a checkpoint", "%s", msg);
                 (*ck_failed)++;
+                *asked = ASKED_CKFAIL;
+                return stop;
             }
             if (every) next_att = (att / every + 1) * every;
             if (next_time > 0) next_time = pdla_clock_seconds() + c->checkpoint_every;
@@ -705,23 +731,23 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
 
 /* After the run: the check, cluster.h5 and the final checkpoint. Returns
  * the exit status so far; *final_ck says whether a checkpoint was written. */
-static int finish_files(const dlca_sim *s, const dlca_cli *c, const char *dir, const char *cmd, double wall,
+static int finish_files(const dlca_sim *s, dlca_cli *c, const char *dir, const char *cmd, double wall,
                         int status, int *final_ck)
 {
     char err[1024];
     *final_ck = 0;
     if (c->check && dlca_check(s, err, sizeof err)) {
-        fprintf(stderr, "pdla: check failed: %s\n", err);
+        note_failure(c, "the check", "check failed: %s", err);
         status = EXIT_RUNTIME;
     }
     if (c->no_output) return status;
     if (write_file(s, c, dir, "cluster", cmd, wall, err, sizeof err)) {
-        fprintf(stderr, "pdla: %s\n", err);
+        note_failure(c, "cluster.h5", "%s", err);
         status = EXIT_RUNTIME;
     }
     if (c->checkpoint) {
         if (write_file(s, c, dir, "checkpoint", cmd, 0, err, sizeof err)) {
-            fprintf(stderr, "pdla: checkpoint failed: %s\n", err);
+            note_failure(c, "the final checkpoint", "checkpoint failed: %s", err);
             status = EXIT_RUNTIME;
         } else *final_ck = 1;
     }
@@ -740,7 +766,11 @@ static void print_summary(const dlca_sim *s, const dlca_params *p, const char *d
     printf("model dlca, d = %d, box %s, N = %llu, search %s\n", p->dim, box, (unsigned long long)st.n_monomers,
            dlca_search_name(p->search));
     printf("stop: %s; t = %.6g; clusters %llu; largest %llu; weight-average size %.4g\n",
-           asked == ASKED_SIGNAL ? "signal" : asked == ASKED_FILE ? "STOP file" : dlca_stop_name(stop), st.t,
+           asked == ASKED_SIGNAL   ? "signal"
+           : asked == ASKED_FILE   ? "STOP file"
+           : asked == ASKED_CKFAIL ? "a checkpoint failed"
+                                   : dlca_stop_name(stop),
+           st.t,
            (unsigned long long)st.n_clusters, (unsigned long long)st.largest, st.sum_s2 / (double)st.n_monomers);
     printf("attempts %llu, moves %llu, monomer moves %llu, joins %llu\n", (unsigned long long)st.attempts,
            (unsigned long long)st.moves, (unsigned long long)st.monomer_moves, (unsigned long long)st.merges);
@@ -751,16 +781,20 @@ static void print_summary(const dlca_sim *s, const dlca_params *p, const char *d
     fflush(stdout);
 }
 
-/* The exit: a stop asked for with checkpoints on is a clean exit (as the
- * DLA command); a signal without ends pdla by that signal, but only one that
- * stopped the run (asked): one caught during the final writes interrupted
- * nothing, and the summary already said the run finished. */
-static int exit_status(int status, int asked, int final_ck, uint64_t attempts, const char *dir)
+/* The exit, with the run's one line on stderr (a failure, a stop asked
+ * for, or both): a stop asked for with checkpoints on is a clean exit (as
+ * the DLA command); a signal without ends pdla by that signal, but only one
+ * that stopped the run (asked): one caught during the final writes
+ * interrupted nothing, and the summary already said the run finished. */
+static int exit_status(const dlca_cli *c, int status, int asked, int final_ck, uint64_t attempts, const char *dir)
 {
-    if (asked != ASKED_NONE && final_ck) {
+    char also[128] = "";
+    if (c->also[0]) snprintf(also, sizeof also, "; also failed: %s", c->also);
+    if ((asked == ASKED_SIGNAL || asked == ASKED_FILE) && final_ck) {
         fprintf(stderr, "pdla: stopped by %s after %llu attempts; checkpoint %s/checkpoint.h5 (resume with "
-                        "pdla --model dlca --resume %s)\n",
-                asked == ASKED_SIGNAL ? "signal" : "RUN_DIR/STOP", (unsigned long long)attempts, dir, dir);
+                        "pdla --model dlca --resume %s)%s%s%s\n",
+                asked == ASKED_SIGNAL ? "signal" : "RUN_DIR/STOP", (unsigned long long)attempts, dir, dir,
+                c->why[0] ? "; " : "", c->why, also);
         if (asked == ASKED_FILE) {
             char stop_path[4200];
             snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
@@ -768,6 +802,7 @@ static int exit_status(int status, int asked, int final_ck, uint64_t attempts, c
         }
         return status;
     }
+    if (c->why[0]) fprintf(stderr, "pdla: %s%s\n", c->why, also);
     if (stop_signal && asked == ASKED_SIGNAL) {
         signal((int)stop_signal, SIG_DFL);
         raise((int)stop_signal);
@@ -808,5 +843,5 @@ int dlca_cmd_main(int argc, char **argv)
     free_snapshots(&c);
     pdla_rundir_unlock(c.lock_out);
     pdla_rundir_unlock(c.lock);
-    return exit_status(status, asked, final_ck, st.attempts, dir);
+    return exit_status(&c, status, asked, final_ck, st.attempts, dir);
 }

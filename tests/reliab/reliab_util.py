@@ -1,8 +1,8 @@
 """reliab_util.py - the helpers the reliab scripts share (imported by
 models_cli.py, cli_items.py, faults.py, hostile.py, hostile_models.py,
-ens_adversary.py and scene_models.py; each runs as `python3 SCRIPT.py`, so
-this file, beside them, is on sys.path; tests/ensemble/test_ens_builds.py
-puts this folder on its path)."""
+ens_adversary.py, scene_models.py and models_faults.py; each runs as
+`python3 SCRIPT.py`, so this file, beside them, is on sys.path;
+tests/ensemble/test_ens_builds.py puts this folder on its path)."""
 import os
 import subprocess
 import time

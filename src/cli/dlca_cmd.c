@@ -45,7 +45,7 @@ typedef struct dlca_cli {
     double checkpoint_every;      /* seconds of wall time; 0: none */
     uint64_t checkpoint_attempts; /* 0: none */
     uint32_t given;               /* DLCA_PARAM_* bits of the rows set by options or the scene */
-    int box_lengths;              /* --resume without --dim: --box's length count, checked after the load */
+    int box_lengths;              /* --resume: --box's length count, held against the checkpoint's dim */
     const char *resume;
     const char *start;            /* --start FILE: the monomers' sites */
     double snapshot_every;        /* --snapshot-every T (model time); 0: none */
@@ -539,18 +539,17 @@ static int read_command(int argc, char **argv, dlca_cli *c, scene *sc)
         prc = -1;
     }
     if (prc == 0 && c->resume) c->checkpoint = 1; /* as in the DLA command: a resumed run goes on checkpointing */
-    /* Resumed without --dim, the dimension is the checkpoint's, not the
-     * default 2: --box's lengths are checked here as of the dimension they
-     * give, and their count against the checkpoint's after the load. */
-    if (prc == 0 && c->resume && !(c->given & DLCA_PARAM_DIM) && c->p.box_lengths > 1) {
-        c->box_lengths = c->p.box_lengths;
-        c->p.dim = c->box_lengths < 3 ? c->box_lengths : 3;
-    }
+    /* Resumed, the run's parameters are the checkpoint's, not the
+     * defaults: the options given are held against them, and the result
+     * checked, after the load (resume_sim). Checked here, --box 16x16x16
+     * was held against the default dimension 2, and --until-clusters 40
+     * against the default fill's 31 monomers of that box. */
+    if (prc == 0 && c->resume) c->box_lengths = c->p.box_lengths;
     if (prc == 0 && c->no_output && c->checkpoint) {
         snprintf(err, sizeof err, "checkpoints need a run directory: --no-output excludes them");
         prc = -1;
     }
-    if (prc || dlca_params_validate(&c->p, err, sizeof err)) {
+    if (prc || (!c->resume && dlca_params_validate(&c->p, err, sizeof err))) {
         fprintf(stderr, "pdla: %s\n", err);
         return EXIT_USAGE;
     }
@@ -601,10 +600,10 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
     size_t n;
     const pdla_param_desc *t = dlca_param_table(&n);
     dlca_params p = *dlca_get_params(*s);
-    if (c->box_lengths > 1 && c->box_lengths != p.dim)
+    const int box_bad = c->box_lengths > 1 && c->box_lengths != p.dim;
+    if (box_bad)
         snprintf(err, sizeof err, "--box gives %d lengths but the checkpoint is %dD", c->box_lengths, p.dim);
-    if ((c->box_lengths > 1 && c->box_lengths != p.dim) ||
-        pdla_param_check_asked(t, n, c->given, &p, &c->p, err, sizeof err)) {
+    if (box_bad || pdla_param_check_asked(t, n, c->given, &p, &c->p, err, sizeof err)) {
         fprintf(stderr, "pdla: %s: %s\n", ckpath, err);
         dlca_destroy(*s);
         *s = NULL;
@@ -631,6 +630,12 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
     /* The stops not given stay the checkpoint's: a resumed run ends where
      * the interrupted one would have. */
     pdla_param_apply_resumable(t, n, c->given, &p, &c->p);
+    if (dlca_params_validate(&p, err, sizeof err)) { /* the stops given, on the checkpoint's run */
+        fprintf(stderr, "pdla: %s\n", err);
+        dlca_destroy(*s);
+        *s = NULL;
+        return EXIT_USAGE;
+    }
     (void)dlca_set_stops(*s, p.until_clusters, p.until_time, p.max_attempts);
     c->p = p;
     if (!c->out) {

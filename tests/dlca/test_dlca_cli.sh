@@ -109,8 +109,15 @@ c="$tmp/ck"
 c3="$tmp/ck3"
 "$pdla" --model dlca --dim 3 --box 16x16x12 --fill 0.05 --until-clusters 40 --seed 3 --out "$c3" --checkpoint -q ||
     fail "3D --checkpoint run"
-"$pdla" --model dlca --resume "$c3" --box 16x16x12 --until-clusters 30 -q 2>"$tmp/err" ||
+# (--until-clusters 35: more than the 31 monomers the default fill gives
+# that box, which the resume's options were once held against)
+"$pdla" --model dlca --resume "$c3" --box 16x16x12 --until-clusters 35 -q 2>"$tmp/err" ||
     fail "3D --resume with its own --box: $(cat "$tmp/err")"
+c4="$tmp/ck4"
+"$pdla" --model dlca --dim 4 --box 8x8x8x6 --fill 0.05 --until-clusters 30 --seed 3 --out "$c4" --checkpoint -q ||
+    fail "4D --checkpoint run"
+"$pdla" --model dlca --resume "$c4" --box 8x8x8x6 --until-clusters 20 -q 2>"$tmp/err" ||
+    fail "4D --resume with its own --box: $(cat "$tmp/err")"
 for b in 16x16; do
     "$pdla" --model dlca --resume "$c3" --box $b >/dev/null 2>"$tmp/err"
     [ $? -eq 2 ] && grep -q "box gives [0-9] lengths but the checkpoint is 3D" "$tmp/err" ||

@@ -459,7 +459,7 @@ static int open_resume(ens_cmd *c)
         fprintf(stderr, "pdla ensemble: note: cutting a torn record of %" PRIu64 " bytes (a cluster in flight)\n",
                 pdla_ens_journal_torn_bytes(c->j));
     if (pdla_ens_journal_refused(c->j)[0]) /* the record the bytes above held, when it was readable */
-        fprintf(stderr, "pdla ensemble: note: a record was refused (%s); its cluster grows again\n",
+        fprintf(stderr, "pdla ensemble: note: a record was refused (%s); a cluster with no valid record grows again\n",
                 pdla_ens_journal_refused(c->j));
     note_build(c, extend || pdla_ens_journal_count(c->j) < pdla_ens_journal_config(c->j)->clusters);
     remove_named(c->dir, 0);

@@ -896,11 +896,16 @@ size_t ev_stuck_list(const ev_sim *s, const uint32_t **idx, const double **t)
     return s->nstuck;
 }
 
+/* The virial pressure from the free kinetic energy ke and the collision
+ * virial dvir over dt (one expression for ev_pressure and the series). */
+static double pressure_of(const ev_sim *s, double ke, double dvir, double dt)
+{
+    return (2 * ke / s->dim + dvir / (s->dim * dt)) / s->V;
+}
+
 double ev_pressure(const ev_sim *s, double dvir, double dt)
 {
-    ev_stats st;
-    ev_get_stats(s, &st);
-    return (2 * st.ke_free / s->dim + dvir / (s->dim * dt)) / s->V;
+    return pressure_of(s, ke_free_sum(s), dvir, dt);
 }
 
 /* The free kinetic energy of a series row, the same bits as
@@ -927,7 +932,7 @@ static double series_ke(ev_sim *s)
 /* ev_pressure with the row's energy (series_ke): the same expression. */
 static double series_pressure(ev_sim *s, double dvir, double dt)
 {
-    return (2 * series_ke(s) / s->dim + dvir / (s->dim * dt)) / s->V;
+    return pressure_of(s, series_ke(s), dvir, dt);
 }
 
 /* At most EV_SERIES_MAX rows: when full, neighbouring rows are merged in

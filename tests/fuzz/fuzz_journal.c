@@ -8,7 +8,10 @@
  * a sanitizer report, a message that is empty or spans lines, or a journal
  * that opens with every cluster and then cannot be written (a record the
  * reader takes must be one the writer can use: a forged R_g grid in
- * cluster 0 once blocked every later write). Built by scripts/fuzz.
+ * cluster 0 once blocked every later write). The writer itself refuses a
+ * record whose index, seed or positions count are not the ensemble's, so
+ * the reader's own checks of those three are not reached by this target.
+ * Built by scripts/fuzz.
  */
 #include <math.h>
 #include <stdint.h>
@@ -51,9 +54,11 @@ static void copy_record(pdla_ens_record *r, const pdla_ens_record *t)
     r->rg = malloc((t->rg_count ? t->rg_count : 1) * sizeof *r->rg);
     r->positions = malloc((t->npos ? t->npos * (uint64_t)t->dim : 1) * sizeof *r->positions);
     if (!r->rg_n || !r->rg || !r->positions) abort();
-    memcpy(r->rg_n, t->rg_n, t->rg_count * sizeof *r->rg_n);
-    memcpy(r->rg, t->rg, t->rg_count * sizeof *r->rg);
-    memcpy(r->positions, t->positions, t->npos * (uint64_t)t->dim * sizeof *r->positions);
+    if (t->rg_count) {
+        memcpy(r->rg_n, t->rg_n, t->rg_count * sizeof *r->rg_n);
+        memcpy(r->rg, t->rg, t->rg_count * sizeof *r->rg);
+    }
+    if (t->npos) memcpy(r->positions, t->positions, t->npos * (uint64_t)t->dim * sizeof *r->positions);
 }
 
 static uint64_t u64(fuzz_in *in)

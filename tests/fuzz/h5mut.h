@@ -38,30 +38,40 @@ typedef struct {
 static h5mut_file h5mut_seeds[H5MUT_MAX_SEEDS];
 static int h5mut_nseeds = -1;
 
-/* The seed files, read once: every regular file of $FUZZ_H5_SEEDS. */
+static int h5mut_name_cmp(const struct dirent **a, const struct dirent **b)
+{
+    return strcmp((*a)->d_name, (*b)->d_name);
+}
+
+/* The seed files, read once: every regular file of $FUZZ_H5_SEEDS, in name
+ * order (so an input picks the same seed on any file system and a crash
+ * replays anywhere). */
 static void h5mut_load_seeds(void)
 {
     h5mut_nseeds = 0;
     const char *dir = getenv("FUZZ_H5_SEEDS");
-    DIR *d = dir ? opendir(dir) : NULL;
-    if (!d) {
+    struct dirent **names = NULL;
+    const int nn = dir ? scandir(dir, &names, NULL, h5mut_name_cmp) : -1;
+    if (nn < 0) {
         fprintf(stderr, "h5mut: set FUZZ_H5_SEEDS to a directory of seed files\n");
         abort();
     }
-    struct dirent *de;
-    while ((de = readdir(d)) && h5mut_nseeds < H5MUT_MAX_SEEDS) {
-        if (de->d_name[0] == '.') continue;
+    for (int k = 0; k < nn; k++) {
+        const char *name = names[k]->d_name;
         char path[4096];
-        snprintf(path, sizeof path, "%s/%s", dir, de->d_name);
-        FILE *f = fopen(path, "rb");
+        snprintf(path, sizeof path, "%s/%s", dir, name);
+        FILE *f = name[0] != '.' && h5mut_nseeds < H5MUT_MAX_SEEDS ? fopen(path, "rb") : NULL;
+        free(names[k]);
         if (!f) continue;
         h5mut_file *s = &h5mut_seeds[h5mut_nseeds];
         s->data = malloc(H5MUT_MAX_BYTES);
         s->size = s->data ? fread(s->data, 1, H5MUT_MAX_BYTES, f) : 0;
         fclose(f);
+        unsigned char *fit = s->size ? realloc(s->data, s->size) : NULL; /* give back the rest */
+        if (fit) s->data = fit;
         if (s->size) h5mut_nseeds++;
     }
-    closedir(d);
+    free(names);
     if (h5mut_nseeds == 0) {
         fprintf(stderr, "h5mut: no seed files in %s\n", dir);
         abort();
@@ -107,9 +117,12 @@ static herr_t h5mut_link_cb(hid_t g, const char *name, const H5L_info_t *info, v
         return 0;
     char path[256];
     snprintf(path, sizeof path, "/%s", name);
-    H5O_info_t oi;
-    if (H5Oget_info_by_name2(g, path, &oi, H5O_INFO_BASIC, H5P_DEFAULT) < 0) return 0;
-    if (oi.type == H5O_TYPE_DATASET) {
+    /* H5Oopen + H5Iget_type: the same on HDF5 1.10 and later (H5Oget_info's
+     * struct changed in 1.12) */
+    const hid_t o = H5Oopen(g, path, H5P_DEFAULT);
+    const int is_dset = o >= 0 && H5Iget_type(o) == H5I_DATASET;
+    if (o >= 0) H5Oclose(o);
+    if (is_dset) {
         snprintf(l->name[l->n], sizeof l->name[0], "%s", path);
         l->attr[l->n][0] = '\0';
         l->n++;

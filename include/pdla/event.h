@@ -158,6 +158,9 @@ typedef struct ev_series {
 } ev_series;
 int ev_run_series(ev_sim *s, ev_series *ser, volatile const int *interrupt);
 void ev_series_free(ev_series *ser);
+/* 0; -1 with one line in err (the file at path, if any, untouched); or 1
+ * when the new file is in place but its directory could not be synced
+ * (err says so; its sidecars should still be written). */
 int ev_write_h5(const ev_sim *s, const ev_series *ser, const char *path, const char *cmdline,
                 int stop_reason, char *err, size_t errlen);
 const char *ev_stop_name(int why);

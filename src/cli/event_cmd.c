@@ -550,10 +550,12 @@ static int write_outputs(const ev_cli *c, ev_sim *s, const ev_series *ser, const
         fail_note(f, "the final checkpoint", "%s", err);
         rc = 1;
     }
-    if (ev_write_h5(s, ser, path, cmd, why, err, sizeof err)) {
+    const int wrc = ev_write_h5(s, ser, path, cmd, why, err, sizeof err);
+    if (wrc) { /* 1: in place but its directory not synced: the sidecars still follow it */
         fail_note(f, "cluster.h5", "%s", err);
         rc = 1;
-    } else if (ev_write_xdmf(s, path, err, sizeof err)) {
+    }
+    if (wrc >= 0 && ev_write_xdmf(s, path, err, sizeof err)) {
         fail_note(f, "its sidecars", "%s", err);
         rc = 1;
     }

@@ -325,6 +325,18 @@ static int write_file(const h5u_writer *w, const char *tmp, const ev_sim *s, con
     return h5u_close(w, rc, file, H5Fclose, tmp);
 }
 
+/* fsync of the directory holding path. */
+static int sync_parent(const char *path)
+{
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s", path);
+    char *slash = strrchr(dir, '/');
+    if (!slash) return h5u_fsync_dir(".");
+    if (slash == dir) slash[1] = '\0';
+    else *slash = '\0';
+    return h5u_fsync_dir(dir);
+}
+
 int ev_write_h5(const ev_sim *s, const ev_series *ser, const char *path, const char *cmdline,
                 int why, char *err, size_t errlen)
 {
@@ -344,6 +356,16 @@ int ev_write_h5(const ev_sim *s, const ev_series *ser, const char *path, const c
     if (!rc && rename(tmp, path) != 0)
         rc = h5u_fail_msg(&w, "cannot rename %s to %s: %s", tmp, path, strerror(errno));
     if (rc) unlink(tmp);
+    /* The rename is durable only once the directory is synced (as the DLA
+     * and DLCA writers do): before, a crash just after a run that said
+     * "wrote" could leave the older cluster.h5 or none. Failing, the new
+     * file is in place: 1, so that its sidecars are still written. */
+    if (!rc && sync_parent(path) != 0) {
+        rc = h5u_fail_msg(&w, "%s is in place, but its directory could not be synced: %s", path, strerror(errno));
+        if (err && errlen) h5u_one_line(err);
+        free(tmp);
+        return h5u_restore(&q) < 0 ? -1 : 1;
+    }
     if (h5u_restore(&q) < 0 && !rc) rc = h5u_fail_msg(&w, "written, but %s", "cannot restore the HDF5 error handler");
     if (rc && err && errlen) h5u_one_line(err);
     free(tmp);

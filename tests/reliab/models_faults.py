@@ -459,6 +459,29 @@ for c, half, small in cases:
         section("%s: kill -9 at exact calls, then resume" % c.name)
         killed_runs(c)
 
+section("event: cluster.h5's rename is made durable (its directory synced)")
+# Before, the event writer renamed cluster.h5 into place and never synced
+# the directory, so a crash just after a run that said "wrote" could leave
+# the older file or none (DLA and DLCA sync it). The last directory sync of
+# a run without checkpoints is that one: failed, the run exits 1 with one
+# line, the new cluster.h5 in place with its sidecars. One of the run's
+# directory syncs must be that one.
+d_sync = os.path.join(WORK, "event-dirsync")
+sync_args = ["--model", "event", "--dim", "2", "--particles", "300", "--packing", "0.1", "--t-max", "1",
+             "--seed", "4", "--out", d_sync, "--force", "--quiet"]
+n_sync = calls(sync_args, "dirsync", lambda: shutil.rmtree(d_sync, ignore_errors=True))
+found = 0
+for k in range(1, n_sync + 1):
+    shutil.rmtree(d_sync, ignore_errors=True)
+    rc, lines = pdla(sync_args, fault={"FAULT_OP": "dirsync", "FAULT_AT": str(k)})
+    if not (rc == 1 and len(lines) == 1 and "could not be synced" in lines[0]):
+        continue
+    found += 1
+    h5, side = os.path.join(d_sync, "cluster.h5"), os.path.join(d_sync, "cluster-free.xdmf2")
+    check(os.path.exists(h5) and os.path.exists(side) and not sidecar_bad(side, h5),
+          "event, cluster.h5's directory sync failed: cluster.h5 not in place or its sidecar missing or not its")
+check(found == 1, "event: %d of the run's %d directory syncs follow cluster.h5's rename (want 1)" % (found, n_sync))
+
 section("kill -9 chains")
 CHAINS = [
     Case("dlca-chain", "dlca", ["--model", "dlca", "--dim", "2", "--box", "384", "--fill", "0.05", "--seed", "3"],

@@ -364,7 +364,8 @@ int ev_write_h5(const ev_sim *s, const ev_series *ser, const char *path, const c
         rc = h5u_fail_msg(&w, "%s is in place, but its directory could not be synced: %s", path, strerror(errno));
         if (err && errlen) h5u_one_line(err);
         free(tmp);
-        return h5u_restore(&q) < 0 ? -1 : 1;
+        (void)h5u_restore(&q); /* the line already names the first failure */
+        return 1;
     }
     if (h5u_restore(&q) < 0 && !rc) rc = h5u_fail_msg(&w, "written, but %s", "cannot restore the HDF5 error handler");
     if (rc && err && errlen) h5u_one_line(err);

@@ -27,6 +27,7 @@
 #include <unistd.h>
 
 #include "dlca_cmd.h"
+#include "fail_note.h"
 #include "optcheck.h"
 #include "parse.h"
 #include "pdla/dlca.h"
@@ -53,8 +54,7 @@ typedef struct dlca_cli {
     size_t nsnaps;
     uint64_t n_monomers;          /* of the run (set when it starts) */
     int lock, lock_out;           /* flocks (pdla_rundir_lock) of the checkpoint's and the run directory, -1: none */
-    char why[1200];               /* the first failure: the run's one line on stderr at the end ("": none) */
-    char also[96];                /* what failed after it ("cluster.h5, the final checkpoint") */
+    cli_fail fail;                /* the write failures: one line on stderr at the end (fail_note.h) */
 } dlca_cli;
 
 static volatile sig_atomic_t stop_signal;
@@ -337,20 +337,6 @@ static int sync_path(const char *p, int is_dir)
     return r;
 }
 
-/* A failure of the run. Printed once, at the end, as one line: the first
- * one's message, then what else failed (before, each failed checkpoint,
- * cluster.h5 and the final checkpoint printed a line of its own: six lines
- * for a full disk). */
-static void note_failure(dlca_cli *c, const char *what, const char *fmt, const char *msg)
-{
-    if (!c->why[0]) {
-        snprintf(c->why, sizeof c->why, fmt, msg);
-        return;
-    }
-    const size_t n = strlen(c->also);
-    if (what && n + strlen(what) + 3 < sizeof c->also) snprintf(c->also + n, sizeof c->also - n, "%s%s", n ? ", " : "", what);
-}
-
 /* Write what = "cluster" or "checkpoint" as DIR/what.h5 (beside, then
  * renamed, so that a reader never sees half a file). 0 or -1 with err. */
 static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, const char *what, const char *cmd,
@@ -462,7 +448,7 @@ static int snapshot_due(const dlca_sim *s, dlca_cli *c, double *next)
     char msg[200];
     snprintf(msg, sizeof msg, "no memory for more snapshots at t = %g (%zu taken, %.3g GiB); none taken after it",
              dlca_time(s), c->nsnaps, (double)c->nsnaps * 8.0 * (double)c->n_monomers / 1073741824.0);
-    note_failure(c, "snapshots", "%s", msg);
+    cli_fail_note(&c->fail, "snapshots", "%s", msg);
     *next = 0;
     return -1;
 }
@@ -502,7 +488,7 @@ static int run_loop(dlca_sim *s, dlca_cli *c, const char *dir, const char *cmd, 
                 char msg[1100];
                 snprintf(msg, sizeof msg, "checkpoint failed after %llu attempts, the run stopped there: %s",
                          (unsigned long long)att, err);
-                note_failure(c, "a checkpoint", "%s", msg);
+                cli_fail_note(&c->fail, "a checkpoint", "%s", msg);
                 (*ck_failed)++;
                 *asked = ASKED_CKFAIL;
                 return stop;
@@ -742,17 +728,17 @@ static int finish_files(const dlca_sim *s, dlca_cli *c, const char *dir, const c
     char err[1024];
     *final_ck = 0;
     if (c->check && dlca_check(s, err, sizeof err)) {
-        note_failure(c, "the check", "check failed: %s", err);
+        cli_fail_note(&c->fail, "the check", "check failed: %s", err);
         status = EXIT_RUNTIME;
     }
     if (c->no_output) return status;
     if (write_file(s, c, dir, "cluster", cmd, wall, err, sizeof err)) {
-        note_failure(c, "cluster.h5", "%s", err);
+        cli_fail_note(&c->fail, "cluster.h5", "%s", err);
         status = EXIT_RUNTIME;
     }
     if (c->checkpoint) {
         if (write_file(s, c, dir, "checkpoint", cmd, 0, err, sizeof err)) {
-            note_failure(c, "the final checkpoint", "checkpoint failed: %s", err);
+            cli_fail_note(&c->fail, "the final checkpoint", "checkpoint failed: %s", err);
             status = EXIT_RUNTIME;
         } else *final_ck = 1;
     }
@@ -794,12 +780,12 @@ static void print_summary(const dlca_sim *s, const dlca_params *p, const char *d
 static int exit_status(const dlca_cli *c, int status, int asked, int final_ck, uint64_t attempts, const char *dir)
 {
     char also[128] = "";
-    if (c->also[0]) snprintf(also, sizeof also, "; also failed: %s", c->also);
+    if (c->fail.also[0]) snprintf(also, sizeof also, "; also failed: %s", c->fail.also);
     if ((asked == ASKED_SIGNAL || asked == ASKED_FILE) && final_ck) {
         fprintf(stderr, "pdla: stopped by %s after %llu attempts; checkpoint %s/checkpoint.h5 (resume with "
                         "pdla --model dlca --resume %s)%s%s%s\n",
                 asked == ASKED_SIGNAL ? "signal" : "RUN_DIR/STOP", (unsigned long long)attempts, dir, dir,
-                c->why[0] ? "; " : "", c->why, also);
+                c->fail.why[0] ? "; " : "", c->fail.why, also);
         if (asked == ASKED_FILE) {
             char stop_path[4200];
             snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
@@ -807,7 +793,7 @@ static int exit_status(const dlca_cli *c, int status, int asked, int final_ck, u
         }
         return status;
     }
-    if (c->why[0]) fprintf(stderr, "pdla: %s%s\n", c->why, also);
+    if (c->fail.why[0]) fprintf(stderr, "pdla: %s%s\n", c->fail.why, also);
     if (stop_signal && asked == ASKED_SIGNAL) {
         signal((int)stop_signal, SIG_DFL);
         raise((int)stop_signal);

@@ -22,6 +22,7 @@
 
 #include <unistd.h>
 
+#include "fail_note.h"
 #include "parse.h"
 #include "scene.h"
 #include "pdla/event.h"
@@ -276,30 +277,11 @@ static char *joined(int argc, char **argv)
     return s;
 }
 
-/* The run's failures, printed once at the end as one line: the first one's
- * message, then what else failed. Before, a failed interval checkpoint
- * stopped the run with a line, and the final checkpoint and cluster.h5
- * added one each (three lines for a full disk). */
-typedef struct ev_fail {
-    char why[700];
-    char also[64];
-} ev_fail;
-
-static void fail_note(ev_fail *f, const char *what, const char *fmt, const char *msg)
-{
-    if (!f->why[0]) {
-        snprintf(f->why, sizeof f->why, fmt, msg);
-        return;
-    }
-    const size_t n = strlen(f->also);
-    if (what && n + strlen(what) + 3 < sizeof f->also) snprintf(f->also + n, sizeof f->also - n, "%s%s", n ? ", " : "", what);
-}
-
 /* ---- progress lines and interval checkpoints (called between events) --- */
 typedef struct ev_ticker {
     ev_cli *c;
     ev_series *ser;
-    ev_fail *fail;
+    cli_fail *fail;
     const char *dir, *cmd;
     int enabled, tty, width, failed;
     double interval, t_start, t_last, t_ckpt, rate;
@@ -369,7 +351,7 @@ static int ticker(ev_sim *s, void *u)
             ev_stats st;
             ev_get_stats(s, &st);
             snprintf(msg, sizeof msg, "checkpoint failed at t = %.6g, the run stopped there: %s", st.t, err);
-            fail_note(k->fail, "a checkpoint", "%s", msg);
+            cli_fail_note(k->fail, "a checkpoint", "%s", msg);
             k->failed = 1;
             return 1; /* stop: the run would go on without its safety net */
         }
@@ -541,22 +523,22 @@ static ev_sim *start_sim(ev_cli *c, ev_series *ser, char *dir, size_t len, int *
 /* The checkpoint (when asked), cluster.h5 and its sidecars: 0 or 1 with
  * the failures noted in f. */
 static int write_outputs(const ev_cli *c, ev_sim *s, const ev_series *ser, const char *dir,
-                         const char *cmd, int why, ev_fail *f)
+                         const char *cmd, int why, cli_fail *f)
 {
     char path[4200], err[512];
     snprintf(path, sizeof path, "%s/cluster.h5", dir);
     int rc = 0;
     if (c->checkpoint && ev_checkpoint_write(s, ser, dir, cmd, err, sizeof err)) {
-        fail_note(f, "the final checkpoint", "%s", err);
+        cli_fail_note(f, "the final checkpoint", "%s", err);
         rc = 1;
     }
     const int wrc = ev_write_h5(s, ser, path, cmd, why, err, sizeof err);
     if (wrc) { /* 1: in place but its directory not synced: the sidecars still follow it */
-        fail_note(f, "cluster.h5", "%s", err);
+        cli_fail_note(f, "cluster.h5", "%s", err);
         rc = 1;
     }
     if (wrc >= 0 && ev_write_xdmf(s, path, err, sizeof err)) {
-        fail_note(f, "its sidecars", "%s", err);
+        cli_fail_note(f, "its sidecars", "%s", err);
         rc = 1;
     }
     return rc;
@@ -587,7 +569,7 @@ static void print_summary(const ev_cli *c, ev_sim *s, const char *dir, int why, 
 }
 
 /* The ticker of the run: progress lines and interval checkpoints. */
-static void ticker_init(ev_ticker *tk, ev_cli *c, ev_series *ser, ev_fail *fail, ev_sim *s, const char *dir,
+static void ticker_init(ev_ticker *tk, ev_cli *c, ev_series *ser, cli_fail *fail, ev_sim *s, const char *dir,
                         const char *cmd)
 {
     memset(tk, 0, sizeof *tk);
@@ -633,7 +615,7 @@ int event_cmd_main(int argc, char **argv)
     if (!s) return rc;
     char *cmd = joined(argc, argv);
     ev_ticker tk;
-    ev_fail fail = {"", ""};
+    cli_fail fail = {"", ""};
     ticker_init(&tk, &c, &ser, &fail, s, dir, cmd);
     ev_stats at0;
     ev_get_stats(s, &at0);
@@ -643,7 +625,7 @@ int event_cmd_main(int argc, char **argv)
     if (tk.enabled) progress_line(&tk, s, pdla_clock_seconds(), 1);
     rc = tk.failed;
     if (why < 0) {
-        fail_note(&fail, NULL, "%s", "out of memory for the series");
+        cli_fail_note(&fail, NULL, "%s", "out of memory for the series");
         rc = 1;
     } else if (write_outputs(&c, s, &ser, dir, cmd, why, &fail)) {
         rc = 1;

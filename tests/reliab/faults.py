@@ -18,14 +18,12 @@ run. Offsets are sampled (all of them for the rare calls) to keep CI short.
 import os
 import resource
 import shutil
-import signal
-import subprocess
 import sys
 
 import h5py
 import numpy as np
 
-from reliab_util import check, failures, shim_preload
+from reliab_util import check, failures, run_faulted, shim_preload
 
 PDLA, SHIM, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
 runs = 0
@@ -44,18 +42,7 @@ def pdla(args, fault=None, fsize=None, count=None):
         env.update(fault or {})
         if count:
             env["FAULT_COUNT"] = count
-
-    def limit():
-        if fsize is not None:
-            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # EFBIG instead of a core dump
-            resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
-
-    try:
-        p = subprocess.run([PDLA] + args, capture_output=True, env=env, preexec_fn=limit, timeout=120)
-    except subprocess.TimeoutExpired:
-        return None, ["timeout"]
-    err = p.stderr.decode("utf-8", "replace").rstrip("\n")
-    return p.returncode, err.split("\n") if err else []
+    return run_faulted(PDLA, args, env, fsize)
 
 
 def calls(args, op):

@@ -274,43 +274,39 @@ int posix_fallocate64(int fd, off_t off, off_t len)
     return real_posix_fallocate64(fd, off, len);
 }
 
+/* A failed rename or link: -1 with the error (SHORT means nothing to a
+ * name: EIO). */
+static int name_fail(void)
+{
+    errno = shortw ? EIO : err_no;
+    return -1;
+}
+
 int rename(const char *from, const char *to)
 {
     REAL(rename, int, const char *, const char *);
-    if (hit_names(from, to)) {
-        errno = shortw ? EIO : err_no;
-        return -1;
-    }
+    if (hit_names(from, to)) return name_fail();
     return real_rename(from, to);
 }
 
 int renameat(int fd1, const char *from, int fd2, const char *to)
 {
     REAL(renameat, int, int, const char *, int, const char *);
-    if (hit_names(from, to)) {
-        errno = shortw ? EIO : err_no;
-        return -1;
-    }
+    if (hit_names(from, to)) return name_fail();
     return real_renameat(fd1, from, fd2, to);
 }
 
 int link(const char *from, const char *to)
 {
     REAL(link, int, const char *, const char *);
-    if (hit_names(from, to)) {
-        errno = shortw ? EIO : err_no;
-        return -1;
-    }
+    if (hit_names(from, to)) return name_fail();
     return real_link(from, to);
 }
 
 int linkat(int fd1, const char *from, int fd2, const char *to, int flags)
 {
     REAL(linkat, int, int, const char *, int, const char *, int);
-    if (hit_names(from, to)) {
-        errno = shortw ? EIO : err_no;
-        return -1;
-    }
+    if (hit_names(from, to)) return name_fail();
     return real_linkat(fd1, from, fd2, to, flags);
 }
 

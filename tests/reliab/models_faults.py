@@ -45,7 +45,7 @@ import time
 
 import h5py
 
-from reliab_util import check, failures, shim_preload
+from reliab_util import check, failures, run_faulted, shim_preload
 
 PDLA, SHIM, WORK = (os.path.abspath(a) for a in sys.argv[1:4])
 PRELOAD = shim_preload(PDLA, SHIM)
@@ -66,18 +66,7 @@ def pdla(args, fault=None, fsize=None):
     if fault is not None:
         env["LD_PRELOAD"] = PRELOAD
         env.update(fault)
-
-    def limit():
-        if fsize is not None:
-            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # EFBIG instead of a core dump
-            resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
-
-    try:
-        p = subprocess.run([PDLA] + args, capture_output=True, env=env, preexec_fn=limit, timeout=120)
-    except subprocess.TimeoutExpired:
-        return None, ["timeout"]
-    err = p.stderr.decode("utf-8", "replace").rstrip("\n")
-    return p.returncode, err.split("\n") if err else []
+    return run_faulted(PDLA, args, env, fsize)
 
 
 def calls(args, op, prepare):

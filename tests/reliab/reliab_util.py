@@ -42,6 +42,27 @@ def shim_preload(exe, shim):
     return ":".join(asan + [shim])
 
 
+def run_faulted(exe, args, env, fsize=None, timeout=120):
+    """Run EXE ARGS in environment env (faultshim's FAULT_* and LD_PRELOAD
+    set by the caller), with RLIMIT_FSIZE fsize bytes when given (SIGXFSZ
+    ignored: EFBIG instead of a core dump). (exit status or -signal, stderr
+    lines), or (None, ["timeout"])."""
+    import resource
+    import signal
+
+    def limit():
+        if fsize is not None:
+            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+            resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
+
+    try:
+        p = subprocess.run([exe] + args, capture_output=True, env=env, preexec_fn=limit, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return None, ["timeout"]
+    err = p.stderr.decode("utf-8", "replace").rstrip("\n")
+    return p.returncode, err.split("\n") if err else []
+
+
 def one_line(err):
     """Is the stderr text one line?"""
     return len(err.rstrip("\n").split("\n")) == 1

@@ -338,7 +338,9 @@ static int sync_path(const char *p, int is_dir)
 }
 
 /* Write what = "cluster" or "checkpoint" as DIR/what.h5 (beside, then
- * renamed, so that a reader never sees half a file). 0 or -1 with err. */
+ * renamed, so that a reader never sees half a file). 0; -1 with err when
+ * the file is not in place; 1 with err when it is, but its directory did
+ * not sync or its sidecar failed (the summary must not say "wrote" for -1). */
 static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, const char *what, const char *cmd,
                       double wall, char *err, size_t errlen)
 {
@@ -377,10 +379,10 @@ static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, con
                             sizeof xerr) &&
             !unsynced) {
             snprintf(err, errlen, "%s", xerr);
-            return -1;
+            return 1;
         }
     }
-    return unsynced ? -1 : 0;
+    return unsynced ? 1 : 0;
 }
 
 enum { ASKED_NONE = 0, ASKED_SIGNAL, ASKED_FILE, ASKED_CKFAIL };
@@ -721,18 +723,22 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
 }
 
 /* After the run: the check, cluster.h5 and the final checkpoint. Returns
- * the exit status so far; *final_ck says whether a checkpoint was written. */
+ * the exit status so far; *final_ck says whether a checkpoint was written,
+ * *wrote whether cluster.h5 is in place. */
 static int finish_files(const dlca_sim *s, dlca_cli *c, const char *dir, const char *cmd, double wall,
-                        int status, int *final_ck)
+                        int status, int *final_ck, int *wrote)
 {
     char err[1024];
     *final_ck = 0;
+    *wrote = 0;
     if (c->check && dlca_check(s, err, sizeof err)) {
         cli_fail_note(&c->fail, "the check", "check failed: %s", err);
         status = EXIT_RUNTIME;
     }
     if (c->no_output) return status;
-    if (write_file(s, c, dir, "cluster", cmd, wall, err, sizeof err)) {
+    const int wrc = write_file(s, c, dir, "cluster", cmd, wall, err, sizeof err);
+    *wrote = wrc >= 0;
+    if (wrc) {
         cli_fail_note(&c->fail, "cluster.h5", "%s", err);
         status = EXIT_RUNTIME;
     }
@@ -746,7 +752,7 @@ static int finish_files(const dlca_sim *s, dlca_cli *c, const char *dir, const c
 }
 
 static void print_summary(const dlca_sim *s, const dlca_params *p, const char *dir, int stop, int asked,
-                          double wall)
+                          double wall, int wrote)
 {
     dlca_stats st;
     dlca_get_stats(s, &st);
@@ -768,7 +774,7 @@ static void print_summary(const dlca_sim *s, const dlca_params *p, const char *d
     printf("time %.3f s: %.1f ns/attempt, %.2f ns/monomer-move; model memory %.1f bytes/monomer\n", wall,
            st.attempts ? 1e9 * wall / (double)st.attempts : 0.0,
            st.monomer_moves ? 1e9 * wall / (double)st.monomer_moves : 0.0, (double)st.bytes / (double)st.n_monomers);
-    if (dir[0]) printf("wrote %s/cluster.h5\n", dir);
+    if (dir[0] && wrote) printf("wrote %s/cluster.h5\n", dir);
     fflush(stdout);
 }
 
@@ -821,12 +827,12 @@ int dlca_cmd_main(int argc, char **argv)
     }
     const double t0 = pdla_clock_seconds();
     char *cmd = join_args(argc, argv);
-    int asked = ASKED_NONE, ck_failed = 0, final_ck = 0;
+    int asked = ASKED_NONE, ck_failed = 0, final_ck = 0, wrote = 0;
     const int stop = run_loop(s, &c, dir, cmd, &asked, &ck_failed);
     const double wall = pdla_clock_seconds() - t0;
-    const int status = finish_files(s, &c, dir, cmd, wall, ck_failed ? EXIT_RUNTIME : 0, &final_ck);
+    const int status = finish_files(s, &c, dir, cmd, wall, ck_failed ? EXIT_RUNTIME : 0, &final_ck, &wrote);
     free(cmd);
-    if (!c.quiet) print_summary(s, &c.p, dir, stop, asked, wall);
+    if (!c.quiet) print_summary(s, &c.p, dir, stop, asked, wall, wrote);
     dlca_stats st;
     dlca_get_stats(s, &st);
     dlca_destroy(s);

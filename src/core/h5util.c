@@ -82,12 +82,25 @@ int h5u_fail(const h5u_writer *w, const char *fmt, ...)
     return h5u_fail_msg(w, "HDF5 could not %s", what);
 }
 
+/* What kind of object a close names, for callers that pass a bare name: a
+ * close can flush HDF5's cache and fail on a full disk, and "could not
+ * close t" said nothing ("could not close dataset t" does). */
+static const char *close_kind(herr_t (*close_fn)(hid_t), const char *what)
+{
+    if (!what[0] || !strncmp(what, "a ", 2) || !strncmp(what, "an ", 3)) return "";
+    if (close_fn == H5Dclose) return "dataset ";
+    if (close_fn == H5Aclose) return "attribute ";
+    if (close_fn == H5Gclose) return "group ";
+    if (close_fn == H5Fclose) return "file ";
+    return "";
+}
+
 /* Closes an HDF5 id in an unwind: keeps the first failure, and reports a
  * failed close (which can be a failed write-back) only when all else went well. */
 int h5u_close(const h5u_writer *w, int rc, hid_t id, herr_t (*close_fn)(hid_t), const char *what)
 {
     if (id < 0) return rc;
-    if (close_fn(id) < 0 && rc == 0) return h5u_fail(w, "close %s", what);
+    if (close_fn(id) < 0 && rc == 0) return h5u_fail(w, "close %s%s", close_kind(close_fn, what), what);
     return rc;
 }
 

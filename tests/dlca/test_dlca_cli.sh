@@ -212,6 +212,25 @@ printf 'model = dlca\nfill = 2\n' >"$tmp/bad-scene"
 "$pdla" --scene "$tmp/bad-scene" >/dev/null 2>"$tmp/err"
 [ $? -eq 2 ] && grep -q ':2: ' "$tmp/err" || fail "bad scene: $(cat "$tmp/err")"
 
+# cluster.h5 that could not be written: exit 1, one line naming what the
+# close was, and the summary does not say "wrote" (it did before); the same
+# run with room says it. SIGXFSZ ignored so that the write fails with EFBIG.
+for l in 1 4; do
+    rm -rf "$tmp/full"
+    (trap '' XFSZ; ulimit -f $l; "$pdla" --model dlca --box 32x32 --fill 0.05 --until-clusters 3 --out "$tmp/full" \
+        >"$tmp/out" 2>"$tmp/err")
+    rc=$?
+    [ $rc -eq 1 ] && [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "full disk ($l blocks): exit $rc, $(cat "$tmp/err")"
+    grep -q 'could not close dataset \|could not write\|could not create' "$tmp/err" ||
+        fail "full disk ($l blocks): $(cat "$tmp/err")"
+    ! grep -q '^wrote' "$tmp/out" || fail "full disk ($l blocks): the summary says $(grep '^wrote' "$tmp/out")"
+    [ ! -e "$tmp/full/cluster.h5" ] || fail "full disk ($l blocks): a cluster.h5 is there"
+done
+rm -rf "$tmp/full"
+"$pdla" --model dlca --box 32x32 --fill 0.05 --until-clusters 3 --out "$tmp/full" >"$tmp/out" 2>"$tmp/err" ||
+    fail "room: $(cat "$tmp/err")"
+grep -q "^wrote $tmp/full/cluster.h5\$" "$tmp/out" || fail "room: no 'wrote' line: $(cat "$tmp/out")"
+
 "$pdla" --model dlca --help >"$tmp/help" || fail "--help"
 for o in dim box fill count mobility sticking drift until-clusters until-time max-attempts seed search grid-box \
     checkpoint checkpoint-every checkpoint-attempts resume start snapshot-every; do

@@ -588,6 +588,9 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
     size_t n;
     const pdla_param_desc *t = dlca_param_table(&n);
     dlca_params p = *dlca_get_params(*s);
+    dlca_stats st;
+    dlca_get_stats(*s, &st);
+    if (!p.count) p.count = st.n_monomers; /* --count N with the run's own N is not a change */
     const int box_bad = c->box_lengths > 1 && c->box_lengths != p.dim;
     if (box_bad)
         snprintf(err, sizeof err, "--box gives %d lengths but the checkpoint is %dD", c->box_lengths, p.dim);
@@ -599,8 +602,6 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
     }
     /* The snapshots taken before the checkpoint, and its period unless
      * --snapshot-every is given again. */
-    dlca_stats st;
-    dlca_get_stats(*s, &st);
     double every = 0;
     if (dlca_read_snapshots_h5(ckpath, st.n_monomers, &c->snaps, &c->nsnaps, &every, err, sizeof err)) {
         fprintf(stderr, "pdla: %s\n", err);

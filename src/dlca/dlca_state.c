@@ -510,6 +510,14 @@ static int load_state(dlca_sim **out, hid_t f, char *why, size_t whylen)
     double dv[CK_ND];
     if (ck_read(f, "u64", PDLA_H5_U64, u, CK_NU) || ck_read(f, "f64", PDLA_H5_F64, dv, CK_ND))
         LOAD_FAIL(PDLA_EIO, "not a DLCA checkpoint (no state)");
+    /* count as the run was given it (0: from fill), kept so that a resumed
+     * run's cluster.h5 records the same /parameters as an uninterrupted one
+     * (before: count = N); it must give the N the state holds. */
+    const uint64_t given = p.count;
+    if (dlca_params_monomers(&p) != u[CK_U_N])
+        LOAD_FAIL(PDLA_EIO, "its %llu monomers are not the %llu its parameters give (count %llu, fill %.17g)",
+                  (unsigned long long)u[CK_U_N], (unsigned long long)dlca_params_monomers(&p),
+                  (unsigned long long)given, p.fill);
     p.count = u[CK_U_N];
     if (dlca_params_validate(&p, why, whylen)) return PDLA_EIO;
     const int d = p.dim;
@@ -541,6 +549,7 @@ static int load_state(dlca_sim **out, hid_t f, char *why, size_t whylen)
         rc = dlca_search_init(*out, p.search, (int)u[CK_U_A]) ? PDLA_ENOMEM : 0;
         if (rc) snprintf(why, whylen, "out of memory");
         if (!rc && (*out)->search_now != (int)u[CK_U_SEARCH]) rc = PDLA_EIO, snprintf(why, whylen, "its search state is inconsistent");
+        (*out)->p.count = given;
     }
     ck_free(&a);
     return rc;

@@ -277,6 +277,11 @@ dlca_ck_values = {
     "snapshot_clusters_0": (dlca_attr("snapshots/3", "n_clusters", np.uint64(0)), "snapshot 3 has n_clusters"),
     "snapshot_site_2^31": (dlca_set("snapshots/3/site", 0, 2**31), "snapshot 3 has a site"),
     "snapshot_cluster_2^31": (dlca_set("snapshots/3/cluster", 0, 2**31), "snapshot 3 has a cluster number"),
+    # /parameters' count or fill that give another N than the state holds
+    # (the load once set count = N, so a forged count or fill went unseen)
+    "parameters_count_70": (dlca_attr("parameters", "count", np.uint64(70)), "the 70 its parameters give"),
+    "parameters_fill_doubled": (lambda f: f["parameters"].attrs.__setitem__(
+        "fill", 2 * f["parameters"].attrs["fill"]), "monomers are not the"),
 }
 for name, (fn, want) in dlca_ck_values.items():
     d, path = forged(CK, "dlcack-" + name.replace("^", ""), fn)

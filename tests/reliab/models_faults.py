@@ -88,8 +88,8 @@ def sample(n, k):
 
 def result(path):
     """What defines a run's result: every dataset and every attribute of
-    cluster.h5 outside /Code, less /results' wall_s (and /parameters' count,
-    which a DLCA resume sets to the N its fill gave: it says the same box).
+    cluster.h5 outside /Code, less /results' wall_s and model_bytes (a DLCA
+    resume's /parameters count is the run's own too: it was set to N before).
     None when the file is not there; a string when it cannot be read."""
     if not os.path.exists(path):
         return None
@@ -102,7 +102,7 @@ def result(path):
                 if isinstance(obj, h5py.Dataset):
                     out[name] = obj[()].tobytes()
                 for k, v in obj.attrs.items():
-                    if (name, k) not in (("results", "wall_s"), ("results", "model_bytes"), ("parameters", "count")):
+                    if (name, k) not in (("results", "wall_s"), ("results", "model_bytes")):
                         out[name + "@" + k] = repr(v)
             visit("", f)
             f.visititems(visit)

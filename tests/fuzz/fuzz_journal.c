@@ -9,10 +9,14 @@
  * that opens with every cluster and then cannot be written (a record the
  * reader takes must be one the writer can use: a forged R_g grid in
  * cluster 0 once blocked every later write). The writer itself refuses a
- * record whose index, seed or positions count are not the ensemble's, so
- * the reader's own checks of those three are not reached by this target.
- * Built by scripts/fuzz.
+ * record whose index, seed or positions count are not the ensemble's; so
+ * that the reader's own checks of those are reached too, a record may
+ * instead be framed here (magic, length, payload, FNV-1a: the journal's
+ * format, written out again on purpose) and appended to the closed
+ * journal's file. Built by scripts/fuzz.
  */
+#include <fcntl.h>
+#include <unistd.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -113,6 +117,38 @@ static void forge(fuzz_in *in, pdla_ens_record *r)
     }
 }
 
+/* The journal's framing of a record (ens_journal.c's append_raw): the
+ * record magic, u64 length, the payload, u64 FNV-1a of length and payload. */
+static uint64_t fnv1a(uint64_t h, const uint8_t *p, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        h ^= p[i];
+        h *= UINT64_C(0x100000001b3);
+    }
+    return h;
+}
+
+/* Appends r, framed, to the closed journal in dir: past the writer's own
+ * refusal of a foreign index, seed or positions count. */
+static void append_framed(const char *dir, const pdla_ens_record *r)
+{
+    uint8_t *payload = NULL;
+    size_t len = 0;
+    if (pdla_ens_record_encode(r, &payload, &len)) abort();
+    char path[600];
+    snprintf(path, sizeof path, "%s/%s", dir, PDLA_ENS_JOURNAL_NAME);
+    const int fd = open(path, O_WRONLY | O_APPEND);
+    if (fd < 0) abort();
+    const uint64_t n = len;
+    uint8_t head[16];
+    memcpy(head, "PDLAREC1", 8);
+    memcpy(head + 8, &n, 8);
+    const uint64_t sum = fnv1a(fnv1a(UINT64_C(0xcbf29ce484222325), head + 8, 8), payload, len);
+    if (write(fd, head, 16) != 16 || write(fd, payload, len) != (ssize_t)len || write(fd, &sum, 8) != 8) abort();
+    if (close(fd)) abort();
+    free(payload);
+}
+
 /* Open the journal written; with every cluster in it, ensemble.h5 must be
  * written from it. */
 static void read_back(const char *dir, int keep)
@@ -163,15 +199,25 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         fprintf(stderr, "create: %s\n", err);
         abort();
     }
+    pdla_ens_record framed[M];
+    int nframed = 0;
     for (int i = 0; i < M; i++) {
         pdla_ens_record r;
         copy_record(&r, &tmpl[keep][i]);
-        const unsigned edits = fuzz_byte(&in) % 4;
+        const unsigned b = fuzz_byte(&in), edits = b % 4;
         for (unsigned e = 0; e < edits; e++) forge(&in, &r);
+        if (b & 4) { /* past the writer: appended framed after the close */
+            framed[nframed++] = r;
+            continue;
+        }
         if (pdla_ens_journal_append(j, &r, err, sizeof err) != PDLA_OK) fuzz_one_line(err);
         pdla_ens_record_free(&r);
     }
     pdla_ens_journal_close(j);
+    for (int i = 0; i < nframed; i++) {
+        append_framed(dir, &framed[i]);
+        pdla_ens_record_free(&framed[i]);
+    }
     read_back(dir, keep);
     return 0;
 }

@@ -801,6 +801,8 @@ static int exit_status(const dlca_cli *c, int status, int asked, int final_ck, u
         return status;
     }
     if (c->fail.why[0]) fprintf(stderr, "pdla: %s%s\n", c->fail.why, also);
+    else if (stop_signal && asked != ASKED_SIGNAL) /* during the final writes: said, as the DLA command does */
+        fprintf(stderr, "pdla: signal received after the run had finished; output complete\n");
     if (stop_signal && asked == ASKED_SIGNAL) {
         signal((int)stop_signal, SIG_DFL);
         raise((int)stop_signal);

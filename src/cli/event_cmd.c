@@ -631,6 +631,8 @@ int event_cmd_main(int argc, char **argv)
         rc = 1;
     }
     if (fail.why[0]) fprintf(stderr, "pdla: %s%s%s\n", fail.why, fail.also[0] ? "; also failed: " : "", fail.also);
+    else if (ev_stop_signal && why != EV_STOP_INTERRUPT) /* during the final writes: said, as the DLA command does */
+        fprintf(stderr, "pdla: signal received after the run had finished; output complete\n");
     if (!rc && !c.quiet) print_summary(&c, s, dir, why, cpu, &at0);
     free(cmd);
     ev_series_free(&ser);

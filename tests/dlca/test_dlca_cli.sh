@@ -212,6 +212,23 @@ printf 'model = dlca\nfill = 2\n' >"$tmp/bad-scene"
 "$pdla" --scene "$tmp/bad-scene" >/dev/null 2>"$tmp/err"
 [ $? -eq 2 ] && grep -q ':2: ' "$tmp/err" || fail "bad scene: $(cat "$tmp/err")"
 
+# A run that reached a stop (--max-attempts) and is resumed to go on: the
+# same history and monomers as the run straight to the end, with one series
+# row more, the one of the first stop (README, DLCA checkpoints).
+"$pdla" --model dlca --box 64x48 --fill 0.05 --until-clusters 10 --seed 3 --out "$tmp/straight" -q || fail "straight run"
+half=$(( $(attempts_of "$tmp/straight/cluster.h5") / 2 ))
+"$pdla" --model dlca --box 64x48 --fill 0.05 --until-clusters 10 --seed 3 --max-attempts $half --checkpoint \
+    --out "$tmp/ext" -q || fail "run to $half attempts"
+"$pdla" --model dlca --resume "$tmp/ext" --max-attempts 0 -q || fail "extended run"
+"$pdla" info "$tmp/straight/cluster.h5" >"$tmp/i1"
+"$pdla" info "$tmp/ext/cluster.h5" >"$tmp/i2"
+[ -n "$(digest "$tmp/i1")" ] && [ "$(digest "$tmp/i1")" = "$(digest "$tmp/i2")" ] || fail "extended run: another history"
+[ -z "$(h5diff -c "$tmp/straight/cluster.h5" "$tmp/ext/cluster.h5" /monomers /monomers 2>&1)" ] ||
+    fail "extended run: other monomers"
+r1=$(sed -n 's/.*model dlca, \([0-9]*\) series rows.*/\1/p' "$tmp/i1")
+r2=$(sed -n 's/.*model dlca, \([0-9]*\) series rows.*/\1/p' "$tmp/i2")
+[ -n "$r1" ] && [ "$r2" = "$((r1 + 1))" ] || fail "extended run: $r2 series rows, the straight run $r1"
+
 # cluster.h5 that could not be written: exit 1, one line naming what the
 # close was, and the summary does not say "wrote" (it did before); the same
 # run with room says it. SIGXFSZ ignored so that the write fails with EFBIG.

@@ -14,6 +14,7 @@ after (i+1) T: the same sites and cluster numbers as a run stopped by
 checkpoint keeps them, so a resumed run holds the same snapshots.
 """
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -117,6 +118,10 @@ for what, f in bad.items():
     rc, err = run("--box", "32", "--start", f, "--out", path("bad"))
     check(rc == 2 and err.count("\n") == 1 and err.startswith("pdla: ") and not os.path.exists(path("bad")),
           f"--start {what}: exit {rc}, stderr {err!r}")
+    # README: "naming the file and line" (the line where there is one)
+    check(f in err, f"--start {what}: the message does not name the file: {err!r}")
+    if what in ("junk", "coords", "long_line", "long_comment"):
+        check(re.search(r": lines? [0-9]", err) is not None, f"--start {what}: the message names no line: {err!r}")
 rc, err = run("--resume", path("r3"), "--start", ok)
 check(rc == 2 and err.count("\n") == 1, f"--start with --resume: exit {rc} {err!r}")
 for v in ("0", "-1", "x"):

@@ -125,6 +125,10 @@ expect_usage "seed outside the box" --model event --particles 300 --packing 0.05
 grep -q "outside the box" "$t/err" || fail "seed outside: $(cat "$t/err")"
 printf '20 20\n' >"$t/short"
 expect_usage "seed line short" --model event --particles 300 --packing 0.05 --seeds "$t/short" --out "$t/b"
+# a line over 1023 bytes (README): refused naming the line, not cut
+{ printf '20 20 1\n50 50 1.5'; head -c 1100 /dev/zero | tr '\0' ' '; printf '\n'; } >"$t/long"
+expect_usage "seeds line too long" --model event --particles 300 --packing 0.05 --seeds "$t/long" --out "$t/b"
+grep -q ":2: line longer than 1023 bytes" "$t/err" || fail "seeds line too long: $(cat "$t/err")"
 expect_usage "seeds file missing" --model event --seeds "$t/nonexistent" --out "$t/b"
 [ -e "$t/b" ] && fail "run directory made for a bad seeds file"
 "$pdla" analyze "$t/r/cluster.h5" --bins 3 >/dev/null 2>"$t/err"

@@ -160,6 +160,10 @@ j0 = open("ext/clusters.journal", "rb").read()
 bad("extend to 2^64 - 5 clusters", "at most 100000000", "ensemble", "--resume", "ext", "--clusters",
     "18446744073709551611", rss_mb=100)
 bad("extend past the cap", "at most 100000000", "ensemble", "--resume", "ext", "--clusters", "1e9", rss_mb=100)
+# Within the cap but past this machine's memory: refused on the extension
+# too, before the journal is touched (README: "also on --resume and when
+# extending"; only a new ensemble was tested).
+bad("extend past the memory", "GB of memory", "ensemble", "--resume", "ext", "--clusters", "1e8", rss_mb=100)
 check(open("ext/clusters.journal", "rb").read() == j0, "a refused extension changed the journal")
 rc, err = pdla("ensemble", "--resume", "ext", "-q")
 check(rc == 0, "resume after refused extensions: %s %s" % (rc, err.strip()))

@@ -496,13 +496,35 @@ static int writer(const char *dir, int report_fd)
     }
 }
 
+/* README: "at every instant each of these names is a complete
+ * checkpoint": after a kill, the generations before the newest load too
+ * (each file itself, no fallback). Returns how many were there. */
+static int kill_older_ok(const char *dir, int round)
+{
+    int n = 0;
+    for (int k = 1; k <= 2; k++) {
+        char path[400], err[1024];
+        struct stat sb;
+        snprintf(path, sizeof path, "%s/checkpoint.%d.h5", dir, k);
+        if (stat(path, &sb) != 0) continue;
+        pdla_engine *e = NULL;
+        pdla_checkpoint_info info;
+        const int rc = pdla_checkpoint_load(&e, path, NULL, 0, &info, err, sizeof err);
+        CHECK(rc == PDLA_OK && !info.note[0], "round %d: checkpoint.%d.h5: %s%s", round, k, rc ? err : "fell back: ",
+              rc ? "" : info.note);
+        pdla_engine_destroy(e);
+        n++;
+    }
+    return n;
+}
+
 static void kill_test(const char *self, int rounds)
 {
     char dir[300], err[1024];
     snprintf(dir, sizeof dir, "%s/kill", tmpdir);
     mkdir(dir, 0777);
     uint64_t seed = 99, last = 0;
-    int loaded_newer = 0;
+    int loaded_newer = 0, older = 0;
     for (int i = 0; i < rounds; i++) {
         int pfd[2];
         if (pipe(pfd)) return;
@@ -545,9 +567,11 @@ static void kill_test(const char *self, int rounds)
             last = info.generation;
         }
         pdla_engine_destroy(e);
+        older += kill_older_ok(dir, i);
     }
-    fprintf(stderr, "kill: %d rounds, last generation %llu, %d loaded one renamed but not yet reported\n",
-            rounds, (unsigned long long)last, loaded_newer);
+    fprintf(stderr, "kill: %d rounds, last generation %llu, %d loaded one renamed but not yet reported, "
+            "%d older generations loaded\n", rounds, (unsigned long long)last, loaded_newer, older);
+    CHECK(older > 0, "no checkpoint.1.h5 or checkpoint.2.h5 was ever there to load");
 }
 
 /* ---- threads ----------------------------------------------------------------- */

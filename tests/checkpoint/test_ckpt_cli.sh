@@ -80,6 +80,37 @@ grep -q "^pdla: stopped by signal after [0-9]* particles; checkpoint sig/checkpo
     fail "SIGTERM message: $(cat err)"
 n1=$(sed -n 's/^particles *\([0-9]*\) .*/\1/p' sig/summary.txt)
 
+# A second SIGTERM while the first is handled ends pdla at once (README):
+# the handler is installed with SA_RESETHAND. The run is stopped, sent the
+# first and continued for 50 ms; stopped again while it writes its
+# (compressed) checkpoint, /proc must show the handler gone (SigCgt bit 15),
+# and the second must end it by SIGTERM (143), not let it finish with 0.
+checks=$((checks + 1))
+"$PDLA" --target 1e9 --out sig2 -q --checkpoint --checkpoint-compress 2>err </dev/null &
+pid=$!
+i=0
+while [ ! -d sig2 ] && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
+sleep 1
+caught() {
+    local m
+    m=$(sed -n 's/^SigCgt:\t*//p' /proc/$pid/status 2>/dev/null)
+    [ -n "$m" ] && [ $((0x$m >> 14 & 1)) -eq 1 ]
+}
+caught || fail "second signal: SIGTERM not caught before the first"
+kill -STOP $pid; kill -TERM $pid; kill -CONT $pid
+sleep 0.05 # the first is delivered on SIGCONT; its checkpoint takes longer
+kill -STOP $pid 2>/dev/null
+if kill -0 $pid 2>/dev/null; then
+    caught && fail "second signal: SIGTERM still caught after the first was handled"
+    kill -TERM $pid; kill -CONT $pid
+    wait $pid
+    rc=$?
+    [ $rc -eq 143 ] || fail "second signal: status $rc, want 143 (ended by SIGTERM): $(cat err)"
+else
+    wait $pid
+    echo "second signal: pdla had already ended (status $?); not judged"
+fi
+
 checks=$((checks + 1))
 "$PDLA" --resume sig -q --threads 3 --serial-until 100 --checkpoint-every 0.2s 2>err </dev/null &
 pid=$!
@@ -94,6 +125,9 @@ grep -q "^threads  *3 after" sig/summary.txt || fail "resume with 3 threads: $(c
 grep -q "^resumed from  *sig/checkpoint.h5 (generation 1, $n1 particles" sig/summary.txt ||
     fail "resumed line: $(grep resumed sig/summary.txt)"
 grep -Eq "^checkpoints +([2-9]|[1-9][0-9]+) written" sig/summary.txt || fail "periodic: $(grep checkpoints sig/summary.txt)"
+for a in pause_seconds previous_write_seconds; do # README: each checkpoint's root attributes
+    h5dump -a /$a sig/checkpoint.h5 2>/dev/null | grep -Eq '\(0\): [0-9.e+-]+$' || fail "checkpoint attribute $a missing"
+done
 n2=$(sed -n 's/^particles *\([0-9]*\) .*/\1/p' sig/summary.txt)
 [ "$n2" -gt "$n1" ] || fail "no growth after resume ($n1 -> $n2)"
 run --resume sig -q --target $((n2 + 500)) --threads 2

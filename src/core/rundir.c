@@ -9,7 +9,9 @@
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <signal.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/file.h>
 #include <unistd.h>
@@ -42,6 +44,30 @@ void pdla_rundir_unlock(int fd)
     if (fd >= 0) close(fd); /* closing the last descriptor releases the flock */
 }
 
+/* The probes of pdla processes that no longer exist (killed between the
+ * probe's create and unlink: models-faults' kill -9 chains found one left).
+ * A live process's probe is left alone: some commands probe before they
+ * take the directory's lock. */
+static void remove_dead_probes(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d) return;
+    static const char pre[] = ".pdla-probe.";
+    const struct dirent *de;
+    while ((de = readdir(d))) {
+        if (strncmp(de->d_name, pre, sizeof pre - 1)) continue;
+        char *end;
+        errno = 0;
+        const long pid = strtol(de->d_name + sizeof pre - 1, &end, 10);
+        if (errno || *end || pid <= 0 || pid == (long)getpid()) continue;
+        if (kill((pid_t)pid, 0) == 0 || errno != ESRCH) continue;
+        char p[4400];
+        snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
+        unlink(p);
+    }
+    closedir(d);
+}
+
 int pdla_rundir_probe(const char *dir)
 {
     char p[4300];
@@ -53,7 +79,9 @@ int pdla_rundir_probe(const char *dir)
         unlink(p);
         return e;
     }
-    return unlink(p) == 0 ? 0 : errno;
+    if (unlink(p) != 0) return errno;
+    remove_dead_probes(dir);
+    return 0;
 }
 
 int pdla_rundir_fsync(const char *dir)

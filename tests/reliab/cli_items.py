@@ -107,11 +107,19 @@ for name in ("cluster.h5.tmp.999999", ".cluster.h5.new", ".cluster.h5.new.tmp.99
 rc, err = pdla("--resume", W("R"), "--target", "3500", "-q")
 left = [x for x in os.listdir(W("R")) if ".tmp." in x or x.startswith(".cluster")]
 check(rc == 0 and not left, "item 8: resume left %r (%r %r)" % (left, rc, err))
-for name in ("cluster.h5.tmp.999999", ".cluster.h5.new.tmp.999999", "summary.txt.tmp.999999"):
+# (a probe of a pdla killed between its create and unlink: .pdla-probe.PID of
+# a PID that no longer runs goes; a live process's stays, as it may be probing)
+dead = subprocess.Popen(["true"])
+dead.wait()
+for name in ("cluster.h5.tmp.999999", ".cluster.h5.new.tmp.999999", "summary.txt.tmp.999999",
+             ".pdla-probe.%d" % dead.pid, ".pdla-probe.%d" % os.getpid()):
     open(W("F", name), "w").close()
 rc, err = pdla("--target", "300", "--out", W("F"), "--force", "-q")
-left = [x for x in os.listdir(W("F")) if ".tmp." in x or x.startswith(".cluster")]
+left = [x for x in os.listdir(W("F")) if ".tmp." in x or x.startswith(".cluster") or
+        x == ".pdla-probe.%d" % dead.pid]
 check(rc == 0 and not left, "item 8: --force run left %r" % left)
+check(os.path.exists(W("F", ".pdla-probe.%d" % os.getpid())), "item 8: a live process's probe was removed")
+os.unlink(W("F", ".pdla-probe.%d" % os.getpid()))
 
 # --- item 9: render --zoom 1e6 ends (the disc loop is clipped): about as
 # fast as --zoom 1 (README), within 3x + 1 s of it (before the clip the

@@ -646,6 +646,9 @@ static int write_cluster(const pdla_engine *e, const pdla_run_info *info, const 
     }
     if (pdla_output_write(e, info, target, err, sizeof err) != PDLA_OK) {
         snprintf(why, whylen, "%s", err); /* already names the file */
+        /* a failed --force write keeps the old cluster.h5 and leaves no
+         * .cluster.h5.new (one written whose directory sync failed stayed) */
+        if (exists) unlink(tmp);
         return -1;
     }
     if (exists && rename(tmp, h5)) {
@@ -653,10 +656,19 @@ static int write_cluster(const pdla_engine *e, const pdla_run_info *info, const 
         unlink(tmp);
         return -1;
     }
+    /* The replacing rename made durable, as the library's own rename is (a
+     * crash just after a --force run that said "wrote" could leave the older
+     * cluster.h5); a failed sync is one line with the new file in place. */
+    const int unsynced = exists && pdla_rundir_fsync(dir) != 0 ? (errno ? errno : EIO) : 0;
     /* ParaView's sidecar (include/pdla/xdmf.h), for the file under its final name. */
-    return xdmf_write_cluster(h5, pdla_engine_count(e), pdla_engine_params(e)->dim,
-                              pdla_engine_params(e)->resolution,
-                              pdla_engine_params(e)->record_arrival, why, whylen);
+    const int xrc = xdmf_write_cluster(h5, pdla_engine_count(e), pdla_engine_params(e)->dim,
+                                       pdla_engine_params(e)->resolution,
+                                       pdla_engine_params(e)->record_arrival, why, whylen);
+    if (unsynced) {
+        snprintf(why, whylen, "replaced %s, but cannot sync its directory: %s", h5, strerror(unsynced));
+        return -1;
+    }
+    return xrc;
 }
 
 /* ---- main: one run as a sequence of steps ------------------------------- */

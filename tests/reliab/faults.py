@@ -132,6 +132,28 @@ for desc, fault, fsize in faults(RUN + ["--out", W("probe"), "--force"]):
     if rc == 0:
         check(h5 != old_h5 and s != old_sum, tag + ": exit 0 but the old files are still there")
 
+# ---- the --force rename of cluster.h5 is made durable ----------------------
+# The library writes .cluster.h5.new (synced, renamed, its directory synced);
+# the command then renamed it over cluster.h5 and synced nothing, so a crash
+# just after a --force run that said "wrote" could leave the older file. One
+# of the run's directory syncs must follow that rename: failed, the run exits
+# 1 with one line and the new cluster.h5 in place.
+n_dirsync = calls(RUN + ["--out", W("probe"), "--force"], "dirsync")
+found = 0
+for k in range(1, n_dirsync + 1):
+    d = W("run")
+    shutil.rmtree(d, ignore_errors=True)
+    shutil.copytree(W("old"), d)
+    rc, err = pdla(RUN + ["--out", d, "--force"], {"FAULT_OP": "dirsync", "FAULT_AT": str(k)})
+    judge("cluster dirsync #%d/%d" % (k, n_dirsync), rc, err, [d])
+    if rc == 1 and len(err) == 1 and "replaced" in err[0] and "cannot sync its directory" in err[0]:
+        found += 1
+        check(read(os.path.join(d, "cluster.h5")) != old_h5, "cluster dirsync #%d: the old cluster.h5 is there" % k)
+        check(np.array_equal(positions(os.path.join(d, "cluster.h5")), ref_pos),
+              "cluster dirsync #%d: wrong new cluster.h5" % k)
+check(found == 1, "cluster.h5's --force rename: %d of the run's %d directory syncs follow it (want 1)"
+      % (found, n_dirsync))
+
 # ---- checkpoints, then a resume -------------------------------------------
 CK = ["--target", "900", "--seed", "4", "-q", "--checkpoint-particles", "300"]
 pdla(CK + ["--out", W("ckref")])

@@ -628,7 +628,9 @@ static int close_checked(FILE *f, const char *path, char *why, size_t whylen)
 }
 
 /* Write cluster.h5 into dir. With --force an existing one is replaced by
- * writing beside it and renaming, so a failed write keeps the old file. */
+ * writing beside it and renaming, so a failed write keeps the old file.
+ * 0; -1 with why when cluster.h5 is not written; 1 with why when it is in
+ * place but its directory sync or its sidecar failed. */
 static int write_cluster(const pdla_engine *e, const pdla_run_info *info, const char *h5,
                          const char *dir, char *why, size_t whylen)
 {
@@ -664,11 +666,9 @@ static int write_cluster(const pdla_engine *e, const pdla_run_info *info, const 
     const int xrc = xdmf_write_cluster(h5, pdla_engine_count(e), pdla_engine_params(e)->dim,
                                        pdla_engine_params(e)->resolution,
                                        pdla_engine_params(e)->record_arrival, why, whylen);
-    if (unsynced) {
+    if (unsynced)
         snprintf(why, whylen, "replaced %s, but cannot sync its directory: %s", h5, strerror(unsynced));
-        return -1;
-    }
-    return xrc;
+    return unsynced || xrc ? 1 : 0; /* cluster.h5 is in place either way */
 }
 
 /* ---- main: one run as a sequence of steps ------------------------------- */
@@ -939,23 +939,28 @@ static void write_outputs_step(run *R)
         snprintf(R->h5, sizeof R->h5, "%s/cluster.h5", R->dir);
         snprintf(R->txt, sizeof R->txt, "%s/summary.txt", R->dir);
         const pdla_run_info info = {R->cmd, pdla_clock_seconds() - R->t0, peak_rss_bytes()};
-        if (write_cluster(R->eng, &info, R->h5, R->dir, R->why, sizeof R->why)) R->write_failed = 1;
-        else r->h5_path = R->h5;
+        const int wc = write_cluster(R->eng, &info, R->h5, R->dir, R->why, sizeof R->why);
+        if (wc) R->write_failed = 1;
+        if (wc >= 0) r->h5_path = R->h5; /* in place, also when its directory did not sync */
     }
     pdla_engine_stats(R->eng, &r->st);
     r->fit = pdla_engine_fit(R->eng);
     r->wall_seconds = pdla_clock_seconds() - R->t0;
     r->peak_rss = peak_rss_bytes();
-    if (R->o.no_output || R->write_failed) return;
+    if (R->o.no_output || !r->h5_path) return;
     /* Beside it and renamed, as cluster.h5: a failed write (disk full)
-     * leaves the old summary.txt, or none, never a truncated one. */
-    char stmp[4300];
-    FILE *f = tools_out_open(R->txt, stmp, sizeof stmp, R->why, sizeof R->why);
+     * leaves the old summary.txt, or none, never a truncated one. It is
+     * written for a cluster.h5 in place even when that one's directory
+     * sync failed: the older run's must not stay beside it. The first
+     * failure is the one reported. */
+    char stmp[4300], why2[sizeof R->why];
+    char *const why = R->write_failed ? why2 : R->why;
+    FILE *f = tools_out_open(R->txt, stmp, sizeof stmp, why, sizeof why2);
     if (!f) {
         R->write_failed = 1;
     } else {
         print_summary(f, r, 1);
-        if (tools_out_commit(f, stmp, R->txt, 1, R->why, sizeof R->why)) R->write_failed = 1;
+        if (tools_out_commit(f, stmp, R->txt, 1, why, sizeof why2)) R->write_failed = 1;
     }
 }
 

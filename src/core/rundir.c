@@ -9,11 +9,14 @@
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/file.h>
+#include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 int pdla_rundir_lock(const char *dir, int *fd, char *err, size_t errlen)
@@ -59,11 +62,14 @@ static void remove_dead_probes(const char *dir)
         char *end;
         errno = 0;
         const long pid = strtol(de->d_name + sizeof pre - 1, &end, 10);
-        if (errno || *end || pid <= 0 || pid == (long)getpid()) continue;
-        if (kill((pid_t)pid, 0) == 0 || errno != ESRCH) continue;
+        if (errno || *end || pid <= 0 || pid > INT_MAX || pid == (long)getpid()) continue;
+        if (kill((pid_t)pid, 0) == 0 || errno != ESRCH) continue; /* alive (EPERM too) */
         char p[4400];
         snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
-        unlink(p);
+        /* a minute old at least: on a shared file system the pid may be a
+         * live process of another host, whose probe lasts microseconds */
+        struct stat sb;
+        if (stat(p, &sb) == 0 && time(NULL) - sb.st_mtime >= 60) unlink(p);
     }
     closedir(d);
 }
@@ -72,7 +78,11 @@ int pdla_rundir_probe(const char *dir)
 {
     char p[4300];
     snprintf(p, sizeof p, "%s/.pdla-probe.%ld", dir, (long)getpid());
-    const int fd = open(p, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    int fd = open(p, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    /* Our own name already there: a killed pdla of the same pid left it (a
+     * container's pdla is often pid 1 every time); no live process has it. */
+    if (fd < 0 && errno == EEXIST && unlink(p) == 0)
+        fd = open(p, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
     if (fd < 0) return errno;
     if (close(fd) != 0) {
         const int e = errno;

@@ -163,7 +163,12 @@ bad("extend past the cap", "at most 100000000", "ensemble", "--resume", "ext", "
 # Within the cap but past this machine's memory: refused on the extension
 # too, before the journal is touched (README: "also on --resume and when
 # extending"; only a new ensemble was tested).
-bad("extend past the memory", "GB of memory", "ensemble", "--resume", "ext", "--clusters", "1e8", rss_mb=100)
+# (1e8 of these clusters need ~237 GB; on a machine with more the extension
+# is not refused, so the case is skipped there, saying so.)
+if os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") < 200e9:
+    bad("extend past the memory", "GB of memory", "ensemble", "--resume", "ext", "--clusters", "1e8", rss_mb=100)
+else:
+    print("extend past the memory: skipped, this machine has 200 GB or more")
 check(open("ext/clusters.journal", "rb").read() == j0, "a refused extension changed the journal")
 rc, err = pdla("ensemble", "--resume", "ext", "-q")
 check(rc == 0, "resume after refused extensions: %s %s" % (rc, err.strip()))

@@ -149,6 +149,8 @@ for k in range(1, n_dirsync + 1):
     if rc == 1 and len(err) == 1 and "replaced" in err[0] and "cannot sync its directory" in err[0]:
         found += 1
         check(read(os.path.join(d, "cluster.h5")) != old_h5, "cluster dirsync #%d: the old cluster.h5 is there" % k)
+        check(read(os.path.join(d, "summary.txt")) not in (None, old_sum),
+              "cluster dirsync #%d: the older run's summary.txt beside the new cluster.h5" % k)
         check(np.array_equal(positions(os.path.join(d, "cluster.h5")), ref_pos),
               "cluster dirsync #%d: wrong new cluster.h5" % k)
 check(found == 1, "cluster.h5's --force rename: %d of the run's %d directory syncs follow it (want 1)"

@@ -15,8 +15,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/file.h>
-#include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
 
 int pdla_rundir_lock(const char *dir, int *fd, char *err, size_t errlen)
@@ -66,10 +64,7 @@ static void remove_dead_probes(const char *dir)
         if (kill((pid_t)pid, 0) == 0 || errno != ESRCH) continue; /* alive (EPERM too) */
         char p[4400];
         snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
-        /* a minute old at least: on a shared file system the pid may be a
-         * live process of another host, whose probe lasts microseconds */
-        struct stat sb;
-        if (stat(p, &sb) == 0 && time(NULL) - sb.st_mtime >= 60) unlink(p);
+        unlink(p);
     }
     closedir(d);
 }
@@ -89,7 +84,9 @@ int pdla_rundir_probe(const char *dir)
         unlink(p);
         return e;
     }
-    if (unlink(p) != 0) return errno;
+    /* ENOENT: removed by another host's pdla that took our pid for a dead
+     * one of its own (a shared file system); the create proved the point */
+    if (unlink(p) != 0 && errno != ENOENT) return errno;
     remove_dead_probes(dir);
     return 0;
 }

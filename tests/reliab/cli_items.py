@@ -114,8 +114,6 @@ dead.wait()
 for name in ("cluster.h5.tmp.999999", ".cluster.h5.new.tmp.999999", "summary.txt.tmp.999999",
              ".pdla-probe.%d" % dead.pid, ".pdla-probe.%d" % os.getpid()):
     open(W("F", name), "w").close()
-    if name.startswith(".pdla-probe."):  # probes are removed only once a minute old
-        os.utime(W("F", name), (time.time() - 3600, time.time() - 3600))
 rc, err = pdla("--target", "300", "--out", W("F"), "--force", "-q")
 left = [x for x in os.listdir(W("F")) if ".tmp." in x or x.startswith(".cluster") or
         x == ".pdla-probe.%d" % dead.pid]

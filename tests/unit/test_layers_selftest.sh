@@ -62,4 +62,14 @@ expect "an HDF5 read outside h5check" "src/dlca/dlca_state.c:.*calls H5Dread its
 fresh; printf 'static int ra(hid_t a, double *v) { return H5Aread(a, H5T_NATIVE_DOUBLE, v); }\n' >>"$tmp/t/src/cli/info.c"
 expect "an attribute read outside h5check" "src/cli/info.c:.*calls H5Aread itself"
 
+# The exception lists may only shrink: an entry that matches nothing fails.
+fresh; sed -i 's/CLOCK_MONOTONIC/CLOCK_REALTIME/g' "$tmp/t/src/dla/parallel.c"
+expect "a stale CLOCK_ALLOWED entry" "CLOCK_ALLOWED entry (src/dla/parallel.c, params3) matches nothing"
+fresh; sed 's|^ALLOWED = \[\]$|ALLOWED = [("include", "src/dla/x.c -> src/cli/y.h", "nobody", "stale")]|' "$src/scripts/check-layers" >"$tmp/check-stale"
+grep -q '"nobody", "stale"' "$tmp/check-stale" || { echo "FAIL the stale ALLOWED entry was not put in"; fail=1; }
+check_real=$check
+check="$tmp/check-stale"
+expect "a stale ALLOWED entry" "ALLOWED entry (include, src/dla/x.c -> src/cli/y.h, nobody) matches nothing"
+check=$check_real
+
 exit $fail

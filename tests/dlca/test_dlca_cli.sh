@@ -238,8 +238,11 @@ for l in 1 4; do
         >"$tmp/out" 2>"$tmp/err")
     rc=$?
     [ $rc -eq 1 ] && [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "full disk ($l blocks): exit $rc, $(cat "$tmp/err")"
-    grep -q 'could not close dataset \|could not write\|could not create' "$tmp/err" ||
+    grep -q 'could not close \|could not write\|could not create' "$tmp/err" ||
         fail "full disk ($l blocks): $(cat "$tmp/err")"
+    # a failed close names what it closed ("could not close t" said nothing)
+    ! grep -q 'could not close [a-z_]* (' "$tmp/err" || grep -q 'could not close \(dataset\|attribute\|group\|file\|an\?\) ' "$tmp/err" ||
+        fail "full disk ($l blocks): the close names no kind: $(cat "$tmp/err")"
     ! grep -q '^wrote' "$tmp/out" || fail "full disk ($l blocks): the summary says $(grep '^wrote' "$tmp/out")"
     [ ! -e "$tmp/full/cluster.h5" ] || fail "full disk ($l blocks): a cluster.h5 is there"
 done

@@ -125,6 +125,26 @@ expect_usage "seed outside the box" --model event --particles 300 --packing 0.05
 grep -q "outside the box" "$t/err" || fail "seed outside: $(cat "$t/err")"
 printf '20 20\n' >"$t/short"
 expect_usage "seed line short" --model event --particles 300 --packing 0.05 --seeds "$t/short" --out "$t/b"
+# A run that reached its own stop, resumed with a later one (README): the
+# events of a run straight to the later stop (/cluster and /free equal it,
+# h5diff -c printing nothing), and one series row more, the first stop's.
+ext="--particles 200 --packing 0.1 --seed-radius 0.5 --seed 7"
+# shellcheck disable=SC2086
+"$pdla" --model event $ext --max-events 3000 --checkpoint --out "$t/ext" >/dev/null 2>"$t/err" || fail "ext run: $(cat "$t/err")"
+"$pdla" --model event --resume "$t/ext" --max-events 6000 >/dev/null 2>"$t/err" || fail "ext resume: $(cat "$t/err")"
+# shellcheck disable=SC2086
+"$pdla" --model event $ext --max-events 6000 --out "$t/straight" >/dev/null 2>"$t/err" || fail "straight run: $(cat "$t/err")"
+if command -v h5diff >/dev/null; then
+    for g in /cluster /free; do
+        [ -z "$(h5diff -c "$t/ext/cluster.h5" "$t/straight/cluster.h5" $g $g 2>&1)" ] ||
+            fail "extended run: $g differs from the straight run"
+    done
+    nrows() { h5dump -H -d /series/time "$1" | grep -o 'DATASPACE  SIMPLE { ( [0-9]* )' | grep -o '[0-9]*'; }
+    [ -n "$(nrows "$t/straight/cluster.h5")" ] &&
+        [ "$(nrows "$t/ext/cluster.h5")" = "$(( $(nrows "$t/straight/cluster.h5") + 1 ))" ] ||
+        fail "extended run: $(nrows "$t/ext/cluster.h5") series rows, the straight run $(nrows "$t/straight/cluster.h5")"
+fi
+
 # a line over 1023 bytes (README): refused naming the line, not cut
 { printf '20 20 1\n50 50 1.5'; head -c 1100 /dev/zero | tr '\0' ' '; printf '\n'; } >"$t/long"
 expect_usage "seeds line too long" --model event --particles 300 --packing 0.05 --seeds "$t/long" --out "$t/b"

@@ -120,6 +120,20 @@ left = [x for x in os.listdir(W("F")) if ".tmp." in x or x.startswith(".cluster"
 check(rc == 0 and not left, "item 8: --force run left %r" % left)
 check(os.path.exists(W("F", ".pdla-probe.%d" % os.getpid())), "item 8: a live process's probe was removed")
 os.unlink(W("F", ".pdla-probe.%d" % os.getpid()))
+# A probe left with the new run's own pid (a container's pdla is often pid 1
+# every time): replaced, not "not writable". The child makes it, then execs
+# pdla under the same pid.
+child = os.fork()
+if child == 0:
+    try:
+        open(W("F", ".pdla-probe.%d" % os.getpid()), "w").close()
+        os.execv(PDLA, [PDLA, "--target", "300", "--out", W("F"), "--force", "-q"])
+    finally:
+        os._exit(127)
+_, status = os.waitpid(child, 0)
+check(os.waitstatus_to_exitcode(status) == 0 and not os.path.exists(W("F", ".pdla-probe.%d" % child)),
+      "item 8: a probe with the run's own pid: exit %d, left %r" % (os.waitstatus_to_exitcode(status),
+                                                                  [x for x in os.listdir(W("F")) if "probe" in x]))
 
 # --- item 9: render --zoom 1e6 ends (the disc loop is clipped): about as
 # fast as --zoom 1 (README), within 3x + 1 s of it (before the clip the

@@ -8,19 +8,23 @@
  * that has rows; attributes live in object headers, which the 1.10 format
  * checksums):
  *
- *   /               format = "pdla-checkpoint", format_version = 1,
+ *   /               format = "pdla-checkpoint", format_version = 2,
  *                   generation, particles, pause_seconds (time taken to stop
  *                   the workers before this write), previous_write_seconds,
  *                   compressed, record_byte_order = "little"
  *   /parameters     every pdla_params field (as in cluster.h5)
  *   /tree           dim, chunk_bytes, root_level, root_node, count, leaves,
- *                   inner_records, chunk_records (attributes)
+ *                   inner_records, chunk_records, half_records (attributes)
  *   /tree/inner     u32 [inner_records][2^dim]: the inner node pool, raw
  *   /tree/chunks_packed  u8 [chunks_packed_bytes]: the chunk pool, packed:
  *                   per record from 11 on (0..10 are the unused null/count
  *                   indices) its link, u32 little-endian, then axis by axis
  *                   the `fill` relative coordinates it holds (fill = link
  *                   when link <= 10, else 10)
+ *   /tree/halves_packed  u8 [halves_packed_bytes]: the half chunks, packed
+ *                   the same way per half id 0 .. 2 half_records - 1 (fill
+ *                   5 when the link names a next chunk; a free half is its
+ *                   link 0 and nothing more)
  *   /state          counters, R_ext, R_g grid position, timings (attributes)
  *   /state/gyration u64 [4][2]: the exact 128-bit sums of x, y, z (two's
  *                   complement) and |x|^2, as (low, high) words
@@ -49,7 +53,9 @@
 #include "pdla/pdla.h"
 
 #define FORMAT_NAME "pdla-checkpoint"
-#define FORMAT_VERSION 1
+/* 2: half chunks (tree.h), /tree half_records and /tree/halves_packed.
+ * Version 1 files (no halves) still load. */
+#define FORMAT_VERSION 2
 #define TMP_PREFIX ".checkpoint.h5.tmp."
 /* Bytes per read and write of the packed chunk stream (/tree/chunks_packed). */
 #define PACK_BUF_BYTES ((size_t)1 << 22)

@@ -183,67 +183,93 @@ static int read_pool(const reader *r, hid_t g, const char *name, tree_pool *p, u
     return rc;
 }
 
-/* Unpacks /tree/chunks_packed (see packed_bytes in checkpoint_write.c) into chunk records
- * 11..nc-1, reading it a block at a time. */
-static int read_chunks(const reader *r, hid_t g, tree *t, uint64_t nc)
+/* One packed stream (checkpoint_write.c's pack_kind): records first..end-1
+ * of `pool`, index bit | i, in the dataset `dset` of `attr` bytes. */
+typedef struct unpack_kind {
+    const char *dset, *attr;
+    uint32_t first, end, bit;
+    tree_pool *pool;
+    uint32_t records; /* of the pool when done */
+} unpack_kind;
+
+/* Allocates the pool's segments for k->records records. */
+static int unpack_alloc(const unpack_kind *k)
+{
+    tree_pool *p = k->pool;
+    const uint32_t nseg = (uint32_t)(((uint64_t)k->records + POOL_SEG_SIZE - 1) / POOL_SEG_SIZE);
+    for (uint32_t s = p->nseg; s < nseg; s++) {
+        if (!(p->seg[s] = calloc(POOL_SEG_SIZE, p->elem))) return PDLA_ENOMEM;
+        p->nseg = s + 1;
+    }
+    p->count = k->records; /* tree_chunk_at needs nothing more */
+    return PDLA_OK;
+}
+
+/* Unpacks one record from buf at *at (have bytes): 0, or why not. */
+static const char *unpack_one(tree *t, const unpack_kind *k, uint32_t i, const uint8_t *buf,
+                              size_t have, size_t *at)
+{
+    const uint32_t link = (uint32_t)buf[*at] | (uint32_t)buf[*at + 1] << 8 |
+                          (uint32_t)buf[*at + 2] << 16 | (uint32_t)buf[*at + 3] << 24;
+    const uint32_t c = k->bit | i;
+    /* Halves: link 0 is a free half, which holds nothing. */
+    if (link == 0 && !k->bit) return "an empty chunk";
+    if (link != 0 && link <= TREE_CHUNK_CAP && link > tree_cap(c)) return "a chunk filled beyond its slots";
+    const size_t m = link ? tree_fill(c, link) : 0;
+    if (have - *at < 4 + m * (size_t)t->dim) return "the packed chunks end early";
+    *at += 4;
+    uint8_t *rec = (uint8_t *)(uintptr_t)tree_chunk_at(t, c);
+    for (int a = 0; a < t->dim; a++) {
+        memcpy(rec + a * TREE_CHUNK_CAP, buf + *at, m);
+        *at += m;
+    }
+    memcpy(rec + tree_link_offset(t, c), &link, 4);
+    return NULL;
+}
+
+/* Unpacks a packed stream (see packed_bytes in checkpoint_write.c), reading
+ * it a block at a time. */
+static int read_chunks(const reader *r, hid_t g, tree *t, const unpack_kind *k)
 {
     uint64_t total = 0;
-    if (pdla_h5_attr_exact(g, "chunks_packed_bytes", PDLA_H5_U64, &total) < 0)
-        return damaged(r, "/tree chunks_packed_bytes");
-    if (total < (nc - TREE_CHUNK_CAP - 1) * 5 || total > (nc - TREE_CHUNK_CAP - 1) * (4 + 3 * TREE_CHUNK_CAP))
-        return damaged(r, "/tree chunks_packed_bytes out of range");
-    pdla_h5_dset d;
-    int rc = open_dset(r, g, "chunks_packed", PDLA_H5_U8, 1, total, 1, &d);
-    if (rc) return rc;
-    tree_pool *p = &t->chunks;
-    const uint32_t nseg = (uint32_t)((nc + POOL_SEG_SIZE - 1) / POOL_SEG_SIZE);
-    uint8_t *buf = malloc(PACK_BUF_BYTES);
-    rc = buf ? PDLA_OK : PDLA_ENOMEM;
-    for (uint32_t s = p->nseg; rc == PDLA_OK && s < nseg; s++) {
-        if (!(p->seg[s] = calloc(POOL_SEG_SIZE, p->elem))) rc = PDLA_ENOMEM;
-        else p->nseg = s + 1;
+    char what[96];
+    if (pdla_h5_attr_exact(g, k->attr, PDLA_H5_U64, &total) < 0) {
+        snprintf(what, sizeof what, "/tree %s", k->attr);
+        return damaged(r, what);
     }
+    const uint64_t n = k->end - k->first, slots = k->bit ? TREE_HALF_CAP : TREE_CHUNK_CAP;
+    if (total < n * (k->bit ? 4 : 5) || total > n * (4 + 3 * slots)) {
+        snprintf(what, sizeof what, "/tree %s out of range", k->attr);
+        return damaged(r, what);
+    }
+    char full[64];
+    snprintf(full, sizeof full, "/tree/%s", k->dset);
+    pdla_h5_dset d;
+    int rc = open_dset(r, g, k->dset, PDLA_H5_U8, 1, total, 1, &d);
+    if (rc) return rc;
+    uint8_t *buf = malloc(PACK_BUF_BYTES);
+    rc = buf ? unpack_alloc(k) : PDLA_ENOMEM;
     uint64_t pos = 0; /* stream bytes read */
     size_t have = 0, at = 0;
-    uint32_t i = TREE_CHUNK_CAP + 1;
-    while (rc == PDLA_OK && i < nc) {
+    for (uint32_t i = k->first; rc == PDLA_OK && i < k->end; i++) {
         if (have - at < 4 + 3 * TREE_CHUNK_CAP && pos < total) {
             memmove(buf, buf + at, have - at);
             have -= at;
             at = 0;
             const uint64_t want = total - pos < PACK_BUF_BYTES - have ? total - pos : PACK_BUF_BYTES - have;
-            rc = read_rows(r, &d, "/tree/chunks_packed", PDLA_H5_U8, pos, want, buf + have);
+            rc = read_rows(r, &d, full, PDLA_H5_U8, pos, want, buf + have);
             if (rc) break;
             pos += want;
             have += (size_t)want;
         }
-        if (have - at < 4) {
-            rc = damaged(r, "the packed chunks end early");
-            break;
-        }
-        const uint32_t link = (uint32_t)buf[at] | (uint32_t)buf[at + 1] << 8 |
-                              (uint32_t)buf[at + 2] << 16 | (uint32_t)buf[at + 3] << 24;
-        const size_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
-        if (link == 0 || have - at < 4 + m * (size_t)t->dim) {
-            rc = damaged(r, link == 0 ? "an empty chunk" : "the packed chunks end early");
-            break;
-        }
-        at += 4;
-        p->count = i + 1; /* pool_at needs nothing more; count is set for good below */
-        uint8_t *rec = pool_at(p, i);
-        for (int a = 0; a < t->dim; a++) {
-            memcpy(rec + a * TREE_CHUNK_CAP, buf + at, m);
-            at += m;
-        }
-        memcpy(rec + t->chunk_bytes - 4, &link, 4);
-        i++;
+        const char *bad = have - at < 4 ? "the packed chunks end early" : unpack_one(t, k, i, buf, have, &at);
+        if (bad) rc = damaged(r, bad);
     }
     if (rc == PDLA_OK && (at != have || pos != total)) rc = damaged(r, "bytes after the last packed chunk");
     free(buf);
-    rc = close_dset(r, rc, &d, "/tree/chunks_packed");
+    rc = close_dset(r, rc, &d, full);
     if (rc == PDLA_ENOMEM && r->err && r->errlen)
         snprintf(r->err, r->errlen, "%s: out of memory for the tree", r->path);
-    if (rc == PDLA_OK) p->count = (uint32_t)nc;
     return rc;
 }
 
@@ -339,14 +365,14 @@ static int load_state(const reader *r, hid_t file, pdla_engine *e, const tree_ve
     return PDLA_OK;
 }
 
-static int load_tree(const reader *r, hid_t file, pdla_engine *e)
+static int load_tree(const reader *r, hid_t file, pdla_engine *e, int version)
 {
     tree *t = &e->tree;
     if (H5Lexists(file, "tree", H5P_DEFAULT) <= 0) return damaged(r, "no /tree");
     const hid_t g = H5Gopen2(file, "tree", H5P_DEFAULT);
     if (g < 0) return damaged(r, "cannot open /tree");
     int32_t dim = 0, cb = 0, level = 0;
-    uint64_t root = 0, count = 0, leaves = 0, ni = 0, nc = 0;
+    uint64_t root = 0, count = 0, leaves = 0, ni = 0, nc = 0, nh = 0;
     int rc = PDLA_OK;
     if (pdla_h5_attr_exact(g, "dim", PDLA_H5_I32, &dim) < 0 ||
         pdla_h5_attr_exact(g, "chunk_bytes", PDLA_H5_I32, &cb) < 0 ||
@@ -355,17 +381,23 @@ static int load_tree(const reader *r, hid_t file, pdla_engine *e)
         pdla_h5_attr_exact(g, "count", PDLA_H5_U64, &count) < 0 ||
         pdla_h5_attr_exact(g, "leaves", PDLA_H5_U64, &leaves) < 0 ||
         pdla_h5_attr_exact(g, "inner_records", PDLA_H5_U64, &ni) < 0 ||
-        pdla_h5_attr_exact(g, "chunk_records", PDLA_H5_U64, &nc) < 0)
+        pdla_h5_attr_exact(g, "chunk_records", PDLA_H5_U64, &nc) < 0 ||
+        (version >= 2 && pdla_h5_attr_exact(g, "half_records", PDLA_H5_U64, &nh) < 0))
         rc = damaged(r, "/tree attributes");
     else if (dim != t->dim || (uint32_t)cb != t->chunk_bytes)
         rc = damaged(r, "/tree dim or record size differs from the parameters");
     else if (level < 1 || level > TREE_MAX_LEVEL || ni < 2 || ni > UINT32_MAX || nc < TREE_CHUNK_CAP + 1 ||
-             nc > UINT32_MAX || root == 0 || root >= ni || count > nc * TREE_CHUNK_CAP ||
-             leaves > nc)
+             nc > TREE_HALF_BIT || nh > TREE_HALF_BIT / 2 || root == 0 || root >= ni ||
+             count > nc * TREE_CHUNK_CAP + 2 * nh * TREE_HALF_CAP || leaves > nc + 2 * nh)
         rc = damaged(r, "/tree sizes out of range");
     if (rc == PDLA_OK)
         rc = read_pool(r, g, "inner", &t->inner, ni, PDLA_H5_U32, (hsize_t)t->nchild);
-    if (rc == PDLA_OK) rc = read_chunks(r, g, t, nc);
+    const unpack_kind kc = {"chunks_packed", "chunks_packed_bytes", TREE_CHUNK_CAP + 1, (uint32_t)nc, 0,
+                            &t->chunks, (uint32_t)nc};
+    const unpack_kind kh = {"halves_packed", "halves_packed_bytes", 0, (uint32_t)(2 * nh), TREE_HALF_BIT,
+                            &t->halves, (uint32_t)nh};
+    if (rc == PDLA_OK) rc = read_chunks(r, g, t, &kc);
+    if (rc == PDLA_OK && version >= 2) rc = read_chunks(r, g, t, &kh);
     rc = close_id(r, rc, g, H5Gclose, "/tree");
     if (rc) return rc;
     if (!all_zero(pool_at(&t->inner, 0), t->inner.elem) ||
@@ -386,6 +418,10 @@ static int load_tree(const reader *r, hid_t file, pdla_engine *e)
     if (bad) return damaged(r, bad);
     if (c.count != count) return damaged(r, "the particle count differs from the chunks' fills");
     if (c.leaves != leaves) return damaged(r, "the leaf count differs from the tree");
+    if (tree_free_rebuild(t)) {
+        if (r->err && r->errlen) snprintf(r->err, r->errlen, "%s: out of memory", r->path);
+        return PDLA_ENOMEM;
+    }
 
     return load_state(r, file, e, &c, count);
 }
@@ -507,7 +543,8 @@ static int check_file(const reader *r, struct stat *st)
 
 /* The root attributes: a pdla checkpoint, of this format version, in a
  * byte order this machine reads. */
-static int check_root(const reader *r, hid_t file, uint64_t *generation, uint64_t *particles)
+static int check_root(const reader *r, hid_t file, uint64_t *generation, uint64_t *particles,
+                      int *version)
 {
     char fmt[64];
     int32_t ver = 0;
@@ -521,9 +558,10 @@ static int check_root(const reader *r, hid_t file, uint64_t *generation, uint64_
         return rfail(r, "an HDF5 file but not a pdla checkpoint (format '%s')", fmt);
     if (pdla_h5_attr_exact(file, "format_version", PDLA_H5_I32, &ver) < 0)
         return damaged(r, "no format_version");
-    if (ver != FORMAT_VERSION)
-        return rfail(r, "checkpoint format version %d; this pdla reads version %d", (int)ver,
+    if (ver < 1 || ver > FORMAT_VERSION)
+        return rfail(r, "checkpoint format version %d; this pdla reads versions 1 to %d", (int)ver,
                      FORMAT_VERSION);
+    *version = (int)ver;
     char order[16];
     if (pdla_h5_attr_str(file, "record_byte_order", order, sizeof order) != 0 ||
         pdla_h5_attr_exact(file, "generation", PDLA_H5_U64, generation) < 0 ||
@@ -557,7 +595,8 @@ static int load_file(const char *path, const pdla_params *asked, uint32_t fields
     if (file < 0) return rc ? rc : damaged(r, "HDF5 cannot open it: truncated or corrupt");
     pdla_engine *e = NULL;
     uint64_t generation = 0, particles = 0;
-    if (rc || (rc = check_root(r, file, &generation, &particles))) goto out;
+    int version = 0;
+    if (rc || (rc = check_root(r, file, &generation, &particles, &version))) goto out;
     pdla_params p;
     if ((rc = read_params(r, file, &p))) goto out;
     if (asked && (rc = apply_asked(r, &p, asked, fields, particles))) goto out;
@@ -566,7 +605,7 @@ static int load_file(const char *path, const pdla_params *asked, uint32_t fields
         rfail(r, "%s", why);
         goto out;
     }
-    if ((rc = load_tree(r, file, e))) goto out;
+    if ((rc = load_tree(r, file, e, version))) goto out;
     if (tree_count(&e->tree) != particles) {
         rc = damaged(r, "the particle count differs from the tree");
         goto out;

@@ -79,45 +79,61 @@ fail:
     return h5u_close(w, rc, d, H5Dclose, name);
 }
 
-/* Bytes of the packed chunk stream: per chunk record from index 11 on, its
- * link (u32 little-endian: the next chunk, or for a leaf's last chunk its
- * fill 1..10) and then, axis by axis, the relative coordinates of the
- * particles it holds (fill bytes each). The unused slots of partly filled
- * chunks are not stored (they are zero in memory), which makes a 2D
- * particle cost ~2 bytes instead of the pool's ~3. */
-static uint64_t packed_bytes(const tree *t)
+/* The packed streams: per chunk record from index 11 on (halves: per half
+ * id from 0 on), its link (u32 little-endian: the next chunk, or for a
+ * leaf's last chunk its fill 1..10; 0 for a free half) and then, axis by
+ * axis, the relative coordinates of the particles it holds (fill bytes
+ * each). The unused slots of partly filled chunks are not stored (they are
+ * zero in memory), which makes a 2D particle cost ~2 bytes instead of the
+ * pool's ~3. */
+typedef struct pack_kind {
+    const char *dset, *attr;
+    uint32_t first, end, bit; /* records first..end-1, index = bit | i */
+} pack_kind;
+
+static pack_kind pack_chunks(const tree *t)
+{
+    return (pack_kind){"chunks_packed", "chunks_packed_bytes", TREE_CHUNK_CAP + 1, t->chunks.count, 0};
+}
+
+static pack_kind pack_halves(const tree *t)
+{
+    return (pack_kind){"halves_packed", "halves_packed_bytes", 0, 2 * t->halves.count, TREE_HALF_BIT};
+}
+
+static uint64_t packed_bytes(const tree *t, const pack_kind *k)
 {
     uint64_t n = 0;
-    for (uint32_t i = TREE_CHUNK_CAP + 1; i < t->chunks.count; i++) {
-        const uint32_t link = tree_chunk_link(t, tree_chunk_at(t, i));
-        n += 4 + (uint64_t)(link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP) * (uint64_t)t->dim;
+    for (uint32_t i = k->first; i < k->end; i++) {
+        const uint32_t c = k->bit | i;
+        const uint32_t link = tree_chunk_link(t, c, tree_chunk_at(t, c));
+        n += 4 + (uint64_t)(link ? tree_fill(c, link) : 0) * (uint64_t)t->dim;
     }
     return n;
 }
 
 static int flush_packed(const h5u_writer *w, hid_t d, hid_t space, const uint8_t *buf, size_t fill,
-                        uint64_t *written)
+                        uint64_t *written, const char *name)
 {
     if (fill == 0) return 0;
     const hsize_t start = *written, count = fill;
     const hid_t ms = H5Screate_simple(1, &count, NULL);
     const int ok = ms >= 0 && H5Sselect_hyperslab(space, H5S_SELECT_SET, &start, NULL, &count, NULL) >= 0 &&
                    H5Dwrite(d, H5T_NATIVE_UINT8, ms, space, H5P_DEFAULT, buf) >= 0;
-    if (!ok) return h5u_close(w, h5u_fail(w, "write /tree/chunks_packed"), ms, H5Sclose, "");
-    if (H5Sclose(ms) < 0) return h5u_fail(w, "close a memory dataspace of /tree/chunks_packed");
+    if (!ok) return h5u_close(w, h5u_fail(w, "write /tree/%s", name), ms, H5Sclose, "");
+    if (H5Sclose(ms) < 0) return h5u_fail(w, "close a memory dataspace of /tree/%s", name);
     *written += fill;
     return 0;
 }
 
-static int write_chunks(const h5u_writer *w, hid_t g, const tree *t, int gzip)
+static int write_chunks(const h5u_writer *w, hid_t g, const tree *t, int gzip, const pack_kind *k)
 {
-    const uint64_t total = packed_bytes(t);
+    const uint64_t total = packed_bytes(t, k);
     hid_t space = H5I_INVALID_HID, d = H5I_INVALID_HID;
     uint8_t *buf = NULL;
     int rc = -1;
-    if (h5u_attr_u64(w, g, "chunks_packed_bytes", total) < 0) return -1;
-    if ((d = h5u_dataset_z(w, g, "chunks_packed", H5T_STD_U8LE, 1, total, 1, PACK_CHUNK_BYTES, gzip,
-                           &space)) < 0)
+    if (h5u_attr_u64(w, g, k->attr, total) < 0) return -1;
+    if ((d = h5u_dataset_z(w, g, k->dset, H5T_STD_U8LE, 1, total, 1, PACK_CHUNK_BYTES, gzip, &space)) < 0)
         goto fail;
     if (!(buf = malloc(PACK_BUF_BYTES))) {
         h5u_fail_msg(w, "out of memory");
@@ -125,12 +141,13 @@ static int write_chunks(const h5u_writer *w, hid_t g, const tree *t, int gzip)
     }
     size_t fill = 0;
     uint64_t written = 0;
-    for (uint32_t i = TREE_CHUNK_CAP + 1; i < t->chunks.count; i++) {
-        const uint8_t *rec = tree_chunk_at(t, i);
-        const uint32_t link = tree_chunk_link(t, rec);
-        const size_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+    for (uint32_t i = k->first; i < k->end; i++) {
+        const uint32_t c = k->bit | i;
+        const uint8_t *rec = tree_chunk_at(t, c);
+        const uint32_t link = tree_chunk_link(t, c, rec);
+        const size_t m = link ? tree_fill(c, link) : 0;
         if (fill + 4 + TREE_CHUNK_CAP * 3 > PACK_BUF_BYTES) {
-            if (flush_packed(w, d, space, buf, fill, &written) < 0) goto fail;
+            if (flush_packed(w, d, space, buf, fill, &written, k->dset) < 0) goto fail;
             fill = 0;
         }
         for (int b = 0; b < 4; b++) buf[fill++] = (uint8_t)(link >> (8 * b));
@@ -139,17 +156,17 @@ static int write_chunks(const h5u_writer *w, hid_t g, const tree *t, int gzip)
             fill += m;
         }
     }
-    if (flush_packed(w, d, space, buf, fill, &written) < 0) goto fail;
+    if (flush_packed(w, d, space, buf, fill, &written, k->dset) < 0) goto fail;
     if (written != total) {
-        h5u_fail_msg(w, "internal error: packed %llu of %llu chunk bytes", (unsigned long long)written,
-                     (unsigned long long)total);
+        h5u_fail_msg(w, "internal error: packed %llu of %llu bytes of /tree/%s", (unsigned long long)written,
+                     (unsigned long long)total, k->dset);
         goto fail;
     }
     rc = 0;
 fail:
     free(buf);
-    rc = h5u_close(w, rc, space, H5Sclose, "the packed chunks' dataspace");
-    return h5u_close(w, rc, d, H5Dclose, "/tree/chunks_packed");
+    rc = h5u_close(w, rc, space, H5Sclose, "a packed stream's dataspace");
+    return h5u_close(w, rc, d, H5Dclose, k->dset);
 }
 
 static int write_tree(const h5u_writer *w, hid_t file, const tree *t, int gzip)
@@ -165,9 +182,12 @@ static int write_tree(const h5u_writer *w, hid_t file, const tree *t, int gzip)
         h5u_attr_u64(w, g, "leaves", t->leaves) < 0 ||
         h5u_attr_u64(w, g, "inner_records", t->inner.count) < 0 ||
         h5u_attr_u64(w, g, "chunk_records", t->chunks.count) < 0 ||
+        h5u_attr_u64(w, g, "half_records", t->halves.count) < 0 ||
         write_pool(w, g, "inner", &t->inner, H5T_STD_U32LE, H5T_NATIVE_UINT32,
-                   (hsize_t)t->nchild, gzip) < 0 ||
-        write_chunks(w, g, t, gzip) < 0)
+                   (hsize_t)t->nchild, gzip) < 0)
+        goto fail;
+    const pack_kind kc = pack_chunks(t), kh = pack_halves(t);
+    if (write_chunks(w, g, t, gzip, &kc) < 0 || write_chunks(w, g, t, gzip, &kh) < 0)
         goto fail;
     rc = 0;
 fail:

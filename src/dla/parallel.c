@@ -273,7 +273,7 @@ static int append_locked(worker *k, const int64_t *p, uint64_t seen, int need, i
     engine_raise_r_ext(e, p);
     if (__builtin_expect(e->hooks != NULL, 0) && e->hooks->append)
         e->hooks->append(e->hooks->user, count, p);
-    const int rc = tree_append(t, slot, p);
+    const int rc = tree_append(t, slot, p, 1);
     if (__builtin_expect(e->hooks != NULL, 0) && need && e->hooks->node_work && e->hooks->node_work_published)
         e->hooks->node_work(e->hooks->user);
     unlock_counted(&e->bucket_mu, k->w, PDLA_MUTEX_BUCKET, held);

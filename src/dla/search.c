@@ -216,8 +216,8 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
 {
     for (uint32_t c = head;;) {
         const uint8_t *chunk = tree_chunk_at_d(t, c, dim);
-        const uint32_t link = tree_chunk_link_d(t, chunk, dim);
-        const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+        const uint32_t link = tree_chunk_link_d(t, c, chunk, dim);
+        const uint32_t m = tree_fill(c, link);
         k->particle_checks += m;
         /* A chunk that links to a next one is full and never written again,
          * so the vector loads (which read all ten slots and the link) are
@@ -240,6 +240,7 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
         if (SEARCH_SEEDED(dim) && best2 < before2) {
             /* Where the bound came from (note_nearest reads the particle). */
             k->arg_chunk = chunk;
+            k->arg_ci = c;
             for (int a = 0; a < dim; a++) k->arg_q[a] = q[a];
         }
         if (link <= TREE_CHUNK_CAP) break;
@@ -444,8 +445,8 @@ static inline __attribute__((always_inline)) void note_nearest(search_state *k, 
     k->nq_valid = 0;
     const uint8_t *chunk = k->arg_chunk;
     if (!chunk) return;
-    const uint32_t link = tree_chunk_link_d(t, chunk, dim);
-    const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+    const uint32_t link = tree_chunk_link_d(t, k->arg_ci, chunk, dim);
+    const uint32_t m = tree_fill(k->arg_ci, link);
 #if defined(__SSE2__)
     if (dim == 3 && leaf_small(k->arg_q, d2, dim) && (!concurrent || link > TREE_CHUNK_CAP)) {
         /* The slot whose distance is d2, from the scan's own lanes (the
@@ -817,8 +818,8 @@ static inline __attribute__((always_inline)) int nb_make(const tree *t, const in
                 for (int a = 0; a < dim; a++) q[a] = p[a] - lo[a];
                 for (uint32_t ci = head;;) {
                     const uint8_t *chunk = tree_chunk_at_d(t, ci, dim);
-                    const uint32_t link = tree_chunk_link_d(t, chunk, dim);
-                    const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+                    const uint32_t link = tree_chunk_link_d(t, ci, chunk, dim);
+                    const uint32_t m = tree_fill(ci, link);
 #if defined(__SSE2__)
                     if (dim == 3) {
                         n = nb_append_chunk3(chunk, q, m, r2, shift, tx, ty, tz, tb, n);
@@ -970,10 +971,16 @@ uint64_t search_near2(const tree *t, const search_config *c, const int64_t *p, s
 /* Re-centre the block cache on the leaf with low corner lo, keeping what is
  * known of the leaves both blocks share. A head is a leaf's first chunk,
  * BLK_UNKNOWN or BLK_EMPTY. */
-static inline __attribute__((always_inline)) void blk_recentre(search_state *k, const int64_t *lo,
-                                                               const int dim)
+static inline __attribute__((always_inline)) void blk_recentre(search_state *k, const tree *t,
+                                                               const int64_t *lo, const int dim)
 {
     const int n = dim == 2 ? 9 : 27;
+    /* A serial insertion that moved a leaf's first chunk (tree.h: a first
+     * half copied out) makes every cached head suspect. */
+    if (k->blk_moves != t->head_moves) {
+        k->blk_valid = 0;
+        k->blk_moves = t->head_moves;
+    }
     int same = k->blk_valid;
     for (int a = 0; a < dim; a++) same &= k->blk_c[a] == lo[a];
     if (same) return;
@@ -1089,8 +1096,8 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf2(const tree *t, 
 #if defined(__SSE2__) && defined(__x86_64__)
     for (uint32_t c = head;;) {
         const uint8_t *chunk = tree_chunk_at(t, c);
-        const uint32_t link = tree_chunk_link(t, chunk);
-        const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+        const uint32_t link = tree_chunk_link(t, c, chunk);
+        const uint32_t m = tree_fill(c, link);
         if (concurrent && link <= TREE_CHUNK_CAP) return scan_leaf(t, c, q, best2, 1, 2, 1, k);
         k->particle_checks += m;
         best2 = chunk_min2(chunk, q, m, best2);
@@ -1316,7 +1323,7 @@ static uint64_t block_bits2(const tree *t, const search_config *c, const distmap
      * block_off). */
     const uint32_t occ = r0 | r1 << 3 | r2 << 6;
     int64_t lo[3] = {lx * TREE_LEAF_SIDE, ly * TREE_LEAF_SIDE, 0};
-    blk_recentre(k, lo, 2);
+    blk_recentre(k, t, lo, 2);
     if (key != k->blk_leaves) {
         for (int o = 0; o < 9; o++)
             if (k->blk_head[o] == BLK_EMPTY) k->blk_head[o] = BLK_UNKNOWN;
@@ -1356,7 +1363,7 @@ static inline __attribute__((always_inline)) uint64_t block_dim(const tree *t,
      * cells: the grid's origin moves when it grows. */
     int64_t lo[3];
     for (int a = 0; a < dim; a++) lo[a] = p[a] & ~(int64_t)(TREE_LEAF_SIDE - 1);
-    blk_recentre(k, lo, dim);
+    blk_recentre(k, t, lo, dim);
     /* A leaf made since (by an earlier walker's particle) may be one seen
      * empty: look at those again. */
     if (leaves != k->blk_leaves) {
@@ -1394,13 +1401,15 @@ uint64_t search_block2(const tree *t, const search_config *c, const distmap *m, 
  * stopped the walker, at most a contact distance from its point, so the
  * leaves it needs are that block's): saves a tree walk per leaf. 0 when not
  * known (or seen empty: a leaf may have been made since; the tree decides).
- * A leaf's first chunk never changes. Skipping find_leaf_cached leaves the
- * cached path as it was, which changes no search's answer (descend_own_path
- * reaches the same deepest node from any level that contains p). */
+ * A leaf's first chunk changes only with the tree's head_moves (checked).
+ * Skipping find_leaf_cached leaves the cached path as it was, which changes
+ * no search's answer (descend_own_path reaches the same deepest node from
+ * any level that contains p). */
 static inline __attribute__((always_inline)) uint32_t blk_known_head2(const search_state *k,
+                                                                     const tree *t,
                                                                      const int64_t *corner)
 {
-    if (!k->blk_valid) return 0;
+    if (!k->blk_valid || k->blk_moves != t->head_moves) return 0;
     const int64_t dx = corner[0] - k->blk_c[0], dy = corner[1] - k->blk_c[1];
     if (dx < -TREE_LEAF_SIDE || dx > TREE_LEAF_SIDE || dy < -TREE_LEAF_SIDE || dy > TREE_LEAF_SIDE)
         return 0;
@@ -1442,7 +1451,7 @@ static inline __attribute__((always_inline)) int nearest_point(const tree *t, co
         int64_t lo[3];
         uint32_t leaf_idx;
         if (k) { /* from the walker's cached path: the leaves are its neighbours */
-            leaf_idx = dim == 2 ? blk_known_head2(k, corner) : 0;
+            leaf_idx = dim == 2 ? blk_known_head2(k, t, corner) : 0;
             if (!leaf_idx)
                 leaf_idx = dim == 2 ? find_leaf_cached(t, corner, k, 2) : find_leaf_cached(t, corner, k, 3);
             for (int a = 0; a < dim; a++) lo[a] = corner[a];
@@ -1454,8 +1463,8 @@ static inline __attribute__((always_inline)) int nearest_point(const tree *t, co
         for (int a = 0; a < dim; a++) ql[a] = p[a] - lo[a]; /* |ql| < 512: chunk_min_below applies */
         for (uint32_t ci = leaf_idx;;) {
             const uint8_t *chunk = tree_chunk_at_d(t, ci, dim);
-            const uint32_t link = tree_chunk_link_d(t, chunk, dim);
-            const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+            const uint32_t link = tree_chunk_link_d(t, ci, chunk, dim);
+            const uint32_t m = tree_fill(ci, link);
             /* A full chunk that links on is never written again, so its
              * vector minimum may be read while workers append: when it is
              * not below the best, the scalar pass (which keeps the first of
@@ -1494,13 +1503,13 @@ static inline __attribute__((always_inline)) int nearest_point(const tree *t, co
 static int ball_leaf2(const tree *t, const int64_t *p, const int64_t *corner, uint64_t far2,
                       search_point *pts, int n, int cap, search_state *k)
 {
-    uint32_t ci = blk_known_head2(k, corner);
+    uint32_t ci = blk_known_head2(k, t, corner);
     if (!ci) ci = find_leaf_cached(t, corner, k, 2);
     if (!ci) return n;
     for (;;) {
         const uint8_t *chunk = tree_chunk_at_d(t, ci, 2);
-        const uint32_t link = tree_chunk_link_d(t, chunk, 2);
-        const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+        const uint32_t link = tree_chunk_link_d(t, ci, chunk, 2);
+        const uint32_t m = tree_fill(ci, link);
         for (uint32_t j = 0; j < m; j++) {
             const int64_t x = corner[0] + chunk[j], y = corner[1] + chunk[TREE_CHUNK_CAP + (int)j];
             const uint64_t d2 = (uint64_t)((p[0] - x) * (p[0] - x)) + (uint64_t)((p[1] - y) * (p[1] - y));

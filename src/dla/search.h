@@ -41,6 +41,7 @@ typedef struct search_state {
      * chunks (or not seen yet, or empty), for the block centred on the leaf
      * whose low corner is blk_c. */
     int blk_valid;
+    uint64_t blk_moves;          /* the tree's head_moves they are valid for */
     uint64_t blk_leaves;         /* the map's leaf count when they were cached */
     int64_t blk_c[3];
     uint32_t blk_head[27];
@@ -85,6 +86,7 @@ typedef struct search_state {
     int nq_valid;
     int64_t nq[3];
     const uint8_t *arg_chunk;
+    uint32_t arg_ci;             /* arg_chunk's index */
     int64_t arg_q[3];
 } search_state;
 
@@ -184,9 +186,9 @@ int search_ball_points2(const tree *t, const int64_t *p, uint64_t near2, uint64_
  * of leaves around p's leaf, up to DISTMAP_LEAF_REACH leaves (at least one
  * leaf). Returns UINT64_MAX when the map cannot answer (none, coarsened
  * cells without leaf bits, or p near the grid's edge): then
- * search_lower_bound2 does. The leaves' first chunks are cached in k
- * (a leaf once seen never moves; one not seen yet is looked up again when
- * the map marks its cell). */
+ * search_lower_bound2 does. The leaves' first chunks are cached in k (a
+ * leaf once seen keeps its head until the tree's head_moves changes; one
+ * not seen yet is looked up again when the map marks its cell). */
 uint64_t search_block2(const tree *t, const search_config *c, const distmap *m, const int64_t *p,
                        search_state *k);
 #endif /* PDLA_SRC_SEARCH_H */

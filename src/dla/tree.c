@@ -32,11 +32,12 @@ static void pool_free(tree_pool *p)
     p->seg = NULL;
 }
 
-/* A new zeroed record; 0 when the 32-bit index space or memory is exhausted. */
-static uint32_t pool_new(tree_pool *p)
+/* A new zeroed record; 0 when the index space (indices below `limit`) or
+ * memory is exhausted. */
+static uint32_t pool_new_below(tree_pool *p, uint32_t limit)
 {
     const uint32_t i = p->count;
-    if (i == UINT32_MAX) return 0;
+    if (i >= limit) return 0;
     const uint32_t s = i >> POOL_SEG_BITS;
     if (s >= p->nseg) {
         p->seg[s] = calloc(POOL_SEG_SIZE, p->elem);
@@ -46,6 +47,8 @@ static uint32_t pool_new(tree_pool *p)
     p->count = i + 1;
     return i;
 }
+
+static uint32_t pool_new(tree_pool *p) { return pool_new_below(p, UINT32_MAX); }
 
 int tree_init(tree *t, int dim)
 {
@@ -57,12 +60,18 @@ int tree_init(tree *t, int dim)
     _Static_assert((TREE_CHUNK_CAP * 3 + 3) / 4 * 4 + 4 == TREE_CHUNK_BYTES3, "3D chunk size");
     _Static_assert(sizeof(uint32_t) * 8 == TREE_INNER_BYTES3, "3D inner node size");
     t->chunk_bytes = (uint32_t)((TREE_CHUNK_CAP * dim + 3) / 4 * 4 + 4);
+    /* A half record: the slots of a chunk, then two links. In 2D 4 bytes
+     * of padding keep side 1's vector loads (16 bytes from slot 8 on, that
+     * is byte 13) inside the record: 32 bytes. */
+    t->link_half = dim == 2 ? 24 : 32;
+    _Static_assert(32 + 8 == TREE_HALF_BYTES3, "3D half record size");
     if (pool_init(&t->inner, (uint32_t)(sizeof(uint32_t) * (size_t)t->nchild)) ||
-        pool_init(&t->chunks, t->chunk_bytes)) {
+        pool_init(&t->chunks, t->chunk_bytes) || pool_init(&t->halves, t->link_half + 8)) {
         tree_free(t);
         return -1;
     }
     t->chunks.count = TREE_CHUNK_CAP + 1; /* indices 1..10 would read as counts */
+    t->halves.count = 0;                  /* half ids carry TREE_HALF_BIT: none is 0 */
     const uint32_t root = pool_new(&t->inner);
     if (!root) {
         tree_free(t);
@@ -77,11 +86,70 @@ void tree_free(tree *t)
 {
     pool_free(&t->inner);
     pool_free(&t->chunks);
+    pool_free(&t->halves);
+    free(t->hfree);
+    t->hfree = NULL;
+    t->nfree = t->capfree = 0;
 }
 
 size_t tree_bytes(const tree *t)
 {
-    return (size_t)t->inner.count * t->inner.elem + (size_t)t->chunks.count * t->chunks.elem;
+    return (size_t)t->inner.count * t->inner.elem + (size_t)t->chunks.count * t->chunks.elem +
+           (size_t)t->halves.count * t->halves.elem + (size_t)t->capfree * sizeof *t->hfree;
+}
+
+/* ---- the free halves: a min-heap of ids ----------------------------------- */
+
+/* Room for one more free id; -1 when out of memory. */
+static int hfree_reserve(tree *t)
+{
+    if (t->nfree < t->capfree) return 0;
+    const uint32_t cap = t->capfree ? t->capfree * 2 : 64;
+    uint32_t *h = realloc(t->hfree, (size_t)cap * sizeof *h);
+    if (!h) return -1;
+    t->hfree = h;
+    t->capfree = cap;
+    return 0;
+}
+
+/* Push a free id (room reserved). */
+static void hfree_push(tree *t, uint32_t id)
+{
+    uint32_t i = t->nfree++;
+    while (i > 0 && t->hfree[(i - 1) / 2] > id) {
+        t->hfree[i] = t->hfree[(i - 1) / 2];
+        i = (i - 1) / 2;
+    }
+    t->hfree[i] = id;
+}
+
+/* Pop the lowest free id (nfree > 0). */
+static uint32_t hfree_pop(tree *t)
+{
+    const uint32_t top = t->hfree[0], last = t->hfree[--t->nfree];
+    uint32_t i = 0;
+    for (;;) {
+        uint32_t k = 2 * i + 1;
+        if (k >= t->nfree) break;
+        if (k + 1 < t->nfree && t->hfree[k + 1] < t->hfree[k]) k++;
+        if (t->hfree[k] >= last) break;
+        t->hfree[i] = t->hfree[k];
+        i = k;
+    }
+    if (t->nfree) t->hfree[i] = last;
+    return top;
+}
+
+int tree_free_rebuild(tree *t)
+{
+    t->nfree = 0;
+    for (uint64_t h = 0; h < 2 * (uint64_t)t->halves.count; h++) {
+        const uint32_t c = TREE_HALF_BIT | (uint32_t)h;
+        if (tree_chunk_link(t, c, tree_chunk_at(t, c))) continue;
+        if (hfree_reserve(t)) return -1;
+        t->hfree[t->nfree++] = c; /* ascending: already a heap */
+    }
+    return 0;
 }
 
 static _Atomic uint32_t *children_mut(tree *t, uint32_t node)
@@ -129,38 +197,99 @@ static int inside_root(const tree *t, int root_level, const int64_t *p)
     return 1;
 }
 
-static void chunk_set_link(tree *t, uint32_t chunk, uint32_t link)
+static uint8_t *chunk_mut(tree *t, uint32_t c) { return (uint8_t *)(uintptr_t)tree_chunk_at(t, c); }
+
+static void chunk_set_link(tree *t, uint32_t c, uint32_t link)
 {
-    _Atomic uint32_t *at =
-        (_Atomic uint32_t *)(void *)((uint8_t *)pool_at(&t->chunks, chunk) + t->chunk_bytes - 4);
+    _Atomic uint32_t *at = (_Atomic uint32_t *)(void *)(chunk_mut(t, c) + tree_link_offset(t, c));
     atomic_store_explicit(at, link, memory_order_release);
 }
 
-/* A new chunk holding one particle; 0 when out of memory. Not yet reachable,
- * so its fill count needs no ordering until the index is published. */
-static uint32_t chunk_new(tree *t, const uint8_t *rel)
+/* A new zeroed half (its id, with TREE_HALF_BIT), the lowest free one or
+ * side 0 of a new record (side 1 then goes to the free list); 0 when out
+ * of memory or half ids. */
+static uint32_t half_take(tree *t)
 {
-    const uint32_t c = pool_new(&t->chunks);
+    if (t->nfree) return hfree_pop(t);
+    tree_pool *p = &t->halves;
+    const uint32_t r = p->count;
+    if (r >= TREE_HALF_BIT / 2 || hfree_reserve(t)) return 0;
+    const uint32_t s = r >> POOL_SEG_BITS;
+    if (s >= p->nseg) {
+        p->seg[s] = calloc(POOL_SEG_SIZE, p->elem);
+        if (!p->seg[s]) return 0;
+        p->nseg = s + 1;
+    }
+    p->count = r + 1;
+    hfree_push(t, TREE_HALF_BIT | (2 * r + 1));
+    return TREE_HALF_BIT | 2 * r;
+}
+
+/* A new chunk (half: a half chunk) holding one particle; 0 when out of
+ * memory. Not yet reachable, so its fill count needs no ordering until the
+ * index is published. */
+static uint32_t chunk_new(tree *t, const uint8_t *rel, int half)
+{
+    const uint32_t c = half ? half_take(t) : pool_new_below(&t->chunks, TREE_HALF_BIT);
     if (!c) return 0;
-    uint8_t *chunk = (uint8_t *)pool_at(&t->chunks, c);
+    uint8_t *chunk = chunk_mut(t, c);
     for (int a = 0; a < t->dim; a++) chunk[a * TREE_CHUNK_CAP] = rel[a];
     chunk_set_link(t, c, 1);
     return c;
 }
 
+/* Serial only: the full half h (the leaf's last chunk; prev the chunk
+ * before it, 0 when h is the leaf's head in `slot`) and one particle more
+ * move into a new chunk that takes h's place; h is cleared and freed.
+ * Returns 0, 1 when there was no memory for the move (nothing changed), or
+ * -1. */
+static int half_move_out(tree *t, const tree_slot *slot, uint32_t prev, uint32_t h,
+                         const uint8_t *rel)
+{
+    if (hfree_reserve(t)) return 1;
+    const uint32_t c = pool_new_below(&t->chunks, TREE_HALF_BIT);
+    if (!c) return 1;
+    uint8_t *dst = chunk_mut(t, c), *src = chunk_mut(t, h);
+    for (int a = 0; a < t->dim; a++) {
+        memcpy(dst + a * TREE_CHUNK_CAP, src + a * TREE_CHUNK_CAP, TREE_HALF_CAP);
+        dst[a * TREE_CHUNK_CAP + TREE_HALF_CAP] = rel[a];
+    }
+    chunk_set_link(t, c, TREE_HALF_CAP + 1);
+    if (prev) {
+        chunk_set_link(t, prev, c);
+    } else {
+        set_child(t, slot->node, slot->k, c);
+        t->head_moves++;
+    }
+    for (int a = 0; a < t->dim; a++) memset(src + a * TREE_CHUNK_CAP, 0, TREE_HALF_CAP);
+    chunk_set_link(t, h, 0);
+    hfree_push(t, h);
+    return 0;
+}
+
 /* Append a particle (relative to the leaf's low corner) to a leaf's chunks:
  * write the free slot, then publish the new count (or the new chunk). */
-static int leaf_append(tree *t, uint32_t head, const uint8_t *rel)
+static int leaf_append(tree *t, const tree_slot *slot, uint32_t head, const uint8_t *rel,
+                       int concurrent)
 {
-    uint32_t last = head, link;
-    while ((link = tree_chunk_link(t, tree_chunk_at(t, last))) > TREE_CHUNK_CAP) last = link;
-    if (link < TREE_CHUNK_CAP) {
-        uint8_t *chunk = (uint8_t *)pool_at(&t->chunks, last);
+    uint32_t prev = 0, last = head, link;
+    while ((link = tree_chunk_link(t, last, tree_chunk_at(t, last))) > TREE_CHUNK_CAP) {
+        prev = last;
+        last = link;
+    }
+    const int half = (last & TREE_HALF_BIT) != 0;
+    if (link < tree_cap(last)) {
+        uint8_t *chunk = chunk_mut(t, last);
         for (int a = 0; a < t->dim; a++) chunk[a * TREE_CHUNK_CAP + (int)link] = rel[a];
         chunk_set_link(t, last, link + 1);
         return 0;
     }
-    const uint32_t c = chunk_new(t, rel);
+    if (half && !concurrent) {
+        const int rc = half_move_out(t, slot, prev, last, rel);
+        if (rc <= 0) return rc;
+    }
+    /* After a full chunk a half; after a half that stays, a chunk. */
+    const uint32_t c = chunk_new(t, rel, !half);
     if (!c) return -1;
     chunk_set_link(t, last, c);
     return 0;
@@ -221,15 +350,15 @@ int tree_find_slot(const tree *t, const int64_t *p, tree_slot *slot)
     return walk_to_slot(t, NULL, root, p, slot) == 1;
 }
 
-int tree_append(tree *t, const tree_slot *slot, const int64_t *p)
+int tree_append(tree *t, const tree_slot *slot, const int64_t *p, int concurrent)
 {
     uint8_t rel[3];
     for (int a = 0; a < t->dim; a++) rel[a] = (uint8_t)(p[a] - slot->leaf_lo[a]);
     const uint32_t head = tree_child(tree_children(t, slot->node), slot->k);
     if (head) {
-        if (leaf_append(t, head, rel)) return -1;
+        if (leaf_append(t, slot, head, rel, concurrent)) return -1;
     } else {
-        const uint32_t c = chunk_new(t, rel);
+        const uint32_t c = chunk_new(t, rel, 1);
         if (!c) return -1;
         set_child(t, slot->node, slot->k, c);
         t->leaves++;
@@ -243,7 +372,7 @@ int tree_insert(tree *t, const int64_t *p)
 {
     tree_slot slot;
     const int rc = tree_make_path(t, p, &slot);
-    return rc ? rc : tree_append(t, &slot, p);
+    return rc ? rc : tree_append(t, &slot, p, 0);
 }
 
 uint32_t tree_find_leaf(const tree *t, const int64_t *p, int64_t *leaf_lo)
@@ -274,8 +403,8 @@ static int visit_leaf(const tree *t, uint32_t head, const int64_t *lo, tree_visi
     int64_t p[3] = {0, 0, 0};
     for (uint32_t c = head;;) {
         const uint8_t *chunk = tree_chunk_at(t, c);
-        const uint32_t link = tree_chunk_link(t, chunk);
-        const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+        const uint32_t link = tree_chunk_link(t, c, chunk);
+        const uint32_t m = tree_fill(c, link);
         for (uint32_t j = 0; j < m; j++) {
             for (int a = 0; a < t->dim; a++) p[a] = lo[a] + chunk[a * TREE_CHUNK_CAP + (int)j];
             const int rc = fn(p, user);
@@ -315,7 +444,7 @@ int tree_visit(const tree *t, tree_visit_fn fn, void *user)
 /* The state of one verifying walk. */
 typedef struct tree_check {
     const tree *t;
-    uint64_t *inner_seen, *chunk_seen;
+    uint64_t *inner_seen, *chunk_seen, *half_seen;
     tree_verify_sums sums;
     const char *bad;
 } tree_check;
@@ -333,21 +462,27 @@ static void check_leaf(tree_check *c, uint32_t head, const int64_t *lo)
     const tree *t = c->t;
     c->sums.leaves++;
     for (uint32_t ch = head;;) {
-        if (ch <= TREE_CHUNK_CAP || ch >= t->chunks.count) {
+        const uint32_t h = ch & ~TREE_HALF_BIT;
+        const int half = (ch & TREE_HALF_BIT) != 0;
+        if (half ? h >= 2 * (uint64_t)t->halves.count : ch <= TREE_CHUNK_CAP || ch >= t->chunks.count) {
             c->bad = "a chunk index out of range";
             return;
         }
-        if (seen(c->chunk_seen, ch)) {
+        if (half ? seen(c->half_seen, h) : seen(c->chunk_seen, ch)) {
             c->bad = "a chunk listed twice";
             return;
         }
         const uint8_t *rec = tree_chunk_at(t, ch);
-        const uint32_t link = tree_chunk_link(t, rec);
+        const uint32_t link = tree_chunk_link(t, ch, rec);
         if (link == 0) {
             c->bad = "an empty chunk";
             return;
         }
-        const uint32_t m = link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+        if (link <= TREE_CHUNK_CAP && link > tree_cap(ch)) {
+            c->bad = "a chunk filled beyond its slots";
+            return;
+        }
+        const uint32_t m = tree_fill(ch, link);
         for (uint32_t j = 0; j < m; j++) {
             uint64_t r2 = 0;
             for (int a = 0; a < t->dim; a++) {
@@ -391,18 +526,30 @@ static void check_node(tree_check *c, uint32_t node, int level, const int64_t *l
     }
 }
 
+/* A half with no particle and link 0 (free). */
+static int half_is_clear(const tree *t, uint32_t c)
+{
+    const uint8_t *rec = tree_chunk_at(t, c);
+    for (int a = 0; a < t->dim; a++)
+        for (int j = 0; j < TREE_HALF_CAP; j++)
+            if (rec[a * TREE_CHUNK_CAP + j]) return 0;
+    return tree_chunk_link(t, c, rec) == 0;
+}
+
 int tree_verify(const tree *t, tree_verify_sums *sums, const char **bad)
 {
     tree_check c;
     memset(&c, 0, sizeof c);
     c.t = t;
     *bad = NULL;
-    const uint64_t ni = t->inner.count, nc = t->chunks.count;
+    const uint64_t ni = t->inner.count, nc = t->chunks.count, nh = 2 * (uint64_t)t->halves.count;
     c.inner_seen = calloc((ni + 63) / 64, sizeof *c.inner_seen);
     c.chunk_seen = calloc((nc + 63) / 64, sizeof *c.chunk_seen);
-    if (!c.inner_seen || !c.chunk_seen) {
+    c.half_seen = calloc((nh + 63) / 64 + 1, sizeof *c.half_seen);
+    if (!c.inner_seen || !c.chunk_seen || !c.half_seen) {
         free(c.inner_seen);
         free(c.chunk_seen);
+        free(c.half_seen);
         return TREE_VERIFY_ENOMEM;
     }
     const tree_root root = tree_root_get(t);
@@ -412,8 +559,12 @@ int tree_verify(const tree *t, tree_verify_sums *sums, const char **bad)
     uint64_t unseen = 0;
     for (uint64_t i = TREE_CHUNK_CAP + 1; !c.bad && i < nc; i++)
         if (!(c.chunk_seen[i >> 6] >> (i & 63) & 1)) unseen++;
+    for (uint64_t h = 0; !c.bad && h < nh; h++)
+        if (!(c.half_seen[h >> 6] >> (h & 63) & 1) && !half_is_clear(t, TREE_HALF_BIT | (uint32_t)h))
+            c.bad = "a free half chunk that is not empty";
     free(c.inner_seen);
     free(c.chunk_seen);
+    free(c.half_seen);
     if (!c.bad && unseen) c.bad = "chunks that no leaf holds";
     *bad = c.bad;
     *sums = c.sums;
@@ -423,11 +574,18 @@ int tree_verify(const tree *t, tree_verify_sums *sums, const char **bad)
 /* ---- compaction: records renumbered in depth-first order ----------------- */
 
 /* The new index of every old record (UINT32_MAX: none yet), and the next
- * new index to hand out, for the inner nodes and the chunks. */
+ * new index to hand out, for the inner nodes, the chunks and the halves
+ * (by id, without TREE_HALF_BIT). */
 typedef struct tree_perm {
-    uint32_t *inner, *chunk;
-    uint32_t next_inner, next_chunk;
+    uint32_t *inner, *chunk, *half;
+    uint32_t next_inner, next_chunk, next_half;
 } tree_perm;
+
+/* Chunk c's new index. */
+static uint32_t perm_chunk(const tree_perm *m, uint32_t c)
+{
+    return (c & TREE_HALF_BIT) ? TREE_HALF_BIT | m->half[c & ~TREE_HALF_BIT] : m->chunk[c];
+}
 
 /* Number the records below `node` (a node at `level`) in visiting order:
  * the node, then its children in index order, each leaf's chunks in list
@@ -443,8 +601,9 @@ static void perm_number(const tree *t, tree_perm *m, uint32_t node, int level)
             continue;
         }
         for (uint32_t c = child;;) {
-            m->chunk[c] = m->next_chunk++;
-            const uint32_t link = tree_chunk_link(t, tree_chunk_at(t, c));
+            if (c & TREE_HALF_BIT) m->half[c & ~TREE_HALF_BIT] = m->next_half++;
+            else m->chunk[c] = m->next_chunk++;
+            const uint32_t link = tree_chunk_link(t, c, tree_chunk_at(t, c));
             if (link <= TREE_CHUNK_CAP) break;
             c = link;
         }
@@ -465,12 +624,12 @@ static void perm_relink(tree *t, const tree_perm *m, uint32_t node, int level)
             continue;
         }
         for (uint32_t c = child;;) {
-            const uint32_t link = tree_chunk_link(t, tree_chunk_at(t, c));
+            const uint32_t link = tree_chunk_link(t, c, tree_chunk_at(t, c));
             if (link <= TREE_CHUNK_CAP) break;
-            chunk_set_link(t, c, m->chunk[link]);
+            chunk_set_link(t, c, perm_chunk(m, link));
             c = link;
         }
-        atomic_store_explicit(&ch[k], m->chunk[child], memory_order_relaxed);
+        atomic_store_explicit(&ch[k], perm_chunk(m, child), memory_order_relaxed);
     }
 }
 
@@ -492,6 +651,33 @@ static void pool_permute(tree_pool *p, uint32_t *perm, uint32_t first)
         }
 }
 
+/* Swap the contents (slots and link) of halves i and j (ids). */
+static void half_swap(tree *t, uint32_t i, uint32_t j)
+{
+    uint8_t *a = chunk_mut(t, TREE_HALF_BIT | i), *b = chunk_mut(t, TREE_HALF_BIT | j);
+    uint8_t tmp[TREE_HALF_CAP];
+    for (int d = 0; d < t->dim; d++) {
+        memcpy(tmp, a + d * TREE_CHUNK_CAP, TREE_HALF_CAP);
+        memcpy(a + d * TREE_CHUNK_CAP, b + d * TREE_CHUNK_CAP, TREE_HALF_CAP);
+        memcpy(b + d * TREE_CHUNK_CAP, tmp, TREE_HALF_CAP);
+    }
+    const uint32_t la = tree_chunk_link(t, TREE_HALF_BIT | i, a);
+    chunk_set_link(t, TREE_HALF_BIT | i, tree_chunk_link(t, TREE_HALF_BIT | j, b));
+    chunk_set_link(t, TREE_HALF_BIT | j, la);
+}
+
+/* pool_permute for the halves, by id. */
+static void halves_permute(tree *t, uint32_t *perm, uint32_t n)
+{
+    for (uint32_t i = 0; i < n; i++)
+        while (perm[i] != i) {
+            const uint32_t j = perm[i];
+            half_swap(t, i, j);
+            perm[i] = perm[j];
+            perm[j] = j;
+        }
+}
+
 void *tree_mmap(size_t bytes)
 {
     void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
@@ -506,14 +692,17 @@ static void index_free(uint32_t *p, size_t n)
 int tree_compact(tree *t)
 {
     _Static_assert(TREE_INNER_BYTES3 <= 64 && TREE_CHUNK_BYTES3 <= 64, "pool_permute's buffer");
-    const size_t ni = t->inner.count, nc = t->chunks.count;
-    tree_perm m = {tree_mmap(ni * sizeof(uint32_t)), tree_mmap(nc * sizeof(uint32_t)), 1, TREE_CHUNK_CAP + 1};
-    if (!m.inner || !m.chunk) {
+    const size_t ni = t->inner.count, nc = t->chunks.count, nh = 2 * (size_t)t->halves.count;
+    tree_perm m = {tree_mmap(ni * sizeof(uint32_t)), tree_mmap(nc * sizeof(uint32_t)),
+                   tree_mmap((nh + 1) * sizeof(uint32_t)), 1, TREE_CHUNK_CAP + 1, 0};
+    if (!m.inner || !m.chunk || !m.half) {
         index_free(m.inner, ni);
         index_free(m.chunk, nc);
+        index_free(m.half, nh + 1);
         return -1;
     }
     memset(m.inner, 0xff, ni * sizeof *m.inner);
+    memset(m.half, 0xff, nh * sizeof *m.half);
     const tree_root root = tree_root_get(t);
     perm_number(t, &m, root.node, root.level);
     /* Every chunk is reached; the inner records no path reaches (the roots
@@ -523,11 +712,19 @@ int tree_compact(tree *t)
             memset(pool_at(&t->inner, i), 0, t->inner.elem);
             m.inner[i] = m.next_inner++;
         }
+    /* The free halves (clear) go last, after the leaves' halves. */
+    for (uint32_t h = 0; h < nh; h++)
+        if (m.half[h] == UINT32_MAX) m.half[h] = m.next_half++;
     perm_relink(t, &m, root.node, root.level);
     pool_permute(&t->chunks, m.chunk, TREE_CHUNK_CAP + 1);
     pool_permute(&t->inner, m.inner, 1);
+    halves_permute(t, m.half, (uint32_t)nh);
     atomic_store_explicit(&t->root_word, (uint64_t)root.level << 32 | 1u, memory_order_release);
     index_free(m.inner, ni);
     index_free(m.chunk, nc);
-    return 0;
+    index_free(m.half, nh + 1);
+    /* The heads moved too (search_state_forget_indices); the free list is
+     * rebuilt from the clear halves, which needs no more room than it had. */
+    t->head_moves++;
+    return tree_free_rebuild(t);
 }

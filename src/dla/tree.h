@@ -11,15 +11,35 @@
  * particle lands outside it. Child k of a node holds the half-boxes with
  * bit a of k set where coordinate a is in the upper half.
  *
- * Memory. Two pools of fixed-size records linked by 32-bit indices
- * (0 is null): inner nodes (2^dim child indices) and chunks (10 particles of
+ * Memory. Three pools of fixed-size records linked by 32-bit indices
+ * (0 is null): inner nodes (2^dim child indices), chunks (10 particles of
  * dim bytes, stored as x[10] y[10] (z[10]) so a leaf scan vectorises, plus
- * one 32-bit link: 24 bytes in 2D, 36 in 3D). A leaf is just
- * its list of chunks: a level-1 node's child index is the leaf's first chunk.
- * Every chunk but the last is full; the last one's link, having no next chunk
- * to name, holds its own particle count (1..10), and chunk indices 1..10 are
- * never handed out so the two cannot be confused. No leaf record, no count
- * field: a 2D particle costs 2.4 bytes in a full chunk. Pools grow by whole
+ * one 32-bit link: 24 bytes in 2D, 36 in 3D) and half chunks (5 particles;
+ * two share a record laid out like a chunk with two links, 32 bytes in 2D,
+ * 40 in 3D, so a half is read with a chunk's strides and vector loads).
+ * A leaf is just its list of chunks: a level-1 node's child index is the
+ * leaf's first chunk. Every chunk but the last is full; the last one's
+ * link, having no next chunk to name, holds its own particle count
+ * (1..10), and chunk indices 1..10 are never handed out so the two cannot
+ * be confused. A half's index has bit 31 set (TREE_HALF_BIT) over
+ * 2 x record + side. No leaf record, no count field: a 2D particle costs
+ * 2.4 bytes in a full chunk.
+ *
+ * Why halves: a leaf holds ~13 particles in 2D (~23 in 3D), so a last
+ * chunk of 10 slots left half empty cost 0.94 of the tree's 3.96
+ * bytes/particle at 2D 1e6. A leaf starts with a half; a full last chunk
+ * is followed by a half; a half that overflows is copied, with the new
+ * particle, into a chunk that takes its place (serial only, the half goes
+ * to a free list; while workers read, it is followed by a chunk instead,
+ * as a reader may be inside it). So a serially grown leaf is full chunks
+ * and one half or chunk at the end (2D 1e6: 3.34 -> 2.9 bytes/particle
+ * in chunks). A half moved out as the leaf's first chunk changes the
+ * leaf's head: head_moves counts that, and caches of heads check it.
+ * Free halves are zero (link 0) and reused lowest index first (a min-heap),
+ * so the layout depends only on which are free: a checkpoint that stores
+ * the pools gives the resumed run the same layout.
+ *
+ * Pools grow by whole
  * segments that never move, so a record's address is stable for the life of
  * the tree (lock-free readers need that) and growth never copies.
  *
@@ -42,6 +62,8 @@
 #define TREE_LEAF_BITS 8
 #define TREE_LEAF_SIDE (1 << TREE_LEAF_BITS)
 #define TREE_CHUNK_CAP 10
+#define TREE_HALF_CAP 5
+#define TREE_HALF_BIT 0x80000000u
 /* The root never grows past this level: side 2^31 covers every coordinate
  * allowed by PDLA_MAX_CLUSTER_RADIUS_UNITS with room to spare. */
 #define TREE_MAX_LEVEL 23
@@ -93,10 +115,16 @@ typedef struct tree {
     uint32_t chunk_bytes;/* 24 (2D) or 36 (3D) */
     tree_pool inner;     /* uint32_t child[nchild] */
     tree_pool chunks;    /* uint8_t rel[dim][10], pad, uint32_t link */
+    tree_pool halves;    /* uint8_t rel[dim][10], pad, uint32_t link[2] */
+    uint32_t link_half;  /* offset of side 0's link in a half record */
     PDLA_CACHE_PAD(pad_);
     /* Written by every insertion. */
     _Atomic uint64_t count;     /* particles stored */
     uint64_t leaves;     /* leaves created */
+    /* Serial writer only (never changes while workers run): */
+    uint64_t head_moves; /* leaf heads replaced (a first half moved out) */
+    uint32_t *hfree;     /* free half ids, a min-heap */
+    uint32_t nfree, capfree;
     PDLA_CACHE_PAD(pad_end_);
 } tree;
 
@@ -128,8 +156,10 @@ int tree_make_path(tree *t, const int64_t *p, tree_slot *slot);
 int tree_find_slot(const tree *t, const int64_t *p, tree_slot *slot);
 
 /* Append p to the leaf in `slot` (creating the leaf if it is new) and count
- * it. Touches only the chunk pool: the engine's bucket mutex guards it. */
-int tree_append(tree *t, const tree_slot *slot, const int64_t *p);
+ * it. Touches only the chunk pools: the engine's bucket mutex guards them.
+ * `concurrent`: readers may be inside the leaf, so nothing is moved or
+ * freed (a full half is followed by a chunk, not copied). */
+int tree_append(tree *t, const tree_slot *slot, const int64_t *p, int concurrent);
 
 /* Bytes of the records in use (segments are allocated 2^16 records at a
  * time and touched as they fill, so resident memory follows this closely). */
@@ -161,23 +191,43 @@ static inline uint32_t tree_child(const _Atomic uint32_t *children, uint32_t k)
 {
     return atomic_load_explicit(&children[k], memory_order_acquire);
 }
-static inline const uint8_t *tree_chunk_at(const tree *t, uint32_t chunk)
+/* Chunk c's slots (x at [0..cap), y at [10..), z at [20..)): a chunk's
+ * record, or a half's place in its record (side 1 at slot 5). */
+static inline const uint8_t *tree_chunk_at(const tree *t, uint32_t c)
 {
-    return (const uint8_t *)pool_at(&t->chunks, chunk);
+    if (c & TREE_HALF_BIT) {
+        const uint32_t h = c & ~TREE_HALF_BIT;
+        return (const uint8_t *)pool_at(&t->halves, h >> 1) + TREE_HALF_CAP * (h & 1);
+    }
+    return (const uint8_t *)pool_at(&t->chunks, c);
 }
-/* A chunk's link: the next chunk's index, or (<= TREE_CHUNK_CAP) the
- * particle count of this last chunk. */
-static inline uint32_t tree_chunk_link(const tree *t, const uint8_t *chunk)
+/* Bytes from chunk c's slots to its link. */
+static inline uint32_t tree_link_offset(const tree *t, uint32_t c)
 {
-    return atomic_load_explicit((const _Atomic uint32_t *)(const void *)(chunk + t->chunk_bytes - 4),
+    return (c & TREE_HALF_BIT) ? t->link_half + 4 * (c & 1) - TREE_HALF_CAP * (c & 1)
+                               : t->chunk_bytes - 4;
+}
+/* Chunk c's link (chunk: tree_chunk_at(c)): the next chunk's index, or
+ * (<= TREE_CHUNK_CAP) the particle count of this last chunk. */
+static inline uint32_t tree_chunk_link(const tree *t, uint32_t c, const uint8_t *chunk)
+{
+    return atomic_load_explicit((const _Atomic uint32_t *)(const void *)(chunk + tree_link_offset(t, c)),
                                 memory_order_acquire);
+}
+/* Slots of chunk c. */
+static inline uint32_t tree_cap(uint32_t c) { return (c & TREE_HALF_BIT) ? TREE_HALF_CAP : TREE_CHUNK_CAP; }
+/* Particles in chunk c, given its link. */
+static inline uint32_t tree_fill(uint32_t c, uint32_t link)
+{
+    return link <= TREE_CHUNK_CAP ? link : tree_cap(c);
 }
 
 /* The same three accessors for code instantiated per dimension: in 3D the
- * record sizes are constants (36-byte chunks, 8 children of 4 bytes), so
- * an access is a shift and an add instead of a load and a multiply. 2D
- * code calls the general ones. */
+ * record sizes are constants (36-byte chunks, 40-byte half records, 8
+ * children of 4 bytes), so an access is a shift and an add instead of a
+ * load and a multiply. 2D code calls the general ones. */
 #define TREE_CHUNK_BYTES3 36u
+#define TREE_HALF_BYTES3 40u
 #define TREE_INNER_BYTES3 32u
 static inline const _Atomic uint32_t *tree_children_d(const tree *t, uint32_t node, const int dim)
 {
@@ -186,16 +236,23 @@ static inline const _Atomic uint32_t *tree_children_d(const tree *t, uint32_t no
                                                     (size_t)(node & (POOL_SEG_SIZE - 1)) *
                                                         TREE_INNER_BYTES3);
 }
-static inline const uint8_t *tree_chunk_at_d(const tree *t, uint32_t chunk, const int dim)
+static inline const uint8_t *tree_chunk_at_d(const tree *t, uint32_t c, const int dim)
 {
-    if (dim != 3) return tree_chunk_at(t, chunk);
-    return t->chunks.seg[chunk >> POOL_SEG_BITS] +
-           (size_t)(chunk & (POOL_SEG_SIZE - 1)) * TREE_CHUNK_BYTES3;
+    if (dim != 3) return tree_chunk_at(t, c);
+    if (c & TREE_HALF_BIT) {
+        const uint32_t h = c & ~TREE_HALF_BIT, r = h >> 1;
+        return t->halves.seg[r >> POOL_SEG_BITS] + (size_t)(r & (POOL_SEG_SIZE - 1)) * TREE_HALF_BYTES3 +
+               TREE_HALF_CAP * (h & 1);
+    }
+    return t->chunks.seg[c >> POOL_SEG_BITS] + (size_t)(c & (POOL_SEG_SIZE - 1)) * TREE_CHUNK_BYTES3;
 }
-static inline uint32_t tree_chunk_link_d(const tree *t, const uint8_t *chunk, const int dim)
+static inline uint32_t tree_chunk_link_d(const tree *t, uint32_t c, const uint8_t *chunk, const int dim)
 {
-    if (dim != 3) return tree_chunk_link(t, chunk);
-    return atomic_load_explicit((const _Atomic uint32_t *)(const void *)(chunk + TREE_CHUNK_BYTES3 - 4),
+    if (dim != 3) return tree_chunk_link(t, c, chunk);
+    /* 3D half record: slots to byte 30, pad, links at 32 and 36. */
+    const uint32_t off = (c & TREE_HALF_BIT) ? 32 + 4 * (c & 1) - TREE_HALF_CAP * (c & 1)
+                                             : TREE_CHUNK_BYTES3 - 4;
+    return atomic_load_explicit((const _Atomic uint32_t *)(const void *)(chunk + off),
                                 memory_order_acquire);
 }
 
@@ -223,9 +280,15 @@ typedef struct tree_verify_sums {
 enum { TREE_VERIFY_ENOMEM = -2 }; /* = PDLA_ENOMEM */
 /* Walk a tree read from untrusted storage (a checkpoint): every node and
  * chunk index in range and reached exactly once, no chunk unreached or
- * empty, every particle within the coordinate limit. Returns 0 with *bad
+ * empty, no fill above its chunk's capacity, every half no leaf holds zero
+ * (free), every particle within the coordinate limit. Returns 0 with *bad
  * NULL (or a short static reason) and the sums, or TREE_VERIFY_ENOMEM. */
 int tree_verify(const tree *t, tree_verify_sums *sums, const char **bad);
+
+/* After tree_verify passed (or tree_compact): the free list is the halves
+ * no leaf holds (tree_verify requires them zero). Returns 0, or -1 when out
+ * of memory. */
+int tree_free_rebuild(tree *t);
 
 /* Zeroed memory straight from mmap (NULL when none; munmap it), for large
  * arrays that come and go beside the tree: freeing a large malloc block

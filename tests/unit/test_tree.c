@@ -372,8 +372,9 @@ static void test_ceil_sqrt(void)
 }
 
 /* The chunk indices in visiting order must run 11, 12, ... after
- * tree_compact: every leaf's chunks consecutive, leaves in visiting order.
- * Returns the number of chunks out of that order. */
+ * tree_compact (and the half ids 0, 1, ...): every leaf's chunks
+ * consecutive, leaves in visiting order. Returns the number of chunks out
+ * of that order. next[0]: the next chunk, next[1]: the next half id. */
 static uint64_t chunks_out_of_order(const tree *t, uint32_t node, int level, uint32_t *next)
 {
     uint64_t bad = 0;
@@ -385,8 +386,9 @@ static uint64_t chunks_out_of_order(const tree *t, uint32_t node, int level, uin
             continue;
         }
         for (uint32_t c = child;;) {
-            bad += c != (*next)++;
-            const uint32_t link = tree_chunk_link(t, tree_chunk_at(t, c));
+            if (c & TREE_HALF_BIT) bad += (c & ~TREE_HALF_BIT) != next[1]++;
+            else bad += c != next[0]++;
+            const uint32_t link = tree_chunk_link(t, c, tree_chunk_at(t, c));
             if (link <= TREE_CHUNK_CAP) break;
             c = link;
         }
@@ -429,12 +431,15 @@ static void test_compact(int dim, int kind, size_t n, uint64_t seed)
         const pt *s = &in[rng_next(&r) % n];
         for (int a = 0; a < dim; a++) q[i].x[a] = s->x[a] + rand_range(&r, -600, 600);
     }
-    const uint32_t ninner = t.inner.count, nchunk = t.chunks.count;
+    const uint32_t ninner = t.inner.count, nchunk = t.chunks.count, nhalf = t.halves.count;
+    const uint32_t nfree = t.nfree;
     snapshot(&t, dim, q, NQ, before, n, ans0);
-    uint32_t next = TREE_CHUNK_CAP + 1;
-    const uint64_t disorder = chunks_out_of_order(&t, tree_root_get(&t).node, tree_root_get(&t).level, &next);
+    uint32_t next[2] = {TREE_CHUNK_CAP + 1, 0};
+    const uint64_t disorder = chunks_out_of_order(&t, tree_root_get(&t).node, tree_root_get(&t).level, next);
     CHECK(tree_compact(&t) == 0, "tree_compact");
-    CHECK(t.inner.count == ninner && t.chunks.count == nchunk, "pool sizes changed");
+    CHECK(t.inner.count == ninner && t.chunks.count == nchunk && t.halves.count == nhalf,
+          "pool sizes changed");
+    CHECK(t.nfree == nfree, "free halves %u, were %u", t.nfree, nfree);
     snapshot(&t, dim, q, NQ, after, n, ans1);
     int same = 1;
     for (size_t i = 0; same && i < n; i++) same = cmp_pt(&before[i], &after[i]) == 0;
@@ -444,10 +449,14 @@ static void test_compact(int dim, int kind, size_t n, uint64_t seed)
     const char *bad = NULL;
     CHECK(tree_verify(&t, &sums, &bad) == 0 && !bad, "verify after compaction: %s", bad ? bad : "-");
     CHECK(tree_root_get(&t).node == 1, "root not first");
-    next = TREE_CHUNK_CAP + 1;
-    CHECK(chunks_out_of_order(&t, tree_root_get(&t).node, tree_root_get(&t).level, &next) == 0,
+    next[0] = TREE_CHUNK_CAP + 1;
+    next[1] = 0;
+    CHECK(chunks_out_of_order(&t, tree_root_get(&t).node, tree_root_get(&t).level, next) == 0,
           "dim %d kind %d: chunks not in visiting order after compaction", dim, kind);
-    CHECK(next == nchunk, "visited %u chunks of %u", next, nchunk);
+    CHECK(next[0] == nchunk, "visited %u chunks of %u", next[0], nchunk);
+    CHECK(next[1] + nfree == 2 * nhalf, "visited %u halves of %u, %u free", next[1], 2 * nhalf, nfree);
+    for (uint32_t i = 0; i < t.nfree; i++)
+        CHECK((t.hfree[i] & ~TREE_HALF_BIT) >= next[1], "a free half among the leaves' halves");
     for (size_t i = n; i < 2 * n; i++) {
         random_point(&r, dim, kind, in[i].x);
         CHECK(tree_insert(&t, in[i].x) == 0, "insert after compaction");

@@ -288,8 +288,11 @@ static int leaf_append(tree *t, const tree_slot *slot, uint32_t head, const uint
         const int rc = half_move_out(t, slot, prev, last, rel);
         if (rc <= 0) return rc;
     }
-    /* After a full chunk a half; after a half that stays, a chunk. */
-    const uint32_t c = chunk_new(t, rel, !half);
+    /* Serially, after a full chunk a half. While workers read, always a
+     * chunk: a half could not move out when full, and a leaf grown as
+     * half, chunk, half, ... costs more than chunks alone (2D 1e6 leaves:
+     * 3.5 against 3.34 bytes/particle). */
+    const uint32_t c = chunk_new(t, rel, !half && !concurrent);
     if (!c) return -1;
     chunk_set_link(t, last, c);
     return 0;
@@ -358,7 +361,7 @@ int tree_append(tree *t, const tree_slot *slot, const int64_t *p, int concurrent
     if (head) {
         if (leaf_append(t, slot, head, rel, concurrent)) return -1;
     } else {
-        const uint32_t c = chunk_new(t, rel, 1);
+        const uint32_t c = chunk_new(t, rel, !concurrent);
         if (!c) return -1;
         set_child(t, slot->node, slot->k, c);
         t->leaves++;

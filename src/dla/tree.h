@@ -27,21 +27,23 @@
  *
  * Why halves: a leaf holds ~13 particles in 2D (~23 in 3D), so a last
  * chunk of 10 slots left half empty cost 0.94 of the tree's 3.96
- * bytes/particle at 2D 1e6. A leaf starts with a half; a full last chunk
- * is followed by a half; a half that overflows is copied, with the new
- * particle, into a chunk that takes its place (serial only, the half goes
- * to a free list; while workers read, it is followed by a chunk instead,
- * as a reader may be inside it). So a serially grown leaf is full chunks
- * and one half or chunk at the end (2D 1e6: 3.34 -> 2.9 bytes/particle
- * in chunks). A half moved out as the leaf's first chunk changes the
- * leaf's head: head_moves counts that, and caches of heads check it.
- * Free halves are zero (link 0) and reused lowest index first (a min-heap),
- * so the layout depends only on which are free: a checkpoint that stores
- * the pools gives the resumed run the same layout.
+ * bytes/particle at 2D 1e6. Serially, a leaf starts with a half; a full
+ * last chunk is followed by a half; a half that overflows is copied, with
+ * the new particle, into a chunk that takes its place, and the half goes
+ * to a free list. So a serially grown leaf is full chunks and one half or
+ * chunk at the end (2D 1e6: 3.34 -> 2.98 bytes/particle in chunks). While
+ * workers read, nothing moves (a reader may be inside the half): a full
+ * half is followed by a chunk, and new leaves and new last chunks are
+ * chunks, as before halves (leaves grown as half, chunk, half, ... would
+ * cost 3.5 bytes/particle). A half moved out as the leaf's first chunk
+ * changes the leaf's head: head_moves counts that, and caches of heads
+ * check it. Free halves are zero (link 0) and reused lowest index first (a
+ * min-heap), so the layout depends only on which are free: a checkpoint
+ * that stores the pools gives the resumed run the same layout.
  *
- * Pools grow by whole
- * segments that never move, so a record's address is stable for the life of
- * the tree (lock-free readers need that) and growth never copies.
+ * Pools grow by whole segments that never move, so a record's address is
+ * stable for the life of the tree (lock-free readers need that) and growth
+ * never copies.
  *
  * Concurrency (PDLA). Readers never lock. Everything a writer publishes is a
  * C11 atomic stored with release and loaded with acquire: child indices,

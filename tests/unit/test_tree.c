@@ -99,19 +99,36 @@ static uint64_t brute_list(const pt *pts, size_t n, int dim, const int64_t *q)
 }
 
 /* far_factor: the engine's default is 2 (relative error <= sqrt(dim)/2);
- * with 4 (2D) or 5 (3D) the bound is within the seed paper's +40%. */
-static void test_set(int dim, int kind, size_t n, uint64_t seed, double far_factor)
+ * with 4 (2D) or 5 (3D) the bound is within the seed paper's +40%.
+ * mixed: the second half of the points is appended as workers append
+ * (tree_append concurrent: a full half is followed by a chunk, not moved),
+ * so leaves hold halves inside their chains. */
+static void test_set_mixed(int dim, int kind, size_t n, uint64_t seed, double far_factor, int mixed)
 {
     pdla_rng r;
     rng_seed(&r, seed);
     tree t;
     CHECK(tree_init(&t, dim) == 0, "tree_init");
     pt *in = malloc(n * sizeof *in);
+    uint64_t moves = 0;
     for (size_t i = 0; i < n; i++) {
         random_point(&r, dim, kind, in[i].x);
-        CHECK(tree_insert(&t, in[i].x) == 0, "insert seed %llu i %zu", (unsigned long long)seed, i);
+        if (mixed && i == n / 2) moves = t.head_moves;
+        if (mixed && i >= n / 2) {
+            tree_slot sl;
+            CHECK(tree_make_path(&t, in[i].x, &sl) == 0 && tree_append(&t, &sl, in[i].x, 1) == 0,
+                  "append seed %llu i %zu", (unsigned long long)seed, i);
+        } else {
+            CHECK(tree_insert(&t, in[i].x) == 0, "insert seed %llu i %zu", (unsigned long long)seed, i);
+        }
     }
     CHECK(tree_count(&t) == n, "count %llu != %zu", (unsigned long long)tree_count(&t), n);
+    CHECK(!mixed || t.head_moves == moves, "a concurrent append moved a leaf's head");
+    tree_verify_sums vs;
+    const char *vbad = NULL;
+    CHECK(tree_verify(&t, &vs, &vbad) == 0 && !vbad && vs.count == n, "verify: %s", vbad ? vbad : "count");
+    if (dim == 2 && kind == 0 && !mixed)
+        CHECK(t.halves.count > 0 && t.head_moves > 0, "no half moved out (2D kind 0)");
 
     collect c = {malloc(n * sizeof(pt)), 0, n, dim};
     CHECK(tree_visit(&t, collect_visit, &c) == 0, "visit overflowed: more points than inserted");
@@ -168,6 +185,12 @@ static void test_set(int dim, int kind, size_t n, uint64_t seed, double far_fact
     free(in);
     free(c.pts);
     tree_free(&t);
+}
+
+static void test_set(int dim, int kind, size_t n, uint64_t seed, double far_factor)
+{
+    test_set_mixed(dim, kind, n, seed, far_factor, 0);
+    test_set_mixed(dim, kind, n, seed, far_factor, 1);
 }
 
 /* Walks of short jumps (the walker's: by the distance less 33 units) from

@@ -2,9 +2,11 @@
  * distmap.c - the two-level chessboard distance map (see distmap.h): grid
  * growth, incremental updates shell by shell, rebuild from a tree.
  */
+#define _GNU_SOURCE /* mremap */
 #include "distmap.h"
 
 #include <math.h>
+#include <string.h>
 #include <stdlib.h>
 #include <sys/mman.h>
 
@@ -280,6 +282,42 @@ static int level_alloc(distmap_level *L, int dim, int bits, int nibble, unsigned
     return 0;
 }
 
+/* 2D, serial: the new fine level L (cells of 2^bits over [-half, half)^2)
+ * grown in place from the old grid's fine level O, whose cells it places
+ * at offset `off` (cells, a multiple of 4): the array is extended by
+ * mremap (pages move, nothing is copied), rows move to their new places
+ * from the top down (each row's new place is at or above its old one), and
+ * the new cells get the cap. So a growing grid never holds two fine levels,
+ * which made the map's peak twice its budget. O is left empty (its grid is
+ * freed next). Returns 0, or -1 with O untouched (then allocate anew). */
+static int level_grow_in_place2(distmap_level *L, int bits, int64_t half, distmap_level *O, int64_t off)
+{
+    L->bits = bits;
+    L->nibble = 1;
+    L->cap = DISTMAP_FINE_CAP;
+    L->width = (uint32_t)((half << 1) >> bits);
+    const size_t w = L->width, ow = O->width, len = ow / 2;
+    if (w % 2 || ow % 2 || off % 2 || off < 0 || (size_t)off + ow > w) return -1;
+    L->bytes = w * w / 2;
+    void *p = mremap((void *)O->cell, O->bytes, L->bytes, MREMAP_MAYMOVE);
+    if (p == MAP_FAILED) return -1;
+    O->cell = NULL;
+    L->cell = p;
+    uint8_t *c = p;
+    const uint8_t fill = (uint8_t)(DISTMAP_FINE_CAP | DISTMAP_FINE_CAP << 4);
+    size_t end = L->bytes; /* the lowest byte already in its new place */
+    for (size_t y = ow; y-- > 0;) {
+        const size_t dst = ((y + (size_t)off) * w + (size_t)off) / 2, src = y * len;
+        /* Between this row's new end and the next row's new start: new
+         * cells, over old bytes of rows already moved (dst >= src). */
+        memset(c + dst + len, fill, end - dst - len);
+        memmove(c + dst, c + src, len);
+        end = dst;
+    }
+    memset(c, fill, end);
+    return 0;
+}
+
 static uint64_t fine_bytes(int dim, int64_t half, int bits)
 {
     const uint64_t w = (uint64_t)((half << 1) >> bits);
@@ -390,7 +428,10 @@ static int fine_bits(const distmap *m, const distmap_grid *old, int64_t h, int64
 }
 
 /* rin: tiles of the old grid wholly within it are dropped (0: none). */
-static distmap_grid *grid_make(distmap *m, const distmap_grid *old, int64_t h, double rin)
+/* steal: the old grid when no other thread reads it (its 2D fine level
+ * may then be grown in place, level_grow_in_place2), else NULL. */
+static distmap_grid *grid_make(distmap *m, const distmap_grid *old, int64_t h, double rin,
+                               distmap_grid *steal)
 {
     const int dim = m->dim;
     int64_t half;
@@ -403,7 +444,9 @@ static distmap_grid *grid_make(distmap *m, const distmap_grid *old, int64_t h, d
     distmap_grid *g = calloc(1, sizeof *g);
     if (!g) return NULL;
     g->half = half;
-    if (level_alloc(&g->lv[0], dim, fb, 1, DISTMAP_FINE_CAP, half) ||
+    const int in_place = steal && steal == old && dim == 2 && old->lv[0].bits == fb &&
+                         level_grow_in_place2(&g->lv[0], fb, half, &steal->lv[0], (half - old->half) >> fb) == 0;
+    if ((!in_place && level_alloc(&g->lv[0], dim, fb, 1, DISTMAP_FINE_CAP, half)) ||
         level_alloc(&g->lv[1], dim, fb + DISTMAP_COARSE_SHIFT, 0, DISTMAP_COARSE_CAP, half)) {
         grid_free(g);
         return NULL;
@@ -415,7 +458,7 @@ static distmap_grid *grid_make(distmap *m, const distmap_grid *old, int64_t h, d
     }
     if (!old) return g;
     if (old->lv[0].bits == fb) {
-        for (int l = 0; l < 2; l++) {
+        for (int l = in_place; l < 2; l++) {
             distmap_level *L = &g->lv[l];
             const distmap_level *O = &old->lv[l];
             const int64_t off = (half - old->half) >> L->bits;
@@ -570,7 +613,7 @@ int distmap_add(distmap *m, const int64_t *p, uint64_t particles, int concurrent
         double r = 0;
         for (int a = 0; a < m->dim; a++) r += (double)p[a] * (double)p[a];
         const double rin = concurrent ? 0.0 : m->leaf_interior * sqrt(r);
-        distmap_grid *ng = grid_make(m, g, wanted_half(m, p, g ? g->half : 0), rin);
+        distmap_grid *ng = grid_make(m, g, wanted_half(m, p, g ? g->half : 0), rin, concurrent ? NULL : g);
         if (!ng) {
             disable(m, concurrent);
             return 0;
@@ -644,7 +687,7 @@ int distmap_rebuild(distmap *m, const tree *t)
     atomic_store_explicit(&m->leaves, atomic_load_explicit(&m->leaves, memory_order_relaxed) + 1,
                           memory_order_release);
     const int64_t p[3] = {b.r, b.r, b.r};
-    distmap_grid *g = grid_make(m, NULL, wanted_half(m, p, 0), 0.0);
+    distmap_grid *g = grid_make(m, NULL, wanted_half(m, p, 0), 0.0, NULL);
     if (!g) {
         m->disabled = 1;
         return 0;

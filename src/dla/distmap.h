@@ -15,9 +15,11 @@
  *
  * Updates: a particle in a cell that was not yet occupied sets it to 0 and a
  * pass over the shells of cells around it lowers the cells whose distance
- * drops (each cell only ever decreases). A particle that lands too near the grid's edge makes a
- * larger grid (old values copied, new cells filled by a two-pass chessboard
- * transform). Everything is derived from the particle positions alone:
+ * drops (each cell only ever decreases). A particle that lands too near
+ * the grid's edge makes a larger grid (old values copied, new cells filled
+ * by a two-pass chessboard transform; in 2D while no other thread reads,
+ * the fine level grows in place by mremap, so a growing grid does not hold
+ * two fine levels at once). Everything is derived from the particle positions alone:
  * distmap_rebuild makes it from a tree (after a checkpoint load), with the
  * same cell values as the incrementally built map wherever both reach.
  *

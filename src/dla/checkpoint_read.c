@@ -365,6 +365,49 @@ static int load_state(const reader *r, hid_t file, pdla_engine *e, const tree_ve
     return PDLA_OK;
 }
 
+/* The distance map: remade to the shape the run had (/state map_*,
+ * checkpoint_write.c), or, for a checkpoint written before they were
+ * kept, rebuilt to the size the particles ask for. */
+static int load_map(const reader *r, hid_t file, pdla_engine *e)
+{
+    const hid_t s = H5Gopen2(file, "state", H5P_DEFAULT);
+    if (s < 0) return damaged(r, "cannot open /state");
+    const htri_t has = H5Aexists(s, "map_half");
+    distmap_shape m = {0, 0, 0, 0, NULL};
+    int32_t bits = 0;
+    uint64_t tw = 0;
+    int rc = has < 0 ? damaged(r, "/state attributes") : PDLA_OK;
+    if (rc == PDLA_OK && has > 0 &&
+        (pdla_h5_attr_exact(s, "map_half", PDLA_H5_I64, &m.half) < 0 ||
+         pdla_h5_attr_exact(s, "map_bits", PDLA_H5_I32, &bits) < 0 ||
+         pdla_h5_attr_exact(s, "map_particles", PDLA_H5_U64, &m.particles) < 0 ||
+         pdla_h5_attr_exact(s, "map_tile_width", PDLA_H5_U64, &tw) < 0))
+        rc = damaged(r, "/state map attributes");
+    /* The tile flags are read only for a width a run of this size can have
+     * (its tile ids took 4 bytes a slot). */
+    const uint64_t n = tree_count(&e->tree);
+    if (rc == PDLA_OK && (tw > 65536 || tw * tw > 64 * n + (UINT64_C(1) << 20)))
+        rc = damaged(r, "/state map_tile_width out of range");
+    m.bits = bits;
+    m.tw = (uint32_t)tw;
+    if (rc == PDLA_OK && tw && !(m.unknown = malloc((size_t)(tw * tw)))) {
+        rfail(r, "out of memory for the distance map");
+        rc = PDLA_ENOMEM;
+    }
+    if (rc == PDLA_OK && tw) rc = read_array(r, s, "map_unknown_tiles", PDLA_H5_U8, 1, tw * tw, 1, m.unknown);
+    rc = close_id(r, rc, s, H5Gclose, "/state");
+    if (rc == PDLA_OK) {
+        const int b = has > 0 ? distmap_rebuild_as(&e->dmap, &e->tree, &m) : distmap_rebuild(&e->dmap, &e->tree);
+        if (b == 1) rc = damaged(r, "the distance map's shape does not fit the particles");
+        else if (b) {
+            rfail(r, "out of memory for the distance map");
+            rc = PDLA_ENOMEM;
+        }
+    }
+    free(m.unknown);
+    return rc;
+}
+
 static int load_tree(const reader *r, hid_t file, pdla_engine *e, int version)
 {
     tree *t = &e->tree;
@@ -612,11 +655,7 @@ static int load_file(const char *path, const pdla_params *asked, uint32_t fields
     }
     if ((rc = load_series(r, file, e))) goto out;
     if ((rc = load_arrival(r, file, e))) goto out;
-    if (distmap_rebuild(&e->dmap, &e->tree)) {
-        rc = PDLA_ENOMEM;
-        rfail(r, "out of memory for the distance map");
-        goto out;
-    }
+    if ((rc = load_map(r, file, e))) goto out;
     e->ckpt_generation = generation;
     if (info) {
         snprintf(info->path, sizeof info->path, "%s", path);

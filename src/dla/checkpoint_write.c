@@ -207,6 +207,26 @@ static void split128(unsigned __int128 v, uint64_t *out)
     out[1] = (uint64_t)(v >> 64);
 }
 
+/* The distance map's shape (distmap_shape), so that a resumed run remakes
+ * the grid the run had: map_half (0: no map), map_bits, map_particles,
+ * map_tile_width and, when that is not 0, map_unknown_tiles (u8, one flag
+ * per tile slot: dropped as interior). */
+static int write_map(const h5u_writer *w, hid_t g, const pdla_engine *e)
+{
+    distmap_shape s;
+    if (distmap_shape_get(&e->dmap, &s)) return h5u_fail_msg(w, "out of memory");
+    int rc = h5u_attr_i64(w, g, "map_half", s.half) < 0 || h5u_attr_int(w, g, "map_bits", s.bits) < 0 ||
+                     h5u_attr_u64(w, g, "map_particles", s.particles) < 0 ||
+                     h5u_attr_u64(w, g, "map_tile_width", s.tw) < 0
+                 ? -1
+                 : 0;
+    if (rc == 0 && s.tw)
+        rc = write_array(w, g, "map_unknown_tiles", H5T_STD_U8LE, H5T_NATIVE_UINT8, 1,
+                         (hsize_t)s.tw * s.tw, 1, s.unknown);
+    free(s.unknown);
+    return rc;
+}
+
 static int write_state(const h5u_writer *w, hid_t file, const pdla_engine *e)
 {
     hid_t g = H5I_INVALID_HID;
@@ -240,7 +260,8 @@ static int write_state(const h5u_writer *w, hid_t file, const pdla_engine *e)
         h5u_attr_int(w, g, "last_workers", e->nworkers) < 0 ||
         h5u_attr_str(w, g, "binding", e->binding) < 0 ||
         write_array(w, g, "gyration", H5T_STD_U64LE, H5T_NATIVE_UINT64, 2, 4, 2, gy) < 0 ||
-        write_array(w, g, "rng", H5T_STD_U64LE, H5T_NATIVE_UINT64, 2, nr, 4, rng) < 0)
+        write_array(w, g, "rng", H5T_STD_U64LE, H5T_NATIVE_UINT64, 2, nr, 4, rng) < 0 ||
+        write_map(w, g, e) < 0)
         goto fail;
     rc = 0;
 fail:

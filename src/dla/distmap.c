@@ -404,22 +404,31 @@ static int grid_tiles(distmap *m, distmap_grid *g, const distmap_grid *old, doub
 
 /* The fine cells' side (bits) for a grid that covers [-h, h)^dim, never
  * finer than the old grid's: the finest whose level fits the memory budget;
- * *half_out: h rounded up to whole coarse cells of that size. */
-static int fine_bits(const distmap *m, const distmap_grid *old, int64_t h, int64_t *half_out)
+ * *half_out: h rounded up to whole coarse cells of that size. serial: no
+ * other thread reads (2D: the fine level grows in place, and gets the
+ * larger serial budget, distmap.h). */
+static int fine_bits(const distmap *m, const distmap_grid *old, int64_t h, int serial, int64_t *half_out)
 {
     const int dim = m->dim;
     int fb = m->bits;
     if (old && old->lv[0].bits > fb) fb = old->lv[0].bits;
-    double budget = m->budget_per_particle * (double)m->particles;
-    if (budget < (double)m->budget_min) budget = (double)m->budget_min;
+    const double n = (double)m->particles;
+    const int serial2 = serial && dim == 2;
+    const double per = m->budget_per_particle * n * (serial2 ? DISTMAP_SERIAL_2D_FACTOR : 1);
+    const double budget = per > (double)m->budget_min ? per : (double)m->budget_min;
     int64_t half;
     for (;;) {
         const int64_t side = (int64_t)1 << (fb + DISTMAP_COARSE_SHIFT);
         half = (h + side - 1) / side * side;
         /* Coarsened 2D cells come with the leaf bits: the fine level
-         * gets a share of the budget (distmap.h). */
-        const double fine_budget =
-            dim == 2 && fb > TREE_LEAF_BITS ? budget / DISTMAP_LEAF_FINE_SHARE : budget;
+         * gets a share of the budget (distmap.h); serially, the whole of
+         * the per-particle part. */
+        double fine_budget = budget;
+        if (dim == 2 && fb > TREE_LEAF_BITS) {
+            fine_budget = (double)m->budget_min / DISTMAP_LEAF_FINE_SHARE;
+            const double part = serial2 ? per : per / DISTMAP_LEAF_FINE_SHARE;
+            if (part > fine_budget) fine_budget = part;
+        }
         if ((double)fine_bytes(dim, half, fb) <= fine_budget || fb >= 24) break;
         fb++;
     }
@@ -430,17 +439,26 @@ static int fine_bits(const distmap *m, const distmap_grid *old, int64_t h, int64
 /* rin: tiles of the old grid wholly within it are dropped (0: none). */
 /* steal: the old grid when no other thread reads it (its 2D fine level
  * may then be grown in place, level_grow_in_place2), else NULL. */
+/* 1 when a grid of half side `half` and fine cells of 2^fb units can be
+ * made: whole coarse cells, width and cell count in range. */
+static int shape_ok(const distmap *m, int64_t half, int fb)
+{
+    if (fb < m->bits || fb > 24 || half <= 0 || half % ((int64_t)1 << (fb + DISTMAP_COARSE_SHIFT)))
+        return 0;
+    const int64_t w = (half << 1) >> fb;
+    if (w <= 0 || w >= (1 << 21)) return 0;
+    uint64_t n = (uint64_t)w * (uint64_t)w;
+    if (m->dim == 3) n *= (uint64_t)w;
+    return n <= DISTMAP_MAX_CELLS;
+}
+
 static distmap_grid *grid_make(distmap *m, const distmap_grid *old, int64_t h, double rin,
                                distmap_grid *steal)
 {
     const int dim = m->dim;
     int64_t half;
-    const int fb = fine_bits(m, old, h, &half);
-    const int64_t w = (half << 1) >> fb;
-    if (w <= 0 || w >= (1 << 21)) return NULL;
-    uint64_t n = (uint64_t)w * (uint64_t)w;
-    if (dim == 3) n *= (uint64_t)w;
-    if (n > DISTMAP_MAX_CELLS) return NULL;
+    const int fb = fine_bits(m, old, h, steal != NULL || !old, &half);
+    if (!shape_ok(m, half, fb)) return NULL;
     distmap_grid *g = calloc(1, sizeof *g);
     if (!g) return NULL;
     g->half = half;
@@ -670,7 +688,9 @@ static int zero_cells(const int64_t *p, void *user)
     return 0;
 }
 
-int distmap_rebuild(distmap *m, const tree *t)
+/* Forget the map before a rebuild; 0 when the tree is empty (then the
+ * map stays empty). */
+static int rebuild_reset(distmap *m, const tree *t)
 {
     distmap_grid *old = atomic_load_explicit(&m->grid, memory_order_relaxed);
     atomic_store_explicit(&m->grid, NULL, memory_order_relaxed);
@@ -680,20 +700,17 @@ int distmap_rebuild(distmap *m, const tree *t)
     m->disabled = 0;
     m->bytes = 0;
     m->particles = tree_count(t);
-    if (m->particles == 0) return 0;
-    rebuild_ctx b = {m, NULL, 0};
-    tree_visit(t, max_coord, &b);
     /* Cached views of the old map (search_block2) must look again. */
     atomic_store_explicit(&m->leaves, atomic_load_explicit(&m->leaves, memory_order_relaxed) + 1,
                           memory_order_release);
-    const int64_t p[3] = {b.r, b.r, b.r};
-    distmap_grid *g = grid_make(m, NULL, wanted_half(m, p, 0), 0.0, NULL);
-    if (!g) {
-        m->disabled = 1;
-        return 0;
-    }
-    b.g = g;
-    if (tree_visit(t, zero_cells, &b)) {
+    return m->particles != 0;
+}
+
+/* Mark the tree's particles in g and publish it (or disable the map). */
+static int rebuild_fill(distmap *m, const tree *t, distmap_grid *g)
+{
+    rebuild_ctx b = {m, g, 0};
+    if (!g || tree_visit(t, zero_cells, &b)) {
         grid_free(g);
         m->disabled = 1;
         return 0;
@@ -701,4 +718,65 @@ int distmap_rebuild(distmap *m, const tree *t)
     for (int l = 0; l < 2; l++) transform(&g->lv[l], m->dim);
     publish(m, g, 0);
     return 0;
+}
+
+int distmap_rebuild(distmap *m, const tree *t)
+{
+    if (!rebuild_reset(m, t)) return 0;
+    rebuild_ctx b = {m, NULL, 0};
+    tree_visit(t, max_coord, &b);
+    const int64_t p[3] = {b.r, b.r, b.r};
+    return rebuild_fill(m, t, grid_make(m, NULL, wanted_half(m, p, 0), 0.0, NULL));
+}
+
+int distmap_shape_get(const distmap *m, distmap_shape *s)
+{
+    const distmap_grid *g = atomic_load_explicit(&m->grid, memory_order_acquire);
+    memset(s, 0, sizeof *s);
+    s->particles = m->particles;
+    if (!g) return 0;
+    s->half = g->half;
+    s->bits = g->lv[0].bits;
+    if (!g->tix) return 0;
+    s->tw = g->tw;
+    if (!(s->unknown = malloc((size_t)g->tw * g->tw))) return -1;
+    for (size_t i = 0; i < (size_t)g->tw * g->tw; i++)
+        s->unknown[i] = atomic_load_explicit(&g->tix[i], memory_order_relaxed) == DISTMAP_TILE_UNKNOWN;
+    return 0;
+}
+
+int distmap_rebuild_as(distmap *m, const tree *t, const distmap_shape *s)
+{
+    if (s->half == 0) { /* the run had no map (disabled) */
+        rebuild_reset(m, t);
+        publish(m, NULL, 0);
+        m->disabled = 1;
+        m->particles = s->particles;
+        return 0;
+    }
+    rebuild_ctx b = {m, NULL, 0};
+    tree_visit(t, max_coord, &b);
+    const int tiles = m->dim == 2 && s->bits > TREE_LEAF_BITS;
+    if (!shape_ok(m, s->half, s->bits) || b.r + m->margin >= s->half || s->particles == 0 ||
+        s->particles > tree_count(t) || (uint32_t)(tiles ? tile_width(s->half) : 0) != s->tw)
+        return 1;
+    for (size_t i = 0; i < (size_t)s->tw * s->tw; i++)
+        if (s->unknown[i] > 1) return 1;
+    if (!rebuild_reset(m, t)) return 1;
+    m->particles = s->particles;
+    distmap_grid *g = calloc(1, sizeof *g);
+    if (g) {
+        g->half = s->half;
+        if (level_alloc(&g->lv[0], m->dim, s->bits, 1, DISTMAP_FINE_CAP, s->half) ||
+            level_alloc(&g->lv[1], m->dim, s->bits + DISTMAP_COARSE_SHIFT, 0, DISTMAP_COARSE_CAP, s->half) ||
+            (tiles && grid_tiles(m, g, NULL, 0.0))) {
+            grid_free(g);
+            g = NULL;
+        } else {
+            g->bytes += g->lv[0].bytes + g->lv[1].bytes;
+            for (size_t i = 0; i < (size_t)s->tw * s->tw; i++)
+                if (s->unknown[i]) atomic_store_explicit(&g->tix[i], DISTMAP_TILE_UNKNOWN, memory_order_relaxed);
+        }
+    }
+    return rebuild_fill(m, t, g);
 }

@@ -63,10 +63,18 @@
  * the fine level would outgrow its memory budget, max(512 KiB, 0.04 bytes
  * per particle), the grid's fine cells coarsen (2, 4, ... leaves;
  * search_block2 then defers to the tree). A 2D cluster passes 512 KiB at
- * leaf cells near 1.5e6 particles and at 2-leaf cells near 5e6; the budget
- * keeps the map (about twice that while a grid grows) within the 4
- * bytes/particle target at 1e7, where the tree alone takes 3.9
- * (runs/perf-notes.md). */
+ * leaf cells near 1.5e6 particles. 2D grids made while no other thread
+ * reads (the serial phase) get DISTMAP_SERIAL_2D_FACTOR times the
+ * per-particle budget, 0.2 bytes/particle, for the fine level alone: there
+ * it grows in place (no second copy while a grid grows), and half chunks
+ * (tree.h) took the 2D tree from 3.96 to 3.6 bytes/particle. That keeps
+ * 2-leaf cells to 1e7 (2D 1e7: -6 to -10% time in paired runs, peak RSS
+ * 3.8 bytes/particle; runs/bench-serial/issue12-half20-2026-11-29.md).
+ * While workers run, the map keeps the smaller budget: replaced grids are
+ * kept until no reader holds them. */
+#ifndef DISTMAP_SERIAL_2D_FACTOR
+#define DISTMAP_SERIAL_2D_FACTOR 5
+#endif
 #define DISTMAP_BITS TREE_LEAF_BITS
 /* The budget macros may be set at build time (-D) to force coarsened
  * cells at small N, for measurements (callgrind at 1e5) only. */
@@ -118,7 +126,7 @@
 #define DISTMAP_LEAF_REACH 8
 #endif
 #ifndef DISTMAP_LEAF_FINE_SHARE
-#define DISTMAP_LEAF_FINE_SHARE 6   /* the fine level's share of the budget: 1/6 */
+#define DISTMAP_LEAF_FINE_SHARE 6   /* the fine level's share of the budget: 1/6 (not serial) */
 #endif
 /* 3D: the target is 6 bytes/particle at 1e6 and the tree takes ~4.8 in
  * peak RSS. Measured at 3D 1e6 (VmHWM difference to 1e4, seed 1): budget
@@ -220,6 +228,26 @@ void distmap_reclaim(distmap *m, uint64_t oldest_seen);
  * checkpoint): the cells hold the same values as the incrementally built
  * map wherever both grids reach. Returns 0 (or the map is disabled). */
 int distmap_rebuild(distmap *m, const tree *t);
+
+/* What a checkpoint keeps of the map, so that distmap_rebuild_as remakes
+ * the grid the run had (the cells follow from the particles): without it a
+ * rebuilt grid has another size and, once cells coarsen, other bounds, and
+ * the resumed serial run's walk (not its law) departs from the unstopped
+ * run's (2D past ~1.5e6 particles). half 0: no map (disabled). particles:
+ * the cluster size the budget was last taken at. tw, unknown: 2D leaf
+ * bits, which of the tw x tw tile slots were dropped as interior. */
+typedef struct distmap_shape {
+    int64_t half;
+    int bits;
+    uint64_t particles;
+    uint32_t tw;
+    uint8_t *unknown; /* tw * tw flags 0/1, malloc'd (distmap_shape_get) */
+} distmap_shape;
+/* Returns 0, or -1 when out of memory. */
+int distmap_shape_get(const distmap *m, distmap_shape *s);
+/* Rebuild to shape s. Returns 0 (or the map is disabled, out of memory),
+ * or 1 when s is no shape this map can have for this tree (nothing done). */
+int distmap_rebuild_as(distmap *m, const tree *t, const distmap_shape *s);
 
 /* search_block2, the map-assisted search, is declared in search.h. */
 

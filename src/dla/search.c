@@ -223,9 +223,10 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
          * so the vector loads (which read all ten slots and the link) are
          * safe even while workers append; only the last chunk of a leaf may
          * be filling, and then only its first m slots may be read (the
-         * scalar loop). */
+         * scalar loop). Halves then take the scalar loop too: the other
+         * half of their record may be filling (tree_vector_ok). */
         const uint64_t before2 = best2;
-        if (small && (!concurrent || link > TREE_CHUNK_CAP)) {
+        if (small && tree_vector_ok(c, link, concurrent)) {
             best2 = chunk_min_below(chunk, q, m, best2, dim);
         } else {
             for (uint32_t j = 0; j < m; j++) {
@@ -448,7 +449,7 @@ static inline __attribute__((always_inline)) void note_nearest(search_state *k, 
     const uint32_t link = tree_chunk_link_d(t, k->arg_ci, chunk, dim);
     const uint32_t m = tree_fill(k->arg_ci, link);
 #if defined(__SSE2__)
-    if (dim == 3 && leaf_small(k->arg_q, d2, dim) && (!concurrent || link > TREE_CHUNK_CAP)) {
+    if (dim == 3 && leaf_small(k->arg_q, d2, dim) && tree_vector_ok(k->arg_ci, link, concurrent)) {
         /* The slot whose distance is d2, from the scan's own lanes (the
          * vector loads read every slot: while workers append, only on a
          * full chunk, as in scan_leaf). */
@@ -1098,7 +1099,7 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf2(const tree *t, 
         const uint8_t *chunk = tree_chunk_at(t, c);
         const uint32_t link = tree_chunk_link(t, c, chunk);
         const uint32_t m = tree_fill(c, link);
-        if (concurrent && link <= TREE_CHUNK_CAP) return scan_leaf(t, c, q, best2, 1, 2, 1, k);
+        if (!tree_vector_ok(c, link, concurrent)) return scan_leaf(t, c, q, best2, 1, 2, 1, k);
         k->particle_checks += m;
         best2 = chunk_min2(chunk, q, m, best2);
         if (link <= TREE_CHUNK_CAP) return best2;
@@ -1470,7 +1471,7 @@ static inline __attribute__((always_inline)) int nearest_point(const tree *t, co
              * not below the best, the scalar pass (which keeps the first of
              * equally near particles) would change nothing. 3D only: in 2D
              * it saved 0.6% of Ir but no user CPU time in paired runs. */
-            if (dim == 3 && link > TREE_CHUNK_CAP && chunk_min_below(chunk, ql, m, best2, dim) >= best2) {
+            if (dim == 3 && tree_vector_ok(ci, link, 1) && chunk_min_below(chunk, ql, m, best2, dim) >= best2) {
                 ci = link;
                 continue;
             }

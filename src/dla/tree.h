@@ -50,8 +50,8 @@
  * chunk links (and with them the fill counts), the root (index and level in
  * one word) and the particle count. A record is fully written before the
  * index that makes it reachable is published, and a reader only reads the
- * particle slots below the count it acquired, so no byte is ever read while
- * it is written. Writers serialise among themselves (engine.c's mutexes).
+ * particle slots below the count it acquired (vector loads of whole records
+ * only where tree_vector_ok), so no byte is ever read while it is written. Writers serialise among themselves (engine.c's mutexes).
  */
 #ifndef PDLA_SRC_TREE_H
 #define PDLA_SRC_TREE_H
@@ -222,6 +222,15 @@ static inline uint32_t tree_cap(uint32_t c) { return (c & TREE_HALF_BIT) ? TREE_
 static inline uint32_t tree_fill(uint32_t c, uint32_t link)
 {
     return link <= TREE_CHUNK_CAP ? link : tree_cap(c);
+}
+
+/* Whether chunk c (with this link) may be read with vector loads, which
+ * read every slot of its record: always serially; while workers append,
+ * only a full chunk that links on (never written again). Not a half: the
+ * record's other half may belong to a leaf being appended to. */
+static inline int tree_vector_ok(uint32_t c, uint32_t link, int concurrent)
+{
+    return !concurrent || (link > TREE_CHUNK_CAP && !(c & TREE_HALF_BIT));
 }
 
 /* The same three accessors for code instantiated per dimension: in 3D the

@@ -12,7 +12,13 @@
   which halves are free, and a resume rebuilds it from them.
 - Forged halves are refused with one line naming the fault: a free half
   that holds particles, a half filled beyond its 5 slots, a half count out
-  of range, a version-1 file whose leaves hold halves, format version 3.
+  of range, a version-1 file whose leaves hold halves, format version 3;
+  so are forged distance-map shapes.
+- The distance map comes back as the run had it (/state map_*): a 2D run
+  stopped at 2e6 particles (fine cells of 2 leaves, leaf-bit tiles, some
+  dropped as interior) and resumed to 3e6 gives the same cluster as a
+  straight run to 3e6. Before the shape was kept, a rebuilt map of another
+  size made the walk depart once the cells had coarsened (~1.5e6).
 """
 import os
 import shutil
@@ -147,6 +153,28 @@ try:
           "damaged checkpoint")
     forge("version_3", lambda f: f.attrs.__setitem__("format_version", np.int32(3)),
           "checkpoint format version 3")
+    forge("map_half_1", lambda f: f["/state"].attrs.__setitem__("map_half", np.int64(1)),
+          "the distance map's shape does not fit the particles")
+    forge("map_bits_40", lambda f: f["/state"].attrs.__setitem__("map_bits", np.int32(40)),
+          "the distance map's shape does not fit the particles")
+    forge("map_tile_width_1e9", lambda f: f["/state"].attrs.__setitem__("map_tile_width", np.uint64(10**9)),
+          "map_tile_width out of range")
+    forge("map_tile_width_8", lambda f: f["/state"].attrs.__setitem__("map_tile_width", np.uint64(8)),
+          "map_unknown_tiles")
+
+    # The map's shape survives a resume in the coarsened regime.
+    rc = run("--dim", "2", "--target", "3e6", "--seed", "3", "--out", "ca", "-q")[0]
+    rc2 = run("--dim", "2", "--target", "2e6", "--seed", "3", "--out", "cb", "--checkpoint", "-q")[0]
+    with h5py.File("cb/checkpoint.h5", "r") as f:
+        st = f["/state"].attrs
+        check(int(st["map_bits"]) > 8 and int(st["map_tile_width"]) > 0
+              and int(f["/state/map_unknown_tiles"][()].sum()) > 0,
+              "at 2e6 the map is not coarsened with dropped tiles: the case is not reached")
+    rc3 = run("--resume", "cb", "--target", "3e6", "-q")[0]
+    check(rc == rc2 == rc3 == 0, "coarse runs exit %d %d %d" % (rc, rc2, rc3))
+    a, b = positions("ca"), positions("cb")
+    check(a.shape == b.shape and np.array_equal(a, b),
+          "2D 3e6: the run resumed at 2e6 differs from the straight run")
 finally:
     shutil.rmtree(tmp, ignore_errors=True)
 print("ckpt-formats: %d checks, %d failed" % (checks, fails))

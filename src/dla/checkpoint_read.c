@@ -430,7 +430,7 @@ static int load_tree(const reader *r, hid_t file, pdla_engine *e, int version)
     else if (dim != t->dim || (uint32_t)cb != t->chunk_bytes)
         rc = damaged(r, "/tree dim or record size differs from the parameters");
     else if (level < 1 || level > TREE_MAX_LEVEL || ni < 2 || ni > UINT32_MAX || nc < TREE_CHUNK_CAP + 1 ||
-             nc > TREE_HALF_BIT || nh > TREE_HALF_BIT / 2 || root == 0 || root >= ni ||
+             nc > TREE_HALF_BIT || nh > TREE_HALF_BIT / 2 || (dim == 3 && nh) || root == 0 || root >= ni ||
              count > nc * TREE_CHUNK_CAP + 2 * nh * TREE_HALF_CAP || leaves > nc + 2 * nh)
         rc = damaged(r, "/tree sizes out of range");
     if (rc == PDLA_OK)

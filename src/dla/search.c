@@ -217,7 +217,7 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
     for (uint32_t c = head;;) {
         const uint8_t *chunk = tree_chunk_at_d(t, c, dim);
         const uint32_t link = tree_chunk_link_d(t, c, chunk, dim);
-        const uint32_t m = tree_fill(c, link);
+        const uint32_t m = tree_fill_d(c, link, dim);
         k->particle_checks += m;
         /* A chunk that links to a next one is full and never written again,
          * so the vector loads (which read all ten slots and the link) are
@@ -447,7 +447,7 @@ static inline __attribute__((always_inline)) void note_nearest(search_state *k, 
     const uint8_t *chunk = k->arg_chunk;
     if (!chunk) return;
     const uint32_t link = tree_chunk_link_d(t, k->arg_ci, chunk, dim);
-    const uint32_t m = tree_fill(k->arg_ci, link);
+    const uint32_t m = tree_fill_d(k->arg_ci, link, dim);
 #if defined(__SSE2__)
     if (dim == 3 && leaf_small(k->arg_q, d2, dim) && tree_vector_ok(k->arg_ci, link, concurrent)) {
         /* The slot whose distance is d2, from the scan's own lanes (the
@@ -820,7 +820,7 @@ static inline __attribute__((always_inline)) int nb_make(const tree *t, const in
                 for (uint32_t ci = head;;) {
                     const uint8_t *chunk = tree_chunk_at_d(t, ci, dim);
                     const uint32_t link = tree_chunk_link_d(t, ci, chunk, dim);
-                    const uint32_t m = tree_fill(ci, link);
+                    const uint32_t m = tree_fill_d(ci, link, dim);
 #if defined(__SSE2__)
                     if (dim == 3) {
                         n = nb_append_chunk3(chunk, q, m, r2, shift, tx, ty, tz, tb, n);
@@ -1465,7 +1465,7 @@ static inline __attribute__((always_inline)) int nearest_point(const tree *t, co
         for (uint32_t ci = leaf_idx;;) {
             const uint8_t *chunk = tree_chunk_at_d(t, ci, dim);
             const uint32_t link = tree_chunk_link_d(t, ci, chunk, dim);
-            const uint32_t m = tree_fill(ci, link);
+            const uint32_t m = tree_fill_d(ci, link, dim);
             /* A full chunk that links on is never written again, so its
              * vector minimum may be read while workers append: when it is
              * not below the best, the scalar pass (which keeps the first of

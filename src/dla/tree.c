@@ -63,8 +63,7 @@ int tree_init(tree *t, int dim)
     /* A half record: the slots of a chunk, then two links. In 2D 4 bytes
      * of padding keep side 1's vector loads (16 bytes from slot 8 on, that
      * is byte 13) inside the record: 32 bytes. */
-    t->link_half = dim == 2 ? 24 : 32;
-    _Static_assert(32 + 8 == TREE_HALF_BYTES3, "3D half record size");
+    t->link_half = dim == 2 ? 24 : 32; /* 3D makes none (tree.h) */
     if (pool_init(&t->inner, (uint32_t)(sizeof(uint32_t) * (size_t)t->nchild)) ||
         pool_init(&t->chunks, t->chunk_bytes) || pool_init(&t->halves, t->link_half + 8)) {
         tree_free(t);
@@ -225,11 +224,12 @@ static uint32_t half_take(tree *t)
     return TREE_HALF_BIT | 2 * r;
 }
 
-/* A new chunk (half: a half chunk) holding one particle; 0 when out of
- * memory. Not yet reachable, so its fill count needs no ordering until the
- * index is published. */
+/* A new chunk (half: a half chunk, 2D only) holding one particle; 0 when
+ * out of memory. Not yet reachable, so its fill count needs no ordering
+ * until the index is published. */
 static uint32_t chunk_new(tree *t, const uint8_t *rel, int half)
 {
+    half = half && t->dim == 2;
     const uint32_t c = half ? half_take(t) : pool_new_below(&t->chunks, TREE_HALF_BIT);
     if (!c) return 0;
     uint8_t *chunk = chunk_mut(t, c);
@@ -467,6 +467,10 @@ static void check_leaf(tree_check *c, uint32_t head, const int64_t *lo)
     for (uint32_t ch = head;;) {
         const uint32_t h = ch & ~TREE_HALF_BIT;
         const int half = (ch & TREE_HALF_BIT) != 0;
+        if (half && t->dim != 2) {
+            c->bad = "a half chunk in a 3D tree";
+            return;
+        }
         if (half ? h >= 2 * (uint64_t)t->halves.count : ch <= TREE_CHUNK_CAP || ch >= t->chunks.count) {
             c->bad = "a chunk index out of range";
             return;

@@ -14,9 +14,9 @@
  * Memory. Three pools of fixed-size records linked by 32-bit indices
  * (0 is null): inner nodes (2^dim child indices), chunks (10 particles of
  * dim bytes, stored as x[10] y[10] (z[10]) so a leaf scan vectorises, plus
- * one 32-bit link: 24 bytes in 2D, 36 in 3D) and half chunks (5 particles;
- * two share a record laid out like a chunk with two links, 32 bytes in 2D,
- * 40 in 3D, so a half is read with a chunk's strides and vector loads).
+ * one 32-bit link: 24 bytes in 2D, 36 in 3D) and, in 2D only, half chunks
+ * (5 particles; two share a 32-byte record laid out like a chunk with two
+ * links, so a half is read with a chunk's strides and vector loads).
  * A leaf is just its list of chunks: a level-1 node's child index is the
  * leaf's first chunk. Every chunk but the last is full; the last one's
  * link, having no next chunk to name, holds its own particle count
@@ -40,6 +40,13 @@
  * check it. Free halves are zero (link 0) and reused lowest index first (a
  * min-heap), so the layout depends only on which are free: a checkpoint
  * that stores the pools gives the resumed run the same layout.
+ *
+ * Why 2D only: halves cost time where chains mix them with chunks (the
+ * record's address and link depend on the half bit, a branch the
+ * predictor misses: 2D 1e6 about +5% CPU in simultaneous pairs, 3D 1e6
+ * +4%), and 3D meets its memory target without them (5.4-5.6
+ * bytes/particle at 1e6 and 1e7 against 6.0), while 2D needs them for its
+ * 4.0 at 1e7 (runs/bench-serial/issue12-half20-2026-11-29.md).
  *
  * Pools grow by whole segments that never move, so a record's address is
  * stable for the life of the tree (lock-free readers need that) and growth
@@ -234,11 +241,10 @@ static inline int tree_vector_ok(uint32_t c, uint32_t link, int concurrent)
 }
 
 /* The same three accessors for code instantiated per dimension: in 3D the
- * record sizes are constants (36-byte chunks, 40-byte half records, 8
- * children of 4 bytes), so an access is a shift and an add instead of a
- * load and a multiply. 2D code calls the general ones. */
+ * record sizes are constants (36-byte chunks, 8 children of 4 bytes) and
+ * there are no halves, so an access is a shift and an add instead of a load,
+ * a multiply and a test of the half bit. 2D code calls the general ones. */
 #define TREE_CHUNK_BYTES3 36u
-#define TREE_HALF_BYTES3 40u
 #define TREE_INNER_BYTES3 32u
 static inline const _Atomic uint32_t *tree_children_d(const tree *t, uint32_t node, const int dim)
 {
@@ -250,21 +256,20 @@ static inline const _Atomic uint32_t *tree_children_d(const tree *t, uint32_t no
 static inline const uint8_t *tree_chunk_at_d(const tree *t, uint32_t c, const int dim)
 {
     if (dim != 3) return tree_chunk_at(t, c);
-    if (c & TREE_HALF_BIT) {
-        const uint32_t h = c & ~TREE_HALF_BIT, r = h >> 1;
-        return t->halves.seg[r >> POOL_SEG_BITS] + (size_t)(r & (POOL_SEG_SIZE - 1)) * TREE_HALF_BYTES3 +
-               TREE_HALF_CAP * (h & 1);
-    }
+    /* 3D trees have no halves (tree_init): no half bit to test. */
     return t->chunks.seg[c >> POOL_SEG_BITS] + (size_t)(c & (POOL_SEG_SIZE - 1)) * TREE_CHUNK_BYTES3;
 }
 static inline uint32_t tree_chunk_link_d(const tree *t, uint32_t c, const uint8_t *chunk, const int dim)
 {
     if (dim != 3) return tree_chunk_link(t, c, chunk);
-    /* 3D half record: slots to byte 30, pad, links at 32 and 36. */
-    const uint32_t off = (c & TREE_HALF_BIT) ? 32 + 4 * (c & 1) - TREE_HALF_CAP * (c & 1)
-                                             : TREE_CHUNK_BYTES3 - 4;
-    return atomic_load_explicit((const _Atomic uint32_t *)(const void *)(chunk + off),
+    return atomic_load_explicit((const _Atomic uint32_t *)(const void *)(chunk + TREE_CHUNK_BYTES3 - 4),
                                 memory_order_acquire);
+}
+/* Particles in chunk c, given its link; in 3D every non-last chunk is full. */
+static inline uint32_t tree_fill_d(uint32_t c, uint32_t link, const int dim)
+{
+    if (dim == 3) return link <= TREE_CHUNK_CAP ? link : TREE_CHUNK_CAP;
+    return tree_fill(c, link);
 }
 
 /* Half side of a root box of this level: the root is [-h, h)^dim. */

@@ -12,7 +12,8 @@
   which halves are free, and a resume rebuilds it from them.
 - Forged halves are refused with one line naming the fault: a free half
   that holds particles, a half filled beyond its 5 slots, a half count out
-  of range, a version-1 file whose leaves hold halves, format version 3;
+  of range, a version-1 file whose leaves hold halves, format version 3, a
+  3D checkpoint with half records (halves are 2D only);
   so are forged distance-map shapes.
 - The distance map comes back as the run had it (/state map_*): a 2D run
   stopped at 2e6 particles (fine cells of 2 leaves, leaf-bit tiles, some
@@ -77,7 +78,9 @@ try:
         with h5py.File(os.path.join(rd, "checkpoint.h5"), "r") as f:
             check(int(f.attrs["format_version"]) == 2 and "halves_packed" in f["/tree"],
                   "%dD: the resumed run's checkpoint is not version 2" % dim)
-            check(int(f["/tree"].attrs["half_records"]) > 0, "%dD: no half chunk in use" % dim)
+            # Half chunks are 2D only (tree.h).
+            nh = int(f["/tree"].attrs["half_records"])
+            check(nh > 0 if dim == 2 else nh == 0, "%dD: %d half records" % (dim, nh))
 
     # The layout is the same whether the run stopped on the way or not.
     rc, _ = run("--dim", "2", "--target", "6000", "--seed", "9", "--out", "sa", "--checkpoint", "-q")
@@ -114,6 +117,18 @@ try:
         check(rc == 2 and len(lines) == 1 and says in lines[0],
               "%s: exit %d, %r (want exit 2, one line with %r)" % (name, rc, lines, says))
         check(open(os.path.join(d, "checkpoint.h5"), "rb").read() == before, name + ": checkpoint changed")
+
+    def forge3d(name, says):
+        # A 3D checkpoint that declares a half record (3D trees have none).
+        d = "k-" + name
+        os.makedirs(d)
+        shutil.copy("r3/checkpoint.h5", os.path.join(d, "checkpoint.h5"))
+        with h5py.File(os.path.join(d, "checkpoint.h5"), "r+") as f:
+            set_halves(f, (0).to_bytes(4, "little") * 2, 1)
+        rc, err = run("--resume", d, "--target", "7000", "-q")
+        lines = err.strip().split("\n")
+        check(rc == 2 and len(lines) == 1 and says in lines[0],
+              "%s: exit %d, %r (want exit 2, one line with %r)" % (name, rc, lines, says))
 
     def set_halves(f, data, records=None):
         t = f["/tree"]
@@ -153,6 +168,7 @@ try:
           "damaged checkpoint")
     forge("version_3", lambda f: f.attrs.__setitem__("format_version", np.int32(3)),
           "checkpoint format version 3")
+    forge3d("half_in_3d", "/tree sizes out of range")
     forge("map_half_1", lambda f: f["/state"].attrs.__setitem__("map_half", np.int64(1)),
           "the distance map's shape does not fit the particles")
     forge("map_bits_40", lambda f: f["/state"].attrs.__setitem__("map_bits", np.int32(40)),

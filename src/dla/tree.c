@@ -34,16 +34,21 @@ static void pool_free(tree_pool *p)
 
 /* A new zeroed record; 0 when the index space (indices below `limit`) or
  * memory is exhausted. */
+/* Record i's segment, allocated (zeroed) if it is not yet: 0, or -1 when
+ * out of memory. */
+static int pool_ensure(tree_pool *p, uint32_t i)
+{
+    const uint32_t s = i >> POOL_SEG_BITS;
+    if (s < p->nseg) return 0;
+    if (!(p->seg[s] = calloc(POOL_SEG_SIZE, p->elem))) return -1;
+    p->nseg = s + 1;
+    return 0;
+}
+
 static uint32_t pool_new_below(tree_pool *p, uint32_t limit)
 {
     const uint32_t i = p->count;
-    if (i >= limit) return 0;
-    const uint32_t s = i >> POOL_SEG_BITS;
-    if (s >= p->nseg) {
-        p->seg[s] = calloc(POOL_SEG_SIZE, p->elem);
-        if (!p->seg[s]) return 0;
-        p->nseg = s + 1;
-    }
+    if (i >= limit || pool_ensure(p, i)) return 0;
     p->count = i + 1;
     return i;
 }
@@ -212,13 +217,7 @@ static uint32_t half_take(tree *t)
     if (t->nfree) return hfree_pop(t);
     tree_pool *p = &t->halves;
     const uint32_t r = p->count;
-    if (r >= TREE_HALF_BIT / 2 || hfree_reserve(t)) return 0;
-    const uint32_t s = r >> POOL_SEG_BITS;
-    if (s >= p->nseg) {
-        p->seg[s] = calloc(POOL_SEG_SIZE, p->elem);
-        if (!p->seg[s]) return 0;
-        p->nseg = s + 1;
-    }
+    if (r >= TREE_HALF_BIT / 2 || hfree_reserve(t) || pool_ensure(p, r)) return 0;
     p->count = r + 1;
     hfree_push(t, TREE_HALF_BIT | (2 * r + 1));
     return TREE_HALF_BIT | 2 * r;

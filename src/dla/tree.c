@@ -32,8 +32,6 @@ static void pool_free(tree_pool *p)
     p->seg = NULL;
 }
 
-/* A new zeroed record; 0 when the index space (indices below `limit`) or
- * memory is exhausted. */
 /* Record i's segment, allocated (zeroed) if it is not yet: 0, or -1 when
  * out of memory. */
 static int pool_ensure(tree_pool *p, uint32_t i)
@@ -45,6 +43,8 @@ static int pool_ensure(tree_pool *p, uint32_t i)
     return 0;
 }
 
+/* A new zeroed record; 0 when the index space (indices below `limit`) or
+ * memory is exhausted. */
 static uint32_t pool_new_below(tree_pool *p, uint32_t limit)
 {
     const uint32_t i = p->count;
@@ -70,12 +70,12 @@ int tree_init(tree *t, int dim)
      * is byte 13) inside the record: 32 bytes. */
     t->link_half = dim == 2 ? 24 : 32; /* 3D makes none (tree.h) */
     if (pool_init(&t->inner, (uint32_t)(sizeof(uint32_t) * (size_t)t->nchild)) ||
-        pool_init(&t->chunks, t->chunk_bytes) || pool_init(&t->halves, t->link_half + 8)) {
+        pool_init(&t->chunks, t->chunk_bytes) || (dim == 2 && pool_init(&t->halves, t->link_half + 8))) {
         tree_free(t);
         return -1;
     }
     t->chunks.count = TREE_CHUNK_CAP + 1; /* indices 1..10 would read as counts */
-    t->halves.count = 0;                  /* half ids carry TREE_HALF_BIT: none is 0 */
+    t->halves.count = 0; /* half ids carry TREE_HALF_BIT: none is 0; 3D: no pool */
     const uint32_t root = pool_new(&t->inner);
     if (!root) {
         tree_free(t);

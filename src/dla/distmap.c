@@ -412,9 +412,8 @@ static int fine_bits(const distmap *m, const distmap_grid *old, int64_t h, int s
     const int dim = m->dim;
     int fb = m->bits;
     if (old && old->lv[0].bits > fb) fb = old->lv[0].bits;
-    const double n = (double)m->particles;
     const int serial2 = serial && dim == 2;
-    const double per = m->budget_per_particle * n * (serial2 ? DISTMAP_SERIAL_2D_FACTOR : 1);
+    const double per = m->budget_per_particle * (double)m->particles * (serial2 ? DISTMAP_SERIAL_2D_FACTOR : 1);
     const double budget = per > (double)m->budget_min ? per : (double)m->budget_min;
     int64_t half;
     for (;;) {
@@ -437,8 +436,6 @@ static int fine_bits(const distmap *m, const distmap_grid *old, int64_t h, int s
 }
 
 /* rin: tiles of the old grid wholly within it are dropped (0: none). */
-/* steal: the old grid when no other thread reads it (its 2D fine level
- * may then be grown in place, level_grow_in_place2), else NULL. */
 /* 1 when a grid of half side `half` and fine cells of 2^fb units can be
  * made: whole coarse cells, width and cell count in range. */
 static int shape_ok(const distmap *m, int64_t half, int fb)
@@ -452,6 +449,8 @@ static int shape_ok(const distmap *m, int64_t half, int fb)
     return n <= DISTMAP_MAX_CELLS;
 }
 
+/* steal: the old grid when no other thread reads it (its 2D fine level
+ * may then be grown in place, level_grow_in_place2), else NULL. */
 static distmap_grid *grid_make(distmap *m, const distmap_grid *old, int64_t h, double rin,
                                distmap_grid *steal)
 {
@@ -757,8 +756,13 @@ int distmap_rebuild_as(distmap *m, const tree *t, const distmap_shape *s)
     rebuild_ctx b = {m, NULL, 0};
     tree_visit(t, max_coord, &b);
     const int tiles = m->dim == 2 && s->bits > TREE_LEAF_BITS;
+    /* No grid is made finer than its budget allows (fine_bits: the serial
+     * one is the largest), so a forged shape cannot ask for more memory. */
+    const double most = m->budget_per_particle * (double)s->particles * (m->dim == 2 ? DISTMAP_SERIAL_2D_FACTOR : 1);
+    const double budget = most > (double)m->budget_min ? most : (double)m->budget_min;
     if (!shape_ok(m, s->half, s->bits) || b.r + m->margin >= s->half || s->particles == 0 ||
-        s->particles > tree_count(t) || (uint32_t)(tiles ? tile_width(s->half) : 0) != s->tw)
+        s->particles > tree_count(t) || (uint32_t)(tiles ? tile_width(s->half) : 0) != s->tw ||
+        (s->bits < 24 && (double)fine_bytes(m->dim, s->half, s->bits) > budget))
         return 1;
     for (size_t i = 0; i < (size_t)s->tw * s->tw; i++)
         if (s->unknown[i] > 1) return 1;

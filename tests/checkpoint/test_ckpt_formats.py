@@ -171,6 +171,10 @@ try:
     forge3d("half_in_3d", "/tree sizes out of range")
     forge("map_half_1", lambda f: f["/state"].attrs.__setitem__("map_half", np.int64(1)),
           "the distance map's shape does not fit the particles")
+    # 2^32 fine cells (2 GiB) would fit the grid's limits but not any budget
+    # a 6000-particle run has: refused before anything is allocated.
+    forge("map_half_2^23", lambda f: f["/state"].attrs.__setitem__("map_half", np.int64(2**23)),
+          "the distance map's shape does not fit the particles")
     forge("map_bits_40", lambda f: f["/state"].attrs.__setitem__("map_bits", np.int32(40)),
           "the distance map's shape does not fit the particles")
     forge("map_tile_width_1e9", lambda f: f["/state"].attrs.__setitem__("map_tile_width", np.uint64(10**9)),

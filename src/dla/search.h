@@ -96,6 +96,7 @@ static inline void search_state_reset(search_state *s)
     s->particle_checks = 0;
     s->root = 0;
     s->blk_valid = 0;
+    s->blk_moves = 0;
     s->lb_valid = 0;
     s->nb_valid = 0;
     s->nb_last2 = 0;

@@ -25,7 +25,12 @@
  *                   the same way per half id 0 .. 2 half_records - 1 (fill
  *                   5 when the link names a next chunk; a free half is its
  *                   link 0 and nothing more)
- *   /state          counters, R_ext, R_g grid position, timings (attributes)
+ *   /state          counters, R_ext, R_g grid position, timings (attributes);
+ *                   the distance map's shape: map_half, map_bits,
+ *                   map_particles, map_tile_width (attributes) and, when
+ *                   that width is not 0, /state/map_unknown_tiles u8
+ *                   [width^2] (distmap_shape; absent in older files, which
+ *                   rebuild the map to the particles' size)
  *   /state/gyration u64 [4][2]: the exact 128-bit sums of x, y, z (two's
  *                   complement) and |x|^2, as (low, high) words
  *   /state/rng      u64 [1 + W][4]: the engine walker's xoshiro256** state,

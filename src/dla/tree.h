@@ -142,7 +142,8 @@ void tree_free(tree *t);
 
 /* Insert a particle centre; grows the root as needed. Returns 0, or
  * -1 (out of memory / index space) or -2 (coordinate beyond the root limit).
- * Single writer: equivalent to tree_make_path then tree_append. */
+ * Single writer and no reader (it may move a half chunk): tree_make_path
+ * then tree_append(..., 0). While readers run, append with concurrent 1. */
 int tree_insert(tree *t, const int64_t *p);
 
 /* Where a particle at p goes: the level-1 node and the child slot of its leaf. */

@@ -117,7 +117,9 @@ int main(void)
         for (int a = 0; a < 2; a++) cur[a] += rand_range(&r, -step, step);
         for (int a = 0; a < 2; a++) sh->pts[i][a] = cur[a];
         distmap_add(&sh->m, cur, i + 1, 1);
-        CHECK(tree_insert(&sh->t, cur) == 0, "insert");
+        /* As the engine's workers append while others read: nothing moves. */
+        tree_slot sl;
+        CHECK(tree_make_path(&sh->t, cur, &sl) == 0 && tree_append(&sh->t, &sl, cur, 1) == 0, "insert");
         /* About one query per particle, so the readers run while the map
          * grows (and its grids are replaced). */
         while (atomic_load(&sh->nq) < (long)i) sched_yield();

@@ -207,7 +207,7 @@ int engine_add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errl
     if (rc) return rc;
     distmap_add(&e->dmap, p, tree_count(&e->tree) + 1, 0);
     rc = tree_insert(&e->tree, p);
-    if (rc) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory (or 2^32 tree records) at %llu particles",
+    if (rc) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory (or the tree's record limit) at %llu particles",
                         (unsigned long long)tree_count(&e->tree));
     return engine_gyration_add(e, p, err, errlen);
 }

@@ -58,7 +58,8 @@
  * one word) and the particle count. A record is fully written before the
  * index that makes it reachable is published, and a reader only reads the
  * particle slots below the count it acquired (vector loads of whole records
- * only where tree_vector_ok), so no byte is ever read while it is written. Writers serialise among themselves (engine.c's mutexes).
+ * only where tree_vector_ok), so no byte is ever read while it is written.
+ * Writers serialise among themselves (engine.c's mutexes).
  */
 #ifndef PDLA_SRC_TREE_H
 #define PDLA_SRC_TREE_H

@@ -134,15 +134,20 @@ ext="--particles 200 --packing 0.1 --seed-radius 0.5 --seed 7"
 "$pdla" --model event --resume "$t/ext" --max-events 6000 >/dev/null 2>"$t/err" || fail "ext resume: $(cat "$t/err")"
 # shellcheck disable=SC2086
 "$pdla" --model event $ext --max-events 6000 --out "$t/straight" >/dev/null 2>"$t/err" || fail "straight run: $(cat "$t/err")"
-if command -v h5diff >/dev/null; then
+# went_on LABEL RESUMED STRAIGHT: a run that reached its stop and went on
+# has the straight run's /cluster and /free (h5diff -c printing nothing:
+# without -c h5diff exits 0 for datasets of other shapes) and one series
+# row more, its first stop's (README, the event model's checkpoints).
+series_rows() { h5dump -H -d /series/time "$1" | grep -o 'DATASPACE  SIMPLE { ( [0-9]* )' | grep -o '[0-9]*'; }
+went_on() {
     for g in /cluster /free; do
-        [ -z "$(h5diff -c "$t/ext/cluster.h5" "$t/straight/cluster.h5" $g $g 2>&1)" ] ||
-            fail "extended run: $g differs from the straight run"
+        [ -z "$(h5diff -c "$2" "$3" $g $g 2>&1)" ] || fail "$1: $g differs from the straight run"
     done
-    nrows() { h5dump -H -d /series/time "$1" | grep -o 'DATASPACE  SIMPLE { ( [0-9]* )' | grep -o '[0-9]*'; }
-    [ -n "$(nrows "$t/straight/cluster.h5")" ] &&
-        [ "$(nrows "$t/ext/cluster.h5")" = "$(( $(nrows "$t/straight/cluster.h5") + 1 ))" ] ||
-        fail "extended run: $(nrows "$t/ext/cluster.h5") series rows, the straight run $(nrows "$t/straight/cluster.h5")"
+    [ -n "$(series_rows "$3")" ] && [ "$(series_rows "$2")" = "$(( $(series_rows "$3") + 1 ))" ] ||
+        fail "$1: $(series_rows "$2") series rows, the straight run $(series_rows "$3")"
+}
+if command -v h5diff >/dev/null; then
+    went_on "extended run" "$t/ext/cluster.h5" "$t/straight/cluster.h5"
 fi
 
 # a line over 1023 bytes (README): refused naming the line, not cut
@@ -264,18 +269,8 @@ if [ -n "${4:-}" ] && [ -n "${5:-}" ]; then
     "$pdla" --model event --particles 200 --packing 0.1 --seed-radius 0.5 --max-events 6000 --seed 7 \
         --out "$t/v3fresh" >"$t/out" 2>"$t/err" || fail "v3 fresh run: $(cat "$t/err")"
     if command -v h5diff >/dev/null; then
-        # -c and no output: without -c h5diff exits 0 for datasets of other
-        # shapes, and this compared /series too, which differs: the v3 run
-        # had ended (3000 events), and an ended run that goes on keeps its
-        # row at that stop and starts its next interval there (30 rows, the
-        # fresh run 29; README, the event model's checkpoints)
-        for g in /cluster /free; do
-            [ -z "$(h5diff -c "$t/v3ok/cluster.h5" "$t/v3fresh/cluster.h5" $g $g 2>&1)" ] ||
-                fail "v3 resume: $g differs from a fresh run"
-        done
-        rows() { h5dump -H -d /series/time "$1" | grep -o 'DATASPACE  SIMPLE { ( [0-9]* )' | grep -o '[0-9]*'; }
-        [ "$(rows "$t/v3ok/cluster.h5")" = "$(( $(rows "$t/v3fresh/cluster.h5") + 1 ))" ] ||
-            fail "v3 resume: $(rows "$t/v3ok/cluster.h5") series rows, not the fresh run's $(rows "$t/v3fresh/cluster.h5") + 1"
+        # The v3 run had ended (3000 events): 30 series rows, the fresh run 29.
+        went_on "v3 resume" "$t/v3ok/cluster.h5" "$t/v3fresh/cluster.h5"
     else
         echo "h5diff not installed: the v3 resume's comparison skipped"
     fi

@@ -206,6 +206,90 @@ static inline __attribute__((always_inline)) int chunk_slot_at3(const uint8_t *c
 }
 #endif
 
+#if defined(__SSE2__) && defined(__x86_64__)
+/* 2D chunk lanes past a chunk's fill count m: OR-ing 0x7fffffff into a
+ * squared distance (< 2^31) makes it 0x7fffffff, above every real one.
+ * Row m masks lanes m..11 (lanes 10 and 11 are never particles). */
+static const int32_t chunk_pad2[TREE_CHUNK_CAP + 1][12] __attribute__((aligned(16))) = {
+#define P_ 0x7fffffff
+    {P_, P_, P_, P_, P_, P_, P_, P_, P_, P_, P_, P_}, {0, P_, P_, P_, P_, P_, P_, P_, P_, P_, P_, P_},
+    {0, 0, P_, P_, P_, P_, P_, P_, P_, P_, P_, P_},   {0, 0, 0, P_, P_, P_, P_, P_, P_, P_, P_, P_},
+    {0, 0, 0, 0, P_, P_, P_, P_, P_, P_, P_, P_},     {0, 0, 0, 0, 0, P_, P_, P_, P_, P_, P_, P_},
+    {0, 0, 0, 0, 0, 0, P_, P_, P_, P_, P_, P_},       {0, 0, 0, 0, 0, 0, 0, P_, P_, P_, P_, P_},
+    {0, 0, 0, 0, 0, 0, 0, 0, P_, P_, P_, P_},         {0, 0, 0, 0, 0, 0, 0, 0, 0, P_, P_, P_},
+    {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, P_, P_}};
+/* The same for side 1 of a half record, whose m particles are lanes 5..4+m. */
+static const int32_t half1_pad2[TREE_HALF_CAP + 1][12] __attribute__((aligned(16))) = {
+    {P_, P_, P_, P_, P_, P_, P_, P_, P_, P_, P_, P_}, {P_, P_, P_, P_, P_, 0, P_, P_, P_, P_, P_, P_},
+    {P_, P_, P_, P_, P_, 0, 0, P_, P_, P_, P_, P_},   {P_, P_, P_, P_, P_, 0, 0, 0, P_, P_, P_, P_},
+    {P_, P_, P_, P_, P_, 0, 0, 0, 0, P_, P_, P_},     {P_, P_, P_, P_, P_, 0, 0, 0, 0, 0, P_, P_}};
+#undef P_
+
+/* 2D while workers append (PDLA). The slots past a chunk's count, and in a
+ * half record the other half (another leaf's), may be written while they
+ * are read, so a vector scan that reads the whole record reads them too.
+ * It reads the record's first 24 bytes (slots, and padding or a link) as
+ * three relaxed 64-bit atomics, plain loads on x86-64, and the writer
+ * stores slots as relaxed atomic bytes (tree.c leaf_append), so those reads
+ * are not data races; their lanes are masked (the pad rows above). Without
+ * this the scans fell back to the scalar loop on every leaf's last chunk
+ * and on every half: 2D workers' CPU per jump was 1.2-1.5x serial's. rec:
+ * the record (8-byte aligned: 24- and 32-byte records in calloc'd
+ * segments); v0: bytes 0..15, v1: bytes 10..23 (load_coord's at 0 and at
+ * 8 shifted by 2). */
+typedef uint64_t __attribute__((may_alias)) search_word;
+static inline __attribute__((always_inline)) void load_rec2_shared(const uint8_t *rec, __m128i *v0,
+                                                                   __m128i *v1)
+{
+    const search_word *w = (const search_word *)(const void *)rec;
+    const uint64_t w0 = __atomic_load_n(&w[0], __ATOMIC_RELAXED);
+    const uint64_t w1 = __atomic_load_n(&w[1], __ATOMIC_RELAXED);
+    const uint64_t w2 = __atomic_load_n(&w[2], __ATOMIC_RELAXED);
+    *v0 = _mm_set_epi64x((long long)w1, (long long)w0);
+    *v1 = _mm_srli_si128(_mm_set_epi64x((long long)w2, (long long)w1), 2);
+}
+
+/* min(best2, the squared distances from q (leaf-relative, |q| <= 2^14) to
+ * the m particles of 2D chunk or half c at `chunk` (tree_chunk_at), read as
+ * load_rec2_shared says. fmin (|q| < 512, the block scan): the minimum in
+ * float, as chunk_min2 (exact below 2^24). */
+static inline __attribute__((always_inline)) uint64_t chunk_min2_shared(const uint8_t *chunk,
+                                                                        uint32_t c,
+                                                                        const int64_t *q,
+                                                                        uint32_t m, uint64_t best2,
+                                                                        const int fmin)
+{
+    const uint32_t side = (c & TREE_HALF_BIT) ? (c & 1) : 0;
+    __m128i v0, v1;
+    load_rec2_shared(chunk - TREE_HALF_CAP * side, &v0, &v1);
+    const __m128i zero = _mm_setzero_si128();
+    const __m128i xl = _mm_unpacklo_epi8(v0, zero), xh = _mm_unpackhi_epi8(v0, zero);
+    const __m128i yl = _mm_unpacklo_epi8(v1, zero), yh = _mm_unpackhi_epi8(v1, zero);
+    const __m128i qx = _mm_set1_epi16((int16_t)q[0]), qy = _mm_set1_epi16((int16_t)q[1]);
+    const __m128i dxl = _mm_sub_epi16(qx, xl), dxh = _mm_sub_epi16(qx, xh);
+    const __m128i dyl = _mm_sub_epi16(qy, yl), dyh = _mm_sub_epi16(qy, yh);
+    const __m128i p0 = _mm_unpacklo_epi16(dxl, dyl), p1 = _mm_unpackhi_epi16(dxl, dyl);
+    const __m128i p2 = _mm_unpacklo_epi16(dxh, dyh);
+    const __m128i *pad = (const __m128i *)(const void *)(side ? half1_pad2[m] : chunk_pad2[m]);
+    const __m128i d0 = _mm_or_si128(_mm_madd_epi16(p0, p0), _mm_load_si128(pad));
+    const __m128i d1 = _mm_or_si128(_mm_madd_epi16(p1, p1), _mm_load_si128(pad + 1));
+    const __m128i d2 = _mm_or_si128(_mm_madd_epi16(p2, p2), _mm_load_si128(pad + 2));
+    uint64_t local;
+    if (fmin) {
+        __m128 mn = _mm_min_ps(_mm_min_ps(_mm_cvtepi32_ps(d0), _mm_cvtepi32_ps(d1)), _mm_cvtepi32_ps(d2));
+        mn = _mm_min_ps(mn, _mm_movehl_ps(mn, mn));
+        mn = _mm_min_ss(mn, _mm_shuffle_ps(mn, mn, _MM_SHUFFLE(1, 1, 1, 1)));
+        local = (uint64_t)_mm_cvttss_si64(mn);
+    } else {
+        __m128i mn = min_epi32(min_epi32(d0, d1), d2);
+        mn = min_epi32(mn, _mm_shuffle_epi32(mn, _MM_SHUFFLE(1, 0, 3, 2)));
+        mn = min_epi32(mn, _mm_shuffle_epi32(mn, _MM_SHUFFLE(2, 3, 0, 1)));
+        local = (uint32_t)_mm_cvtsi128_si32(mn);
+    }
+    return local < best2 ? local : best2;
+}
+#endif
+
 /* Exact scan of one leaf. q = p - leaf corner. The common near case runs in
  * 16/32-bit arithmetic when `small`: |q| <= 2^14 keeps q - x in int16 and
  * dim * (2^14 + 255)^2 < 2^31 (leaf_small). */
@@ -223,11 +307,16 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf(const tree *t, u
          * so the vector loads (which read all ten slots and the link) are
          * safe even while workers append; only the last chunk of a leaf may
          * be filling, and then only its first m slots may be read (the
-         * scalar loop). Halves then take the scalar loop too: the other
-         * half of their record may be filling (tree_vector_ok). */
+         * scalar loop in 3D). Halves then take the scalar loop too: the
+         * other half of their record may be filling (tree_vector_ok). 2D
+         * reads those as atomics instead (chunk_min2_shared). */
         const uint64_t before2 = best2;
         if (small && tree_vector_ok(c, link, concurrent)) {
             best2 = chunk_min_below(chunk, q, m, best2, dim);
+#if defined(__SSE2__) && defined(__x86_64__)
+        } else if (dim == 2 && small) {
+            best2 = chunk_min2_shared(chunk, c, q, m, best2, 0);
+#endif
         } else {
             for (uint32_t j = 0; j < m; j++) {
                 uint64_t d2 = 0;
@@ -1046,18 +1135,6 @@ static inline __attribute__((always_inline)) uint32_t blk_lookup(const tree *t,
 }
 
 #if defined(__SSE2__) && defined(__x86_64__) /* _mm_cvttss_si64 */
-/* 2D chunk lanes past a chunk's fill count m: OR-ing 0x7fffffff into a
- * squared distance (< 2^31) makes it 0x7fffffff, above every real one.
- * Row m masks lanes m..11 (lanes 10 and 11 are never particles). */
-static const int32_t chunk_pad2[TREE_CHUNK_CAP + 1][12] __attribute__((aligned(16))) = {
-#define P_ 0x7fffffff
-    {P_, P_, P_, P_, P_, P_, P_, P_, P_, P_, P_, P_}, {0, P_, P_, P_, P_, P_, P_, P_, P_, P_, P_, P_},
-    {0, 0, P_, P_, P_, P_, P_, P_, P_, P_, P_, P_},   {0, 0, 0, P_, P_, P_, P_, P_, P_, P_, P_, P_},
-    {0, 0, 0, 0, P_, P_, P_, P_, P_, P_, P_, P_},     {0, 0, 0, 0, 0, P_, P_, P_, P_, P_, P_, P_},
-    {0, 0, 0, 0, 0, 0, P_, P_, P_, P_, P_, P_},       {0, 0, 0, 0, 0, 0, 0, P_, P_, P_, P_, P_},
-    {0, 0, 0, 0, 0, 0, 0, 0, P_, P_, P_, P_},         {0, 0, 0, 0, 0, 0, 0, 0, 0, P_, P_, P_},
-    {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, P_, P_}};
-#undef P_
 
 /* chunk_min_below for the 2D block scan (|q| < 512 on both axes): the
  * squares are below 2 x 511^2 < 2^24, so they are exact in float, and the
@@ -1088,8 +1165,8 @@ static inline __attribute__((always_inline)) uint64_t chunk_min2(const uint8_t *
 }
 #endif
 
-/* scan_leaf for the 2D block scan (|q| < 512): chunk_min2 on the chunks the
- * vector loads may read (as in scan_leaf), the scalar loop on the rest. */
+/* scan_leaf for the 2D block scan (|q| < 512): chunk_min2, or while
+ * workers append chunk_min2_shared on the chunks that may be written. */
 static inline __attribute__((always_inline)) uint64_t scan_leaf2(const tree *t, uint32_t head,
                                                                  const int64_t *q, uint64_t best2,
                                                                  int concurrent, search_state *k)
@@ -1099,9 +1176,9 @@ static inline __attribute__((always_inline)) uint64_t scan_leaf2(const tree *t, 
         const uint8_t *chunk = tree_chunk_at(t, c);
         const uint32_t link = tree_chunk_link(t, c, chunk);
         const uint32_t m = tree_fill(c, link);
-        if (!tree_vector_ok(c, link, concurrent)) return scan_leaf(t, c, q, best2, 1, 2, 1, k);
         k->particle_checks += m;
-        best2 = chunk_min2(chunk, q, m, best2);
+        best2 = tree_vector_ok(c, link, concurrent) ? chunk_min2(chunk, q, m, best2)
+                                                    : chunk_min2_shared(chunk, c, q, m, best2, 1);
         if (link <= TREE_CHUNK_CAP) return best2;
         c = link;
     }

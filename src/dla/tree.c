@@ -278,8 +278,13 @@ static int leaf_append(tree *t, const tree_slot *slot, uint32_t head, const uint
     }
     const int half = (last & TREE_HALF_BIT) != 0;
     if (link < tree_cap(last)) {
+        /* Relaxed atomic bytes (plain stores on x86-64): 2D readers' vector
+         * loads read the slots past the count, and the other half of a
+         * half record, as atomics while workers append (search.c,
+         * chunk_min2_shared); the count's release store publishes the slot. */
         uint8_t *chunk = chunk_mut(t, last);
-        for (int a = 0; a < t->dim; a++) chunk[a * TREE_CHUNK_CAP + (int)link] = rel[a];
+        for (int a = 0; a < t->dim; a++)
+            __atomic_store_n(&chunk[a * TREE_CHUNK_CAP + (int)link], rel[a], __ATOMIC_RELAXED);
         chunk_set_link(t, last, link + 1);
         return 0;
     }

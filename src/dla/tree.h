@@ -56,10 +56,14 @@
  * C11 atomic stored with release and loaded with acquire: child indices,
  * chunk links (and with them the fill counts), the root (index and level in
  * one word) and the particle count. A record is fully written before the
- * index that makes it reachable is published, and a reader only reads the
- * particle slots below the count it acquired (vector loads of whole records
- * only where tree_vector_ok), so no byte is ever read while it is written.
- * Writers serialise among themselves (engine.c's mutexes).
+ * index that makes it reachable is published, and a reader uses only the
+ * particle slots below the count it acquired. 3D reads nothing else (vector
+ * loads of whole records only where tree_vector_ok), so no byte is read
+ * while it is written. 2D vector loads read whole records everywhere: slots
+ * are stored as relaxed atomic bytes (leaf_append) and, where a record may
+ * be written, read as relaxed atomic words (search.c chunk_min2_shared),
+ * and the lanes past the count are masked. Writers serialise among
+ * themselves (engine.c's mutexes).
  */
 #ifndef PDLA_SRC_TREE_H
 #define PDLA_SRC_TREE_H
@@ -233,10 +237,11 @@ static inline uint32_t tree_fill(uint32_t c, uint32_t link)
     return link <= TREE_CHUNK_CAP ? link : tree_cap(c);
 }
 
-/* Whether chunk c (with this link) may be read with vector loads, which
- * read every slot of its record: always serially; while workers append,
- * only a full chunk that links on (never written again). Not a half: the
- * record's other half may belong to a leaf being appended to. */
+/* Whether chunk c (with this link) may be read with plain vector loads,
+ * which read every slot of its record: always serially; while workers
+ * append, only a full chunk that links on (never written again). Not a
+ * half: the record's other half may belong to a leaf being appended to.
+ * (2D reads the others with atomic loads, search.c chunk_min2_shared.) */
 static inline int tree_vector_ok(uint32_t c, uint32_t link, int concurrent)
 {
     return !concurrent || (link > TREE_CHUNK_CAP && !(c & TREE_HALF_BIT));

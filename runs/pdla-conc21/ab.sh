@@ -1,7 +1,7 @@
 #!/bin/bash
 # ab.sh N_SERIAL TARGET ROUNDS BIN_A BIN_B: --threads 2 runs alternated, one line each
 ns=$1 tg=$2 rounds=$3; shift 3
-for r in $(seq 1 $rounds); do for b in "$@"; do
+for r in $(seq ${FIRST:-1} $rounds); do for b in "$@"; do
   $b --dim 2 --target $tg --serial-until $ns --threads 2 --seed $r --no-output -q --stats-json /tmp/conc21/s.json
   /usr/bin/python3 -c "
 import json,sys;d=json.load(open('/tmp/conc21/s.json'))

@@ -46,7 +46,7 @@ def log(msg):
 
 
 def run(args, timeout):
-    """One pdla run: (stats dict or None, wall seconds, maxrss KiB, stderr)."""
+    """One pdla run: (stats dict or None, wall seconds, stderr)."""
     with tempfile.TemporaryDirectory() as tmp:
         js = os.path.join(tmp, "s.json")
         cmd = [PDLA] + args + ["--no-output", "-q", "--stats-json", js]
@@ -57,13 +57,13 @@ def run(args, timeout):
         except subprocess.TimeoutExpired:
             p.kill()
             _, err = p.communicate()
-            return None, time.monotonic() - t, 0, "timeout"
+            return None, time.monotonic() - t, "timeout"
         wall = time.monotonic() - t
         stats = None
         if p.returncode == 0 and os.path.exists(js):
             with open(js) as f:
                 stats = json.load(f)
-        return stats, wall, 0, err.decode(errors="replace").strip()
+        return stats, wall, err.decode(errors="replace").strip()
 
 
 def scaling():
@@ -78,7 +78,7 @@ def scaling():
             return
         args = ["--dim", str(dim), "--serial-until", serial, "--target", target,
                 "--threads", str(n), "--seed", "1", "--bind", "core"]
-        stats, wall, _, err = run(args, min(left() - 30, 200))
+        stats, wall, err = run(args, min(left() - 30, 200))
         keep = {k: stats.get(k) for k in (
             "particles", "jumps", "rg_diam", "grow_seconds", "parallel_seconds", "threads",
             "binding", "peak_rss_bytes", "worker_cpu_seconds", "mutex_taken", "mutex_contended",
@@ -108,7 +108,7 @@ def bias(t16_budget):
     with open(os.path.join(OUT, "bias-t16.tsv"), "a") as f:
         s = 1001
         while time.monotonic() < stop and left() > 90:
-            stats, _, _, err = run(base + ["--seed", str(s), "--threads", "16"], 30)
+            stats, _, _ = run(base + ["--seed", str(s), "--threads", "16"], 30)
             f.write(rg_line(s, stats))
             seeds.append(s)
             s += 1

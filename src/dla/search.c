@@ -251,18 +251,16 @@ static inline __attribute__((always_inline)) void load_rec2_shared(const uint8_t
 }
 
 /* min(best2, the squared distances from q (leaf-relative, |q| <= 2^14) to
- * the m particles of 2D chunk or half c at `chunk` (tree_chunk_at), read as
- * load_rec2_shared says. fmin (|q| < 512, the block scan): the minimum in
- * float, as chunk_min2 (exact below 2^24). */
-static inline __attribute__((always_inline)) uint64_t chunk_min2_shared(const uint8_t *chunk,
-                                                                        uint32_t c,
-                                                                        const int64_t *q,
-                                                                        uint32_t m, uint64_t best2,
-                                                                        const int fmin)
+ * the 2D slots whose x bytes are v0's first ten and y bytes v1's (bytes 0..15
+ * and 10..23 of a record), lanes not in use masked by `pad` (a row of
+ * chunk_pad2 or half1_pad2). fmin (|q| < 512, the block scan): the minimum
+ * in float (squares below 2 x 511^2 < 2^24 are exact there, and minps is
+ * one instruction where SSE2's signed 32-bit minimum is four). */
+static inline __attribute__((always_inline)) uint64_t lanes_min2(__m128i v0, __m128i v1,
+                                                                 const int64_t *q,
+                                                                 const int32_t *pad_row,
+                                                                 uint64_t best2, const int fmin)
 {
-    const uint32_t side = (c & TREE_HALF_BIT) ? (c & 1) : 0;
-    __m128i v0, v1;
-    load_rec2_shared(chunk - TREE_HALF_CAP * side, &v0, &v1);
     const __m128i zero = _mm_setzero_si128();
     const __m128i xl = _mm_unpacklo_epi8(v0, zero), xh = _mm_unpackhi_epi8(v0, zero);
     const __m128i yl = _mm_unpacklo_epi8(v1, zero), yh = _mm_unpackhi_epi8(v1, zero);
@@ -271,7 +269,7 @@ static inline __attribute__((always_inline)) uint64_t chunk_min2_shared(const ui
     const __m128i dyl = _mm_sub_epi16(qy, yl), dyh = _mm_sub_epi16(qy, yh);
     const __m128i p0 = _mm_unpacklo_epi16(dxl, dyl), p1 = _mm_unpackhi_epi16(dxl, dyl);
     const __m128i p2 = _mm_unpacklo_epi16(dxh, dyh);
-    const __m128i *pad = (const __m128i *)(const void *)(side ? half1_pad2[m] : chunk_pad2[m]);
+    const __m128i *pad = (const __m128i *)(const void *)pad_row;
     const __m128i d0 = _mm_or_si128(_mm_madd_epi16(p0, p0), _mm_load_si128(pad));
     const __m128i d1 = _mm_or_si128(_mm_madd_epi16(p1, p1), _mm_load_si128(pad + 1));
     const __m128i d2 = _mm_or_si128(_mm_madd_epi16(p2, p2), _mm_load_si128(pad + 2));
@@ -288,6 +286,20 @@ static inline __attribute__((always_inline)) uint64_t chunk_min2_shared(const ui
         local = (uint32_t)_mm_cvtsi128_si32(mn);
     }
     return local < best2 ? local : best2;
+}
+
+/* lanes_min2 over the m particles of 2D chunk or half c at `chunk`
+ * (tree_chunk_at), its record read as load_rec2_shared says. */
+static inline __attribute__((always_inline)) uint64_t chunk_min2_shared(const uint8_t *chunk,
+                                                                        uint32_t c,
+                                                                        const int64_t *q,
+                                                                        uint32_t m, uint64_t best2,
+                                                                        const int fmin)
+{
+    const uint32_t side = (c & TREE_HALF_BIT) ? (c & 1) : 0;
+    __m128i v0, v1;
+    load_rec2_shared(chunk - TREE_HALF_CAP * side, &v0, &v1);
+    return lanes_min2(v0, v1, q, side ? half1_pad2[m] : chunk_pad2[m], best2, fmin);
 }
 #endif
 
@@ -1137,32 +1149,17 @@ static inline __attribute__((always_inline)) uint32_t blk_lookup(const tree *t,
 
 #if defined(__SSE2__) && defined(__x86_64__) /* _mm_cvttss_si64 */
 
-/* chunk_min_below for the 2D block scan (|q| < 512 on both axes): the
- * squares are below 2 x 511^2 < 2^24, so they are exact in float, and the
- * minimum is taken with minps instead of SSE2's four-instruction signed
- * 32-bit minimum; padding lanes come from a table, not three compares. The
- * answer is the same integer as chunk_min_below's. */
+/* chunk_min_below for the 2D block scan (|q| < 512 on both axes), with
+ * plain loads (the chunk's own slots; a half's start at slot 5 of its
+ * record for side 1, the layout keeping both loads inside the record): the
+ * same integer answer, from lanes_min2 with the float minimum. */
 static inline __attribute__((always_inline)) uint64_t chunk_min2(const uint8_t *chunk,
                                                                  const int64_t *q, uint32_t m,
                                                                  uint64_t best2)
 {
-    __m128i xl, xh, yl, yh;
-    load_coord(chunk, 0, 0, &xl, &xh);
-    load_coord(chunk, 8, 2, &yl, &yh);
-    const __m128i qx = _mm_set1_epi16((int16_t)q[0]), qy = _mm_set1_epi16((int16_t)q[1]);
-    const __m128i dxl = _mm_sub_epi16(qx, xl), dxh = _mm_sub_epi16(qx, xh);
-    const __m128i dyl = _mm_sub_epi16(qy, yl), dyh = _mm_sub_epi16(qy, yh);
-    const __m128i p0 = _mm_unpacklo_epi16(dxl, dyl), p1 = _mm_unpackhi_epi16(dxl, dyl);
-    const __m128i p2 = _mm_unpacklo_epi16(dxh, dyh);
-    const __m128i *pad = (const __m128i *)(const void *)chunk_pad2[m];
-    const __m128i d0 = _mm_or_si128(_mm_madd_epi16(p0, p0), _mm_load_si128(pad));
-    const __m128i d1 = _mm_or_si128(_mm_madd_epi16(p1, p1), _mm_load_si128(pad + 1));
-    const __m128i d2 = _mm_or_si128(_mm_madd_epi16(p2, p2), _mm_load_si128(pad + 2));
-    __m128 mn = _mm_min_ps(_mm_min_ps(_mm_cvtepi32_ps(d0), _mm_cvtepi32_ps(d1)), _mm_cvtepi32_ps(d2));
-    mn = _mm_min_ps(mn, _mm_movehl_ps(mn, mn));
-    mn = _mm_min_ss(mn, _mm_shuffle_ps(mn, mn, _MM_SHUFFLE(1, 1, 1, 1)));
-    const uint64_t local = (uint64_t)_mm_cvttss_si64(mn);
-    return local < best2 ? local : best2;
+    const __m128i v0 = _mm_loadu_si128((const __m128i *)(const void *)chunk);
+    const __m128i v1 = _mm_srli_si128(_mm_loadu_si128((const __m128i *)(const void *)(chunk + 8)), 2);
+    return lanes_min2(v0, v1, q, chunk_pad2[m], best2, 1);
 }
 #endif
 

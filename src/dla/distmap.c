@@ -134,6 +134,7 @@ int distmap_init(distmap *m, int dim, int bits, int64_t margin_units)
     m->tfree = 0;
     m->nfree = 0;
     m->leaf_interior = DISTMAP_LEAF_INTERIOR;
+    m->near_min = 0;
     return 0;
 }
 

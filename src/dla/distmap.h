@@ -133,6 +133,12 @@
  * 2.0 -> 6.18 B/p, 22.4 s; 1.5 -> 5.83 B/p, 22.9 s; 1.0 -> 4.69 B/p, 26.1 s. */
 #define DISTMAP_BUDGET_PER_PARTICLE_3D 1.5
 
+/* 3D: distmap_bound's near answer is used from this many diameters
+ * (distmap.near_min = this x resolution): at 3D 1e6, 3, 4 and 5 diameters
+ * took 14.1, 14.1 and 14.0 s in alternated runs, against 15.1 s without
+ * (runs/bench-serial/issue12-near22-2026-11-30.md). */
+#define DISTMAP_NEAR_MIN_DIAMETERS 4
+
 typedef struct distmap_level {
     _Atomic uint8_t *cell;        /* width^dim cells, x fastest; fine: two per byte */
     uint32_t width;               /* cells per axis */
@@ -188,6 +194,10 @@ typedef struct distmap {
     uint32_t tfree;               /* dropped tiles to reuse (linked by word 0), 0: none */
     uint32_t nfree;
     double leaf_interior;         /* DISTMAP_LEAF_INTERIOR (tests may change it) */
+    /* 3D: distmap_bound's near answer (within one fine cell of an occupied
+     * one), used only when it is at least this many units; 0: never (2D,
+     * and distmap_init's default). Fixed before any reader runs. */
+    int64_t near_min;
     PDLA_CACHE_PAD(pad_end_);
 } distmap;
 
@@ -351,10 +361,46 @@ static inline __attribute__((always_inline)) int64_t distmap_outside_bound(const
     return b;
 }
 
+/* 3D: the bound from p's fine cell c (value v, p's offset r in it) and its
+ * six face neighbours. Every particle is at least v' - 1 cells from
+ * neighbour c' grown by one unit on each side (its chessboard value v'
+ * says every occupied cell is v' cells away on some axis), and p is r_a
+ * units from the grown box of the neighbour below it on axis a, side - 1 -
+ * r_a from the one above: so v' - 1 cells less that is a bound too. Where
+ * c is an occupied cell's neighbour (v = 1), c's own term is p's distance
+ * to c's edge, as distmap_block_bound. The faces say most where p sits
+ * near a face whose neighbour is farther from the cluster than c, which is
+ * where c's own bound, from the nearest face, says least. Measured at 3D
+ * 1e6 (seed 1): 85.0 -> 63.6 jumps a particle with the faces on far
+ * jumps, and the near answer (at least 4 diameters) replaces enough
+ * exact tree queries to take 6-7% of the time
+ * (runs/bench-serial/issue12-near22-2026-11-30.md). 2D gains no time
+ * (its near queries are cheaper): it keeps the plain bound. */
+static inline __attribute__((always_inline)) int64_t distmap_faces3(const distmap_level *L,
+                                                                    const int64_t *c,
+                                                                    const int64_t *u, int64_t v)
+{
+    const int64_t side = (int64_t)1 << L->bits;
+    int64_t b = distmap_block_bound(u, L->bits, v, 3);
+    for (int a = 0; a < 3; a++) {
+        const int64_t r = u[a] & (side - 1);
+        int64_t n[3] = {c[0], c[1], c[2]};
+        n[a] = c[a] - 1;
+        const int64_t lo = ((int64_t)distmap_level_value_k(L, n, 3, 1) - 1) * side - r;
+        n[a] = c[a] + 1;
+        const int64_t hi = ((int64_t)distmap_level_value_k(L, n, 3, 1) - 1) * side - (side - 1 - r);
+        const int64_t m = lo > hi ? lo : hi;
+        if (m > b) b = m;
+    }
+    return b;
+}
+
 /* Lower bound (units) on the distance from p to every particle, or 0 when
- * the map has nothing useful (within one fine cell of an occupied cell):
- * then the caller searches the tree. A non-zero bound is at least one fine
- * cell, or the grid's margin when p lies outside the grid. */
+ * the map has nothing useful: then the caller searches the tree. Within
+ * one fine cell of an occupied cell that is 0, except in 3D where the
+ * faces (distmap_faces3) give at least m->near_min. A non-zero bound is
+ * at least one fine cell, or near_min, or the grid's margin when p lies
+ * outside the grid. */
 static inline __attribute__((always_inline)) int64_t distmap_bound(const distmap *m,
                                                                    const int64_t *p,
                                                                    const int dim)
@@ -375,7 +421,15 @@ static inline __attribute__((always_inline)) int64_t distmap_bound(const distmap
      * coarse cells), whose bound would be 0: the answer is 0 without the
      * coarse look-up. */
     const int64_t vf = distmap_level_value_k(&g->lv[0], c, dim, 1);
-    if (vf < 2) return 0;
+    /* The 3D faces read c's six neighbours: not on the grid's border. */
+    int inner = dim == 3;
+    for (int a = 0; a < dim; a++) inner &= c[a] >= 1 && c[a] < (int64_t)g->lv[0].width - 1;
+    if (vf < 2) {
+        if (!inner || vf == 0 || !m->near_min) return 0;
+        const int64_t b = distmap_faces3(&g->lv[0], c, u, 1);
+        return b >= m->near_min ? b : 0;
+    }
+    const int64_t cf[3] = {c[0], c[1], dim == 3 ? c[2] : 0};
     for (int a = 0; a < dim; a++) c[a] = u[a] >> cb;
     const int64_t vc = distmap_level_value_k(&g->lv[1], c, dim, 0);
     int64_t coarse = 0;
@@ -383,7 +437,7 @@ static inline __attribute__((always_inline)) int64_t distmap_bound(const distmap
         coarse = distmap_block_bound(u, cb, vc, dim);
         if (vc >= 5) return coarse; /* beyond anything the fine level can say */
     }
-    const int64_t fine = distmap_block_bound(u, fb, vf, dim);
+    const int64_t fine = inner ? distmap_faces3(&g->lv[0], cf, u, vf) : distmap_block_bound(u, fb, vf, dim);
     return fine > coarse ? fine : coarse;
 }
 #endif

@@ -72,6 +72,7 @@ int pdla_engine_create(pdla_engine **out, const pdla_params *p, char *err, size_
         double margin = p->birth_margin * p->resolution + 2.0 * (double)(8 << bits);
         if (margin > (double)(256 << bits)) margin = (double)(256 << bits);
         distmap_init(&e->dmap, p->dim, bits, (int64_t)margin);
+        if (p->dim == 3) e->dmap.near_min = (int64_t)DISTMAP_NEAR_MIN_DIAMETERS * p->resolution;
     }
     rng_seed(&e->walker.rng, p->seed);
     search_state_reset(&e->walker.ss);

@@ -8,8 +8,12 @@
  * samplers draw the random stream differently (same laws: tests/sampling,
  * test_sample; runs/bench-serial/issue12-sp10-2026-11-25.md), the 3D ones
  * re-pinned in session 10 (branch s3d10), whose 3D jump direction takes one
- * draw per try (sample_step3; runs/bench-serial/issue12-s3d10-2026-11-25.md).
- * Each case
+ * draw per try (sample_step3; runs/bench-serial/issue12-s3d10-2026-11-25.md),
+ * and the 3D ones with the map re-pinned again in session 22, whose 3D map
+ * bound also reads the face neighbours' cells and answers near the
+ * cluster from 4 diameters (distmap_faces3: other jumps, the same law;
+ * runs/bench-serial/issue12-near22-2026-11-30.md; exact search, case 3 5,
+ * reads no map and kept its hashes). Each case
  * also grows half-way, writes a checkpoint, resumes from it and must reach
  * the same hashes: checkpoint -> resume is bit-identical too.
  * A change of the walk, the search, the random stream or the tree's order
@@ -37,8 +41,8 @@ static const pin_case pin_cases[] = {
     {2, 2, 4000, 0, UINT64_C(0xd9210bfaf1bd9908), UINT64_C(0x3e3bb3d51a5d3b74)},
     {2, 7, 3000, 1, UINT64_C(0x9ee4690a48ca6c4b), UINT64_C(0x58816638457f7e6f)},
     {2, 9, 3000, 2, UINT64_C(0xad3351d6759b3206), UINT64_C(0x83a4b18507dfd662)},
-    {3, 1, 15000, 0, UINT64_C(0x449983d9d087bac7), UINT64_C(0x21f521da211064cf)},
-    {3, 3, 2000, 1, UINT64_C(0x0ac20df09c42dfd2), UINT64_C(0x356dc95b7407262e)},
+    {3, 1, 15000, 0, UINT64_C(0xb770914d8ad4fb67), UINT64_C(0xf67ac5dc180716b3)},
+    {3, 3, 2000, 1, UINT64_C(0x77efd6ecb1dc887f), UINT64_C(0x58c7a1c746455003)},
     {3, 5, 1500, 2, UINT64_C(0x8317a965eb63ee1a), UINT64_C(0x950cd9ca884a05e2)},
 };
 

@@ -134,8 +134,9 @@
 #define DISTMAP_BUDGET_PER_PARTICLE_3D 1.5
 
 /* 3D: distmap_bound's near answer is used from this many diameters
- * (distmap.near_min = this x resolution): at 3D 1e6, 3, 4 and 5 diameters
- * took 14.1, 14.1 and 14.0 s in alternated runs, against 15.1 s without
+ * (distmap.near_min = this x resolution): in the prototype, 3, 4 and 5
+ * diameters took 14.1, 14.1 and 14.0 s at 3D 1e6 (two alternated rounds
+ * each; 15.1 s without), the same within the noise
  * (runs/bench-serial/issue12-near22-2026-11-30.md). */
 #define DISTMAP_NEAR_MIN_DIAMETERS 4
 
@@ -370,10 +371,10 @@ static inline __attribute__((always_inline)) int64_t distmap_outside_bound(const
  * c is an occupied cell's neighbour (v = 1), c's own term is p's distance
  * to c's edge, as distmap_block_bound. The faces say most where p sits
  * near a face whose neighbour is farther from the cluster than c, which is
- * where c's own bound, from the nearest face, says least. Measured at 3D
- * 1e6 (seed 1): 85.0 -> 63.6 jumps a particle with the faces on far
- * jumps, and the near answer (at least 4 diameters) replaces enough
- * exact tree queries to take 6-7% of the time
+ * where c's own bound, from the nearest face, says least. Far from the
+ * cluster that only saves cheap jumps; what pays is the near answer, which
+ * replaces exact tree queries: 3D 1e6 3.3-3.5% less time (two seeds,
+ * alternated), 3D 1e5 7.5%, 3D 1e4 1.3% more
  * (runs/bench-serial/issue12-near22-2026-11-30.md). 2D gains no time
  * (its near queries are cheaper): it keeps the plain bound. */
 static inline __attribute__((always_inline)) int64_t distmap_faces3(const distmap_level *L,

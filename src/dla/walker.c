@@ -369,7 +369,9 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
         return WALK_MOVED;
     }
     /* Far from the cluster one look-up in the distance map bounds the
-     * distance (at least one map cell, far above the sticking shell).
+     * distance (at least one map cell; in 3D also within a cell of the
+     * cluster, then at least 4 diameters: distmap_bound; either way far
+     * above the sticking shell).
      * --exact-search (the reference setting) skips the map and the
      * block cut: every jump is by the exact distance from the tree. */
     const int64_t far = kc.exact || near ? 0 : distmap_bound(&e->dmap, p, dim);

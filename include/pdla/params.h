@@ -115,6 +115,11 @@ PDLA_API int pdla_param_equal(const pdla_param_desc *d, const void *a, const voi
  * range). */
 PDLA_API int pdla_param_format(const pdla_param_desc *d, const void *s, int exact, char *buf,
                                size_t len);
+/* Two values of row d that differ, as text for a message saying so: %g
+ * unless that prints them alike (0.05 and 0.05000000000000001), then 17
+ * digits; an empty string as "(none)". */
+PDLA_API void pdla_param_format_two(const pdla_param_desc *d, const void *a, const void *b, char *abuf,
+                                    char *bbuf, size_t len);
 /* The value of `word` in a CHOICE row, or -1. */
 PDLA_API int pdla_param_choice(const pdla_param_desc *d, const char *word);
 

@@ -10,6 +10,7 @@
 
 #include "dlca_cmd.h"
 #include "pdla/h5check.h"
+#include "tools.h"
 
 int dlca_info_is_dlca(const char *path)
 {
@@ -22,17 +23,6 @@ typedef struct it_ctx {
     int json, first;
 } it_ctx;
 
-/* A file's string in JSON, escaped: a file's strings are not trusted. */
-static void json_str(FILE *o, const char *s)
-{
-    fputc('"', o);
-    for (const unsigned char *q = (const unsigned char *)s; *q; q++)
-        if (*q == '"' || *q == '\\') fprintf(o, "\\%c", *q);
-        else if (*q < 0x20) fprintf(o, "\\u%04x", *q);
-        else fputc(*q, o);
-    fputc('"', o);
-}
-
 /* Print one attribute (number, string or number array of up to 8). */
 static herr_t print_attr(hid_t loc, const char *name, const H5A_info_t *info, void *op)
 {
@@ -41,11 +31,15 @@ static herr_t print_attr(hid_t loc, const char *name, const H5A_info_t *info, vo
     pdla_h5_value v;
     if (pdla_h5_attr_value(loc, name, &v) < 0) return -1;
     herr_t rc = 0;
-    if (c->json) fprintf(c->o, "%s\n    \"%s\": ", c->first ? "" : ",", name);
+    if (c->json) {
+        fprintf(c->o, "%s\n    ", c->first ? "" : ",");
+        tool_json_str(c->o, name); /* a forged file's attribute names too */
+        fputs(": ", c->o);
+    }
     else fprintf(c->o, "  %-22s ", name);
     c->first = 0;
     if (v.kind == 's' && v.read && !v.cut) {
-        if (c->json) json_str(c->o, v.s);
+        if (c->json) tool_json_str(c->o, v.s);
         else fputs(v.s, c->o);
     } else if (v.kind && v.kind != 's' && v.read) {
         if (v.n > 1) fputs(c->json ? "[" : "", c->o);

@@ -12,6 +12,7 @@
 
 #include "event_cmd.h"
 #include "pdla/h5check.h"
+#include "tools.h"
 
 static const char *file_arg(int argc, char **argv, int *json)
 {
@@ -63,17 +64,6 @@ int event_checkpoint_refused(const char *tool, int argc, char **argv)
     return 1;
 }
 
-/* s as a JSON string: quoted, " and \\ escaped, control bytes left out. */
-static void json_str(FILE *o, const char *s)
-{
-    fputc('"', o);
-    for (const char *c = s; *c; c++) {
-        if (*c == '"' || *c == '\\') fputc('\\', o);
-        if ((unsigned char)*c >= 0x20) fputc(*c, o);
-    }
-    fputc('"', o);
-}
-
 typedef struct pr {
     FILE *o;
     int json, first;
@@ -108,10 +98,10 @@ static herr_t print_attr(hid_t loc, const char *name, const H5A_info_t *info, vo
     }
     if (p->json) {
         fprintf(p->o, "%s\n    ", p->first ? "" : ",");
-        json_str(p->o, name); /* a forged file's attribute names too */
+        tool_json_str(p->o, name); /* a forged file's attribute names too */
         fputs(": ", p->o);
         if (isstr) {
-            json_str(p->o, val);
+            tool_json_str(p->o, val);
         } else {
             fputs(val, p->o);
         }
@@ -180,11 +170,17 @@ static int species_table(FILE *o, hid_t f, int json)
     if (json) fprintf(o, "  \"species\": [");
     else fprintf(o, "/species\n");
     for (int k = 0; k < n; k++) {
-        if (json)
-            fprintf(o, "%s\n    {\"count\": %.17g, \"radius\": %.17g, \"density\": %.17g, "
-                       "\"stuck\": %.17g, \"sticky\": %d}",
-                    k ? "," : "", v[0][k], v[1][k], v[2][k], v[3][k], v[4][k] != 0);
-        else
+        if (json) {
+            /* a forged table's NaN or inf as null: JSON has no such numbers */
+            static const char *const key[4] = {"count", "radius", "density", "stuck"};
+            fprintf(o, "%s\n    {", k ? "," : "");
+            for (int c = 0; c < 4; c++) {
+                fprintf(o, "\"%s\": ", key[c]);
+                if (isfinite(v[c][k])) fprintf(o, "%.17g, ", v[c][k]);
+                else fputs("null, ", o);
+            }
+            fprintf(o, "\"sticky\": %d}", v[4][k] != 0);
+        } else
             fprintf(o, "  kind %d: count %.10g radius %.10g density %.10g stuck %.10g sticky %d%s\n", k + 1,
                     v[0][k], v[1][k], v[2][k], v[3][k], v[4][k] != 0, v[4][k] != 0 ? "" : " (bath)");
     }
@@ -211,7 +207,7 @@ int event_info_main(int argc, char **argv)
     }
     if (json) { /* the path escaped: a name with " or \\ made the whole JSON unreadable */
         fputs("{\n  \"file\": ", stdout);
-        json_str(stdout, path);
+        tool_json_str(stdout, path);
         fprintf(stdout, ",\n  \"stuck\": %lld,\n  \"free\": %lld,\n  \"series_rows\": %lld,\n", ns, nf, nr);
     }
     else fprintf(stdout, "%s: event model, %lld stuck, %lld free, %lld series rows\n", path, ns, nf, nr);

@@ -1,7 +1,7 @@
 /*
  * event_render.c - `pdla render FILE -o PNG [--size N] [--force]` for a
  * cluster.h5 of the event model: the box seen along z, stuck particles as
- * discs coloured by arrival (dark blue first, yellow last), the seed white,
+ * discs coloured by arrival (dark blue first, yellow last), the seeds white,
  * free particles grey. 3D files are projected (the nearest particle wins).
  */
 #include <errno.h>
@@ -160,9 +160,15 @@ int event_render_main(int argc, char **argv)
     double *cr = read_all(f, "/cluster/radii", &nr, &one);
     double *fp = read_all(f, "/free/positions", &nf, &fdim);
     double *fr = read_all(f, "/free/radii", &nfr, &one);
+    /* the seeds of a --seeds run: datasets, not the one seed's attributes */
+    size_t nsd = 0, sdim = 0, nsr = 0;
+    const int has_sd = H5Lexists(f, "/cluster", H5P_DEFAULT) > 0 &&
+                       H5Lexists(f, "/cluster/seed_positions", H5P_DEFAULT) > 0;
+    double *sp = has_sd ? read_all(f, "/cluster/seed_positions", &nsd, &sdim) : NULL;
+    double *spr = has_sd ? read_all(f, "/cluster/seed_radii", &nsr, &one) : NULL;
     double L = 0, seed[3] = {0, 0, 0}, sr = 0;
     const hid_t g = H5Gopen2(f, "/results", H5P_DEFAULT), gc = H5Gopen2(f, "/cluster", H5P_DEFAULT);
-    int ok = cp && cr && fp && fr && g >= 0 && gc >= 0;
+    int ok = cp && cr && fp && fr && g >= 0 && gc >= 0 && (!has_sd || (sp && spr));
     if (ok) {
         ok = pdla_h5_attr_number(g, "box_side", PDLA_H5_F64, &L) == 0;
         if (H5Aexists(gc, "seed_radius") > 0) {
@@ -181,7 +187,8 @@ int event_render_main(int argc, char **argv)
     img im = {size, size / (L > 0 ? L : 1), calloc((size_t)size * size * 3, 1),
               malloc((size_t)size * size * sizeof(float))};
     if (!ok || !im.rgb || !im.depth || !consistent(cp, ns, dim, cr, nr, fp, nf, fdim, fr, nfr, L) ||
-        !(isfinite(sr) && sr >= 0 && isfinite(seed[0]) && isfinite(seed[1]) && isfinite(seed[2]))) {
+        !(isfinite(sr) && sr >= 0 && isfinite(seed[0]) && isfinite(seed[1]) && isfinite(seed[2])) ||
+        (has_sd && !consistent(sp, nsd, sdim, spr, nsr, NULL, 0, 0, NULL, 0, L)) || (has_sd && sdim != dim)) {
         fprintf(stderr, "pdla render: %s: malformed event file\n", in);
         rc = 2;
         goto done;
@@ -196,10 +203,11 @@ int event_render_main(int argc, char **argv)
         disc(&im, cp + i * dim, (int)dim, cr[i], c);
     }
     if (sr > 0) disc(&im, seed, (int)dim, sr, white);
+    for (size_t i = 0; i < nsd; i++) disc(&im, sp + i * dim, (int)dim, spr[i], white);
     char werr[600];
     rc = tools_png_write(out, (int)size, (int)size, im.rgb, force, werr, sizeof werr) ? 1 : 0;
     if (rc) fprintf(stderr, "pdla render: %s\n", werr);
 done:
-    free(cp), free(cr), free(fp), free(fr), free(im.rgb), free(im.depth);
+    free(cp), free(cr), free(fp), free(fr), free(sp), free(spr), free(im.rgb), free(im.depth);
     return rc;
 }

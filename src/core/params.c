@@ -337,6 +337,30 @@ int pdla_param_format(const pdla_param_desc *d, const void *s, int exact, char *
     }
 }
 
+void pdla_param_format_two(const pdla_param_desc *d, const void *a, const void *b, char *abuf, char *bbuf,
+                           size_t len)
+{
+    pdla_param_format(d, a, 0, abuf, len);
+    pdla_param_format(d, b, 0, bbuf, len);
+    if (len && !strcmp(abuf, bbuf)) {
+        pdla_param_format(d, a, 1, abuf, len);
+        pdla_param_format(d, b, 1, bbuf, len);
+    }
+    if (len && !abuf[0]) snprintf(abuf, len, "(none)");
+    if (len && !bbuf[0]) snprintf(bbuf, len, "(none)");
+}
+
+/* x with the fewest digits (6 to 17) that read back as x: the value a
+ * range message names ("got 1" for 1.0000001 said nothing). */
+static const char *real_text(char buf[32], double x)
+{
+    for (int p = 6; p <= 17; p++) {
+        snprintf(buf, 32, "%.*g", p, x);
+        if (strtod(buf, NULL) == x) break;
+    }
+    return buf;
+}
+
 /* A bound as people write it: %g, with "1e+06" shortened to "1e6". */
 static const char *bound_text(char buf[32], double x)
 {
@@ -366,11 +390,11 @@ static int check_range(const pdla_param_desc *d, const void *s, char *err, size_
         const double v = pdla_param_get_real(d, s);
         const int low = d->lo_open ? !(v > d->lo_r) : !(v >= d->lo_r);
         const int high = d->hi_open ? !(v < d->hi_r) : !(v <= d->hi_r);
-        char lo[32], hi[32];
+        char lo[32], hi[32], got[32];
         if (low || high)
-            return pdla_errorf(PDLA_EINVAL, err, errlen, "%s must be in %c%s, %s%c%s%s, got %g", d->label,
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "%s must be in %c%s, %s%c%s%s, got %s", d->label,
                               d->lo_open ? '(' : '[', bound_text(lo, d->lo_r),
-                              bound_text(hi, d->hi_r), d->hi_open ? ')' : ']', sp, d->unit, v);
+                              bound_text(hi, d->hi_r), d->hi_open ? ')' : ']', sp, d->unit, real_text(got, v));
         return 0;
     }
     case PDLA_PT_BOX: {
@@ -552,8 +576,7 @@ int pdla_param_check_asked(const pdla_param_desc *t, size_t n, uint32_t given, c
         const pdla_param_desc *d = &t[i];
         if (!(given & d->bit) || d->resumable || pdla_param_equal(d, asked, have)) continue;
         char h[64], a[64];
-        pdla_param_format(d, have, 0, h, sizeof h);
-        pdla_param_format(d, asked, 0, a, sizeof a);
+        pdla_param_format_two(d, have, asked, h, a, sizeof h);
         return pdla_errorf(PDLA_EINVAL, err, errlen,
                            "cannot resume with a different physics parameter: %s is %s in the checkpoint, %s asked",
                            d->label, h, a);

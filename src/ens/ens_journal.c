@@ -853,8 +853,7 @@ int pdla_ens_config_compare(const pdla_ens_config *stored, const pdla_ens_config
         if (!(t[i].bit & asked_fields) || (t[i].bit & (PDLA_PARAM_THREADS | PDLA_PARAM_BIND))) continue;
         if (pdla_param_equal(&t[i], &stored->params, &asked->params)) continue;
         char a[80], b[80];
-        pdla_param_format(&t[i], &stored->params, 0, a, sizeof a);
-        pdla_param_format(&t[i], &asked->params, 0, b, sizeof b);
+        pdla_param_format_two(&t[i], &stored->params, &asked->params, a, b, sizeof a);
         return pdla_errorf(PDLA_EINVAL, err, errlen, "cannot resume: the ensemble has --%s %s, asked %s "
                                                      "(an ensemble resumes with its own growth parameters)",
                            t[i].option, a, b);

@@ -698,6 +698,42 @@ static int check_sizes(const rd *r, const ev_params *p, long long dim, long long
     return 0;
 }
 
+/* A --seeds run's seeds as the checkpoint stores them (particles n ..
+ * ntot - 1 of state/ps), D + 1 numbers each (position, radius), for
+ * ev_alloc_seeded: a resume uses these, not the file, which was read again
+ * before (a file since moved, named relative to another directory or
+ * edited made the checkpoint look "damaged", or was silently ignored).
+ * Sizes as checked by check_sizes; NULL with the line in r. */
+static double *read_seeds(const rd *r, int D, long long n, long long ntot)
+{
+    const size_t S = (size_t)(2 * D + 2), ns = (size_t)(ntot - n);
+    if (ns < 1 || ns > EV_MAX_SEEDS) {
+        rfail(r, "%s", "a --seeds run without its seeds, or more than the most a file may hold (damaged)");
+        return NULL;
+    }
+    double *row = malloc(ns * S * sizeof *row), *xr = malloc(ns * (size_t)(D + 1) * sizeof *xr);
+    pdla_h5_dset d;
+    int rc = !row || !xr ? rfail(r, "%s", "out of memory") : 0;
+    if (!rc && pdla_h5_dset_open(r->file, "state/ps", &d) < 0) rc = rfail(r, "%s", "no dataset state/ps (damaged)");
+    else if (!rc) {
+        if (pdla_h5_dset_read(&d, PDLA_H5_F64, (uint64_t)n * S, ns * S, row) < 0)
+            rc = rfail(r, "%s", "cannot read state/ps (damaged: checksum or I/O error)");
+        if (pdla_h5_dset_close(&d) < 0 && !rc) rc = rfail(r, "%s", "cannot close dataset state/ps");
+    }
+    for (size_t a = 0; !rc && a < ns; a++) {
+        for (int k = 0; k < D; k++) xr[a * (size_t)(D + 1) + (size_t)k] = row[a * S + (size_t)k];
+        const double rad = row[a * S + (size_t)(2 * D + 1)];
+        xr[a * (size_t)(D + 1) + (size_t)D] = rad;
+        if (!(rad > 0 && rad < INFINITY)) rc = rfail(r, "%s", "a seed's radius is not a positive number (damaged)");
+    }
+    free(row);
+    if (rc) {
+        free(xr);
+        return NULL;
+    }
+    return xr;
+}
+
 ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t errlen)
 {
     memset(ser, 0, sizeof *ser);
@@ -731,7 +767,9 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     if (!rc) rc = read_params(&r, &p);
     char e2[400];
     if (!rc) rc = check_sizes(&r, &p, dim, n, ntot);
-    if (!rc && !(s = ev_alloc(&p, e2, sizeof e2))) rc = rfail(&r, "%s", e2);
+    double *seeds = NULL;
+    if (!rc && p.seeds[0] && !(seeds = read_seeds(&r, (int)dim, n, ntot))) rc = -1;
+    if (!rc && !(s = ev_alloc_seeded(&p, seeds, seeds ? (uint32_t)(ntot - n) : 0, e2, sizeof e2))) rc = rfail(&r, "%s", e2);
     if (!rc && ((long long)s->dim != dim || (long long)s->n != n || (long long)s->ntot != ntot))
         rc = rfail(&r, "%s", "its parameters do not give its particle count (damaged)");
     const int nc_then = !s ? 0 : ver == 2 ? s->nc_v2 : ver == 3 ? s->nc_v3 : s->nc;

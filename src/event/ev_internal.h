@@ -174,6 +174,12 @@ static inline void ev_big_list(const ev_sim *s, uint64_t c, uint32_t *lo, uint32
 /* Does a particle of radius r <= rpmax at x, in cell c, overlap a big seed? */
 int ev_big_overlaps(const ev_sim *s, uint64_t c, const double *x, double r);
 ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen);
+/* ev_alloc with a --seeds run's seeds given (a checkpoint's, D + 1 numbers
+ * each: position, radius; malloc'ed, taken over even on failure) instead of
+ * read from the file. */
+ev_sim *ev_alloc_seeded(const ev_params *p, double *seed_xr, uint32_t nseeds, char *err, size_t errlen);
+/* The most seeds a --seeds file (or a checkpoint) may hold. */
+#define EV_MAX_SEEDS 100000
 double ev_fractal_dimension(const ev_sim *s, uint64_t *k_lo, uint64_t *k_hi);
 
 /* The series keeps at most this many rows (ev_sim.c series_push thins it:

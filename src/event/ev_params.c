@@ -193,6 +193,18 @@ double ev_particle_volume(int dim, double r)
     return dim == 2 ? M_PI * r * r : 4.0 / 3.0 * M_PI * r * r * r;
 }
 
+/* One number of --species, read as the command line reads numbers: digits,
+ * '.', exponent and signs only (no blanks, hexadecimal, inf or nan), a digit
+ * or '.' first, and neither under- nor overflow. 0, or -1. */
+static int species_num(const char *c, double *out, char **end)
+{
+    const size_t n = strspn(c, "0123456789.eE+-");
+    if (n == 0 || !strchr("0123456789.", *c)) return -1;
+    errno = 0;
+    *out = strtod(c, end);
+    return *end == c + n && errno != ERANGE && isfinite(*out) ? 0 : -1;
+}
+
 int ev_parse_species(const ev_params *p, ev_species *sp, int *nsp, char *err, size_t errlen)
 {
     if (!p->species[0]) {
@@ -207,21 +219,26 @@ int ev_parse_species(const ev_params *p, ev_species *sp, int *nsp, char *err, si
     while (*c) {
         if (n == EV_MAX_SPECIES) return pdla_errorf(-1, err, errlen, "--species: more than %d kinds", EV_MAX_SPECIES);
         char *end;
-        errno = 0;
-        const double cnt = strtod(c, &end);
-        if (end == c || *end != ':' || cnt < 1 || cnt != floor(cnt) || cnt > 4e9)
+        double cnt, r, rho;
+        if (species_num(c, &cnt, &end) || *end != ':' || cnt < 1 || cnt != floor(cnt) || cnt > 4e9)
             return pdla_errorf(-1, err, errlen, "--species: kind %d: bad COUNT (want COUNT:RADIUS:DENSITY)", n + 1);
         c = end + 1;
         /* the ranges of --radius and --density: a kind of radius 1e300 made
          * a box of infinite side, one of density 1e300 a gas that never
          * reached the seed; both ran */
-        const double r = strtod(c, &end);
-        if (end == c || *end != ':' || !(r > 0) || !(r <= rhi))
-            return pdla_errorf(-1, err, errlen, "--species: kind %d: RADIUS must be in (0, %g]", n + 1, rhi);
+        if (species_num(c, &r, &end) || *end != ':')
+            return pdla_errorf(-1, err, errlen, "--species: kind %d: RADIUS is not a number (want "
+                               "COUNT:RADIUS:DENSITY)", n + 1);
+        if (!(r > 0) || !(r <= rhi))
+            return pdla_errorf(-1, err, errlen, "--species: kind %d: RADIUS must be in (0, %g], got %.17g", n + 1,
+                               rhi, r);
         c = end + 1;
-        const double rho = strtod(c, &end);
-        if (end == c || (*end != ',' && *end != ':' && *end) || !(rho > 0) || !(rho <= dhi))
-            return pdla_errorf(-1, err, errlen, "--species: kind %d: DENSITY must be in (0, %g]", n + 1, dhi);
+        if (species_num(c, &rho, &end) || (*end != ',' && *end != ':' && *end))
+            return pdla_errorf(-1, err, errlen, "--species: kind %d: DENSITY is not a number (want "
+                               "COUNT:RADIUS:DENSITY)", n + 1);
+        if (!(rho > 0) || !(rho <= dhi))
+            return pdla_errorf(-1, err, errlen, "--species: kind %d: DENSITY must be in (0, %g], got %.17g", n + 1,
+                               dhi, rho);
         int sticky = 1;
         if (*end == ':') {
             /* STICKY: exactly "0" or "1" */
@@ -233,6 +250,7 @@ int ev_parse_species(const ev_params *p, ev_species *sp, int *nsp, char *err, si
         }
         sp[n++] = (ev_species){(uint64_t)cnt, r, rho, sticky};
         c = *end ? end + 1 : end;
+        if (*end == ',' && !*c) return pdla_errorf(-1, err, errlen, "--species: nothing after the last comma");
     }
     if (!n) return pdla_errorf(-1, err, errlen, "--species: empty list");
     *nsp = n;
@@ -259,6 +277,26 @@ static int ev_too_big(int dim, uint64_t n, char *err, size_t errlen)
     return 0;
 }
 
+/* Each range alone is not enough: --radius 1e-6 with --density 1e-300 is a
+ * mass of 3e-312, whose start speed sqrt(2 kT / m) overflows; every event
+ * time was then NaN and the run never ended (or wrote NaN positions with
+ * --max-events). The thermal speed sqrt(kT / m) must lie in [1e-100, 1e100],
+ * so that squared relative speeds (pred_pp) stay normal doubles. */
+#define EV_SPEED_MIN 1e-100
+#define EV_SPEED_MAX 1e100
+
+static int ev_speed_check(const ev_params *p, const ev_species *sp, int k, int nsp, char *err, size_t errlen)
+{
+    const double m = sp->density * ev_particle_volume(p->dim, sp->radius);
+    const double v = sqrt(p->kT / m);
+    if (m > 0 && v >= EV_SPEED_MIN && v <= EV_SPEED_MAX) return 0;
+    char who[48] = "particles";
+    if (nsp > 1 || p->species[0]) snprintf(who, sizeof who, "--species kind %d", k + 1);
+    return pdla_errorf(-1, err, errlen, "%s: mass %.3g (density %.3g x volume of radius %.3g) gives a thermal "
+                       "speed sqrt(kT/m) = %.3g at kT %.3g, outside [%g, %g]", who, m, sp->density,
+                       sp->radius, v, p->kT, EV_SPEED_MIN, EV_SPEED_MAX);
+}
+
 int ev_params_check(const ev_params *p, char *err, size_t errlen)
 {
     const pdla_param_desc *bad;
@@ -272,6 +310,8 @@ int ev_params_check(const ev_params *p, char *err, size_t errlen)
         if (sp[k].sticky) nsticky += sp[k].count;
     }
     if (total >= UINT32_MAX - 1) return pdla_errorf(-1, err, errlen, "too many particles (%" PRIu64 ")", total);
+    for (int k = 0; k < nsp; k++)
+        if (ev_speed_check(p, &sp[k], k, nsp, err, errlen)) return -1;
     if (ev_too_big(p->dim, total, err, errlen)) return -1;
     const int seeded = p->seeds[0] || p->seed_radius > 0;
     /* Without a sticky kind nothing can end the run but time or events (a

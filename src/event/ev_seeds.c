@@ -19,7 +19,6 @@
 #include "ev_internal.h"
 
 /* The overlap check is over all pairs. */
-#define EV_MAX_SEEDS 100000
 
 /* One seed line into xr[0 .. D]: 0, 1 (blank or comment), -1 (bad). The
  * numbers are decimal, as everywhere on the command line (cli_parse_real):
@@ -111,6 +110,42 @@ int ev_seeds_read(ev_sim *s, const char *path, char *err, size_t errlen)
     return rc;
 }
 
+/* Can a free particle of a sticky kind touch seed a? Between walls a
+ * particle of radius rp keeps its centre in [rp, L - rp]^D, so it can touch
+ * a seed of radius R at c when that box comes within rp + R of c; a small
+ * seed in a corner lies beyond every particle's reach. A periodic box has
+ * no such corner. */
+static int seed_reachable(const ev_sim *s, const double *c)
+{
+    if (s->periodic) return 1;
+    const int D = s->dim;
+    for (int k = 0; k < s->nspecies; k++) {
+        if (!s->sp[k].sticky) continue;
+        const double rp = s->sp[k].radius, sig = rp + c[D];
+        double d2 = 0;
+        for (int a = 0; a < D; a++) {
+            const double lo = rp, hi = s->L - rp;
+            const double g = c[a] < lo ? lo - c[a] : c[a] > hi ? c[a] - hi : 0;
+            d2 += g * g;
+        }
+        if (d2 <= sig * sig) return 1;
+    }
+    return 0;
+}
+
+/* A run that stops only when every particle has stuck never ends when no
+ * seed can be touched (the particles bounced forever; found by an
+ * adversarial test): refused then, as a run where nothing sticks is
+ * (ev_params_check). With --t-max or --max-events it is a plain gas. */
+static int reach_check(const ev_sim *s, char *err, size_t errlen)
+{
+    if (s->par.t_max > 0 || s->par.max_events > 0) return 0;
+    for (uint32_t a = 0; a < s->nseeds; a++)
+        if (seed_reachable(s, s->seed_xr + (size_t)a * (size_t)(s->dim + 1))) return 0;
+    return pdla_errorf(-1, err, errlen, "--seeds %s: no particle of a sticky kind can reach any seed between the "
+                       "walls (too near a corner): move a seed or give --t-max or --max-events", s->par.seeds);
+}
+
 int ev_seeds_check(const ev_sim *s, char *err, size_t errlen)
 {
     const int D = s->dim;
@@ -133,5 +168,5 @@ int ev_seeds_check(const ev_sim *s, char *err, size_t errlen)
                 return pdla_errorf(-1, err, errlen, "--seeds %s: seeds %u and %u overlap", path, a + 1, b + 1);
         }
     }
-    return 0;
+    return reach_check(s, err, errlen);
 }

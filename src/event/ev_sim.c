@@ -723,14 +723,22 @@ static void fill_particles(ev_sim *s, const ev_params *p)
 
 /* The box, cells, arrays and species tables of p, with the seed placed and
  * no particle yet (ev_create places them; a checkpoint fills them in). */
-ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen)
+ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen) { return ev_alloc_seeded(p, NULL, 0, err, errlen); }
+
+ev_sim *ev_alloc_seeded(const ev_params *p, double *seed_xr, uint32_t nseeds, char *err, size_t errlen)
 {
-    if (ev_params_check(p, err, errlen)) return NULL;
+    if (ev_params_check(p, err, errlen)) {
+        free(seed_xr);
+        return NULL;
+    }
     ev_sim *s = calloc(1, sizeof *s);
     if (!s) {
+        free(seed_xr);
         pdla_errorf(-1, err, errlen, "out of memory");
         return NULL;
     }
+    s->seed_xr = seed_xr;
+    s->nseeds = nseeds;
     s->par = *p;
     s->dim = p->dim;
     s->periodic = p->walls == EV_WALLS_PERIODIC;
@@ -739,7 +747,7 @@ ev_sim *ev_alloc(const ev_params *p, char *err, size_t errlen)
     ev_parse_species(p, s->sp, &s->nspecies, NULL, 0);
     for (int k = 0; k < s->nspecies; k++)
         s->spmass[k] = s->sp[k].density * ev_particle_volume(s->dim, s->sp[k].radius);
-    if (p->seeds[0] && ev_seeds_read(s, p->seeds, err, errlen)) goto bad;
+    if (p->seeds[0] && !s->seed_xr && ev_seeds_read(s, p->seeds, err, errlen)) goto bad;
     if (size_box(s, p, err, errlen)) goto bad;
     if (alloc_arrays(s)) {
         pdla_errorf(-1, err, errlen, "out of memory for %" PRIu64 " particles", (uint64_t)s->n);

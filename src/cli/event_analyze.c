@@ -292,7 +292,8 @@ int event_analyze_main(int argc, char **argv)
     }
     ev_summary m;
     memset(&m, 0, sizeof m);
-    m.dim = (int)attr_num(f, "/", "dim");
+    const double dim = attr_num(f, "/", "dim");
+    m.dim = dim == 2 || dim == 3 ? (int)dim : 0; /* NaN or 1e300 cast to int is undefined; 0 is refused below */
     m.box = attr_num(f, "results", "box_side");
     size_t fr, fc;
     free(read_doubles(f, "/free/positions", &fr, &fc));

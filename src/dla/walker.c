@@ -208,7 +208,14 @@ static inline __attribute__((always_inline)) void walk_set_radii(const pdla_engi
     const double D = (double)P->resolution;
     s->r_ext_units = r;
     s->r_ext = (double)r;
-    s->Rb = s->r_ext + P->birth_margin * D;
+    /* A walker starts on the circle rounded to the grid, up to sqrt(dim)/2
+     * units inside it: with the least margin, one diameter, it could start
+     * inside the farthest particle, and the serial loop stopped with
+     * "internal error" (found by an adversarial test, 6 of 8 seeds at 2D
+     * 1000). So R_birth is at least one diameter and one unit beyond R_ext;
+     * margins of 1 + 1/D diameters and more are as given. */
+    const double off = P->birth_margin * D;
+    s->Rb = s->r_ext + (off < D + 1.0 ? D + 1.0 : off);
     /* One unit of hysteresis: a walker just put on the circle (rounded to the
      * grid) is not sent straight back. */
     s->Rout2 = (s->Rb + 1.0) * (s->Rb + 1.0);

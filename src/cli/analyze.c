@@ -227,14 +227,19 @@ static int parse_options(int argc, char **argv, analyze_opts *o)
 static int check_csv_dir(const analyze_opts *o)
 {
     if (!o->csv_dir) return 0;
+    /* the name as shown in a one-line message: control bytes as '?' */
+    char shown[4200];
+    snprintf(shown, sizeof shown, "%s", o->csv_dir);
+    for (char *c = shown; *c; c++)
+        if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
     struct stat st;
     if (stat(o->csv_dir, &st) != 0) {
         if (errno != ENOENT || mkdir(o->csv_dir, 0777) != 0) {
-            fprintf(stderr, "pdla analyze: cannot make directory %s: %s\n", o->csv_dir, strerror(errno));
+            fprintf(stderr, "pdla analyze: cannot make directory %s: %s\n", shown, strerror(errno));
             return TOOL_USAGE;
         }
     } else if (!S_ISDIR(st.st_mode)) {
-        fprintf(stderr, "pdla analyze: %s is not a directory\n", o->csv_dir);
+        fprintf(stderr, "pdla analyze: %s is not a directory\n", shown);
         return TOOL_USAGE;
     }
     char p[4200], err[1024];
@@ -331,12 +336,9 @@ static int fit_mass_radius(const double *edges_diam, const uint64_t *mass, size_
 static void print_json(FILE *out, const h5r_file *f, const analyze_opts *o, const analysis *an)
 {
     const int D = f->diameter_units;
-    fprintf(out, "{\n  \"file\": \"");
-    for (const char *s = f->path; *s; s++) {
-        if (*s == '"' || *s == '\\') fputc('\\', out);
-        if ((unsigned char)*s >= 0x20) fputc(*s, out);
-    }
-    fprintf(out, "\",\n  \"particles\": %llu,\n  \"dim\": %d,\n  \"centre\": \"%s\",\n",
+    fprintf(out, "{\n  \"file\": ");
+    tool_json_str(out, f->path); /* invalid UTF-8 as U+FFFD, control bytes escaped */
+    fprintf(out, ",\n  \"particles\": %llu,\n  \"dim\": %d,\n  \"centre\": \"%s\",\n",
             (unsigned long long)f->n, f->dim, o->centre_mass ? "mass" : "seed");
     json_num(out, "centre_of_mass_x_diam", an->com[0] / D, 1);
     json_num(out, "centre_of_mass_y_diam", an->com[1] / D, 1);

@@ -502,20 +502,12 @@ static void print_summary(FILE *f, const report *r, int with_command)
 
 /* ---- JSON -------------------------------------------------------------- */
 
+/* A string, or null; invalid UTF-8 (a path, the command line) as U+FFFD,
+ * as info --json writes it (tools.h). */
 static void json_string(FILE *f, const char *s)
 {
-    if (!s) {
-        fputs("null", f);
-        return;
-    }
-    fputc('"', f);
-    for (; *s; s++) {
-        const unsigned char c = (unsigned char)*s;
-        if (c == '"' || c == '\\') fprintf(f, "\\%c", c);
-        else if (c < 0x20) fprintf(f, "\\u%04x", c);
-        else fputc(c, f);
-    }
-    fputc('"', f);
+    if (!s) fputs("null", f);
+    else tool_json_str(f, s);
 }
 
 static void json_real(FILE *f, double x)
@@ -615,18 +607,6 @@ static void write_json(FILE *f, const report *r, const char *status)
     fprintf(f, "\n}\n");
 }
 
-/* Close f and say whether everything written to it arrived. */
-static int close_checked(FILE *f, const char *path, char *why, size_t whylen)
-{
-    errno = 0;
-    const int bad = ferror(f) || fflush(f); /* fflush retries, so errno names the cause */
-    const int e = errno;
-    const int cbad = fclose(f);
-    if (!bad && !cbad) return 0;
-    snprintf(why, whylen, "cannot write %s: %s", path, strerror(bad ? (e ? e : EIO) : errno));
-    return -1;
-}
-
 /* Write cluster.h5 into dir. With --force an existing one is replaced by
  * writing beside it and renaming, so a failed write keeps the old file.
  * 0; -1 with why when cluster.h5 is not written; 1 with why when it is in
@@ -686,7 +666,7 @@ typedef struct run {
     char dir[4096];              /* the run directory ("" with --no-output) */
     int created, lock;           /* we made dir; its lock (-1: none) */
     pdla_checkpoint_info loaded; /* --resume: what was loaded */
-    FILE *json;                  /* --stats-json */
+    int json_on, json_force;     /* --stats-json: write it; it may replace a file */
     progress prog;
     grow_ctx gc;
     int grew;                    /* growth ran: the exit follows a signal */
@@ -874,13 +854,34 @@ static int new_run_step(run *R)
     return GO_ON;
 }
 
-/* --stats-json FILE is created before growth, so a bad path costs nothing. */
+/* Does path hold a JSON object (its first byte '{'): the statistics of an
+ * earlier run, which a resumed run may replace. */
+static int json_file_is_stats(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0;
+    const int c = fgetc(f);
+    fclose(f);
+    return c == '{';
+}
+
+/* --stats-json FILE is checked before growth, so a bad path costs nothing,
+ * and written at the end under a temporary name, then moved into place: it
+ * was opened with "w" here, so any file of that name (a checkpoint
+ * included, found by an adversarial test) was emptied at once, without
+ * --force, and a killed run left it empty. An existing file is replaced
+ * only with --force, or on --resume when it holds JSON (the run's own). */
 static int open_json_step(run *R)
 {
     if (!R->o.stats_json) return GO_ON;
-    R->json = fopen(R->o.stats_json, "w");
-    if (R->json) return GO_ON;
-    fprintf(stderr, "pdla: cannot create %s: %s\n", R->o.stats_json, strerror(errno));
+    const int force = R->o.force || (R->o.resume && json_file_is_stats(R->o.stats_json));
+    char why[4400];
+    if (tools_out_check(R->o.stats_json, force, why, sizeof why) == 0) {
+        R->json_on = 1;
+        R->json_force = force;
+        return GO_ON;
+    }
+    fprintf(stderr, "pdla: --stats-json: %s\n", why);
     if (R->created) rmdir(R->dir); /* still empty: leave no trace */
     return EXIT_USAGE;
 }
@@ -971,11 +972,14 @@ static void report_step(run *R)
                          : stop_signal                                              ? "stopped by signal"
                          : R->grc == PDLA_ESTOPPED && R->gc.reason == STOP_FILE ? "stopped by STOP file"
                                                                                     : "failed";
-    if (R->json) {
-        write_json(R->json, &R->r, status);
-        char jwhy[5000];
-        const int bad = close_checked(R->json, R->o.stats_json, jwhy, sizeof jwhy);
-        R->json = NULL;
+    if (R->json_on) {
+        char tmp[4400], jwhy[5000];
+        FILE *const f = tools_out_open(R->o.stats_json, tmp, sizeof tmp, jwhy, sizeof jwhy);
+        int bad = !f;
+        if (f) {
+            write_json(f, &R->r, status);
+            bad = tools_out_commit(f, tmp, R->o.stats_json, R->json_force, jwhy, sizeof jwhy) != 0;
+        }
         if (bad && !R->write_failed) {
             memcpy(R->why, jwhy, sizeof R->why);
             R->write_failed = 1;
@@ -1036,7 +1040,6 @@ static int outcome(run *R)
 /* The one unwind. */
 static void run_close(run *R)
 {
-    if (R->json) fclose(R->json);
     pdla_engine_destroy(R->eng);
     pdla_rundir_unlock(R->lock);
     free(R->cmd);

@@ -122,6 +122,18 @@ struct recent_ring;
  * half-way) runs through it. */
 #define ENGINE_COMPACT_FIRST ((uint64_t)1 << 12)
 
+/* A walker in flight, for walking several in turn in one thread (the
+ * race-free reference of PDLA, reference.c). */
+typedef struct walk_state {
+    int64_t p[3];
+    uint64_t jumps;           /* since launch (for max_jumps) */
+    uint64_t launched_at;     /* particle count at launch (the lag's origin) */
+    uint64_t step_seen;       /* workers: the count read by the last step */
+    int64_t r_ext_units;      /* the R_ext the radii below were drawn from */
+    double r_ext, Rb, Rout2, Rdeath;
+    int near;                 /* 2D, one thread: the map's bound here is 0 (walker.c) */
+} walk_state;
+
 struct pdla_engine {
     /* Read by every walker step; written once (or, r_ext and stop, rarely).
      * The groups below are kept a cache line apart (PDLA_CACHE_PAD) so that
@@ -169,6 +181,18 @@ struct pdla_engine {
     walker_ctx *workers;       /* per-thread walkers of the last parallel phase */
     int nworkers;
     char binding[256];
+    /* A serial walk stopped between two slices (grow.c serial_walk): the
+     * stream stands at the walk's start meanwhile (a checkpoint then redoes
+     * the walk), and the next grow continues it where it was. */
+    int walk_paused;
+    walk_state paused_ws;
+    pdla_rng paused_rng; /* the stream where the walk stood */
+    pdla_rng paused_r0;  /* the stream the walk began with */
+    /* Tests only (tests/unit/test_midwalk.c), 0 otherwise: steps per slice
+     * of a serial walk instead of grow.c's, and progress at every slice
+     * instead of every SERIAL_POLL_SECONDS, so that stops fall inside walks. */
+    uint32_t test_slice_steps;
+    int test_poll_every_slice;
     uint64_t ckpt_generation;  /* checkpoints written (or loaded) so far */
     double ckpt_write_seconds; /* time of the last checkpoint write */
 };
@@ -185,20 +209,17 @@ enum {
  * threads at once). */
 int walker_run(const pdla_engine *e, walker_ctx *w, int64_t *stuck_at);
 
-/* A walker in flight, for walking several in turn in one thread (the
- * race-free reference of PDLA, reference.c). */
-typedef struct walk_state {
-    int64_t p[3];
-    uint64_t jumps;           /* since launch (for max_jumps) */
-    uint64_t launched_at;     /* particle count at launch (the lag's origin) */
-    uint64_t step_seen;       /* workers: the count read by the last step */
-    int64_t r_ext_units;      /* the R_ext the radii below were drawn from */
-    double r_ext, Rb, Rout2, Rdeath;
-    int near;                 /* 2D, one thread: the map's bound here is 0 (walker.c) */
-} walk_state;
 
 /* Launch a walker on the birth circle (sphere). */
 void walker_begin(const pdla_engine *e, walker_ctx *w, walk_state *s);
+
+/* The serial walk in slices: at most `steps` steps (launching it first
+ * unless resume), then WALK_MOVED if it still walks (call again with resume
+ * = 1 and the same s), else WALK_CONTACT / WALK_OVERLAP with the spot in
+ * stuck_at. The same draws as walker_run (grow.c polls between slices, so a
+ * walk that never ends cannot hold off a signal). */
+int walker_run_slice(const pdla_engine *e, walker_ctx *w, walk_state *s, int resume, uint64_t steps,
+                     int64_t *stuck_at);
 
 /* One step (a jump, a return, a restart): WALK_MOVED, or WALK_CONTACT /
  * WALK_OVERLAP with the spot in stuck_at. One thread only: each step sees

@@ -446,6 +446,26 @@ int walker_run(const pdla_engine *e, walker_ctx *w, int64_t *stuck_at)
     return e->params.dim == 2 ? walk_dim(e, w, stuck_at, 2, 0) : walk_dim(e, w, stuck_at, 3, 0);
 }
 
+static inline __attribute__((always_inline)) int walk_slice_dim(const pdla_engine *e, walker_ctx *w,
+                                                                walk_state *s, int resume, uint64_t steps,
+                                                                int64_t *stuck_at, const int dim)
+{
+    const walk_consts kc = walk_consts_of(&e->params);
+    if (!resume) walk_begin_dim(e, w, s, dim);
+    for (uint64_t k = 0; k < steps; k++) {
+        const int r = walk_step_dim(e, w, s, stuck_at, kc, dim, 0);
+        if (r != WALK_MOVED) return r;
+    }
+    return WALK_MOVED;
+}
+
+int walker_run_slice(const pdla_engine *e, walker_ctx *w, walk_state *s, int resume, uint64_t steps,
+                     int64_t *stuck_at)
+{
+    return e->params.dim == 2 ? walk_slice_dim(e, w, s, resume, steps, stuck_at, 2)
+                              : walk_slice_dim(e, w, s, resume, steps, stuck_at, 3);
+}
+
 void walker_begin(const pdla_engine *e, walker_ctx *w, walk_state *s)
 {
     if (e->params.dim == 2)

@@ -72,6 +72,7 @@ grep -q '"threads": 0,' "$tmp/work/c.json" || fail "threads 1: workers ran"
 
 # The worked examples, shrunk to 500 particles (threads: serial to 200).
 for s in "$SCENES"/*.scene; do
+    rm -f "$tmp/work/ex.json" # one per example (--stats-json replaces a file only with --force)
     run --scene "$s" --target 500 --serial-until 200 --no-output -q --stats-json ex.json
     [ "$rc" -eq 0 ] || fail "example $s: status $rc: $(cat "$tmp/err")"
     grep -q '"particles": 500,' "$tmp/work/ex.json" || fail "example $s: not 500 particles"

@@ -1,0 +1,148 @@
+#!/usr/bin/env python3
+"""dla_adversary.py PDLA WORKDIR - what an adversarial test of the DLA
+command line found (session 23), each case as it was found:
+
+- SIGTERM held off for ever while a serial walk did not end (progress, and
+  with it the stop flag, the STOP file and timed checkpoints, was looked at
+  only every 1000 particles): --max-jumps 1 (no walk ever ends) and a 3D
+  birth sphere 1e6 diameters out;
+- a stop or a timed checkpoint in the middle of a walk must not change the
+  cluster: the checkpoint holds the stream the walk began with, and a
+  resume redoes the walk;
+- --stats-json opened with "w" at the start: any file of that name (a
+  checkpoint included) emptied without --force, and left empty by a kill;
+- analyze --json and --stats-json passing invalid UTF-8 through; analyze
+  --csv with a newline in the directory name printing two lines.
+"""
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import h5py
+import numpy as np
+
+PDLA = os.path.abspath(sys.argv[1])
+WORK = os.path.abspath(sys.argv[2])
+shutil.rmtree(WORK, ignore_errors=True)
+os.makedirs(WORK)
+fails = 0
+
+
+def check(cond, msg):
+    global fails
+    if not cond:
+        print("FAIL: " + msg)
+        fails += 1
+
+
+def run(args, timeout=120):
+    p = subprocess.run([PDLA] + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=timeout, cwd=WORK)
+    err = p.stderr.decode("utf-8", "replace").rstrip("\n")
+    return p.returncode, p.stdout, err.split("\n") if err else []
+
+
+def stopped(args, after, limit=10):
+    """Start pdla, SIGTERM it after `after` s: (exit status, seconds from the
+    signal to the exit), or (None, limit) when it did not end within limit."""
+    p = subprocess.Popen([PDLA] + args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, cwd=WORK)
+    time.sleep(after)
+    p.send_signal(signal.SIGTERM)
+    t = time.time()
+    try:
+        p.wait(timeout=limit)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        p.wait()
+        return None, limit
+    return p.returncode, time.time() - t
+
+
+def positions(d):
+    with h5py.File(os.path.join(WORK, d, "cluster.h5"), "r") as f:
+        return f["/cluster/positions"][()]
+
+
+# ---- a signal while a serial walk does not end ----------------------------------
+rc, dt = stopped(["--target", "1500", "--max-jumps", "1", "--out", "mj", "--no-progress"], 1.0)
+check(rc == 128 + signal.SIGTERM or rc == -signal.SIGTERM,
+      "--max-jumps 1: SIGTERM gave %s after %.1f s (want the signal's status within a second)" % (rc, dt))
+check(dt < 5 and os.path.exists(os.path.join(WORK, "mj", "cluster.h5")),
+      "--max-jumps 1: %.1f s to stop, partial cluster %s" % (dt, os.path.exists(os.path.join(WORK, "mj"))))
+# 3D, birth sphere 1e6 diameters out: a walk lasts about 0.4 s (this VM)
+far = ["--dim", "3", "--target", "8", "--birth-margin", "1e6"]
+rc, _, err = run(far + ["--out", "straight", "-q"])
+check(rc == 0, "3D margin 1e6 straight: %s %s" % (rc, err))
+rc, dt = stopped(far + ["--out", "sig", "--checkpoint", "-q"], 1.1)
+check(rc == 0 and dt < 5, "3D margin 1e6 with --checkpoint: SIGTERM gave %s after %.1f s" % (rc, dt))
+rc, _, err = run(["--resume", "sig", "-q"])
+check(rc == 0 and np.array_equal(positions("sig"), positions("straight")),
+      "3D margin 1e6: stopped mid-walk and resumed, not the straight run's cluster (%s %s)" % (rc, err))
+# timed checkpoints inside walks: the run goes on as if none was written
+rc, _, err = run(far + ["--out", "timed", "--checkpoint-every", "0.3", "-q"])
+check(rc == 0 and np.array_equal(positions("timed"), positions("straight")),
+      "3D margin 1e6 with checkpoints every 0.3 s: not the straight run's cluster (%s %s)" % (rc, err))
+# killed after a timed checkpoint: the resume redoes the walk
+p = subprocess.Popen([PDLA] + far + ["--out", "k9", "--checkpoint-every", "0.3", "-q"], cwd=WORK)
+time.sleep(1.2)
+p.kill()
+p.wait()
+if os.path.exists(os.path.join(WORK, "k9", "checkpoint.h5")):
+    rc, _, err = run(["--resume", "k9", "-q"])
+    check(rc == 0 and np.array_equal(positions("k9"), positions("straight")),
+          "3D margin 1e6: killed after a timed checkpoint and resumed, not the straight cluster (%s %s)" % (rc, err))
+else:
+    print("note: no checkpoint within 1.2 s (slow machine); the kill case is not checked")
+
+# ---- --stats-json -------------------------------------------------------------------
+with open(os.path.join(WORK, "keep.txt"), "w") as f:
+    f.write("precious\n")
+rc, _, err = run(["--target", "100", "--out", "s1", "--stats-json", "keep.txt", "-q"])
+check(rc == 2 and len(err) == 1 and "exists" in err[0] and open(os.path.join(WORK, "keep.txt")).read() == "precious\n"
+      and not os.path.exists(os.path.join(WORK, "s1")),
+      "--stats-json over an existing file without --force: %s %s" % (rc, err))
+rc, _, err = run(["--target", "100", "--out", "s1", "--stats-json", "keep.txt", "-q", "--force"])
+with open(os.path.join(WORK, "keep.txt")) as f:
+    ok = rc == 0 and json.load(f).get("particles", None) is not None
+check(ok, "--stats-json --force: %s %s" % (rc, err))
+rc, _, err = run(["--target", "1000", "--out", "r", "--checkpoint", "--stats-json", "r.json", "-q"])
+check(rc == 0, "checkpointed run: %s %s" % (rc, err))
+ck = os.path.join(WORK, "r", "checkpoint.h5")
+before = open(ck, "rb").read()
+rc, _, err = run(["--resume", "r", "--target", "2000", "--stats-json", "r/checkpoint.h5", "-q"])
+check(rc == 2 and len(err) == 1 and open(ck, "rb").read() == before,
+      "--stats-json naming the checkpoint on --resume: %s %s" % (rc, err))
+rc, _, err = run(["--resume", "r", "--target", "2000", "--stats-json", "r.json", "-q"])
+with open(os.path.join(WORK, "r.json")) as f:
+    doc = json.load(f)
+check(rc == 0 and doc.get("particles") == 2000, "--resume replacing its own --stats-json: %s %s" % (rc, err))
+
+# ---- JSON whatever the names hold; one line whatever the names hold ------------------
+odd = os.path.join(WORK.encode(), b"o\xff")
+p = subprocess.run([PDLA, "--target", "50", "--out", odd, "-q", "--stats-json", os.path.join(WORK.encode(), b"sj.json")],
+                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=60)
+try:
+    with open(os.path.join(WORK, "sj.json"), encoding="utf-8") as f:
+        ok = p.returncode == 0 and "\ufffd" in json.dumps(json.load(f), ensure_ascii=False)
+except (UnicodeDecodeError, ValueError, OSError) as e:
+    ok = False
+    print("  --stats-json: %s" % e)
+check(ok, "--stats-json with a non-UTF-8 run directory: not valid JSON with U+FFFD")
+q = subprocess.run([PDLA, "analyze", "--json", os.path.join(odd, b"cluster.h5")], stdout=subprocess.PIPE,
+                   stderr=subprocess.PIPE, timeout=60)
+try:
+    ok = q.returncode == 0 and "\ufffd" in json.loads(q.stdout.decode("utf-8"))["file"]
+except (UnicodeDecodeError, ValueError, KeyError) as e:
+    ok = False
+    print("  analyze --json: %s" % e)
+check(ok, "analyze --json of a file in a non-UTF-8 directory: not valid JSON with U+FFFD")
+rc, _, err = run(["analyze", os.path.join(odd.decode("utf-8", "surrogateescape"), "cluster.h5"), "--csv",
+                  "no\nsuch/sub"])
+check(rc == 2 and len(err) == 1 and "no?such" in err[0], "analyze --csv with a newline: %s %s" % (rc, err))
+
+shutil.rmtree(WORK, ignore_errors=True)
+print("%d failures" % fails)
+sys.exit(1 if fails else 0)

@@ -24,6 +24,13 @@ int pdla_ens_config_check(const pdla_ens_config *c, char *err, size_t errlen)
                            (unsigned long long)c->params.seed, (unsigned long long)(c->clusters - 1));
     if (c->keep_positions != 0 && c->keep_positions != 1)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "keep_positions must be 0 or 1, got %d", c->keep_positions);
+    /* ensemble.h5 holds every cluster's R_g(N): with no samples its
+     * rg_diam had no columns, HDF5 refused the chunking, and every run and
+     * resume failed at the write after growing everything (found by an
+     * adversarial test) */
+    if (c->params.rg_per_decade < 1)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "an ensemble records R_g(N): rg samples per decade must be at "
+                                                     "least 1, got %d", c->params.rg_per_decade);
     if (c->params.threads != 1 || c->params.bind != PDLA_BIND_NONE)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "each cluster of an ensemble grows serially: threads must be 1 "
                                                      "and bind none in its parameters");

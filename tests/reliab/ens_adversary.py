@@ -558,6 +558,14 @@ try:
 except ValueError as e:
     check(False, "analyze --json of %r is not JSON: %s" % (odd, e))
 
+# ---- --rg-per-decade 0: no R_g series to write (session 23) -------------------------------
+# accepted before, every cluster grown, then ensemble.h5 failed to write
+# (a zero-width chunk) on every run and resume: now refused at the start
+section("--rg-per-decade 0")
+rc, err = pdla("ensemble", "--clusters", "2", "--target", "100", "--rg-per-decade", "0", "--out", "rg0")
+check(rc == 2 and one_line(err) and "rg samples per decade" in err and not os.path.exists("rg0"),
+      "--rg-per-decade 0: exit %s %r" % (rc, err[:200]))
+
 section("done")
 print("%d failures" % len(failures))
 sys.exit(1 if failures else 0)

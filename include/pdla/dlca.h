@@ -94,6 +94,9 @@ PDLA_API void dlca_params_default(dlca_params *p);
 /* 0, or PDLA_EINVAL naming the first bad field. Also refuses a lattice and
  * monomers that would not fit in half the machine's memory. */
 PDLA_API int dlca_params_validate(const dlca_params *p, char *err, size_t errlen);
+/* The same for a run whose monomers come from a --start file: --fill and
+ * --count are not checked (the file's count is, when it is read). */
+PDLA_API int dlca_params_validate_start(const dlca_params *p, char *err, size_t errlen);
 /* N for these parameters (count, or round(fill V)). */
 PDLA_API uint64_t dlca_params_monomers(const dlca_params *p);
 

@@ -537,7 +537,11 @@ static int read_command(int argc, char **argv, dlca_cli *c, scene *sc)
         snprintf(err, sizeof err, "checkpoints need a run directory: --no-output excludes them");
         prc = -1;
     }
-    if (prc || (!c->resume && dlca_params_validate(&c->p, err, sizeof err))) {
+    /* With --start the file gives the monomers: --fill and --count are not
+     * used, and a box under 50 sites was refused for the default fill's 0
+     * monomers (the file's own count is checked when it is read). */
+    if (prc || (!c->resume && (c->start ? dlca_params_validate_start(&c->p, err, sizeof err)
+                                           : dlca_params_validate(&c->p, err, sizeof err)))) {
         fprintf(stderr, "pdla: %s\n", err);
         return EXIT_USAGE;
     }
@@ -615,7 +619,18 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
         *s = NULL;
         return EXIT_USAGE; /* the snapshots are freed at the end, as after a failed read */
     }
-    if (!(c->snapshot_every > 0)) c->snapshot_every = every;
+    if (!(c->snapshot_every > 0)) {
+        c->snapshot_every = every;
+    } else if (c->snapshot_every != every) {
+        /* the period is the checkpoint's, as every option but the stops:
+         * a new one was taken without a word, and /snapshots said `every`
+         * of snapshots taken at the old one */
+        fprintf(stderr, "pdla: cannot resume with a different --snapshot-every: %.17g in the checkpoint, %.17g asked\n",
+                every, c->snapshot_every);
+        dlca_destroy(*s);
+        *s = NULL;
+        return EXIT_USAGE;
+    }
     /* The stops not given stay the checkpoint's: a resumed run ends where
      * the interrupted one would have. */
     pdla_param_apply_resumable(t, n, c->given, &p, &c->p);

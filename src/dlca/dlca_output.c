@@ -448,8 +448,12 @@ int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot 
     if (h5u_silence(&q)) return pdla_errorf(PDLA_EIO, err, errlen, "cannot read %s: cannot silence HDF5", path);
     const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
     int rc = f < 0 ? -1 : 0;
-    const hid_t g = f >= 0 && H5Lexists(f, "snapshots", H5P_DEFAULT) > 0 ? H5Gopen2(f, "snapshots", H5P_DEFAULT)
-                                                                          : H5I_INVALID_HID;
+    /* A link that exists but does not open as a group (or an H5Lexists
+     * error) is damage: it was read as "no snapshots", and the resumed run
+     * wrote none, old or new (found by an adversarial test, one bit). */
+    const htri_t has = f >= 0 ? H5Lexists(f, "snapshots", H5P_DEFAULT) : 0;
+    const hid_t g = has > 0 ? H5Gopen2(f, "snapshots", H5P_DEFAULT) : H5I_INVALID_HID;
+    if (has < 0 || (has > 0 && g < 0)) rc = -1;
     uint64_t count = 0;
     if (g >= 0) {
         /* count may not exceed the group's members: a forged count must not size the array */

@@ -227,7 +227,8 @@ uint64_t dlca_params_monomers(const dlca_params *p)
     return (uint64_t)floor(p->fill * V + 0.5);
 }
 
-int dlca_params_validate(const dlca_params *p, char *err, size_t errlen)
+/* monomers: check N from --fill/--count (0: a --start file gives them) */
+static int validate(const dlca_params *p, int monomers, char *err, size_t errlen)
 {
     const pdla_param_desc *bad = NULL;
     char why[256];
@@ -239,13 +240,14 @@ int dlca_params_validate(const dlca_params *p, char *err, size_t errlen)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "--box has %.3g sites (at most 2^31 - 1)", V);
     /* The bit lattice (1 bit a site) and about 32 bytes a monomer at the
      * mid-run peak (runs/dlca/memory.txt): refuse what cannot fit in memory. */
-    const uint64_t N = dlca_params_monomers(p);
+    const uint64_t N = monomers ? dlca_params_monomers(p) : 0;
     const long pages = sysconf(_SC_PHYS_PAGES), psz = sysconf(_SC_PAGESIZE);
     const double need = V / 8 + 32.0 * (double)N;
     if (pages > 0 && psz > 0 && need > 0.5 * (double)pages * (double)psz)
         return pdla_errorf(PDLA_EINVAL, err, errlen,
                            "--box and --fill need about %.3g GiB (lattice and monomers), more than half of this "
                            "machine's memory", need / 1073741824.0);
+    if (!monomers) return 0;
     if (N < 1 || (double)N >= V)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "the box of %.0f sites cannot hold %llu monomers (need 1 <= N < V)",
                            V, (unsigned long long)N);
@@ -253,6 +255,13 @@ int dlca_params_validate(const dlca_params *p, char *err, size_t errlen)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "--until-clusters %llu is more than the %llu monomers",
                            (unsigned long long)p->until_clusters, (unsigned long long)N);
     return 0;
+}
+
+int dlca_params_validate(const dlca_params *p, char *err, size_t errlen) { return validate(p, 1, err, errlen); }
+
+int dlca_params_validate_start(const dlca_params *p, char *err, size_t errlen)
+{
+    return validate(p, 0, err, errlen);
 }
 
 _Static_assert(DLCA_MAX_DIM == PDLA_PARAM_BOX_MAX, "the box row holds DLCA_MAX_DIM lengths");

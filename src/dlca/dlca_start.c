@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "dlca_h5.h"
 #include "pdla/dlca.h"
@@ -205,6 +206,13 @@ int dlca_read_start(const char *path, const dlca_params *p, uint32_t **sites, ui
 {
     *sites = NULL;
     *n = 0;
+    /* Regular files only: opening a FIFO blocked for ever, and a directory
+     * read as "read error", exit 1 (found by an adversarial test). */
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "cannot read start file %s: %s", path, strerror(errno));
+    if (!S_ISREG(st.st_mode))
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "start file %s is not a regular file", path);
     FILE *f = fopen(path, "rb");
     if (!f) return pdla_errorf(PDLA_EINVAL, err, errlen, "cannot read start file %s: %s", path, strerror(errno));
     unsigned char magic[8] = {0};

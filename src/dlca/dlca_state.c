@@ -3,10 +3,12 @@
  * consistency check (dlca_check) and checkpoints (write, load). Split from
  * dlca.c, which holds the dynamics; both see the state through dlca_sim.h.
  */
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "dlca_h5.h"
 #include "dlca_internal.h"
@@ -564,8 +566,12 @@ int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, size_t err
     dlca_sim *s = NULL;
     char why[256] = "";
     int rc = PDLA_EIO;
-    const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
-    if (f < 0) snprintf(why, sizeof why, "cannot open it as HDF5");
+    /* a regular file only: H5Fopen of a FIFO blocked for ever */
+    struct stat st;
+    const int reg = stat(path, &st) == 0 && S_ISREG(st.st_mode);
+    const hid_t f = reg ? H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT) : H5I_INVALID_HID;
+    if (!reg) snprintf(why, sizeof why, "%s", errno == ENOENT ? "no such file" : "not a regular file");
+    else if (f < 0) snprintf(why, sizeof why, "cannot open it as HDF5");
     else if ((rc = load_state(&s, f, why, sizeof why)) == 0) {
         char cerr[160];
         if (dlca_check(s, cerr, sizeof cerr)) {

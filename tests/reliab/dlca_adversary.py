@@ -1,0 +1,100 @@
+#!/usr/bin/env python3
+"""dlca_adversary.py PDLA WORKDIR - what an adversarial test of the DLCA
+model found (session 23), each case as it was found:
+
+- a checkpoint whose /snapshots link exists but is not a group (one flipped
+  bit did it) resumed with exit 0 and wrote no snapshots, old or new;
+- --resume --snapshot-every T2 took the new period without a word
+  (/snapshots then said `every` T2 of snapshots taken at T);
+- --start FILE refused on a box under 50 sites for the default --fill's 0
+  monomers, which a start file does not use;
+- --start given a FIFO (and a checkpoint.h5 that is a FIFO) blocked for
+  ever; a directory as --start was "read error", exit 1.
+Each refusal: one line, exit 2, within TIME_LIMIT.
+"""
+import os
+import shutil
+import subprocess
+import sys
+
+import h5py
+
+PDLA = os.path.abspath(sys.argv[1])
+WORK = os.path.abspath(sys.argv[2])
+TIME_LIMIT = 30
+shutil.rmtree(WORK, ignore_errors=True)
+os.makedirs(WORK)
+fails = 0
+
+
+def check(cond, msg):
+    global fails
+    if not cond:
+        print("FAIL: " + msg)
+        fails += 1
+
+
+def run(args):
+    try:
+        p = subprocess.run([PDLA] + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=TIME_LIMIT,
+                           cwd=WORK)
+    except subprocess.TimeoutExpired:
+        return None, []
+    err = p.stderr.decode("utf-8", "replace").rstrip("\n")
+    return p.returncode, err.split("\n") if err else []
+
+
+def refused(tag, args, want):
+    rc, err = run(args)
+    check(rc == 2 and len(err) == 1 and want in err[0], "%s: want one line with '%s', exit 2; got %s %s"
+          % (tag, want, rc, err))
+
+
+DL = ["--model", "dlca", "-q"]
+base = DL + ["--box", "128x128", "--fill", "0.03", "--seed", "2", "--snapshot-every", "50"]
+rc, err = run(base + ["--max-attempts", "20000", "--checkpoint", "--out", "snp"])
+check(rc == 0, "checkpointed run with snapshots: %s %s" % (rc, err))
+
+# a different period on resume
+refused("--snapshot-every changed on resume", DL + ["--resume", "snp", "--snapshot-every", "7", "--max-attempts",
+                                                    "40000"], "different --snapshot-every")
+
+# /snapshots replaced by a dataset: damage, not "no snapshots"
+shutil.copytree(os.path.join(WORK, "snp"), os.path.join(WORK, "snp2"))
+with h5py.File(os.path.join(WORK, "snp2", "checkpoint.h5"), "r+") as f:
+    nsnap = int(f["snapshots"].attrs["count"])
+    del f["snapshots"]
+    f.create_dataset("snapshots", data=[1, 2, 3])
+check(nsnap > 0, "the checkpoint held no snapshots to lose")
+rc, err = run(DL + ["--resume", "snp2", "--max-attempts", "40000"])
+check(rc != 0 and rc is not None and len(err) == 1 and "snapshots" in err[0],
+      "/snapshots not a group: want one line naming the snapshots, got %s %s" % (rc, err))
+# the untouched copy resumes, keeping its snapshots and taking more
+rc, err = run(DL + ["--resume", "snp", "--max-attempts", "40000"])
+with h5py.File(os.path.join(WORK, "snp", "cluster.h5"), "r") as f:
+    got = int(f["snapshots"].attrs["count"]) if "snapshots" in f else 0
+check(rc == 0 and got > nsnap, "resumed run: %s %s, %d snapshots (checkpoint %d)" % (rc, err, got, nsnap))
+
+# --start on a small box, no --fill
+with open(os.path.join(WORK, "start2.txt"), "w") as f:
+    f.write("0 0\n2 2\n")
+rc, err = run(DL + ["--box", "4x4", "--start", "start2.txt", "--no-output"])
+check(rc == 0, "--start on a 4x4 box without --fill: %s %s" % (rc, err))
+refused("--start, --until-clusters above the file's count", DL + ["--box", "4x4", "--start", "start2.txt",
+                                                                  "--until-clusters", "5", "--no-output"],
+        "more than the 2 monomers")
+
+# FIFOs and a directory
+fifo = os.path.join(WORK, "fifo")
+os.mkfifo(fifo)
+refused("--start FIFO", DL + ["--box", "16x16", "--start", fifo, "--no-output"], "not a regular file")
+refused("--start directory", DL + ["--box", "16x16", "--start", WORK, "--no-output"], "not a regular file")
+os.makedirs(os.path.join(WORK, "ff"))
+shutil.copy(os.path.join(WORK, "snp", "checkpoint.h5"), os.path.join(WORK, "ff", "keep.h5"))
+os.mkfifo(os.path.join(WORK, "ff", "checkpoint.h5"))
+rc, err = run(DL + ["--resume", os.path.join(WORK, "ff", "checkpoint.h5")])
+check(rc is not None and rc != 0 and len(err) == 1, "--resume of a FIFO checkpoint: %s %s" % (rc, err))
+
+shutil.rmtree(WORK, ignore_errors=True)
+print("%d failures" % fails)
+sys.exit(1 if fails else 0)

@@ -92,6 +92,17 @@ int pdla_engine_create(pdla_engine **out, const pdla_params *p, char *err, size_
     return PDLA_OK;
 }
 
+void engine_reference_free(pdla_engine *e)
+{
+    reference_state *r = e->ref;
+    if (!r) return;
+    free(r->ws);
+    free(r->st);
+    free(r->active);
+    free(r);
+    e->ref = NULL;
+}
+
 void pdla_engine_destroy(pdla_engine *e)
 {
     if (!e) return;
@@ -104,6 +115,7 @@ void pdla_engine_destroy(pdla_engine *e)
     free(e->rg_n);
     free(e->rg_diam);
     free(e->arrival);
+    engine_reference_free(e);
     free(e);
 }
 

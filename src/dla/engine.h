@@ -134,6 +134,21 @@ typedef struct walk_state {
     int near;                 /* 2D, one thread: the map's bound here is 0 (walker.c) */
 } walk_state;
 
+/* Reference walkers in flight (reference.c), kept in the engine across a
+ * stop: walkers 1 .. n - 1 (walker 0 is the engine's), their walks, and
+ * the stream walker n - 1 began with (the serial stream resumes past it). */
+typedef struct reference_state {
+    int n;
+    walker_ctx *ws;
+    walk_state *st;
+    unsigned char *active;
+    int next;              /* whose turn comes next (round robin) */
+    pdla_rng stream;
+} reference_state;
+
+/* Drop the reference walkers kept in flight (e->ref may be NULL). */
+void engine_reference_free(pdla_engine *e);
+
 struct pdla_engine {
     /* Read by every walker step; written once (or, r_ext and stop, rarely).
      * The groups below are kept a cache line apart (PDLA_CACHE_PAD) so that
@@ -184,6 +199,7 @@ struct pdla_engine {
     /* A serial walk stopped between two slices (grow.c serial_walk): the
      * stream stands at the walk's start meanwhile (a checkpoint then redoes
      * the walk), and the next grow continues it where it was. */
+    reference_state *ref;      /* reference walkers in flight across a stop (reference.c) */
     int walk_paused;
     walk_state paused_ws;
     pdla_rng paused_rng; /* the stream where the walk stood */

@@ -50,28 +50,60 @@ static int reference_insert(pdla_engine *e, walker_ctx *w, int64_t *p, int statu
     return rc;
 }
 
+/* The walkers in flight, kept in the engine across a stop (a checkpoint
+ * pauses growth by stopping it): they were dropped there and new ones
+ * launched from new streams, so a run with periodic checkpoints grew
+ * another cluster than one without, and timed ones made it differ from
+ * run to run (found by an adversarial test). A resume from the checkpoint
+ * file still starts new walkers (the file holds no walkers in flight).
+ * The state itself: engine.h, reference_state. */
+static reference_state *reference_make(pdla_engine *e)
+{
+    const int n = e->params.reference_walkers;
+    reference_state *r = calloc(1, sizeof *r);
+    if (!r) return NULL;
+    r->n = n;
+    r->ws = n > 1 ? calloc((size_t)n - 1, sizeof *r->ws) : NULL;
+    r->st = calloc((size_t)n, sizeof *r->st);
+    r->active = calloc((size_t)n, 1);
+    if ((n > 1 && !r->ws) || !r->st || !r->active) {
+        e->ref = r;
+        engine_reference_free(e);
+        return NULL;
+    }
+    r->stream = e->walker.rng;
+    for (int i = 1; i < n; i++) {
+        rng_jump(&r->stream);
+        r->ws[i - 1].rng = r->stream;
+        search_state_reset(&r->ws[i - 1].ss);
+    }
+    return r;
+}
+
+/* Steps between two looks at the clock, and the seconds between two calls
+ * of progress when no particle is added (a signal must not wait for one). */
+#define REF_POLL_STEPS 4096
+#define REF_POLL_SECONDS 0.25
+
 int reference_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, uint64_t every,
                    void *user, char *err, size_t errlen)
 {
-    const int n = e->params.reference_walkers;
-    walker_ctx *ws = n > 1 ? calloc((size_t)n - 1, sizeof *ws) : NULL;
-    walk_state *st = calloc((size_t)n, sizeof *st);
-    unsigned char *active = calloc((size_t)n, 1);
-    if ((n > 1 && !ws) || !st || !active) {
-        free(ws);
-        free(st);
-        free(active);
-        return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for %d reference walkers", n);
-    }
-    pdla_rng stream = e->walker.rng;
-    for (int i = 1; i < n; i++) {
-        rng_jump(&stream);
-        ws[i - 1].rng = stream;
-        search_state_reset(&ws[i - 1].ss);
-    }
+    if (e->ref && e->ref->n != e->params.reference_walkers) engine_reference_free(e);
+    if (!e->ref && !(e->ref = reference_make(e)))
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for %d reference walkers",
+                           e->params.reference_walkers);
+    reference_state *const r = e->ref;
+    const int n = r->n;
+    walker_ctx *const ws = r->ws;
+    walk_state *const st = r->st;
+    unsigned char *const active = r->active;
     int rc = PDLA_OK;
-    while (rc == PDLA_OK && tree_count(&e->tree) < n_until) {
-        for (int i = 0; i < n && rc == PDLA_OK && tree_count(&e->tree) < n_until; i++) {
+    double polled = pdla_clock_seconds();
+    uint64_t steps = 0;
+    /* round robin from the walker whose turn it was when a stop came */
+    for (int i = r->next; rc == PDLA_OK && tree_count(&e->tree) < n_until; i = i + 1 < n ? i + 1 : 0) {
+        r->next = i + 1 < n ? i + 1 : 0;
+        {
             walker_ctx *w = i == 0 ? &e->walker : &ws[i - 1];
             /* Launched when its turn comes: P = 1 then draws exactly as the
              * serial loop does, and no walker is launched past the target. */
@@ -81,7 +113,15 @@ int reference_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, 
             }
             int64_t p[3];
             const int status = walker_step(e, w, &st[i], p);
-            if (status == WALK_MOVED) continue;
+            if (status == WALK_MOVED) {
+                if (progress && ++steps % REF_POLL_STEPS == 0 && pdla_clock_seconds() - polled >= REF_POLL_SECONDS) {
+                    polled = pdla_clock_seconds();
+                    if (progress(e, user))
+                        rc = pdla_errorf(PDLA_ESTOPPED, err, errlen, "stopped at %llu particles",
+                                         (unsigned long long)tree_count(&e->tree));
+                }
+                continue;
+            }
             active[i] = 0;
             const uint64_t before = tree_count(&e->tree);
             rc = reference_insert(e, w, p, status, err, errlen);
@@ -92,18 +132,18 @@ int reference_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, 
             }
         }
     }
-    /* Counters stay cumulative in the serial walker's; walkers still in
-     * flight are dropped, as workers' are. */
+    /* Stopped: the walkers stay in flight for the next call. */
+    if (rc == PDLA_ESTOPPED) return rc;
+    /* Counters stay cumulative in the serial walker's. */
     for (int i = 1; i < n; i++) walker_ctx_add_counts(&e->walker, &ws[i - 1]);
     /* The serial stream resumes past every walker's (as after workers):
      * 2^128 n draws after where walker 0 began, not at walker n - 1's start
      * (the next phase's walker 0 would draw that walker's numbers again). */
     if (n > 1) {
+        pdla_rng stream = r->stream;
         rng_jump(&stream);
         e->walker.rng = stream;
     }
-    free(ws);
-    free(st);
-    free(active);
+    engine_reference_free(e);
     return rc;
 }

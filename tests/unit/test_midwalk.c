@@ -8,7 +8,8 @@
  *    the cluster equals a straight run's, bit for bit;
  *  - a checkpoint written while a walk is stopped (it holds the stream the
  *    walk began with), loaded into a new engine and grown on, equals it too.
- * 2D and 3D. Mutations this catches: the stream not rewound for the call
+ * The same for reference walkers stopped every 37 particles (they were
+ * dropped at a stop). 2D and 3D. Mutations this catches: the stream not rewound for the call
  * (the checkpoint case), the walk not continued after a stop (the first).
  */
 #include <stdint.h>
@@ -132,6 +133,33 @@ static void midwalk_case(int dim, const char *dir)
     free(straight.x);
 }
 
+/* Reference walkers (--reference-walkers): a stop (a checkpoint pauses
+ * growth by stopping it) dropped the walkers in flight and launched new
+ * ones from new streams, so periodic checkpoints changed the cluster. */
+static void reference_case(int dim)
+{
+    pdla_params P = params_of(dim);
+    P.reference_walkers = 3;
+    P.serial_until = 500;
+    char err[512];
+    pdla_engine *e = NULL;
+    CHECK(pdla_engine_create(&e, &P, err, sizeof err) == PDLA_OK, "create: %s", err);
+    CHECK(pdla_engine_grow(e, P.target, NULL, 0, NULL, err, sizeof err) == PDLA_OK, "straight: %s", err);
+    pts straight = positions(e);
+    pdla_engine_destroy(e);
+    CHECK(pdla_engine_create(&e, &P, err, sizeof err) == PDLA_OK, "create: %s", err);
+    probe pr = {0, 1, 0, 0, e}; /* stop at every call: every 37 particles */
+    int rc, stops = 0;
+    while ((rc = pdla_engine_grow(e, P.target, on_progress, 37, &pr, err, sizeof err)) == PDLA_ESTOPPED) stops++;
+    pts paused = positions(e);
+    CHECK(rc == PDLA_OK && stops > 30, "%dD reference: rc %d, %d stops", dim, rc, stops);
+    CHECK(same(&paused, &straight), "%dD reference walkers stopped %d times: not the straight run's cluster", dim,
+          stops);
+    pdla_engine_destroy(e);
+    free(paused.x);
+    free(straight.x);
+}
+
 int main(void)
 {
     char tmpl[] = "/tmp/pdla-midwalk-XXXXXX";
@@ -143,6 +171,7 @@ int main(void)
         char cmd[700];
         snprintf(cmd, sizeof cmd, "rm -f %s/checkpoint*.h5", dir);
         CHECK(system(cmd) == 0, "%s", cmd);
+        reference_case(dim);
     }
     rmdir(dir);
     return check_finish();

@@ -160,12 +160,16 @@ int engine_check_range(const pdla_engine *e, const int64_t *p, char *err, size_t
     return PDLA_OK;
 }
 
-/* record_arrival: append p; called where the gyration sums grow, so in the
- * parallel phase under gyration_mu, in the order particles were added. */
-static int record_arrival(pdla_engine *e, const int64_t *p)
+/* record_arrival: p as row `index`, the particle's index in the tree (its
+ * append order); called where the gyration sums grow, so in the parallel
+ * phase under gyration_mu. Not the order of those calls: a worker
+ * descheduled between its append and the sums was overtaken by others, and
+ * a particle was listed up to ~250 rows before the one it stuck to (found
+ * by an adversarial test). */
+static int record_arrival(pdla_engine *e, const int64_t *p, uint64_t index)
 {
     const size_t dim = (size_t)e->params.dim;
-    if (e->gyr.n == e->arrival_cap) {
+    while (index >= e->arrival_cap) {
         const uint64_t cap = e->arrival_cap ? 2 * e->arrival_cap : 4096;
         if (cap > SIZE_MAX / (dim * sizeof *e->arrival)) return PDLA_ENOMEM;
         int32_t *a = realloc(e->arrival, (size_t)cap * dim * sizeof *a);
@@ -173,7 +177,7 @@ static int record_arrival(pdla_engine *e, const int64_t *p)
         e->arrival = a;
         e->arrival_cap = cap;
     }
-    for (size_t a = 0; a < dim; a++) e->arrival[(size_t)e->gyr.n * dim + a] = (int32_t)p[a];
+    for (size_t a = 0; a < dim; a++) e->arrival[(size_t)index * dim + a] = (int32_t)p[a];
     return PDLA_OK;
 }
 
@@ -190,9 +194,14 @@ void engine_raise_r_ext(pdla_engine *e, const int64_t *p)
 
 int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
 {
+    return engine_gyration_add_at(e, p, e->gyr.n, err, errlen);
+}
+
+int engine_gyration_add_at(pdla_engine *e, const int64_t *p, uint64_t index, char *err, size_t errlen)
+{
     const int dim = e->params.dim;
     uint64_t r2 = 0;
-    if (e->params.record_arrival && record_arrival(e, p))
+    if (e->params.record_arrival && record_arrival(e, p, index))
         return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the arrival order at %llu particles",
                     (unsigned long long)e->gyr.n);
     for (int a = 0; a < dim; a++) {

@@ -278,6 +278,9 @@ void engine_raise_r_ext(pdla_engine *e, const int64_t *p);
 /* Add p to the gyration sums, R_ext and the R_g samples (caller holds
  * gyration_mu when workers run). */
 int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errlen);
+/* The same, with --arrival's row for p at `index`, its index in the tree
+ * (workers: the append order, not the order they reach the sums). */
+int engine_gyration_add_at(pdla_engine *e, const int64_t *p, uint64_t index, char *err, size_t errlen);
 
 /* Serial insertion (one thread): tree, map, gyration, R_ext. */
 int engine_add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errlen);

@@ -295,7 +295,7 @@ static int account_insert(worker *k, const int64_t *p, uint64_t count, int retri
         e->hooks->inserted(e->hooks->user, count, p, count - w->launched_at);
     char err[256];
     const uint64_t held = lock_counted(&e->gyration_mu, w, PDLA_MUTEX_GYRATION);
-    const int rc = engine_gyration_add(e, p, err, sizeof err);
+    const int rc = engine_gyration_add_at(e, p, count, err, sizeof err);
     unlock_counted(&e->gyration_mu, w, PDLA_MUTEX_GYRATION, held);
     if (rc) return worker_fail(k, rc, err);
     return INSERTED;

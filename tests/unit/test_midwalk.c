@@ -24,8 +24,10 @@
 typedef struct {
     int32_t (*x)[3];
     size_t n, cap;
+    int dim;
 } pts;
 
+/* xyz: n x dim coordinates */
 static int grab(const int32_t *xyz, size_t n, void *user)
 {
     pts *p = user;
@@ -33,14 +35,15 @@ static int grab(const int32_t *xyz, size_t n, void *user)
         p->cap = (p->n + n) * 2;
         p->x = realloc(p->x, p->cap * sizeof *p->x);
     }
-    for (size_t i = 0; i < n; i++) memcpy(p->x[p->n + i], xyz + 3 * i, sizeof p->x[0]);
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++) p->x[p->n + i][a] = a < p->dim ? xyz[(size_t)p->dim * i + (size_t)a] : 0;
     p->n += n;
     return 0;
 }
 
 static pts positions(const pdla_engine *e)
 {
-    pts p = {NULL, 0, 0};
+    pts p = {NULL, 0, 0, pdla_engine_params(e)->dim};
     pdla_engine_visit(e, grab, &p);
     return p;
 }

@@ -561,6 +561,33 @@ static void catch_signals(void)
     sigaction(SIGTERM, &sa, NULL);
 }
 
+/* The snapshots taken before the checkpoint and its period, which
+ * --snapshot-every given again must equal. 0, or -1 with the line printed. */
+static int resume_snapshots(dlca_cli *c, const dlca_sim *s, const char *ckpath, uint64_t n_monomers)
+{
+    char err[1024];
+    double every = 0;
+    if (dlca_read_snapshots_h5(ckpath, n_monomers, &c->snaps, &c->nsnaps, &every, err, sizeof err)) {
+        fprintf(stderr, "pdla: %s\n", err);
+        return -1;
+    }
+    if (dlca_snapshots_check(s, c->snaps, c->nsnaps, every, err, sizeof err)) {
+        fprintf(stderr, "pdla: cannot resume from %s: %s\n", ckpath, err);
+        return -1;
+    }
+    if (!(c->snapshot_every > 0)) {
+        c->snapshot_every = every;
+    } else if (c->snapshot_every != every) {
+        /* the period is the checkpoint's, as every option but the stops:
+         * a new one was taken without a word, and /snapshots said `every`
+         * of snapshots taken at the old one */
+        fprintf(stderr, "pdla: cannot resume with a different --snapshot-every: %.17g in the checkpoint, %.17g asked\n",
+                every, c->snapshot_every);
+        return -1;
+    }
+    return 0;
+}
+
 /* --resume: load the checkpoint, hold the options given against it (the
  * table's resume rule: only the resumable rows, the stops, may change) and
  * apply the stops given. 0, or the exit status with the line printed. */
@@ -604,32 +631,10 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
         *s = NULL;
         return EXIT_USAGE;
     }
-    /* The snapshots taken before the checkpoint, and its period unless
-     * --snapshot-every is given again. */
-    double every = 0;
-    if (dlca_read_snapshots_h5(ckpath, st.n_monomers, &c->snaps, &c->nsnaps, &every, err, sizeof err)) {
-        fprintf(stderr, "pdla: %s\n", err);
-        dlca_destroy(*s);
-        *s = NULL;
-        return EXIT_USAGE;
-    }
-    if (dlca_snapshots_check(*s, c->snaps, c->nsnaps, every, err, sizeof err)) {
-        fprintf(stderr, "pdla: cannot resume from %s: %s\n", ckpath, err);
+    if (resume_snapshots(c, *s, ckpath, st.n_monomers)) {
         dlca_destroy(*s);
         *s = NULL;
         return EXIT_USAGE; /* the snapshots are freed at the end, as after a failed read */
-    }
-    if (!(c->snapshot_every > 0)) {
-        c->snapshot_every = every;
-    } else if (c->snapshot_every != every) {
-        /* the period is the checkpoint's, as every option but the stops:
-         * a new one was taken without a word, and /snapshots said `every`
-         * of snapshots taken at the old one */
-        fprintf(stderr, "pdla: cannot resume with a different --snapshot-every: %.17g in the checkpoint, %.17g asked\n",
-                every, c->snapshot_every);
-        dlca_destroy(*s);
-        *s = NULL;
-        return EXIT_USAGE;
     }
     /* The stops not given stay the checkpoint's: a resumed run ends where
      * the interrupted one would have. */

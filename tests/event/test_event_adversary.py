@@ -125,7 +125,7 @@ for dim in (2, 3):
     d = out("an%d" % dim)
     n = "3000" if dim == 2 else "8000"
     rc, _, err = run(EV + ["--out", d, "--dim", str(dim), "--particles", n, "--packing", "0.05",
-                           "--seeds", sf, "--max-events", "200000"])
+                           "--seeds", sf, "--max-events", "100000"])
     check(rc == 0, "analyze run %dD: %s %s" % (dim, rc, err))
     if rc != 0:
         continue

@@ -13,8 +13,7 @@ command line found (session 23), each case as it was found:
   checkpoint included) emptied without --force, and left empty by a kill;
 - analyze --json and --stats-json passing invalid UTF-8 through; analyze
   --csv with a newline in the directory name printing two lines;
-- --arrival with workers writing a particle's row before the row of the
-  particle it stuck to.
+- (--arrival with workers: test arrival-order).
 """
 import json
 import os
@@ -145,27 +144,8 @@ rc, _, err = run(["analyze", os.path.join(odd.decode("utf-8", "surrogateescape")
                   "no\nsuch/sub"])
 check(rc == 2 and len(err) == 1 and "no?such" in err[0], "analyze --csv with a newline: %s %s" % (rc, err))
 
-# ---- --arrival with workers: a particle's row after the one it stuck to -------------
-# The row was written where the gyration sums grow, after the bucket mutex was
-# released: a worker descheduled there was overtaken (4 workers on 2 cores:
-# a particle listed up to ~250 rows before its contact). Workers more than
-# cores, as then; checked for every row past the seed.
-for dim, n in ((3, 1500), (2, 3000)):
-    d = "arr%d" % dim
-    rc, _, err = run(["--dim", str(dim), "--target", str(n), "--arrival", "--threads", "4", "--serial-until", "10",
-                      "--out", d, "-q"])
-    check(rc == 0, "%dD --arrival --threads 4: %s %s" % (dim, rc, err))
-    if rc != 0:
-        continue
-    with h5py.File(os.path.join(WORK, d, "cluster.h5"), "r") as f:
-        x = f["/cluster/positions"][()].astype(np.int64)
-        D, eps = int(f["/cluster/positions"].attrs["diameter_units"]), int(f["/parameters"].attrs["eps"])
-    bad = 0
-    for i in range(1, len(x)):
-        d2 = ((x[:i] - x[i]) ** 2).sum(1).min()
-        bad += d2 >= (D + eps) ** 2
-    check(len(x) == n and bad == 0, "%dD --arrival with 4 workers: %d of %d rows have no earlier row within D + eps"
-          % (dim, bad, len(x)))
+# (--arrival with workers: tests/physics/test_arrival_order.c, which makes
+# the overtaking certain with test hooks; a CLI run here only saw it by chance)
 
 shutil.rmtree(WORK, ignore_errors=True)
 print("%d failures" % fails)

@@ -172,6 +172,10 @@ typedef struct pdla_stats {
      * query lay inside the jump's ball, and birth-circle moves redone
      * because R_ext had grown since it was read. */
     uint64_t stale_jumps, stale_births;
+    /* PDLA (workers, this process only): moves held up until a spot another
+     * worker had chosen but not yet appended was appended, then queried
+     * again (the claims of issue 8). */
+    uint64_t claim_waits;
     /* PDLA straggler bound (workers): walkers relaunched from the birth
      * circle because more than 8 x workers particles were appended between
      * two of their steps (or between their last step and their append):

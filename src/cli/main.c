@@ -416,8 +416,9 @@ static void print_concurrency(FILE *f, const report *r)
         fprintf(f, "re-checks        %" PRIu64 " spots taken: %" PRIu64 " continued, %" PRIu64 " discarded\n",
                 s->recheck_overlaps, s->recheck_continued, s->recheck_discarded);
     if (s->threads)
-        fprintf(f, "stale reads      %" PRIu64 " jumps and %" PRIu64 " births queried again\n",
-                s->stale_jumps, s->stale_births);
+        fprintf(f, "stale reads      %" PRIu64 " jumps and %" PRIu64 " births queried again, %" PRIu64
+                   " moves waited for a chosen spot\n",
+                s->stale_jumps, s->stale_births, s->claim_waits);
     if (s->threads)
         fprintf(f, "relaunched       %" PRIu64 " walkers left behind by more than %d x %d particles\n",
                 s->relaunches, PDLA_STRAGGLER_FACTOR, s->threads);
@@ -565,7 +566,7 @@ static void write_json(FILE *f, const report *r, const char *status)
     fprintf(f, ",\n  \"threads\": %d,\n  \"recheck_overlaps\": %" PRIu64
                ",\n  \"recheck_continued\": %" PRIu64 ",\n  \"recheck_discarded\": %" PRIu64
                ",\n  \"stale_jumps\": %" PRIu64 ",\n  \"stale_births\": %" PRIu64
-               ",\n  \"relaunches\": %" PRIu64
+               ",\n  \"claim_waits\": %" PRIu64 ",\n  \"relaunches\": %" PRIu64
                ",\n  \"mutex_taken\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]"
                ",\n  \"mutex_contended\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]"
                ",\n  \"mutex_hold_ns\": [%.0f, %.0f, %.0f]"
@@ -574,7 +575,7 @@ static void write_json(FILE *f, const report *r, const char *status)
                ",\n  \"worker_cpu_seconds\": %.6f"
                ",\n  \"binding\": ",
             s->threads, s->recheck_overlaps, s->recheck_continued, s->recheck_discarded,
-            s->stale_jumps, s->stale_births, s->relaunches, s->mutex_taken[0], s->mutex_taken[1], s->mutex_taken[2], s->mutex_contended[0],
+            s->stale_jumps, s->stale_births, s->claim_waits, s->relaunches, s->mutex_taken[0], s->mutex_taken[1], s->mutex_taken[2], s->mutex_contended[0],
             s->mutex_contended[1], s->mutex_contended[2], s->mutex_hold_ns[0], s->mutex_hold_ns[1],
             s->mutex_hold_ns[2], s->mutex_wait_ns[0], s->mutex_wait_ns[1], s->mutex_wait_ns[2],
             s->mutex_long_holds[0], s->mutex_long_holds[1], s->mutex_long_holds[2],

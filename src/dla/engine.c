@@ -253,6 +253,7 @@ static void stats_set_counts(pdla_stats *s, const walker_ctx *w)
     s->recheck_discarded = w->recheck_discarded;
     s->stale_jumps = w->stale_jumps;
     s->stale_births = w->stale_births;
+    s->claim_waits = w->claim_waits;
     s->relaunches = w->relaunches;
     s->lag_n = w->lag_n;
     s->lag_sum = w->lag_sum;

@@ -35,6 +35,9 @@ typedef struct walker_ctx {
      * beyond the R_ext the birth circle was drawn from (stale_births); the
      * walker queried again instead. */
     uint64_t stale_jumps, stale_births;
+    /* Moves held up by another worker's chosen spot (claims.h) until it was
+     * appended; counted apart from the stale reads. */
+    uint64_t claim_waits;
     /* Lag of the PDLA phase (issue 11): for each particle a worker or
      * reference walker inserts, the particles appended between its walker's
      * launch and its own append (by the others). Its mean is about P - 1 in
@@ -94,6 +97,11 @@ typedef struct engine_hooks {
      * node_before_bucket): a test can make it slow (tests/physics/
      * test_frontier.c). */
     void (*node_work)(void *user);
+    /* Worker `id`'s walker has chosen its spot p (published as a claim,
+     * claims.h) and is about to be inserted, before the snap, the lock-free
+     * checks and the bucket mutex: a test can make the insertion slow
+     * (tests/physics/test_claims.c). */
+    void (*decided)(void *user, int id, const int64_t *p);
     int take_stale; /* count stale jumps but take them (the behaviour before the check) */
     /* Node work before and outside the bucket mutex, so others may append
      * meanwhile (the behaviour before issue 11's fix, parallel.c). */
@@ -104,10 +112,12 @@ typedef struct engine_hooks {
      * runs/pdla-bias/node9). */
     int node_work_published;
     int no_relaunch; /* no straggler bound (the behaviour before it, parallel.c) */
+    int no_claims;   /* walkers ignore the others' claimed spots (the behaviour before them) */
     void *user;
 } engine_hooks;
 
 struct recent_ring;
+struct claim_board;
 
 /* Tree compaction in the serial phase (tree_compact, grow.c): first at this
  * count, then each time the count has grown by an eighth, while it is at
@@ -158,6 +168,7 @@ struct pdla_engine {
     _Atomic int64_t r_ext;    /* ceil(sqrt(r_ext2)); read by walkers without a lock */
     _Atomic int stop;         /* set to make the workers return */
     const struct recent_ring *recent; /* the PDLA phase's ring of appended particles, else NULL */
+    struct claim_board *claims; /* the PDLA phase's chosen, not yet appended spots, else NULL */
     const engine_hooks *hooks; /* tests only */
     PDLA_CACHE_PAD(pad_read_);
     tree tree;                /* padded inside: query fields / insertion counts */

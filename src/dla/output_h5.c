@@ -247,6 +247,7 @@ static int write_results(const h5u_writer *w, hid_t file, const pdla_engine *e, 
         h5u_attr_u64(w, g, "recheck_discarded", s->recheck_discarded) < 0 ||
         h5u_attr_u64(w, g, "stale_jumps", s->stale_jumps) < 0 ||
         h5u_attr_u64(w, g, "stale_births", s->stale_births) < 0 ||
+        h5u_attr_u64(w, g, "claim_waits", s->claim_waits) < 0 ||
         h5u_attr_u64_array(w, g, "mutex_taken", s->mutex_taken, 3) < 0 ||
         h5u_attr_u64_array(w, g, "mutex_contended", s->mutex_contended, 3) < 0 ||
         h5u_attr_f64(w, g, "worker_cpu_seconds", s->worker_cpu_seconds) < 0 ||

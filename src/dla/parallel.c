@@ -66,6 +66,7 @@
 #include "engine.h"
 #include "must.h"
 #include "parallel.h"
+#include "claims.h"
 #include "recent.h"
 
 /* Particles appended between a worker's lock-free check and its bucket
@@ -178,6 +179,10 @@ static inline void unlock_counted(pthread_mutex_t *mu, walker_ctx *w, int which,
  * PDLA_E* codes, already recorded by worker_fail). RETRY: another walker took
  * the spot since this one's last check; re-check as an overlap. */
 enum { RETRY = 3, RELAUNCH = 4 };
+
+/* How far a published spot may still move (claims.h): the snap onto
+ * contact, at most D + eps, and rounding. */
+#define CLAIM_MARGIN(e) ((int64_t)(e)->params.resolution + (e)->params.eps + 2)
 
 /* Step 1, for an overlap: snap p onto contact with the particle that took
  * its spot, once, unless --recheck discard. Otherwise the snap of
@@ -308,15 +313,20 @@ static int account_insert(worker *k, const int64_t *p, uint64_t count, int retri
  * every particle present when the particle is appended, exactly as one check
  * under the lock would. An overlap found by either restarts the steps with
  * the spot treated as taken. */
-static int insert_concurrent(worker *k, int64_t *p, int status)
+static int insert_spot(worker *k, int64_t *p, int status)
 {
     pdla_engine *e = k->e;
     const uint64_t D2 = (uint64_t)e->params.resolution * (uint64_t)e->params.resolution;
     int retried = 0;
+    if (__builtin_expect(e->hooks != NULL, 0) && e->hooks->decided)
+        e->hooks->decided(e->hooks->user, k->w->id, p);
     for (;;) {
         /* Every particle below `seen` is visible to the searches that follow
          * (acquire on the count the bucket mutex's holder released). */
         const uint64_t seen = tree_count(&e->tree);
+        /* The spot stays published while the snap may move it by up to a
+         * diameter (onto a newcomer), then with a unit for rounding. */
+        if (status == WALK_OVERLAP) claims_publish(e->claims, k->w->id, p, e->tree.dim, CLAIM_MARGIN(e));
         const int checked = snap_spot(k, p, status, &retried);
         if (checked == DISCARDED) return DISCARDED;
         char err[256];
@@ -338,8 +348,19 @@ static int insert_concurrent(worker *k, int64_t *p, int status)
         const int rc = append_locked(k, p, seen, need, have_path, &slot, &index);
         if (rc == RETRY) continue;
         if (rc != INSERTED) return rc;
+        /* Appended (the count published it): the others see it now. */
+        claims_withdraw(e->claims, k->w->id);
         return account_insert(k, p, index, retried);
     }
+}
+
+/* The spot the walker stopped at was published when it was chosen
+ * (claims.h); whatever becomes of it, it is withdrawn here. */
+static int insert_concurrent(worker *k, int64_t *p, int status)
+{
+    const int r = insert_spot(k, p, status);
+    if (r != INSERTED) claims_withdraw(k->e->claims, k->w->id);
+    return r;
 }
 
 static void *worker_main(void *arg)
@@ -413,6 +434,7 @@ typedef struct phase {
     walker_ctx *ws;        /* the workers' walkers: kept by the engine after */
     worker *ks;
     recent_ring recent;
+    claim_board claims;
 } phase;
 
 static void phase_free(phase *ph)
@@ -420,13 +442,15 @@ static void phase_free(phase *ph)
     free(ph->ws);
     free(ph->ks);
     recent_free(&ph->recent);
+    claims_free(&ph->claims);
     if (ph->topo) hwloc_topology_destroy(ph->topo);
 }
 
 /* Step 1: how many workers (reading the topology when threads = 0 or when
  * binding), and their memory. PDLA_OK, or an error with err (nothing held). */
-static int phase_alloc(const pdla_params *P, phase *ph, char *err, size_t errlen)
+static int phase_alloc(pdla_engine *e, phase *ph, char *err, size_t errlen)
 {
+    const pdla_params *P = &e->params;
     if (P->threads == 0 || P->bind == PDLA_BIND_CORE) {
         ph->cores = load_topology(&ph->topo);
         if (ph->cores <= 0)
@@ -436,7 +460,8 @@ static int phase_alloc(const pdla_params *P, phase *ph, char *err, size_t errlen
     ph->ws = calloc((size_t)ph->n, sizeof *ph->ws);
     ph->ks = calloc((size_t)ph->n, sizeof *ph->ks);
     const int ring_rc = recent_init(&ph->recent, RECENT_CAP);
-    if (!ph->ws || !ph->ks || ring_rc) {
+    const int claims_rc = claims_init(&ph->claims, ph->n);
+    if (!ph->ws || !ph->ks || ring_rc || claims_rc) {
         phase_free(ph);
         return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for %d workers", ph->n);
     }
@@ -493,6 +518,7 @@ static void phase_begin(pdla_engine *e, phase *ph)
     atomic_store_explicit(&e->stop, 0, memory_order_relaxed);
     e->search.concurrent = 1;
     e->recent = &ph->recent;
+    e->claims = &ph->claims;
 }
 
 /* Step 4: start the threads, then report progress, relay a stop request and
@@ -539,6 +565,7 @@ static int phase_end(pdla_engine *e, phase *ph, int rc, char *err, size_t errlen
     distmap_quiesce(&e->dmap);
     e->search.concurrent = 0;
     e->recent = NULL;
+    e->claims = NULL;
     for (int i = 0; i < ph->started && rc == PDLA_OK; i++)
         if (ph->ks[i].rc) rc = pdla_errorf(ph->ks[i].rc, err, errlen, "worker %d: %s", i, ph->ks[i].err);
     e->workers = ph->ws;
@@ -552,7 +579,7 @@ int parallel_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, v
                   char *err, size_t errlen)
 {
     phase ph = {0};
-    int rc = phase_alloc(&e->params, &ph, err, errlen);
+    int rc = phase_alloc(e, &ph, err, errlen);
     if (rc) return rc;
     phase_setup_workers(e, &ph, n_until);
     phase_begin(e, &ph);

@@ -21,6 +21,7 @@
 #endif
 
 #include "engine.h"
+#include "claims.h"
 #include "recent.h"
 #include "sample.h"
 
@@ -266,6 +267,19 @@ static inline __attribute__((always_inline)) int walk_stale(const pdla_engine *e
 {
     const engine_hooks *h = e->hooks;
     if (__builtin_expect(h != NULL, 0) && h->stall) h->stall(h->user);
+    /* The spots other workers have chosen but not yet appended, before the
+     * ring (claims.h: a withdrawal seen here is covered by the count read
+     * next). One inside the ball: wait until it is appended, then query
+     * again. */
+    const claim_board *cb = e->claims;
+    int owner;
+    uint32_t seq;
+    if (cb && claims_any(cb, w->id) && claims_block(cb, w->id, p, R2, what, e->tree.dim, &owner, &seq) &&
+        !(__builtin_expect(h != NULL, 0) && h->no_claims)) {
+        w->claim_waits++;
+        claims_wait(cb, owner, seq);
+        return 1;
+    }
     uint64_t now;
     if (!recent_stale(e->recent, &e->tree, seen, p, R2, what, &now)) {
         if (__builtin_expect(h != NULL, 0) && h->jump && what == RECENT_NEAR) h->jump(h->user, p, R2, now);
@@ -302,6 +316,7 @@ typedef struct walk_consts {
     uint64_t max_jumps;
     int exact;          /* --exact-search */
     int kill;           /* PDLA_RETURN_KILL */
+    int64_t claim_margin; /* how far the snap may move a stopped walker: D + eps + 2 */
 } walk_consts;
 
 static inline __attribute__((always_inline)) walk_consts walk_consts_of(const pdla_params *P)
@@ -312,7 +327,8 @@ static inline __attribute__((always_inline)) walk_consts walk_consts_of(const pd
                          .D2 = (uint64_t)P->resolution * (uint64_t)P->resolution,
                          .max_jumps = P->max_jumps,
                          .exact = P->exact_search,
-                         .kill = P->return_mode == PDLA_RETURN_KILL};
+                         .kill = P->return_mode == PDLA_RETURN_KILL,
+                         .claim_margin = P->resolution + P->eps + 2};
 }
 
 /* One step of a walk: one jump (or return to the birth circle, restart,
@@ -407,7 +423,11 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
     w->ss.nb_last2 = d2;
     if (d2 < kc.stick2) {
         /* A particle appended since the query only makes the walker closer:
-         * the insertion's exact re-check (parallel.c) sees it. */
+         * the insertion's exact re-check (parallel.c) sees it. The spot is
+         * published at once (claims.h), with room for the snap still to
+         * come (at most D + eps and a unit of rounding). */
+        if (conc && e->claims)
+            claims_publish(e->claims, w->id, p, dim, kc.claim_margin);
         for (int a = 0; a < dim; a++) stuck_at[a] = p[a];
         w->launched_at = s->launched_at;
         w->step_seen = seen;
@@ -496,6 +516,7 @@ void walker_ctx_add_counts(walker_ctx *s, const walker_ctx *o)
     s->recheck_discarded += o->recheck_discarded;
     s->stale_jumps += o->stale_jumps;
     s->stale_births += o->stale_births;
+    s->claim_waits += o->claim_waits;
     s->relaunches += o->relaunches;
     s->lag_n += o->lag_n;
     s->lag_sum += o->lag_sum;

@@ -50,9 +50,15 @@ from reliab_util import check, failures, run_faulted, shim_preload
 PDLA, SHIM, WORK = (os.path.abspath(a) for a in sys.argv[1:4])
 PRELOAD = shim_preload(PDLA, SHIM)
 rng = random.Random(int(os.environ.get("MODELS_FAULTS_SEED", "20261129")))
-# 0: fault every fsync, rename/link and directory sync of a run; N > 0: N of
-# each, sampled as the writes are (the sanitizer builds, tests/reliab/meson.build).
+# 0: fault every fsync, rename/link and directory sync of a run, and the
+# sampled writes below; N > 0 (the sanitizer builds, tests/reliab/meson.build):
+# N of each rarer call, sampled as the writes are, and half the sampled writes.
 RARE = int(os.environ.get("MODELS_FAULTS_RARE", "0"))
+
+
+def nw_samples(n):
+    """How many writes to sample where the release build samples n."""
+    return max(3, n // 2) if RARE else n
 T0 = time.monotonic()
 counts = {"runs": 0, "faulted": 0, "killed": 0, "resumes": 0, "chain kills": 0, "mid-write kills": 0}
 
@@ -295,7 +301,7 @@ def faulted_runs(c, small):
     """Faults in a --force run with checkpoints over the older run."""
     d = W(c.name + "-f")
     args = c.run + ["--out", d, "--force"]
-    for desc, fault, fsize in fault_list(args, lambda: c.fresh(d), 5 if small else 10, small):
+    for desc, fault, fsize in fault_list(args, lambda: c.fresh(d), nw_samples(5 if small else 10), small):
         tag = "%s %s" % (c.name, desc)
         c.fresh(d)
         counts["faulted"] += 1
@@ -311,7 +317,7 @@ def killed_runs(c):
     """kill -9 at exact calls of the --force run, then a resume."""
     d = W(c.name + "-k")
     args = c.run + ["--out", d, "--force"]
-    for desc, fault in kill_list(args, lambda: c.fresh(d), 8):
+    for desc, fault in kill_list(args, lambda: c.fresh(d), nw_samples(8)):
         tag = "%s %s" % (c.name, desc)
         c.fresh(d)
         counts["killed"] += 1
@@ -334,7 +340,7 @@ def faulted_resumes(c, half):
     def fresh():
         shutil.rmtree(d, ignore_errors=True)
         shutil.copytree(src, d)
-    faults = fault_list(["--model", c.model, "--resume", d] + c.resume_args, fresh, 6, True)
+    faults = fault_list(["--model", c.model, "--resume", d] + c.resume_args, fresh, nw_samples(6), True)
     for desc, fault, fsize in faults:
         tag = "%s resumed, %s" % (c.name, desc)
         fresh()

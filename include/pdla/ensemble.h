@@ -44,6 +44,10 @@ typedef struct pdla_ens_config {
                             none (one cluster grows serially on one worker). */
     uint64_t clusters;   /* M >= 1; cluster i has seed params.seed + i */
     int keep_positions;  /* 1: records carry the particle positions */
+    int deflate_level;   /* the kept positions' deflate level 0..9 in ensemble.h5
+                            (output only: a resume writes with it unless given
+                            another; not compared). Journals from before it
+                            was recorded read as PDLA_ENS_GZIP_DEFAULT. */
 } pdla_ens_config;
 
 /* The most clusters one ensemble may have. The journal's index (16 bytes a

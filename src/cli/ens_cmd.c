@@ -85,7 +85,8 @@ static void print_help(void)
            "                      cluster i in rows i*N..i*N+N-1, chunked by cluster) and\n"
            "                      DIR/ensemble.xdmf2 for ParaView (one block per cluster)\n"
            "  --compress L        deflate level 0..9 of the kept positions, with shuffle\n"
-           "                      (default 4; 0: uncompressed); h5py and h5dump read both\n"
+           "                      (default 4; 0: uncompressed); h5py and h5dump read both;\n"
+           "                      a resume keeps the level the ensemble started with\n"
            "  --out DIR           ensemble directory (must not exist unless --force)\n"
            "  --force             write into an existing DIR (its old ensemble is removed)\n"
            "  --resume DIR        go on with DIR's ensemble; growth options given must match;\n"
@@ -131,7 +132,7 @@ static char *command_line(int argc, char **argv)
 typedef struct ens_args {
     uint64_t clusters;
     int clusters_given, keep, keep_given, help;
-    int gzip; /* deflate level of the kept positions */
+    int gzip, gzip_given; /* deflate level of the kept positions; given on the command line */
 } ens_args;
 
 /* Take this command's own options out of argv (into a, rest into *rest with
@@ -160,6 +161,7 @@ static int split_args(int argc, char **argv, ens_args *a, char **rest, int *nres
             if (l[0] < '0' || l[0] > '9' || l[1])
                 return snprintf(err, errlen, "invalid value '%.48s' for --compress: want a level 0..9", l), -1;
             a->gzip = l[0] - '0';
+            a->gzip_given = 1;
             continue;
         } else if (!strcmp(s, "--keep-positions")) {
             a->keep = a->keep_given = 1;
@@ -381,6 +383,7 @@ static int parse_all(ens_cmd *c, int argc, char **argv, char **rest)
     c->asked.params.bind = PDLA_BIND_NONE;
     c->asked.clusters = c->a.clusters;
     c->asked.keep_positions = c->a.keep;
+    c->asked.deflate_level = c->a.gzip;
     return GO_ON;
 }
 
@@ -582,7 +585,10 @@ static int grow_and_write(ens_cmd *c, int threads, const char *cmd, double t0)
     char h5[4300];
     snprintf(h5, sizeof h5, "%s/%s", c->dir, PDLA_ENS_FILE_NAME);
     const pdla_run_info info = {cmd, pdla_clock_seconds() - t0, 0};
-    if (pdla_ens_write_gz(c->j, &info, h5, c->a.gzip, err, errlen)) {
+    /* A resume writes at the level the ensemble was started with (its
+     * journal's), unless --compress gives another for this file. */
+    const int gzip = c->a.gzip_given ? c->a.gzip : cfg->deflate_level;
+    if (pdla_ens_write_gz(c->j, &info, h5, gzip, err, errlen)) {
         fprintf(stderr, "pdla ensemble: %s\n", err);
         return EXIT_RUNTIME;
     }

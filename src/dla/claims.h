@@ -26,9 +26,14 @@
  * published) reads one cache line for up to 64 workers. Only the owner
  * writes its slot and flag; readers never write.
  *
- * Cost: 2D 2 workers from 1e5 to 1e6 on the 2-core VM, 17-24% more CPU in
- * the parallel phase (the others' flags and slots are read before every
- * jump and change twice a walk: cache misses); not measured on 16 cores.
+ * Cost: 2D 2 workers from 1e5 to 1e6 on the 2-core VM, the parallel phase
+ * takes 1.07-1.28x as long (five alternated pairs; serial runs unchanged;
+ * runs/bench-threads-16core/session24/claims-cost-2core.txt): the others'
+ * flags and slots are read before every jump and change twice a walk, so
+ * they miss the cache. Not yet measured on 16 cores. claims_any reads n
+ * bytes (n / 64 cache lines) per jump: cheap to 64 workers, and at 1024
+ * workers (the --threads limit) 16 lines, which the bucket mutex's
+ * contention would dwarf long before.
  */
 #ifndef PDLA_SRC_CLAIMS_H
 #define PDLA_SRC_CLAIMS_H
@@ -54,6 +59,15 @@ typedef struct claim_board {
     _Atomic uint8_t *flag;
     claim_slot *slot;
 } claim_board;
+
+/* How far a spot may still move once published: the snap onto contact
+ * moves it by at most D + eps, and its rounding by a unit on each side.
+ * The one definition for the walker (at the decision) and the insertion
+ * (at a republish after an overlap). */
+static inline int64_t claims_margin(int64_t resolution, int64_t eps)
+{
+    return resolution + eps + 2;
+}
 
 /* 0, or -1 when out of memory. */
 int claims_init(claim_board *b, int n);

@@ -180,10 +180,6 @@ static inline void unlock_counted(pthread_mutex_t *mu, walker_ctx *w, int which,
  * the spot since this one's last check; re-check as an overlap. */
 enum { RETRY = 3, RELAUNCH = 4 };
 
-/* How far a published spot may still move (claims.h): the snap onto
- * contact, at most D + eps, and rounding. */
-#define CLAIM_MARGIN(e) ((int64_t)(e)->params.resolution + (e)->params.eps + 2)
-
 /* Step 1, for an overlap: snap p onto contact with the particle that took
  * its spot, once, unless --recheck discard. Otherwise the snap of
  * --snap-contact. Returns 1 when the snap has just checked p's new spot
@@ -324,9 +320,12 @@ static int insert_spot(worker *k, int64_t *p, int status)
         /* Every particle below `seen` is visible to the searches that follow
          * (acquire on the count the bucket mutex's holder released). */
         const uint64_t seen = tree_count(&e->tree);
-        /* The spot stays published while the snap may move it by up to a
-         * diameter (onto a newcomer), then with a unit for rounding. */
-        if (status == WALK_OVERLAP) claims_publish(e->claims, k->w->id, p, e->tree.dim, CLAIM_MARGIN(e));
+        /* After an overlap the snap moves p onto the newcomer: the spot is
+         * published again where the walker stopped, with the snap's margin
+         * (the decision published it first, walker.c). */
+        if (status == WALK_OVERLAP)
+            claims_publish(e->claims, k->w->id, p, e->tree.dim,
+                           claims_margin(e->params.resolution, e->params.eps));
         const int checked = snap_spot(k, p, status, &retried);
         if (checked == DISCARDED) return DISCARDED;
         char err[256];

@@ -316,7 +316,7 @@ typedef struct walk_consts {
     uint64_t max_jumps;
     int exact;          /* --exact-search */
     int kill;           /* PDLA_RETURN_KILL */
-    int64_t claim_margin; /* how far the snap may move a stopped walker: D + eps + 2 */
+    int64_t claim_margin; /* how far the snap may move a stopped walker (claims.h) */
 } walk_consts;
 
 static inline __attribute__((always_inline)) walk_consts walk_consts_of(const pdla_params *P)
@@ -328,7 +328,7 @@ static inline __attribute__((always_inline)) walk_consts walk_consts_of(const pd
                          .max_jumps = P->max_jumps,
                          .exact = P->exact_search,
                          .kill = P->return_mode == PDLA_RETURN_KILL,
-                         .claim_margin = P->resolution + P->eps + 2};
+                         .claim_margin = claims_margin(P->resolution, P->eps)};
 }
 
 /* One step of a walk: one jump (or return to the birth circle, restart,
@@ -425,7 +425,7 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
         /* A particle appended since the query only makes the walker closer:
          * the insertion's exact re-check (parallel.c) sees it. The spot is
          * published at once (claims.h), with room for the snap still to
-         * come (at most D + eps and a unit of rounding). */
+         * come (claims_margin). */
         if (conc && e->claims)
             claims_publish(e->claims, w->id, p, dim, kc.claim_margin);
         for (int a = 0; a < dim; a++) stuck_at[a] = p[a];

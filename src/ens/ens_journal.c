@@ -20,7 +20,8 @@
  * The text is "key=value" lines: format, the builds of pdla that grew
  * records ("build=REVISION", one line each, in the order they joined; none
  * in journals from before builds were recorded), every row of the
- * parameter table (exact values), clusters, keep_positions.
+ * parameter table (exact values), clusters, keep_positions, deflate_level
+ * (absent in journals from before session 25: read as the default level).
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -136,8 +137,8 @@ static char *header_text(const pdla_ens_config *c, const char *builds, size_t *l
             s = g;
         }
     }
-    used += (size_t)snprintf(s + used, cap - used, "clusters=%" PRIu64 "\nkeep_positions=%d\n", c->clusters,
-                             c->keep_positions);
+    used += (size_t)snprintf(s + used, cap - used, "clusters=%" PRIu64 "\nkeep_positions=%d\ndeflate_level=%d\n",
+                             c->clusters, c->keep_positions, c->deflate_level);
     *len = used;
     return s;
 }
@@ -186,6 +187,7 @@ static int header_parse(char *text, pdla_ens_config *c, char *builds, char *why,
     const pdla_param_desc *t = pdla_param_table(&n);
     memset(c, 0, sizeof *c);
     pdla_params_default(&c->params);
+    c->deflate_level = PDLA_ENS_GZIP_DEFAULT;
     if (strncmp(text, FORMAT_LINE, strlen(FORMAT_LINE)))
         return snprintf(why, whylen, "not a pdla ensemble journal of format 1"), -1;
     uint64_t seen = 0;
@@ -206,6 +208,11 @@ static int header_parse(char *text, pdla_ens_config *c, char *builds, char *why,
         }
         if (!strcmp(line, "build")) {
             if (builds_add(builds, v)) return snprintf(why, whylen, "a bad build line"), -1;
+            continue;
+        }
+        if (!strcmp(line, "deflate_level")) {
+            if (parse_u64(v, &u) || u > 9) return snprintf(why, whylen, "a bad deflate_level"), -1;
+            c->deflate_level = (int)u;
             continue;
         }
         if (!strcmp(line, "keep_positions")) {

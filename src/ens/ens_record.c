@@ -22,6 +22,8 @@ int pdla_ens_config_check(const pdla_ens_config *c, char *err, size_t errlen)
         return pdla_errorf(PDLA_EINVAL, err, errlen,
                            "seed range overflows: seeds %llu + 0..%llu pass 2^64 - 1 (lower --seed or --clusters)",
                            (unsigned long long)c->params.seed, (unsigned long long)(c->clusters - 1));
+    if (c->deflate_level < 0 || c->deflate_level > 9)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "deflate_level must be in 0..9, got %d", c->deflate_level);
     if (c->keep_positions != 0 && c->keep_positions != 1)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "keep_positions must be 0 or 1, got %d", c->keep_positions);
     /* ensemble.h5 holds every cluster's R_g(N): with no samples its

@@ -162,6 +162,18 @@ def main():
         if grow(["ensemble", "--dim", "3", "--clusters", "3", "--target", "1500", "--seed", "8", "--keep-positions",
                  "--compress", "0", "--out", "e3"], "3D ensemble"):
             check_ensemble("e3", 3, 1500, 3, 8, [], 0, (1,))
+        # A resume without --compress writes at the level the ensemble was
+        # started with (the journal's), not the default (it did until session 25).
+        if os.path.exists("e3/ensemble.h5"):
+            os.unlink("e3/ensemble.h5")
+            rc, _, se = run([PDLA, "ensemble", "--resume", "e3", "-q"])
+            check(rc == 0 and os.path.exists("e3/ensemble.h5"), "resume of e3: %s" % se.strip())
+            if rc == 0:
+                with h5py.File("e3/ensemble.h5", "r") as f:
+                    ds = f["/clusters/positions"]
+                    check(ds.compression is None and ds.attrs["deflate_level"] == 0,
+                          "resume of a --compress 0 ensemble wrote %s level %s (want none, 0)"
+                          % (ds.compression, ds.compression_opts))
         if os.path.exists("e3/ensemble.h5"):
             hostile("e3/ensemble.h5")
         # --resume rewrites the sidecar, the same text.

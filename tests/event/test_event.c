@@ -1325,6 +1325,99 @@ static void test_seeds(void)
     CHECK(system(path) == 0, "cleanup");
 }
 
+/* The seed overlap check (ev_seeds_check: a grid with the 64 biggest seeds
+ * apart) against all pairs, the old check: the same first overlapping pair
+ * (the message names it) or none, over 2400 random sets in 2D and 3D,
+ * periodic and between walls, of 2-700 seeds: equal radii, radii spread
+ * over two decades, and a few seeds far bigger than the rest, at densities
+ * from none to many overlaps; seeds on the box's faces and at the periodic
+ * seam included. Then 1e5 touching seeds on a lattice (every neighbour at
+ * exactly the sum of the radii: no overlap) are accepted. */
+static int brute_first(const ev_sim *s, uint32_t *pa, uint32_t *pb)
+{
+    const int D = s->dim;
+    for (uint32_t a = 0; a < s->nseeds; a++)
+        for (uint32_t b = a + 1; b < s->nseeds; b++) {
+            const double *p = s->seed_xr + (size_t)a * (D + 1), *q = s->seed_xr + (size_t)b * (D + 1);
+            const double sig = p[D] + q[D];
+            if (ev_dist2(s, p, q) < sig * sig) {
+                *pa = a;
+                *pb = b;
+                return 1;
+            }
+        }
+    return 0;
+}
+
+static void test_seeds_overlap(void)
+{
+    ev_sim *s = calloc(1, sizeof *s);
+    CHECK(s != NULL, "calloc");
+    if (!s) return;
+    snprintf(s->par.seeds, sizeof s->par.seeds, "forged");
+    s->par.t_max = 1; /* no reach check: a plain gas may have any seeds */
+    pdla_rng st = {{0x9e3779b97f4a7c15u, 12345, 0xdeadbeef, 7}};
+    int found = 0, runs = 0;
+    for (int it = 0; it < 2400; it++) {
+        const int D = 2 + it % 2, kind = it / 2 % 3;
+        s->dim = D;
+        s->periodic = it / 6 % 2;
+        s->L = 100.0;
+        s->half = s->L / 2;
+        const uint32_t n = 2 + (uint32_t)(rng_uniform(&st) * (it % 5 == 4 ? 700 : 120));
+        const double r0 = (0.2 + 3.0 * rng_uniform(&st)) * (D == 2 ? 1.0 : 2.0);
+        s->nseeds = n;
+        s->seed_xr = malloc((size_t)n * (D + 1) * sizeof(double));
+        if (!s->seed_xr) abort();
+        for (uint32_t i = 0; i < n; i++) {
+            double *x = s->seed_xr + (size_t)i * (D + 1);
+            double r = kind == 0 ? r0 : kind == 1 ? r0 * pow(10.0, -2.0 * rng_uniform(&st)) : r0;
+            if (kind == 2 && rng_uniform(&st) < 0.05) r = r0 * (5 + 20 * rng_uniform(&st));
+            if (r > 0.45 * s->L) r = 0.45 * s->L;
+            x[D] = r;
+            const double lo = s->periodic ? 0 : r, hi = s->periodic ? s->L : s->L - r;
+            for (int k = 0; k < D; k++) {
+                const double u = rng_uniform(&st);
+                /* one coordinate in 8 on a face (walls) or the seam (periodic) */
+                x[k] = u < 0.0625 ? lo : u < 0.125 && !s->periodic ? hi
+                       : u < 0.125 ? s->L * (1 - 1e-15) : lo + (hi - lo) * rng_uniform(&st);
+            }
+        }
+        char err[600];
+        uint32_t a = 0, b = 0;
+        const int want = brute_first(s, &a, &b);
+        char msg[128];
+        snprintf(msg, sizeof msg, "--seeds forged: seeds %u and %u overlap", a + 1, b + 1);
+        const int rc = ev_seeds_check(s, err, sizeof err);
+        CHECK(want ? rc != 0 && !strcmp(err, msg) : rc == 0,
+              "seeds-overlap %d (%dd, %s, kind %d, %u seeds): all pairs say %s, the check says %s", it, D,
+              s->periodic ? "periodic" : "walls", kind, n, want ? msg : "none", rc ? err : "none");
+        found += want;
+        runs++;
+        free(s->seed_xr);
+        s->seed_xr = NULL;
+    }
+    CHECK(found > runs / 5 && found < runs * 4 / 5, "seeds-overlap: %d of %d sets overlap (want both kinds)",
+          found, runs);
+    /* 1e5 seeds of radius 0.5 touching on a 2D lattice of spacing 1 */
+    s->dim = 2;
+    s->periodic = 1;
+    s->L = 317;
+    s->half = s->L / 2;
+    s->nseeds = 100000;
+    s->seed_xr = malloc((size_t)s->nseeds * 3 * sizeof(double));
+    if (!s->seed_xr) abort();
+    for (uint32_t i = 0; i < s->nseeds; i++) {
+        s->seed_xr[3 * i] = i % 316 + 0.5;
+        s->seed_xr[3 * i + 1] = i / 316 + 0.5;
+        s->seed_xr[3 * i + 2] = 0.5;
+    }
+    char err[600];
+    CHECK(ev_seeds_check(s, err, sizeof err) == 0, "1e5 touching seeds refused: %s", err);
+    free(s->seed_xr);
+    free(s);
+}
+
 static void test_resume(void)
 {
     /* 2D sticking with p = 0.5 (the RNG is part of the state), elastic walls */
@@ -2086,6 +2179,7 @@ int main(int argc, char **argv)
     if (all || !strcmp(what, "params")) test_params();
     if (all || !strcmp(what, "dffit")) test_dffit();
     if (all || !strcmp(what, "seeds")) test_seeds();
+    if (all || !strcmp(what, "seeds-overlap")) test_seeds_overlap();
     if (all || !strcmp(what, "resume")) test_resume();
     if (all || !strcmp(what, "quiet-rows")) test_quiet_rows();
     if (all || !strcmp(what, "row-cost")) test_row_cost();

@@ -23,6 +23,7 @@ A missing ParaView, h5py or h5dump is a failure, not a skip.
 import json
 import os
 import shutil
+import struct
 import subprocess
 import sys
 import tempfile
@@ -34,6 +35,13 @@ PDLA = os.path.abspath(sys.argv[1])
 PV = os.path.abspath(sys.argv[2])
 fails = 0
 checks = 0
+
+
+def fnv1a(data, h=0xcbf29ce484222325):
+    """The journal's checksum (src/ens/ens_journal.c)."""
+    for b in data:
+        h = ((h ^ b) * 0x100000001b3) & 0xFFFFFFFFFFFFFFFF
+    return h
 
 
 def check(ok, what):
@@ -173,6 +181,26 @@ def main():
                     ds = f["/clusters/positions"]
                     check(ds.compression is None and ds.attrs["deflate_level"] == 0,
                           "resume of a --compress 0 ensemble wrote %s level %s (want none, 0)"
+                          % (ds.compression, ds.compression_opts))
+            # A journal from before the level was recorded (its header
+            # without the deflate_level line, checksum remade): level 4.
+            shutil.copytree("e3", "e3old")
+            os.unlink("e3old/ensemble.h5")
+            raw = open("e3old/clusters.journal", "rb").read()
+            tl = struct.unpack_from("<I", raw, 12)[0]
+            text = raw[16:16 + tl]
+            old = b"".join(l for l in text.splitlines(True) if not l.startswith(b"deflate_level="))
+            check(b"deflate_level=0\n" in text and len(old) < len(text), "e3's journal header: no deflate_level=0 line")
+            with open("e3old/clusters.journal", "wb") as f:
+                f.write(b"PDLAENS1" + struct.pack("<II", 0x01020304, len(old)) + old + struct.pack("<Q", fnv1a(old)))
+                f.write(raw[24 + tl:])
+            rc, _, se = run([PDLA, "ensemble", "--resume", "e3old", "-q"])
+            check(rc == 0, "resume of a journal without deflate_level: %s" % se.strip())
+            if rc == 0:
+                with h5py.File("e3old/ensemble.h5", "r") as f:
+                    ds = f["/clusters/positions"]
+                    check(ds.compression == "gzip" and ds.compression_opts == 4,
+                          "a journal without deflate_level resumed at %s %s (want gzip 4)"
                           % (ds.compression, ds.compression_opts))
         if os.path.exists("e3/ensemble.h5"):
             hostile("e3/ensemble.h5")

@@ -31,9 +31,8 @@
  * runs/bench-threads-16core/session24/claims-cost-2core.txt): the others'
  * flags and slots are read before every jump and change twice a walk, so
  * they miss the cache. Not yet measured on 16 cores. claims_any reads n
- * bytes (n / 64 cache lines) per jump: cheap to 64 workers, and at 1024
- * workers (the --threads limit) 16 lines, which the bucket mutex's
- * contention would dwarf long before.
+ * bytes (n / 64 cache lines) per jump: one line up to 64 workers, 16 at
+ * 1024 (the --threads limit; not measured beyond 16 workers).
  */
 #ifndef PDLA_SRC_CLAIMS_H
 #define PDLA_SRC_CLAIMS_H

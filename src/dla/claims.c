@@ -7,7 +7,6 @@
 
 #include <math.h>
 #include <sched.h>
-#include <stddef.h>
 #include <stdlib.h>
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -16,23 +15,16 @@
 int claims_init(claim_board *b, int n)
 {
     b->n = n;
-    b->packed = NULL;
+    /* The flags on cache lines of their own: every worker writes its flag
+     * twice a walk and reads all before every jump. */
+    b->flag = aligned_alloc(64, ((size_t)n + 63) / 64 * 64);
     b->slot = aligned_alloc(64, sizeof *b->slot * (size_t)n);
-    if (n > CLAIMS_FLAGS_IN_SLOTS) {
-        /* The flags on cache lines of their own: every worker writes its
-         * flag twice a walk and reads all before every jump. */
-        b->packed = aligned_alloc(64, ((size_t)n + 63) / 64 * 64);
-    }
-    if (!b->slot || (n > CLAIMS_FLAGS_IN_SLOTS && !b->packed)) {
+    if (!b->flag || !b->slot) {
         claims_free(b);
         return -1;
     }
-    b->flag = b->packed ? b->packed
-                        : (_Atomic uint8_t *)((unsigned char *)b->slot + offsetof(claim_slot, flag));
-    b->stride = b->packed ? 1 : sizeof(claim_slot);
-    for (int i = 0; i < n; i++) atomic_init(claims_flag(b, i), 0);
+    for (int i = 0; i < n; i++) atomic_init(&b->flag[i], 0);
     for (int i = 0; i < n; i++) {
-        if (b->packed) atomic_init(&b->slot[i].flag, 0);
         atomic_init(&b->slot[i].seq, 0);
         for (int a = 0; a < 3; a++) atomic_init(&b->slot[i].x[a], 0);
         atomic_init(&b->slot[i].margin, 0);
@@ -42,9 +34,9 @@ int claims_init(claim_board *b, int n)
 
 void claims_free(claim_board *b)
 {
-    free(b->packed);
+    free(b->flag);
     free(b->slot);
-    b->flag = b->packed = NULL;
+    b->flag = NULL;
     b->slot = NULL;
 }
 
@@ -60,20 +52,20 @@ void claims_publish(claim_board *b, int i, const int64_t *p, int dim, int64_t ma
         atomic_store_explicit(&s->x[a], a < dim ? (int32_t)p[a] : 0, memory_order_relaxed);
     atomic_store_explicit(&s->margin, (int32_t)margin, memory_order_relaxed);
     atomic_store_explicit(&s->seq, q + 2, memory_order_release);
-    if (!atomic_load_explicit(claims_flag(b, i), memory_order_relaxed))
-        atomic_store_explicit(claims_flag(b, i), 1, memory_order_release);
+    if (!atomic_load_explicit(&b->flag[i], memory_order_relaxed))
+        atomic_store_explicit(&b->flag[i], 1, memory_order_release);
 }
 
 void claims_withdraw(claim_board *b, int i)
 {
     claim_slot *s = &b->slot[i];
     /* Only the owner writes its flag and slot. */
-    if (!atomic_load_explicit(claims_flag(b, i), memory_order_relaxed)) return;
+    if (!atomic_load_explicit(&b->flag[i], memory_order_relaxed)) return;
     /* The sequence moves on too, so a reader waiting on this slot wakes
      * even if the worker publishes again before it looks at the flag. */
     atomic_store_explicit(&s->seq, atomic_load_explicit(&s->seq, memory_order_relaxed) + 2,
                           memory_order_release);
-    atomic_store_explicit(claims_flag(b, i), 0, memory_order_release);
+    atomic_store_explicit(&b->flag[i], 0, memory_order_release);
 }
 
 /* Whether slot j's spot blocks the move; 1 also when the slot is being
@@ -103,7 +95,7 @@ int claims_block(const claim_board *b, int self, const int64_t *p, uint64_t R2, 
 {
     double R = -1.0; /* computed at the first spot to look at */
     for (int j = 0; j < b->n; j++) {
-        if (j == self || !atomic_load_explicit(claims_flag(b, j), memory_order_acquire)) continue;
+        if (j == self || !atomic_load_explicit(&b->flag[j], memory_order_acquire)) continue;
         if (R < 0) R = sqrt((double)R2);
         if (slot_blocks(&b->slot[j], p, R, what, dim, seq)) {
             *owner = j;
@@ -116,7 +108,7 @@ int claims_block(const claim_board *b, int self, const int64_t *p, uint64_t R2, 
 void claims_wait(const claim_board *b, int owner, uint32_t seq)
 {
     for (unsigned spin = 0;; spin++) {
-        if (!atomic_load_explicit(claims_flag(b, owner), memory_order_acquire)) return;
+        if (!atomic_load_explicit(&b->flag[owner], memory_order_acquire)) return;
         if (atomic_load_explicit(&b->slot[owner].seq, memory_order_acquire) != seq) return;
         /* The owner is inserting (a few hundred ns to a few us); on an
          * oversubscribed machine it may not be running at all. */

@@ -22,23 +22,17 @@
  * then look like one step to the others, as in the reference.
  *
  * One slot per worker (a seqlock: seq odd while the slot is written) and a
- * flag byte per worker that says whether its slot holds a spot: in the
- * slot's own cache line up to CLAIMS_FLAGS_IN_SLOTS workers, packed above
- * (so that the common check, no spot published, reads one cache line for
- * up to 64 workers). Only the owner writes its slot and flag; readers never
- * write.
+ * flag byte per worker, packed, so that the common check (no spot
+ * published) reads one cache line for up to 64 workers. Only the owner
+ * writes its slot and flag; readers never write.
  *
- * Cost: 2D 2 workers from 1e5 to 1e6 on the 2-core VM, with packed flags
- * the parallel phase took 1.07-1.28x as long as without claims (five
- * alternated pairs; serial runs unchanged;
+ * Cost: 2D 2 workers from 1e5 to 1e6 on the 2-core VM, the parallel phase
+ * takes 1.07-1.28x as long (five alternated pairs; serial runs unchanged;
  * runs/bench-threads-16core/session24/claims-cost-2core.txt): the others'
  * flags and slots are read before every jump and change twice a walk, so
- * they miss the cache. The flags in the slots took 4.5% off that parallel
- * phase (12 alternated pairs, all faster: runs/bench-threads-2core/
- * claims-flags-2026-11-30.txt). Not yet measured on 16 cores. claims_any
- * reads n bytes per jump: from the n - 1 others' slot lines up to 8
- * workers, else n / 64 packed lines: 16 at 1024 (the --threads limit; not
- * measured beyond 16 workers).
+ * they miss the cache. Not yet measured on 16 cores. claims_any reads n
+ * bytes (n / 64 cache lines) per jump: one line up to 64 workers, 16 at
+ * 1024 (the --threads limit; not measured beyond 16 workers).
  */
 #ifndef PDLA_SRC_CLAIMS_H
 #define PDLA_SRC_CLAIMS_H
@@ -51,28 +45,17 @@ typedef struct claim_slot {
     _Atomic uint32_t seq;    /* even: stable; odd: being written */
     _Atomic int32_t x[3];    /* the spot, units */
     _Atomic int32_t margin;  /* how far (units) the particle may still move */
-    _Atomic uint8_t flag;    /* the worker's flag when the board keeps it here */
-    uint8_t pad_[43];        /* one slot per cache line: owners write apart */
+    uint32_t pad_[11];       /* one slot per cache line: owners write apart */
 } claim_slot;
-_Static_assert(sizeof(claim_slot) == 64, "a claim slot is one cache line");
-
-/* Up to this many workers each flag lives in its worker's slot, so that a
- * publication or withdrawal changes one cache line, not two (the slot and
- * the packed flags), and a reader that sees a flag has the spot on the same
- * line; a jump then reads n - 1 slot lines, which stay cached while their
- * owners walk. Above it the flags are packed bytes: one line per 64 workers. */
-#define CLAIMS_FLAGS_IN_SLOTS 8
 
 typedef struct claim_board {
     int n;                   /* workers (slots) */
-    /* claims_flag(b, i): worker i has a spot published. One byte per
-     * worker, in its slot or packed (64 workers a cache line), each stored
-     * by its owner alone: plain stores, which the owner does not wait for,
-     * where a shared mask's read-modify-writes cost 2D 2 workers about 10%
-     * of their CPU time (runs/bench-threads-16core/session24). */
-    _Atomic uint8_t *flag;   /* worker i's flag is flag[i * stride] */
-    size_t stride;           /* 1 (packed) or sizeof(claim_slot) (in the slots) */
-    _Atomic uint8_t *packed; /* the packed flags' allocation, or NULL */
+    /* flag[i]: worker i has a spot published. One byte per worker, packed
+     * (64 workers a cache line), each stored by its owner alone: plain
+     * stores, which the owner does not wait for, where a shared mask's
+     * read-modify-writes cost 2D 2 workers about 10% of their CPU time
+     * (runs/bench-threads-16core/session24). */
+    _Atomic uint8_t *flag;
     claim_slot *slot;
 } claim_board;
 
@@ -108,21 +91,13 @@ void claims_withdraw(claim_board *b, int i);
 int claims_block(const claim_board *b, int self, const int64_t *p, uint64_t R2, int what, int dim,
                  int *owner, uint32_t *seq);
 
-/* Worker i's flag (byte arithmetic over the board's storage: the packed
- * array, or the slots, one flag a cache line). */
-static inline _Atomic uint8_t *claims_flag(const claim_board *b, int i)
-{
-    return (_Atomic uint8_t *)((unsigned char *)b->flag + (size_t)i * b->stride);
-}
-
 /* Lock-free: whether any worker but `self` has a spot published (n byte
- * loads: from the n - 1 others' slot lines, or n / 64 packed lines), so that
- * claims_block is called only then. The
+ * loads from n / 64 cache lines), so that claims_block is called only then. The
  * acquire pairs with claims_withdraw's release, as claims_block's does. */
 static inline int claims_any(const claim_board *b, int self)
 {
     for (int i = 0; i < b->n; i++)
-        if (i != self && atomic_load_explicit(claims_flag(b, i), memory_order_acquire)) return 1;
+        if (i != self && atomic_load_explicit(&b->flag[i], memory_order_acquire)) return 1;
     return 0;
 }
 

@@ -50,8 +50,9 @@ from reliab_util import check, failures, run_faulted, shim_preload
 PDLA, SHIM, WORK = (os.path.abspath(a) for a in sys.argv[1:4])
 PRELOAD = shim_preload(PDLA, SHIM)
 rng = random.Random(int(os.environ.get("MODELS_FAULTS_SEED", "20261129")))
-# 0: fault every fsync, rename/link and directory sync of a run, and the
-# sampled writes below; N > 0 (the sanitizer builds, tests/reliab/meson.build):
+# 0 (the slow test models-faults-all): fault every fsync, rename/link and
+# directory sync of a run, and the sampled writes below; N > 0 (the fast test:
+# 6 in the release build, 3 in the sanitizer builds, tests/reliab/meson.build):
 # N of each rarer call, sampled as the writes are, and half the sampled writes.
 RARE = int(os.environ.get("MODELS_FAULTS_RARE", "0"))
 

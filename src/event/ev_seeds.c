@@ -180,14 +180,18 @@ typedef struct seed_grid {
     uint32_t nbig;
 } seed_grid;
 
+/* x's cell along axis k, clamped into the grid (a periodic coordinate may
+ * round up to L). */
+static int grid_coord(const ev_sim *s, const seed_grid *g, const double *x, int k)
+{
+    const long i = (long)floor(x[k] / s->L * g->m);
+    return (int)(i < 0 ? 0 : i >= g->m ? g->m - 1 : i);
+}
+
 static size_t grid_cell(const ev_sim *s, const seed_grid *g, const double *x)
 {
     size_t c = 0;
-    for (int k = s->dim - 1; k >= 0; k--) {
-        long i = (long)floor(x[k] / s->L * g->m);
-        i = i < 0 ? 0 : i >= g->m ? g->m - 1 : i;
-        c = c * (size_t)g->m + (size_t)i;
-    }
+    for (int k = s->dim - 1; k >= 0; k--) c = c * (size_t)g->m + (size_t)grid_coord(s, g, x, k);
     return c;
 }
 
@@ -215,7 +219,7 @@ static int grid_build(const ev_sim *s, seed_grid *g)
     for (int k = 0; k < D; k++) cells *= (size_t)g->m;
     g->start = calloc(cells + 1, sizeof *g->start);
     g->order = malloc((size_t)n * sizeof *g->order);
-    g->big = malloc((size_t)n * sizeof *g->big);
+    g->big = malloc((n < EV_SEEDS_BIG ? n : EV_SEEDS_BIG) * sizeof *g->big);
     if (!g->start || !g->order || !g->big) return -1;
     g->nbig = 0;
     for (uint32_t i = 0; i < n; i++) {
@@ -239,10 +243,7 @@ static uint32_t grid_first(const ev_sim *s, const seed_grid *g, uint32_t a)
     const int D = s->dim, m = g->m;
     const double *x = seed_at(s, a);
     int ci[3] = {0, 0, 0};
-    for (int k = 0; k < D; k++) {
-        long i = (long)floor(x[k] / s->L * m);
-        ci[k] = (int)(i < 0 ? 0 : i >= m ? m - 1 : i);
-    }
+    for (int k = 0; k < D; k++) ci[k] = grid_coord(s, g, x, k);
     const int span = m == 1 ? 1 : 3, nb = D == 2 ? span * span : span * span * span;
     uint32_t best = UINT32_MAX;
     for (int t = 0; t < nb; t++) {

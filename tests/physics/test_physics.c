@@ -18,7 +18,7 @@
  *       walkers is DLA while P/N is small; a frozen snapshot per batch would
  *       drift by percents.)
  *
- *   test_physics pair DIM M N SERIAL_UNTIL THREADS_A REFS_A THREADS_B REFS_B TOL
+ *   test_physics pair DIM M N SERIAL_UNTIL THREADS_A REFS_A THREADS_B REFS_B TOL [SEED0]
  *       Paired ensembles (issue 11): M seeds, each grown to SERIAL_UNTIL
  *       serially (the same prefix for both arms), then on to N by arm A and
  *       by arm B, each given as worker threads and reference walkers
@@ -27,6 +27,10 @@
  *       within TOL (a fraction), and its standard error at most TOL / 3, so
  *       that a difference of 2 TOL is at least 3 standard errors out: the
  *       ensemble is then large enough that a bias of 2 TOL fails.
+ *       An optional last argument SEED0 (default 1001) numbers the seeds
+ *       SEED0 .. SEED0 + M - 1, so that an ensemble can be extended with
+ *       fresh seeds (the reference arms are deterministic) and pooled from
+ *       the sums it prints.
  *
  * The ensemble mean is over clusters at identical sample points (the R_g
  * grid is fixed per decade), seeds 1000 + i.
@@ -229,7 +233,7 @@ static double grow_rg(int dim, uint64_t n, uint64_t serial_until, int threads, i
     return s.rg_diam;
 }
 
-static int compare_pairs(char **a)
+static int compare_pairs(char **a, uint64_t seed0)
 {
     const int dim = atoi(a[0]), m = atoi(a[1]);
     const uint64_t n = (uint64_t)atof(a[2]), serial_until = (uint64_t)atof(a[3]);
@@ -237,7 +241,7 @@ static int compare_pairs(char **a)
     const double tol = atof(a[8]);
     double sum = 0, sum2 = 0, zero_a = 0, zero_b = 0, lag_a = 0, lag_b = 0;
     for (int i = 0; i < m; i++) {
-        const uint64_t seed = 1001 + (uint64_t)i;
+        const uint64_t seed = seed0 + (uint64_t)i;
         lag_stat la, lb;
         const double d = grow_rg(dim, n, serial_until, ta, ra, seed, &la) /
                              grow_rg(dim, n, serial_until, tb, rb, seed, &lb) -
@@ -252,10 +256,12 @@ static int compare_pairs(char **a)
     const pair_stat st = pair_stat_of(sum, sum2, m);
     const double mean = st.mean, sd = st.sd, se = st.se;
     fprintf(stderr,
-            "%dD, %d pairs of %llu after %llu serial: R_g(threads %d, reference %d) / "
-            "R_g(threads %d, reference %d) - 1 = %+.3f%% +- %.3f%% (pair sd %.2f%%; tolerance %.3f%%)\n",
-            dim, m, (unsigned long long)n, (unsigned long long)serial_until, ta, ra, tb, rb,
-            100 * mean, 100 * se, 100 * sd, 100 * tol);
+            "%dD, %d pairs (seeds %llu..%llu) of %llu after %llu serial: R_g(threads %d, "
+            "reference %d) / R_g(threads %d, reference %d) - 1 = %+.3f%% +- %.3f%% (pair sd "
+            "%.2f%%; tolerance %.3f%%; sums %.17g %.17g)\n",
+            dim, m, (unsigned long long)seed0, (unsigned long long)(seed0 + (uint64_t)m - 1),
+            (unsigned long long)n, (unsigned long long)serial_until, ta, ra, tb, rb, 100 * mean,
+            100 * se, 100 * sd, 100 * tol, sum, sum2);
     fprintf(stderr, "lag (particles appended while a walker flew): arm A mean %.2f, %.2f%% of "
                     "particles with lag 0; arm B mean %.2f, %.2f%% with lag 0\n",
             lag_a, 100 * zero_a, lag_b, 100 * zero_b);
@@ -277,11 +283,18 @@ static int compare_pairs(char **a)
 
 int main(int argc, char **argv)
 {
-    if (argc == 11 && !strcmp(argv[1], "pair")) return compare_pairs(argv + 2);
+    if ((argc == 11 || argc == 12) && !strcmp(argv[1], "pair")) {
+        const uint64_t seed0 = argc == 12 ? strtoull(argv[11], NULL, 10) : 1001;
+        if (seed0 == 0) {
+            fprintf(stderr, "test_physics pair: SEED0 must be a positive integer\n");
+            return 2;
+        }
+        return compare_pairs(argv + 2, seed0);
+    }
     if (argc != 4 && argc != 6) {
         fprintf(stderr, "usage: test_physics DIM CLUSTERS N [THREADS SERIAL_UNTIL]\n"
                         "       test_physics pair DIM M N SERIAL_UNTIL THREADS_A REFS_A THREADS_B "
-                        "REFS_B TOL\n");
+                        "REFS_B TOL [SEED0]\n");
         return 2;
     }
     const int dim = atoi(argv[1]);

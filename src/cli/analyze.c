@@ -164,8 +164,7 @@ static int write_csvs(const analyze_opts *o, const uint64_t *sn, const double *s
 static void json_num(FILE *o, const char *name, double v, int comma)
 {
     fprintf(o, "  \"%s\": ", name);
-    if (isfinite(v)) fprintf(o, "%.17g", v);
-    else fputs("null", o);
+    tool_json_num(o, v, 17);
     fputs(comma ? ",\n" : "\n", o);
 }
 

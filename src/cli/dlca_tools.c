@@ -119,14 +119,25 @@ static int read_box(hid_t f, const char *path, dfile *o, char *err, size_t errle
 
 /* The contents' checks, after the shapes: every cluster id names a row of
  * /clusters, every position lies in the box. */
+/* Positions in the box, cluster ids in range, and every /clusters/size the
+ * number of monomers with that id (a forged size of 0 sent analyze's
+ * unwrap into an empty cluster: a read of an unset index, a write past a
+ * zero-length buffer). 1 if so, 0 if not, -1 out of memory. */
 static int dfile_consistent(const dfile *o)
 {
-    for (size_t i = 0; i < o->n; i++) {
-        if (o->cid[i] >= o->nc) return 0;
+    uint64_t *count = calloc(o->nc, sizeof *count);
+    if (!count) return -1;
+    int ok = 1;
+    for (size_t i = 0; i < o->n && ok; i++) {
+        if (o->cid[i] >= o->nc) ok = 0;
+        else count[o->cid[i]]++;
         for (int a = 0; a < o->dim; a++)
-            if (o->pos[i * o->dim + a] < 0 || (uint64_t)o->pos[i * o->dim + a] >= o->L[a]) return 0;
+            if (o->pos[i * o->dim + a] < 0 || (uint64_t)o->pos[i * o->dim + a] >= o->L[a]) ok = 0;
     }
-    return 1;
+    for (size_t c = 0; c < o->nc && ok; c++)
+        if (count[c] != o->size[c] || count[c] == 0) ok = 0;
+    free(count);
+    return ok;
 }
 
 /* Read what both tools need; 0, or -1 with one line in err. */
@@ -142,10 +153,16 @@ static int dfile_read(const char *path, dfile *o, char *err, size_t errlen)
              (o->site = read_ds(f, path, "/monomers/site", PDLA_H5_U32, 4, &n3, &one, err, errlen)) &&
              (o->size = read_ds(f, path, "/clusters/size", PDLA_H5_U64, 8, &o->nc, &one, err, errlen)) &&
              (o->rg = read_ds(f, path, "/clusters/rg", PDLA_H5_F64, 8, &nc2, &one, err, errlen));
-    if (ok && !(cols == (size_t)o->dim && n2 == o->n && n3 == o->n && nc2 == o->nc && o->nc > 0 && o->n > 0 &&
-                dfile_consistent(o))) {
+    const int shaped = ok && cols == (size_t)o->dim && n2 == o->n && n3 == o->n && nc2 == o->nc && o->nc > 0 &&
+                       o->n > 0;
+    const int agree = shaped ? dfile_consistent(o) : 0;
+    if (ok && agree < 0) {
+        pdla_errorf(-1, err, errlen, "%s: out of memory checking %zu clusters", path, o->nc);
+        ok = 0;
+    } else if (ok && !agree) {
         pdla_errorf(-1, err, errlen, "%s: malformed DLCA file (/monomers and /clusters do not agree in shape, "
-                    "or a position or cluster id is out of range)", path);
+                    "a position or cluster id is out of range, or a cluster's size is not its monomer count)",
+                    path);
         ok = 0;
     }
     if (ok) { /* the stop reason is for the record only: absent or odd, it stays empty */
@@ -484,10 +501,18 @@ int dlca_analyze_main(int argc, char **argv)
     (void)mass_radius(u, m, d, 2, rg, &dfm, &dfm_err);
     const int bins = dlca_fractal_dim(f.size, f.rg, f.nc, 8, &dfe, &dfe_err);
     if (json) {
+        /* not-a-number fits (a small largest cluster, too few size bins)
+         * print null: JSON has no NaN */
         printf("{\"model\": \"dlca\", \"dim\": %d, \"monomers\": %zu, \"clusters\": %zu, \"largest\": {\"size\": %zu, "
-               "\"rg\": %.10g, \"rg_file\": %.10g, \"D_f\": %.6g, \"D_f_err\": %.6g}, \"clusters_D_f\": %.6g, "
-               "\"clusters_D_f_err\": %.6g, \"clusters_D_f_bins\": %d}\n",
-               d, f.n, f.nc, m, rg, f.rg[big], dfm, dfm_err, dfe, dfe_err, bins);
+               "\"rg\": ", d, f.n, f.nc, m);
+        const double v[6] = {rg, f.rg[big], dfm, dfm_err, dfe, dfe_err};
+        const char *const sep[6] = {", \"rg_file\": ", ", \"D_f\": ", ", \"D_f_err\": ", "}, \"clusters_D_f\": ",
+                                    ", \"clusters_D_f_err\": ", ", \"clusters_D_f_bins\": "};
+        for (int i = 0; i < 6; i++) {
+            tool_json_num(stdout, v[i], i < 2 ? 10 : 6);
+            fputs(sep[i], stdout);
+        }
+        printf("%d}\n", bins);
     } else {
         printf("%s: model dlca, d = %d, %zu monomers in %zu clusters (stop: %s)\n", argv[optind], d, f.n, f.nc,
                f.stop[0] ? f.stop : "?");

@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "event_cmd.h"
+#include "tools.h"
 #include "pdla/event.h"
 #include "pdla/h5check.h"
 #include "pdla/pdla.h"
@@ -236,8 +237,9 @@ static int series_summary(hid_t f, ev_summary *m, char *err, size_t errlen)
  * JSON reader takes). */
 static void json_num(const char *key, double v, int digits, const char *end)
 {
-    if (isfinite(v)) printf("  \"%s\": %.*g%s", key, digits, v, end);
-    else printf("  \"%s\": null%s", key, end);
+    printf("  \"%s\": ", key);
+    tool_json_num(stdout, v, digits);
+    fputs(end, stdout);
 }
 
 static void print_summary(const ev_summary *m, int json)

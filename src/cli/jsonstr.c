@@ -1,9 +1,11 @@
 /*
  * jsonstr.c - tool_json_str (tools.h): a string in JSON for every tool's
- * --json and --stats-json, invalid UTF-8 as U+FFFD. In a file of its own so
+ * --json and --stats-json, invalid UTF-8 as U+FFFD; tool_json_num: a number,
+ * null when not finite. In a file of its own so
  * that info.c, dlca_info.c, event_info.c, analyze.c and main.c share it
  * without importing one another.
  */
+#include <math.h>
 #include <stdio.h>
 
 #include "tools.h"
@@ -54,3 +56,9 @@ void tool_json_str(FILE *o, const char *s)
     fputc('"', o);
 }
 
+
+void tool_json_num(FILE *o, double v, int digits)
+{
+    if (isfinite(v)) fprintf(o, "%.*g", digits, v);
+    else fputs("null", o);
+}

@@ -20,6 +20,9 @@ int tool_export(int argc, char **argv);
 /* s as a JSON string (quoted, escaped; bytes that are not UTF-8 as
  * U+FFFD), for every tool's --json (info.c). */
 void tool_json_str(FILE *o, const char *s);
+/* v in JSON with `digits` significant digits, null when it is not finite
+ * (JSON has no NaN or inf). */
+void tool_json_num(FILE *o, double v, int digits);
 /* `pdla analyze` of an ensemble file (ens_analyze.c). */
 int ens_analyze_is_ensemble(const char *path);
 int ens_analyze_main(const char *path, int json);

@@ -137,6 +137,7 @@ struct claim_board;
 typedef struct walk_state {
     int64_t p[3];
     uint64_t jumps;           /* since launch (for max_jumps) */
+    uint32_t restarts;        /* launches cut off by max_jumps since walk_begin */
     uint64_t launched_at;     /* particle count at launch (the lag's origin) */
     uint64_t step_seen;       /* workers: the count read by the last step */
     int64_t r_ext_units;      /* the R_ext the radii below were drawn from */
@@ -220,6 +221,9 @@ struct pdla_engine {
      * instead of every SERIAL_POLL_SECONDS, so that stops fall inside walks. */
     uint32_t test_slice_steps;
     int test_poll_every_slice;
+    /* Tests: WALK_ENDLESS after this many restarts in a row instead of
+     * WALK_ENDLESS_RESTARTS (0), so that a walk can be made endless. */
+    uint32_t test_endless_restarts;
     uint64_t ckpt_generation;  /* checkpoints written (or loaded) so far */
     double ckpt_write_seconds; /* time of the last checkpoint write */
 };
@@ -228,11 +232,32 @@ struct pdla_engine {
 enum {
     WALK_MOVED = -1,  /* walker_step: still walking */
     WALK_CONTACT = 0, /* inside the sticking shell: D <= distance < D + eps */
-    WALK_OVERLAP = 1  /* closer than D: a particle appeared during the last jump */
+    WALK_OVERLAP = 1, /* closer than D: a particle appeared during the last jump */
+    /* WALK_ENDLESS_RESTARTS launches in a row were cut off by --max-jumps
+     * with no contact: with a limit that small no walk reaches the cluster,
+     * and growth would go on for ever (an error, not a hang). */
+    WALK_ENDLESS = 2,
+    /* workers only: the engine's stop flag was seen within a walk (a walk
+     * that does not end must not hold off a signal or an error) */
+    WALK_ABANDONED = 3,
+    /* grow.c's serial walk only: stopped by the progress callback */
+    WALK_STOPPED = 4
 };
 
+/* A million restarts in a row: a walker that reaches the cluster within
+ * --max-jumps once in a million tries would need 1e6 x max_jumps jumps a
+ * particle, far beyond any useful run, so no useful run is cut short. */
+#define WALK_ENDLESS_RESTARTS 1000000u
+
+/* The error growth reports on WALK_ENDLESS (one wording, three callers). */
+#define WALK_ENDLESS_FMT                                                                   \
+    "no walker reached the cluster in %u launches in a row, each cut off after "          \
+    "--max-jumps %llu jumps: raise --max-jumps (default 1e8)"
+
+
 /* Walk one walker from birth until it sticks; writes where it stopped.
- * Returns WALK_CONTACT or WALK_OVERLAP. Reads the tree only (any number of
+ * Returns WALK_CONTACT or WALK_OVERLAP; WALK_ENDLESS, or WALK_ABANDONED
+ * once the engine's stop flag is set. Reads the tree only (any number of
  * threads at once). */
 int walker_run(const pdla_engine *e, walker_ctx *w, int64_t *stuck_at);
 

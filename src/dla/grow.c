@@ -31,18 +31,18 @@ static void compact_serial(pdla_engine *e, uint64_t *at)
  * the seconds between two calls of progress within one walk. */
 #define SERIAL_SLICE_STEPS (1u << 16)
 #define SERIAL_POLL_SECONDS 0.25
-#define WALK_STOPPED 2
 
 /* One serial walk, with progress called every SERIAL_POLL_SECONDS while it
  * lasts: progress was called only between particles (every 1000), so a
- * walk that did not end (--max-jumps 1, or a birth circle 1e6 diameters
- * out) held off SIGTERM, the STOP file and timed checkpoints for ever
+ * walk that did not end (--max-jumps 1 before WALK_ENDLESS, or a birth
+ * circle 1e6 diameters out) held off SIGTERM, the STOP file and timed checkpoints for ever
  * (found by an adversarial test). During the call the walker's stream is
  * the one the walk began with, so a checkpoint written then redoes the
  * whole walk when resumed (the same cluster as a straight run; the tree
  * does not change during a serial walk); a stop leaves it there, and the
  * next grow in this process goes on with the walk (e->walk_paused).
- * WALK_CONTACT, WALK_OVERLAP, or WALK_STOPPED with the line in err. */
+ * WALK_CONTACT, WALK_OVERLAP, WALK_ENDLESS, or WALK_STOPPED with the line
+ * in err. */
 static int serial_walk(pdla_engine *e, pdla_progress_fn progress, void *user, double t0, double *polled,
                        int64_t *p, char *err, size_t errlen)
 {
@@ -112,6 +112,11 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
         const int st = serial_walk(e, progress, user, t0, &polled, p, err, errlen);
         if (st == WALK_STOPPED) {
             rc = PDLA_ESTOPPED;
+            break;
+        }
+        if (st == WALK_ENDLESS) {
+            rc = pdla_errorf(PDLA_EINVAL, err, errlen, WALK_ENDLESS_FMT, WALK_ENDLESS_RESTARTS,
+                             (unsigned long long)e->params.max_jumps);
             break;
         }
         if (st != WALK_CONTACT) {

@@ -178,7 +178,7 @@ static inline void unlock_counted(pthread_mutex_t *mu, walker_ctx *w, int which,
 /* insert_concurrent's steps below return these (errors are negative
  * PDLA_E* codes, already recorded by worker_fail). RETRY: another walker took
  * the spot since this one's last check; re-check as an overlap. */
-enum { RETRY = 3, RELAUNCH = 4 };
+enum { RETRY = 3, RELAUNCH = 4, ABANDON = 5 /* worker_main: a stop came within the walk */ };
 
 /* Step 1, for an overlap: snap p onto contact with the particle that took
  * its spot, once, unless --recheck discard. Otherwise the snap of
@@ -378,10 +378,18 @@ static void *worker_main(void *arg)
         if (__builtin_expect(h != NULL, 0) && h->turn_begin) h->turn_begin(h->user, k->w->id);
         int64_t p[3];
         const int status = walker_run(e, k->w, p);
-        const int r = insert_concurrent(k, p, status);
+        int r = ABANDON;
+        if (status == WALK_ENDLESS) {
+            char msg[256];
+            snprintf(msg, sizeof msg, WALK_ENDLESS_FMT, WALK_ENDLESS_RESTARTS,
+                     (unsigned long long)e->params.max_jumps);
+            r = worker_fail(k, PDLA_EINVAL, msg);
+        } else if (status != WALK_ABANDONED) {
+            r = insert_concurrent(k, p, status);
+        }
         if (r == RELAUNCH) k->w->relaunches++; /* the next walk is a fresh walker */
         if (__builtin_expect(h != NULL, 0) && h->turn_end) h->turn_end(h->user, k->w->id);
-        if (r == TARGET_REACHED || r < 0) break;
+        if (r == TARGET_REACHED || r == ABANDON || r < 0) break;
     }
     atomic_store_explicit(&k->seen_epoch, UINT64_MAX, memory_order_release);
     struct timespec cpu;

@@ -123,6 +123,11 @@ int reference_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress, 
                 continue;
             }
             active[i] = 0;
+            if (status == WALK_ENDLESS) {
+                rc = pdla_errorf(PDLA_EINVAL, err, errlen, WALK_ENDLESS_FMT, WALK_ENDLESS_RESTARTS,
+                                 (unsigned long long)e->params.max_jumps);
+                break;
+            }
             const uint64_t before = tree_count(&e->tree);
             rc = reference_insert(e, w, p, status, err, errlen);
             if (rc == PDLA_OK && progress && tree_count(&e->tree) != before &&

@@ -238,6 +238,7 @@ static inline __attribute__((always_inline)) void walk_begin_dim(const pdla_engi
     walk_set_radii(e, s, atomic_load_explicit(&e->r_ext, memory_order_relaxed));
     launch(w, s->Rb, s->p, dim);
     s->jumps = 0;
+    s->restarts = 0;
     s->launched_at = tree_count(&e->tree);
     s->step_seen = s->launched_at;
     s->near = 0;
@@ -314,18 +315,21 @@ typedef struct walk_consts {
     uint64_t stick2;    /* (D + eps)^2: contact below it */
     uint64_t D2;        /* D^2: overlap below it */
     uint64_t max_jumps;
+    uint32_t endless;   /* restarts in a row that end a walk (WALK_ENDLESS) */
     int exact;          /* --exact-search */
     int kill;           /* PDLA_RETURN_KILL */
     int64_t claim_margin; /* how far the snap may move a stopped walker (claims.h) */
 } walk_consts;
 
-static inline __attribute__((always_inline)) walk_consts walk_consts_of(const pdla_params *P)
+static inline __attribute__((always_inline)) walk_consts walk_consts_of(const pdla_params *P,
+                                                                     uint32_t test_endless)
 {
     const uint64_t De = (uint64_t)(P->resolution + P->eps);
     return (walk_consts){.D = (double)P->resolution,
                          .stick2 = De * De,
                          .D2 = (uint64_t)P->resolution * (uint64_t)P->resolution,
                          .max_jumps = P->max_jumps,
+                         .endless = test_endless ? test_endless : WALK_ENDLESS_RESTARTS,
                          .exact = P->exact_search,
                          .kill = P->return_mode == PDLA_RETURN_KILL,
                          .claim_margin = claims_margin(P->resolution, P->eps)};
@@ -333,7 +337,7 @@ static inline __attribute__((always_inline)) walk_consts walk_consts_of(const pd
 
 /* One step of a walk: one jump (or return to the birth circle, restart,
  * kill). Returns WALK_MOVED, or WALK_CONTACT / WALK_OVERLAP with the spot in
- * stuck_at. conc: worker threads append meanwhile; every move is then
+ * stuck_at, or WALK_ENDLESS (engine.h) at the last restart allowed. conc: worker threads append meanwhile; every move is then
  * checked against the particles appended since its query (walk_stale), so
  * each jump is exact for the cluster as it is when the jump is taken, as in
  * the race-free reference. Longer than the 80-line rule on purpose: the
@@ -358,6 +362,7 @@ static inline __attribute__((always_inline)) int walk_step_dim(const pdla_engine
         s->launched_at = seen;
     }
     if (s->jumps >= kc.max_jumps) {
+        if (++s->restarts >= kc.endless) return WALK_ENDLESS;
         w->restarts++;
         launch(w, s->Rb, p, dim);
         s->jumps = 0;
@@ -447,11 +452,15 @@ static inline __attribute__((always_inline)) int walk_dim(const pdla_engine *e, 
                                                           const int conc)
 {
     walk_state s;
-    const walk_consts kc = walk_consts_of(&e->params);
+    const walk_consts kc = walk_consts_of(&e->params, e->test_endless_restarts);
     walk_begin_dim(e, w, &s, dim);
-    for (;;) {
+    for (uint32_t steps = 1;; steps++) {
         const int r = walk_step_dim(e, w, &s, stuck_at, kc, dim, conc);
         if (r != WALK_MOVED) return r;
+        /* Every 4096 steps (a few hundred microseconds): a walk that does
+         * not end must not keep a worker from a stop. */
+        if (!(steps & 4095u) && atomic_load_explicit(&e->stop, memory_order_relaxed))
+            return WALK_ABANDONED;
         if (conc && __builtin_expect(e->hooks != NULL, 0) && e->hooks->turn_end) {
             e->hooks->turn_end(e->hooks->user, w->id);
             e->hooks->turn_begin(e->hooks->user, w->id);
@@ -470,7 +479,7 @@ static inline __attribute__((always_inline)) int walk_slice_dim(const pdla_engin
                                                                 walk_state *s, int resume, uint64_t steps,
                                                                 int64_t *stuck_at, const int dim)
 {
-    const walk_consts kc = walk_consts_of(&e->params);
+    const walk_consts kc = walk_consts_of(&e->params, e->test_endless_restarts);
     if (!resume) walk_begin_dim(e, w, s, dim);
     for (uint64_t k = 0; k < steps; k++) {
         const int r = walk_step_dim(e, w, s, stuck_at, kc, dim, 0);
@@ -496,7 +505,7 @@ void walker_begin(const pdla_engine *e, walker_ctx *w, walk_state *s)
 
 int walker_step(const pdla_engine *e, walker_ctx *w, walk_state *s, int64_t *stuck_at)
 {
-    const walk_consts kc = walk_consts_of(&e->params);
+    const walk_consts kc = walk_consts_of(&e->params, e->test_endless_restarts);
     return e->params.dim == 2 ? walk_step_dim(e, w, s, stuck_at, kc, 2, 0)
                               : walk_step_dim(e, w, s, stuck_at, kc, 3, 0);
 }

@@ -42,6 +42,17 @@ def run(args):
     return p.returncode, p.stdout.decode(errors="replace"), p.stderr.decode(errors="replace")
 
 
+def strict_json(text):
+    """text parsed as JSON with NaN and Infinity refused (Python's reader
+    takes them; JSON does not): None if it is not JSON."""
+    def refuse(c):
+        raise ValueError(c)
+    try:
+        return json.loads(text, parse_constant=refuse)
+    except ValueError:
+        return None
+
+
 def load(h5):
     with h5py.File(h5, "r") as f:
         return (f["monomers/position"][:].astype(np.int64), f["monomers/cluster"][:].astype(np.int64),
@@ -87,7 +98,9 @@ def main():
             rc, so, se = run([pdla, "analyze", "--json", h5])
             if not check(rc == 0, "%s: analyze exit %d: %s" % (box, rc, se)):
                 continue
-            j = json.loads(so.replace("nan", "NaN"))
+            j = strict_json(so)
+            if not check(j is not None, "%s: analyze --json is not strict JSON: %r" % (box, so)):
+                continue
             big = int(np.argmax(size))
             lg = j["largest"]
             check(lg["size"] == size[big], "%s: largest %d, file says %d" % (box, lg["size"], size[big]))
@@ -102,6 +115,32 @@ def main():
             check(rc == 0 and "largest cluster: %d monomers" % size[big] in so, "%s: analyze text: %s" % (box, so))
         check(wrapped_seen, "no largest cluster crossed the box edge: the unwrapping went untested")
         h5 = os.path.join(tmp, "96x64", "cluster.h5")
+        # A run too small for the fits: their values are null in --json (they
+        # printed nan, which no JSON reader takes, session 26).
+        small = os.path.join(tmp, "small")
+        rc, _, se = run([pdla, "--model", "dlca", "--dim", "2", "--box", "16", "--count", "3", "--until-clusters",
+                         "3", "--seed", "1", "--out", small, "-q"])
+        if check(rc == 0, "small run: exit %d: %s" % (rc, se)):
+            rc, so, se = run([pdla, "analyze", "--json", os.path.join(small, "cluster.h5")])
+            j = strict_json(so)
+            check(rc == 0 and j is not None and j["largest"]["D_f"] is None and j["clusters_D_f"] is None,
+                  "small run: analyze --json exit %d, %r %r (want null fits)" % (rc, so, se))
+        # Forged sizes that disagree with the monomers' cluster ids (every size
+        # 0: analyze crashed in the unwrapping, session 26) are refused.
+        for what in ("zero", "swap"):
+            forged = os.path.join(tmp, "forged-%s.h5" % what)
+            shutil.copy(h5, forged)
+            with h5py.File(forged, "r+") as f:
+                size = f["clusters/size"][()]
+                if what == "zero":
+                    f["clusters/size"][...] = 0
+                    f["monomers/cluster"][...] = 1
+                else:
+                    f["clusters/size"][...] = np.roll(size, 1)
+            for tool in (["analyze"], ["analyze", "--json"], ["render", "-o", os.path.join(tmp, "f-%s.png" % what)]):
+                rc, _, se = run([pdla] + tool[:1] + [forged] + tool[1:])
+                check(rc == 2 and len(se.strip().splitlines()) == 1 and "size" in se,
+                      "forged sizes (%s), %s: exit %d, stderr %r" % (what, tool, rc, se))
         for args in (["analyze", h5, "--nosuch"], ["render", h5], ["render", h5, "-o", os.path.join(tmp, "x.png"),
                                                                     "--size", "8"]):
             rc, _, se = run([pdla] + args)

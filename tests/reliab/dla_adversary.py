@@ -4,8 +4,15 @@ command line found (session 23), each case as it was found:
 
 - SIGTERM held off for ever while a serial walk did not end (progress, and
   with it the stop flag, the STOP file and timed checkpoints, was looked at
-  only every 1000 particles): --max-jumps 1 (no walk ever ends) and a 3D
-  birth sphere 1e6 diameters out;
+  only every 1000 particles): a 3D birth sphere 1e6 diameters out (and
+  --max-jumps 1, under which no walk ever ended: since session 26 growth
+  gives up with one line after a million launches in a row are cut off,
+  test endless);
+- (session 26) worker threads looked at the stop flag only between walks,
+  so a worker's walk that did not end held off a signal for ever. The
+  engine test endless is the one that tells (its walks never end); here a
+  3D birth sphere 1e6 diameters out with 2 workers checks the command's
+  exit (its walks, under a second, end anyway);
 - a stop or a timed checkpoint in the middle of a walk must not change the
   cluster: the checkpoint holds the stream the walk began with, and a
   resume redoes the walk;
@@ -67,12 +74,21 @@ def positions(d):
         return f["/cluster/positions"][()]
 
 
-# ---- a signal while a serial walk does not end ----------------------------------
-rc, dt = stopped(["--target", "1500", "--max-jumps", "1", "--out", "mj", "--no-progress"], 1.0)
-check(rc == 128 + signal.SIGTERM or rc == -signal.SIGTERM,
-      "--max-jumps 1: SIGTERM gave %s after %.1f s (want the signal's status within a second)" % (rc, dt))
-check(dt < 5 and os.path.exists(os.path.join(WORK, "mj", "cluster.h5")),
-      "--max-jumps 1: %.1f s to stop, partial cluster %s" % (dt, os.path.exists(os.path.join(WORK, "mj"))))
+# ---- a walk that cannot end, and a signal while a walk does not end ----------
+rc, _, err = run(["--target", "1500", "--max-jumps", "1", "--out", "mj", "--no-progress"], timeout=60)
+check(rc == 1 and len(err) == 1 and "raise --max-jumps" in err[0] and "partial cluster written" in err[0]
+      and os.path.exists(os.path.join(WORK, "mj", "cluster.h5")),
+      "--max-jumps 1: exit %s, %s (want exit 1, one line naming --max-jumps, the partial cluster)" % (rc, err))
+rc, dt = stopped(["--dim", "3", "--target", "8", "--birth-margin", "1e6", "--out", "sigs", "--no-progress"], 1.0)
+check((rc == 128 + signal.SIGTERM or rc == -signal.SIGTERM) and dt < 5
+      and os.path.exists(os.path.join(WORK, "sigs", "cluster.h5")),
+      "3D margin 1e6 serial: SIGTERM gave %s after %.1f s (want the signal's status and a partial cluster)"
+      % (rc, dt))
+rc, dt = stopped(["--dim", "3", "--threads", "2", "--serial-until", "1", "--target", "50", "--birth-margin",
+                  "1e6", "--out", "sigw", "--no-progress"], 1.0)
+check((rc == 128 + signal.SIGTERM or rc == -signal.SIGTERM) and dt < 3,
+      "3D margin 1e6, 2 workers: SIGTERM gave %s after %.1f s (want the signal's status within a second or two)"
+      % (rc, dt))
 # 3D, birth sphere 1e6 diameters out: a walk lasts about 0.4 s (this VM)
 far = ["--dim", "3", "--target", "8", "--birth-margin", "1e6"]
 rc, _, err = run(far + ["--out", "straight", "-q"])

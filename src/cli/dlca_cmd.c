@@ -591,6 +591,14 @@ static int resume_snapshots(dlca_cli *c, const dlca_sim *s, const char *ckpath, 
 /* --resume: load the checkpoint, hold the options given against it (the
  * table's resume rule: only the resumable rows, the stops, may change) and
  * apply the stops given. 0, or the exit status with the line printed. */
+/* Is dir the directory open as fd (the lock a resume took)? A second flock
+ * on it from this process would conflict with the first. */
+static int same_dir(int fd, const char *dir)
+{
+    struct stat a, b;
+    return fd >= 0 && fstat(fd, &a) == 0 && stat(dir, &b) == 0 && a.st_dev == b.st_dev && a.st_ino == b.st_ino;
+}
+
 static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
 {
     char ckpath[4200], err[1024];
@@ -654,7 +662,10 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
         else snprintf(dir, dirlen, ".");
         c->out = dir;
     }
-    c->force = 1; /* its own run directory */
+    /* Its own run directory is written over; another one given by --out
+     * only with --force, as for a new run (it was written over silently,
+     * another run's checkpoint with it). */
+    if (same_dir(c->lock, c->out)) c->force = 1;
     return 0;
 }
 
@@ -669,14 +680,6 @@ static int new_sim(const dlca_cli *c, dlca_sim **s, char *err, size_t errlen)
     const int crc = dlca_create_sites(s, &c->p, sites, n, err, errlen);
     free(sites);
     return crc;
-}
-
-/* Is dir the directory open as fd (the lock a resume took)? A second flock
- * on it from this process would conflict with the first. */
-static int same_dir(int fd, const char *dir)
-{
-    struct stat a, b;
-    return fd >= 0 && fstat(fd, &a) == 0 && stat(dir, &b) == 0 && a.st_dev == b.st_dev && a.st_ino == b.st_ino;
 }
 
 /* The simulation to run (resumed or new) and its run directory: 0, or the

@@ -134,6 +134,10 @@ static int parse_flag(const char *a, ev_cli *c)
  * (its bit into c->given). 0, or -1 with the line in c->err. */
 static int parse_value(ev_cli *c, const char *name, const char *val)
 {
+    if (!strcmp(name, "model") && strcmp(val, "event")) { /* a second, other --model */
+        snprintf(c->err, sizeof c->err, "--model %s: this command runs model event", val);
+        return -1;
+    }
     if (!strcmp(name, "model") || !strcmp(name, "scene")) return 0;
     if (!strcmp(name, "out")) {
         c->out = val;

@@ -568,9 +568,10 @@ int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, size_t err
     int rc = PDLA_EIO;
     /* a regular file only: H5Fopen of a FIFO blocked for ever */
     struct stat st;
-    const int reg = stat(path, &st) == 0 && S_ISREG(st.st_mode);
+    const int found = stat(path, &st) == 0, stat_errno = errno;
+    const int reg = found && S_ISREG(st.st_mode);
     const hid_t f = reg ? H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT) : H5I_INVALID_HID;
-    if (!reg) snprintf(why, sizeof why, "%s", errno == ENOENT ? "no such file" : "not a regular file");
+    if (!reg) snprintf(why, sizeof why, "%s", found ? "not a regular file" : strerror(stat_errno));
     else if (f < 0) snprintf(why, sizeof why, "cannot open it as HDF5");
     else if ((rc = load_state(&s, f, why, sizeof why)) == 0) {
         char cerr[160];

@@ -33,6 +33,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "ev_internal.h"
@@ -544,6 +545,18 @@ static int check_values(const rd *r, const ev_sim *s)
         return rfail(r, "%s", "a time or sum not finite, or a negative time (damaged)");
     if ((s->started != 0 && s->started != 1) || (s->iv_open != 0 && s->iv_open != 1))
         return rfail(r, "%s", "a run flag other than 0 or 1 (damaged)");
+    /* Sums of non-negative terms, and counters that add up: every event is
+     * one collision, wall hit, stick, cell crossing or stale prediction, and
+     * every stuck particle stuck by one event (a forged counter wrapped the
+     * resumed run's collision count, a negative ke_stuck went to /results) */
+    if (!(s->ke_stuck >= 0) || !(s->wall_impulse >= 0) || !(s->max_overlap >= 0))
+        return rfail(r, "%s", "a negative energy, impulse or overlap sum (damaged)");
+    uint64_t sum = 0;
+    const uint64_t parts[5] = {s->collisions, s->wall_hits, s->sticks, s->cell_crossings, s->invalid};
+    int wrapped = 0;
+    for (int k = 0; k < 5; k++) wrapped |= __builtin_add_overflow(sum, parts[k], &sum);
+    if (wrapped || sum != s->events || s->sticks != s->nstuck)
+        return rfail(r, "%s", "event counters that do not add up (damaged)");
     /* the interval is the parameter's, doubled at each thinning (exact):
      * a forged 1e-300 made a run of 1e6 empty rows a row at a time */
     int e2;
@@ -745,8 +758,13 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     }
     ev_sim *s = NULL;
     int rc = 0;
-    if (access(path, R_OK) != 0) {
+    /* a regular file only: H5Fopen of a FIFO blocked for ever, past SIGTERM */
+    struct stat st;
+    if (stat(path, &st) != 0 || access(path, R_OK) != 0) {
         snprintf(err, errlen, "checkpoint %s: %s", path, strerror(errno));
+        rc = -1;
+    } else if (!S_ISREG(st.st_mode)) {
+        snprintf(err, errlen, "checkpoint %s: not a regular file", path);
         rc = -1;
     }
     if (!rc && (r.file = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT)) < 0)

@@ -32,6 +32,7 @@ def check(cond, msg):
     if not cond:
         print("FAIL: " + msg)
         fails += 1
+    return cond
 
 
 def run(args):
@@ -94,6 +95,36 @@ shutil.copy(os.path.join(WORK, "snp", "checkpoint.h5"), os.path.join(WORK, "ff",
 os.mkfifo(os.path.join(WORK, "ff", "checkpoint.h5"))
 rc, err = run(DL + ["--resume", os.path.join(WORK, "ff", "checkpoint.h5")])
 check(rc is not None and rc != 0 and len(err) == 1, "--resume of a FIFO checkpoint: %s %s" % (rc, err))
+# (session 26) the DLCA message named a FIFO "no such file"; the event model
+# opened it and blocked in open() past SIGTERM (only kill -9 ended it)
+refused("--resume FIFO, DLCA", DL + ["--resume", os.path.join(WORK, "ff")], "not a regular file")
+refused("--resume FIFO, event", ["--model", "event", "--resume", os.path.join(WORK, "ff")], "not a regular file")
+refused("--resume FIFO file, event", ["--model", "event", "--resume", os.path.join(WORK, "ff", "checkpoint.h5")],
+        "not a regular file")
+
+# (session 26) --resume A --out B wrote over another run in B without --force
+small = DL + ["--box", "32x32", "--fill", "0.05", "--checkpoint"]
+rc, err = run(small + ["--until-clusters", "20", "--seed", "1", "--out", "ra"])
+rc2, err2 = run(small + ["--until-clusters", "30", "--seed", "2", "--out", "rb"])
+if check(rc == 0 and rc2 == 0, "runs for --resume --out: %s %s %s %s" % (rc, err, rc2, err2)):
+    def digest(d):
+        return {n: open(os.path.join(WORK, d, n), "rb").read() for n in ("cluster.h5", "checkpoint.h5")}
+    before = digest("rb")
+    refused("--resume ra --out rb (rb exists)", DL + ["--resume", "ra", "--until-clusters", "10", "--out", "rb"],
+            "use --force")
+    check(digest("rb") == before, "--resume ra --out rb without --force changed rb")
+    rc, err = run(DL + ["--resume", "ra", "--until-clusters", "10", "--out", "rb", "--force"])
+    check(rc == 0 and digest("rb") != before, "--resume ra --out rb --force: %s %s" % (rc, err))
+    rc, err = run(DL + ["--resume", "ra", "--until-clusters", "15", "--out", os.path.join(WORK, "ra") + "/"])
+    check(rc == 0, "--resume ra --out ra/ (its own directory): %s %s" % (rc, err))
+    rc, err = run(DL + ["--resume", "ra/checkpoint.h5", "--until-clusters", "12", "--out", "rc"])
+    check(rc == 0 and os.path.exists(os.path.join(WORK, "rc", "cluster.h5")),
+          "--resume ra --out rc (new): %s %s" % (rc, err))
+
+# (session 26) a second, other --model was ignored after --model event
+refused("--model event --model dlca", ["--model", "event", "--model", "dlca", "--particles", "10", "--out", "mm"],
+        "runs model event")
+check(not os.path.exists(os.path.join(WORK, "mm")), "--model event --model dlca made a run directory")
 
 shutil.rmtree(WORK, ignore_errors=True)
 print("%d failures" % fails)

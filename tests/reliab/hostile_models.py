@@ -390,6 +390,14 @@ ev_cases.update({
     "now_negative": ev_values("state/reals", ev_set(0, -1e300)),
     "series_dt_zero": ev_values("state/reals", ev_set(1, 0.0)),
     "rng_zero": ev_values("state/counters", lambda a: np.concatenate([a[:9], np.zeros(4, dtype="u8")])),
+    # counters that do not add up, sums of non-negative terms made negative
+    # (session 26: resumed and written to /results as they were)
+    "collisions_wrapped": ev_values("state/counters", ev_set(1, 2**64 - 1)),
+    "events_short": ev_values("state/counters", lambda a: np.concatenate([a[:1] - 1, a[1:]])),
+    "sticks_not_stuck": ev_values("state/counters",  # the events' sum kept
+                                  lambda a: np.concatenate([a[:1] + 1, a[1:3], a[3:4] + 1, a[4:]])),
+    "ke_stuck_negative": ev_values("state/reals", ev_set(2, -1.0)),
+    "wall_impulse_negative": ev_values("state/reals", ev_set(4, -1e-9)),
     "particles_1e8": ev_param("particles", "100000000", {"particles": 10**8, "ntot": 10**8 + 1}),
     # the seed (index 300, radius 1) grown to 1.4: the cells are sized by the
     # parameters' seed (side >= 1 + 0.5 since session 14), so particles could

@@ -110,6 +110,13 @@ PDLA_API int pdla_ens_grow_one(const pdla_ens_config *c, uint64_t i, pdla_ens_re
 PDLA_API int pdla_ens_record_encode(const pdla_ens_record *r, uint8_t **buf, size_t *len);
 PDLA_API int pdla_ens_record_decode(const uint8_t *buf, size_t len, pdla_ens_record *out,
                                     char *err, size_t errlen);
+/* A record's fixed fields come first, in PDLA_ENS_RECORD_FIXED bytes. peek
+ * reads them alone (no allocation; rg_n, rg and positions stay NULL), for
+ * a record of `len` bytes in all: 0, or -1 when the lengths they declare do
+ * not add up to len. The journal's scan past damage checks candidates so
+ * before it reads and hashes them whole. */
+#define PDLA_ENS_RECORD_FIXED 136
+PDLA_API int pdla_ens_record_peek(const uint8_t *fixed, uint64_t len, pdla_ens_record *out);
 
 /* Where work comes from and where finished clusters go. Both functions are
  * called from the worker threads, concurrently: they must be thread-safe. */

@@ -107,7 +107,8 @@ enum { PDLA_H5_STORED = 0, PDLA_H5_TOO_LARGE = 1, PDLA_H5_NOT_STORED = 2 };
 PDLA_API int pdla_h5_dset_stored(const pdla_h5_dset *d, size_t esize);
 
 /* Reads rows [row0, row0 + nrows) of a rank 1 or 2 dataset, all columns,
- * converted to t, into buf. 0, or -1 (out of range, checksum or I/O error). */
+ * converted to t, into buf. 0, or -1 (rows out of range, a value that does
+ * not fit t, which HDF5 would clamp, a checksum or I/O error). */
 PDLA_API int pdla_h5_dset_read(const pdla_h5_dset *d, pdla_h5_type t, uint64_t row0,
                                uint64_t nrows, void *buf);
 

@@ -353,6 +353,11 @@ typedef struct pdla_checkpoint_opts {
     int compress;             /* 1: shuffle + deflate 1 on the pools (slower). Default 0. */
     const char *command_line; /* for provenance, or NULL */
     double pause_seconds;     /* time the caller took to stop the workers; recorded */
+    /* The caller's schedule, recorded so that a resume can keep it
+     * (pdla_checkpoint_info): wall seconds and particles between
+     * checkpoints, 0 for none. */
+    double every_seconds;
+    uint64_t every_particles;
 } pdla_checkpoint_opts;
 
 typedef struct pdla_checkpoint_info {
@@ -362,6 +367,13 @@ typedef struct pdla_checkpoint_info {
     uint64_t bytes;           /* size of the file */
     double seconds;           /* write or load time */
     char note[1024];          /* on load: why newer generations were skipped, or "" */
+    /* On load: the schedule the writer recorded (pdla_checkpoint_opts) and
+     * whether the pools were compressed; has_schedule 0 for files written
+     * before session 26, which did not record it. */
+    int has_schedule;
+    double every_seconds;
+    uint64_t every_particles;
+    int compressed;
 } pdla_checkpoint_info;
 
 /* Write a checkpoint of e into directory dir: DIR/.checkpoint.h5.tmp.<pid>

@@ -133,6 +133,10 @@ typedef struct ens_args {
     uint64_t clusters;
     int clusters_given, keep, keep_given, help;
     int gzip, gzip_given; /* deflate level of the kept positions; given on the command line */
+    /* --threads: clusters grown at once, not a cluster's worker threads, so
+     * kept out of the growth options (with them, cli_parse refused
+     * --reference-walkers beside --threads 2) */
+    const char *threads;
 } ens_args;
 
 /* Take this command's own options out of argv (into a, rest into *rest with
@@ -162,6 +166,10 @@ static int split_args(int argc, char **argv, ens_args *a, char **rest, int *nres
                 return snprintf(err, errlen, "invalid value '%.48s' for --compress: want a level 0..9", l), -1;
             a->gzip = l[0] - '0';
             a->gzip_given = 1;
+            continue;
+        } else if (!strcmp(s, "--threads") || !strncmp(s, "--threads=", 10)) {
+            a->threads = s[9] == '=' ? s + 10 : i + 1 < argc ? argv[++i] : NULL;
+            if (!a->threads) return snprintf(err, errlen, "option --threads needs a value (T)"), -1;
             continue;
         } else if (!strcmp(s, "--keep-positions")) {
             a->keep = a->keep_given = 1;
@@ -377,6 +385,15 @@ static int parse_all(ens_cmd *c, int argc, char **argv, char **rest)
             fprintf(stderr, "pdla ensemble: %s\n",
                     c->o.action == CLI_VERSION ? "--version: see pdla --version" : c->err);
         return EXIT_USAGE;
+    }
+    if (c->a.threads) { /* the value checked alone, as pdla checks --threads */
+        char *one[3] = {rest[0], "--threads", (char *)c->a.threads};
+        cli_options t;
+        if (cli_parse(3, one, &t, c->err, sizeof c->err) != CLI_PARSE_OK) {
+            if (c->mpi_rank == 0) fprintf(stderr, "pdla ensemble: %s\n", c->err);
+            return EXIT_USAGE;
+        }
+        c->o.params.threads = t.params.threads;
     }
     c->asked.params = c->o.params;
     c->asked.params.threads = 1;

@@ -208,7 +208,8 @@ int exp_src_stream(exp_src *s, size_t slab_rows, exp_fn fn, void *user, char *er
         else if (cl && s->cid.id >= 0 && pdla_h5_dset_read(&s->cid, PDLA_H5_U64, row, rows, cl) < 0)
             bad = "cluster ids";
         if (bad) {
-            rc = pdla_errorf(-1, err, errlen, "%s: cannot read rows %llu..%llu of the %s (damaged?)", s->path,
+            rc = pdla_errorf(-1, err, errlen, "%s: cannot read rows %llu..%llu of the %s (damaged, or a value beyond "
+                                             "the type read?)", s->path,
                       (unsigned long long)row, (unsigned long long)(row + rows - 1), bad);
             break;
         }

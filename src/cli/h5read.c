@@ -167,7 +167,8 @@ int h5r_stream(h5r_file *f, size_t slab_rows, h5r_rows_fn fn, void *user, char *
         const uint64_t left = f->n - first;
         const size_t rows = left < slab_rows ? (size_t)left : slab_rows;
         if (pdla_h5_dset_read(&f->pos, PDLA_H5_I32, first, rows, buf) < 0) {
-            rc = pdla_errorf(-1, err, errlen, "%s: cannot read rows %llu..%llu of /cluster/positions (damaged?)",
+            rc = pdla_errorf(-1, err, errlen, "%s: cannot read rows %llu..%llu of /cluster/positions (damaged, or a value "
+                                             "beyond 32-bit integers?)",
                       f->path, (unsigned long long)first, (unsigned long long)(first + rows - 1));
         } else {
             rc = fn(buf, rows, first, user);

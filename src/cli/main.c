@@ -349,7 +349,8 @@ static void schedule_checkpoints(grow_ctx *c, const pdla_engine *e)
 /* Write a checkpoint (growth is stopped); pause = time the stop took. */
 static int do_checkpoint(pdla_engine *e, grow_ctx *c, double pause, char *why, size_t whylen)
 {
-    const pdla_checkpoint_opts co = {c->o->checkpoint_compress, c->command, pause};
+    const pdla_checkpoint_opts co = {c->o->checkpoint_compress, c->command, pause, c->o->checkpoint_every,
+                                     c->o->checkpoint_particles};
     pdla_checkpoint_info info;
     char err[4600];
     const int rc = pdla_checkpoint_write(e, c->dir, &co, &info, err, sizeof err);
@@ -784,6 +785,21 @@ static void resume_dir(const char *path, int is_dir, char *dir, size_t dirlen)
 
 /* Steps 2 and 3 for --resume: lock the run directory, then load the
  * checkpoint, which validates it and the options against it. */
+/* A resume without checkpoint options keeps the interrupted run's schedule
+ * (a bare `pdla --resume DIR` after --checkpoint-every 30m wrote only the
+ * final checkpoint, so a kill after it lost everything since the resume);
+ * any of --checkpoint-every, --checkpoint-particles, --checkpoint-compress
+ * given replaces it. */
+static void keep_schedule(run *R)
+{
+    cli_options *o = &R->o;
+    const pdla_checkpoint_info *in = &R->loaded;
+    if (!in->has_schedule || o->checkpoint_every > 0 || o->checkpoint_particles || o->checkpoint_compress) return;
+    o->checkpoint_every = in->every_seconds;
+    o->checkpoint_particles = in->every_particles;
+    o->checkpoint_compress = in->compressed;
+}
+
 static int resume_step(run *R)
 {
     const cli_options *o = &R->o;
@@ -824,6 +840,7 @@ static int resume_step(run *R)
     if (R->loaded.note[0])
         fprintf(stderr, "pdla: note: %s; resuming from %s (generation %" PRIu64 ")\n", R->loaded.note,
                 R->loaded.path, R->loaded.generation);
+    keep_schedule(R);
     pdla_checkpoint_remove_stale(R->dir);
     remove_stale_outputs(R->dir);
     return GO_ON;
@@ -851,8 +868,16 @@ static int new_run_step(run *R)
     }
     pdla_checkpoint_remove_stale(R->dir);
     remove_stale_outputs(R->dir);
-    if (!R->created) remove_old_checkpoints(R->dir);
     return GO_ON;
+}
+
+/* The last step before growth, once nothing can refuse the run: a --force
+ * run's directory loses the older run's checkpoints (they were removed in
+ * new_run_step, before the --stats-json check, so a run refused for its
+ * path left the older run unable to resume). */
+static void clear_old_run_step(const run *R)
+{
+    if (!R->o.resume && !R->o.no_output && !R->created) remove_old_checkpoints(R->dir);
 }
 
 /* Does path hold a JSON object (its first byte '{'): the statistics of an
@@ -1073,6 +1098,7 @@ int main(int argc, char **argv)
     if (code == GO_ON) code = R.o.resume ? resume_step(&R) : new_run_step(&R);
     if (code == GO_ON) code = open_json_step(&R);
     if (code == GO_ON) {
+        clear_old_run_step(&R);
         grow_step(&R);
         write_outputs_step(&R);
         report_step(&R);

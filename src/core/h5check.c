@@ -254,6 +254,15 @@ int pdla_h5_dset_stored(const pdla_h5_dset *d, size_t esize)
     return need > (double)d->stored * room ? PDLA_H5_NOT_STORED : PDLA_H5_STORED;
 }
 
+/* HDF5 clamps a value that does not fit the memory type (an int64 of
+ * 2^40 read as int32 became 2^31 - 1, silently): a read fails instead. */
+static H5T_conv_ret_t conv_refuse_range(H5T_conv_except_t e, hid_t src, hid_t dst, void *sbuf, void *dbuf,
+                                        void *user)
+{
+    (void)src, (void)dst, (void)sbuf, (void)dbuf, (void)user;
+    return e == H5T_CONV_EXCEPT_RANGE_HI || e == H5T_CONV_EXCEPT_RANGE_LOW ? H5T_CONV_ABORT : H5T_CONV_UNHANDLED;
+}
+
 int pdla_h5_dset_read(const pdla_h5_dset *d, pdla_h5_type t, uint64_t row0, uint64_t nrows,
                       void *buf)
 {
@@ -262,9 +271,10 @@ int pdla_h5_dset_read(const pdla_h5_dset *d, pdla_h5_type t, uint64_t row0, uint
     const hsize_t start[2] = {row0, 0}, count[2] = {nrows, d->rank == 2 ? d->dims[1] : 1};
     const hid_t fs = H5Dget_space(d->id);
     const hid_t ms = H5Screate_simple(d->rank, count, NULL);
-    const int ok = fs >= 0 && ms >= 0 &&
+    const hid_t xf = H5Pcreate(H5P_DATASET_XFER);
+    const int ok = fs >= 0 && ms >= 0 && xf >= 0 && H5Pset_type_conv_cb(xf, conv_refuse_range, NULL) >= 0 &&
                    H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, NULL, count, NULL) >= 0 &&
-                   H5Dread(d->id, native(t), ms, fs, H5P_DEFAULT, buf) >= 0;
-    const int closed = close_ok(fs, H5Sclose) & close_ok(ms, H5Sclose);
+                   H5Dread(d->id, native(t), ms, fs, xf, buf) >= 0;
+    const int closed = close_ok(fs, H5Sclose) & close_ok(ms, H5Sclose) & close_ok(xf, H5Pclose);
     return ok && closed ? 0 : -1;
 }

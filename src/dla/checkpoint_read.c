@@ -616,6 +616,30 @@ static int check_root(const reader *r, hid_t file, uint64_t *generation, uint64_
     return PDLA_OK;
 }
 
+/* The writer's checkpoint schedule (optional: files before session 26 have
+ * none) and the compression flag, into info. */
+static int read_schedule(const reader *r, hid_t file, pdla_checkpoint_info *info)
+{
+    const htri_t hs = H5Aexists(file, "schedule_every_seconds"), hp = H5Aexists(file, "schedule_every_particles");
+    const htri_t hc = H5Aexists(file, "compressed");
+    if (hs < 0 || hp < 0 || hc < 0) return damaged(r, "the root group cannot be read");
+    double every = 0;
+    uint64_t parts = 0;
+    int32_t comp = 0;
+    if ((hs > 0 && (pdla_h5_attr_exact(file, "schedule_every_seconds", PDLA_H5_F64, &every) < 0 ||
+                    !(every >= 0 && every <= 1e9))) ||
+        (hp > 0 && pdla_h5_attr_exact(file, "schedule_every_particles", PDLA_H5_U64, &parts) < 0) ||
+        (hc > 0 && (pdla_h5_attr_exact(file, "compressed", PDLA_H5_I32, &comp) < 0 || (comp != 0 && comp != 1))))
+        return damaged(r, "its checkpoint schedule (schedule_every_seconds, schedule_every_particles, compressed)");
+    if (info) {
+        info->has_schedule = hs > 0 && hp > 0;
+        info->every_seconds = every;
+        info->every_particles = parts;
+        info->compressed = comp;
+    }
+    return PDLA_OK;
+}
+
 /* One file: every check; *out on success. */
 static int load_file(const char *path, const pdla_params *asked, uint32_t fields,
                      pdla_engine **out, pdla_checkpoint_info *info, char *err, size_t errlen)
@@ -640,6 +664,7 @@ static int load_file(const char *path, const pdla_params *asked, uint32_t fields
     uint64_t generation = 0, particles = 0;
     int version = 0;
     if (rc || (rc = check_root(r, file, &generation, &particles, &version))) goto out;
+    if ((rc = read_schedule(r, file, info))) goto out;
     pdla_params p;
     if ((rc = read_params(r, file, &p))) goto out;
     if (asked && (rc = apply_asked(r, &p, asked, fields, particles))) goto out;

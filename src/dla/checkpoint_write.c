@@ -337,6 +337,8 @@ static int write_ckpt_file(const h5u_writer *w, const char *tmp, const pdla_engi
         h5u_attr_f64(w, file, "pause_seconds", o ? o->pause_seconds : 0.0) < 0 ||
         h5u_attr_f64(w, file, "previous_write_seconds", e->ckpt_write_seconds) < 0 ||
         h5u_attr_int(w, file, "compressed", gzip) < 0 ||
+        h5u_attr_f64(w, file, "schedule_every_seconds", o ? o->every_seconds : 0.0) < 0 ||
+        h5u_attr_u64(w, file, "schedule_every_particles", o ? o->every_particles : 0) < 0 ||
         h5u_attr_str(w, file, "record_byte_order", "little") < 0 ||
         h5u_write_parameters(w, file, &e->params) < 0 || write_tree(w, file, &e->tree, gzip) < 0 ||
         write_state(w, file, e) < 0 || write_series(w, file, e) < 0 ||

@@ -67,6 +67,7 @@ struct pdla_ens_journal {
     uint64_t *grid;         /* open: the N of the R_g samples every cluster of it records */
     uint64_t grid_k;
     char refused[160];      /* open: why the first record with a valid checksum was refused, or "" */
+    unsigned unknown_checked; /* candidates not of this ensemble read whole (record_at) */
 };
 
 static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
@@ -389,6 +390,16 @@ static const char *record_values_bad(const pdla_ens_journal *j, const pdla_ens_r
     return record_fit_bad(r);
 }
 
+/* Whether r (its fixed fields suffice) is one of c's clusters. */
+static int record_is_ours(const pdla_ens_config *c, const pdla_ens_record *r)
+{
+    return r->index < c->clusters && r->seed == c->params.seed + r->index && r->dim == c->params.dim &&
+           r->particles == c->params.target && r->npos == (c->keep_positions ? r->particles : 0);
+}
+
+/* Candidates not of this ensemble checked whole, for the note (record_at). */
+#define JOURNAL_UNKNOWN_CHECKED 8
+
 /* The record at off, if it is one of this ensemble's: magic, a length that
  * fits in the file, its checksum, and (decoded) its index, seed, dimension,
  * particles and positions. 1 (with its payload length in *len and its index
@@ -404,7 +415,20 @@ static int record_at(pdla_ens_journal *j, uint64_t off, uint64_t size, uint8_t *
     if (hr == 0 || memcmp(head, REC_MAGIC, 8)) return 0;
     uint64_t n;
     memcpy(&n, head + 8, 8);
-    if (n > size - off - 24 || n < 16 || n > j->max_record) return 0;
+    if (n > size - off - 24 || n < PDLA_ENS_RECORD_FIXED || n > j->max_record) return 0;
+    /* The fixed fields first (136 bytes): a candidate that is not one of
+     * this ensemble's records is dropped before it is read whole and hashed
+     * (a forged megabyte of record heads, each declaring the longest
+     * length, made a resume read and hash ~50 GB). The first few such
+     * candidates are still checked whole, so that a spliced record of
+     * another ensemble is named in the note. */
+    uint8_t fx[PDLA_ENS_RECORD_FIXED];
+    const int fr = read_all(j->fd, fx, sizeof fx, off + 16);
+    if (fr < 0) return PDLA_EIO;
+    pdla_ens_record h;
+    if (fr == 0 || pdla_ens_record_peek(fx, n, &h)) return 0;
+    const pdla_ens_config *c = &j->cfg;
+    if (!record_is_ours(c, &h) && j->unknown_checked++ >= JOURNAL_UNKNOWN_CHECKED) return 0;
     if (n > *cap) {
         uint8_t *g = realloc(*buf, (size_t)n);
         if (!g) return PDLA_ENOMEM;
@@ -418,16 +442,14 @@ static int record_at(pdla_ens_journal *j, uint64_t off, uint64_t size, uint8_t *
     /* A checksum only says the bytes are as written: the record must also
      * be one this ensemble's clusters would make (a record of another
      * ensemble spliced in, or a forged one, would reach ensemble.h5). */
-    const pdla_ens_config *c = &j->cfg;
     pdla_ens_record r;
     char why[160];
     const int rc = pdla_ens_record_decode(*buf, (size_t)n, &r, why, sizeof why);
     if (rc == PDLA_ENOMEM) return rc;
-    const char *bad = rc != PDLA_OK ? NULL
-                      : r.index >= c->clusters || r.seed != c->params.seed + r.index || r.dim != c->params.dim ||
-                              r.particles != c->params.target || r.npos != (c->keep_positions ? r.particles : 0)
-                          ? "it is not one of this ensemble's (index, seed, dimension, particles or positions)"
-                          : record_values_bad(j, &r);
+    const char *bad = rc != PDLA_OK        ? NULL
+                      : !record_is_ours(c, &r) ? "it is not one of this ensemble's (index, seed, dimension, particles "
+                                                 "or positions)"
+                                               : record_values_bad(j, &r);
     const int ok = rc == PDLA_OK && !bad;
     if (bad && !j->refused[0]) /* the first, for the note (pdla_ens_journal_refused) */
         snprintf(j->refused, sizeof j->refused, "cluster %llu: %s", (unsigned long long)r.index, bad);

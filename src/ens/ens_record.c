@@ -74,6 +74,7 @@ void pdla_ens_record_free(pdla_ens_record *r)
  * then u64 rg_n[rg_count], f64 rg[rg_count], i32 positions[npos * dim]. */
 
 #define REC_FIXED (5 * 8 + 5 * 8 + 2 * 8 + 2 * 4 + 2 * 8 + 2 * 8)
+_Static_assert(REC_FIXED == PDLA_ENS_RECORD_FIXED, "the record's fixed part");
 
 static uint8_t *put(uint8_t *p, const void *v, size_t n)
 {
@@ -126,6 +127,31 @@ int pdla_ens_record_encode(const pdla_ens_record *r, uint8_t **buf, size_t *len)
     *buf = b;
     *len = (size_t)(p - b);
     return PDLA_OK;
+}
+
+int pdla_ens_record_peek(const uint8_t *fixed, uint64_t len, pdla_ens_record *r)
+{
+    memset(r, 0, sizeof *r);
+    uint64_t u[5], nr[2], cnt[2];
+    double d[5], t[2];
+    int32_t ii[2];
+    const uint8_t *p = fixed;
+    p = get(p, u, sizeof u);
+    p = get(p, d, sizeof d);
+    p = get(p, nr, sizeof nr);
+    p = get(p, ii, sizeof ii);
+    p = get(p, t, sizeof t);
+    (void)get(p, cnt, sizeof cnt);
+    if (len < REC_FIXED || ii[1] < 2 || ii[1] > 3 || cnt[0] > len / 16 || cnt[1] > len / 8 ||
+        len != REC_FIXED + cnt[0] * 16 + cnt[1] * (uint64_t)ii[1] * 4)
+        return -1;
+    r->index = u[0];
+    r->seed = u[1];
+    r->particles = u[2];
+    r->dim = ii[1];
+    r->rg_count = cnt[0];
+    r->npos = cnt[1];
+    return 0;
 }
 
 int pdla_ens_record_decode(const uint8_t *buf, size_t len, pdla_ens_record *r, char *err, size_t errlen)

@@ -367,7 +367,7 @@ static void basic(void)
     char cz[320];
     snprintf(cz, sizeof cz, "%s/compressed", tmpdir);
     mkdir(cz, 0777);
-    const pdla_checkpoint_opts zo = {1, "test", 0.0};
+    const pdla_checkpoint_opts zo = {.compress = 1, .command_line = "test"};
     CHECK(pdla_checkpoint_write(e, cz, &zo, NULL, err, sizeof err) == PDLA_OK, "%s", err);
     CHECK(pdla_checkpoint_load(&r, cz, NULL, 0, NULL, err, sizeof err) == PDLA_OK, "%s", err);
     if (r) CHECK(engine_digest(r).h == engine_digest(e).h, "compressed round trip differs");

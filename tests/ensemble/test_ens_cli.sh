@@ -195,6 +195,18 @@ bad "no-output" "--no-output" ensemble --clusters 2 --target 100 --no-output --o
 bad "bind" "--bind" ensemble --clusters 2 --target 100 --bind core --out b1
 bad "checkpoints" "checkpoints do not apply" ensemble --clusters 2 --target 100 --checkpoint-every 10 --out b1
 bad "unknown option" "unknown" ensemble --clusters 2 --target 100 --clusterz 3 --out b1
+bad "threads without a value" "--threads needs a value" ensemble --clusters 2 --target 100 --out b1 --threads
+bad "threads out of range" "threads" ensemble --clusters 2 --target 100 --out b1 --threads -3
+# --threads is the clusters grown at once, not a cluster's workers: it goes
+# with --reference-walkers (refused as "2 worker threads" until session 26),
+# and clusters 1 and 2 are those of --threads 1.
+for t in 1 2; do
+    run ensemble --clusters 2 --target 1000 --reference-walkers 3 --serial-until 300 --keep-positions --threads $t \
+        --out rw$t -q
+    [ "$rc" -eq 0 ] || fail "--reference-walkers 3 with --threads $t: exit $rc: $(cat err)"
+done
+h5diff -q rw1/ensemble.h5 rw2/ensemble.h5 /clusters/positions /clusters/positions >/dev/null ||
+    fail "--reference-walkers 3: --threads 2 grew other clusters than --threads 1"
 # --force replaces an ensemble.
 run ensemble --clusters 3 --target 500 --out t1 --force -q
 [ "$rc" -eq 0 ] || fail "--force: $(cat err)"

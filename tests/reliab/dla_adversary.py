@@ -89,6 +89,37 @@ rc, dt = stopped(["--dim", "3", "--threads", "2", "--serial-until", "1", "--targ
 check((rc == 128 + signal.SIGTERM or rc == -signal.SIGTERM) and dt < 3,
       "3D margin 1e6, 2 workers: SIGTERM gave %s after %.1f s (want the signal's status within a second or two)"
       % (rc, dt))
+# (session 26) a --force run refused at start (its --stats-json path cannot be
+# written) removed the older run's checkpoints first: that run could no
+# longer be resumed
+rc, _, err = run(["--target", "3000", "--checkpoint", "--out", "fz", "-q"])
+check(rc == 0 and os.path.exists(os.path.join(WORK, "fz", "checkpoint.h5")), "run for fz: %s %s" % (rc, err))
+rc, _, err = run(["--target", "3000", "--force", "--out", "fz", "--stats-json", "/nonexistent/x.json", "-q"])
+check(rc == 2 and len(err) == 1 and "--stats-json" in err[0], "--force, bad --stats-json: %s %s" % (rc, err))
+check(os.path.exists(os.path.join(WORK, "fz", "checkpoint.h5")),
+      "--force refused for its --stats-json path removed the older run's checkpoint")
+rc, _, err = run(["--resume", "fz", "--target", "4000", "-q"])
+check(rc == 0, "fz resumed after the refused --force run: %s %s" % (rc, err))
+# (session 26) a bare --resume kept no checkpoint schedule: after
+# --checkpoint-particles 2000 it wrote only the final checkpoint. The
+# schedule is recorded in each checkpoint and kept unless options replace it.
+def written(d):
+    with open(os.path.join(WORK, d, "summary.txt")) as fh:
+        line = [l for l in fh if l.startswith("checkpoints")][0]
+    return int(line.split()[1]) if line.split()[1].isdigit() else 0
+
+
+rc, _, err = run(["--target", "20000", "--checkpoint-particles", "2000", "--out", "pc", "-q"])
+check(rc == 0 and written("pc") >= 10, "--checkpoint-particles 2000 to 2e4: %s %s" % (rc, err))
+with h5py.File(os.path.join(WORK, "pc", "checkpoint.h5"), "r") as f:
+    check(f.attrs.get("schedule_every_particles") == 2000 and f.attrs.get("schedule_every_seconds") == 0,
+          "schedule attributes: %s" % dict(f.attrs))
+rc, _, err = run(["--resume", "pc", "--target", "40000", "-q"])
+check(rc == 0 and written("pc") >= 10, "bare --resume to 4e4 wrote %d checkpoints (want >= 10: the schedule "
+      "kept): %s %s" % (written("pc") if rc == 0 else -1, rc, err))
+rc, _, err = run(["--resume", "pc", "--target", "50000", "--checkpoint-particles", "5000", "-q"])
+check(rc == 0 and 2 <= written("pc") <= 3, "--resume with --checkpoint-particles 5000 to 5e4 wrote %d "
+      "(want 2 or 3: the option replaces the schedule): %s %s" % (written("pc") if rc == 0 else -1, rc, err))
 # 3D, birth sphere 1e6 diameters out: a walk lasts about 0.4 s (this VM)
 far = ["--dim", "3", "--target", "8", "--birth-margin", "1e6"]
 rc, _, err = run(far + ["--out", "straight", "-q"])

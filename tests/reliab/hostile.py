@@ -130,6 +130,19 @@ def _(f):
     f["/cluster/positions"].attrs["diameter_units"] = du
 
 
+# 64-bit positions, one of them past 32 bits: HDF5 clamped it to 2^31 - 1
+# when read as int32, and the tools went on (session 26)
+@case("positions_int64_2^40", must_fail={"render", "analyze"})
+def _(f):
+    p = f["/cluster/positions"][...].astype("i8")
+    attrs = dict(f["/cluster/positions"].attrs)
+    p[len(p) // 2] = [1 << 40, -(1 << 40)]
+    del f["/cluster/positions"]
+    f["/cluster/positions"] = p
+    for k, v in attrs.items():
+        f["/cluster/positions"].attrs[k] = v
+
+
 @case("positions_rank3", must_fail={"info", "json", "render", "analyze"})
 def _(f):
     replace_dset(f, "/cluster/positions", (3, 2, 2), "i4")

@@ -117,7 +117,7 @@ static void midwalk_case(int dim, const char *dir)
     }
     CHECK(mid, "%dD: no stop inside a walk", dim);
     const uint64_t at = pdla_engine_count(e);
-    const pdla_checkpoint_opts co = {0, "test_midwalk", 0};
+    const pdla_checkpoint_opts co = {.command_line = "test_midwalk"};
     CHECK(pdla_checkpoint_write(e, dir, &co, NULL, err, sizeof err) == PDLA_OK, "write: %s", err);
     pdla_engine_destroy(e);
     char path[600];

@@ -123,7 +123,7 @@ static void run_case(const pin_case *c, const char *dir, int print)
     CHECK(pdla_engine_create(&e, &p, err, sizeof err) == 0, "%s", err);
     if (!e) return;
     CHECK(pdla_engine_grow(e, c->target / 2, NULL, 0, NULL, err, sizeof err) == 0, "%s", err);
-    const pdla_checkpoint_opts opts = {0, "test_pinned", 0.0};
+    const pdla_checkpoint_opts opts = {.command_line = "test_pinned"};
     CHECK(pdla_checkpoint_write(e, dir, &opts, NULL, err, sizeof err) == 0, "%s", err);
     pdla_engine_destroy(e);
     e = NULL;

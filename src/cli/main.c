@@ -789,12 +789,12 @@ static void resume_dir(const char *path, int is_dir, char *dir, size_t dirlen)
  * (a bare `pdla --resume DIR` after --checkpoint-every 30m wrote only the
  * final checkpoint, so a kill after it lost everything since the resume);
  * any of --checkpoint-every, --checkpoint-particles, --checkpoint-compress
- * given replaces it. */
+ * given replaces it (--checkpoint-every 0: no time trigger). */
 static void keep_schedule(run *R)
 {
     cli_options *o = &R->o;
     const pdla_checkpoint_info *in = &R->loaded;
-    if (!in->has_schedule || o->checkpoint_every > 0 || o->checkpoint_particles || o->checkpoint_compress) return;
+    if (!in->has_schedule || o->schedule_given) return;
     o->checkpoint_every = in->every_seconds;
     o->checkpoint_particles = in->every_particles;
     o->checkpoint_compress = in->compressed;

@@ -137,7 +137,8 @@ const char *cli_parse_duration(const char *s, double *out)
     const char *why = cli_parse_real(buf, &v);
     if (why) return why;
     v *= unit;
-    if (!(v > 0) || v > 1e9) return "must be above 0 and at most 1e9 seconds";
+    /* 0: no time trigger (on --resume it drops the recorded schedule) */
+    if (!(v >= 0) || v > 1e9) return "must be 0 (none) to 1e9 seconds";
     *out = v;
     return NULL;
 }
@@ -350,14 +351,14 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
     case OPT_PROGRESS: o->progress = 1; break;
     case OPT_NO_PROGRESS: o->progress = 0; break;
     case OPT_CHECKPOINT: o->checkpoint = 1; break;
-    case OPT_CHECKPOINT_EVERY: o->checkpoint = 1; o->checkpoint_every = x; break;
+    case OPT_CHECKPOINT_EVERY: o->checkpoint = o->schedule_given = 1; o->checkpoint_every = x; break;
     case OPT_CHECKPOINT_PARTICLES:
         if (n == 0) return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "invalid value '%s' for --checkpoint-particles: must be at least 1",
                                 shown(v, arg));
-        o->checkpoint = 1;
+        o->checkpoint = o->schedule_given = 1;
         o->checkpoint_particles = n;
         break;
-    case OPT_CHECKPOINT_COMPRESS: o->checkpoint = 1; o->checkpoint_compress = 1; break;
+    case OPT_CHECKPOINT_COMPRESS: o->checkpoint = o->schedule_given = 1; o->checkpoint_compress = 1; break;
     case OPT_RESUME: o->checkpoint = 1; o->resume = arg; break;
     case 'h': o->action = CLI_HELP; break;
     case 'V': o->action = CLI_VERSION; break;

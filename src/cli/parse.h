@@ -46,6 +46,7 @@ typedef struct cli_options {
     double checkpoint_every; /* --checkpoint-every, seconds; 0: no time trigger */
     uint64_t checkpoint_particles; /* --checkpoint-particles; 0: no particle trigger */
     int checkpoint_compress; /* --checkpoint-compress */
+    int schedule_given;      /* one of the three above given (a resume then drops the recorded schedule) */
     const char *resume;      /* --resume DIR|FILE (into argv), NULL: a new run */
     uint32_t given;          /* PDLA_PARAM_* bits of the parameters given explicitly */
 } cli_options;

@@ -307,7 +307,7 @@ if subprocess.run(["chattr", "+i", ro], capture_output=True).returncode == 0:
                           ("event --resume", ["--model", "event", "--resume", ro, "--t-max", "3", "--quiet"]),
                           ("dlca --resume --out", ["--model", "dlca", "--resume",
                                                    os.path.join(WORK, "dlca-fref", "checkpoint.h5"), "--out", ro,
-                                                   "-q"])):
+                                                   "--force", "-q"])):  # ro exists: --force (session 26)
             rc, err = pdla(*args)
             check(rc == 2 and one_line(err) and "takes no files" in err,
                   "%s into an immutable directory: exit %r, %r" % (tag, rc, err[-300:]))

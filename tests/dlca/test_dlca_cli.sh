@@ -56,7 +56,7 @@ refused --mobility x
 refused --nosuch 3
 refused --grid-box 3
 refused --dim 2 --box 64x64 --fil 0.01 --until-clusters 10   # abbreviated --fill
-refused --checkpoint-every 0
+refused --checkpoint-every 9999999999   # 0 is "no time trigger" since session 26
 refused --checkpoint-every 5x
 refused --checkpoint-attempts 0
 refused --checkpoint --no-output
@@ -205,7 +205,7 @@ printf 'model = dlca\nbox = 32x32\nfill = 0.05\nuntil_clusters = 3\ncheckpoint_a
     "$tmp/scene-ck" >"$tmp/scene2"
 "$pdla" --scene "$tmp/scene2" -q || fail "scene with checkpoint_attempts"
 [ -f "$tmp/scene-ck/checkpoint.h5" ] || fail "scene: checkpoint_attempts wrote no checkpoint"
-printf 'model = dlca\ncheckpoint_every = 0\n' >"$tmp/bad-scene2"
+printf 'model = dlca\ncheckpoint_every = 9999999999\n' >"$tmp/bad-scene2"
 "$pdla" --scene "$tmp/bad-scene2" >/dev/null 2>"$tmp/err"
 [ $? -eq 2 ] && grep -q ':2: ' "$tmp/err" || fail "bad checkpoint_every in a scene: $(cat "$tmp/err")"
 printf 'model = dlca\nfill = 2\n' >"$tmp/bad-scene"

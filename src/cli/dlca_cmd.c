@@ -588,9 +588,6 @@ static int resume_snapshots(dlca_cli *c, const dlca_sim *s, const char *ckpath, 
     return 0;
 }
 
-/* --resume: load the checkpoint, hold the options given against it (the
- * table's resume rule: only the resumable rows, the stops, may change) and
- * apply the stops given. 0, or the exit status with the line printed. */
 /* Is dir the directory open as fd (the lock a resume took)? A second flock
  * on it from this process would conflict with the first. */
 static int same_dir(int fd, const char *dir)
@@ -598,6 +595,10 @@ static int same_dir(int fd, const char *dir)
     struct stat a, b;
     return fd >= 0 && fstat(fd, &a) == 0 && stat(dir, &b) == 0 && a.st_dev == b.st_dev && a.st_ino == b.st_ino;
 }
+
+/* --resume: load the checkpoint, hold the options given against it (the
+ * table's resume rule: only the resumable rows, the stops, may change) and
+ * apply the stops given. 0, or the exit status with the line printed. */
 
 static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
 {

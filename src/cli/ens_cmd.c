@@ -294,7 +294,7 @@ static int refuse_options(const cli_options *o, char *err, size_t errlen)
 {
     if (o->no_output) return snprintf(err, errlen, "--no-output does not apply to an ensemble"), -1;
     if (o->stats_json) return snprintf(err, errlen, "--stats-json does not apply to an ensemble"), -1;
-    if (o->checkpoint_every > 0 || o->checkpoint_particles || o->checkpoint_compress || (o->checkpoint && !o->resume))
+    if (o->schedule_given || (o->checkpoint && !o->resume))
         return snprintf(err, errlen, "checkpoints do not apply to an ensemble (its journal records finished clusters)"), -1;
     if (o->given & PDLA_PARAM_BIND) return snprintf(err, errlen, "--bind does not apply to an ensemble"), -1;
     return 0;

@@ -194,6 +194,7 @@ bad "stats-json" "--stats-json does not apply to an ensemble" ensemble --cluster
 bad "no-output" "--no-output" ensemble --clusters 2 --target 100 --no-output --out b1
 bad "bind" "--bind" ensemble --clusters 2 --target 100 --bind core --out b1
 bad "checkpoints" "checkpoints do not apply" ensemble --clusters 2 --target 100 --checkpoint-every 10 --out b1
+bad "checkpoint-every 0 on resume" "checkpoints do not apply" ensemble --resume t1 --checkpoint-every 0
 bad "unknown option" "unknown" ensemble --clusters 2 --target 100 --clusterz 3 --out b1
 bad "threads without a value" "--threads needs a value" ensemble --clusters 2 --target 100 --out b1 --threads
 bad "threads out of range" "threads" ensemble --clusters 2 --target 100 --out b1 --threads -3

@@ -19,9 +19,14 @@
  * index at its append) and every jump (start, squared radius, count it was
  * checked against). A jump is bad if a particle not yet appended when it
  * was checked (index >= its count), whose spot had been chosen before the
- * jump (sequence), lies within the jump's radius. The decision is logged
- * CLAIM_SETTLE_US after the spot was published, so a jump checked just
- * before the publication is not logged after it.
+ * jump's check began (sequence), lies within the jump's radius. The jump's
+ * sequence number is taken when its check begins (the stall hook, before
+ * the claims are read), not when it is logged: a worker descheduled
+ * between its check and its log (TSan on a loaded 2-core CI machine, once
+ * in session 26) was counted as jumping through a spot published while it
+ * was away. The decision's number is taken after the spot is published
+ * (and CLAIM_SETTLE_US later), both with acq_rel, so a check that begins
+ * after it sees the spot.
  *
  *  - with the claims off (hook no_claims, the engine before the fix): bad
  *    jumps must occur, or the slow insertions do not open the window;
@@ -57,6 +62,7 @@ typedef struct log_ctx {
 } log_ctx;
 
 static _Thread_local uint64_t my_decided_seq = UINT64_MAX;
+static _Thread_local uint64_t my_check_seq = UINT64_MAX; /* when this thread's last check began */
 
 static double now_us(void)
 {
@@ -77,7 +83,7 @@ static void on_decided(void *user, int id, const int64_t *p)
     log_ctx *c = user;
     (void)p;
     spin_us(CLAIM_SETTLE_US);
-    my_decided_seq = atomic_fetch_add_explicit(&c->seq, 1, memory_order_relaxed);
+    my_decided_seq = atomic_fetch_add_explicit(&c->seq, 1, memory_order_acq_rel);
     if (id != 0) return;
     /* Worker 0 waits until worker 1 has jumped WINDOW_JUMPS times (or
      * WINDOW_MAX_US have passed: with the claims, worker 1 may be waiting
@@ -98,10 +104,17 @@ static void on_append(void *user, uint64_t index, const int64_t *p)
     c->decided_seq[index] = my_decided_seq;
 }
 
+/* walk_stale's first call, before it reads the claims */
+static void on_check(void *user)
+{
+    log_ctx *c = user;
+    my_check_seq = atomic_fetch_add_explicit(&c->seq, 1, memory_order_acq_rel);
+}
+
 static void on_jump(void *user, const int64_t *p, uint64_t R2, uint64_t now)
 {
     log_ctx *c = user;
-    const uint64_t s = atomic_fetch_add_explicit(&c->seq, 1, memory_order_relaxed);
+    const uint64_t s = my_check_seq;
     const uint64_t j = atomic_fetch_add_explicit(&c->nj, 1, memory_order_relaxed);
     if (j >= c->jcap) return;
     jump_rec *r = &c->jumps[j];
@@ -133,7 +146,7 @@ static outcome run(int dim, int no_claims, uint64_t seed)
     c.jumps = malloc(c.jcap * sizeof *c.jumps);
     atomic_init(&c.nj, 0);
     atomic_init(&c.seq, 0);
-    engine_hooks h = {.decided = on_decided, .append = on_append, .jump = on_jump,
+    engine_hooks h = {.decided = on_decided, .append = on_append, .jump = on_jump, .stall = on_check,
                       .no_claims = no_claims, .no_relaunch = 1, .user = &c};
     pdla_engine *e;
     char err[256];

@@ -129,48 +129,25 @@ int pdla_ens_record_encode(const pdla_ens_record *r, uint8_t **buf, size_t *len)
     return PDLA_OK;
 }
 
-int pdla_ens_record_peek(const uint8_t *fixed, uint64_t len, pdla_ens_record *r)
+/* The fixed part's fields into r, and whether the counts it declares add up
+ * to len: shared by the peek (the journal scan reads only the fixed part of
+ * a candidate first) and the full decode. */
+static int fixed_decode(const uint8_t *p, uint64_t len, pdla_ens_record *r)
 {
     memset(r, 0, sizeof *r);
+    if (len < REC_FIXED) return -1;
     uint64_t u[5], nr[2], cnt[2];
     double d[5], t[2];
     int32_t ii[2];
-    const uint8_t *p = fixed;
     p = get(p, u, sizeof u);
     p = get(p, d, sizeof d);
     p = get(p, nr, sizeof nr);
     p = get(p, ii, sizeof ii);
     p = get(p, t, sizeof t);
     (void)get(p, cnt, sizeof cnt);
-    if (len < REC_FIXED || ii[1] < 2 || ii[1] > 3 || cnt[0] > len / 16 || cnt[1] > len / 8 ||
-        len != REC_FIXED + cnt[0] * 16 + cnt[1] * (uint64_t)ii[1] * 4)
-        return -1;
-    r->index = u[0];
-    r->seed = u[1];
-    r->particles = u[2];
-    r->dim = ii[1];
-    r->rg_count = cnt[0];
-    r->npos = cnt[1];
-    return 0;
-}
-
-int pdla_ens_record_decode(const uint8_t *buf, size_t len, pdla_ens_record *r, char *err, size_t errlen)
-{
-    memset(r, 0, sizeof *r);
-    if (len < REC_FIXED) return pdla_errorf(PDLA_EIO, err, errlen, "a cluster record of %zu bytes is too short", len);
-    uint64_t u[5], nr[2], cnt[2];
-    double d[5], t[2];
-    int32_t ii[2];
-    const uint8_t *p = buf;
-    p = get(p, u, sizeof u);
-    p = get(p, d, sizeof d);
-    p = get(p, nr, sizeof nr);
-    p = get(p, ii, sizeof ii);
-    p = get(p, t, sizeof t);
-    p = get(p, cnt, sizeof cnt);
     if (ii[1] < 2 || ii[1] > 3 || cnt[0] > len / 16 || cnt[1] > len / 8 ||
         len != REC_FIXED + cnt[0] * 16 + cnt[1] * (uint64_t)ii[1] * 4)
-        return pdla_errorf(PDLA_EIO, err, errlen, "a cluster record's lengths do not add up (%zu bytes)", len);
+        return -1;
     r->index = u[0];
     r->seed = u[1];
     r->particles = u[2];
@@ -189,7 +166,24 @@ int pdla_ens_record_decode(const uint8_t *buf, size_t len, pdla_ens_record *r, c
     r->wall_seconds = t[1];
     r->rg_count = cnt[0];
     r->npos = cnt[1];
-    const size_t k = (size_t)cnt[0], np = (size_t)cnt[1] * (size_t)ii[1];
+    return 0;
+}
+
+int pdla_ens_record_peek(const uint8_t *fixed, uint64_t len, pdla_ens_record *r)
+{
+    return fixed_decode(fixed, len, r);
+}
+
+int pdla_ens_record_decode(const uint8_t *buf, size_t len, pdla_ens_record *r, char *err, size_t errlen)
+{
+    if (len < REC_FIXED) {
+        memset(r, 0, sizeof *r);
+        return pdla_errorf(PDLA_EIO, err, errlen, "a cluster record of %zu bytes is too short", len);
+    }
+    if (fixed_decode(buf, len, r))
+        return pdla_errorf(PDLA_EIO, err, errlen, "a cluster record's lengths do not add up (%zu bytes)", len);
+    const uint8_t *p = buf + REC_FIXED;
+    const size_t k = (size_t)r->rg_count, np = (size_t)r->npos * (size_t)r->dim;
     r->rg_n = malloc((k ? k : 1) * 8);
     r->rg = malloc((k ? k : 1) * 8);
     r->positions = np ? malloc(np * 4) : NULL;

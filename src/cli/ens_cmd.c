@@ -133,10 +133,6 @@ typedef struct ens_args {
     uint64_t clusters;
     int clusters_given, keep, keep_given, help;
     int gzip, gzip_given; /* deflate level of the kept positions; given on the command line */
-    /* --threads: clusters grown at once, not a cluster's worker threads, so
-     * kept out of the growth options (with them, cli_parse refused
-     * --reference-walkers beside --threads 2) */
-    const char *threads;
 } ens_args;
 
 /* Take this command's own options out of argv (into a, rest into *rest with
@@ -166,10 +162,6 @@ static int split_args(int argc, char **argv, ens_args *a, char **rest, int *nres
                 return snprintf(err, errlen, "invalid value '%.48s' for --compress: want a level 0..9", l), -1;
             a->gzip = l[0] - '0';
             a->gzip_given = 1;
-            continue;
-        } else if (!strcmp(s, "--threads") || !strncmp(s, "--threads=", 10)) {
-            a->threads = s[9] == '=' ? s + 10 : i + 1 < argc ? argv[++i] : NULL;
-            if (!a->threads) return snprintf(err, errlen, "option --threads needs a value (T)"), -1;
             continue;
         } else if (!strcmp(s, "--keep-positions")) {
             a->keep = a->keep_given = 1;
@@ -366,6 +358,17 @@ static int start_mpi(ens_cmd *c)
 #endif
 }
 
+/* The clusters-at-once count, checked against the growth parameters' range
+ * for threads (the same words as pdla's --threads). 0, or -1 with err. */
+static int check_threads(const cli_options *o, char *err, size_t errlen)
+{
+    if (!o->apart_threads_given) return 0;
+    pdla_params p;
+    pdla_params_default(&p);
+    p.threads = (int)o->apart_threads; /* an int: set_value refused more than INT_MAX */
+    return cli_check_params(&p, err, errlen) == CLI_PARSE_OK ? 0 : -1;
+}
+
 /* argv into c->a, c->o and c->asked (every rank parses; rank 0 prints).
  * GO_ON or the exit status (--help, a usage error). */
 static int parse_all(ens_cmd *c, int argc, char **argv, char **rest)
@@ -379,22 +382,17 @@ static int parse_all(ens_cmd *c, int argc, char **argv, char **rest)
         if (c->mpi_rank == 0) print_help();
         return fflush(stdout) ? EXIT_RUNTIME : 0;
     }
-    if (cli_parse(nrest, rest, &c->o, c->err, sizeof c->err) != CLI_PARSE_OK ||
-        refuse_options(&c->o, c->err, sizeof c->err)) {
+    /* --threads (or a scene's `threads`) counts the clusters grown at once,
+     * not a cluster's worker threads, so it stays out of the growth options
+     * (there it would be refused beside --reference-walkers). */
+    if (cli_parse_threads_apart(nrest, rest, &c->o, c->err, sizeof c->err) != CLI_PARSE_OK ||
+        refuse_options(&c->o, c->err, sizeof c->err) || check_threads(&c->o, c->err, sizeof c->err)) {
         if (c->mpi_rank == 0)
             fprintf(stderr, "pdla ensemble: %s\n",
                     c->o.action == CLI_VERSION ? "--version: see pdla --version" : c->err);
         return EXIT_USAGE;
     }
-    if (c->a.threads) { /* the value checked alone, as pdla checks --threads */
-        char *one[3] = {rest[0], "--threads", (char *)c->a.threads};
-        cli_options t;
-        if (cli_parse(3, one, &t, c->err, sizeof c->err) != CLI_PARSE_OK) {
-            if (c->mpi_rank == 0) fprintf(stderr, "pdla ensemble: %s\n", c->err);
-            return EXIT_USAGE;
-        }
-        c->o.params.threads = t.params.threads;
-    }
+    if (c->o.apart_threads_given) c->o.params.threads = (int)c->o.apart_threads;
     c->asked.params = c->o.params;
     c->asked.params.threads = 1;
     c->asked.params.bind = PDLA_BIND_NONE;

@@ -334,6 +334,11 @@ static int set_value(cli_options *o, const opt_desc *d, const char *arg, char *e
     if (why) return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "invalid value '%s' for %s: %s", shown(v, arg), opt_label(l, d), why);
 
     const pdla_param_desc *pd = param_of(d->id);
+    if (pd && o->threads_apart && !strcmp(pd->option, "threads")) {
+        o->apart_threads = n;
+        o->apart_threads_given = 1;
+        return CLI_PARSE_OK;
+    }
     if (pd) {
         set_param(o, pd, n, x);
         return CLI_PARSE_OK;
@@ -477,7 +482,7 @@ int cli_parse_long_in(const char *s, long lo, long hi, long *out)
     return 0;
 }
 
-static int parse_all(int argc, char **argv, cli_options *out, char *err, size_t errlen);
+static int parse_all(int argc, char **argv, cli_options *out, int apart, char *err, size_t errlen);
 
 /* ---- scenes ------------------------------------------------------------ */
 
@@ -595,18 +600,29 @@ int cli_check_params(const pdla_params *p, char *err, size_t errlen)
 
 /* Errors are one line: a file name or argument quoted in the message may
  * hold a newline or another control byte, so those are shown as '?'. */
-int cli_parse(int argc, char **argv, cli_options *out, char *err, size_t errlen)
+static int parse_one_line(int argc, char **argv, cli_options *out, int apart, char *err, size_t errlen)
 {
-    const int rc = parse_all(argc, argv, out, err, errlen);
+    const int rc = parse_all(argc, argv, out, apart, err, errlen);
     if (rc == CLI_PARSE_ERROR && err)
         for (char *c = err; *c; c++)
             if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
     return rc;
 }
 
-static int parse_all(int argc, char **argv, cli_options *out, char *err, size_t errlen)
+int cli_parse(int argc, char **argv, cli_options *out, char *err, size_t errlen)
+{
+    return parse_one_line(argc, argv, out, 0, err, errlen);
+}
+
+int cli_parse_threads_apart(int argc, char **argv, cli_options *out, char *err, size_t errlen)
+{
+    return parse_one_line(argc, argv, out, 1, err, errlen);
+}
+
+static int parse_all(int argc, char **argv, cli_options *out, int apart, char *err, size_t errlen)
 {
     memset(out, 0, sizeof *out);
+    out->threads_apart = apart;
     pdla_params_default(&out->params);
     out->action = CLI_RUN;
     out->progress = -1;

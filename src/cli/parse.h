@@ -49,6 +49,12 @@ typedef struct cli_options {
     int schedule_given;      /* one of the three above given (a resume then drops the recorded schedule) */
     const char *resume;      /* --resume DIR|FILE (into argv), NULL: a new run */
     uint32_t given;          /* PDLA_PARAM_* bits of the parameters given explicitly */
+    /* cli_parse_threads_apart: --threads and a scene's `threads` mean
+     * something else to the caller (pdla ensemble: clusters grown at once),
+     * so they land here and params.threads keeps its default. */
+    int threads_apart;
+    int apart_threads_given;
+    uint64_t apart_threads;
 } cli_options;
 
 /* Return values of cli_parse. */
@@ -62,6 +68,10 @@ enum { CLI_PARSE_OK = 0, CLI_PARSE_EXIT = 1, CLI_PARSE_ERROR = 2 };
  * one-line reason in err (no "pdla: " prefix, no newline). On success the
  * parameters have passed pdla_params_validate. getopt_long may permute argv. */
 int cli_parse(int argc, char **argv, cli_options *out, char *err, size_t errlen);
+/* The same, with --threads (and a scene's `threads` key) stored in
+ * out->apart_threads (apart_threads_given set) instead of the parameters:
+ * their range is the caller's to check. */
+int cli_parse_threads_apart(int argc, char **argv, cli_options *out, char *err, size_t errlen);
 
 /* Set one option by its long name (no "--"; as in a scene file) to a value,
  * exactly as if "--NAME VALUE" had been given; a flag (an option without a

@@ -208,6 +208,18 @@ for t in 1 2; do
 done
 h5diff -q rw1/ensemble.h5 rw2/ensemble.h5 /clusters/positions /clusters/positions >/dev/null ||
     fail "--reference-walkers 3: --threads 2 grew other clusters than --threads 1"
+# A scene's `threads` key means the same (it went to the growth options,
+# refused beside reference-walkers, until session 27); the command line's
+# --threads overrides it.
+printf 'threads = 2\nreference-walkers = 3\nserial-until = 300\ntarget = 1000\n' > rw.scene
+run ensemble --scene rw.scene --clusters 2 --keep-positions --out rws -q
+[ "$rc" -eq 0 ] || fail "scene threads = 2 with reference-walkers = 3: exit $rc: $(cat err)"
+h5diff -q rw1/ensemble.h5 rws/ensemble.h5 /clusters/positions /clusters/positions >/dev/null ||
+    fail "scene threads = 2: other clusters than --threads 1"
+printf 'threads = 2000\ntarget = 1000\n' > big.scene
+bad "scene threads out of range" "threads must be in" ensemble --scene big.scene --clusters 2 --out b1
+run ensemble --scene big.scene --threads 2 --clusters 2 --out rwo -q
+[ "$rc" -eq 0 ] || fail "--threads 2 over a scene's threads = 2000: exit $rc: $(cat err)"
 # --force replaces an ensemble.
 run ensemble --clusters 3 --target 500 --out t1 --force -q
 [ "$rc" -eq 0 ] || fail "--force: $(cat err)"

@@ -30,6 +30,7 @@
 #include "fail_note.h"
 #include "optcheck.h"
 #include "parse.h"
+#include "rundir.h"
 #include "pdla/dlca.h"
 #include "pdla/params.h"
 #include "pdla/pdla.h"
@@ -262,19 +263,6 @@ static int parse(int argc, char **argv, dlca_cli *c, scene *sc, char *err, size_
     return rc;
 }
 
-static int mkdir_parents(const char *dir)
-{
-    char buf[4096];
-    snprintf(buf, sizeof buf, "%s", dir);
-    for (char *q = buf + 1; *q; q++)
-        if (*q == '/') {
-            *q = '\0';
-            if (mkdir(buf, 0777) && errno != EEXIST) return -1;
-            *q = '/';
-        }
-    return 0;
-}
-
 /* A new run directory, or an existing one with --force. */
 static int make_dir(const dlca_cli *c, char *dir, size_t len)
 {
@@ -289,8 +277,9 @@ static int make_dir(const dlca_cli *c, char *dir, size_t len)
         strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &tm);
         snprintf(dir, len, "runs/dlca-%s-%dd", stamp, c->p.dim);
     }
-    if (mkdir_parents(dir)) {
-        fprintf(stderr, "pdla: cannot create run directory '%s': %s\n", dir, strerror(errno));
+    const int pe = cli_mkdir_parents(dir);
+    if (pe) {
+        fprintf(stderr, "pdla: cannot create run directory '%s': %s (making its parents)\n", dir, strerror(pe));
         return EXIT_USAGE;
     }
     if (mkdir(dir, 0777) == 0) return 0;
@@ -526,6 +515,11 @@ static int read_command(int argc, char **argv, dlca_cli *c, scene *sc)
         snprintf(err, sizeof err, "--start and --resume exclude each other (a resumed run starts from its checkpoint)");
         prc = -1;
     }
+    /* before anything is made: make_dir created the parents of an --out
+     * too long for its buffer, then failed on the cut name */
+    if (prc == 0 && ((c->out && cli_path_fits("the run directory name", c->out, err, sizeof err)) ||
+                     (c->resume && cli_path_fits("the checkpoint path", c->resume, err, sizeof err))))
+        prc = -1;
     if (prc == 0 && c->resume) c->checkpoint = 1; /* as in the DLA command: a resumed run goes on checkpointing */
     /* Resumed, the run's parameters are the checkpoint's, not the
      * defaults: the options given are held against them, and the result
@@ -657,7 +651,16 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
     (void)dlca_set_stops(*s, p.until_clusters, p.until_time, p.max_attempts);
     c->p = p;
     if (!c->out) {
-        snprintf(dir, dirlen, "%.4000s", ckpath);
+        /* Whole, then cut at its last '/': a copy cut to 4000 bytes first
+         * named the parent of a long run directory (its checkpoint path is
+         * up to CLI_RUN_DIR_MAX + 14 bytes, which dir holds). */
+        const int w = snprintf(dir, dirlen, "%s", ckpath);
+        if (w < 0 || (size_t)w >= dirlen) { /* not with --resume of at most CLI_RUN_DIR_MAX bytes */
+            fprintf(stderr, "pdla: the checkpoint path is too long (%zu bytes)\n", strlen(ckpath));
+            dlca_destroy(*s);
+            *s = NULL;
+            return EXIT_USAGE;
+        }
         char *sl = strrchr(dir, '/');
         if (sl) *sl = '\0';
         else snprintf(dir, dirlen, ".");

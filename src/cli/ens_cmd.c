@@ -523,8 +523,8 @@ static int open_new(ens_cmd *c, int threads)
         fprintf(stderr, "pdla ensemble: --threads 0: hwloc could not read the machine topology\n");
         return EXIT_USAGE;
     }
-    if (strlen(o->out_dir) > 4000) {
-        fprintf(stderr, "pdla ensemble: directory name is too long\n");
+    if (cli_path_fits("the directory name", o->out_dir, c->err, sizeof c->err)) {
+        fprintf(stderr, "pdla ensemble: %s\n", c->err);
         return EXIT_USAGE;
     }
     snprintf(c->dir, sizeof c->dir, "%s", o->out_dir);

@@ -24,6 +24,7 @@
 
 #include "fail_note.h"
 #include "parse.h"
+#include "rundir.h"
 #include "scene.h"
 #include "pdla/event.h"
 #include "pdla/pdla.h"
@@ -205,6 +206,10 @@ static int parse(int argc, char **argv, ev_cli *c)
         }
         if (parse_value(c, name, val)) return -1;
     }
+    /* A path cut to fit the 4096-byte buffers would name another directory. */
+    if ((c->out && cli_path_fits("the run directory name", c->out, c->err, sizeof c->err)) ||
+        (c->resume && cli_path_fits("the checkpoint path", c->resume, c->err, sizeof c->err)))
+        return -1;
     if (c->resume) {
         if (c->scene || c->out) {
             snprintf(c->err, sizeof c->err, "--resume continues the checkpoint's run in its own "
@@ -236,6 +241,11 @@ static int make_dir(ev_cli *c, char *dir, size_t len)
         if (!localtime_r(&t, &tm) || !strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &tm))
             snprintf(stamp, sizeof stamp, "%lld", (long long)t);
         snprintf(dir, len, "runs/event-%s-%dd-%" PRIu64, stamp, c->p.dim, c->p.particles);
+    }
+    const int pe = cli_mkdir_parents(dir); /* as the DLA and DLCA commands */
+    if (pe) {
+        fprintf(stderr, "pdla: cannot create run directory '%s': %s (making its parents)\n", dir, strerror(pe));
+        return 2;
     }
     if (mkdir(dir, 0777) == 0) return 0;
     if (errno != EEXIST) {

@@ -34,6 +34,7 @@
 #include "parse.h"
 #include "pdla/pdla.h"
 #include "progress.h"
+#include "rundir.h"
 #include "h5read.h"
 #include "tools.h"
 #include "event_cmd.h"
@@ -138,7 +139,6 @@ static char *command_line(int argc, char **argv)
  * directory, ".cluster.h5.new.tmp.<pid>" or ".checkpoint.h5.tmp.<pid>", must
  * still fit the 4096 bytes of PATH_MAX. Checked at the start, so that no
  * write fails late, after growth, for a name known from the start. */
-enum { RUN_DIR_MAX = 4000 };
 
 /* Removes what an earlier pdla in dir left behind when it was killed while
  * writing cluster.h5 or summary.txt (kill -9, a second SIGINT): only names
@@ -163,36 +163,6 @@ static void remove_old_checkpoints(const char *dir)
     }
 }
 
-/* mkdir -p: make every missing directory of path. 0 or an errno. */
-static int mkdir_p(const char *path)
-{
-    char *buf = strdup(path);
-    if (!buf) return ENOMEM;
-    int rc = 0;
-    for (char *p = buf + 1;; p++) {
-        if (*p != '/' && *p != '\0') continue;
-        const char save = *p;
-        *p = '\0';
-        /* An existing directory may answer EEXIST, EACCES or EROFS: what
-         * counts is whether a directory is there afterwards. */
-        const int made = mkdir(buf, 0777) == 0;
-        const int e = errno;
-        struct stat st;
-        if (!made && stat(buf, &st)) {
-            rc = e;
-            break;
-        }
-        if (!made && !S_ISDIR(st.st_mode)) {
-            rc = ENOTDIR;
-            break;
-        }
-        *p = save;
-        if (!save) break;
-    }
-    free(buf);
-    return rc;
-}
-
 /* Make the run directory (path filled in dir) before any work, so that a bad
  * or taken name fails at once. *created says whether we made it (and may
  * remove it again while it is empty). 0, or EXIT_USAGE with a message. */
@@ -200,7 +170,7 @@ static int mkdir_p(const char *path)
  * started in the same second with the same size gets -2, -3, ... */
 static int make_default_run_dir(const cli_options *o, char *dir, size_t dirlen, int *created)
 {
-    int e = mkdir_p("runs");
+    int e = cli_mkdir_p("runs");
     if (e) {
         fprintf(stderr, "pdla: cannot create directory 'runs': %s\n", strerror(e));
         return EXIT_USAGE;
@@ -235,25 +205,18 @@ static int make_run_dir(const cli_options *o, char *dir, size_t dirlen, int *cre
     if (!o->out_dir) return make_default_run_dir(o, dir, dirlen, created);
 
     const int n = snprintf(dir, dirlen, "%s", o->out_dir);
-    if (n < 0 || (size_t)n >= dirlen || n > RUN_DIR_MAX) {
+    if (n < 0 || (size_t)n >= dirlen || n > CLI_RUN_DIR_MAX) {
         fprintf(stderr, "pdla: run directory name is too long (%zu bytes; at most %d)\n",
-                strlen(o->out_dir), RUN_DIR_MAX);
+                strlen(o->out_dir), CLI_RUN_DIR_MAX);
         return EXIT_USAGE;
     }
     /* "DIR/" names DIR: drop trailing slashes so file paths read DIR/x. */
     for (size_t len = (size_t)n; len > 1 && dir[len - 1] == '/';) dir[--len] = '\0';
     /* The parents: everything before the last component. */
-    char parent[4096];
-    snprintf(parent, sizeof parent, "%s", dir);
-    char *slash = strrchr(parent, '/');
-    if (slash && slash != parent) {
-        *slash = '\0';
-        const int e = mkdir_p(parent);
-        if (e) {
-            fprintf(stderr, "pdla: cannot create run directory '%s': %s (making '%s')\n", dir,
-                    strerror(e), parent);
-            return EXIT_USAGE;
-        }
+    const int pe = cli_mkdir_parents(dir);
+    if (pe) {
+        fprintf(stderr, "pdla: cannot create run directory '%s': %s (making its parents)\n", dir, strerror(pe));
+        return EXIT_USAGE;
     }
     if (mkdir(dir, 0777) == 0) {
         *created = 1;
@@ -809,9 +772,9 @@ static int resume_step(run *R)
         return EXIT_USAGE;
     }
     resume_dir(o->resume, S_ISDIR(st.st_mode), R->dir, sizeof R->dir);
-    if (strlen(o->resume) > RUN_DIR_MAX) {
+    if (strlen(o->resume) > CLI_RUN_DIR_MAX) {
         fprintf(stderr, "pdla: cannot resume: the checkpoint path is too long (%zu bytes; at most %d)\n",
-                strlen(o->resume), RUN_DIR_MAX);
+                strlen(o->resume), CLI_RUN_DIR_MAX);
         return EXIT_USAGE;
     }
     /* Lock first, so no other pdla writes while we read; the lock creates

@@ -598,6 +598,14 @@ int cli_check_params(const pdla_params *p, char *err, size_t errlen)
     return CLI_PARSE_ERROR;
 }
 
+int cli_path_fits(const char *what, const char *path, char *err, size_t errlen)
+{
+    const size_t n = strlen(path);
+    if (n <= CLI_RUN_DIR_MAX) return 0;
+    snprintf(err, errlen, "%s is too long (%zu bytes; at most %d)", what, n, CLI_RUN_DIR_MAX);
+    return -1;
+}
+
 /* Errors are one line: a file name or argument quoted in the message may
  * hold a newline or another control byte, so those are shown as '?'. */
 static int parse_one_line(int argc, char **argv, cli_options *out, int apart, char *err, size_t errlen)

@@ -57,6 +57,15 @@ typedef struct cli_options {
     uint64_t apart_threads;
 } cli_options;
 
+/* The longest run directory or checkpoint path the commands take, in
+ * bytes: room for "/checkpoint.h5.tmp.PID" and the like in their 4096-byte
+ * buffers. Longer is refused before anything is created (a path cut to
+ * fit would name another directory). */
+#define CLI_RUN_DIR_MAX 4000
+/* 0 if path fits CLI_RUN_DIR_MAX; else the one-line reason in err
+ * ("WHAT is too long (N bytes; at most 4000)") and -1. */
+int cli_path_fits(const char *what, const char *path, char *err, size_t errlen);
+
 /* Return values of cli_parse. */
 enum { CLI_PARSE_OK = 0, CLI_PARSE_EXIT = 1, CLI_PARSE_ERROR = 2 };
 

@@ -86,6 +86,28 @@ check(rc == 0 and os.path.exists(os.path.join(long4000, "checkpoint.h5")),
 rc, err = pdla("--resume", long4000, "--target", "4000", "-q")
 check(rc == 0, "item 7: resume from a 4000-byte directory: %r %r" % (rc, err))
 shutil.rmtree(os.path.join(WORK, "e" * 200))
+# the same limit for the DLCA and event models: refused before anything is
+# made (DLCA made the parents of a too-long --out, then failed on the name
+# cut to its buffer), and 4000 bytes still write a checkpoint and resume
+models = {"dlca": ["--model", "dlca", "--box", "32", "--fill", "0.05"],
+          "event": ["--model", "event", "--dim", "2", "--particles", "50", "--packing", "0.1"]}
+quiet = {"dlca": "-q", "event": "--quiet"}
+for name, args in models.items():
+    rc, err = pdla(*args, "--out", long4001, quiet[name], timeout=20)
+    check(rc == 2 and one_line(err) and "too long" in err, "item 7: %s 4001-byte --out: %r %r" % (name, rc, err))
+    check(not os.path.exists(os.path.join(WORK, "e" * 200)), "item 7: %s made the parents of a refused --out" % name)
+    rc, err = pdla("--model", name, "--resume", long4001, quiet[name], timeout=20)
+    check(rc == 2 and one_line(err) and "too long" in err, "item 7: %s 4001-byte --resume: %r %r" % (name, rc, err))
+    rc, err = pdla(*args, "--out", long4000, "--checkpoint", quiet[name])
+    check(rc == 0 and os.path.exists(os.path.join(long4000, "checkpoint.h5")),
+          "item 7: %s 4000-byte --out with a checkpoint: %r %r" % (name, rc, err))
+    rc, err = pdla("--model", name, "--resume", long4000, quiet[name])
+    check(rc == 0, "item 7: %s resume from a 4000-byte directory: %r %r" % (name, rc, err))
+    # the resume wrote in the run directory, not in its parent (a DLCA
+    # resume cut the path to 4000 bytes and named the parent)
+    check(os.listdir(os.path.dirname(long4000)) == [os.path.basename(long4000)],
+          "item 7: %s resume wrote beside its run directory: %r" % (name, os.listdir(os.path.dirname(long4000))))
+    shutil.rmtree(os.path.join(WORK, "e" * 200))
 # --resume into a directory that takes no new files: refused at once
 rc, err = pdla("--target", "1000", "--out", W("RO"), "--checkpoint", "-q")
 if subprocess.run(["chattr", "+i", W("RO")], capture_output=True).returncode == 0:

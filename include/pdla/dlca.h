@@ -240,6 +240,21 @@ PDLA_API int dlca_write_xdmf(const char *h5_path, int dim, uint64_t n, const dlc
  * with one line (PDLA_EIO). */
 PDLA_API int dlca_checkpoint_write(const dlca_sim *s, const char *path, char *err, size_t errlen);
 PDLA_API int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, size_t errlen);
+/* The command line's checkpoint schedule, recorded in each checkpoint (root
+ * attributes schedule_every_seconds, schedule_every_attempts; absent in
+ * checkpoints before session 27) so that a bare --resume keeps it: before,
+ * it wrote only its final checkpoint. Load refuses a schedule that is not
+ * a period of 0 to 1e9 seconds and an unsigned attempt count, or one of the
+ * two attributes without the other (PDLA_EIO, one line). */
+typedef struct dlca_ckpt_schedule {
+    double every_seconds;    /* wall time; 0: no time trigger */
+    uint64_t every_attempts; /* 0: no attempt trigger */
+} dlca_ckpt_schedule;
+/* The schedule the next checkpoint of s records (a new run: none, 0 and 0). */
+PDLA_API void dlca_set_checkpoint_schedule(dlca_sim *s, const dlca_ckpt_schedule *sc);
+/* *sc: the schedule of s; 1 when s was loaded from a checkpoint that
+ * recorded one (or one was set), else 0 (and *sc all 0). */
+PDLA_API int dlca_checkpoint_schedule(const dlca_sim *s, dlca_ckpt_schedule *sc);
 /* New stop conditions for a resumed run; returns the stop they give now. */
 PDLA_API int dlca_set_stops(dlca_sim *s, uint64_t until_clusters, double until_time, uint64_t max_attempts);
 

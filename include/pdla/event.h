@@ -178,6 +178,15 @@ int ev_checkpoint_write(const ev_sim *s, const ev_series *ser, const char *dir,
 /* Load PATH: the simulation (NULL with one line in err) and its series.
  * The stop conditions t_max, max_stuck, max_events may then be changed. */
 ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t errlen);
+/* The command line's --checkpoint-every (wall seconds, 0: none), recorded in
+ * each checkpoint (root attribute schedule_every_seconds; absent before
+ * session 27) so that a bare --resume keeps it: before, it wrote only its
+ * final checkpoint. The load refuses a recorded value that is not 0 to 1e9
+ * seconds (one line). */
+void ev_set_checkpoint_every(ev_sim *s, double seconds);
+/* *seconds: the value s records; 1 when s was loaded from a checkpoint that
+ * recorded one (or one was set), else 0 (and *seconds 0). */
+int ev_checkpoint_every(const ev_sim *s, double *seconds);
 ev_params *ev_params_of(ev_sim *s);
 
 #endif

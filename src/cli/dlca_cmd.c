@@ -46,6 +46,7 @@ typedef struct dlca_cli {
     int force, no_output, quiet, check, checkpoint;
     double checkpoint_every;      /* seconds of wall time; 0: none */
     uint64_t checkpoint_attempts; /* 0: none */
+    int schedule_given;           /* one of the two above given (a resume then drops the recorded schedule) */
     uint32_t given;               /* DLCA_PARAM_* bits of the rows set by options or the scene */
     int box_lengths;              /* --resume: --box's length count, held against the checkpoint's dim */
     const char *resume;
@@ -118,7 +119,9 @@ static void print_help(FILE *o)
                "  --checkpoint-attempts N            also every N attempts\n"
                "  --resume PATH                      go on from a checkpoint file or a run directory's\n"
                "                                     checkpoint.h5 (in its run directory unless --out); only\n"
-               "                                     --until-* and --max-attempts may change (the others kept)\n"
+               "                                     --until-* and --max-attempts may change (the others kept);\n"
+               "                                     the checkpoint schedule is kept unless --checkpoint-every or\n"
+               "                                     --checkpoint-attempts is given\n"
                "  -q, --quiet                        no summary on stdout\n"
                "  --help                             this text\n");
 }
@@ -144,11 +147,11 @@ static int set_run_value(dlca_cli *c, const char *k, const char *val, char *err,
     else if (!strcmp(k, "start")) c->start = val;
     else if (!strcmp(k, "checkpoint-every")) {
         bad = cli_parse_duration(val, &c->checkpoint_every);
-        c->checkpoint = 1;
+        c->checkpoint = c->schedule_given = 1;
     } else if (!strcmp(k, "checkpoint-attempts")) {
         bad = cli_parse_count(val, &c->checkpoint_attempts);
         if (!bad && c->checkpoint_attempts == 0) bad = "must be at least 1";
-        c->checkpoint = 1;
+        c->checkpoint = c->schedule_given = 1;
     } else if (!strcmp(k, "snapshot-every")) {
         bad = cli_parse_real(val, &c->snapshot_every);
         if (!bad && !(c->snapshot_every > 0)) bad = "must be above 0 (a time in monomer moves)";
@@ -590,6 +593,19 @@ static int same_dir(int fd, const char *dir)
     return fd >= 0 && fstat(fd, &a) == 0 && stat(dir, &b) == 0 && a.st_dev == b.st_dev && a.st_ino == b.st_ino;
 }
 
+/* A resume without --checkpoint-every and --checkpoint-attempts keeps the
+ * interrupted run's schedule, as the DLA command (session 26): a bare
+ * `--resume DIR` after --checkpoint-every 30m wrote only its final
+ * checkpoint, so a crash after the resume lost all it had grown. Either
+ * option given replaces both (--checkpoint-every 0: no time trigger). */
+static void keep_schedule(dlca_cli *c, const dlca_sim *s)
+{
+    dlca_ckpt_schedule sc;
+    if (c->schedule_given || !dlca_checkpoint_schedule(s, &sc)) return;
+    c->checkpoint_every = sc.every_seconds;
+    c->checkpoint_attempts = sc.every_attempts;
+}
+
 /* --resume: load the checkpoint, hold the options given against it (the
  * table's resume rule: only the resumable rows, the stops, may change) and
  * apply the stops given. 0, or the exit status with the line printed. */
@@ -650,6 +666,7 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
     }
     (void)dlca_set_stops(*s, p.until_clusters, p.until_time, p.max_attempts);
     c->p = p;
+    keep_schedule(c, *s);
     if (!c->out) {
         /* Whole, then cut at its last '/': a copy cut to 4000 bytes first
          * named the parent of a long run directory (its checkpoint path is
@@ -742,6 +759,9 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
     dlca_stats st;
     dlca_get_stats(*s, &st);
     c->n_monomers = st.n_monomers;
+    /* recorded in each checkpoint, for a later bare --resume */
+    const dlca_ckpt_schedule sched = {c->checkpoint_every, c->checkpoint_attempts};
+    dlca_set_checkpoint_schedule(*s, &sched);
     if (c->checkpoint) {
         char stop_path[4200]; /* honoured before: a resume must not stop at once */
         snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);

@@ -75,6 +75,7 @@ typedef struct ev_cli {
     const char *scene;
     int checkpoint;          /* --checkpoint (implied by the two below) */
     double checkpoint_every; /* wall seconds, 0: only at the end / on a signal */
+    int schedule_given;      /* --checkpoint-every given (a resume then drops the recorded one) */
     const char *resume;      /* run directory to continue */
     int progress;            /* -1: when stderr is a terminal */
     uint32_t given;          /* bits of the table rows given on the command line */
@@ -154,7 +155,7 @@ static int parse_value(ev_cli *c, const char *name, const char *val)
             snprintf(c->err, sizeof c->err, "--checkpoint-every '%s': %s", val, why);
             return -1;
         }
-        c->checkpoint = 1;
+        c->checkpoint = c->schedule_given = 1;
         return 0;
     }
     char e[400];
@@ -492,6 +493,12 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
         return NULL;
     }
     c->checkpoint = 1; /* a resumed run keeps checkpointing */
+    /* and on the interrupted run's schedule unless --checkpoint-every is
+     * given (0: none), as the DLA command (session 26): a bare --resume
+     * after --checkpoint-every 30m wrote only its final checkpoint, so a
+     * crash after the resume lost all it had run */
+    double every;
+    if (!c->schedule_given && ev_checkpoint_every(s, &every)) c->checkpoint_every = every;
     return s;
 }
 
@@ -627,6 +634,7 @@ int event_cmd_main(int argc, char **argv)
     signal(SIGTERM, on_signal);
     ev_sim *s = start_sim(&c, &ser, dir, sizeof dir, &rc);
     if (!s) return rc;
+    ev_set_checkpoint_every(s, c.checkpoint_every); /* recorded in each checkpoint, for a later bare --resume */
     char *cmd = joined(argc, argv);
     ev_ticker tk;
     cli_fail fail = {"", ""};

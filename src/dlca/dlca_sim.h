@@ -125,6 +125,8 @@ struct dlca_sim {
     dlca_row *rows;
     size_t nrows, caprows;
     uint64_t row_nc;
+    dlca_ckpt_schedule sched; /* the CLI's checkpoint schedule, kept in checkpoints */
+    int has_sched;            /* 1: set, or read from the checkpoint loaded */
 };
 
 

@@ -307,6 +307,8 @@ int dlca_checkpoint_write(const dlca_sim *s, const char *path, char *err, size_t
     ck_gather(s, &a);
     if ((file = h5u_create_file(&w, path)) < 0) goto done;
     if (h5u_attr_str(&w, file, "model", "dlca-checkpoint") < 0 || h5u_attr_int(&w, file, "format_version", 1) < 0 ||
+        h5u_attr_f64(&w, file, "schedule_every_seconds", s->sched.every_seconds) < 0 ||
+        h5u_attr_u64(&w, file, "schedule_every_attempts", s->sched.every_attempts) < 0 ||
         dlca_write_parameters_h5(&w, file, &s->p) < 0 ||
         ck_write(&w, file, "rng", H5T_STD_U64LE, H5T_NATIVE_UINT64, s->rng.s, 4) < 0 ||
         ck_write(&w, file, "u64", H5T_STD_U64LE, H5T_NATIVE_UINT64, u, CK_NU) < 0 ||
@@ -556,6 +558,27 @@ static int load_state(dlca_sim **out, hid_t f, char *why, size_t whylen)
     ck_free(&a);
     return rc;
 }
+
+/* The checkpoint schedule: optional (none before session 27), both
+ * attributes or neither. What a bare --resume keeps, so a forged one must
+ * not set the resumed run's triggers (a NaN period, a negative one). */
+static int load_schedule(dlca_sim *s, hid_t f, char *why, size_t whylen)
+{
+    static const char *const S = "schedule_every_seconds", *const A = "schedule_every_attempts";
+    const htri_t hs = H5Aexists(f, S), ha = H5Aexists(f, A);
+    if (hs < 0 || ha < 0) LOAD_FAIL(PDLA_EIO, "its root attributes cannot be read");
+    if (!hs && !ha) return 0;
+    if (!hs || !ha) LOAD_FAIL(PDLA_EIO, "it records %s without %s", hs ? S : A, hs ? A : S);
+    dlca_ckpt_schedule sc;
+    if (pdla_h5_attr_exact(f, S, PDLA_H5_F64, &sc.every_seconds) < 0)
+        LOAD_FAIL(PDLA_EIO, "its %s is not one 64-bit float", S);
+    if (!(sc.every_seconds >= 0 && sc.every_seconds <= 1e9)) /* the range of --checkpoint-every; NaN fails */
+        LOAD_FAIL(PDLA_EIO, "its %s %g is not 0 (none) to 1e9 seconds", S, sc.every_seconds);
+    if (pdla_h5_attr_exact(f, A, PDLA_H5_U64, &sc.every_attempts) < 0)
+        LOAD_FAIL(PDLA_EIO, "its %s is not one unsigned 64-bit integer", A);
+    dlca_set_checkpoint_schedule(s, &sc);
+    return 0;
+}
 #undef LOAD_FAIL
 
 int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, size_t errlen)
@@ -573,7 +596,7 @@ int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, size_t err
     const hid_t f = reg ? H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT) : H5I_INVALID_HID;
     if (!reg) snprintf(why, sizeof why, "%s", found ? "not a regular file" : strerror(stat_errno));
     else if (f < 0) snprintf(why, sizeof why, "cannot open it as HDF5");
-    else if ((rc = load_state(&s, f, why, sizeof why)) == 0) {
+    else if ((rc = load_state(&s, f, why, sizeof why)) == 0 && (rc = load_schedule(s, f, why, sizeof why)) == 0) {
         char cerr[160];
         if (dlca_check(s, cerr, sizeof cerr)) {
             snprintf(why, sizeof why, "its state is inconsistent: %s", cerr);
@@ -594,4 +617,16 @@ int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, size_t err
     }
     *out = s;
     return 0;
+}
+
+void dlca_set_checkpoint_schedule(dlca_sim *s, const dlca_ckpt_schedule *sc)
+{
+    s->sched = *sc;
+    s->has_sched = 1;
+}
+
+int dlca_checkpoint_schedule(const dlca_sim *s, dlca_ckpt_schedule *sc)
+{
+    *sc = s->sched;
+    return s->has_sched;
 }

@@ -3,7 +3,9 @@
  *
  * DIR/checkpoint.h5:
  *   /            format = "pdla-event-checkpoint", format_version, model,
- *                dim, particles, ntot
+ *                dim, particles, ntot, schedule_every_seconds (the
+ *                --checkpoint-every a bare --resume keeps; since session
+ *                27, optional on load)
  *   parameters   the parameter table as "name=value" lines (values as
  *                pdla_param_format writes them exact: doubles in %.17g)
  *   /state       ps (x, v, t_i, r per particle, as stored: lazy local
@@ -168,6 +170,7 @@ static int write_ckpt(const h5u_writer *w, const char *tmp, const ev_sim *s,
     if (!rc) rc = h5u_attr_int(w, file, "dim", s->dim);
     if (!rc) rc = h5u_attr_u64(w, file, "particles", s->n);
     if (!rc) rc = h5u_attr_u64(w, file, "ntot", s->ntot);
+    if (!rc) rc = h5u_attr_f64(w, file, "schedule_every_seconds", s->ck_every);
     if (!rc) rc = wds(w, file, "parameters", H5T_STD_U8LE, H5T_NATIVE_UINT8, strlen(pt), pt);
     if (!rc) rc = write_state(w, file, s);
     if (!rc) rc = write_series(w, file, ser);
@@ -273,6 +276,27 @@ static int rattr_int(const rd *r, const char *name, long long *v)
     int64_t x;
     if (pdla_h5_attr_number(r->file, name, PDLA_H5_I64, &x) < 0) return -1;
     *v = x;
+    return 0;
+}
+
+/* The checkpoint schedule (optional: none before session 27): what a bare
+ * --resume keeps, so a forged one must not set the resumed run's trigger
+ * (a NaN or negative period). */
+static int read_schedule(const rd *r, ev_sim *s)
+{
+    static const char *const S = "schedule_every_seconds";
+    const htri_t has = H5Aexists(r->file, S);
+    if (has < 0) return rfail(r, "%s", "its root attributes cannot be read (damaged)");
+    if (!has) return 0;
+    double every;
+    if (pdla_h5_attr_exact(r->file, S, PDLA_H5_F64, &every) < 0)
+        return rfail(r, "%s is not one 64-bit float (damaged)", S);
+    if (!(every >= 0 && every <= 1e9)) { /* the range of --checkpoint-every; NaN fails */
+        char m[160];
+        snprintf(m, sizeof m, "%s %g is not 0 (none) to 1e9 seconds (damaged)", S, every);
+        return rfail(r, "%s", m);
+    }
+    ev_set_checkpoint_every(s, every);
     return 0;
 }
 
@@ -804,6 +828,7 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     /* the seeds' near lists from the seeds as stored */
     if (!rc && ev_big_build(s)) rc = rfail(&r, "%s", "out of memory for the cells near the seeds");
     if (!rc) rc = read_series(&r, ser, s->now);
+    if (!rc) rc = read_schedule(&r, s);
     if (r.file >= 0 && H5Fclose(r.file) < 0 && !rc) rc = rfail(&r, "%s", "cannot close it");
     if (h5u_restore(&q) < 0 && !rc) rc = rfail(&r, "%s", "cannot restore the HDF5 error handler");
     if (rc) {
@@ -816,3 +841,15 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
 }
 
 ev_params *ev_params_of(ev_sim *s) { return &s->par; }
+
+void ev_set_checkpoint_every(ev_sim *s, double seconds)
+{
+    s->ck_every = seconds;
+    s->has_ck_every = 1;
+}
+
+int ev_checkpoint_every(const ev_sim *s, double *seconds)
+{
+    *seconds = s->ck_every;
+    return s->has_ck_every;
+}

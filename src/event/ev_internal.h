@@ -111,6 +111,10 @@ struct ev_sim {
     /* run state kept in checkpoints: series started, the open interval */
     int started, iv_open;
     double iv_t0, iv_v0;
+    /* the CLI's --checkpoint-every, kept in checkpoints; has_ck_every 1:
+     * set, or read from the checkpoint loaded */
+    double ck_every;
+    int has_ck_every;
     /* the series' free kinetic energy (ev_sim.c series_ke): the last full
      * sum, the collision and stick counts it was made at (ke_valid 0: none
      * yet, or states set by hand since), and how many full sums were made */

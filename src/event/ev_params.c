@@ -183,7 +183,8 @@ char *ev_help_text(void)
              "  --resume PATH                continue a run directory's checkpoint (or one\n"
              "                               checkpoint file, in its folder) bit for bit; --t-max,\n"
              "                               --max-stuck, --max-events may change, any other\n"
-             "                               parameter given must equal the checkpoint's\n"
+             "                               parameter given must equal the checkpoint's; its\n"
+             "                               --checkpoint-every is kept unless given again\n"
              "  --help                       this text\n");
     return t;
 }

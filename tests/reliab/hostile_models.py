@@ -283,6 +283,21 @@ dlca_ck_values = {
     "parameters_fill_doubled": (lambda f: f["parameters"].attrs.__setitem__(
         "fill", 2 * f["parameters"].attrs["fill"]), "monomers are not the"),
 }
+# (session 27) the checkpoint schedule a bare --resume keeps: a forged one
+# would set the resumed run's checkpoint triggers
+SCHED_S, SCHED_A = "schedule_every_seconds", "schedule_every_attempts"
+dlca_ck_values.update({
+    "schedule_seconds_negative": (dlca_attr("/", SCHED_S, -1.0), SCHED_S),
+    "schedule_seconds_nan": (dlca_attr("/", SCHED_S, np.nan), SCHED_S),
+    "schedule_seconds_inf": (dlca_attr("/", SCHED_S, np.inf), SCHED_S),
+    "schedule_seconds_2e9": (dlca_attr("/", SCHED_S, 2e9), SCHED_S),
+    "schedule_seconds_string": (dlca_attr("/", SCHED_S, np.bytes_(b"30m")), SCHED_S),
+    "schedule_seconds_array": (dlca_attr("/", SCHED_S, np.ones(3)), SCHED_S),
+    "schedule_attempts_negative": (dlca_attr("/", SCHED_A, np.int64(-5)), SCHED_A),
+    "schedule_attempts_float": (dlca_attr("/", SCHED_A, 2000.0), SCHED_A),
+    "schedule_attempts_alone": (lambda f: (f.attrs.__setitem__(SCHED_A, np.uint64(2000)), f.attrs.pop(SCHED_S, 0)),
+                                SCHED_S),
+})
 for name, (fn, want) in dlca_ck_values.items():
     d, path = forged(CK, "dlcack-" + name.replace("^", ""), fn)
     tag = "dlca-ckpt-%s/resume" % name
@@ -456,6 +471,15 @@ ev_cases.update({
 })
 for name, fn in ev_cases.items():
     expect("event-ckpt-%s/resume" % name, ev_resume(ev_copy("eventck-" + name.replace("^", ""), fn)), "fail")
+# (session 27) the checkpoint schedule a bare --resume keeps: exit 2, one
+# line naming the attribute
+for name, v in (("negative", -1.0), ("nan", np.nan), ("inf", np.inf), ("2e9", 2e9),
+                ("string", np.bytes_(b"30m")), ("array", np.ones(3))):
+    tag = "event-ckpt-schedule_seconds_%s/resume" % name
+    runs.append(tag)
+    rc, lines, _ = run(ev_resume(ev_copy("eventck-schedule-" + name, dlca_attr("/", SCHED_S, v))))
+    check(rc == 2 and len(lines) == 1 and SCHED_S in lines[0], "%s: exit %s, want 2 and one line with %r: %r"
+          % (tag, rc, SCHED_S, lines[:3]))
 
 # ---- event cluster.h5 through pdla analyze -------------------------------
 EC = os.path.join(ev, "cluster.h5")

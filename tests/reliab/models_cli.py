@@ -13,7 +13,8 @@ runs lost cluster.h5.
 
 Also: a --force run over an older run removes the older run's checkpoints
 (as the DLA command does), and the temporary files of a killed event writer
-go when the directory is next taken.
+go when the directory is next taken; a bare --resume keeps the checkpoint
+schedule the checkpoint records (session 27).
 """
 import fcntl
 import os
@@ -315,6 +316,95 @@ if subprocess.run(["chattr", "+i", ro], capture_output=True).returncode == 0:
         subprocess.run(["chattr", "-i", ro])
 else:
     print("chattr +i not available here; immutable-directory cases skipped")
+
+# (session 27) A bare --resume kept no checkpoint schedule in the DLCA and
+# event models (the DLA command's since session 26): after
+# --checkpoint-attempts 2000 or --checkpoint-every 0.05 the resumed run wrote
+# only its final checkpoint, so a crash after the resume lost all it had
+# grown. Each checkpoint records the schedule now (root attributes
+# schedule_every_seconds, and schedule_every_attempts for DLCA); a bare resume
+# keeps it, a checkpoint option given replaces it (--checkpoint-every 0: no
+# time trigger), and a checkpoint without it (an older pdla) resumes with the
+# default, the final checkpoint only. The writes are counted by faultshim:
+# renames of the temporary file onto checkpoint.h5 (nothing fails).
+def ck_writes(args, tmp_part):
+    """(exit status, stderr, checkpoints written) of pdla ARGS."""
+    counted = os.path.join(WORK, "sched-count")
+    if os.path.exists(counted):
+        os.unlink(counted)
+    rc, err = pdla(*args, env={"LD_PRELOAD": PRELOAD, "FAULT_OP": "rename", "FAULT_PATH": tmp_part,
+                               "FAULT_COUNT": counted})
+    if not os.path.exists(counted):
+        return rc, err, -1
+    with open(counted) as fh:
+        return rc, err, int(fh.read().split()[0])
+
+
+def schedule(d):
+    """The schedule attributes of d/checkpoint.h5 (None where absent)."""
+    import h5py
+    with h5py.File(os.path.join(d, "checkpoint.h5"), "r") as f:
+        return f.attrs.get("schedule_every_seconds"), f.attrs.get("schedule_every_attempts")
+
+
+def drop_schedule(d):
+    """d/checkpoint.h5 as an older pdla wrote it: no schedule attributes."""
+    import h5py
+    with h5py.File(os.path.join(d, "checkpoint.h5"), "r+") as f:
+        for k in ("schedule_every_seconds", "schedule_every_attempts"):
+            if k in f.attrs:
+                del f.attrs[k]
+
+
+# DLCA: a checkpoint every 2000 attempts to 1e4, then resumed to 3e4 (by
+# attempts: the counts are exact, 9 on the way and the final one).
+base = os.path.join(WORK, "dlca-sched")
+rc, err, n = ck_writes(["--model", "dlca", "--dim", "2", "--box", "256", "--fill", "0.05", "--seed", "1",
+                        "--max-attempts", "10000", "--checkpoint-attempts", "2000", "--checkpoint-every", "30m",
+                        "--out", base, "-q"], ".checkpoint.h5.new")
+check(rc == 0 and n == 5, "dlca --checkpoint-attempts 2000 to 1e4: exit %r, %d checkpoints (want 5), %r"
+      % (rc, n, err[-300:]))
+got = schedule(base)
+check(got == (1800.0, 2000), "dlca checkpoint's schedule attributes: %r (want (1800.0, 2000))" % (got,))
+for tag, more, want, kept in (("bare", [], (9, 10), (1800.0, 2000)),
+                              ("--checkpoint-every 0", ["--checkpoint-every", "0"], (1, 1), (0.0, 0)),
+                              ("--checkpoint-attempts 10000", ["--checkpoint-attempts", "10000"], (2, 3),
+                               (0.0, 10000)),
+                              ("older file, bare", None, (1, 1), (0.0, 0))):
+    d = os.path.join(WORK, "dlca-sched-" + tag.replace(" ", "_").replace(",", ""))
+    shutil.copytree(base, d)
+    if more is None:
+        drop_schedule(d)
+    rc, err, n = ck_writes(["--model", "dlca", "--resume", d, "--max-attempts", "30000", "-q"] + (more or []),
+                           ".checkpoint.h5.new")
+    check(rc == 0 and want[0] <= n <= want[1], "dlca --resume %s to 3e4: exit %r, %d checkpoints written (want "
+          "%d to %d), %r" % (tag, rc, n, want[0], want[1], err[-300:]))
+    got = schedule(d) if rc == 0 else None
+    check(got == kept, "dlca --resume %s: the new checkpoint records %r (want %r)" % (tag, got, kept))
+
+# Event: a checkpoint every 0.05 s of wall time (a gas without a seed, to
+# t = 20), then resumed to t = 300 (about a second here: some 15 writes;
+# at least 3 wanted, so a machine several times faster still passes).
+base = os.path.join(WORK, "event-sched")
+ev_run = ["--model", "event", "--dim", "2", "--particles", "2000", "--packing", "0.3", "--seed-radius", "0",
+          "--seed", "1", "--quiet"]
+rc, err = pdla(*(ev_run + ["--t-max", "20", "--checkpoint-every", "0.05", "--out", base]))
+check(rc == 0, "event --checkpoint-every 0.05 to t = 20: exit %r, %r" % (rc, err[-300:]))
+got = schedule(base)[0]
+check(got == 0.05, "event checkpoint's schedule_every_seconds: %r (want 0.05)" % (got,))
+for tag, more, want, kept in (("bare", [], (3, 10**6), 0.05),
+                              ("--checkpoint-every 0", ["--checkpoint-every", "0"], (1, 1), 0.0),
+                              ("older file, bare", None, (1, 1), 0.0)):
+    d = os.path.join(WORK, "event-sched-" + tag.replace(" ", "_").replace(",", ""))
+    shutil.copytree(base, d)
+    if more is None:
+        drop_schedule(d)
+    rc, err, n = ck_writes(["--model", "event", "--resume", d, "--t-max", "300", "--quiet"] + (more or []),
+                           ".checkpoint.h5.tmp.")
+    check(rc == 0 and want[0] <= n <= want[1], "event --resume %s to t = 300: exit %r, %d checkpoints written "
+          "(want %d to %d), %r" % (tag, rc, n, want[0], want[1], err[-300:]))
+    got = schedule(d)[0] if rc == 0 else None
+    check(got == kept, "event --resume %s: the new checkpoint records %r (want %r)" % (tag, got, kept))
 
 print("models-cli: %d failures" % len(failures))
 sys.exit(1 if failures else 0)

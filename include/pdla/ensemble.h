@@ -79,6 +79,16 @@ PDLA_API uint64_t pdla_ens_record_max_bytes(const pdla_ens_config *c);
 /* The growth parameters of cluster i (seed = params.seed + i). */
 PDLA_API void pdla_ens_cluster_params(const pdla_ens_config *c, uint64_t i, pdla_params *out);
 
+/* The fingerprint of c's growth parameters, which every journal record
+ * carries: a 64-bit FNV-1a of "name=value" lines (exact values) of every
+ * row of the parameter table (params.h) but threads and bind (fixed for an
+ * ensemble's clusters), a row added since journals existed
+ * (absent_default) left out at its default. Two ensembles that differ in
+ * any growth parameter (--eps, --resolution, --far-factor, --max-jumps,
+ * --rg-per-decade, --arrival, ... and seed, dimension, size) differ in it;
+ * the cluster count, keep_positions and deflate_level are not in it. */
+PDLA_API uint64_t pdla_ens_fingerprint(const pdla_ens_config *c);
+
 /* One finished cluster. Arrays are malloc'ed (pdla_ens_record_free). */
 typedef struct pdla_ens_record {
     uint64_t index;        /* i in [0, M) */
@@ -153,13 +163,25 @@ typedef struct pdla_ens_journal pdla_ens_journal;
 PDLA_API int pdla_ens_journal_create(const char *dir, const pdla_ens_config *c,
                                      pdla_ens_journal **out, char *err, size_t errlen);
 /* Open dir's journal read-only: its config and every complete record
- * (checksums verified, and each record must belong to the ensemble: index,
- * seed, dimension, particles, positions; a torn or damaged tail, from a
- * crash during an append, is noted and ignored; a damaged record between
- * valid ones is skipped and the scan goes on at the next valid record).
+ * (checksums verified, and each record must belong to the ensemble: its
+ * parameter fingerprint (pdla_ens_fingerprint), index, seed, dimension,
+ * particles, positions; a torn or damaged tail, from a crash during an
+ * append, is noted and ignored; a damaged record between valid ones is
+ * skipped and the scan goes on at the next valid record). A journal of
+ * format 1 (before session 27) has records without a fingerprint: they are
+ * taken before its first record with one, as that format was read.
  * PDLA_EIO when there is none or its header is damaged. Writes nothing. */
 PDLA_API int pdla_ens_journal_open(const char *dir, pdla_ens_journal **out, char *err,
                                    size_t errlen);
+/* Asked by a long scan whether to stop (a signal arrived); non-zero: stop.
+ * Called from the thread that opens the journal. */
+typedef int (*pdla_ens_stop_fn)(void *user);
+/* pdla_ens_journal_open with stop(user) polled at every record candidate
+ * and every megabyte searched past damage (stop may be NULL): when it
+ * returns non-zero the open ends with PDLA_ESTOPPED and one line, having
+ * written nothing. pdla_ens_journal_extend's reopen polls it too. */
+PDLA_API int pdla_ens_journal_open_stoppable(const char *dir, pdla_ens_stop_fn stop, void *user,
+                                             pdla_ens_journal **out, char *err, size_t errlen);
 /* Make an opened journal appendable: cut the torn tail, if any. */
 PDLA_API int pdla_ens_journal_begin_append(pdla_ens_journal *j, char *err, size_t errlen);
 /* Extend the ensemble of opened journal j to `clusters` (> its M): the

@@ -51,6 +51,12 @@ enum { EXIT_RUNTIME = 1, EXIT_USAGE = 2 };
 
 static volatile sig_atomic_t stop_signal;
 static void on_signal(int sig) { stop_signal = sig; }
+/* The journal scan's stop flag (pdla_ens_journal_open_stoppable). */
+static int scan_stopped(void *user)
+{
+    (void)user;
+    return stop_signal != 0;
+}
 
 static int install_signals(void)
 {
@@ -435,7 +441,16 @@ static int open_resume(ens_cmd *c)
         fprintf(stderr, "pdla ensemble: cannot resume: %s\n", c->err);
         return EXIT_USAGE;
     }
-    const int rc = pdla_ens_journal_open(c->dir, &c->j, c->err, sizeof c->err);
+    /* The scan of a large (or forged) journal may take long: a signal
+     * stops it, and it has written nothing. A signal after its last poll
+     * stops here, before the journal is touched (a torn tail cut, an
+     * extension). */
+    const int rc = pdla_ens_journal_open_stoppable(c->dir, scan_stopped, NULL, &c->j, c->err, sizeof c->err);
+    if (rc == PDLA_ESTOPPED || (rc == PDLA_OK && stop_signal)) {
+        fprintf(stderr, "pdla ensemble: stopped by signal while reading %s/%s (nothing in it was changed); resume "
+                        "with pdla ensemble --resume %s\n", c->dir, PDLA_ENS_JOURNAL_NAME, c->dir);
+        return EXIT_RUNTIME;
+    }
     if (rc) {
         fprintf(stderr, "pdla ensemble: cannot resume: %s\n", c->err);
         return rc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
@@ -485,6 +500,11 @@ static int open_resume(ens_cmd *c)
         pdla_ens_journal *wide = NULL;
         const int rc2 = pdla_ens_journal_extend(c->j, c->a.clusters, &wide, c->err, sizeof c->err);
         c->j = wide; /* the old one is closed either way */
+        if (rc2 == PDLA_ESTOPPED) { /* in the reopen's scan, after the rewrite */
+            fprintf(stderr, "pdla ensemble: stopped by signal after extending %s/%s to %" PRIu64 " clusters; resume "
+                            "with pdla ensemble --resume %s\n", c->dir, PDLA_ENS_JOURNAL_NAME, c->a.clusters, c->dir);
+            return EXIT_RUNTIME;
+        }
         if (rc2) {
             fprintf(stderr, "pdla ensemble: %s\n", c->err);
             return EXIT_RUNTIME;

@@ -14,7 +14,7 @@
  *
  * Layout (native byte order, marked in the header):
  *   "PDLAENS1", u32 0x01020304, u32 L, L bytes of text, u64 FNV-1a(text)
- *   then records: "PDLAREC1", u64 P, P bytes (a record), u64 FNV-1a(P, bytes)
+ *   then records: "PDLAREC2", u64 P, u64 F, P bytes (a record), u64 FNV-1a(P, F, bytes)
  *   and build records: "PDLABLD1", u64 P, P bytes (a revision), u64 FNV-1a(P, bytes),
  *   appended when another build resumes the ensemble (pdla_ens_journal_join)
  * The text is "key=value" lines: format, the builds of pdla that grew
@@ -22,6 +22,18 @@
  * in journals from before builds were recorded), every row of the
  * parameter table (exact values), clusters, keep_positions, deflate_level
  * (absent in journals from before session 25: read as the default level).
+ *
+ * F is the fingerprint of the growth parameters the record was grown with
+ * (pdla_ens_fingerprint): a record of an ensemble that differs only in,
+ * say, --eps has this ensemble's index, seed, dimension and size, and only
+ * F tells it apart. It sits before the payload so that the scan refuses a
+ * foreign candidate after its 24-byte head. Format 1 (journals written
+ * before session 27) has "PDLAREC1", u64 P, P bytes, u64 FNV-1a(P, bytes)
+ * records, without F: this build still reads them, in a format-1 journal
+ * only and only before its first record with F (it appends records with
+ * F to an old journal and keeps its header, format 1, when it extends it;
+ * nothing else writes an old record after a new one, except an older
+ * build resuming the journal again, whose records then grow again).
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -41,11 +53,14 @@
 #include "must.h"
 
 #define HEAD_MAGIC "PDLAENS1"
-#define REC_MAGIC "PDLAREC1"
+#define REC_MAGIC "PDLAREC2"  /* with the fingerprint F */
+#define REC1_MAGIC "PDLAREC1" /* format 1: without */
 #define BLD_MAGIC "PDLABLD1"
-_Static_assert(sizeof REC_MAGIC == sizeof BLD_MAGIC, "next_record finds both magics by their common prefix PDLA");
+_Static_assert(sizeof REC_MAGIC == sizeof BLD_MAGIC && sizeof REC1_MAGIC == sizeof BLD_MAGIC,
+               "next_record finds the magics by their common prefix PDLA");
 #define BOM UINT32_C(0x01020304)
-#define FORMAT_LINE "format=pdla-ensemble-journal 1\n"
+#define FORMAT_PREFIX "format=pdla-ensemble-journal "
+#define FORMAT_NOW 2 /* new journals; 1: before session 27 (records without F) */
 #define NONE UINT64_MAX
 #define JOURNAL_BUILDS_MAX 2048
 
@@ -68,6 +83,11 @@ struct pdla_ens_journal {
     uint64_t grid_k;
     char refused[160];      /* open: why the first record with a valid checksum was refused, or "" */
     unsigned unknown_checked; /* candidates not of this ensemble read whole (record_at) */
+    int format;             /* the header's: FORMAT_NOW, or 1 (records without F) */
+    uint64_t fp;            /* pdla_ens_fingerprint of cfg: every record appended carries it */
+    int fp_seen;            /* open: a record with F was taken (a format-1 record after it is not) */
+    pdla_ens_stop_fn stop;  /* open: polled during the scan (NULL: never stops) */
+    void *stop_user;
 };
 
 static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
@@ -113,7 +133,7 @@ static int read_all(int fd, void *buf, size_t n, uint64_t off)
 
 /* ---- the header text ---------------------------------------------------- */
 
-static char *header_text(const pdla_ens_config *c, const char *builds, size_t *len)
+static char *header_text(const pdla_ens_config *c, int format, const char *builds, size_t *len)
 {
     size_t n;
     const pdla_param_desc *t = pdla_param_table(&n);
@@ -122,7 +142,7 @@ static char *header_text(const pdla_ens_config *c, const char *builds, size_t *l
     size_t cap = 4096 + JOURNAL_BUILDS_MAX * 4, used = 0;
     char *s = malloc(cap);
     if (!s) return NULL;
-    used += (size_t)snprintf(s, cap, "%s", FORMAT_LINE);
+    used += (size_t)snprintf(s, cap, "%s%d\n", FORMAT_PREFIX, format);
     for (const char *b = builds; *b; b += strcspn(b, " "), b += *b == ' ') /* one line a build */
         used += (size_t)snprintf(s + used, cap - used, "build=%.*s\n", (int)strcspn(b, " "), b);
     for (size_t i = 0; i < n; i++) {
@@ -142,6 +162,37 @@ static char *header_text(const pdla_ens_config *c, const char *builds, size_t *l
                              c->clusters, c->keep_positions, c->deflate_level);
     *len = used;
     return s;
+}
+
+/* The fingerprint's rows: every growth parameter but threads and bind,
+ * which an ensemble fixes for each of its clusters (1 and none). A row
+ * that a journal may lack (absent_default: added since) is left out at its
+ * default, so that a row added later with a default that keeps the old
+ * law leaves the fingerprints of older records as they were. */
+static int fingerprint_row(const pdla_param_desc *d, const pdla_params *p, const pdla_params *def)
+{
+    if (d->bit & (PDLA_PARAM_THREADS | PDLA_PARAM_BIND)) return 0;
+    return !(d->absent_default && pdla_param_equal(d, p, def));
+}
+
+uint64_t pdla_ens_fingerprint(const pdla_ens_config *c)
+{
+    static const char version[] = "pdla-ensemble-fingerprint 1\n";
+    size_t n;
+    const pdla_param_desc *t = pdla_param_table(&n);
+    pdla_params def;
+    pdla_params_default(&def);
+    uint64_t h = fnv1a(FNV_START, version, sizeof version - 1);
+    for (size_t i = 0; i < n; i++) {
+        if (!fingerprint_row(&t[i], &c->params, &def)) continue;
+        char v[80];
+        pdla_param_format(&t[i], &c->params, 1, v, sizeof v); /* exact: reals in 17 digits */
+        h = fnv1a(h, t[i].name, strlen(t[i].name));
+        h = fnv1a(h, "=", 1);
+        h = fnv1a(h, v, strlen(v));
+        h = fnv1a(h, "\n", 1);
+    }
+    return h;
 }
 
 static int parse_u64(const char *v, uint64_t *out)
@@ -182,18 +233,28 @@ static int builds_has_this(const pdla_ens_journal *j)
     return builds_has(j->builds, pdla_build_revision(), strlen(pdla_build_revision()));
 }
 
-static int header_parse(char *text, pdla_ens_config *c, char *builds, char *why, size_t whylen)
+/* The format line that begins the text: 1 or FORMAT_NOW into *format and
+ * the text after it, or NULL. */
+static char *header_format(char *text, int *format)
+{
+    const size_t k = strlen(FORMAT_PREFIX);
+    if (strncmp(text, FORMAT_PREFIX, k) || !text[k] || text[k + 1] != '\n') return NULL;
+    *format = text[k] - '0';
+    return *format == 1 || *format == FORMAT_NOW ? text + k + 2 : NULL;
+}
+
+static int header_parse(char *text, pdla_ens_config *c, int *format, char *builds, char *why, size_t whylen)
 {
     size_t n;
     const pdla_param_desc *t = pdla_param_table(&n);
     memset(c, 0, sizeof *c);
     pdla_params_default(&c->params);
     c->deflate_level = PDLA_ENS_GZIP_DEFAULT;
-    if (strncmp(text, FORMAT_LINE, strlen(FORMAT_LINE)))
-        return snprintf(why, whylen, "not a pdla ensemble journal of format 1"), -1;
+    char *const body = header_format(text, format);
+    if (!body) return snprintf(why, whylen, "not a pdla ensemble journal of format 1 or %d", FORMAT_NOW), -1;
     uint64_t seen = 0;
     int have_m = 0, have_k = 0;
-    for (char *line = text + strlen(FORMAT_LINE), *next; *line; line = next) {
+    for (char *line = body, *next; *line; line = next) {
         next = strchr(line, '\n');
         if (!next) return snprintf(why, whylen, "an unterminated header line"), -1;
         *next++ = '\0';
@@ -256,8 +317,12 @@ static pdla_ens_journal *journal_new(const char *dir, const pdla_ens_config *c)
     if (!j) return NULL;
     j->fd = -1;
     snprintf(j->path, sizeof j->path, "%s/%s", dir, PDLA_ENS_JOURNAL_NAME);
-    if (c) j->cfg = *c;
-    if (c) j->max_record = pdla_ens_record_max_bytes(c);
+    j->format = FORMAT_NOW;
+    if (c) {
+        j->cfg = *c;
+        j->max_record = pdla_ens_record_max_bytes(c);
+        j->fp = pdla_ens_fingerprint(c);
+    }
     if (pthread_mutex_init(&j->mu, NULL)) {
         free(j);
         return NULL;
@@ -276,7 +341,7 @@ static int journal_alloc_index(pdla_ens_journal *j)
     return 0;
 }
 
-static uint8_t *header_bytes(const pdla_ens_config *c, const char *builds, size_t *len);
+static uint8_t *header_bytes(const pdla_ens_config *c, int format, const char *builds, size_t *len);
 
 static int sync_dir(const char *dir)
 {
@@ -301,7 +366,7 @@ int pdla_ens_journal_create(const char *dir, const pdla_ens_config *c, pdla_ens_
     }
     (void)builds_add(j->builds, pdla_build_revision()); /* refused only if not printable: then none */
     size_t hl = 0;
-    uint8_t *buf = header_bytes(c, j->builds, &hl);
+    uint8_t *buf = header_bytes(c, FORMAT_NOW, j->builds, &hl);
     char tmp[4300];
     snprintf(tmp, sizeof tmp, "%s.tmp.%ld", j->path, (long)getpid());
     const int fd = buf ? open(tmp, O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0666) : -1;
@@ -400,35 +465,87 @@ static int record_is_ours(const pdla_ens_config *c, const pdla_ens_record *r)
 /* Candidates not of this ensemble checked whole, for the note (record_at). */
 #define JOURNAL_UNKNOWN_CHECKED 8
 
+/* Whether the caller asked the scan to stop (pdla_ens_journal_open_stoppable). */
+static int journal_stopped(const pdla_ens_journal *j)
+{
+    return j->stop && j->stop(j->stop_user);
+}
+
+/* A cluster record's head: "PDLAREC2", u64 P, u64 F, or format 1's
+ * "PDLAREC1", u64 P. */
+typedef struct rec_head {
+    uint64_t len;        /* P */
+    uint64_t skip;       /* bytes before the payload: 24, or 16 without F */
+    uint8_t summed[16];  /* what the checksum covers before the payload: P, and F */
+    const char *foreign; /* why its F says it is not this ensemble's record, or NULL */
+} rec_head;
+
+/* The head of a cluster record at off: 1 and *h when there is one whose
+ * length fits in the file and in this ensemble's records, 0 when there is
+ * none, or PDLA_EIO. */
+static int record_head(const pdla_ens_journal *j, uint64_t off, uint64_t size, rec_head *h)
+{
+    uint8_t b[24]; /* without F, its last 8 bytes are the payload's */
+    if (off + 24 > size) return 0;
+    const int hr = read_all(j->fd, b, 24, off);
+    if (hr < 0) return PDLA_EIO;
+    const int with_fp = hr == 1 && !memcmp(b, REC_MAGIC, 8);
+    if (hr == 0 || (!with_fp && memcmp(b, REC1_MAGIC, 8))) return 0;
+    h->skip = with_fp ? 24 : 16;
+    memcpy(&h->len, b + 8, 8);
+    memcpy(h->summed, b + 8, (size_t)h->skip - 8);
+    const uint64_t room = size - off;
+    if (room < h->skip + 8 || h->len > room - h->skip - 8 || h->len < PDLA_ENS_RECORD_FIXED ||
+        h->len > j->max_record)
+        return 0;
+    uint64_t fp = 0;
+    if (with_fp) memcpy(&fp, b + 16, 8);
+    /* Without F a record is taken only where this build's own would have
+     * none: in a format-1 journal, before its first record with F. */
+    if (with_fp)
+        h->foreign = fp == j->fp ? NULL
+                                 : "it was grown with other growth parameters (its parameter fingerprint "
+                                   "is not this ensemble's)";
+    else
+        h->foreign = j->format == 1 && !j->fp_seen ? NULL
+                                                   : "it has no parameter fingerprint (an older build's "
+                                                     "record) where this journal's records carry one";
+    return 1;
+}
+
 /* The record at off, if it is one of this ensemble's: magic, a length that
- * fits in the file, its checksum, and (decoded) its index, seed, dimension,
- * particles and positions. 1 (with its payload length in *len and its index
- * in *idx), 0 when it is not, or PDLA_ENOMEM. *buf, *cap: a scratch buffer
+ * fits in the file, the fingerprint of this ensemble's growth parameters
+ * (or none, where an old journal's records may have none), its checksum,
+ * and (decoded) its index, seed, dimension, particles, positions and
+ * values. 1 (with the bytes before its payload in *skip, its payload
+ * length in *len and its index in *idx), 0 when it is not, PDLA_ENOMEM,
+ * PDLA_EIO, or PDLA_ESTOPPED when the caller's stop flag is set: checked
+ * at every candidate, because the time of a scan goes into candidates (up
+ * to max_record bytes read and hashed each). *buf, *cap: a scratch buffer
  * kept between calls. */
 static int record_at(pdla_ens_journal *j, uint64_t off, uint64_t size, uint8_t **buf, size_t *cap,
-                     uint64_t *len, uint64_t *idx)
+                     uint64_t *skip, uint64_t *len, uint64_t *idx)
 {
-    uint8_t head[16];
-    if (off + 24 > size) return 0;
-    const int hr = read_all(j->fd, head, 16, off);
-    if (hr < 0) return PDLA_EIO;
-    if (hr == 0 || memcmp(head, REC_MAGIC, 8)) return 0;
-    uint64_t n;
-    memcpy(&n, head + 8, 8);
-    if (n > size - off - 24 || n < PDLA_ENS_RECORD_FIXED || n > j->max_record) return 0;
-    /* The fixed fields first (136 bytes): a candidate that is not one of
-     * this ensemble's records is dropped before it is read whole and hashed
-     * (a forged megabyte of record heads, each declaring the longest
-     * length, made a resume read and hash ~50 GB). The first few such
-     * candidates are still checked whole, so that a spliced record of
-     * another ensemble is named in the note. */
+    if (journal_stopped(j)) return PDLA_ESTOPPED;
+    rec_head hd;
+    const int hr = record_head(j, off, size, &hd);
+    if (hr != 1) return hr;
+    const uint64_t n = hd.len, at = off + hd.skip;
+    /* The fingerprint and the fixed fields first (24 + 136 bytes): a
+     * candidate that is not one of this ensemble's records is dropped
+     * before it is read whole and hashed (a forged megabyte of record
+     * heads, each declaring the longest length, made a resume read and
+     * hash ~50 GB), one of other growth parameters after its head alone.
+     * The first few such candidates are still checked whole, so that a
+     * spliced record of another ensemble is named in the note. */
+    if (hd.foreign && j->unknown_checked >= JOURNAL_UNKNOWN_CHECKED) return 0;
     uint8_t fx[PDLA_ENS_RECORD_FIXED];
-    const int fr = read_all(j->fd, fx, sizeof fx, off + 16);
+    const int fr = read_all(j->fd, fx, sizeof fx, at);
     if (fr < 0) return PDLA_EIO;
     pdla_ens_record h;
     if (fr == 0 || pdla_ens_record_peek(fx, n, &h)) return 0;
     const pdla_ens_config *c = &j->cfg;
-    if (!record_is_ours(c, &h) && j->unknown_checked++ >= JOURNAL_UNKNOWN_CHECKED) return 0;
+    if ((hd.foreign || !record_is_ours(c, &h)) && j->unknown_checked++ >= JOURNAL_UNKNOWN_CHECKED) return 0;
     if (n > *cap) {
         uint8_t *g = realloc(*buf, (size_t)n);
         if (!g) return PDLA_ENOMEM;
@@ -436,9 +553,10 @@ static int record_at(pdla_ens_journal *j, uint64_t off, uint64_t size, uint8_t *
         *cap = (size_t)n;
     }
     uint64_t sum;
-    const int pr = read_all(j->fd, *buf, (size_t)n, off + 16), sr = pr == 1 ? read_all(j->fd, &sum, 8, off + 16 + n) : 0;
+    const int pr = read_all(j->fd, *buf, (size_t)n, at), sr = pr == 1 ? read_all(j->fd, &sum, 8, at + n) : 0;
     if (pr < 0 || sr < 0) return PDLA_EIO;
-    if (pr == 0 || sr == 0 || fnv1a(fnv1a(FNV_START, head + 8, 8), *buf, (size_t)n) != sum) return 0;
+    if (pr == 0 || sr == 0 || fnv1a(fnv1a(FNV_START, hd.summed, (size_t)hd.skip - 8), *buf, (size_t)n) != sum)
+        return 0;
     /* A checksum only says the bytes are as written: the record must also
      * be one this ensemble's clusters would make (a record of another
      * ensemble spliced in, or a forged one, would reach ensemble.h5). */
@@ -446,15 +564,18 @@ static int record_at(pdla_ens_journal *j, uint64_t off, uint64_t size, uint8_t *
     char why[160];
     const int rc = pdla_ens_record_decode(*buf, (size_t)n, &r, why, sizeof why);
     if (rc == PDLA_ENOMEM) return rc;
-    const char *bad = rc != PDLA_OK        ? NULL
-                      : !record_is_ours(c, &r) ? "it is not one of this ensemble's (index, seed, dimension, particles "
-                                                 "or positions)"
+    const char *bad = rc != PDLA_OK            ? NULL
+                      : hd.foreign             ? hd.foreign
+                      : !record_is_ours(c, &r) ? "it is not one of this ensemble's (index, seed, dimension, "
+                                                 "particles or positions)"
                                                : record_values_bad(j, &r);
     const int ok = rc == PDLA_OK && !bad;
     if (bad && !j->refused[0]) /* the first, for the note (pdla_ens_journal_refused) */
         snprintf(j->refused, sizeof j->refused, "cluster %llu: %s", (unsigned long long)r.index, bad);
+    if (ok && hd.skip == 24) j->fp_seen = 1;
     *idx = r.index;
     pdla_ens_record_free(&r);
+    *skip = hd.skip;
     *len = n;
     return ok;
 }
@@ -466,7 +587,9 @@ static int record_at(pdla_ens_journal *j, uint64_t off, uint64_t size, uint8_t *
  * windows looking for the record magic, skipping holes: a sparse region
  * reads as zeros and holds no record, and reading one costs as much as
  * reading data (about 2.5 s of system time a GB on this project's machines:
- * a forged length over gigabytes of hole made every resume that slow). */
+ * a forged length over gigabytes of hole made every resume that slow).
+ * PDLA_ESTOPPED when the caller's stop flag is set (checked at every
+ * window and every candidate). */
 static int build_at(pdla_ens_journal *j, uint64_t off, uint64_t size, uint64_t *len);
 
 static int next_record(pdla_ens_journal *j, uint64_t from, uint64_t size, uint8_t **buf, size_t *cap,
@@ -478,6 +601,10 @@ static int next_record(pdla_ens_journal *j, uint64_t from, uint64_t size, uint8_
     if (!w) return PDLA_ENOMEM;
     int rc = PDLA_OK;
     for (uint64_t at = from; at + 24 <= size && *found == NONE && rc == PDLA_OK;) {
+        if (journal_stopped(j)) {
+            rc = PDLA_ESTOPPED;
+            break;
+        }
         const off_t data = lseek(j->fd, (off_t)at, SEEK_DATA); /* fails (EINVAL) where unsupported: read on */
         if (data < 0 && errno == ENXIO) break;                   /* a hole to the end */
         if (data > (off_t)at) at = (uint64_t)data;
@@ -487,13 +614,14 @@ static int next_record(pdla_ens_journal *j, uint64_t from, uint64_t size, uint8_
         if (got < 0) rc = PDLA_EIO;
         if (got != 1) break;
         for (const uint8_t *p = w; p && p + M <= w + n;) {
-            p = memmem(p, (size_t)(w + n - p), "PDLA", 4); /* both magics begin so */
+            p = memmem(p, (size_t)(w + n - p), "PDLA", 4); /* every magic begins so */
             if (!p || p + M > w + n) break;
             const uint64_t pos = at + (uint64_t)(p - w);
-            uint64_t len, idx;
-            const int r = !memcmp(p, BLD_MAGIC, M)   ? build_at(j, pos, size, &len)
-                          : !memcmp(p, REC_MAGIC, M) ? record_at(j, pos, size, buf, cap, &len, &idx)
-                                                     : 0;
+            uint64_t skip, len, idx;
+            const int r = !memcmp(p, BLD_MAGIC, M)                                ? build_at(j, pos, size, &len)
+                          : !memcmp(p, REC_MAGIC, M) || !memcmp(p, REC1_MAGIC, M) ? record_at(j, pos, size, buf, cap,
+                                                                                              &skip, &len, &idx)
+                                                                                  : 0;
             if (r < 0) {
                 rc = r;
                 break;
@@ -539,7 +667,8 @@ static int build_at(pdla_ens_journal *j, uint64_t off, uint64_t size, uint64_t *
  * one (a bad sector, a stray write) is skipped and counted in j->damaged:
  * cutting there would throw away every record after it. What follows the
  * last valid record is the torn tail a crash left (j->torn), cut by
- * pdla_ens_journal_begin_append. */
+ * pdla_ens_journal_begin_append. Reads only: stopped by the caller's flag
+ * (PDLA_ESTOPPED), it leaves the file as it was. */
 static int scan_records(pdla_ens_journal *j, uint64_t size, char *err, size_t errlen)
 {
     uint64_t off = j->end;
@@ -547,13 +676,13 @@ static int scan_records(pdla_ens_journal *j, uint64_t size, char *err, size_t er
     size_t cap = 0;
     int rc = PDLA_OK;
     while (off + 24 <= size) {
-        uint64_t len = 0, idx = 0;
+        uint64_t skip = 16, len = 0, idx = 0;
         int r = build_at(j, off, size, &len);
         if (r == 1) {
             off += 24 + len;
             continue;
         }
-        if (r == 0) r = record_at(j, off, size, &buf, &cap, &len, &idx);
+        if (r == 0) r = record_at(j, off, size, &buf, &cap, &skip, &len, &idx);
         if (r == 0) {
             uint64_t next;
             r = next_record(j, off + 1, size, &buf, &cap, &next);
@@ -566,17 +695,19 @@ static int scan_records(pdla_ens_journal *j, uint64_t size, char *err, size_t er
         }
         if (r < 0) {
             /* Never a torn tail: cutting there would lose the records after. */
-            rc = r == PDLA_ENOMEM ? pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory reading the journal")
-                                  : pdla_errorf(PDLA_EIO, err, errlen, "cannot read %s near byte %llu: %s", j->path,
-                                                (unsigned long long)off, strerror(errno));
+            rc = r == PDLA_ENOMEM    ? pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory reading the journal")
+                 : r == PDLA_ESTOPPED ? pdla_errorf(PDLA_ESTOPPED, err, errlen, "stopped while reading %s near byte "
+                                                   "%llu", j->path, (unsigned long long)off)
+                                      : pdla_errorf(PDLA_EIO, err, errlen, "cannot read %s near byte %llu: %s", j->path,
+                                                    (unsigned long long)off, strerror(errno));
             break;
         }
         if (j->offset[idx] == NONE) {
-            j->offset[idx] = off + 16;
+            j->offset[idx] = off + skip;
             j->length[idx] = len;
             j->count++;
         }
-        off += 24 + len;
+        off += skip + len + 8;
     }
     free(buf);
     j->torn = size - off;
@@ -586,10 +717,18 @@ static int scan_records(pdla_ens_journal *j, uint64_t size, char *err, size_t er
 
 int pdla_ens_journal_open(const char *dir, pdla_ens_journal **out, char *err, size_t errlen)
 {
+    return pdla_ens_journal_open_stoppable(dir, NULL, NULL, out, err, errlen);
+}
+
+int pdla_ens_journal_open_stoppable(const char *dir, pdla_ens_stop_fn stop, void *user, pdla_ens_journal **out,
+                                    char *err, size_t errlen)
+{
     *out = NULL;
     if (strlen(dir) > 4000) return pdla_errorf(PDLA_EINVAL, err, errlen, "directory name too long");
     pdla_ens_journal *j = journal_new(dir, NULL);
     if (!j) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the journal");
+    j->stop = stop;
+    j->stop_user = user;
     int rc = PDLA_EIO;
     char why[600] = "";
     char *text = NULL;
@@ -624,8 +763,9 @@ int pdla_ens_journal_open(const char *dir, pdla_ens_journal **out, char *err, si
         goto fail;
     }
     text[h[1]] = '\0';
-    if (header_parse(text, &j->cfg, j->builds, why, sizeof why)) goto fail;
+    if (header_parse(text, &j->cfg, &j->format, j->builds, why, sizeof why)) goto fail;
     j->max_record = pdla_ens_record_max_bytes(&j->cfg);
+    j->fp = pdla_ens_fingerprint(&j->cfg);
     if (journal_alloc_index(j) || journal_grid(j)) {
         rc = PDLA_ENOMEM;
         snprintf(why, sizeof why, "out of memory");
@@ -665,10 +805,10 @@ int pdla_ens_journal_begin_append(pdla_ens_journal *j, char *err, size_t errlen)
 
 /* The header of c: "PDLAENS1", BOM, length, text, checksum. malloc'ed,
  * *len bytes; NULL when out of memory. */
-static uint8_t *header_bytes(const pdla_ens_config *c, const char *builds, size_t *len)
+static uint8_t *header_bytes(const pdla_ens_config *c, int format, const char *builds, size_t *len)
 {
     size_t tl = 0;
-    char *text = header_text(c, builds, &tl);
+    char *text = header_text(c, format, builds, &tl);
     uint8_t *buf = text ? malloc(24 + tl) : NULL;
     if (buf) {
         const uint32_t h[2] = {BOM, (uint32_t)tl};
@@ -715,7 +855,8 @@ static int journal_rewrite_file(pdla_ens_journal *j, uint64_t clusters, char *er
     if (slash) *slash = '\0';
     snprintf(tmp, sizeof tmp, "%s.tmp.%ld", j->path, (long)getpid());
     size_t hl = 0;
-    uint8_t *head = header_bytes(&c, j->builds, &hl);
+    /* The format stays: an old journal's records without F are copied as they are. */
+    uint8_t *head = header_bytes(&c, j->format, j->builds, &hl);
     if (!head) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the journal header");
     const int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
     /* The valid records only: a torn tail is left behind. */
@@ -745,8 +886,10 @@ static int journal_rewrite(pdla_ens_journal *j, uint64_t clusters, pdla_ens_jour
     snprintf(dir, sizeof dir, "%s", j->path);
     char *slash = strrchr(dir, '/');
     if (slash) *slash = '\0';
+    const pdla_ens_stop_fn stop = j->stop; /* the reopen's scan stops as the first did */
+    void *const user = j->stop_user;
     pdla_ens_journal_close(j);
-    return rc0 ? rc0 : pdla_ens_journal_open(dir, out, err, errlen);
+    return rc0 ? rc0 : pdla_ens_journal_open_stoppable(dir, stop, user, out, err, errlen);
 }
 
 int pdla_ens_journal_extend(pdla_ens_journal *j, uint64_t clusters, pdla_ens_journal **out, char *err,
@@ -762,26 +905,29 @@ int pdla_ens_journal_extend(pdla_ens_journal *j, uint64_t clusters, pdla_ens_jou
     return journal_rewrite(j, clusters, out, err, errlen);
 }
 
-/* Append one record: magic, u64 length, payload, u64 FNV-1a, then
+/* Append one record: magic, u64 length, u64 *fp (cluster records; NULL:
+ * none, build records), payload, u64 FNV-1a of all after the magic, then
  * fdatasync, under the append mutex; on success *at = its payload offset.
  * A failed write breaks the journal for appends (a torn tail, cut on the
  * next open). */
-static int append_raw(pdla_ens_journal *j, const char *magic, const void *payload, size_t len, uint64_t *at,
-                      char *err, size_t errlen)
+static int append_raw(pdla_ens_journal *j, const char *magic, const uint64_t *fp, const void *payload, size_t len,
+                      uint64_t *at, char *err, size_t errlen)
 {
-    uint8_t head[16];
+    uint8_t head[24];
     const uint64_t len64 = len;
+    const size_t hl = fp ? 24 : 16;
     memcpy(head, magic, 8);
     memcpy(head + 8, &len64, 8);
-    const uint64_t sum = fnv1a(fnv1a(FNV_START, head + 8, 8), payload, len);
+    if (fp) memcpy(head + 16, fp, 8);
+    const uint64_t sum = fnv1a(fnv1a(FNV_START, head + 8, hl - 8), payload, len);
     if (!j->appendable || j->broken) return pdla_errorf(PDLA_EIO, err, errlen, "%s is not open for appending", j->path);
-    if (write_all(j->fd, head, 16, j->end) || write_all(j->fd, payload, len, j->end + 16) ||
-        write_all(j->fd, &sum, 8, j->end + 16 + len) || fdatasync(j->fd)) {
+    if (write_all(j->fd, head, hl, j->end) || write_all(j->fd, payload, len, j->end + hl) ||
+        write_all(j->fd, &sum, 8, j->end + hl + len) || fdatasync(j->fd)) {
         j->broken = 1;
         return pdla_errorf(PDLA_EIO, err, errlen, "cannot append to %s: %s", j->path, strerror(errno));
     }
-    *at = j->end + 16;
-    j->end += 24 + len;
+    *at = j->end + hl;
+    j->end += hl + len + 8;
     return PDLA_OK;
 }
 
@@ -793,7 +939,7 @@ static int append_build(pdla_ens_journal *j, const char *name, char *err, size_t
     if (builds_add(probe, name)) return PDLA_OK; /* full, or not printable: not recorded */
     uint64_t at;
     PDLA_MUST(pthread_mutex_lock(&j->mu));
-    const int rc = append_raw(j, BLD_MAGIC, name, strlen(name), &at, err, errlen);
+    const int rc = append_raw(j, BLD_MAGIC, NULL, name, strlen(name), &at, err, errlen);
     if (rc == PDLA_OK) memcpy(j->builds, probe, sizeof probe);
     PDLA_MUST(pthread_mutex_unlock(&j->mu));
     return rc;
@@ -833,10 +979,12 @@ int pdla_ens_journal_append(pdla_ens_journal *j, const pdla_ens_record *rec, cha
     if (pdla_ens_record_encode(rec, &payload, &len))
         return pdla_errorf(PDLA_ENOMEM, err, errlen, "cannot encode cluster record %llu", (unsigned long long)rec->index);
     int rc = PDLA_OK;
-    uint64_t at;
+    uint64_t at = 0; /* set by append_raw on success (gcc 12 cannot tell) */
     PDLA_MUST(pthread_mutex_lock(&j->mu));
-    /* One record, written in order, then made durable before it counts. */
-    if (j->offset[rec->index] == NONE && (rc = append_raw(j, REC_MAGIC, payload, len, &at, err, errlen)) == PDLA_OK) {
+    /* One record, written in order, then made durable before it counts;
+     * it carries this ensemble's fingerprint, also in an old journal. */
+    if (j->offset[rec->index] == NONE &&
+        (rc = append_raw(j, REC_MAGIC, &j->fp, payload, len, &at, err, errlen)) == PDLA_OK) {
         j->offset[rec->index] = at;
         j->length[rec->index] = len;
         j->count++;

@@ -1,15 +1,52 @@
 """journal_util.py - read and forge ensemble journals (clusters.journal) in
 tests: the header (PDLAENS1, byte-order mark, text, FNV-1a) and the records
-that follow, each starting with its magic (PDLAREC1 clusters, PDLABLD1
-builds), its u64 length n, n bytes and an 8-byte checksum (native order)."""
+that follow, each starting with its magic and its u64 length n: cluster
+records PDLAREC2 (then the u64 fingerprint of the growth parameters, n
+bytes and an 8-byte checksum of length, fingerprint and bytes), format 1's
+cluster records PDLAREC1 and build records PDLABLD1 (n bytes and an 8-byte
+checksum of length and bytes; native order)."""
 import struct
 
 
-def fnv1a(data):
-    h = 0xcbf29ce484222325
+def fnv1a(data, h=0xcbf29ce484222325):
     for b in data:
         h = ((h ^ b) * 0x100000001b3) & 0xFFFFFFFFFFFFFFFF
     return h
+
+
+def head_len(rec):
+    """Bytes before the payload: 24 for a record with a fingerprint, else 16."""
+    return 24 if rec[:8] == b"PDLAREC2" else 16
+
+
+def payload(rec):
+    """A record's payload (bytes) from its whole bytes."""
+    return rec[head_len(rec):-8]
+
+
+def record_index(rec):
+    """The cluster index of a cluster record (PDLAREC1 or PDLAREC2)."""
+    return struct.unpack_from("=Q", rec, head_len(rec))[0]
+
+
+def fingerprint(rec):
+    """The fingerprint a PDLAREC2 record carries."""
+    return struct.unpack_from("=Q", rec, 16)[0]
+
+
+def frame(body, fp=None):
+    """A cluster record of payload body: with fingerprint fp (PDLAREC2), or
+    as format 1 wrote it (PDLAREC1) when fp is None."""
+    n = struct.pack("=Q", len(body))
+    if fp is None:
+        return b"PDLAREC1" + n + body + struct.pack("=Q", fnv1a(body, fnv1a(n)))
+    f = struct.pack("=Q", fp)
+    return b"PDLAREC2" + n + f + body + struct.pack("=Q", fnv1a(body, fnv1a(f, fnv1a(n))))
+
+
+def as_format1(rec):
+    """A record with a fingerprint written again as format 1 wrote it."""
+    return frame(payload(rec))
 
 
 def read_journal(path):
@@ -21,8 +58,9 @@ def read_journal(path):
     off, recs = 24 + tl, []
     while off < len(raw):
         (n,) = struct.unpack("=Q", raw[off + 8:off + 16])
-        recs.append(raw[off:off + 24 + n])
-        off += 24 + n
+        end = off + head_len(raw[off:off + 8]) + n + 8
+        recs.append(raw[off:end])
+        off = end
     return text, recs
 
 

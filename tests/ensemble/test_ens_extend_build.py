@@ -62,7 +62,7 @@ for tag, line, listed in (("other", "build=v0.0.9-other\n", ["v0.0.9-other"]), (
     names = [r[16:-8].decode() for r in r2 if r[:8] == b"PDLABLD1"]
     added = [n for n in listed if n == "unrecorded"] + [rev]
     check(names == added, "%s: build records %r, want %r" % (tag, names, added))
-    check(r2[:3] == recs and [r[:8] for r in r2[3:]] == [b"PDLABLD1"] * len(added) + [b"PDLAREC1"] * 2,
+    check(r2[:3] == recs and [r[:8] for r in r2[3:]] == [b"PDLABLD1"] * len(added) + [b"PDLAREC2"] * 2,
           "%s: records %r" % (tag, [r[:8] for r in r2]))
     check(builds_attr(tag) == " ".join(listed + [rev]), "%s: /ensemble builds %r" % (tag, builds_attr(tag)))
 

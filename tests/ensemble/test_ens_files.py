@@ -17,12 +17,17 @@ Usage: test_ens_files.py PDLA PV_SCRIPT
  - hostile files: an ensemble whose /statistics/slope_N (for `pdla
    analyze`) or /clusters/positions (for `pdla export`) declares 2^40 rows
    that are not stored is refused with one line naming the dataset, exit 2,
-   at once (no allocation or loop for the declared rows).
+   at once (no allocation or loop for the declared rows);
+ - hostile journals: 2 MiB of forged record heads cost a resume a few
+   seconds at most; a resume scanning 4 MiB of heads that look like this
+   ensemble's own (each read whole: tens of seconds) ends by SIGTERM within
+   2 s of it, with one line, the journal byte for byte as it was.
 A missing ParaView, h5py or h5dump is a failure, not a skip.
 """
 import json
 import os
 import shutil
+import signal
 import struct
 import subprocess
 import sys
@@ -156,6 +161,54 @@ def hostile(src):
               "hostile %s (%s of 2^40 rows, none stored): exit %d, %r" % (name, ds, rc, se.strip()))
 
 
+def rchar(pid):
+    """Bytes process pid has read (/proc/PID/io), or None."""
+    try:
+        with open("/proc/%d/io" % pid) as f:
+            return next(int(l.split()[1]) for l in f if l.startswith("rchar:"))
+    except (OSError, StopIteration, ValueError):
+        return None
+
+
+def sigterm_in_scan(journal):
+    """(session 27) `journal` is record 0 of "dos" and then 4 MiB of copies
+    of record 1's head: this ensemble's own fingerprint and fixed fields,
+    each read whole to its declared length (160 kB) and hashed before its
+    checksum fails: about 40 s of scan in the release build. A SIGTERM was
+    seen only when the scan ended, and the resume then cut the heads as a
+    torn tail. SIGTERM once the scan has read 20 MB must end the process by
+    the signal within 2 s, with the line saying so, and leave the journal as
+    it was byte for byte. Why 2 s: the scan polls the flag at every
+    candidate, and one candidate is one record's read and hash (160 kB: well
+    under a millisecond here), so the rest is the exit; 2 s leave room for a
+    loaded machine and the sanitizer builds, and are far below the scan."""
+    with open("dos/clusters.journal", "wb") as fh:
+        fh.write(journal)
+    p = subprocess.Popen([PDLA, "ensemble", "--resume", "dos", "-q"], stdout=subprocess.DEVNULL,
+                         stderr=subprocess.PIPE, text=True)
+    t0 = time.time()
+    while p.poll() is None and time.time() < t0 + 60:
+        got = rchar(p.pid)
+        if (got is None and time.time() > t0 + 1) or (got or 0) > 20e6:
+            break
+        time.sleep(0.01)
+    scanning = p.poll() is None
+    p.send_signal(signal.SIGTERM)
+    t1 = time.time()
+    try:
+        p.wait(timeout=2)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        p.wait()
+    dt, se = time.time() - t1, p.stderr.read().strip()
+    check(scanning and p.returncode == -signal.SIGTERM and dt < 2 and "stopped by signal while reading" in se and
+          len(se.splitlines()) == 1,
+          "SIGTERM in the scan of 4 MiB of this ensemble's heads: running %s, exit %s after %.2f s (want by "
+          "SIGTERM within 2 s, one line): %r" % (scanning, p.returncode, dt, se[:300]))
+    with open("dos/clusters.journal", "rb") as fh:
+        check(fh.read() == journal, "the journal changed under a resume stopped in its scan")
+
+
 def main():
     for tool in ("pvpython", "h5dump"):
         if not check(shutil.which(tool) is not None, "%s not found (apt-get install paraview python3-paraview hdf5-tools)" % tool):
@@ -226,7 +279,12 @@ def main():
             with open("dos/clusters.journal", "rb") as fh:
                 d = fh.read()
             hl = struct.unpack("<I", d[12:16])[0]
-            heads = (b"PDLAREC1" + struct.pack("<Q", 160000)) * (1 << 17)
+            # record 0: its magic (with the fingerprint, 24 bytes before the
+            # payload, or format 1's 16), length; record 1's head after it
+            rec0, n0 = 24 + hl, struct.unpack_from("<Q", d, 24 + hl + 8)[0]
+            skip = 24 if d[rec0:rec0 + 8] == b"PDLAREC2" else 16
+            rec1 = rec0 + skip + n0 + 8
+            heads = (d[rec0:rec0 + 8] + struct.pack("<Q", 160000) + d[rec0 + 16:rec0 + skip]) * (1 << 17)
 
             def resume_with(tail):
                 """The journal's header and `tail`, resumed: (exit, rows, seconds, stderr)."""
@@ -248,6 +306,7 @@ def main():
             check(rc0 == 0 and n0 == 40000 and rc == 0 and n == 40000 and dt < base + 5,
                   "resume over 2 MiB of forged record heads: exit %d, %d rows, %.1f s against %.1f s without "
                   "them (want 0, 40000, under %.1f s): %s %s" % (rc, n, dt, base, base + 5, se0, se))
+            sigterm_in_scan(d[:rec1] + d[rec1:rec1 + skip + 136] * ((4 << 20) // (skip + 136)))
         # Bad levels: one line, exit 2, nothing written.
         for bad in ("10", "-1", "x", "4x"):
             rc, so, se = run([PDLA, "ensemble", "--clusters", "2", "--target", "100", "--keep-positions",

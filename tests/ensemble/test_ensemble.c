@@ -22,6 +22,7 @@
 
 #include "check.h"
 #include "pdla/ensemble.h"
+#include "pdla/params.h"
 
 /* ---- synthetic statistics ----------------------------------------------- */
 
@@ -200,6 +201,80 @@ static off_t file_size(const char *p)
     return stat(p, &st) ? -1 : st.st_size;
 }
 
+/* The scan's stop flag: stop_after calls of it answer 0, then 1. */
+typedef struct stop_count {
+    int calls, stop_after;
+} stop_count;
+
+static int stop_when(void *user)
+{
+    stop_count *s = user;
+    return ++s->calls > s->stop_after;
+}
+
+/* pdla_ens_journal_open_stoppable on dir's journal (path): polled at every
+ * candidate record, and stopped it reports PDLA_ESTOPPED with one line and
+ * leaves the file as it was (the scan of a torn or damaged journal must not
+ * cut it: that is begin_append's, after a scan that ended). */
+static void test_journal_stop(const char *dir, const char *path)
+{
+    char err[1024];
+    pdla_ens_journal *j = NULL;
+    stop_count never = {0, 1 << 30};
+    CHECK(pdla_ens_journal_open_stoppable(dir, stop_when, &never, &j, err, sizeof err) == 0, "%s", err);
+    const uint64_t have = j ? pdla_ens_journal_count(j) : 0;
+    CHECK(never.calls >= 3 && (uint64_t)never.calls >= have, "the stop flag was polled %d times for %llu records",
+          never.calls, (unsigned long long)have);
+    pdla_ens_journal_close(j);
+    const off_t size = file_size(path);
+    for (int k = 0; k < never.calls; k++) {
+        stop_count s = {0, k};
+        j = NULL;
+        err[0] = '\0';
+        const int rc = pdla_ens_journal_open_stoppable(dir, stop_when, &s, &j, err, sizeof err);
+        CHECK(rc == PDLA_ESTOPPED && j == NULL && strstr(err, "stopped while reading") && !strchr(err, '\n'),
+              "stopped at poll %d: rc %d, %s", k + 1, rc, err);
+        CHECK(file_size(path) == size, "a stopped scan changed the journal");
+        pdla_ens_journal_close(j);
+    }
+}
+
+/* pdla_ens_fingerprint: every growth parameter that changes a cluster or
+ * its record is in it; the count, positions, deflate level, threads and
+ * bind (fixed for an ensemble's clusters) are not. */
+static void test_fingerprint(const pdla_ens_config *c)
+{
+    const uint64_t f = pdla_ens_fingerprint(c);
+    size_t n;
+    const pdla_param_desc *t = pdla_param_table(&n);
+    for (size_t i = 0; i < n; i++) {
+        if (t[i].bit & (PDLA_PARAM_THREADS | PDLA_PARAM_BIND)) continue;
+        pdla_ens_config o = *c;
+        char e[256] = "";
+        if (t[i].type == PDLA_PT_FLAG) /* its example may be the default ("yes" of --no-snap-contact) */
+            pdla_param_set_u(&t[i], &o.params, !pdla_param_get_u(&t[i], &c->params));
+        else
+            CHECK(pdla_param_parse(&t[i], &o.params, t[i].example, e, sizeof e) == 0, "%s: %s", t[i].name, e);
+        CHECK(!pdla_param_equal(&t[i], &o.params, &c->params), "%s: its example is the default", t[i].name);
+        CHECK(pdla_ens_fingerprint(&o) != f, "the fingerprint does not change with %s", t[i].name);
+    }
+    pdla_ens_config o = *c;
+    o.clusters = c->clusters + 7;
+    o.keep_positions = !c->keep_positions;
+    o.deflate_level = 9 - c->deflate_level;
+    o.params.threads = 5;
+    o.params.bind = PDLA_BIND_CORE;
+    CHECK(pdla_ens_fingerprint(&o) == f, "the fingerprint changes with the count, positions, level or threads");
+    /* A row added later (absent_default) at its default leaves it as it was. */
+    o = *c;
+    o.params.reference_walkers = 0;
+    CHECK(pdla_ens_fingerprint(&o) == f, "reference_walkers at its default changed the fingerprint");
+    o.params.eps = 3;
+    pdla_ens_config o2 = o;
+    CHECK(pdla_ens_fingerprint(&o) == pdla_ens_fingerprint(&o2) && pdla_ens_fingerprint(&o) != f,
+          "the fingerprint is not a function of the parameters");
+}
+
 static void test_journal(const char *dir)
 {
     char err[1024], path[4200];
@@ -225,6 +300,7 @@ static void test_journal(const char *dir)
     bad = c;
     bad.params.threads = 2;
     CHECK(pdla_ens_config_check(&bad, err, sizeof err) == PDLA_EINVAL, "threads 2 accepted");
+    test_fingerprint(&c);
 
     /* Round trip of a record. */
     pdla_ens_record r, back;
@@ -266,8 +342,9 @@ static void test_journal(const char *dir)
         fake_record(&r, &c, 3, 1);
         CHECK(pdla_ens_record_encode(&r, &buf, &len) == 0, "encode");
         const int fd = open(path, O_WRONLY | O_APPEND);
-        const uint64_t l64 = len;
-        CHECK(write(fd, "PDLAREC1", 8) == 8 && write(fd, &l64, 8) == 8 && write(fd, buf, len / 2) == (ssize_t)(len / 2),
+        const uint64_t l64 = len, fp = pdla_ens_fingerprint(&c);
+        CHECK(write(fd, "PDLAREC2", 8) == 8 && write(fd, &l64, 8) == 8 && write(fd, &fp, 8) == 8 &&
+                  write(fd, buf, len / 2) == (ssize_t)(len / 2),
               "tear");
         close(fd);
         free(buf);
@@ -311,10 +388,10 @@ static void test_journal(const char *dir)
         uint8_t *all = malloc((size_t)sz);
         const int fd = open(path, O_RDWR);
         CHECK(all && pread(fd, all, (size_t)sz, 0) == sz, "read");
-        const uint8_t *rec = all ? memmem(all, (size_t)sz, "PDLAREC1", 8) : NULL;
+        const uint8_t *rec = all ? memmem(all, (size_t)sz, "PDLAREC2", 8) : NULL;
         CHECK(rec != NULL, "no record in the journal");
         if (rec) {
-            const off_t at = (off_t)(rec - all) + 16 + 20;
+            const off_t at = (off_t)(rec - all) + 24 + 20;
             uint8_t b = all[at] ^ 0x40;
             CHECK(pwrite(fd, &b, 1, at) == 1, "write");
         }
@@ -327,6 +404,7 @@ static void test_journal(const char *dir)
           "a damaged first record: count %llu, damaged %llu", (unsigned long long)pdla_ens_journal_count(j),
           (unsigned long long)pdla_ens_journal_damaged_bytes(j));
     pdla_ens_journal_close(j);
+    test_journal_stop(dir, path);
 
     /* Counts no machine could write are refused; the memory estimate
      * saturates instead of wrapping. */

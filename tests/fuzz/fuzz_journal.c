@@ -118,7 +118,8 @@ static void forge(fuzz_in *in, pdla_ens_record *r)
 }
 
 /* The journal's framing of a record (ens_journal.c's append_raw): the
- * record magic, u64 length, the payload, u64 FNV-1a of length and payload. */
+ * record magic, u64 length, u64 fingerprint of the growth parameters, the
+ * payload, u64 FNV-1a of length, fingerprint and payload. */
 static uint64_t fnv1a(uint64_t h, const uint8_t *p, size_t n)
 {
     for (size_t i = 0; i < n; i++) {
@@ -128,9 +129,10 @@ static uint64_t fnv1a(uint64_t h, const uint8_t *p, size_t n)
     return h;
 }
 
-/* Appends r, framed, to the closed journal in dir: past the writer's own
- * refusal of a foreign index, seed or positions count. */
-static void append_framed(const char *dir, const pdla_ens_record *r)
+/* Appends r, framed with the fingerprint of c, to the closed journal in
+ * dir: past the writer's own refusal of a foreign index, seed or positions
+ * count. */
+static void append_framed(const char *dir, const pdla_ens_config *c, const pdla_ens_record *r)
 {
     uint8_t *payload = NULL;
     size_t len = 0;
@@ -139,12 +141,13 @@ static void append_framed(const char *dir, const pdla_ens_record *r)
     snprintf(path, sizeof path, "%s/%s", dir, PDLA_ENS_JOURNAL_NAME);
     const int fd = open(path, O_WRONLY | O_APPEND);
     if (fd < 0) abort();
-    const uint64_t n = len;
-    uint8_t head[16];
-    memcpy(head, "PDLAREC1", 8);
+    const uint64_t n = len, fp = pdla_ens_fingerprint(c);
+    uint8_t head[24];
+    memcpy(head, "PDLAREC2", 8);
     memcpy(head + 8, &n, 8);
-    const uint64_t sum = fnv1a(fnv1a(UINT64_C(0xcbf29ce484222325), head + 8, 8), payload, len);
-    if (write(fd, head, 16) != 16 || write(fd, payload, len) != (ssize_t)len || write(fd, &sum, 8) != 8) abort();
+    memcpy(head + 16, &fp, 8);
+    const uint64_t sum = fnv1a(fnv1a(UINT64_C(0xcbf29ce484222325), head + 8, 16), payload, len);
+    if (write(fd, head, 24) != 24 || write(fd, payload, len) != (ssize_t)len || write(fd, &sum, 8) != 8) abort();
     if (close(fd)) abort();
     free(payload);
 }
@@ -215,7 +218,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     pdla_ens_journal_close(j);
     for (int i = 0; i < nframed; i++) {
-        append_framed(dir, &framed[i]);
+        append_framed(dir, &cfg[keep], &framed[i]);
         pdla_ens_record_free(&framed[i]);
     }
     read_back(dir, keep);

@@ -97,8 +97,8 @@ done
 # Bigger clusters so that a kill lands mid-run; the reference uninterrupted.
 KARGS="--clusters 12 --target 10000 --seed 11 --keep-positions"
 "$PDLA" ensemble $KARGS --threads 2 --out kref -q || fail "single process, kill reference"
-# records begun in DIR's journal (each starts with the magic PDLAREC1)
-records() { grep -ao PDLAREC1 "$1/clusters.journal" 2>/dev/null | wc -l; }
+# records begun in DIR's journal (each starts with the magic PDLAREC2)
+records() { grep -ao PDLAREC2 "$1/clusters.journal" 2>/dev/null | wc -l; }
 recorded() { sed -n 's/.*resuming [^:]*: \([0-9]*\) of 12 clusters recorded.*/\1/p' err; }
 killed=0
 for attempt in 1 2 3; do

@@ -45,12 +45,12 @@ import struct, sys
 raw = open(sys.argv[1], "rb").read()
 off = 24 + struct.unpack_from("<I", raw, 12)[0]
 seen = []
-while off + 24 <= len(raw) and raw[off:off + 8] == b"PDLAREC1":
+while off + 24 <= len(raw) and raw[off:off + 8] == b"PDLAREC2":  # magic, length, fingerprint, record, sum
     n = struct.unpack_from("<Q", raw, off + 8)[0]
-    if off + 24 + n > len(raw):
+    if off + 32 + n > len(raw):
         break
-    seen.append(struct.unpack_from("<Q", raw, off + 16)[0])
-    off += 24 + n
+    seen.append(struct.unpack_from("<Q", raw, off + 24)[0])
+    off += 32 + n
 sys.exit(0 if len(seen) == len(set(seen)) else 1)
 EOF
 }

@@ -11,8 +11,9 @@ uninterrupted run writes: every per-cluster dataset and /statistics equal
 fast (reliab suite, ~15 s of CPU): cluster counts past what can be written, a
 resume extended to 2^64 - 1 clusters, a forged journal header claiming 2 x 10^8
 clusters, a damaged record inside the journal, a record of another ensemble
-spliced in, a record declaring 4.5 GiB in a sparse journal (damage, memory
-bounded), the journal cut at sampled lengths, two runs and two resumes at
+spliced in (another dimension, or only another --eps or --resolution: refused
+by the fingerprint of the growth parameters), a record declaring 4.5 GiB in
+a sparse journal (damage, memory bounded), the journal cut at sampled lengths, two runs and two resumes at
 once, a resume while a run is live, SIGINT then resume, kill -9 chains,
 write faults (faultshim) at sampled offsets then resume, analyze of
 half-written ensembles and of a path that JSON must escape.
@@ -31,6 +32,9 @@ import tempfile
 import time
 
 from reliab_util import check, failures, one_line, run_rss, run_usage, runner, shim_preload
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "ensemble"))
+from journal_util import fingerprint, frame, read_journal, record_index  # noqa: E402
 
 PDLA, SHIM, WORK = (os.path.abspath(a) for a in sys.argv[1:4])
 MODE = sys.argv[4] if len(sys.argv) > 4 else "fast"
@@ -113,18 +117,25 @@ def journal(d):
     off, recs = 24 + tl, []
     while off + 24 <= len(raw):
         n = struct.unpack_from("<Q", raw, off + 8)[0]
-        recs.append((off, raw[off + 16:off + 16 + n]))
-        off += 24 + n
+        hl = 24 if raw[off:off + 8] == b"PDLAREC2" else 16  # with the fingerprint, or format 1's
+        recs.append((off, raw[off + hl:off + hl + n]))
+        off += hl + n + 8
     return text, recs
+
+
+def fp_of(d):
+    """The fingerprint d's records carry (None: format 1's records, without)."""
+    recs = read_journal(d + "/clusters.journal")[1]
+    return fingerprint(recs[0]) if recs[0][:8] == b"PDLAREC2" else None
 
 
 def header_bytes(text):
     return b"PDLAENS1" + struct.pack("<II", 0x01020304, len(text)) + text + struct.pack("<Q", fnv1a(text))
 
 
-def record_bytes(payload):
-    n = struct.pack("<Q", len(payload))
-    return b"PDLAREC1" + n + payload + struct.pack("<Q", fnv1a(payload, fnv1a(n)))
+def record_bytes(payload, fp=None):
+    """A record of "ref" (its fingerprint unless fp is given) framed, checksum and all."""
+    return frame(payload, fp if fp is not None else REF_FP)
 
 
 def grow(d, *extra, threads=2):
@@ -143,6 +154,7 @@ def resume(d, *extra, what):
 # positions (records of ~5 kB), seeds 5..12.
 BASE = ["--clusters", "8", "--target", "600", "--seed", "5", "--keep-positions"]
 grow("ref")
+REF_FP = fp_of("ref")
 
 # ---- counts no machine could write: refused up front, memory bounded ----------
 section('counts no machine could write: refused up front, memory bounded')
@@ -227,9 +239,33 @@ idx = lambda p: struct.unpack_from("<Q", p, 0)[0]
 keep = [p for p in recs if idx(p[1]) != 3]
 alien = [p for p in recs3 if idx(p[1]) == 3][0]
 open("splice/clusters.journal", "wb").write(header_bytes(text) + b"".join(record_bytes(p) for _, p in keep) +
-                                           record_bytes(alien[1]))
+                                           record_bytes(alien[1], fp_of("ref3")))
 rc, err = resume("splice", what="spliced 3D record")
 same("ref", "splice", "a 3D cluster spliced into a 2D ensemble's journal, resumed")
+
+# ---- records of ensembles that differ only in --eps or --resolution ------------
+# Their cluster i has this ensemble's index, seed, dimension, size and
+# positions count, and R_g at the same grid of N. Until session 27 such a
+# record spliced in (its own bytes and checksum) was taken as cluster i
+# (records carried no fingerprint of the growth parameters), and
+# ensemble.h5 held a cluster of another law. Now it is refused by its
+# fingerprint, named in the note, and the cluster grows again.
+section('records of ensembles that differ only in --eps or --resolution spliced in')
+_, ref_whole = read_journal("ref/clusters.journal")
+for tag, opt, i in (("eps", ["--eps", "3"], 3), ("res", ["--resolution", "16"], 6)):
+    rc, err = pdla("ensemble", *BASE, *opt, "--out", "ref-" + tag, "-q")
+    check(rc == 0, "ensemble with %s: %s" % (" ".join(opt), err.strip()))
+    _, other = read_journal("ref-%s/clusters.journal" % tag)
+    d = "splice-" + tag
+    shutil.copytree("ref", d)
+    os.unlink(d + "/ensemble.h5")
+    spliced = [r for r in ref_whole if record_index(r) != i] + [r for r in other if record_index(r) == i]
+    open(d + "/clusters.journal", "wb").write(header_bytes(text) + b"".join(spliced))
+    rc, err = resume(d, what="a record of %s spliced in" % " ".join(opt))
+    check("7 of 8 clusters recorded" in err and "(cluster %d: it was grown with other growth parameters" % i in err,
+          "a record of %s spliced in as cluster %d: want it refused and named: %s" % (" ".join(opt), i,
+                                                                                   err.strip()[:400]))
+    same("ref", d, "a cluster of %s spliced in, resumed" % " ".join(opt))
 
 # ---- records forged with values no cluster makes (valid checksums) ----------------
 # audit-dlca: cluster 3's R_g series (and final R_g) set to NaN, or to -1,
@@ -336,14 +372,16 @@ for tag, fn, want in (FORGED if SLOW else rng.sample(FORGED, 4)):
 # regrow only the cluster it replaced.
 section('a record declaring 4.5 GiB in a sparse journal: damage, memory bounded')
 HUGE = (9 << 29) + 12345
+HUGE_HEAD = (b"PDLAREC2" + struct.pack("<QQ", HUGE, REF_FP)) if REF_FP is not None else \
+    (b"PDLAREC1" + struct.pack("<Q", HUGE))
 text, recs = journal("ref")
 for d, hole in (("huge-base", False), ("huge", True)):
     shutil.copytree("ref", d)
     os.unlink(d + "/ensemble.h5")
     with open(d + "/clusters.journal", "wb") as f:
         f.write(header_bytes(text) + b"".join(record_bytes(p) for _, p in recs[:3]))
-        if hole:  # magic and length; the payload and checksum would end HUGE + 8 bytes on
-            f.write(b"PDLAREC1" + struct.pack("<Q", HUGE))
+        if hole:  # its head; the payload and checksum would end HUGE + 8 bytes on
+            f.write(HUGE_HEAD)
             f.seek(HUGE + 8, os.SEEK_CUR)
         f.write(b"".join(record_bytes(p) for _, p in recs[4:]))
 st = os.stat("huge/clusters.journal")
@@ -358,7 +396,7 @@ for d in ("huge-base", "huge"):
     check(rc == 0 and "7 of 8 clusters recorded" in err,
           "%s: the records around the long one were not all kept: %s %s" % (d, rc, err.strip()[:300]))
     same("ref", d, "%s: resumed" % d)
-check("skipping %d damaged bytes" % (HUGE + 24) in err, "the long record's bytes not named: %s" % err.strip()[:300])
+check("skipping %d damaged bytes" % (len(HUGE_HEAD) + HUGE + 8) in err, "the long record's bytes not named: %s" % err.strip()[:300])
 check(None not in rss.values() and rss["huge"] < rss["huge-base"] + 32 * 1024,
       "peak RSS with the 4.5 GiB record %s KB, without %s KB: want less than 32 MB more" % (rss["huge"],
                                                                                        rss["huge-base"]))

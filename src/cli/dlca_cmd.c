@@ -15,6 +15,7 @@
  * the summary says why the run stopped and the exit status is the writes'.
  */
 #include <errno.h>
+#include <inttypes.h>
 #include <fcntl.h>
 #include <getopt.h>
 #include <math.h>
@@ -606,6 +607,25 @@ static void keep_schedule(dlca_cli *c, const dlca_sim *s)
     c->checkpoint_attempts = sc.every_attempts;
 }
 
+/* A stop given with --resume that the checkpoint has already passed is
+ * refused, as the DLA command refuses a --target below the particles held:
+ * before, the run stopped at once with exit 0 and its cluster.h5 recorded
+ * max-attempts 100 beside 20000 attempts. 0, or -1 with the reason. */
+static int stop_passed(const dlca_cli *c, const dlca_params *p, const dlca_stats *st, char *err,
+                       size_t errlen)
+{
+    if ((c->given & DLCA_PARAM_UNTIL_TIME) && p->until_time > 0 && p->until_time < st->t)
+        return snprintf(err, errlen, "--until-time %.17g is below the time %.17g it has reached", p->until_time,
+                        st->t), -1;
+    if ((c->given & DLCA_PARAM_MAX_ATTEMPTS) && p->max_attempts > 0 && p->max_attempts < st->attempts)
+        return snprintf(err, errlen, "--max-attempts %" PRIu64 " is below the %" PRIu64 " attempts it has made",
+                        p->max_attempts, st->attempts), -1;
+    if ((c->given & DLCA_PARAM_UNTIL_CLUSTERS) && p->until_clusters > st->n_clusters)
+        return snprintf(err, errlen, "--until-clusters %" PRIu64 " is above the %" PRIu64 " clusters it has left",
+                        (uint64_t)p->until_clusters, st->n_clusters), -1;
+    return 0;
+}
+
 /* --resume: load the checkpoint, hold the options given against it (the
  * table's resume rule: only the resumable rows, the stops, may change) and
  * apply the stops given. 0, or the exit status with the line printed. */
@@ -660,6 +680,12 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
     pdla_param_apply_resumable(t, n, c->given, &p, &c->p);
     if (dlca_params_validate(&p, err, sizeof err)) { /* the stops given, on the checkpoint's run */
         fprintf(stderr, "pdla: %s\n", err);
+        dlca_destroy(*s);
+        *s = NULL;
+        return EXIT_USAGE;
+    }
+    if (stop_passed(c, &p, &st, err, sizeof err)) {
+        fprintf(stderr, "pdla: cannot resume: %s: %s\n", ckpath, err);
         dlca_destroy(*s);
         *s = NULL;
         return EXIT_USAGE;

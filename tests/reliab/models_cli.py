@@ -18,6 +18,7 @@ schedule the checkpoint records (session 27).
 """
 import fcntl
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -53,7 +54,7 @@ MODELS = {
     "dlca": (["--model", "dlca", "--dim", "2", "--box", "1024", "--fill", "0.05", "--until-clusters", "2",
               "--seed", "1", "--checkpoint", "-q"], ["--max-attempts", "1", "-q"]),
     "event": (["--model", "event", "--dim", "2", "--particles", "50000", "--packing", "0.2", "--t-max", "1e6",
-               "--seed", "1", "--checkpoint", "--quiet"], ["--t-max", "1e-9", "--quiet"]),
+               "--seed", "1", "--checkpoint", "--quiet"], ["--max-events", "1", "--quiet"]),
 }
 for model, (run, stop_now) in MODELS.items():
     d = os.path.join(WORK, model)
@@ -76,8 +77,16 @@ for model, (run, stop_now) in MODELS.items():
         _, ferr = first.communicate()
     check(first.returncode == 0, "%s: the first run after SIGTERM: exit %r, %r" % (model, first.returncode,
                                                                                    ferr[-300:]))
+    # A stop the checkpoint has passed is refused (session 27; before, the
+    # run stopped at once with exit 0 and recorded the passed stop beside
+    # its results), naming where the checkpoint is: a resume to exactly
+    # there stops at once.
     rc, err = pdla("--model", model, "--resume", d, *stop_now)
-    check(rc == 0, "%s: resume of the first run's checkpoint: exit %r, %r" % (model, rc, err[-300:]))
+    m = re.search(r"is below the (\d+) ", err)
+    check(rc == 2 and one_line(err) and m, "%s: a passed stop on resume: exit %r, %r" % (model, rc, err[-300:]))
+    if m:
+        rc, err = pdla("--model", model, "--resume", d, stop_now[0], m.group(1), *stop_now[2:])
+        check(rc == 0, "%s: resume of the first run's checkpoint: exit %r, %r" % (model, rc, err[-300:]))
 
 # --force over an older run that has checkpoints: they go with it. Before,
 # a later --resume grew the old run (another box, other particles) and wrote
@@ -104,6 +113,28 @@ for model, (old, new, more) in OLDNEW.items():
     check(rc == 2 and one_line(err), "%s: --resume after --force over an older run: exit %r, %r" % (model, rc, err))
     with open(os.path.join(d, "cluster.h5"), "rb") as fh:
         check(fh.read() == written, "%s: the --force run's cluster.h5 was replaced" % model)
+
+# Stops given with --resume that the checkpoint has passed: refused with one
+# line, cluster.h5 untouched; a stop equal to where it is resumes (and stops
+# at once). Before session 27 all were taken with exit 0.
+PASSED = {
+    "dlca": (OLDNEW["dlca"][0], [["--until-time", "1e-3"], ["--until-clusters", "30"]], ["--until-clusters", "20"]),
+    "event": (OLDNEW["event"][0], [["--t-max", "1"]], ["--t-max", "2"]),
+}
+for model, (run, passed, equal) in PASSED.items():
+    d = os.path.join(WORK, model + "-passed")
+    rc, err = pdla(*(run + ["--out", d]))
+    check(rc == 0, "%s: base run for passed stops: %r" % (model, err))
+    with open(os.path.join(d, "cluster.h5"), "rb") as fh:
+        written = fh.read()
+    for stop in passed:
+        rc, err = pdla("--model", model, "--resume", d, *stop)
+        check(rc == 2 and one_line(err) and ("below" in err or "above" in err),
+              "%s: --resume with %s passed: exit %r, %r" % (model, " ".join(stop), rc, err))
+        with open(os.path.join(d, "cluster.h5"), "rb") as fh:
+            check(fh.read() == written, "%s: a refused %s replaced cluster.h5" % (model, " ".join(stop)))
+    rc, err = pdla("--model", model, "--resume", d, *equal)
+    check(rc == 0, "%s: --resume with %s (where it is): exit %r, %r" % (model, " ".join(equal), rc, err))
 
 # What an event writer killed with -9 leaves (.checkpoint.h5.tmp.PID, as
 # large as a checkpoint, one per kill) goes when the directory is next

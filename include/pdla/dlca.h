@@ -142,6 +142,12 @@ PDLA_API uint64_t dlca_attempts(const dlca_sim *s);
  * dlca_create_sites. */
 PDLA_API int dlca_read_start(const char *path, const dlca_params *p, uint32_t **sites, uint64_t *n, char *err,
                              size_t errlen);
+/* Do two of the n sites (n <= 2^32 - 1) hold the same value? 1 with *a
+ * and *b (a < b) the indices of one such pair (of the lowest value shared),
+ * 0 if all differ, PDLA_ENOMEM (8 bytes a site for the sort) or PDLA_EINVAL
+ * (n too large). The start files, the snapshots a resume reads back and
+ * the DLCA tools all check their monomers with it. */
+PDLA_API int dlca_shared_site(const uint32_t *site, uint64_t n, uint64_t *a, uint64_t *b);
 
 typedef struct dlca_stats {
     double t;              /* physical time, monomer-move units */
@@ -208,9 +214,16 @@ typedef struct dlca_snapshot {
 } dlca_snapshot;
 PDLA_API int dlca_write_snapshots_h5(const char *path, const dlca_params *p, const dlca_snapshot *snaps, size_t n,
                                      uint64_t n_monomers, double every, char *err, size_t errlen);
+/* The time of the snapshot after one at t (or after the start, t = 0):
+ * the first attempt at or after the returned time takes it. The first
+ * multiple of T after t, and always after t (where T is below t's rounding
+ * step, the multiple rounds back to t). The run loop and
+ * dlca_snapshots_check both use it, so the check is the writer's rule. */
+PDLA_API double dlca_next_snapshot(double t, double T);
 /* The snapshots of a file so written (a checkpoint: a resumed run keeps
  * them): *snaps (malloc'ed, *n of them, each with its arrays, for the
  * caller to free) and *every; none (0) if the file has no /snapshots.
+ * The count attribute must be the number of groups under /snapshots.
  * 0, or PDLA_EIO with nothing left allocated. */
 PDLA_API int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot **snaps, size_t *n,
                                     double *every, char *err, size_t errlen);
@@ -218,8 +231,13 @@ PDLA_API int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_
  * with their period `every`)? every finite and above 0 (0 only with no
  * snapshots); in time order, none later than s (time, attempts) nor with
  * fewer clusters than s now; n_clusters in [1, N] and falling; every site
- * in the box and every cluster number below n_clusters. 0, or PDLA_EINVAL
- * with one line naming the snapshot and the value. */
+ * in the box and no two monomers on one site; the cluster numbers as
+ * dlca_export_sites gives them (0, 1, ..., n_clusters - 1, each cluster's
+ * monomers together, in that order); each snapshot at the first attempt at
+ * or after its dlca_next_snapshot time (not before it, nor later than one
+ * attempt's time step), and none missing: s's time is before the next
+ * one's. 0, or PDLA_EINVAL (PDLA_ENOMEM) with one line naming the snapshot
+ * and the value. */
 PDLA_API int dlca_snapshots_check(const dlca_sim *s, const dlca_snapshot *snaps, size_t n, double every, char *err,
                                   size_t errlen);
 

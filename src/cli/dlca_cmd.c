@@ -103,9 +103,10 @@ static void print_help(FILE *o)
                "  --scene FILE                       read KEY = VALUE lines (model = dlca, the keys above and the run\n"
                "                                     options' long names with '_' or '-')\n"
                "  --start FILE                       start from the monomers in FILE instead of at random: a text file\n"
-               "                                     of one monomer a line, D integer coordinates 0 <= x < L ('#'\n"
-               "                                     comments), or an HDF5 file with /monomers/position (a DLCA\n"
-               "                                     cluster.h5); --fill and --count are then not used\n"
+               "                                     of one monomer a line, D integer coordinates 0 <= x < L separated\n"
+               "                                     by spaces or tabs ('#' comments), or an HDF5 file with\n"
+               "                                     /monomers/position (a DLCA cluster.h5); --fill and --count are\n"
+               "                                     then not used\n"
                "  --snapshot-every T                 also store the sites and cluster ids at times T, 2T, ... in\n"
                "                                     cluster.h5 (/snapshots/0, 1, ...; kept in memory until written,\n"
                "                                     8 bytes per monomer each; checkpoints keep them for --resume, and\n"
@@ -420,22 +421,12 @@ static void free_snapshots(dlca_cli *c)
     c->nsnaps = 0;
 }
 
-/* The first multiple of T after t, and always after t: where T is below
- * t's rounding step, (floor(t/T) + 1) T rounds back to t, and the run loop
- * stopped at t for ever taking a snapshot each pass (--snapshot-every
- * 1e-300 filled the memory at once). */
-static double next_snapshot(double t, double T)
-{
-    const double next = (floor(t / T) + 1) * T;
-    return next > t ? next : nextafter(t, INFINITY);
-}
-
 /* Is it time for a snapshot (the first attempt at or after the next
  * multiple of T)? Then take it; *next becomes the multiple after now. */
 static int snapshot_due(const dlca_sim *s, dlca_cli *c, double *next)
 {
     if (!(*next > 0) || dlca_time(s) < *next) return 0;
-    *next = next_snapshot(dlca_time(s), c->snapshot_every);
+    *next = dlca_next_snapshot(dlca_time(s), c->snapshot_every);
     if (take_snapshot(s, c) == 0) return 0;
     /* Once, and no more snapshots: before, the line was printed on every
      * pass of the loop (13 million lines in a minute). The run goes on; its
@@ -458,7 +449,7 @@ static int run_loop(dlca_sim *s, dlca_cli *c, const char *dir, const char *cmd, 
     if (every) next_att = (att / every + 1) * every;
     double last_look = pdla_clock_seconds();
     double next_time = c->checkpoint_every > 0 ? last_look + c->checkpoint_every : 0;
-    double next_snap = c->snapshot_every > 0 ? next_snapshot(dlca_time(s), c->snapshot_every) : 0;
+    double next_snap = c->snapshot_every > 0 ? dlca_next_snapshot(dlca_time(s), c->snapshot_every) : 0;
     char stop_path[4200], err[1024];
     snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
     *asked = ASKED_NONE;

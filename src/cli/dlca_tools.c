@@ -95,21 +95,19 @@ static void *read_ds(hid_t f, const char *path, const char *name, pdla_h5_type t
     return buf;
 }
 
-/* /parameters dim and box through the checked readers: 0, or -1 with one
- * line in err. */
-static int read_box(hid_t f, const char *path, dfile *o, char *err, size_t errlen)
+int dlca_file_box(hid_t f, const char *path, int *dim, uint64_t *L, char *err, size_t errlen)
 {
     const hid_t g = H5Gopen2(f, "parameters", H5P_DEFAULT);
     pdla_h5_value box;
-    int ok = g >= 0 && pdla_h5_attr_number(g, "dim", PDLA_H5_I32, &o->dim) == 0 && o->dim >= 2 && o->dim <= MAXD &&
-             pdla_h5_attr_value(g, "box", &box) == 0 && box.read && box.kind == 'u' && box.n == o->dim;
+    int ok = g >= 0 && pdla_h5_attr_number(g, "dim", PDLA_H5_I32, dim) == 0 && *dim >= 2 && *dim <= MAXD &&
+             pdla_h5_attr_value(g, "box", &box) == 0 && box.read && box.kind == 'u' && box.n == *dim;
     /* The model's own limits (a length up to DLCA_MAX_AXIS, fewer than 2^31
      * sites): a forged box of 10^5 x 10^5 overflowed analyze's int strides
      * (UBSan) and was then called a cluster spanning the box. */
     uint64_t V = 1;
-    for (int a = 0; ok && a < o->dim; a++) {
-        o->L[a] = box.u[a];
-        ok = o->L[a] >= 1 && o->L[a] <= DLCA_MAX_AXIS && (V *= o->L[a]) < (UINT64_C(1) << 31);
+    for (int a = 0; ok && a < *dim; a++) {
+        L[a] = box.u[a];
+        ok = L[a] >= 1 && L[a] <= DLCA_MAX_AXIS && (V *= L[a]) < (UINT64_C(1) << 31);
     }
     if (g >= 0 && H5Gclose(g) < 0) ok = 0;
     if (ok) return 0;
@@ -117,13 +115,11 @@ static int read_box(hid_t f, const char *path, dfile *o, char *err, size_t errle
                        "2^31 sites) missing or bad", path, MAXD, DLCA_MAX_AXIS);
 }
 
-/* The contents' checks, after the shapes: every cluster id names a row of
- * /clusters, every position lies in the box. */
 /* Positions in the box, cluster ids in range, and every /clusters/size the
  * number of monomers with that id (a forged size of 0 sent analyze's
  * unwrap into an empty cluster: a read of an unset index, a write past a
  * zero-length buffer). 1 if so, 0 if not, -1 out of memory. */
-static int dfile_consistent(const dfile *o)
+static int counts_agree(const dfile *o)
 {
     uint64_t *count = calloc(o->nc, sizeof *count);
     if (!count) return -1;
@@ -140,6 +136,54 @@ static int dfile_consistent(const dfile *o)
     return ok;
 }
 
+/* Each /monomers/site the k-index of its position (x_1 + x_2 L_1 + ...,
+ * as the writer makes it), and no two monomers on one site: a monomer
+ * copied onto another's site was drawn, analyzed and exported twice.
+ * Positions are in the box (counts_agree). 0, or -1 with one line. */
+static int sites_agree(const dfile *o, const char *path, char *err, size_t errlen)
+{
+    for (size_t i = 0; i < o->n; i++) {
+        uint64_t k = 0, stride = 1;
+        for (int a = 0; a < o->dim; a++) {
+            k += (uint64_t)o->pos[i * o->dim + a] * stride;
+            stride *= o->L[a];
+        }
+        if (k != o->site[i])
+            return pdla_errorf(-1, err, errlen, "%s: monomer %zu: /monomers/site %u is not the site of its position "
+                               "(%llu)", path, i, o->site[i], (unsigned long long)k);
+    }
+    uint64_t a = 0, b = 0;
+    const int shared = dlca_shared_site(o->site, o->n, &a, &b);
+    if (shared < 0) return pdla_errorf(-1, err, errlen, "%s: out of memory checking %zu monomers", path, o->n);
+    if (shared)
+        return pdla_errorf(-1, err, errlen, "%s: monomers %llu and %llu lie on one site", path, (unsigned long long)a,
+                           (unsigned long long)b);
+    return 0;
+}
+
+/* Every /clusters/rg a radius, finite and >= 0: a NaN or negative one was
+ * printed by analyze as the file's R_g and fitted into D_f as nan. */
+static int rg_ok(const dfile *o, const char *path, char *err, size_t errlen)
+{
+    for (size_t c = 0; c < o->nc; c++)
+        if (!isfinite(o->rg[c]) || o->rg[c] < 0)
+            return pdla_errorf(-1, err, errlen, "%s: /clusters/rg %zu is %g, not a radius (finite, >= 0)", path, c,
+                               o->rg[c]);
+    return 0;
+}
+
+/* The contents' checks, after the shapes: 0, or -1 with one line naming
+ * the first fault. */
+static int dfile_consistent(const dfile *o, const char *path, char *err, size_t errlen)
+{
+    const int agree = counts_agree(o);
+    if (agree < 0) return pdla_errorf(-1, err, errlen, "%s: out of memory checking %zu clusters", path, o->nc);
+    if (!agree)
+        return pdla_errorf(-1, err, errlen, "%s: malformed DLCA file (a position or cluster id is out of range, or a "
+                           "cluster's size is not its monomer count)", path);
+    return sites_agree(o, path, err, errlen) || rg_ok(o, path, err, errlen) ? -1 : 0;
+}
+
 /* Read what both tools need; 0, or -1 with one line in err. */
 static int dfile_read(const char *path, dfile *o, char *err, size_t errlen)
 {
@@ -147,7 +191,7 @@ static int dfile_read(const char *path, dfile *o, char *err, size_t errlen)
     const hid_t f = pdla_hdf5_quiet() ? H5I_INVALID_HID : H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
     if (f < 0) return pdla_errorf(-1, err, errlen, "cannot open %s", path);
     size_t cols = 0, n2 = 0, n3 = 0, nc2 = 0, one;
-    int ok = read_box(f, path, o, err, errlen) == 0 &&
+    int ok = dlca_file_box(f, path, &o->dim, o->L, err, errlen) == 0 &&
              (o->pos = read_ds(f, path, "/monomers/position", PDLA_H5_I32, 4, &o->n, &cols, err, errlen)) &&
              (o->cid = read_ds(f, path, "/monomers/cluster", PDLA_H5_U32, 4, &n2, &one, err, errlen)) &&
              (o->site = read_ds(f, path, "/monomers/site", PDLA_H5_U32, 4, &n3, &one, err, errlen)) &&
@@ -155,14 +199,10 @@ static int dfile_read(const char *path, dfile *o, char *err, size_t errlen)
              (o->rg = read_ds(f, path, "/clusters/rg", PDLA_H5_F64, 8, &nc2, &one, err, errlen));
     const int shaped = ok && cols == (size_t)o->dim && n2 == o->n && n3 == o->n && nc2 == o->nc && o->nc > 0 &&
                        o->n > 0;
-    const int agree = shaped ? dfile_consistent(o) : 0;
-    if (ok && agree < 0) {
-        pdla_errorf(-1, err, errlen, "%s: out of memory checking %zu clusters", path, o->nc);
+    if (ok && !shaped) {
+        pdla_errorf(-1, err, errlen, "%s: malformed DLCA file (/monomers and /clusters do not agree in shape)", path);
         ok = 0;
-    } else if (ok && !agree) {
-        pdla_errorf(-1, err, errlen, "%s: malformed DLCA file (/monomers and /clusters do not agree in shape, "
-                    "a position or cluster id is out of range, or a cluster's size is not its monomer count)",
-                    path);
+    } else if (ok && dfile_consistent(o, path, err, errlen)) {
         ok = 0;
     }
     if (ok) { /* the stop reason is for the record only: absent or odd, it stays empty */

@@ -11,6 +11,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dlca_cmd.h"
+#include "pdla/dlca.h"
 #include "pdla/pdla.h"
 #include "tools.h"
 
@@ -94,6 +96,62 @@ static int open_ensemble(exp_src *s, int64_t cluster, char *err, size_t errlen)
     return 0;
 }
 
+/* Rows [row, row + rows) of a DLCA file's positions pos (dim columns) in
+ * the box L and each on a site no earlier row took (a bit a site in taken).
+ * 0, or -1 with one line naming the row. */
+static int dlca_rows_ok(const exp_src *s, const int32_t *pos, size_t rows, uint64_t row, int dim, const uint64_t *L,
+                        uint64_t *taken, char *err, size_t errlen)
+{
+    for (size_t i = 0; i < rows; i++) {
+        uint64_t k = 0, stride = 1;
+        for (int a = 0; a < dim; a++) {
+            const int32_t x = pos[i * (size_t)dim + (size_t)a];
+            if (x < 0 || (uint64_t)x >= L[a])
+                return pdla_errorf(-1, err, errlen, "%s: row %llu: coordinate %d on axis %d is outside the box [0, "
+                                   "%llu)", s->path, (unsigned long long)(row + i), (int)x, a + 1,
+                                   (unsigned long long)L[a]);
+            k += (uint64_t)x * stride;
+            stride *= L[a];
+        }
+        if (taken[k >> 6] >> (k & 63) & 1)
+            return pdla_errorf(-1, err, errlen, "%s: row %llu: a second monomer on the site of an earlier row", s->path,
+                               (unsigned long long)(row + i));
+        taken[k >> 6] |= UINT64_C(1) << (k & 63);
+    }
+    return 0;
+}
+
+/* A DLCA file's positions, read once in slabs before anything is written:
+ * each in the /parameters box and no two on one site (a monomer copied
+ * onto another's site was exported twice, exit 0). A bit a lattice site
+ * (at most 256 MiB: the model's sites are fewer than 2^31) and one slab,
+ * both freed here. 0, or -1 with one line. */
+static int dlca_sites_ok(const exp_src *s, char *err, size_t errlen)
+{
+    int dim = 0;
+    uint64_t L[DLCA_MAX_DIM], V = 1;
+    if (dlca_file_box(s->file, s->path, &dim, L, err, errlen)) return -1;
+    if ((uint64_t)dim != s->pos.dims[1])
+        return pdla_errorf(-1, err, errlen, "%s: /monomers/position has %llu columns, /parameters dim is %d", s->path,
+                           (unsigned long long)s->pos.dims[1], dim);
+    for (int a = 0; a < dim; a++) V *= L[a];
+    const size_t slab = H5R_MAX_SLAB_ROWS;
+    uint64_t *taken = calloc((size_t)((V + 63) / 64), sizeof *taken);
+    int32_t *pos = malloc(slab * (size_t)dim * sizeof *pos);
+    int rc = taken && pos ? 0 : pdla_errorf(-1, err, errlen, "%s: out of memory for a bit a site (%llu sites)",
+                                              s->path, (unsigned long long)V);
+    for (uint64_t row = 0; rc == 0 && row < s->pos.dims[0]; row += slab) {
+        const size_t rows = s->pos.dims[0] - row < slab ? (size_t)(s->pos.dims[0] - row) : slab;
+        if (pdla_h5_dset_read(&s->pos, PDLA_H5_I32, row, rows, pos) < 0)
+            rc = pdla_errorf(-1, err, errlen, "%s: cannot read rows %llu..%llu of /monomers/position (damaged?)",
+                             s->path, (unsigned long long)row, (unsigned long long)(row + rows - 1));
+        else
+            rc = dlca_rows_ok(s, pos, rows, row, dim, L, taken, err, errlen);
+    }
+    free(taken), free(pos);
+    return rc;
+}
+
 static int open_dlca(exp_src *s, char *err, size_t errlen)
 {
     pdla_h5_dset probe;
@@ -107,7 +165,8 @@ static int open_dlca(exp_src *s, char *err, size_t errlen)
                         (unsigned long long)cols);
     }
     if (open_checked(s, "/monomers/position", &s->pos, 2, 0, 'i', sizeof(int32_t), err, errlen) ||
-        open_checked(s, "/monomers/cluster", &s->cid, 1, s->pos.dims[0], 'i', sizeof(uint64_t), err, errlen))
+        open_checked(s, "/monomers/cluster", &s->cid, 1, s->pos.dims[0], 'i', sizeof(uint64_t), err, errlen) ||
+        dlca_sites_ok(s, err, errlen))
         return -1;
     s->n = s->pos.dims[0];
     s->units = 1;

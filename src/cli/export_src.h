@@ -8,7 +8,9 @@
  *   ensemble.h5         /clusters/positions, int, N rows per cluster; one
  *                       cluster (--cluster I) or all with a cluster column
  *   DLCA cluster.h5     /monomers/position, int lattice sites, with
- *                       /monomers/cluster (model = "dlca")
+ *                       /monomers/cluster (model = "dlca"); checked when
+ *                       opened: each row in the /parameters box, no two
+ *                       on one site
  *   event cluster.h5    /cluster/positions, real, model lengths, with
  *                       /cluster/radii, rows in arrival order
  *                       (model = "event")

@@ -3,6 +3,7 @@
  * with /parameters written from the model's descriptor table (dlca_params_h5.c), and the
  * fractal-dimension fit of R_g against cluster size.
  */
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -455,12 +456,17 @@ int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot 
     const hid_t g = has > 0 ? H5Gopen2(f, "snapshots", H5P_DEFAULT) : H5I_INVALID_HID;
     if (has < 0 || (has > 0 && g < 0)) rc = -1;
     uint64_t count = 0;
+    H5G_info_t gi = {0};
+    int miscount = 0;
     if (g >= 0) {
-        /* count may not exceed the group's members: a forged count must not size the array */
-        H5G_info_t gi;
+        /* count must be the group's members, as the writer makes them: a
+         * forged count must not size the array, and one below them dropped
+         * the snapshots past it without a word (count 0 resumed with none) */
         if (pdla_h5_attr_number(g, "count", PDLA_H5_U64, &count) < 0 ||
-            pdla_h5_attr_number(g, "every", PDLA_H5_F64, every) < 0 || H5Gget_info(g, &gi) < 0 || count > gi.nlinks)
+            pdla_h5_attr_number(g, "every", PDLA_H5_F64, every) < 0 || H5Gget_info(g, &gi) < 0)
             rc = -1;
+        else if (count != gi.nlinks)
+            rc = -1, miscount = 1;
         if (rc == 0 && count && !(*snaps = calloc(count, sizeof **snaps))) rc = -1;
         for (size_t i = 0; rc == 0 && i < count; i++) {
             rc = read_snapshot(g, i, n_monomers, &(*snaps)[i]);
@@ -475,7 +481,99 @@ int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot 
     free(*snaps);
     *snaps = NULL;
     *n = 0;
+    if (miscount)
+        return pdla_errorf(PDLA_EIO, err, errlen, "cannot read the snapshots of %s: /snapshots count %llu, but it holds "
+                           "%llu", path, (unsigned long long)count, (unsigned long long)gi.nlinks);
     return pdla_errorf(PDLA_EIO, err, errlen, "cannot read the snapshots of %s", path);
+}
+
+/* Where T is below t's rounding step, (floor(t/T) + 1) T rounds back to t,
+ * and the run loop stopped at t for ever taking a snapshot each pass
+ * (--snapshot-every 1e-300 filled the memory at once): then the next double. */
+double dlca_next_snapshot(double t, double T)
+{
+    const double next = (floor(t / T) + 1) * T;
+    return next > t ? next : nextafter(t, INFINITY);
+}
+
+/* Snapshot i's numbers against s and the snapshot before: 0, or
+ * PDLA_EINVAL naming the first out of range. */
+static int check_numbers(const dlca_sim *s, const dlca_snapshot *snaps, size_t i, char *err, size_t errlen)
+{
+    const dlca_snapshot *sn = &snaps[i], *prev = i ? &snaps[i - 1] : NULL;
+    const char *bad = NULL;
+    if (!isfinite(sn->t) || sn->t < (prev ? prev->t : 0) || sn->t > s->t) bad = "t";
+    else if (sn->attempts > s->attempts || (prev && sn->attempts < prev->attempts)) bad = "attempts";
+    else if (sn->n_clusters < s->nc || sn->n_clusters > (prev ? prev->n_clusters : s->N)) bad = "n_clusters";
+    for (uint64_t m = 0; !bad && m < s->N; m++) {
+        if (sn->site[m] >= s->V) bad = "a site";
+        else if (sn->cluster[m] >= sn->n_clusters) bad = "a cluster number";
+    }
+    if (bad) return pdla_errorf(PDLA_EINVAL, err, errlen, "its snapshot %zu has %s out of range (or out of order)", i, bad);
+    return 0;
+}
+
+/* Snapshot i's monomers as dlca_export_sites gives them: on distinct sites
+ * (a forged copy of one site onto another was resumed and written back),
+ * and the cluster numbers 0, 1, ..., n_clusters - 1 with each cluster's
+ * monomers together, in that order (all set to 0 under n_clusters 34 was
+ * written back as one cluster). 0, PDLA_EINVAL or PDLA_ENOMEM. */
+static int check_monomers(const dlca_sim *s, const dlca_snapshot *sn, size_t i, char *err, size_t errlen)
+{
+    for (uint64_t m = 0; m < s->N; m++) {
+        const uint32_t c = sn->cluster[m], before = m ? sn->cluster[m - 1] : 0;
+        if (c != before && (m == 0 || c != before + 1))
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "its snapshot %zu gives monomer %llu cluster %u: the clusters "
+                               "are numbered 0, 1, ... in monomer order, each one's monomers together", i,
+                               (unsigned long long)m, c);
+    }
+    if (s->N && sn->cluster[s->N - 1] + (uint64_t)1 != sn->n_clusters)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "its snapshot %zu numbers its clusters 0 to %u, but says "
+                           "n_clusters %llu", i, sn->cluster[s->N - 1], (unsigned long long)sn->n_clusters);
+    uint64_t a = 0, b = 0;
+    const int shared = dlca_shared_site(sn->site, s->N, &a, &b);
+    if (shared < 0) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory checking its snapshot %zu", i);
+    if (shared)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "its snapshot %zu puts monomers %llu and %llu on one site", i,
+                           (unsigned long long)a, (unsigned long long)b);
+    return 0;
+}
+
+/* The longest time one attempt can add while n_clusters or more clusters
+ * are left: 1 / (N_c m_max) (dlca.c's step), with m_max, the mobility of
+ * the smallest (gamma < 0) or largest (gamma > 0) size present, at least
+ * min(1, N^gamma). */
+static double longest_step(const dlca_sim *s, uint64_t n_clusters)
+{
+    const double m_max = s->mob && s->p.mobility < 0 ? pow((double)s->N, s->p.mobility) : 1;
+    return 1.0 / ((double)n_clusters * m_max);
+}
+
+/* The snapshots' times against the run loop's rule: the first is due at
+ * dlca_next_snapshot(0, every), each taken at the first attempt at or
+ * after its due time (so less than one attempt's step after it: slack for
+ * the sum's rounding), the next due at dlca_next_snapshot of its time; and
+ * s stopped before the one after the last came due. A count of 0 in a
+ * checkpoint at t = 80 with every = 50 resumed with the t = 50 snapshot
+ * gone and the later ones renumbered. (A run that ran out of memory for
+ * snapshots, dlca_cmd.c's snapshot_due, takes none after it: its
+ * checkpoints fail here, as a resume would leave a gap in the series.) */
+static int check_schedule(const dlca_sim *s, const dlca_snapshot *snaps, size_t n, double every, char *err,
+                          size_t errlen)
+{
+    if (!(every > 0)) return 0; /* a run without snapshots */
+    double due = dlca_next_snapshot(0, every);
+    for (size_t i = 0; i < n; i++) {
+        const double t = snaps[i].t, late = longest_step(s, snaps[i].n_clusters) * (1 + 1e-9) + 4 * DBL_EPSILON * due;
+        if (!(t >= due) || t - due > late)
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "its snapshot %zu at t = %.17g is not the first attempt at or "
+                               "after t = %.17g (--snapshot-every %.17g)", i, t, due, every);
+        due = dlca_next_snapshot(t, every);
+    }
+    if (s->t >= due)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "it holds %zu snapshots, but its time %.17g passed t = %.17g, when "
+                           "snapshot %zu was due (--snapshot-every %.17g)", n, s->t, due, n, every);
+    return 0;
 }
 
 /* The values a resumed run writes back into its cluster.h5 as they are (a
@@ -487,16 +585,10 @@ int dlca_snapshots_check(const dlca_sim *s, const dlca_snapshot *snaps, size_t n
     if (n ? !(isfinite(every) && every > 0) : !(every == 0 || (isfinite(every) && every > 0)))
         return pdla_errorf(PDLA_EINVAL, err, errlen, "its snapshot period %g is not a time above 0", every);
     for (size_t i = 0; i < n; i++) {
-        const dlca_snapshot *sn = &snaps[i], *prev = i ? &snaps[i - 1] : NULL;
-        const char *bad = NULL;
-        if (!isfinite(sn->t) || sn->t < (prev ? prev->t : 0) || sn->t > s->t) bad = "t";
-        else if (sn->attempts > s->attempts || (prev && sn->attempts < prev->attempts)) bad = "attempts";
-        else if (sn->n_clusters < s->nc || sn->n_clusters > (prev ? prev->n_clusters : s->N)) bad = "n_clusters";
-        for (uint64_t m = 0; !bad && m < s->N; m++) {
-            if (sn->site[m] >= s->V) bad = "a site";
-            else if (sn->cluster[m] >= sn->n_clusters) bad = "a cluster number";
-        }
-        if (bad) return pdla_errorf(PDLA_EINVAL, err, errlen, "its snapshot %zu has %s out of range (or out of order)", i, bad);
+        const int rc = check_numbers(s, snaps, i, err, errlen);
+        if (rc) return rc;
+        const int rm = check_monomers(s, &snaps[i], i, err, errlen);
+        if (rm) return rm;
     }
-    return 0;
+    return check_schedule(s, snaps, n, every, err, errlen);
 }

@@ -1,7 +1,8 @@
 /*
  * dlca_start.c - a DLCA start from a file (`--start FILE`): the monomers'
  * lattice coordinates from a text file (one monomer a line, d integers
- * separated by blanks, '#' starts a comment) or from an HDF5 file holding
+ * separated by blanks (spaces or tabs; nothing else, not even commas), '#'
+ * starts a comment) or from an HDF5 file holding
  * /monomers/position [N][d] (a DLCA cluster.h5). Every coordinate must lie
  * in the box and no two monomers on one site; the first fault is refused
  * with one line naming the file and the line (or monomer).
@@ -92,6 +93,29 @@ static int line_too_long(FILE *f, const char *line, size_t size)
     return ch != EOF && ch != '\n'; /* a newline right after: the line fitted */
 }
 
+static int is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
+
+/* The integers of one line (its comment already cut) into x (room for
+ * DLCA_MAX_DIM + 1): their count, or -1 when something else is there. Each
+ * must end at a blank or the end of the line: strtoll stopped at the '+'
+ * of "1+2" and read it as the two coordinates 1 and 2, and commas were
+ * taken as blanks, which no documentation said. */
+static int line_coords(const char *line, long long *x)
+{
+    int n = 0;
+    const char *q = line;
+    for (;;) {
+        while (is_blank(*q)) q++;
+        if (!*q) return n;
+        char *end;
+        errno = 0;
+        const long long v = strtoll(q, &end, 10);
+        if (end == q || errno || n > DLCA_MAX_DIM || (*end && !is_blank(*end))) return -1;
+        x[n++] = v;
+        q = end;
+    }
+}
+
 static int read_text(FILE *f, const char *path, const dlca_params *p, start_buf *b, char *err, size_t errlen)
 {
     char line[4096];
@@ -106,19 +130,10 @@ static int read_text(FILE *f, const char *path, const dlca_params *p, start_buf 
         char *h = strchr(line, '#');
         if (h) *h = '\0';
         long long x[DLCA_MAX_DIM + 1];
-        int n = 0;
-        char *q = line, *end;
-        for (;;) {
-            while (*q == ' ' || *q == '\t' || *q == '\r' || *q == '\n' || *q == ',') q++;
-            if (!*q) break;
-            errno = 0;
-            const long long v = strtoll(q, &end, 10);
-            if (end == q || errno || n > DLCA_MAX_DIM)
-                return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: line %llu: expected %d integer coordinates",
-                                   path, (unsigned long long)ln, p->dim);
-            x[n++] = v;
-            q = end;
-        }
+        const int n = line_coords(line, x);
+        if (n < 0)
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: line %llu: expected %d integer coordinates separated by "
+                               "spaces or tabs", path, (unsigned long long)ln, p->dim);
         if (n == 0) continue;
         if (n != p->dim)
             return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: line %llu: %d coordinates, --dim %d needs %d", path,
@@ -185,21 +200,35 @@ static int cmp_pair(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
-/* No two monomers on one site: sorted (site, index) pairs. */
+int dlca_shared_site(const uint32_t *site, uint64_t n, uint64_t *a, uint64_t *b)
+{
+    if (n > UINT32_MAX) return PDLA_EINVAL; /* the index is packed in 32 bits */
+    uint64_t *kv = malloc((n ? n : 1) * sizeof *kv);
+    if (!kv) return PDLA_ENOMEM;
+    for (uint64_t i = 0; i < n; i++) kv[i] = (uint64_t)site[i] << 32 | (uint32_t)i;
+    qsort(kv, n, sizeof *kv, cmp_pair);
+    int found = 0;
+    for (uint64_t i = 1; i < n && !found; i++)
+        if (kv[i] >> 32 == kv[i - 1] >> 32) {
+            *a = kv[i - 1] & 0xffffffffu;
+            *b = kv[i] & 0xffffffffu;
+            found = 1;
+        }
+    free(kv);
+    return found;
+}
+
+/* No two monomers on one site (dlca_shared_site), the pair named by the
+ * lines or monomer numbers where the file holds them. */
 static int check_distinct(const start_buf *b, const char *path, const char *unit, char *err, size_t errlen)
 {
-    uint64_t *kv = malloc(b->n * sizeof *kv);
-    if (!kv) return pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", path);
-    for (uint64_t i = 0; i < b->n; i++) kv[i] = (uint64_t)b->site[i] << 32 | (uint32_t)i;
-    qsort(kv, b->n, sizeof *kv, cmp_pair);
-    int rc = 0;
-    for (uint64_t i = 1; i < b->n && rc == 0; i++)
-        if (kv[i] >> 32 == kv[i - 1] >> 32)
-            rc = pdla_errorf(PDLA_EINVAL, err, errlen, "%s: %ss %llu and %llu put two monomers on one site", path, unit,
-                             (unsigned long long)b->where[kv[i - 1] & 0xffffffffu],
-                             (unsigned long long)b->where[kv[i] & 0xffffffffu]);
-    free(kv);
-    return rc;
+    uint64_t i = 0, j = 0;
+    const int shared = dlca_shared_site(b->site, b->n, &i, &j);
+    if (shared < 0) return pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", path);
+    if (shared)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: %ss %llu and %llu put two monomers on one site", path, unit,
+                           (unsigned long long)b->where[i], (unsigned long long)b->where[j]);
+    return 0;
 }
 
 int dlca_read_start(const char *path, const dlca_params *p, uint32_t **sites, uint64_t *n, char *err, size_t errlen)

@@ -5,7 +5,8 @@
 --start: monomers from a text file land where the file says (slot order =
 file order); face-adjacent ones start joined; an HDF5 cluster.h5 restarts
 from its /monomers/position; bad files (two monomers on one site, outside
-the box, wrong number of coordinates, empty, missing) and --start with
+the box, wrong number of coordinates, a number not ended by a blank, '#' or
+the line's end such as "1+2" or "1,2", empty, missing) and --start with
 --resume are refused with one line, exit 2 and no run directory.
 
 --snapshot-every: /snapshots/i holds the state at the first attempt at or
@@ -96,6 +97,11 @@ bad = {
     # line of its own: the end of a long comment became monomer (7, 7).
     "long_comment": write("longc.txt", "# " + "a" * 4092 + " 7 7\n5 5\n"),
     "long_line": write("longl.txt", "1 2" + " " * 4093 + "\n3 3\n"),
+    # session 27 review: strtoll stopped at the '+' and "1+2" started a
+    # monomer at (1, 2); commas were read as blanks, which no help said.
+    "plus": write("plus.txt", "1+2\n10 10\n"),
+    "comma": write("comma.txt", "10 10\n1,2\n"),
+    "suffix": write("suffix.txt", "1 2x\n"),
 }
 # A line of exactly 4095 bytes and its newline is a line.
 fits = write("fits.txt", "1 2" + " " * 4092 + "\n3 3\n")
@@ -122,6 +128,11 @@ for what, f in bad.items():
     check(f in err, f"--start {what}: the message does not name the file: {err!r}")
     if what in ("junk", "coords", "long_line", "long_comment"):
         check(re.search(r": lines? [0-9]", err) is not None, f"--start {what}: the message names no line: {err!r}")
+    want = {"plus": ": line 1: expected 2 integer coordinates separated by spaces or tabs",
+            "comma": ": line 2: expected 2 integer coordinates separated by spaces or tabs",
+            "suffix": ": line 1: expected 2 integer coordinates"}.get(what)
+    if want:
+        check(want in err, f"--start {what}: want {want!r} in {err!r}")
 rc, err = run("--resume", path("r3"), "--start", ok)
 check(rc == 2 and err.count("\n") == 1, f"--start with --resume: exit {rc} {err!r}")
 for v in ("0", "-1", "x"):

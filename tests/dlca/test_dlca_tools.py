@@ -11,7 +11,12 @@ unwrapped offsets) to 1e-9, in a case where the naive wrapped R_g differs;
 its D_f (mass-radius) lies in [1.30, 1.57] in 2D (512^2 at 2%, to 20
 clusters: 8 seeds gave 1.38-1.47, mean 1.433, sd 0.034: +/- 4 sd) and in
 [1.60, 1.95] in 3D (96^3 at 0.5%: 4 seeds 1.73-1.78); both far from a
-compact (d) or linear (1) cluster. Bad use: one line, exit 2.
+compact (d) or linear (1) cluster. Bad use: one line, exit 2. Forged
+files (sizes that are not the monomer counts, a NaN or negative
+/clusters/rg, two monomers on one site, a site that is not its position's
+k-index, for export a position outside the box) are refused by analyze,
+render and export with one line naming the fault, exit 2, the output left
+as it was.
 """
 import json
 import os
@@ -141,6 +146,59 @@ def main():
                 rc, _, se = run([pdla] + tool[:1] + [forged] + tool[1:])
                 check(rc == 2 and len(se.strip().splitlines()) == 1 and "size" in se,
                       "forged sizes (%s), %s: exit %d, stderr %r" % (what, tool, rc, se))
+        # (session 27 review) a NaN or negative /clusters/rg was printed as the
+        # file's R_g with D_f nan, exit 0; a monomer copied onto another's
+        # site (position and site) was drawn, analyzed and exported twice;
+        # a site that is not its position's k-index was taken. Each reader of
+        # the forged part refuses it: exit 2, one line naming it, the output
+        # already there (--force) left as it was and no temporary file.
+        def forge_dup(f):
+            for name in ("monomers/position", "monomers/site"):
+                a = f[name][()]
+                a[1] = a[0]
+                f[name][...] = a
+
+        def forge_site(f):
+            a = f["monomers/site"][()]
+            a[0] = (int(a[0]) + 1) % (96 * 64)
+            f["monomers/site"][...] = a
+        outs = {"render": "png", "csv": "csv", "ply": "ply", "xyz": "xyz"}
+        readers = {"analyze": lambda p, o: ["analyze", p], "analyze-json": lambda p, o: ["analyze", "--json", p],
+                   "render": lambda p, o: ["render", p, "-o", o, "--force"]}
+        for fmt in ("csv", "ply", "xyz"):
+            readers[fmt] = lambda p, o, fmt=fmt: ["export", p, "--format", fmt, "-o", o, "--force"]
+        forgeries = (("rg_nan", lambda f: f["clusters/rg"].__setitem__(Ellipsis, np.nan), "/clusters/rg 0 is nan",
+                      ("analyze", "analyze-json", "render")),
+                     ("rg_negative", lambda f: f["clusters/rg"].__setitem__(Ellipsis, -3.0), "/clusters/rg 0 is -3",
+                      ("analyze", "analyze-json", "render")),
+                     ("dup_site", forge_dup, None, tuple(readers)),
+                     ("site_not_position", forge_site, "monomer 0: /monomers/site",
+                      ("analyze", "analyze-json", "render")),
+                     # export did not read the box: a position outside it went out as it was
+                     ("outside_box", lambda f: f["monomers/position"].__setitem__((3, 0), 96),
+                      "row 3: coordinate 96 on axis 1 is outside the box [0, 96)", ("csv", "ply", "xyz")))
+        for what, fn, want, tools in forgeries:
+            forged = os.path.join(tmp, "forged-%s.h5" % what)
+            shutil.copy(h5, forged)
+            with h5py.File(forged, "r+") as f:
+                fn(f)
+            for tool in tools:
+                d = os.path.join(tmp, "out-%s-%s" % (what, tool))
+                os.makedirs(d)
+                out = os.path.join(d, "out." + outs.get(tool, "txt"))
+                with open(out, "wb") as fh:
+                    fh.write(b"before")
+                rc, so, se = run([pdla] + readers[tool](forged, out))
+                lines = se.strip().splitlines()
+                # dup_site: the pair, monomers 0 and 1 (analyze, render), or row 1 (export)
+                w = want or ("monomers 0 and 1 lie on one site" if tool in ("analyze", "analyze-json", "render")
+                             else "row 1: a second monomer on the site of an earlier row")
+                check(rc == 2 and len(lines) == 1 and w in se and so == "",
+                      "forged %s, %s: exit %d, stdout %r, stderr %r (want exit 2, one line with %r)"
+                      % (what, tool, rc, so[:80], se, w))
+                with open(out, "rb") as fh:
+                    check(fh.read() == b"before" and os.listdir(d) == ["out." + outs.get(tool, "txt")],
+                          "forged %s, %s: the output directory changed: %s" % (what, tool, os.listdir(d)))
         for args in (["analyze", h5, "--nosuch"], ["render", h5], ["render", h5, "-o", os.path.join(tmp, "x.png"),
                                                                     "--size", "8"]):
             rc, _, se = run([pdla] + args)

@@ -9,7 +9,12 @@ model found (session 23), each case as it was found:
 - --start FILE refused on a box under 50 sites for the default --fill's 0
   monomers, which a start file does not use;
 - --start given a FIFO (and a checkpoint.h5 that is a FIFO) blocked for
-  ever; a directory as --start was "read error", exit 1.
+  ever; a directory as --start was "read error", exit 1;
+- (session 27) a checkpoint's forged /snapshots resumed and were written
+  back: a site copied onto another, cluster numbers that are not 0, 1, ...
+  in monomer order, a count below the snapshots held, a snapshot dropped
+  (the later ones renumbered) or moved in time; each now refused, the run
+  directory unchanged.
 Each refusal: one line, exit 2, within TIME_LIMIT.
 """
 import os
@@ -18,6 +23,7 @@ import subprocess
 import sys
 
 import h5py
+import numpy as np
 
 PDLA = os.path.abspath(sys.argv[1])
 WORK = os.path.abspath(sys.argv[2])
@@ -75,6 +81,71 @@ rc, err = run(DL + ["--resume", "snp", "--max-attempts", "40000"])
 with h5py.File(os.path.join(WORK, "snp", "cluster.h5"), "r") as f:
     got = int(f["snapshots"].attrs["count"]) if "snapshots" in f else 0
 check(rc == 0 and got > nsnap, "resumed run: %s %s, %d snapshots (checkpoint %d)" % (rc, err, got, nsnap))
+
+# (session 27 review) forged /snapshots that --resume took and wrote back:
+# a copied site and every cluster number 0 under n_clusters 34 (exit 0, the
+# duplicate in the output); count set to 0 (exit 0, the first snapshot gone
+# and the later ones renumbered). Now each is refused with one line naming
+# the snapshots, exit 2, and the run directory left as it was.
+rc, err = run(DL + ["--box", "64", "--fill", "0.05", "--seed", "3", "--until-clusters", "20", "--snapshot-every",
+                    "25", "--checkpoint", "--out", "fs"])
+with h5py.File(os.path.join(WORK, "fs", "checkpoint.h5"), "r") as f:
+    nfs = int(f["snapshots"].attrs["count"]) if "snapshots" in f else 0
+check(rc == 0 and nfs >= 3, "run for the forged snapshots: %s %s, %d snapshots (want 3 or more)" % (rc, err, nfs))
+
+
+def snap_array(i, name, fn):
+    """Snapshot i's dataset name set to fn(its values)."""
+    def forge(f):
+        d = f["snapshots/%d/%s" % (i, name)]
+        d[...] = fn(d[...])
+    return forge
+
+
+def snap_drop(i):
+    """Snapshot i deleted, the later ones renumbered, count made to agree."""
+    def forge(f):
+        g = f["snapshots"]
+        n = int(g.attrs["count"])
+        del g[str(i)]
+        for j in range(i + 1, n):
+            g.move(str(j), str(j - 1))
+        g.attrs["count"] = np.uint64(n - 1)
+    return forge
+
+
+def dup_site(a):
+    a[1] = a[0]
+    return a
+
+
+def site_and_clusters(f):
+    snap_array(0, "site", dup_site)(f)
+    snap_array(0, "cluster", lambda a: a * 0)(f)
+
+
+snap_forgeries = {
+    "site copied, every cluster 0": (site_and_clusters, "snapshot 0"),
+    "site copied": (snap_array(0, "site", dup_site), "on one site"),
+    "every cluster 0": (snap_array(0, "cluster", lambda a: a * 0), "n_clusters"),
+    "clusters reversed": (snap_array(1, "cluster", lambda a: a[::-1].copy()), "in monomer order"),
+    "count 0": (lambda f: f["snapshots"].attrs.__setitem__("count", np.uint64(0)), "count 0"),
+    "first dropped": (snap_drop(0), "snapshot 0 at t"),
+    "last dropped": (snap_drop(nfs - 1), "was due"),
+    "t later by 5": (lambda f: f["snapshots/1"].attrs.__setitem__("t", f["snapshots/1"].attrs["t"] + 5),
+                     "snapshot 1 at t"),
+}
+for i, (tag, (forge, want)) in enumerate(snap_forgeries.items()):
+    d = "fs%d" % i
+    shutil.copytree(os.path.join(WORK, "fs"), os.path.join(WORK, d))
+    with h5py.File(os.path.join(WORK, d, "checkpoint.h5"), "r+") as f:
+        forge(f)
+    before = {n: open(os.path.join(WORK, d, n), "rb").read() for n in os.listdir(os.path.join(WORK, d))}
+    refused("--resume, snapshots forged: " + tag, DL + ["--resume", d, "--until-clusters", "10"], want)
+    after = {n: open(os.path.join(WORK, d, n), "rb").read() for n in os.listdir(os.path.join(WORK, d))}
+    check(after == before, "--resume, snapshots forged: %s: the run directory changed" % tag)
+rc, err = run(DL + ["--resume", "fs", "--until-clusters", "10"])
+check(rc == 0, "--resume of the unforged snapshots: %s %s" % (rc, err))
 
 # --start on a small box, no --fill
 with open(os.path.join(WORK, "start2.txt"), "w") as f:

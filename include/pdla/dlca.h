@@ -206,14 +206,15 @@ PDLA_API int dlca_write_h5(const dlca_sim *s, const char *path, const char *comm
  * checkpoint as /snapshots (attributes count and every = T) with groups
  * <i> (i = 0, 1, ...), each with datasets site [N], cluster [N] and
  * position [N][d] (the sites' coordinates) and attributes t, attempts,
- * n_clusters. 0 or PDLA_EIO. */
+ * n_clusters; `stopped` 1 adds the attribute stopped = 1: the run ran out
+ * of memory for snapshots and takes none after the last one. 0 or PDLA_EIO. */
 typedef struct dlca_snapshot {
     double t;
     uint64_t attempts, n_clusters;
     uint32_t *site, *cluster;
 } dlca_snapshot;
 PDLA_API int dlca_write_snapshots_h5(const char *path, const dlca_params *p, const dlca_snapshot *snaps, size_t n,
-                                     uint64_t n_monomers, double every, char *err, size_t errlen);
+                                     uint64_t n_monomers, double every, int stopped, char *err, size_t errlen);
 /* The time of the snapshot after one at t (or after the start, t = 0):
  * the first attempt at or after the returned time takes it. The first
  * multiple of T after t, and always after t (where T is below t's rounding
@@ -222,11 +223,12 @@ PDLA_API int dlca_write_snapshots_h5(const char *path, const dlca_params *p, con
 PDLA_API double dlca_next_snapshot(double t, double T);
 /* The snapshots of a file so written (a checkpoint: a resumed run keeps
  * them): *snaps (malloc'ed, *n of them, each with its arrays, for the
- * caller to free) and *every; none (0) if the file has no /snapshots.
- * The count attribute must be the number of groups under /snapshots.
+ * caller to free), *every and *stopped (the optional attribute: 0 or 1);
+ * none (0) if the file has no /snapshots. The count attribute must be the
+ * number of groups under /snapshots.
  * 0, or PDLA_EIO with nothing left allocated. */
 PDLA_API int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot **snaps, size_t *n,
-                                    double *every, char *err, size_t errlen);
+                                    double *every, int *stopped, char *err, size_t errlen);
 /* Could the run s have taken these snapshots (as read from its checkpoint
  * with their period `every`)? every finite and above 0 (0 only with no
  * snapshots); in time order, none later than s (time, attempts) nor with
@@ -236,10 +238,11 @@ PDLA_API int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_
  * monomers together, in that order); each snapshot at the first attempt at
  * or after its dlca_next_snapshot time (not before it, nor later than one
  * attempt's time step), and none missing: s's time is before the next
- * one's. 0, or PDLA_EINVAL (PDLA_ENOMEM) with one line naming the snapshot
- * and the value. */
-PDLA_API int dlca_snapshots_check(const dlca_sim *s, const dlca_snapshot *snaps, size_t n, double every, char *err,
-                                  size_t errlen);
+ * one's, unless `stopped` (the run took no more, for want of memory). 0,
+ * or PDLA_EINVAL (PDLA_ENOMEM) with one line naming the snapshot and the
+ * value. */
+PDLA_API int dlca_snapshots_check(const dlca_sim *s, const dlca_snapshot *snaps, size_t n, double every, int stopped,
+                                  char *err, size_t errlen);
 
 /* ParaView's XDMF 2 sidecar (xdmf.h) of a DLCA cluster.h5 just written
  * with n monomers: points at /monomers/position (site coordinates, lattice

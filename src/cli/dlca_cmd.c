@@ -55,6 +55,7 @@ typedef struct dlca_cli {
     double snapshot_every;        /* --snapshot-every T (model time); 0: none */
     dlca_snapshot *snaps;         /* taken so far */
     size_t nsnaps;
+    int snaps_stopped;            /* out of memory for snapshots: none after the last (kept in checkpoints) */
     uint64_t n_monomers;          /* of the run (set when it starts) */
     int lock, lock_out;           /* flocks (pdla_rundir_lock) of the checkpoint's and the run directory, -1: none */
     cli_fail fail;                /* the write failures: one line on stderr at the end (fail_note.h) */
@@ -346,7 +347,7 @@ static int write_file(const dlca_sim *s, const dlca_cli *c, const char *dir, con
     int rc = what[1] == 'l' ? dlca_write_h5(s, tmp, cmd, wall, err, errlen)
                             : dlca_checkpoint_write(s, tmp, err, errlen);
     if (rc == 0 && c->snapshot_every > 0) /* the checkpoint too: a resumed run keeps them */
-        rc = dlca_write_snapshots_h5(tmp, dlca_get_params(s), c->snaps, c->nsnaps, c->n_monomers, c->snapshot_every,
+        rc = dlca_write_snapshots_h5(tmp, dlca_get_params(s), c->snaps, c->nsnaps, c->n_monomers, c->snapshot_every, c->snaps_stopped,
                                      err, errlen);
     /* Synced before the rename and the directory after it: without, a
      * machine crash could leave checkpoint.h5 empty with the previous one
@@ -435,6 +436,7 @@ static int snapshot_due(const dlca_sim *s, dlca_cli *c, double *next)
     snprintf(msg, sizeof msg, "no memory for more snapshots at t = %g (%zu taken, %.3g GiB); none taken after it",
              dlca_time(s), c->nsnaps, (double)c->nsnaps * 8.0 * (double)c->n_monomers / 1073741824.0);
     cli_fail_note(&c->fail, "snapshots", "%s", msg);
+    c->snaps_stopped = 1;
     *next = 0;
     return -1;
 }
@@ -449,7 +451,7 @@ static int run_loop(dlca_sim *s, dlca_cli *c, const char *dir, const char *cmd, 
     if (every) next_att = (att / every + 1) * every;
     double last_look = pdla_clock_seconds();
     double next_time = c->checkpoint_every > 0 ? last_look + c->checkpoint_every : 0;
-    double next_snap = c->snapshot_every > 0 ? dlca_next_snapshot(dlca_time(s), c->snapshot_every) : 0;
+    double next_snap = c->snapshot_every > 0 && !c->snaps_stopped ? dlca_next_snapshot(dlca_time(s), c->snapshot_every) : 0;
     char stop_path[4200], err[1024];
     snprintf(stop_path, sizeof stop_path, "%s/STOP", dir);
     *asked = ASKED_NONE;
@@ -556,13 +558,19 @@ static int resume_snapshots(dlca_cli *c, const dlca_sim *s, const char *ckpath, 
 {
     char err[1024];
     double every = 0;
-    if (dlca_read_snapshots_h5(ckpath, n_monomers, &c->snaps, &c->nsnaps, &every, err, sizeof err)) {
+    if (dlca_read_snapshots_h5(ckpath, n_monomers, &c->snaps, &c->nsnaps, &every, &c->snaps_stopped, err, sizeof err)) {
         fprintf(stderr, "pdla: %s\n", err);
         return -1;
     }
-    if (dlca_snapshots_check(s, c->snaps, c->nsnaps, every, err, sizeof err)) {
+    if (dlca_snapshots_check(s, c->snaps, c->nsnaps, every, c->snaps_stopped, err, sizeof err)) {
         fprintf(stderr, "pdla: cannot resume from %s: %s\n", ckpath, err);
         return -1;
+    }
+    if (c->snaps_stopped) { /* the line at the end says so again */
+        char msg[200];
+        snprintf(msg, sizeof msg, "the run before this resume ran out of memory for snapshots after t = %g (%zu "
+                 "taken); none taken after it", c->nsnaps ? c->snaps[c->nsnaps - 1].t : 0.0, c->nsnaps);
+        cli_fail_note(&c->fail, "snapshots", "%s", msg);
     }
     if (!(c->snapshot_every > 0)) {
         c->snapshot_every = every;

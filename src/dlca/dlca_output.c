@@ -386,7 +386,7 @@ static int write_snapshot(const h5u_writer *w, hid_t g, const char *name, const 
 }
 
 int dlca_write_snapshots_h5(const char *path, const dlca_params *p, const dlca_snapshot *snaps, size_t n,
-                            uint64_t n_monomers, double every, char *err, size_t errlen)
+                            uint64_t n_monomers, double every, int stopped, char *err, size_t errlen)
 {
     h5u_writer w = {path, err, errlen};
     h5u_quiet q;
@@ -397,6 +397,8 @@ int dlca_write_snapshots_h5(const char *path, const dlca_params *p, const dlca_s
     if (f < 0) h5u_fail_msg(&w, "cannot open %s to add snapshots", path);
     else if ((g = h5u_group(&w, f, "snapshots")) >= 0) {
         rc = h5u_attr_u64(&w, g, "count", n) < 0 || h5u_attr_f64(&w, g, "every", every) < 0 ? -1 : 0;
+        /* only when it happened, so other files keep their bytes */
+        if (rc == 0 && stopped && h5u_attr_u64(&w, g, "stopped", 1) < 0) rc = -1;
         for (size_t i = 0; i < n && rc == 0; i++) {
             char name[32];
             snprintf(name, sizeof name, "%zu", i);
@@ -407,6 +409,18 @@ int dlca_write_snapshots_h5(const char *path, const dlca_params *p, const dlca_s
     if (f >= 0) rc = h5u_close(&w, rc, f, H5Fclose, path);
     if (h5u_restore(&q) < 0 && rc == 0) rc = h5u_fail_msg(&w, "cannot restore the HDF5 error handler");
     return rc < 0 ? PDLA_EIO : 0;
+}
+
+/* The optional attribute stopped of /snapshots (0 when absent): 0 or 1
+ * into *stopped, else -1. */
+static int read_stopped(hid_t g, int *stopped)
+{
+    const htri_t has = H5Aexists(g, "stopped");
+    if (has <= 0) return has < 0 ? -1 : 0;
+    uint64_t v = 0;
+    if (pdla_h5_attr_number(g, "stopped", PDLA_H5_U64, &v) < 0 || v > 1) return -1;
+    *stopped = (int)v;
+    return 0;
 }
 
 /* Snapshot i of group g into sn (arrays of N allocated here). 0 or -1. */
@@ -440,11 +454,12 @@ static int read_snapshot(hid_t g, size_t i, uint64_t N, dlca_snapshot *sn)
 }
 
 int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot **snaps, size_t *n, double *every,
-                           char *err, size_t errlen)
+                           int *stopped, char *err, size_t errlen)
 {
     *snaps = NULL;
     *n = 0;
     *every = 0;
+    *stopped = 0;
     h5u_quiet q;
     if (h5u_silence(&q)) return pdla_errorf(PDLA_EIO, err, errlen, "cannot read %s: cannot silence HDF5", path);
     const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
@@ -467,6 +482,8 @@ int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot 
             rc = -1;
         else if (count != gi.nlinks)
             rc = -1, miscount = 1;
+        else if (read_stopped(g, stopped) < 0)
+            rc = -1;
         if (rc == 0 && count && !(*snaps = calloc(count, sizeof **snaps))) rc = -1;
         for (size_t i = 0; rc == 0 && i < count; i++) {
             rc = read_snapshot(g, i, n_monomers, &(*snaps)[i]);
@@ -555,11 +572,11 @@ static double longest_step(const dlca_sim *s, uint64_t n_clusters)
  * the sum's rounding), the next due at dlca_next_snapshot of its time; and
  * s stopped before the one after the last came due. A count of 0 in a
  * checkpoint at t = 80 with every = 50 resumed with the t = 50 snapshot
- * gone and the later ones renumbered. (A run that ran out of memory for
- * snapshots, dlca_cmd.c's snapshot_due, takes none after it: its
- * checkpoints fail here, as a resume would leave a gap in the series.) */
-static int check_schedule(const dlca_sim *s, const dlca_snapshot *snaps, size_t n, double every, char *err,
-                          size_t errlen)
+ * gone and the later ones renumbered. A run that ran out of memory for
+ * snapshots (dlca_cmd.c's snapshot_due) takes none after it and says so
+ * (`stopped`): then the last may be followed by none. */
+static int check_schedule(const dlca_sim *s, const dlca_snapshot *snaps, size_t n, double every, int stopped,
+                          char *err, size_t errlen)
 {
     if (!(every > 0)) return 0; /* a run without snapshots */
     double due = dlca_next_snapshot(0, every);
@@ -570,7 +587,7 @@ static int check_schedule(const dlca_sim *s, const dlca_snapshot *snaps, size_t 
                                "after t = %.17g (--snapshot-every %.17g)", i, t, due, every);
         due = dlca_next_snapshot(t, every);
     }
-    if (s->t >= due)
+    if (!stopped && s->t >= due)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "it holds %zu snapshots, but its time %.17g passed t = %.17g, when "
                            "snapshot %zu was due (--snapshot-every %.17g)", n, s->t, due, n, every);
     return 0;
@@ -579,8 +596,8 @@ static int check_schedule(const dlca_sim *s, const dlca_snapshot *snaps, size_t 
 /* The values a resumed run writes back into its cluster.h5 as they are (a
  * forged NaN time, 10^9 clusters or a site outside the box went there
  * without a word, and a NaN or negative period was taken as the run's). */
-int dlca_snapshots_check(const dlca_sim *s, const dlca_snapshot *snaps, size_t n, double every, char *err,
-                         size_t errlen)
+int dlca_snapshots_check(const dlca_sim *s, const dlca_snapshot *snaps, size_t n, double every, int stopped,
+                         char *err, size_t errlen)
 {
     if (n ? !(isfinite(every) && every > 0) : !(every == 0 || (isfinite(every) && every > 0)))
         return pdla_errorf(PDLA_EINVAL, err, errlen, "its snapshot period %g is not a time above 0", every);
@@ -590,5 +607,5 @@ int dlca_snapshots_check(const dlca_sim *s, const dlca_snapshot *snaps, size_t n
         const int rm = check_monomers(s, &snaps[i], i, err, errlen);
         if (rm) return rm;
     }
-    return check_schedule(s, snaps, n, every, err, errlen);
+    return check_schedule(s, snaps, n, every, stopped, err, errlen);
 }

@@ -30,6 +30,9 @@
  *                   batch system at the worst moment), without sleeps;
  *                   FAULT_SIGNAL=9 is kill -9 just before that call (no
  *                   handler needed: the process ends there)
+ *   FAULT_PHYS_PAGES=n  sysconf(_SC_PHYS_PAGES) answers n: a machine of n
+ *                   pages, so the memory budgets that scale with it bite
+ *                   (DLCA's snapshots: a quarter of the memory)
  *
  * Counted: write, pwrite, pwrite64, writev, fsync, fdatasync, fallocate,
  * posix_fallocate - only on regular files, so stderr and pipes are left alone;
@@ -308,6 +311,14 @@ int linkat(int fd1, const char *from, int fd2, const char *to, int flags)
     REAL(linkat, int, int, const char *, int, const char *, int);
     if (hit_names(from, to)) return name_fail();
     return real_linkat(fd1, from, fd2, to, flags);
+}
+
+long sysconf(int name)
+{
+    REAL(sysconf, long, int);
+    const char *s = getenv("FAULT_PHYS_PAGES");
+    if (name == _SC_PHYS_PAGES && s && *s) return atol(s);
+    return real_sysconf(name);
 }
 
 int flock(int fd, int op)

@@ -5,7 +5,8 @@
  * fit (ev_df_fit, the same fit as /results D_f_rg), and a summary of the
  * series (rows, time span, stuck count, kinetic energy first and last,
  * collisions, mean pressure over the second half of the rows).
- * Exit: 0, 1 when the file cannot be read as an event cluster.h5, 2 usage.
+ * Exit: 0, 1 when the file cannot be read as an event cluster.h5, 2 usage or
+ * a file whose values are malformed (not finite, a box side not above 0).
  */
 #include <hdf5.h>
 #include <math.h>
@@ -170,7 +171,81 @@ static double farthest_from_seeds(const double *pos, size_t rows, const double *
     return far;
 }
 
-/* The cluster part: size, R_g, extent from the seed, the D_f fit. */
+/* Attribute NAME of group G ("/cluster") as a double: 1 when read, 0 when
+ * the group or the attribute is absent, -1 on an HDF5 failure or a value
+ * that is not one number. */
+static int group_attr(hid_t f, const char *grp, const char *name, double *v)
+{
+    const htri_t has_g = H5Lexists(f, grp, H5P_DEFAULT);
+    if (has_g <= 0) return has_g < 0 ? -1 : 0;
+    const hid_t g = H5Gopen2(f, grp, H5P_DEFAULT);
+    if (g < 0) return -1;
+    const htri_t has = H5Aexists(g, name);
+    int rc = has < 0 ? -1 : !has ? 0 : pdla_h5_attr_number(g, name, PDLA_H5_F64, v) == 0 ? 1 : -1;
+    if (H5Gclose(g) < 0) rc = -1; /* a failed read, as any HDF5 error */
+    return rc;
+}
+
+static int cluster_attr(hid_t f, const char *name, double *v) { return group_attr(f, "/cluster", name, v); }
+
+/* The one seed's attributes on /cluster (seed_x, seed_y[, seed_z],
+ * seed_radius) into xr (dim coordinates, then the radius): 1, 0 when there
+ * is no seed_radius (no seed), -1 with err when one cannot be read. */
+static int one_seed(hid_t f, int dim, double *xr, char *err, size_t errlen)
+{
+    static const char *const sn[3] = {"seed_x", "seed_y", "seed_z"};
+    const int has = cluster_attr(f, "seed_radius", &xr[dim]);
+    if (has < 0) return snprintf(err, errlen, "no readable seed_radius on /cluster"), -1;
+    for (int q = 0; q < dim && has; q++)
+        if (cluster_attr(f, sn[q], &xr[q]) != 1)
+            return snprintf(err, errlen, "a seed_radius without a readable %s on /cluster", sn[q]), -1;
+    return has;
+}
+
+/* The seeds of f, dim coordinates each (malloc'ed; NULL and *ns 0 when
+ * there are none): a --seeds run's /cluster/seed_positions and seed_radii,
+ * or the one seed's attributes. Every coordinate and radius must be finite,
+ * radii not negative: a NaN seed gave "farthest from a seed inf", exit 0.
+ * 0, or -1 (unreadable: exit 1) or -2 (malformed: exit 2) with err. */
+static int read_seeds(hid_t f, int dim, double **out, size_t *ns, char *err, size_t errlen)
+{
+    *out = NULL;
+    *ns = 0;
+    const htri_t has_c = H5Lexists(f, "/cluster", H5P_DEFAULT);
+    const htri_t has_sd = has_c > 0 ? H5Lexists(f, "/cluster/seed_positions", H5P_DEFAULT) : has_c;
+    if (has_sd < 0) return snprintf(err, errlen, "cannot read /cluster"), -1;
+    size_t n = 0, nc = 0, nr = 0, rc1 = 0;
+    double *sd, *rad;
+    if (has_sd) {
+        sd = read_doubles(f, "/cluster/seed_positions", &n, &nc);
+        rad = read_doubles(f, "/cluster/seed_radii", &nr, &rc1);
+        if (!sd || !rad || (int)nc != dim || nr != n || rc1 != 1)
+            return free(sd), free(rad),
+                   snprintf(err, errlen, "no readable /cluster/seed_positions (%d columns) and seed_radii", dim), -1;
+    } else {
+        double xr[4];
+        const int has = one_seed(f, dim, xr, err, errlen);
+        if (has <= 0) return has;
+        sd = malloc(4 * sizeof *sd);
+        rad = malloc(sizeof *rad);
+        if (!sd || !rad) return free(sd), free(rad), snprintf(err, errlen, "out of memory"), -1;
+        memcpy(sd, xr, (size_t)dim * sizeof *sd);
+        rad[0] = xr[dim];
+        n = 1;
+    }
+    int bad = 0;
+    for (size_t k = 0; k < n * (size_t)dim; k++) bad |= !isfinite(sd[k]);
+    for (size_t k = 0; k < n; k++) bad |= !(rad[k] >= 0 && rad[k] < INFINITY);
+    free(rad);
+    if (bad)
+        return free(sd), snprintf(err, errlen, "a seed position or radius is not finite (or a radius negative)"), -2;
+    *out = sd;
+    *ns = n;
+    return 0;
+}
+
+/* The cluster part: size, R_g, extent from the seed, the D_f fit. 0, or
+ * -1 (unreadable) or -2 (malformed) with err. */
 static int cluster_summary(hid_t f, ev_summary *m, char *err, size_t errlen)
 {
     size_t rows, cols;
@@ -180,24 +255,17 @@ static int cluster_summary(hid_t f, ev_summary *m, char *err, size_t errlen)
     m->stuck = rows;
     for (size_t k = 0; k < rows * cols; k++) /* NaN gave R_g 0 and a distance inf, exit 0 */
         if (!isfinite(pos[k]))
-            return free(pos), snprintf(err, errlen, "a /cluster/positions value is not finite"), -1;
-    /* the seeds: a --seeds file's dataset, or the one seed's attributes */
-    size_t ns = 0, nc = 0;
-    double one[3], *seeds = read_doubles(f, "/cluster/seed_positions", &ns, &nc);
-    if (!seeds || (int)nc != m->dim) {
-        static const char *const sn[3] = {"seed_x", "seed_y", "seed_z"};
-        free(seeds);
-        seeds = NULL;
-        ns = !isnan(attr_num(f, "cluster", "seed_radius"));
-        for (int q = 0; q < m->dim; q++) one[q] = ns ? attr_num(f, "cluster", sn[q]) : 0;
-    }
-    const double *sd = seeds ? seeds : one;
+            return free(pos), snprintf(err, errlen, "a /cluster/positions value is not finite"), -2;
+    size_t ns;
+    double *seeds;
+    const int src = read_seeds(f, m->dim, &seeds, &ns, err, errlen);
+    if (src) return free(pos), src;
     double *rg = malloc((rows ? rows : 1) * sizeof *rg);
     if (!rg) return free(pos), free(seeds), snprintf(err, errlen, "out of memory"), -1;
     m->df = ev_df_fit(pos, rows, m->dim, m->box / 8, rg, &m->k_lo, &m->k_hi);
     m->rg = rows ? rg[rows - 1] : 0;
     /* the largest distance of a stuck particle from its nearest seed */
-    m->rmax_seed = ns ? farthest_from_seeds(pos, rows, sd, ns, m->dim) : 0;
+    m->rmax_seed = ns ? farthest_from_seeds(pos, rows, seeds, ns, m->dim) : 0;
     free(seeds);
     if (m->rmax_seed < 0) return free(rg), free(pos), snprintf(err, errlen, "out of memory"), -1;
     free(rg);
@@ -296,13 +364,18 @@ int event_analyze_main(int argc, char **argv)
     memset(&m, 0, sizeof m);
     const double dim = attr_num(f, "/", "dim");
     m.dim = dim == 2 || dim == 3 ? (int)dim : 0; /* NaN or 1e300 cast to int is undefined; 0 is refused below */
-    m.box = attr_num(f, "results", "box_side");
+    const int has_box = group_attr(f, "/results", "box_side", &m.box);
     size_t fr, fc;
     free(read_doubles(f, "/free/positions", &fr, &fc));
     m.free_n = fr;
     char err[256];
-    int rc = (m.dim == 2 || m.dim == 3) && isfinite(m.box) ? 0 : -1;
+    int rc = (m.dim == 2 || m.dim == 3) && has_box == 1 ? 0 : -1;
     if (rc) snprintf(err, sizeof err, "no dim (2 or 3) or /results box_side");
+    /* a box side of 0 or less fed the D_f fit's range (box/8), exit 0 */
+    if (!rc && !(m.box > 0 && m.box < INFINITY)) {
+        snprintf(err, sizeof err, "/results box_side %g is not a length above 0", m.box);
+        rc = -2;
+    }
     if (!rc) rc = cluster_summary(f, &m, err, sizeof err);
     if (!rc) rc = series_summary(f, &m, err, sizeof err);
     if (H5Fclose(f) < 0 && !rc) {
@@ -311,7 +384,7 @@ int event_analyze_main(int argc, char **argv)
     }
     if (rc) {
         fprintf(stderr, "pdla analyze: %s: %s\n", path, err);
-        return 1;
+        return rc == -2 ? 2 : 1; /* malformed values: bad input, as info and render */
     }
     print_summary(&m, json);
     return fflush(stdout) ? 1 : 0;

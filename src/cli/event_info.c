@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 
 #include "event_cmd.h"
+#include "pdla/event.h"
 #include "pdla/h5check.h"
 #include "tools.h"
 
@@ -133,59 +134,77 @@ static long long rows(hid_t f, const char *ds)
     return pdla_h5_dset_close(&d) < 0 ? -1 : (long long)d.dims[0];
 }
 
-/* One column of /species (rank 1, at most EV_INFO_KINDS rows) as doubles:
- * its length, 0 when absent (an older file has no `sticky`), -1 unreadable. */
-#define EV_INFO_KINDS 8
+/* One column of /species as doubles (at most EV_MAX_SPECIES rows, the
+ * kinds a run may have): its length, 0 when absent (an older file has no
+ * `sticky`), -1 when /species or the column cannot be read, is not rank 1
+ * or has more rows. */
 static int species_col(hid_t f, const char *name, double *v)
 {
-    pdla_h5_dset d;
-    if (H5Lexists(f, "/species", H5P_DEFAULT) <= 0) return 0;
+    const htri_t has_sp = H5Lexists(f, "/species", H5P_DEFAULT);
+    if (has_sp <= 0) return has_sp < 0 ? -1 : 0;
     char path[64];
     snprintf(path, sizeof path, "/species/%s", name);
-    if (H5Lexists(f, path, H5P_DEFAULT) <= 0) return 0;
+    const htri_t has = H5Lexists(f, path, H5P_DEFAULT);
+    if (has <= 0) return has < 0 ? -1 : 0;
+    pdla_h5_dset d;
     if (pdla_h5_dset_open(f, path, &d) < 0) return -1;
     int n = -1;
-    if (d.rank == 1 && d.dims[0] <= EV_INFO_KINDS && pdla_h5_dset_stored(&d, 8) == PDLA_H5_STORED &&
+    if (d.rank == 1 && d.dims[0] <= EV_MAX_SPECIES && pdla_h5_dset_stored(&d, 8) == PDLA_H5_STORED &&
         pdla_h5_dset_read(&d, PDLA_H5_F64, 0, d.dims[0], v) == 0)
         n = (int)d.dims[0];
     return pdla_h5_dset_close(&d) < 0 ? -1 : n;
 }
 
-/* The per-kind table of /species: count, radius, density, stuck and sticky
- * (1 when the file has no `sticky`: written before bath kinds, all stuck
- * on contact). 0, or -1 when it cannot be read. */
-static int species_table(FILE *o, hid_t f, int json)
+/* The per-kind table of /species: count, radius, density, stuck, sticky. */
+typedef struct sp_table {
+    int n; /* kinds; 0: no table to show */
+    double v[5][EV_MAX_SPECIES];
+} sp_table;
+
+/* Reads the table before anything is printed: 0 (t->n 0 when the file has
+ * none), or -1 when it is malformed: a column unreadable, of another
+ * length than the others, or of more rows than EV_MAX_SPECIES (9 rows gave
+ * half a JSON object and "cannot read its attributes", exit 1). A file
+ * without `sticky` was written before bath kinds: all stuck on contact. */
+static int species_read(hid_t f, sp_table *t)
 {
     static const char *const col[] = {"count", "radius", "density", "stuck", "sticky"};
-    double v[5][EV_INFO_KINDS];
     int n = -2;
+    t->n = 0;
     for (int c = 0; c < 5; c++) {
-        const int m = species_col(f, col[c], v[c]);
-        if (m < 0 || (m == 0 && c < 4)) return m < 0 ? -1 : 0; /* no table: nothing to show */
+        const int m = species_col(f, col[c], t->v[c]);
+        if (m < 0) return -1;
+        if (m == 0 && c < 4) return c == 0 ? 0 : -1; /* no table, or half of one */
         if (c == 4 && m == 0)
-            for (int k = 0; k < n; k++) v[4][k] = 1;
+            for (int k = 0; k < n; k++) t->v[4][k] = 1;
         else if (n == -2) n = m;
         else if (m != n) return -1;
     }
+    t->n = n;
+    return 0;
+}
+
+static void species_print(FILE *o, const sp_table *t, int json)
+{
+    if (!t->n) return;
     if (json) fprintf(o, "  \"species\": [");
     else fprintf(o, "/species\n");
-    for (int k = 0; k < n; k++) {
+    for (int k = 0; k < t->n; k++) {
         if (json) {
             /* a forged table's NaN or inf as null: JSON has no such numbers */
             static const char *const key[4] = {"count", "radius", "density", "stuck"};
             fprintf(o, "%s\n    {", k ? "," : "");
             for (int c = 0; c < 4; c++) {
                 fprintf(o, "\"%s\": ", key[c]);
-                if (isfinite(v[c][k])) fprintf(o, "%.17g, ", v[c][k]);
+                if (isfinite(t->v[c][k])) fprintf(o, "%.17g, ", t->v[c][k]);
                 else fputs("null, ", o);
             }
-            fprintf(o, "\"sticky\": %d}", v[4][k] != 0);
+            fprintf(o, "\"sticky\": %d}", t->v[4][k] != 0);
         } else
             fprintf(o, "  kind %d: count %.10g radius %.10g density %.10g stuck %.10g sticky %d%s\n", k + 1,
-                    v[0][k], v[1][k], v[2][k], v[3][k], v[4][k] != 0, v[4][k] != 0 ? "" : " (bath)");
+                    t->v[0][k], t->v[1][k], t->v[2][k], t->v[3][k], t->v[4][k] != 0, t->v[4][k] != 0 ? "" : " (bath)");
     }
     if (json) fprintf(o, "\n  ],\n");
-    return 0;
 }
 
 int event_info_main(int argc, char **argv)
@@ -200,8 +219,12 @@ int event_info_main(int argc, char **argv)
     const long long ns = rows(f, "/cluster/positions"), nf = rows(f, "/free/positions"),
                     nr = rows(f, "/series/time");
     int rc = 0;
-    if (ns < 0 || nf < 0 || nr < 0) {
-        fprintf(stderr, "pdla info: %s: malformed event file (missing datasets)\n", path);
+    sp_table spt;
+    /* everything checked before the first line is printed */
+    if (ns < 0 || nf < 0 || nr < 0 || species_read(f, &spt)) {
+        if (ns < 0 || nf < 0 || nr < 0) fprintf(stderr, "pdla info: %s: malformed event file (missing datasets)\n", path);
+        else fprintf(stderr, "pdla info: %s: malformed event file (a /species table unreadable, of columns of "
+                             "different lengths or of more than %d kinds)\n", path, EV_MAX_SPECIES);
         (void)H5Fclose(f); /* the error to report is the one above */
         return 2;
     }
@@ -212,9 +235,10 @@ int event_info_main(int argc, char **argv)
     }
     else fprintf(stdout, "%s: event model, %lld stuck, %lld free, %lld series rows\n", path, ns, nf, nr);
     if (group(stdout, f, "/", json, 0) || group(stdout, f, "/parameters", json, 0) ||
-        group(stdout, f, "/results", json, 0) || species_table(stdout, f, json) ||
-        group(stdout, f, "/Code", json, 1))
+        group(stdout, f, "/results", json, 0))
         rc = 1;
+    if (!rc) species_print(stdout, &spt, json);
+    if (!rc && group(stdout, f, "/Code", json, 1)) rc = 1;
     if (json) fprintf(stdout, "}\n");
     if (rc) fprintf(stderr, "pdla info: %s: cannot read its attributes\n", path);
     if (H5Fclose(f) < 0) {

@@ -113,6 +113,129 @@ static int consistent(const double *cp, size_t ns, size_t dim, const double *cr,
     return 1;
 }
 
+/* Do n particles (positions pos, dim each; radii rad) lie in the box of
+ * side L as the model keeps them, and what volume do they fill (added to
+ * *vol)? Between elastic walls a particle lies wholly inside; in a
+ * periodic box its centre lies in [0, L] (free positions are wrapped
+ * there, stuck ones and seeds are where they were placed, inside) and no
+ * radius exceeds half the box (the box is at least 3 of the largest radius,
+ * ev_sim.c size_box). 1e-6 of the side covers any round-off. Bounded this
+ * way, with the volume at most the box's, the discs cost what a legit file
+ * costs: a forged file of 2e4 discs each covering the whole image ran for
+ * minutes (N x image size). */
+static int in_box(const double *pos, const double *rad, size_t n, size_t dim, double L, int periodic,
+                  double *vol)
+{
+    const double tol = 1e-6 * L;
+    for (size_t i = 0; i < n; i++) {
+        const double r = rad[i];
+        if (!(r <= 0.5 * L)) return 0;
+        const double lo = periodic ? 0 : r, hi = periodic ? L : L - r;
+        for (size_t k = 0; k < dim; k++)
+            if (!(pos[i * dim + k] >= lo - tol && pos[i * dim + k] <= hi + tol)) return 0;
+        *vol += dim == 3 ? 4.0 / 3.0 * M_PI * r * r * r : M_PI * r * r;
+    }
+    return 1;
+}
+
+/* What a render reads of an event cluster.h5. */
+typedef struct ev_scene {
+    size_t ns, dim, nr, nf, fdim, nfr, nsd, sdim, nsr;
+    double *cp, *cr, *fp, *fr, *sp, *spr; /* cluster, free, --seeds seeds */
+    double L, seed[3], sr;                /* box side, the one seed (sr 0: none) */
+    int periodic, has_sd;
+} ev_scene;
+
+static void scene_free(ev_scene *e)
+{
+    free(e->cp), free(e->cr), free(e->fp), free(e->fr), free(e->sp), free(e->spr);
+}
+
+/* Why the scene cannot be drawn, or NULL: arrays that disagree or are not
+ * finite (consistent), a seed not finite, anything outside the box or
+ * larger than half of it, or more volume than the box holds (packing > 1;
+ * 1e-6 for round-off: hard particles never overlap beyond 1e-10). */
+static const char *scene_fault(const ev_scene *e)
+{
+    const double L = e->L;
+    if (!consistent(e->cp, e->ns, e->dim, e->cr, e->nr, e->fp, e->nf, e->fdim, e->fr, e->nfr, L) ||
+        (e->has_sd && (!consistent(e->sp, e->nsd, e->sdim, e->spr, e->nsr, NULL, 0, 0, NULL, 0, L) ||
+                       e->sdim != e->dim)))
+        return "arrays of different lengths, numbers not finite, or a box side not above 0";
+    if (!(isfinite(e->sr) && e->sr >= 0 && isfinite(e->seed[0]) && isfinite(e->seed[1]) && isfinite(e->seed[2])))
+        return "a seed position or radius not finite";
+    double vol = 0;
+    if (!in_box(e->cp, e->cr, e->ns, e->dim, L, e->periodic, &vol) ||
+        !in_box(e->fp, e->fr, e->nf, e->dim, L, e->periodic, &vol) ||
+        (e->has_sd && !in_box(e->sp, e->spr, e->nsd, e->dim, L, e->periodic, &vol)) ||
+        (e->sr > 0 && !in_box(e->seed, &e->sr, 1, e->dim, L, e->periodic, &vol)))
+        return "a particle or seed outside the box or larger than half of it";
+    if (!(vol <= pow(L, (double)e->dim) * (1 + 1e-6))) return "particles filling more than the box";
+    return NULL;
+}
+
+/* The box side, the walls (root box_walls) and the one seed's attributes:
+ * 0, or -1 on any HDF5 failure or a value of the wrong kind. */
+static int read_box(hid_t f, ev_scene *e)
+{
+    char walls[32];
+    if (pdla_h5_attr_str(f, "box_walls", walls, sizeof walls) < 0) return -1;
+    if (strcmp(walls, "periodic") && strcmp(walls, "elastic")) return -1;
+    e->periodic = !strcmp(walls, "periodic");
+    const hid_t g = H5Gopen2(f, "/results", H5P_DEFAULT), gc = H5Gopen2(f, "/cluster", H5P_DEFAULT);
+    int ok = g >= 0 && gc >= 0 && pdla_h5_attr_number(g, "box_side", PDLA_H5_F64, &e->L) == 0;
+    const htri_t has_seed = ok ? H5Aexists(gc, "seed_radius") : -1;
+    ok = ok && has_seed >= 0;
+    if (ok && has_seed) {
+        static const char *nm[] = {"seed_x", "seed_y", "seed_z", "seed_radius"};
+        for (int q = 0; q < 4 && ok; q++) {
+            if (q < 3 && (size_t)q >= e->dim) continue;
+            ok = pdla_h5_attr_number(gc, nm[q], PDLA_H5_F64, q < 3 ? &e->seed[q] : &e->sr) == 0;
+        }
+    }
+    /* A failed close is a failed read, as any HDF5 error. */
+    if (g >= 0 && H5Gclose(g) < 0) ok = 0;
+    if (gc >= 0 && H5Gclose(gc) < 0) ok = 0;
+    return ok ? 0 : -1;
+}
+
+/* The scene from the open file f: 0, or -1 on any HDF5 failure or a
+ * dataset of the wrong shape (arrays left to scene_free). */
+static int read_scene(hid_t f, ev_scene *e)
+{
+    size_t one;
+    e->cp = read_all(f, "/cluster/positions", &e->ns, &e->dim);
+    e->cr = read_all(f, "/cluster/radii", &e->nr, &one);
+    e->fp = read_all(f, "/free/positions", &e->nf, &e->fdim);
+    e->fr = read_all(f, "/free/radii", &e->nfr, &one);
+    if (!e->cp || !e->cr || !e->fp || !e->fr) return -1;
+    /* the seeds of a --seeds run: datasets, not the one seed's attributes */
+    const htri_t has_c = H5Lexists(f, "/cluster", H5P_DEFAULT);
+    const htri_t has_sd = has_c > 0 ? H5Lexists(f, "/cluster/seed_positions", H5P_DEFAULT) : has_c;
+    if (has_sd < 0) return -1;
+    e->has_sd = has_sd > 0;
+    if (e->has_sd) {
+        e->sp = read_all(f, "/cluster/seed_positions", &e->nsd, &e->sdim);
+        e->spr = read_all(f, "/cluster/seed_radii", &e->nsr, &one);
+        if (!e->sp || !e->spr) return -1;
+    }
+    return read_box(f, e);
+}
+
+static void draw_scene(img *im, const ev_scene *e)
+{
+    static const unsigned char grey[3] = {110, 110, 110}, white[3] = {255, 255, 255};
+    const size_t dim = e->dim, ns = e->ns;
+    for (size_t i = 0; i < e->nf; i++) disc(im, e->fp + i * dim, (int)dim, e->fr[i], grey);
+    for (size_t i = 0; i < ns; i++) {
+        unsigned char c[3];
+        arrival_colour(ns > 1 ? (double)i / (double)(ns - 1) : 0, c);
+        disc(im, e->cp + i * dim, (int)dim, e->cr[i], c);
+    }
+    if (e->sr > 0) disc(im, e->seed, (int)dim, e->sr, white);
+    for (size_t i = 0; i < e->nsd; i++) disc(im, e->sp + i * dim, (int)dim, e->spr[i], white);
+}
+
 /* The render's options: 0, or 2 with the line printed. */
 static int render_args(int argc, char **argv, const char **in, const char **out, long *size, int *force)
 {
@@ -155,59 +278,33 @@ int event_render_main(int argc, char **argv)
         fprintf(stderr, "pdla render: cannot open %s\n", in);
         return 2;
     }
-    size_t ns, dim, nr, one, nf, fdim, nfr;
-    double *cp = read_all(f, "/cluster/positions", &ns, &dim);
-    double *cr = read_all(f, "/cluster/radii", &nr, &one);
-    double *fp = read_all(f, "/free/positions", &nf, &fdim);
-    double *fr = read_all(f, "/free/radii", &nfr, &one);
-    /* the seeds of a --seeds run: datasets, not the one seed's attributes */
-    size_t nsd = 0, sdim = 0, nsr = 0;
-    const int has_sd = H5Lexists(f, "/cluster", H5P_DEFAULT) > 0 &&
-                       H5Lexists(f, "/cluster/seed_positions", H5P_DEFAULT) > 0;
-    double *sp = has_sd ? read_all(f, "/cluster/seed_positions", &nsd, &sdim) : NULL;
-    double *spr = has_sd ? read_all(f, "/cluster/seed_radii", &nsr, &one) : NULL;
-    double L = 0, seed[3] = {0, 0, 0}, sr = 0;
-    const hid_t g = H5Gopen2(f, "/results", H5P_DEFAULT), gc = H5Gopen2(f, "/cluster", H5P_DEFAULT);
-    int ok = cp && cr && fp && fr && g >= 0 && gc >= 0 && (!has_sd || (sp && spr));
-    if (ok) {
-        ok = pdla_h5_attr_number(g, "box_side", PDLA_H5_F64, &L) == 0;
-        if (H5Aexists(gc, "seed_radius") > 0) {
-            static const char *nm[] = {"seed_x", "seed_y", "seed_z", "seed_radius"};
-            for (int q = 0; q < 4 && ok; q++) {
-                if (q < 3 && (size_t)q >= dim) continue;
-                ok = pdla_h5_attr_number(gc, nm[q], PDLA_H5_F64, q < 3 ? &seed[q] : &sr) == 0;
-            }
-        }
-    }
-    /* A failed close is a failed read: "malformed" below, as any HDF5 error. */
-    if (g >= 0 && H5Gclose(g) < 0) ok = 0;
-    if (gc >= 0 && H5Gclose(gc) < 0) ok = 0;
-    if (H5Fclose(f) < 0) ok = 0;
+    ev_scene e;
+    memset(&e, 0, sizeof e);
+    int ok = read_scene(f, &e) == 0;
+    if (H5Fclose(f) < 0) ok = 0; /* a failed close is a failed read */
+    const char *bad = ok ? scene_fault(&e) : "missing or unreadable datasets or attributes";
     int rc = 0;
-    img im = {size, size / (L > 0 ? L : 1), calloc((size_t)size * size * 3, 1),
-              malloc((size_t)size * size * sizeof(float))};
-    if (!ok || !im.rgb || !im.depth || !consistent(cp, ns, dim, cr, nr, fp, nf, fdim, fr, nfr, L) ||
-        !(isfinite(sr) && sr >= 0 && isfinite(seed[0]) && isfinite(seed[1]) && isfinite(seed[2])) ||
-        (has_sd && !consistent(sp, nsd, sdim, spr, nsr, NULL, 0, 0, NULL, 0, L)) || (has_sd && sdim != dim)) {
-        fprintf(stderr, "pdla render: %s: malformed event file\n", in);
+    img im = {size, size / (e.L > 0 ? e.L : 1), NULL, NULL};
+    if (bad) {
+        fprintf(stderr, "pdla render: %s: malformed event file (%s)\n", in, bad);
         rc = 2;
+        goto done;
+    }
+    im.rgb = malloc((size_t)size * size * 3);
+    im.depth = malloc((size_t)size * size * sizeof(float));
+    if (!im.rgb || !im.depth) {
+        fprintf(stderr, "pdla render: out of memory for a %ld-pixel image\n", size);
+        rc = 1;
         goto done;
     }
     for (size_t k = 0; k < (size_t)size * size; k++) im.depth[k] = -INFINITY;
     memset(im.rgb, 24, (size_t)size * size * 3);
-    static const unsigned char grey[3] = {110, 110, 110}, white[3] = {255, 255, 255};
-    for (size_t i = 0; i < nf; i++) disc(&im, fp + i * dim, (int)dim, fr[i], grey);
-    for (size_t i = 0; i < ns; i++) {
-        unsigned char c[3];
-        arrival_colour(ns > 1 ? (double)i / (double)(ns - 1) : 0, c);
-        disc(&im, cp + i * dim, (int)dim, cr[i], c);
-    }
-    if (sr > 0) disc(&im, seed, (int)dim, sr, white);
-    for (size_t i = 0; i < nsd; i++) disc(&im, sp + i * dim, (int)dim, spr[i], white);
+    draw_scene(&im, &e);
     char werr[600];
     rc = tools_png_write(out, (int)size, (int)size, im.rgb, force, werr, sizeof werr) ? 1 : 0;
     if (rc) fprintf(stderr, "pdla render: %s\n", werr);
 done:
-    free(cp), free(cr), free(fp), free(fr), free(sp), free(spr), free(im.rgb), free(im.depth);
+    scene_free(&e);
+    free(im.rgb), free(im.depth);
     return rc;
 }

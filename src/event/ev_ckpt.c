@@ -617,6 +617,102 @@ static int check_values(const rd *r, const ev_sim *s)
     return rc;
 }
 
+/* Every kind holds the particles its species parameter gives it: /species
+ * count, the masses and energies are the parameter's, so a checkpoint that
+ * relabels particles (50 of kind 0 as kind 1) resumed with [50, 150] in a
+ * run that reports [100, 100]. After check_state (kinds in range). */
+static int check_kinds(const rd *r, const ev_sim *s)
+{
+    uint64_t cnt[EV_MAX_SPECIES] = {0};
+    for (uint32_t i = 0; i < s->n; i++) cnt[s->species[i]]++;
+    for (int k = 0; k < s->nspecies; k++)
+        if (cnt[k] != s->sp[k].count) {
+            char m[200];
+            snprintf(m, sizeof m, "kind %d has %llu particles, its species parameter %llu (damaged)", k + 1,
+                     (unsigned long long)cnt[k], (unsigned long long)s->sp[k].count);
+            return rfail(r, "%s", m);
+        }
+    return 0;
+}
+
+/* The most the round-off allowance below may reach, relative to a contact
+ * distance: a forged speed or ke_stuck must not widen the overlap and
+ * contact checks without bound. Valid runs stay far below it: the largest
+ * round-off in the tests, the dilute gases of event-forged-pending at
+ * t = 1e10 (walls met 3e-5 radii off), is 300 times smaller. */
+#define CK_ROUND_CAP 1e-2
+
+/* round_off (see CK_TOUCH) for any particle at any time up to now: 64
+ * epsilon of the box side and of the fastest speed times the clock. A
+ * stuck particle's position carries the round-off of its speed when it
+ * stuck, which is gone from the state; its kinetic energy then is part of
+ * ke_stuck, so sqrt(2 ke_stuck / lightest mass) bounds that speed. */
+static double round_off_any(const ev_sim *s)
+{
+    const int D = s->dim;
+    double v2 = 0, mmin = INFINITY;
+    for (uint32_t i = 0; i < s->n; i++) {
+        const double *p = EV_P_ANY(s, i);
+        double w = 0;
+        for (int k = 0; k < D; k++) w += p[D + k] * p[D + k];
+        v2 = fmax(v2, w);
+    }
+    for (int k = 0; k < s->nspecies; k++) mmin = fmin(mmin, s->spmass[k]);
+    const double v = fmax(sqrt(v2), sqrt(2 * s->ke_stuck / mmin));
+    return CK_ROUND * (s->L + v * 2 * s->now);
+}
+
+/* Every stuck particle and seed at rest, and every stuck particle at
+ * contact with its parent: hit_stuck zeroes its velocity and leaves it
+ * where it touched (the parent's distance r_i + r_parent, nearest image
+ * when periodic, to round-off). A stuck particle moved away from its
+ * parent, or given a velocity, resumed and went to /cluster as it was
+ * (a cluster that does not hold together, or moving stuck particles).
+ * Tolerance: the pending events' (CK_TOUCH of the contact distance and the
+ * round-off of two positions, capped). After check_values (finite
+ * numbers, parents in range). */
+static int check_stuck(const rd *r, const ev_sim *s)
+{
+    const int D = s->dim;
+    const double ro = 2 * round_off_any(s);
+    for (uint32_t i = 0; i < s->ntot; i++) {
+        if (!s->stuck[i]) continue; /* every seed is stuck (check_values) */
+        const double *p = EV_P_ANY(s, i);
+        for (int k = 0; k < D; k++)
+            if (p[D + k] != 0) return rfail(r, "%s", "a stuck particle or seed with a velocity (damaged)");
+        if (i >= s->n) continue;
+        const double *q = EV_P_ANY(s, s->parent[i]);
+        const double sig = p[2 * D + 1] + q[2 * D + 1], d = sqrt(ev_dist2(s, p, q));
+        if (!(fabs(d - sig) <= CK_TOUCH * sig + fmin(ro, CK_ROUND_CAP * sig))) {
+            char m[200];
+            snprintf(m, sizeof m, "stuck particle %u is %.6g from its parent, not at contact %.6g (damaged)", i, d,
+                     sig);
+            return rfail(r, "%s", m);
+        }
+    }
+    return 0;
+}
+
+/* No two particles (free, stuck, seeds) overlap: the engine keeps every
+ * overlap below 1e-10 of the contact distance (tests/event TOL), a forged
+ * copy of a particle onto another resumed, and the overlap went to
+ * cluster.h5 while /results max_overlap_seen stayed ~1e-14. Measured by
+ * ev_max_overlap_now (cell lists, O(N)), so after rebuild_derived; the
+ * tolerance is the pending events' (CK_TOUCH plus the round-off of two
+ * positions, relative to the smallest contact distance, capped). */
+static int check_overlap(const rd *r, ev_sim *s)
+{
+    const int D = s->dim;
+    double rmin = INFINITY;
+    for (uint32_t i = 0; i < s->ntot; i++) rmin = fmin(rmin, EV_P_ANY(s, i)[2 * D + 1]);
+    const double tol = CK_TOUCH + fmin(2 * round_off_any(s) / (2 * rmin), CK_ROUND_CAP);
+    const double worst = ev_max_overlap_now(s);
+    if (worst <= tol) return 0; /* -INFINITY: no pair of neighbours */
+    char m[200];
+    snprintf(m, sizeof m, "particles overlap by %.3g of their contact distance, over %.3g (damaged)", worst, tol);
+    return rfail(r, "%s", m);
+}
+
 /* The series' times: finite, in order, none after now. */
 static int check_series(const rd *r, const ev_series *ser, double now)
 {
@@ -823,7 +919,9 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     }
     if (!rc) rc = read_state(&r, s);
     if (!rc) rc = check_state(&r, s);
+    if (!rc) rc = check_kinds(&r, s);
     if (!rc) rc = check_values(&r, s);
+    if (!rc) rc = check_stuck(&r, s);
     if (!rc) rc = check_pending(&r, s);
     /* the seeds' near lists from the seeds as stored */
     if (!rc && ev_big_build(s)) rc = rfail(&r, "%s", "out of memory for the cells near the seeds");
@@ -831,12 +929,15 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     if (!rc) rc = read_schedule(&r, s);
     if (r.file >= 0 && H5Fclose(r.file) < 0 && !rc) rc = rfail(&r, "%s", "cannot close it");
     if (h5u_restore(&q) < 0 && !rc) rc = rfail(&r, "%s", "cannot restore the HDF5 error handler");
+    if (!rc) {
+        rebuild_derived(s);
+        rc = check_overlap(&r, s); /* needs the cell lists */
+    }
     if (rc) {
         ev_free(s);
         ev_series_free(ser);
         return NULL;
     }
-    rebuild_derived(s);
     return s;
 }
 

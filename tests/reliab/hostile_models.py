@@ -481,6 +481,163 @@ for name, v in (("negative", -1.0), ("nan", np.nan), ("inf", np.inf), ("2e9", 2e
     check(rc == 2 and len(lines) == 1 and SCHED_S in lines[0], "%s: exit %s, want 2 and one line with %r: %r"
           % (tag, rc, SCHED_S, lines[:3]))
 
+
+# ---- (session 27, s27-evfix) event checkpoints whose particles break the
+# model's invariants, each value in range and every pending event one the
+# loop could have made: resumed before, the damage went on into cluster.h5.
+# Each must be refused with exit 2 and one line naming it, and the run
+# directory left as it was (every file's bytes, no file added).
+def dir_state(d):
+    """{relative path: bytes} of every file under d."""
+    out = {}
+    for root, _, names in os.walk(d):
+        for n in names:
+            p = os.path.join(root, n)
+            with open(p, "rb") as fh:
+                out[os.path.relpath(p, d)] = fh.read()
+    return out
+
+
+def refused(tag, args, want, d, limit=TIME_LIMIT, gone=None):
+    """args refused within limit s: exit 2, one stderr line containing
+    want, nothing on stdout, the directory d unchanged and `gone` (an
+    output path) not made."""
+    runs.append(tag)
+    before = dir_state(d)
+    try:
+        p = subprocess.run([PDLA] + args, capture_output=True, timeout=limit)
+    except subprocess.TimeoutExpired:
+        check(False, "%s: did not end within %d s" % (tag, limit))
+        return
+    lines = p.stderr.decode("utf-8", "replace").rstrip("\n").split("\n")
+    check(p.returncode == 2 and len(lines) == 1 and want in lines[0],
+          "%s: exit %s, want 2 and one line with %r: %r" % (tag, p.returncode, want, lines[:3]))
+    check(p.stdout == b"", "%s: printed %r" % (tag, p.stdout[:200]))
+    check(dir_state(d) == before, tag + ": the directory's files changed")
+    check(gone is None or not os.path.exists(gone), tag + ": wrote " + str(gone))
+
+
+def ev_arrays(f):
+    """The checkpoint's particle rows: ps as (ntot, 2D + 2) and D."""
+    D = int(f.attrs["dim"])
+    return f["state/ps"][()].reshape(int(f.attrs["ntot"]), 2 * D + 2), D
+
+
+def ev_put(f, name, a):
+    """Dataset `name` replaced by a (same type)."""
+    t = f[name].dtype
+    del f[name]
+    f[name] = np.asarray(a).astype(t).reshape(-1)
+
+
+def ev_free_pair(f):
+    """The first two free particles."""
+    st = f["state/stuck"][()]
+    return [int(k) for k in np.flatnonzero(st[:int(f.attrs["particles"])] == 0)[:2]]
+
+
+PER_PARTICLE = ("kind", "partner", "pcount", "cell", "cell_what", "t_pair", "t_cell")
+
+
+def ev_duplicate(ke_stuck=None):
+    """A free particle made an exact copy of another (its state and pending
+    events), its collision count moved on so that events naming it are
+    stale: the two overlap wholly. ke_stuck: also that stored sum (the
+    overlap tolerance must not grow with it without bound)."""
+    def damage(f):
+        i, j = ev_free_pair(f)
+        ps, _ = ev_arrays(f)
+        ps[j] = ps[i]
+        ev_put(f, "state/ps", ps)
+        for k in PER_PARTICLE:
+            a = f["state/" + k][()]
+            a[j] = a[i]
+            ev_put(f, "state/" + k, a)
+        c = f["state/count"][()]
+        c[j] += 1000
+        ev_put(f, "state/count", c)
+        if ke_stuck is not None:
+            r = f["state/reals"][()]
+            r[2] = ke_stuck
+            ev_put(f, "state/reals", r)
+    return damage
+
+
+def ev_on_seed(f):
+    """A free particle at rest on the seed (in the seed's cell, no pending
+    event, its count moved on): a particle inside the seed."""
+    n = int(f.attrs["particles"])
+    i = ev_free_pair(f)[0]
+    ps, D = ev_arrays(f)
+    now = f["state/reals"][0]
+    ps[i, :D] = ps[n, :D] + 0.1
+    ps[i, D:2 * D] = 0
+    ps[i, 2 * D] = now
+    ev_put(f, "state/ps", ps)
+    for k, v in (("kind", 0), ("t_pair", np.inf), ("cell_what", -1), ("t_cell", np.inf),
+                 ("cell", f["state/cell"][n])):
+        a = f["state/" + k][()]
+        a[i] = v
+        ev_put(f, "state/" + k, a)
+    c = f["state/count"][()]
+    c[i] += 1000
+    ev_put(f, "state/count", c)
+
+
+def ev_stuck_moved(f):
+    """The first stuck particle moved 1e-4 of the contact distance away from
+    its parent (its cell the same): no longer touching it."""
+    i = int(f["state/stuck_idx"][0])
+    ps, D = ev_arrays(f)
+    q = ps[int(f["state/parent"][i])]
+    d = ps[i, :D] - q[:D]
+    sig = ps[i, 2 * D + 1] + q[2 * D + 1]
+    ps[i, :D] += 1e-4 * sig * d / np.linalg.norm(d)
+    ev_put(f, "state/ps", ps)
+
+
+def ev_rest_moving(which):
+    """A stuck particle (which 'stuck') or the seed ('seed') given a velocity,
+    its local time now (so its position now is where it was)."""
+    def damage(f):
+        ps, D = ev_arrays(f)
+        i = int(f["state/stuck_idx"][0]) if which == "stuck" else int(f.attrs["particles"])
+        ps[i, D:2 * D] = 5.0
+        ps[i, 2 * D] = f["state/reals"][0]
+        ev_put(f, "state/ps", ps)
+    return damage
+
+
+def ev_relabel(f):
+    """50 free particles of kind 0 relabelled kind 1 (their radius is the
+    same, 0.5): 100 and 200 particles where the parameter gives 150 each."""
+    sp = f["state/species"][()]
+    st = f["state/stuck"][()]
+    n = int(f.attrs["particles"])
+    sel = [k for k in range(n) if sp[k] == 0 and not st[k]][:50]
+    sp[sel] = 1
+    ev_put(f, "state/species", sp)
+
+
+ev2 = os.path.join(WORK, "event2")
+rc, lines, _ = run(["--model", "event", "--dim", "2", "--species", "150:0.5:1,150:0.5:5", "--packing", "0.1",
+                    "--seed-radius", "1", "--t-max", "2", "--series-dt", "0.5", "--seed", "3", "--out", ev2,
+                    "--checkpoint"])
+if rc != 0:
+    sys.exit("the two-kind event base run failed: %r" % lines)
+EK2 = os.path.join(ev2, "checkpoint.h5")
+expect("event2-clean/resume", ev_resume(forged(EK2, "event2-clean", lambda f: None)[0]), "pass")
+for name, src, fn, want in (
+        ("duplicate", EK, ev_duplicate(), "particles overlap"),
+        ("duplicate_ke_stuck_1e300", EK, ev_duplicate(1e300), "particles overlap"),
+        ("free_on_seed", EK, ev_on_seed, "particles overlap"),
+        ("stuck_moved", EK, ev_stuck_moved, "not at contact"),
+        ("stuck_velocity", EK, ev_rest_moving("stuck"), "with a velocity"),
+        ("seed_velocity", EK, ev_rest_moving("seed"), "with a velocity"),
+        ("kinds_relabelled", EK2, ev_relabel, "kind 1 has 100 particles, its species parameter 150")):
+    d, _ = forged(src, "eventck-" + name, fn)
+    refused("event-ckpt-%s/resume" % name, ev_resume(d), want, d)
+
 # ---- event cluster.h5 through pdla analyze -------------------------------
 EC = os.path.join(ev, "cluster.h5")
 expect("event-clean/analyze", ["analyze", EC], "pass")
@@ -532,9 +689,77 @@ ev_render_cases = {
 for name, fn in ev_render_cases.items():
     d, path = forged(EC, "evrender-" + name, fn)
     expect("event-file-%s/render" % name, ev_render(path), "fail")
-# a disc far larger than the image is drawn in the image's pixels, not its own
-expect("event-file-free_radius_1e5_boxes/render",
-       ev_render(forged(EC, "evrender-bigdisc", ev_values("free/radii", ev_set(0, 4e6)))[1]), "pass")
+
+
+def ev_free_rows(n, at, radius, box=None):
+    """/free replaced by n gzip rows at `at` (a fraction of the box side)
+    with radius `radius` (a fraction too; box: the box side set to it)."""
+    def damage(f):
+        L = float(f["results"].attrs["box_side"]) if box is None else box
+        D = int(f.attrs["dim"])
+        for k, shape, v in (("positions", (n, D), at * L), ("radii", (n,), radius * L),
+                            ("velocities", (n, D), 0.0), ("species", (n,), 0)):
+            t = f["free/" + k].dtype
+            del f["free/" + k]
+            f.create_dataset("free/" + k, data=np.full(shape, v, dtype=t), compression="gzip", chunks=True)
+        f["results"].attrs["box_side"] = L
+    return damage
+
+
+# The clean files of a periodic box (centres wrapped into [0, L], discs
+# across its faces) pass the box checks below, before and after a resume
+# (a --seeds run's render: event-adversary).
+evp = os.path.join(WORK, "event-periodic")
+rc, lines, _ = run(["--model", "event", "--dim", "2", "--particles", "300", "--packing", "0.3", "--seed-radius", "1",
+                    "--box-walls", "periodic", "--t-max", "2", "--seed", "3", "--out", evp, "--checkpoint"])
+if rc != 0:
+    sys.exit("the periodic event base run failed: %r" % lines)
+expect("event-periodic-clean/render", ev_render(os.path.join(evp, "cluster.h5")), "pass")
+expect("event-periodic-clean/resume", ["--model", "event", "--resume", evp, "--t-max", "3", "--quiet"], "pass")
+expect("event-periodic-clean/render-resumed", ev_render(os.path.join(evp, "cluster.h5")) + ["--force"], "pass")
+
+# (session 27, s27-evfix) discs the model never writes, which each cost the
+# whole image: 2e4 discs of half the box at its centre ran for minutes
+# (N x image size). Refused at once: outside the box (the forged side of 1
+# leaves the cluster outside), larger than half the box (a radius of 4e6
+# sides was drawn in the image's pixels before, and passed), more volume
+# than the box (packing above 1). Exit 2, one line, no image, within 10 s.
+for name, fn, want in (
+        ("2e4_discs_box_1", ev_free_rows(20000, 0.5, 0.5, box=1.0), "outside the box"),
+        ("2e4_discs_half_box", ev_free_rows(20000, 0.5, 0.5), "filling more than the box"),
+        ("free_radius_4e6", ev_values("free/radii", ev_set(0, 4e6)), "larger than half"),
+        ("free_position_outside", ev_values("free/positions", ev_set(0, -3.0)), "outside the box")):
+    d, path = forged(EC, "evrender-" + name, fn)
+    png = os.path.join(d, "x.png")
+    refused("event-file-%s/render" % name, ["render", path, "-o", png], want, d, limit=10, gone=png)
+
+# (session 27, s27-evfix) a NaN seed, or a box side of 0 or less, went into
+# analyze's numbers (farthest from a seed inf, the D_f fit over box/8), exit
+# 0; render already refused them. Exit 2, one line.
+SEED_WANT = "seed position or radius is not finite"
+for name, fn, want in (
+        ("seed_x_nan", lambda f: f["cluster"].attrs.__setitem__("seed_x", np.nan), SEED_WANT),
+        ("seed_radius_nan", lambda f: f["cluster"].attrs.__setitem__("seed_radius", np.nan), SEED_WANT),
+        ("seed_positions_nan", lambda f: (f["cluster"].create_dataset("seed_positions", data=np.full((3, 2), np.nan)),
+                                          f["cluster"].create_dataset("seed_radii", data=np.ones(3))), SEED_WANT),
+        ("seed_radii_inf", lambda f: (f["cluster"].create_dataset("seed_positions", data=np.ones((3, 2))),
+                                      f["cluster"].create_dataset("seed_radii", data=np.full(3, np.inf))), SEED_WANT),
+        ("box_side_-5", lambda f: f["results"].attrs.__setitem__("box_side", -5.0), "box_side -5"),
+        ("box_side_0", lambda f: f["results"].attrs.__setitem__("box_side", 0.0), "box_side 0")):
+    d, path = forged(EC, "evanalyze-" + name, fn)
+    for reader, args in (("analyze", ["analyze", path]), ("analyze-json", ["analyze", "--json", path]),
+                         ("render", ev_render(path))):
+        refused("event-file-%s/%s" % (name, reader), args, want if reader != "render" else "malformed", d,
+                gone=args[-1] if reader == "render" else None)
+
+# (session 27, s27-evfix) a /species table of more rows than the kinds a run
+# may have (EV_MAX_SPECIES, 8): info --json printed half an object and
+# "cannot read its attributes", exit 1. Checked before anything is printed.
+d, path = forged(EC, "evinfo-species_9_rows",
+                 lambda f: [(f.__delitem__("species/" + k), f.create_dataset("species/" + k, data=np.ones(9)))
+                            for k in ("count", "radius", "density", "stuck", "sticky", "mass")])
+for args in (["info", path], ["info", "--json", path]):
+    refused("event-file-species_9_rows/" + " ".join(args[:-1]), args, "more than 8 kinds", d)
 
 # ---- event cluster.h5 through pdla export --------------------------------
 # A stuck particle's position NaN or radius inf or negative: refused, and no

@@ -625,20 +625,19 @@ static int stop_passed(const dlca_cli *c, const dlca_params *p, const dlca_stats
     return 0;
 }
 
-/* --resume: load the checkpoint, hold the options given against it (the
- * table's resume rule: only the resumable rows, the stops, may change) and
- * apply the stops given. 0, or the exit status with the line printed. */
-
-static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
+/* The checkpoint --resume names (a run directory stands for its
+ * checkpoint.h5) into ckpath, its directory locked, then loaded into *s.
+ * 0, or the exit status with the line printed. */
+static int lock_and_load(dlca_cli *c, char *ckpath, size_t cklen, dlca_sim **s)
 {
-    char ckpath[4200], err[1024];
-    struct stat sb; /* a run directory stands for its checkpoint.h5 */
+    char err[1024];
+    struct stat sb;
     if (stat(c->resume, &sb) != 0) { /* as the DLA command; before: "cannot open it as HDF5" */
         fprintf(stderr, "pdla: cannot resume from '%s': %s\n", c->resume, strerror(errno));
         return EXIT_USAGE;
     }
-    if (S_ISDIR(sb.st_mode)) snprintf(ckpath, sizeof ckpath, "%s/checkpoint.h5", c->resume);
-    else snprintf(ckpath, sizeof ckpath, "%s", c->resume);
+    if (S_ISDIR(sb.st_mode)) snprintf(ckpath, cklen, "%s/checkpoint.h5", c->resume);
+    else snprintf(ckpath, cklen, "%s", c->resume);
     /* The checkpoint's directory is locked before it is read: the run
      * writing it may still be going (then this one is refused). */
     char ckdir[4200];
@@ -654,6 +653,17 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
         fprintf(stderr, "pdla: %s\n", err);
         return lrc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
     }
+    return 0;
+}
+
+/* --resume: load the checkpoint, hold the options given against it (the
+ * table's resume rule: only the resumable rows, the stops, may change) and
+ * apply the stops given. 0, or the exit status with the line printed. */
+static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
+{
+    char ckpath[4200], err[1024];
+    const int lrc = lock_and_load(c, ckpath, sizeof ckpath, s);
+    if (lrc) return lrc;
     size_t n;
     const pdla_param_desc *t = dlca_param_table(&n);
     dlca_params p = *dlca_get_params(*s);

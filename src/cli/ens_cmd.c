@@ -431,6 +431,40 @@ static int join_build(ens_cmd *c)
     return rc ? -1 : 0;
 }
 
+/* What the journal scan of a resume skipped, cut or refused: notes. */
+static void print_scan_notes(const ens_cmd *c)
+{
+    if (pdla_ens_journal_damaged_bytes(c->j))
+        fprintf(stderr, "pdla ensemble: note: skipping %" PRIu64 " damaged bytes inside %s/%s (the clusters "
+                        "they held grow again; the records after them count)\n",
+                pdla_ens_journal_damaged_bytes(c->j), c->dir, PDLA_ENS_JOURNAL_NAME);
+    if (pdla_ens_journal_torn_bytes(c->j))
+        fprintf(stderr, "pdla ensemble: note: cutting a torn record of %" PRIu64 " bytes (a cluster in flight)\n",
+                pdla_ens_journal_torn_bytes(c->j));
+    if (pdla_ens_journal_refused(c->j)[0]) /* the record the bytes above held, when it was readable */
+        fprintf(stderr, "pdla ensemble: note: a record was refused (%s); a cluster with no valid record grows again\n",
+                pdla_ens_journal_refused(c->j));
+}
+
+/* --clusters M2 above the journal's: rewrite it for M2 clusters and reopen
+ * it (c->j). GO_ON or the exit status with the line printed. */
+static int extend_journal(ens_cmd *c)
+{
+    pdla_ens_journal *wide = NULL;
+    const int rc2 = pdla_ens_journal_extend(c->j, c->a.clusters, &wide, c->err, sizeof c->err);
+    c->j = wide; /* the old one is closed either way */
+    if (rc2 == PDLA_ESTOPPED) { /* in the reopen's scan, after the rewrite */
+        fprintf(stderr, "pdla ensemble: stopped by signal after extending %s/%s to %" PRIu64 " clusters; resume "
+                        "with pdla ensemble --resume %s\n", c->dir, PDLA_ENS_JOURNAL_NAME, c->a.clusters, c->dir);
+        return EXIT_RUNTIME;
+    }
+    if (rc2) {
+        fprintf(stderr, "pdla ensemble: %s\n", c->err);
+        return EXIT_RUNTIME;
+    }
+    return GO_ON;
+}
+
 /* --resume DIR: lock, open and check the journal, make it appendable.
  * GO_ON or the exit status. */
 static int open_resume(ens_cmd *c)
@@ -484,31 +518,12 @@ static int open_resume(ens_cmd *c)
         fprintf(stderr, "pdla ensemble: cannot resume: '%s' is not writable: %s\n", c->dir, strerror(errno));
         return EXIT_USAGE;
     }
-    if (pdla_ens_journal_damaged_bytes(c->j))
-        fprintf(stderr, "pdla ensemble: note: skipping %" PRIu64 " damaged bytes inside %s/%s (the clusters "
-                        "they held grow again; the records after them count)\n",
-                pdla_ens_journal_damaged_bytes(c->j), c->dir, PDLA_ENS_JOURNAL_NAME);
-    if (pdla_ens_journal_torn_bytes(c->j))
-        fprintf(stderr, "pdla ensemble: note: cutting a torn record of %" PRIu64 " bytes (a cluster in flight)\n",
-                pdla_ens_journal_torn_bytes(c->j));
-    if (pdla_ens_journal_refused(c->j)[0]) /* the record the bytes above held, when it was readable */
-        fprintf(stderr, "pdla ensemble: note: a record was refused (%s); a cluster with no valid record grows again\n",
-                pdla_ens_journal_refused(c->j));
+    print_scan_notes(c);
     note_build(c, extend || pdla_ens_journal_count(c->j) < pdla_ens_journal_config(c->j)->clusters);
     remove_named(c->dir, 0);
     if (extend) {
-        pdla_ens_journal *wide = NULL;
-        const int rc2 = pdla_ens_journal_extend(c->j, c->a.clusters, &wide, c->err, sizeof c->err);
-        c->j = wide; /* the old one is closed either way */
-        if (rc2 == PDLA_ESTOPPED) { /* in the reopen's scan, after the rewrite */
-            fprintf(stderr, "pdla ensemble: stopped by signal after extending %s/%s to %" PRIu64 " clusters; resume "
-                            "with pdla ensemble --resume %s\n", c->dir, PDLA_ENS_JOURNAL_NAME, c->a.clusters, c->dir);
-            return EXIT_RUNTIME;
-        }
-        if (rc2) {
-            fprintf(stderr, "pdla ensemble: %s\n", c->err);
-            return EXIT_RUNTIME;
-        }
+        const int xr = extend_journal(c);
+        if (xr != GO_ON) return xr;
     }
     if (pdla_ens_journal_begin_append(c->j, c->err, sizeof c->err)) {
         fprintf(stderr, "pdla ensemble: %s\n", c->err);

@@ -552,6 +552,22 @@ static void catch_signals(void)
     sigaction(SIGTERM, &sa, NULL);
 }
 
+/* A checkpoint written before session 27 (no schedule attributes) did not
+ * record that its run had run out of memory for snapshots: its snapshots
+ * may end early. When that alone fails the check, take it as stopped, as
+ * such a run had taken none after (the resume says so): else a week-long
+ * run could not go on after an upgrade. 1 when taken so. */
+static int old_snapshots_stopped(dlca_cli *c, const dlca_sim *s, double every)
+{
+    dlca_ckpt_schedule sc;
+    char why[512];
+    if (c->snaps_stopped || dlca_checkpoint_schedule(s, &sc) ||
+        dlca_snapshots_check(s, c->snaps, c->nsnaps, every, 1, why, sizeof why))
+        return 0;
+    c->snaps_stopped = 1;
+    return 1;
+}
+
 /* The snapshots taken before the checkpoint and its period, which
  * --snapshot-every given again must equal. 0, or -1 with the line printed. */
 static int resume_snapshots(dlca_cli *c, const dlca_sim *s, const char *ckpath, uint64_t n_monomers)
@@ -562,7 +578,8 @@ static int resume_snapshots(dlca_cli *c, const dlca_sim *s, const char *ckpath, 
         fprintf(stderr, "pdla: %s\n", err);
         return -1;
     }
-    if (dlca_snapshots_check(s, c->snaps, c->nsnaps, every, c->snaps_stopped, err, sizeof err)) {
+    if (dlca_snapshots_check(s, c->snaps, c->nsnaps, every, c->snaps_stopped, err, sizeof err) &&
+        !old_snapshots_stopped(c, s, every)) {
         fprintf(stderr, "pdla: cannot resume from %s: %s\n", ckpath, err);
         return -1;
     }
@@ -609,17 +626,27 @@ static void keep_schedule(dlca_cli *c, const dlca_sim *s)
 /* A stop given with --resume that the checkpoint has already passed is
  * refused, as the DLA command refuses a --target below the particles held:
  * before, the run stopped at once with exit 0 and its cluster.h5 recorded
- * max-attempts 100 beside 20000 attempts. 0, or -1 with the reason. */
-static int stop_passed(const dlca_cli *c, const dlca_params *p, const dlca_stats *st, char *err,
-                       size_t errlen)
+ * max-attempts 100 beside 20000 attempts. A stop at or beyond the one the
+ * checkpoint recorded (rec) is taken even where the state went past it:
+ * the time and the cluster count overshoot their stops (the stopping
+ * attempt adds a whole step; one attempt may join several clusters), and
+ * the attempt before lay short of rec, so also short of the value given;
+ * the state is then where a run to that value stops. A finished run resumed
+ * with its own --until-time stops at once, as before. 0, or -1 with the
+ * reason. */
+static int stop_passed(const dlca_cli *c, const dlca_params *p, const dlca_params *rec, const dlca_stats *st,
+                       char *err, size_t errlen)
 {
-    if ((c->given & DLCA_PARAM_UNTIL_TIME) && p->until_time > 0 && p->until_time < st->t)
+    if ((c->given & DLCA_PARAM_UNTIL_TIME) && p->until_time > 0 && p->until_time < st->t &&
+        !(rec->until_time > 0 && p->until_time >= rec->until_time))
         return snprintf(err, errlen, "--until-time %.17g is below the time %.17g it has reached", p->until_time,
                         st->t), -1;
-    if ((c->given & DLCA_PARAM_MAX_ATTEMPTS) && p->max_attempts > 0 && p->max_attempts < st->attempts)
+    if ((c->given & DLCA_PARAM_MAX_ATTEMPTS) && p->max_attempts > 0 && p->max_attempts < st->attempts &&
+        !(rec->max_attempts > 0 && p->max_attempts >= rec->max_attempts))
         return snprintf(err, errlen, "--max-attempts %" PRIu64 " is below the %" PRIu64 " attempts it has made",
                         p->max_attempts, st->attempts), -1;
-    if ((c->given & DLCA_PARAM_UNTIL_CLUSTERS) && p->until_clusters > st->n_clusters)
+    if ((c->given & DLCA_PARAM_UNTIL_CLUSTERS) && p->until_clusters > st->n_clusters &&
+        p->until_clusters > rec->until_clusters)
         return snprintf(err, errlen, "--until-clusters %" PRIu64 " is above the %" PRIu64 " clusters it has left",
                         (uint64_t)p->until_clusters, st->n_clusters), -1;
     return 0;
@@ -693,7 +720,7 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
         *s = NULL;
         return EXIT_USAGE;
     }
-    if (stop_passed(c, &p, &st, err, sizeof err)) {
+    if (stop_passed(c, &p, dlca_get_params(*s), &st, err, sizeof err)) {
         fprintf(stderr, "pdla: cannot resume: %s: %s\n", ckpath, err);
         dlca_destroy(*s);
         *s = NULL;

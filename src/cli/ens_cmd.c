@@ -558,7 +558,7 @@ static int open_new(ens_cmd *c, int threads)
         fprintf(stderr, "pdla ensemble: --threads 0: hwloc could not read the machine topology\n");
         return EXIT_USAGE;
     }
-    if (cli_path_fits("the directory name", o->out_dir, c->err, sizeof c->err)) {
+    if (cli_path_fits("the run directory name", o->out_dir, c->err, sizeof c->err)) {
         fprintf(stderr, "pdla ensemble: %s\n", c->err);
         return EXIT_USAGE;
     }

@@ -231,6 +231,9 @@ static int make_dir(ev_cli *c, char *dir, size_t len)
 {
     if (c->out) {
         snprintf(dir, len, "%s", c->out);
+        /* "DIR/" names DIR, as for DLA and DLCA: with the slash, DIR was made
+         * as its parent, then found existing */
+        for (size_t l = strlen(dir); l > 1 && dir[l - 1] == '/';) dir[--l] = '\0';
     } else {
         if (mkdir("runs", 0777) && errno != EEXIST) {
             fprintf(stderr, "pdla: cannot create directory 'runs': %s\n", strerror(errno));

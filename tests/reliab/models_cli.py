@@ -136,6 +136,25 @@ for model, (run, passed, equal) in PASSED.items():
     rc, err = pdla("--model", model, "--resume", d, *equal)
     check(rc == 0, "%s: --resume with %s (where it is): exit %r, %r" % (model, " ".join(equal), rc, err))
 
+# The DLCA time overshoots its stop (the stopping attempt adds a whole
+# step): a run that ended at --until-time 30 is past t = 30, and a resume
+# with its own --until-time 30 (a batch script run again) stops at once,
+# while one below it is refused.
+d = os.path.join(WORK, "dlca-overshoot")
+rc, err = pdla("--model", "dlca", "--dim", "2", "--box", "48", "--fill", "0.05", "--until-time", "30", "--seed", "4",
+               "--checkpoint", "--out", d, "-q")
+check(rc == 0, "dlca --until-time 30: %r" % err)
+rc, err = pdla("--model", "dlca", "--resume", d, "--until-time", "30", "-q")
+check(rc == 0, "dlca finished at --until-time 30, resumed with --until-time 30: exit %r, %r" % (rc, err))
+rc, err = pdla("--model", "dlca", "--resume", d, "--until-time", "29", "-q")
+check(rc == 2 and one_line(err) and "below the time" in err,
+      "dlca finished at --until-time 30, resumed with --until-time 29: exit %r, %r" % (rc, err))
+# event --out DIR/ names DIR (it made DIR as the parent, then refused it)
+rc, err = pdla("--model", "event", "--dim", "2", "--particles", "50", "--packing", "0.1", "--out",
+               os.path.join(WORK, "ev-slash", "run1") + "/", "--quiet")
+check(rc == 0 and os.path.isfile(os.path.join(WORK, "ev-slash", "run1", "cluster.h5")),
+      "event --out DIR/: exit %r, %r" % (rc, err))
+
 # What an event writer killed with -9 leaves (.checkpoint.h5.tmp.PID, as
 # large as a checkpoint, one per kill) goes when the directory is next
 # taken; before, such files piled up for the life of the run.
@@ -459,6 +478,19 @@ try:
         g = f["snapshots"]
         check(int(g.attrs["count"]) == 2 and int(g.attrs.get("stopped", 0)) == 1 and len(g) == 2,
               "dlca snapshots after the resume: count %r, stopped %r" % (g.attrs["count"], g.attrs.get("stopped")))
+    # the same checkpoint as a build before session 27 wrote it (no
+    # schedule attributes, no stopped): it resumes, taken as stopped
+    d2 = os.path.join(WORK, "dlca-snap-oom-old")
+    p = subprocess.run([PDLA, "--model", "dlca", "--box", "64", "--fill", "0.05", "--snapshot-every", "20",
+                        "--until-clusters", "20", "--checkpoint", "--out", d2, "-q"], env=env, capture_output=True,
+                       text=True, timeout=120)
+    with h5py.File(os.path.join(d2, "checkpoint.h5"), "r+") as f:
+        for a in ("schedule_every_seconds", "schedule_every_attempts"):
+            del f.attrs[a]
+        del f["snapshots"].attrs["stopped"]
+    rc, err = pdla("--model", "dlca", "--resume", d2, "--until-clusters", "10", "-q")
+    check(rc == 0 and "ran out of memory for snapshots" in err,
+          "dlca resume of an older checkpoint whose snapshots ran out of memory: exit %r, %r" % (rc, err[-300:]))
 except ImportError:
     print("h5py missing: the snapshot count after the resume not checked")
 

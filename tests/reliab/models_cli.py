@@ -406,6 +406,23 @@ def drop_schedule(d):
                 del f.attrs[k]
 
 
+def resume_schedules(model, base, stop, tmp_part, recorded, cases):
+    """Each case (tag, options given or None for the file as an older pdla
+    wrote it, checkpoint writes wanted (lo, hi), schedule kept) resumes a copy
+    of run directory base with `stop`: the writes counted, and the schedule
+    the last checkpoint records (recorded(schedule(d)))."""
+    for tag, more, want, kept in cases:
+        d = os.path.join(WORK, "%s-sched-%s" % (model, tag.replace(" ", "_").replace(",", "")))
+        shutil.copytree(base, d)
+        if more is None:
+            drop_schedule(d)
+        rc, err, n = ck_writes(["--model", model, "--resume", d] + stop + (more or []), tmp_part)
+        check(rc == 0 and want[0] <= n <= want[1], "%s --resume %s: exit %r, %d checkpoints written (want %d to %d), "
+              "%r" % (model, tag, rc, n, want[0], want[1], err[-300:]))
+        got = recorded(schedule(d)) if rc == 0 else None
+        check(got == kept, "%s --resume %s: the new checkpoint records %r (want %r)" % (model, tag, got, kept))
+
+
 # DLCA: a checkpoint every 2000 attempts to 1e4, then resumed to 3e4 (by
 # attempts: the counts are exact, 9 on the way and the final one).
 base = os.path.join(WORK, "dlca-sched")
@@ -416,21 +433,11 @@ check(rc == 0 and n == 5, "dlca --checkpoint-attempts 2000 to 1e4: exit %r, %d c
       % (rc, n, err[-300:]))
 got = schedule(base)
 check(got == (1800.0, 2000), "dlca checkpoint's schedule attributes: %r (want (1800.0, 2000))" % (got,))
-for tag, more, want, kept in (("bare", [], (9, 10), (1800.0, 2000)),
-                              ("--checkpoint-every 0", ["--checkpoint-every", "0"], (1, 1), (0.0, 0)),
-                              ("--checkpoint-attempts 10000", ["--checkpoint-attempts", "10000"], (2, 3),
-                               (0.0, 10000)),
-                              ("older file, bare", None, (1, 1), (0.0, 0))):
-    d = os.path.join(WORK, "dlca-sched-" + tag.replace(" ", "_").replace(",", ""))
-    shutil.copytree(base, d)
-    if more is None:
-        drop_schedule(d)
-    rc, err, n = ck_writes(["--model", "dlca", "--resume", d, "--max-attempts", "30000", "-q"] + (more or []),
-                           ".checkpoint.h5.new")
-    check(rc == 0 and want[0] <= n <= want[1], "dlca --resume %s to 3e4: exit %r, %d checkpoints written (want "
-          "%d to %d), %r" % (tag, rc, n, want[0], want[1], err[-300:]))
-    got = schedule(d) if rc == 0 else None
-    check(got == kept, "dlca --resume %s: the new checkpoint records %r (want %r)" % (tag, got, kept))
+resume_schedules("dlca", base, ["--max-attempts", "30000", "-q"], ".checkpoint.h5.new", lambda sc: sc,
+                 (("bare", [], (9, 10), (1800.0, 2000)),
+                  ("--checkpoint-every 0", ["--checkpoint-every", "0"], (1, 1), (0.0, 0)),
+                  ("--checkpoint-attempts 10000", ["--checkpoint-attempts", "10000"], (2, 3), (0.0, 10000)),
+                  ("older file, bare", None, (1, 1), (0.0, 0))))
 
 # Event: a checkpoint every 0.05 s of wall time (a gas without a seed, to
 # t = 20), then resumed to t = 300 (about a second here: some 15 writes;
@@ -442,19 +449,10 @@ rc, err = pdla(*(ev_run + ["--t-max", "20", "--checkpoint-every", "0.05", "--out
 check(rc == 0, "event --checkpoint-every 0.05 to t = 20: exit %r, %r" % (rc, err[-300:]))
 got = schedule(base)[0]
 check(got == 0.05, "event checkpoint's schedule_every_seconds: %r (want 0.05)" % (got,))
-for tag, more, want, kept in (("bare", [], (3, 10**6), 0.05),
-                              ("--checkpoint-every 0", ["--checkpoint-every", "0"], (1, 1), 0.0),
-                              ("older file, bare", None, (1, 1), 0.0)):
-    d = os.path.join(WORK, "event-sched-" + tag.replace(" ", "_").replace(",", ""))
-    shutil.copytree(base, d)
-    if more is None:
-        drop_schedule(d)
-    rc, err, n = ck_writes(["--model", "event", "--resume", d, "--t-max", "300", "--quiet"] + (more or []),
-                           ".checkpoint.h5.tmp.")
-    check(rc == 0 and want[0] <= n <= want[1], "event --resume %s to t = 300: exit %r, %d checkpoints written "
-          "(want %d to %d), %r" % (tag, rc, n, want[0], want[1], err[-300:]))
-    got = schedule(d)[0] if rc == 0 else None
-    check(got == kept, "event --resume %s: the new checkpoint records %r (want %r)" % (tag, got, kept))
+resume_schedules("event", base, ["--t-max", "300", "--quiet"], ".checkpoint.h5.tmp.", lambda sc: sc[0],
+                 (("bare", [], (3, 10**6), 0.05),
+                  ("--checkpoint-every 0", ["--checkpoint-every", "0"], (1, 1), 0.0),
+                  ("older file, bare", None, (1, 1), 0.0)))
 
 # A DLCA run out of memory for snapshots (a machine of 4 pages for the
 # budget, a quarter of the memory: 2 snapshots of 205 monomers fit) takes
@@ -484,9 +482,8 @@ try:
     p = subprocess.run([PDLA, "--model", "dlca", "--box", "64", "--fill", "0.05", "--snapshot-every", "20",
                         "--until-clusters", "20", "--checkpoint", "--out", d2, "-q"], env=env, capture_output=True,
                        text=True, timeout=120)
+    drop_schedule(d2)
     with h5py.File(os.path.join(d2, "checkpoint.h5"), "r+") as f:
-        for a in ("schedule_every_seconds", "schedule_every_attempts"):
-            del f.attrs[a]
         del f["snapshots"].attrs["stopped"]
     rc, err = pdla("--model", "dlca", "--resume", d2, "--until-clusters", "10", "-q")
     check(rc == 0 and "ran out of memory for snapshots" in err,

@@ -338,6 +338,18 @@ static void frame(canvas *cv, const h5r_file *f, const render_opts *o)
     cv->rp = 0.5 * D * cv->scale;
 }
 
+/* Whether n balls of diameter D (units) fit the positions' bounding box
+ * widened by D without overlapping (volume at most the box's): a cluster
+ * pdla grew always does, and this bounds the drawing's work, which grows
+ * with the pixels each disc covers (2e5 forged rows at one spot, or a
+ * forged diameter of 2^20 units, drew for minutes to days). */
+static int fits_box(const canvas *cv, double D)
+{
+    double box = 1, ball = cv->dim == 2 ? M_PI / 4 * D * D : M_PI / 6 * D * D * D;
+    for (int a = 0; a < cv->dim; a++) box *= cv->hi[a] - cv->lo[a] + D;
+    return (double)cv->n * ball <= box * (1 + 1e-9);
+}
+
 /* The pixel arrays the colour mode needs; -1: out of memory. */
 static int alloc_image(canvas *cv)
 {
@@ -388,6 +400,13 @@ int tool_render(int argc, char **argv)
         cv.hi[a] = -INFINITY;
     }
     if (f.n > 0 && h5r_stream(&f, (size_t)o.slab, extent_pass, &cv, err, sizeof err)) goto out;
+    if (f.n > 1 && !fits_box(&cv, f.diameter_units)) {
+        snprintf(err, sizeof err, "%s: %llu particles of diameter %d units overlap (more volume than "
+                 "their bounding box holds); not a cluster pdla grew", f.path, (unsigned long long)f.n,
+                 f.diameter_units);
+        rc = TOOL_USAGE; /* bad input, as a malformed file at opening */
+        goto out;
+    }
     frame(&cv, &f, &o);
     if (alloc_image(&cv)) {
         snprintf(err, sizeof err, "out of memory for a %dx%d image", cv.size, cv.size);

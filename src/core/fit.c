@@ -73,6 +73,14 @@ uint64_t fit_rg_grid_n(uint64_t k, int per_decade, uint64_t prev)
     return n > prev ? n : prev + 1;
 }
 
+uint64_t fit_rg_grid_at(uint64_t k, int per_decade)
+{
+    if (per_decade < 1 || k > 20 * (uint64_t)per_decade) return 0;
+    uint64_t n = 1;
+    for (uint64_t j = 1; j <= k; j++) n = fit_rg_grid_n(j, per_decade, n);
+    return n;
+}
+
 void fit_default_range(uint64_t n_final, uint64_t *n_lo, uint64_t *n_hi)
 {
     uint64_t lo = n_final / 10;

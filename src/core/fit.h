@@ -25,4 +25,9 @@ void fit_default_range(uint64_t n_final, uint64_t *n_lo, uint64_t *n_hi);
  * particle at a time to n holds exactly the points <= n: one grid, which
  * the ensemble journal holds each record's against (ens_journal.c). */
 uint64_t fit_rg_grid_n(uint64_t k, int per_decade, uint64_t prev);
+
+/* N of grid point k replayed from point 0 (each point depends on the one
+ * before), for checking a stored grid position; 0 when k lies past 20
+ * decades (no uint64 N reaches it) or per_decade < 1. */
+uint64_t fit_rg_grid_at(uint64_t k, int per_decade);
 #endif

@@ -20,6 +20,7 @@
 
 #include "checkpoint_fmt.h"
 #include "engine.h"
+#include "fit.h"
 #include "h5util.h"
 #include "params_h5.h"
 #include "pdla/h5check.h"
@@ -360,6 +361,13 @@ static int load_state(const reader *r, hid_t file, pdla_engine *e, const tree_ve
     atomic_store(&e->r_ext, rext);
     if (e->params.rg_per_decade > 0 && count > 0 && nn <= count)
         return damaged(r, "the next R_g sample lies behind the particle count");
+    /* The grid position must be the grid's (a forged k of 2^63 stopped the
+     * sampling for good; a small one put samples off the shared grid). */
+    if (e->params.rg_per_decade > 0 ? nn != fit_rg_grid_at(k, e->params.rg_per_decade) : k != 0 || nn != 1)
+        return damaged(r, "the next R_g sample is not on the R_g grid");
+    if (!(isfinite(e->grow_seconds) && e->grow_seconds >= 0 && e->grow_seconds < 1e12 &&
+          isfinite(e->parallel_seconds) && e->parallel_seconds >= 0 && e->parallel_seconds <= e->grow_seconds * (1 + 1e-9) + 1e-6))
+        return damaged(r, "/state grow_seconds or parallel_seconds out of range");
     e->rg_next_k = k;
     e->rg_next_n = nn;
     return PDLA_OK;

@@ -271,6 +271,21 @@ def _(f):
     f["/parameters"].attrs.create("note", "\u00e9t\u00e9", dtype=h5py.string_dtype())
 
 
+# Overlapping particles: every row at the seed, or a forged diameter of 2^20
+# units over real positions. render drew each disc over a fifth of the
+# picture (2e5 such rows: minutes; 1e6: about a day); it now refuses a
+# cluster whose balls hold more volume than their bounding box.
+@case("positions_stacked", must_fail={"render"})
+def _(f):
+    f["/cluster/positions"][...] = 0
+
+
+@case("diameter_units_2^20_real_positions", must_fail={"render"})
+def _(f):
+    f["/cluster/positions"].attrs["diameter_units"] = np.int64(2**20)
+    f["/parameters"].attrs["resolution"] = np.int64(2**20)
+
+
 @case("empty_cluster", must_pass={"info", "json"})
 def _(f):
     replace_dset(f, "/cluster/positions", (0, 2), "i4")
@@ -364,6 +379,43 @@ def _(f):
     f.attrs.create("format", ["pdla-checkpoint"] * 40, dtype=h5py.string_dtype())
 
 
+# A forged R_g grid position (2^63 stopped the sampling for good: /gyration
+# ended at 3020 of 1e5 particles, exit 0; one step off put samples off the
+# grid ensembles share) and forged growth times (NaN, -1e300 printed and
+# carried into every later file).
+@ck("rg_next_k_2^63")
+def _(f):
+    f["/state"].attrs.modify("rg_next_k", np.uint64(2**63))
+
+
+@ck("rg_next_k_off_grid")
+def _(f):
+    f["/state"].attrs.modify("rg_next_k", np.uint64(int(f["/state"].attrs["rg_next_k"]) - 1))
+
+
+@ck("grow_seconds_nan")
+def _(f):
+    f["/state"].attrs.modify("grow_seconds", np.float64("nan"))
+
+
+@ck("grow_seconds_-1e300")
+def _(f):
+    f["/state"].attrs.modify("grow_seconds", np.float64(-1e300))
+
+
+@ck("parallel_seconds_inf")
+def _(f):
+    f["/state"].attrs.modify("parallel_seconds", np.float64("inf"))
+
+
+# The control: the same checkpoint, unforged, resumes to a larger target,
+# so the cases below fail for their forgery (each resumes to 2000 too).
+ctl = os.path.join(WORK, "k-control")
+os.makedirs(ctl)
+shutil.copy(CKPT, os.path.join(ctl, "checkpoint.h5"))
+one_run("control", "resume", ["--resume", os.path.join(ctl, "checkpoint.h5"), "--target", "2000", "-q"],
+        "pass", [ctl])
+
 for name, fn in ckpt_cases.items():
     d = os.path.join(WORK, "k-" + name.replace("^", ""))
     os.makedirs(d)
@@ -371,7 +423,7 @@ for name, fn in ckpt_cases.items():
     shutil.copy(CKPT, path)
     with h5py.File(path, "r+") as f:
         fn(f)
-    one_run(name, "resume", ["--resume", path, "-q"], "fail", [d])
+    one_run(name, "resume", ["--resume", path, "--target", "2000", "-q"], "fail", [d])
 
 fifo_d = os.path.join(WORK, "k-fifo")
 os.makedirs(fifo_d)
@@ -383,7 +435,7 @@ os.unlink(os.path.join(WORK, "s.scene"))
 os.mkfifo(os.path.join(WORK, "s.scene"))
 one_run("fifo", "scene", ["--scene", os.path.join(WORK, "s.scene"), "--no-output"], "fail", [WORK])
 
-n = len(cluster_cases) * 4 + 4 + len(ckpt_cases) + 2
+n = len(cluster_cases) * 4 + 4 + 1 + len(ckpt_cases) + 2
 print("hostile: %d runs, %d failures" % (n, len(failures)))
 _ru = resource.getrusage(resource.RUSAGE_CHILDREN)
 print("children's CPU time: %.1f s user, %.1f s system" % (_ru.ru_utime, _ru.ru_stime))

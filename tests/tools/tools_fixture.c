@@ -108,7 +108,9 @@ static int write_file(const char *out, const pts *s, int cols, int rank, const c
 }
 
 /* 10^7 rows (80 MB) written slab by slab, so neither this program nor a
- * reader that streams needs memory for the whole dataset. */
+ * reader that streams needs memory for the whole dataset. A spiral at
+ * r = 32 sqrt(k) units: a diameter's disc per 1024 pi units^2, packing
+ * 0.25, as render requires of a cluster (its balls must fit their box). */
 static int synth_huge(const char *out)
 {
     const hsize_t n = 10000000, slab = 65536;
@@ -129,8 +131,8 @@ static int synth_huge(const char *out)
         const hsize_t rows = n - first < slab ? n - first : slab;
         for (hsize_t i = 0; i < rows; i++) {
             const double k = (double)(first + i), t = 0.01 * k;
-            buf[2 * i] = (int32_t)(sqrt(k) * 8 * cos(t));
-            buf[2 * i + 1] = (int32_t)(sqrt(k) * 8 * sin(t));
+            buf[2 * i] = (int32_t)(sqrt(k) * 32 * cos(t));
+            buf[2 * i + 1] = (int32_t)(sqrt(k) * 32 * sin(t));
         }
         const hsize_t start[2] = {first, 0}, count[2] = {rows, 2};
         hid_t ms = H5Screate_simple(2, count, NULL);

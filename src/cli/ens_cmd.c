@@ -43,6 +43,7 @@
 #include "pdla/ensemble.h"
 #include "pdla/pdla.h"
 #include "progress.h"
+#include "rundir.h"
 #ifdef PDLA_WITH_MPI
 #include "pdla/ensemble_mpi.h"
 #endif
@@ -187,23 +188,6 @@ static int split_args(int argc, char **argv, ens_args *a, char **rest, int *nres
     rest[n] = NULL;
     *nrest = n;
     return 0;
-}
-
-/* mkdir -p of dir's parents, then dir itself. 0, or an errno. */
-static int make_dir(const char *dir, int *created)
-{
-    char buf[4096];
-    snprintf(buf, sizeof buf, "%s", dir);
-    for (char *p = buf + 1; *p; p++) {
-        if (*p != '/') continue;
-        *p = '\0';
-        struct stat st;
-        if (mkdir(buf, 0777) && (stat(buf, &st) || !S_ISDIR(st.st_mode))) return errno ? errno : ENOTDIR;
-        *p = '/';
-    }
-    *created = mkdir(buf, 0777) == 0;
-    if (*created) return 0;
-    return errno;
 }
 
 /* Leftovers of an interrupted writer, only names this command makes (hold
@@ -569,8 +553,8 @@ static int open_new(ens_cmd *c, int threads)
         fprintf(stderr, "pdla ensemble: '%s' already exists (use --force to write into it)\n", c->dir);
         return EXIT_USAGE;
     }
-    int created = 0;
-    const int e = make_dir(c->dir, &created);
+    int e = cli_mkdir_parents(c->dir); /* as the model commands */
+    if (!e && mkdir(c->dir, 0777)) e = errno;
     if (e && !(e == EEXIST && o->force && stat(c->dir, &st) == 0 && S_ISDIR(st.st_mode))) {
         fprintf(stderr, "pdla ensemble: cannot create '%s': %s\n", c->dir, strerror(e));
         return EXIT_USAGE;

@@ -451,21 +451,22 @@ static uint32_t row_bit(const char *name)
 /* A stop given with --resume that the checkpoint has already passed is
  * refused, as the DLA command refuses a --target below the particles held:
  * before, the run stopped at once with exit 0 and its cluster.h5 recorded
- * t-max 1 beside a time of 7.8. 0, or -1 with the line in err. */
-static int stop_passed(const ev_cli *c, const ev_sim *s, char *err, size_t errlen)
+ * t-max 1 beside a time of 7.8. 0, or -1 with the line in err, naming the
+ * checkpoint read (path), as the DLCA command's does. */
+static int stop_passed(const ev_cli *c, const ev_sim *s, const char *path, char *err, size_t errlen)
 {
     const ev_params *p = &c->p;
     ev_stats st;
     ev_get_stats(s, &st);
     if ((c->given & row_bit("t-max")) && p->t_max > 0 && p->t_max < st.t)
-        return snprintf(err, errlen, "cannot resume: --t-max %.17g is below the time %.17g the checkpoint has "
-                                     "reached", p->t_max, st.t), -1;
+        return snprintf(err, errlen, "cannot resume: %s: --t-max %.17g is below the time %.17g the checkpoint "
+                                     "has reached", path, p->t_max, st.t), -1;
     if ((c->given & row_bit("max-events")) && p->max_events > 0 && p->max_events < st.events)
-        return snprintf(err, errlen, "cannot resume: --max-events %" PRIu64 " is below the %" PRIu64
-                                     " events the checkpoint has run", p->max_events, st.events), -1;
+        return snprintf(err, errlen, "cannot resume: %s: --max-events %" PRIu64 " is below the %" PRIu64
+                                     " events the checkpoint has run", path, p->max_events, st.events), -1;
     if ((c->given & row_bit("max-stuck")) && p->max_stuck > 0 && p->max_stuck < st.stuck)
-        return snprintf(err, errlen, "cannot resume: --max-stuck %" PRIu64 " is below the %" PRIu64
-                                     " particles stuck in the checkpoint", (uint64_t)p->max_stuck, st.stuck), -1;
+        return snprintf(err, errlen, "cannot resume: %s: --max-stuck %" PRIu64 " is below the %" PRIu64
+                                     " particles stuck in the checkpoint", path, (uint64_t)p->max_stuck, st.stuck), -1;
     return 0;
 }
 
@@ -517,10 +518,10 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
     ev_params *p = ev_params_of(s);
     size_t np;
     const pdla_param_desc *t = ev_param_table(&np);
-    char e[400];
+    char e[4600]; /* a stop passed names the checkpoint's path */
     int bad = pdla_param_check_asked(t, np, c->given, p, &c->p, e, sizeof e);
     if (!bad) pdla_param_apply_resumable(t, np, c->given, p, &c->p);
-    if (bad || ev_params_check(p, e, sizeof e) || stop_passed(c, s, e, sizeof e)) {
+    if (bad || ev_params_check(p, e, sizeof e) || stop_passed(c, s, path, e, sizeof e)) {
         fprintf(stderr, "pdla: %s\n", e);
         ev_free(s);
         ev_series_free(ser);

@@ -109,6 +109,8 @@ cp "$t/past/cluster.h5" "$t/past.h5"
     fail "resume --t-max passed: exit 0"
 [ "$(wc -l <"$t/err")" -eq 1 ] && grep -q "t-max 9.9999999999999995e-07 is below the time" "$t/err" ||
     fail "resume --t-max passed: $(cat "$t/err")"
+grep -qF "cannot resume: $t/past/checkpoint.h5: " "$t/err" ||
+    fail "resume --t-max passed: the checkpoint path is not named: $(cat "$t/err")"
 cmp -s "$t/past/cluster.h5" "$t/past.h5" || fail "resume --t-max passed: cluster.h5 was replaced"
 "$pdla" --model event --resume "$t/past" --max-events 3000 --quiet 2>"$t/err" ||
     fail "resume at --max-events where it is: $(cat "$t/err")"

@@ -84,6 +84,8 @@ for model, (run, stop_now) in MODELS.items():
     rc, err = pdla("--model", model, "--resume", d, *stop_now)
     m = re.search(r"is below the (\d+) ", err)
     check(rc == 2 and one_line(err) and m, "%s: a passed stop on resume: exit %r, %r" % (model, rc, err[-300:]))
+    check(os.path.join(d, "checkpoint.h5") + ": " in err,
+          "%s: a passed stop on resume does not name the checkpoint: %r" % (model, err[-300:]))
     if m:
         rc, err = pdla("--model", model, "--resume", d, stop_now[0], m.group(1), *stop_now[2:])
         check(rc == 0, "%s: resume of the first run's checkpoint: exit %r, %r" % (model, rc, err[-300:]))
@@ -131,6 +133,8 @@ for model, (run, passed, equal) in PASSED.items():
         rc, err = pdla("--model", model, "--resume", d, *stop)
         check(rc == 2 and one_line(err) and ("below" in err or "above" in err),
               "%s: --resume with %s passed: exit %r, %r" % (model, " ".join(stop), rc, err))
+        check(os.path.join(d, "checkpoint.h5") + ": " in err,
+              "%s: --resume with %s passed: the checkpoint is not named: %r" % (model, " ".join(stop), err))
         with open(os.path.join(d, "cluster.h5"), "rb") as fh:
             check(fh.read() == written, "%s: a refused %s replaced cluster.h5" % (model, " ".join(stop)))
     rc, err = pdla("--model", model, "--resume", d, *equal)

@@ -142,12 +142,17 @@ PDLA_API uint64_t dlca_attempts(const dlca_sim *s);
  * dlca_create_sites. */
 PDLA_API int dlca_read_start(const char *path, const dlca_params *p, uint32_t **sites, uint64_t *n, char *err,
                              size_t errlen);
-/* Do two of the n sites (n <= 2^32 - 1) hold the same value? 1 with *a
- * and *b (a < b) the indices of one such pair (of the lowest value shared),
- * 0 if all differ, PDLA_ENOMEM (8 bytes a site for the sort) or PDLA_EINVAL
- * (n too large). The start files, the snapshots a resume reads back and
- * the DLCA tools all check their monomers with it. */
-PDLA_API int dlca_shared_site(const uint32_t *site, uint64_t n, uint64_t *a, uint64_t *b);
+/* Do two of the n sites, each below V (the box's site count), hold the same
+ * value? One bit a site, O(n): seen is (V + 63) / 64 words, all clear, and
+ * left clear (a caller checking many arrays of one box keeps one), or NULL
+ * for bits of the call's own (V / 8 bytes: at most 256 MiB for the model's
+ * fewer than 2^31 sites). 1 with *a < *b the first repeat's indices (*b
+ * the lowest index whose site an earlier one holds, *a that one), 0 if all
+ * differ, PDLA_ENOMEM, or PDLA_EINVAL (a site >= V, or V > 2^32). The
+ * start files, the snapshots a resume reads back and the DLCA tools all
+ * check their monomers with it. */
+PDLA_API int dlca_shared_site(const uint32_t *site, uint64_t n, uint64_t V, uint64_t *seen, uint64_t *a,
+                              uint64_t *b);
 
 typedef struct dlca_stats {
     double t;              /* physical time, monomer-move units */

@@ -152,8 +152,9 @@ static int sites_agree(const dfile *o, const char *path, char *err, size_t errle
             return pdla_errorf(-1, err, errlen, "%s: monomer %zu: /monomers/site %u is not the site of its position "
                                "(%llu)", path, i, o->site[i], (unsigned long long)k);
     }
-    uint64_t a = 0, b = 0;
-    const int shared = dlca_shared_site(o->site, o->n, &a, &b);
+    uint64_t a = 0, b = 0, V = 1;
+    for (int d = 0; d < o->dim; d++) V *= o->L[d]; /* < 2^31 (dlca_file_box): 256 MiB of bits at most */
+    const int shared = dlca_shared_site(o->site, o->n, V, NULL, &a, &b);
     if (shared < 0) return pdla_errorf(-1, err, errlen, "%s: out of memory checking %zu monomers", path, o->n);
     if (shared)
         return pdla_errorf(-1, err, errlen, "%s: monomers %llu and %llu lie on one site", path, (unsigned long long)a,

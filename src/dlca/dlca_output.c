@@ -535,27 +535,6 @@ static int check_numbers(const dlca_sim *s, const dlca_snapshot *snaps, size_t i
  * and the cluster numbers 0, 1, ..., n_clusters - 1 with each cluster's
  * monomers together, in that order (all set to 0 under n_clusters 34 was
  * written back as one cluster). 0, PDLA_EINVAL or PDLA_ENOMEM. */
-/* Whether two of site[0..N) are one site (*a < *b the first such pair's
- * monomers), with seen[] one bit a site, all clear, left clear: O(N) a
- * snapshot, where a sort took minutes for 40 snapshots of 10^8 monomers.
- * The sites are in the box (check_numbers). */
-static int shared_site_bits(const uint32_t *site, uint64_t N, uint64_t *seen, uint64_t *a, uint64_t *b)
-{
-    uint64_t m = 0;
-    int found = 0;
-    for (; m < N && !found; m++) {
-        const uint64_t k = site[m], bit = UINT64_C(1) << (k & 63);
-        found = (seen[k >> 6] & bit) != 0;
-        seen[k >> 6] |= bit;
-    }
-    if (found) {
-        *b = m - 1;
-        for (*a = 0; site[*a] != site[*b]; ++*a) continue;
-    }
-    for (uint64_t j = 0; j < m; j++) seen[site[j] >> 6] = 0; /* only these sites' bits were set */
-    return found;
-}
-
 static int check_monomers(const dlca_sim *s, const dlca_snapshot *sn, size_t i, uint64_t *seen, char *err,
                           size_t errlen)
 {
@@ -569,8 +548,10 @@ static int check_monomers(const dlca_sim *s, const dlca_snapshot *sn, size_t i, 
     if (s->N && sn->cluster[s->N - 1] + (uint64_t)1 != sn->n_clusters)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "its snapshot %zu numbers its clusters 0 to %u, but says "
                            "n_clusters %llu", i, sn->cluster[s->N - 1], (unsigned long long)sn->n_clusters);
-    uint64_t a = 0, b = 0;
-    if (shared_site_bits(sn->site, s->N, seen, &a, &b))
+    uint64_t a = 0, b = 0; /* the sites are in the box (check_numbers), seen one bit each */
+    const int shared = dlca_shared_site(sn->site, s->N, s->V, seen, &a, &b);
+    if (shared < 0) return pdla_errorf(shared, err, errlen, "its snapshot %zu has a site outside the box", i);
+    if (shared)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "its snapshot %zu puts monomers %llu and %llu on one site", i,
                            (unsigned long long)a, (unsigned long long)b);
     return 0;

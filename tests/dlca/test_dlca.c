@@ -247,6 +247,25 @@ static void refusals(void)
     CHECK(dlca_params_validate(&p, err, sizeof err) == 0, "defaults after --box 1024x512: %s", err);
 }
 
+/* dlca_shared_site, the one duplicate-site check (start files, resumed
+ * snapshots, the tools): the first repeat named, a caller's bits left
+ * clear for the next array, a site outside the box refused. */
+static void shared_site(void)
+{
+    static const uint32_t all[] = {5, 0, 63, 64, 129}, rep[] = {7, 3, 9, 3, 7}, out[] = {1, 2, 130};
+    uint64_t seen[3] = {0}, a = 99, b = 99; /* 130 sites */
+    CHECK(dlca_shared_site(all, 5, 130, NULL, &a, &b) == 0, "distinct sites called shared");
+    CHECK(dlca_shared_site(all, 5, 130, seen, &a, &b) == 0, "distinct sites called shared (bits given)");
+    CHECK(!seen[0] && !seen[1] && !seen[2], "bits left set: %llx %llx %llx", (unsigned long long)seen[0],
+          (unsigned long long)seen[1], (unsigned long long)seen[2]);
+    CHECK(dlca_shared_site(rep, 5, 130, seen, &a, &b) == 1 && a == 1 && b == 3, "repeat: %llu %llu",
+          (unsigned long long)a, (unsigned long long)b);
+    CHECK(!seen[0] && !seen[1] && !seen[2], "bits left set after a repeat");
+    CHECK(dlca_shared_site(out, 3, 130, seen, &a, &b) == PDLA_EINVAL, "site 130 of 130 taken");
+    CHECK(!seen[0] && !seen[1] && !seen[2], "bits left set after a site outside the box");
+    CHECK(dlca_shared_site(rep, 0, 130, NULL, &a, &b) == 0, "no sites called shared");
+}
+
 /* L = 2: two monomers side by side along a 2-site axis touch their own
  * image: the run stops at once as spanning. */
 static void two_site_axis(void)
@@ -530,6 +549,7 @@ int main(void)
     static const uint32_t E2[] = {7, 5}, E3[] = {5, 4, 6}, E4[] = {4, 5, 4, 4}, E5[] = {4, 5, 4, 4, 5};
     const uint32_t *Ls[] = {L2, L3, L4, L5}, *Es[] = {E2, E3, E4, E5};
     refusals();
+    shared_site();
     for (int m = 0; m < 3; m++) resume(m);
     two_site_axis();
     longest_axis();

@@ -158,14 +158,20 @@ static void print_text(const ens_view *v, const char *path)
     printf("prefactor        R_g = %.4f N^(1/D_f) diameters\n", A("prefactor_diam"));
     printf("per-cluster D_f  mean %.4f, sd %.4f over %zu clusters\n", A("D_f_cluster_mean"), A("D_f_cluster_sd"),
            v->ndf);
-    if (A("corr_ok") == 1)
+    if (A("corr_ok") == 1) {
+        /* The fit keeps |B N^-nu| <= 0.9 over its range (ens_stats.c): B at
+         * that cap, like nu at an end of its range, says the data do not
+         * determine the correction. */
+        const int nu_end = A("corr_nu") <= 0.2 || A("corr_nu") >= 2.0;
+        const int b_cap = fabs(A("corr_B")) * pow(A("corr_n_lo"), -A("corr_nu")) >= 0.9 * (1 - 1e-3);
         printf("correction fit   R_g = A N^(1/D) (1 + B N^-nu), N in [%.0f, %.0f]: D = %.4f [%.4f, %.4f], "
-               "A = %.4f [%.4f, %.4f] diameters, B = %.4f, nu = %.3f%s (interval: %.0f resamples)\n",
+               "A = %.4f [%.4f, %.4f] diameters, B = %.4f, nu = %.3f%s%s (interval: %.0f resamples)\n",
                A("corr_n_lo"), A("fit_n_hi"), A("corr_D"), A("corr_D_lo"), A("corr_D_hi"), A("corr_A_diam"),
                A("corr_A_lo"), A("corr_A_hi"), A("corr_B"), A("corr_nu"),
-               A("corr_nu") <= 0.2 || A("corr_nu") >= 2.0 ? " (at the end of its range [0.2, 2]: poorly determined)" : "",
+               nu_end ? " (at the end of its range [0.2, 2]: poorly determined)" : "",
+               b_cap ? " (B at its cap, |B N^-nu| = 0.9 at the smallest N: poorly determined)" : "",
                A("corr_samples"));
-    else
+    } else
         printf("correction fit   n/a (too few points)\n");
     printf("local slope      D_f over windows of %.2g decades of N, 95%% band:\n", A("slope_window_decades"));
     for (size_t i = 0; i < v->ns; i++)

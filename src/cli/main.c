@@ -845,13 +845,18 @@ static void clear_old_run_step(const run *R)
 
 /* Does path hold a JSON object (its first byte '{'): the statistics of an
  * earlier run, which a resumed run may replace. */
+/* Whether the file begins as write_json begins its output: a file
+ * whose first byte alone was '{' (any JSON document: a notebook, a
+ * config) was replaced on --resume without --force. */
 static int json_file_is_stats(const char *path)
 {
+    static const char head[] = "{\n  \"version\": \"";
+    char got[sizeof head - 1];
     FILE *f = fopen(path, "rb");
     if (!f) return 0;
-    const int c = fgetc(f);
+    const size_t n = fread(got, 1, sizeof got, f);
     fclose(f);
-    return c == '{';
+    return n == sizeof got && memcmp(got, head, sizeof got) == 0;
 }
 
 /* --stats-json FILE is checked before growth, so a bad path costs nothing,

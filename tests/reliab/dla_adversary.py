@@ -167,6 +167,13 @@ rc, _, err = run(["--resume", "r", "--target", "2000", "--stats-json", "r.json",
 with open(os.path.join(WORK, "r.json")) as f:
     doc = json.load(f)
 check(rc == 0 and doc.get("particles") == 2000, "--resume replacing its own --stats-json: %s %s" % (rc, err))
+# Another JSON document is not the run's own: a first byte '{' was enough.
+other = os.path.join(WORK, "notes.json")
+with open(other, "w") as f:
+    f.write('{"mine": "keep me"}\n')
+rc, _, err = run(["--resume", "r", "--target", "3000", "--stats-json", "notes.json", "-q"])
+check(rc == 2 and len(err) == 1 and open(other).read() == '{"mine": "keep me"}\n',
+      "--resume replaced another JSON file given as --stats-json: %s %s" % (rc, err))
 
 # ---- JSON whatever the names hold; one line whatever the names hold ------------------
 odd = os.path.join(WORK.encode(), b"o\xff")

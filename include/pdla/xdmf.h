@@ -10,6 +10,11 @@
  * so ParaView shows diameters. The newer Xdmf3 readers (which ParaView
  * picks for *.xmf) cannot evaluate Function items and show no points.
  *
+ * That reader puts a Function argument of one element into the expression
+ * as a number, and a Function of numbers only fails (the array comes out
+ * empty): a one-point grid's computed arrays are written without such a
+ * Function (src/core/xdmf.c, put_column2).
+ *
  * Every particle is one Polyvertex cell (N cells of one node), so ParaView
  * draws them with any representation. The HDF5 data are never copied: the
  * sidecar only points at datasets, by the HDF5 file's name relative to the

@@ -89,14 +89,89 @@ static void put_positions(sbuf *fp, const xdmf_points *p, const char *base, cons
     sb_printf(fp, "</DataItem>\n");
 }
 
-/* Column c of the positions, as an [n][1] hyperslab (start, stride, count). */
-static void put_column(sbuf *fp, const xdmf_points *p, const char *base, int c)
+/* Rows [row0, row0 + n) of a [rows][dim] positions dataset: the points of
+ * one grid (all rows of a cluster file, one cluster of an ensemble). */
+typedef struct slab_src {
+    const char *base, *dataset;
+    uint64_t rows, row0, n;
+    int dim;
+} slab_src;
+
+/* Columns [col, col + ncols) of s's rows, as a HyperSlab item (start,
+ * stride, count), depth spaces in. */
+static void put_slab(sbuf *fp, const slab_src *s, int col, int ncols, int depth)
 {
-    sb_printf(fp, "     <DataItem ItemType=\"HyperSlab\" Type=\"HyperSlab\" Dimensions=\"%" PRIu64 " 1\">\n"
-                "      <DataItem Dimensions=\"3 2\" Format=\"XML\">0 %d 1 1 %" PRIu64 " 1</DataItem>\n",
-            p->n, c, p->n);
-    put_positions(fp, p, base, "      ");
-    sb_printf(fp, "     </DataItem>\n");
+    sb_printf(fp, "%*s<DataItem ItemType=\"HyperSlab\" Type=\"HyperSlab\" Dimensions=\"%" PRIu64 " %d\">\n"
+                  "%*s <DataItem Dimensions=\"3 2\" Format=\"XML\">%" PRIu64 " %d 1 1 %" PRIu64 " %d</DataItem>\n"
+                  "%*s <DataItem Dimensions=\"%" PRIu64 " %d\" NumberType=\"Float\" Precision=\"8\" "
+                  "Format=\"HDF\">",
+              depth, "", s->n, ncols, depth, "", s->row0, col, s->n, ncols, depth, "", s->rows, s->dim);
+    put_ref(fp, s->base, s->dataset);
+    sb_printf(fp, "</DataItem>\n%*s</DataItem>\n", depth, "");
+}
+
+/* Column c of a one-point grid as a [2][1] item: its row stacked on itself
+ * (";" in XDMF 2 concatenates) and column c of that taken. The XDMF 2
+ * reader (ParaView 5.11) puts an argument of one element into a Function as
+ * a number, printed with 6 digits (1e+06 and up crash the parse); a
+ * Function whose every argument is one element is a scalar expression it
+ * cannot evaluate ("XdmfExpr : syntax error", the array comes out empty).
+ * Two copies of the point keep every argument an array. */
+static void put_column2(sbuf *fp, const slab_src *s, int c, int depth)
+{
+    sb_printf(fp, "%*s<DataItem ItemType=\"HyperSlab\" Type=\"HyperSlab\" Dimensions=\"2 1\">\n"
+                  "%*s <DataItem Dimensions=\"3 2\" Format=\"XML\">0 %d 1 1 2 1</DataItem>\n"
+                  "%*s <DataItem ItemType=\"Function\" Function=\"$0 ; $0\" Dimensions=\"2 %d\">\n",
+              depth, "", depth, "", c, depth, "", s->dim);
+    put_slab(fp, s, 0, s->dim, depth + 2);
+    sb_printf(fp, "%*s </DataItem>\n%*s</DataItem>\n", depth, "", depth, "");
+}
+
+/* "distance": |position| / units_per_diameter at every point. */
+static void put_distance(sbuf *fp, const slab_src *s, int units_per_diameter, int depth)
+{
+    /* Lower-case sqrt: the XDMF 2 parser reads SQRT as no function. */
+    const char *const sum = s->dim == 3 ? "$0 * $0 + $1 * $1 + $2 * $2" : "$0 * $0 + $1 * $1";
+    sb_printf(fp, "%*s<Attribute Name=\"distance\" AttributeType=\"Scalar\" Center=\"Node\">\n", depth, "");
+    if (s->n > 1) {
+        sb_printf(fp, "%*s<DataItem ItemType=\"Function\" Function=\"sqrt(%s) / %d\" Dimensions=\"%" PRIu64 "\">\n",
+                  depth + 1, "", sum, units_per_diameter, s->n);
+        for (int c = 0; c < s->dim; c++) put_slab(fp, s, c, 1, depth + 2);
+        sb_printf(fp, "%*s</DataItem>\n", depth + 1, "");
+    } else {
+        /* One point: the distance of its two copies (put_column2), the
+         * first of them taken. */
+        sb_printf(fp, "%*s<DataItem ItemType=\"HyperSlab\" Type=\"HyperSlab\" Dimensions=\"1\">\n"
+                      "%*s <DataItem Dimensions=\"3 1\" Format=\"XML\">0 1 1</DataItem>\n"
+                      "%*s <DataItem ItemType=\"Function\" Function=\"sqrt(%s) / %d\" Dimensions=\"2\">\n",
+                  depth + 1, "", depth + 1, "", depth + 1, "", sum, units_per_diameter);
+        for (int c = 0; c < s->dim; c++) put_column2(fp, s, c, depth + 3);
+        sb_printf(fp, "%*s </DataItem>\n%*s</DataItem>\n", depth + 1, "", depth + 1, "");
+    }
+    sb_printf(fp, "%*s</Attribute>\n", depth, "");
+}
+
+/* The attribute name (escaped) holding 0..n-1 at s's points. */
+static void put_row_index(sbuf *fp, const slab_src *s, const char *name, int depth)
+{
+    sb_printf(fp, "%*s<Attribute Name=\"", depth, "");
+    put_escaped(fp, name);
+    sb_printf(fp, "\" AttributeType=\"Scalar\" Center=\"Node\">\n");
+    if (s->n > 1) {
+        /* XDMF 2 has no "range" item; WHERE over a test every row passes
+         * gives the row numbers 0..n-1 in order (64-bit integers). */
+        sb_printf(fp, "%*s<DataItem ItemType=\"Function\" Function=\"WHERE($0 * $0 &gt;= 0)\" "
+                      "Dimensions=\"%" PRIu64 "\">\n",
+                  depth + 1, "", s->n);
+        put_slab(fp, s, 0, 1, depth + 2);
+        sb_printf(fp, "%*s</DataItem>\n", depth + 1, "");
+    } else {
+        /* One point: its index written out (a Function over one element
+         * fails, see put_column2). */
+        sb_printf(fp, "%*s<DataItem Dimensions=\"1\" NumberType=\"Int\" Precision=\"8\" Format=\"XML\">0</DataItem>\n",
+                  depth + 1, "");
+    }
+    sb_printf(fp, "%*s</Attribute>\n", depth, "");
 }
 
 static void put_body(sbuf *fp, const xdmf_points *p, const char *base)
@@ -122,28 +197,9 @@ static void put_body(sbuf *fp, const xdmf_points *p, const char *base)
     put_positions(fp, p, base, "     ");
     sb_printf(fp, "    </DataItem>\n   </Geometry>\n");
 
-    if (p->distance) {
-        /* Lower-case sqrt: the XDMF 2 parser reads SQRT as no function. */
-        sb_printf(fp, "   <Attribute Name=\"distance\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                    "    <DataItem ItemType=\"Function\" Function=\"sqrt(%s) / %d\" Dimensions=\"%" PRIu64
-                    "\">\n",
-                p->dim == 3 ? "$0 * $0 + $1 * $1 + $2 * $2" : "$0 * $0 + $1 * $1",
-                p->units_per_diameter, p->n);
-        for (int c = 0; c < p->dim; c++) put_column(fp, p, base, c);
-        sb_printf(fp, "    </DataItem>\n   </Attribute>\n");
-    }
-    if (p->row_index) {
-        /* XDMF 2 has no "range" item; WHERE over a test every row passes
-         * gives the row numbers 0..n-1 in order. */
-        sb_printf(fp, "   <Attribute Name=\"");
-        put_escaped(fp, p->row_index);
-        sb_printf(fp, "\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                    "    <DataItem ItemType=\"Function\" Function=\"WHERE($0 * $0 &gt;= 0)\" "
-                    "Dimensions=\"%" PRIu64 "\">\n",
-                p->n);
-        put_column(fp, p, base, 0);
-        sb_printf(fp, "    </DataItem>\n   </Attribute>\n");
-    }
+    const slab_src s = {base, p->positions, p->n, 0, p->n, p->dim};
+    if (p->distance) put_distance(fp, &s, p->units_per_diameter, 3);
+    if (p->row_index) put_row_index(fp, &s, p->row_index, 3);
     for (size_t i = 0; i < p->narrays; i++) {
         const xdmf_array *const a = &p->arrays[i];
         sb_printf(fp, "   <Attribute Name=\"");
@@ -271,55 +327,38 @@ int xdmf_write_cluster(const char *h5_path, uint64_t n, int dim, int units_per_d
 
 /* ---- ensembles --------------------------------------------------------------- */
 
-/* Columns [col, col + ncols) of rows [row0, row0 + n) of the [rows][dim]
- * positions dataset, as a HyperSlab item (start, stride, count). */
-static void put_slab(sbuf *fp, const char *base, const char *dataset, uint64_t rows, int dim, uint64_t row0,
-                     uint64_t n, int col, int ncols, const char *indent)
-{
-    sb_printf(fp, "%s<DataItem ItemType=\"HyperSlab\" Type=\"HyperSlab\" Dimensions=\"%" PRIu64 " %d\">\n"
-                  "%s <DataItem Dimensions=\"3 2\" Format=\"XML\">%" PRIu64 " %d 1 1 %" PRIu64 " %d</DataItem>\n"
-                  "%s <DataItem Dimensions=\"%" PRIu64 " %d\" NumberType=\"Float\" Precision=\"8\" "
-                  "Format=\"HDF\">",
-              indent, n, ncols, indent, row0, col, n, ncols, indent, rows, dim);
-    put_ref(fp, base, dataset);
-    sb_printf(fp, "</DataItem>\n%s</DataItem>\n", indent);
-}
-
 /* One cluster's grid: rows [i n, i n + n). */
 static void put_cluster(sbuf *fp, const xdmf_ensemble *e, const char *base, uint64_t i)
 {
-    const uint64_t rows = e->clusters * e->n, row0 = i * e->n;
-    const int d = e->units_per_diameter;
+    const slab_src s = {base, e->positions, e->clusters * e->n, i * e->n, e->n, e->dim};
     sb_printf(fp, "   <Grid Name=\"cluster %" PRIu64 "\" GridType=\"Uniform\">\n"
                   "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%" PRIu64
                   "\" NodesPerElement=\"1\"/>\n"
                   "    <Geometry GeometryType=\"%s\">\n"
                   "     <DataItem ItemType=\"Function\" Function=\"$0 / %d\" Dimensions=\"%" PRIu64 " %d\">\n",
-              i, e->n, e->dim == 3 ? "XYZ" : "XY", d, e->n, e->dim);
-    put_slab(fp, base, e->positions, rows, e->dim, row0, e->n, 0, e->dim, "      ");
+              i, e->n, e->dim == 3 ? "XYZ" : "XY", e->units_per_diameter, e->n, e->dim);
+    put_slab(fp, &s, 0, e->dim, 6);
     sb_printf(fp, "     </DataItem>\n    </Geometry>\n");
     /* The cluster id on every point, so that the merged blocks can still be
      * told apart (colour by it, or Threshold it). */
-    sb_printf(fp, "    <Attribute Name=\"cluster\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                  "     <DataItem ItemType=\"Function\" Function=\"0 * $0 + %" PRIu64 "\" Dimensions=\"%" PRIu64
-                  "\">\n",
-              i, e->n);
-    put_slab(fp, base, e->positions, rows, e->dim, row0, e->n, 0, 1, "      ");
-    sb_printf(fp, "     </DataItem>\n    </Attribute>\n");
-    sb_printf(fp, "    <Attribute Name=\"distance\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                  "     <DataItem ItemType=\"Function\" Function=\"sqrt(%s) / %d\" Dimensions=\"%" PRIu64 "\">\n",
-              e->dim == 3 ? "$0 * $0 + $1 * $1 + $2 * $2" : "$0 * $0 + $1 * $1", d, e->n);
-    for (int c = 0; c < e->dim; c++) put_slab(fp, base, e->positions, rows, e->dim, row0, e->n, c, 1, "      ");
-    sb_printf(fp, "     </DataItem>\n    </Attribute>\n");
-    if (e->arrival) {
-        /* 0..n-1 within the cluster: WHERE over a test every row passes. */
-        sb_printf(fp, "    <Attribute Name=\"arrival\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                      "     <DataItem ItemType=\"Function\" Function=\"WHERE($0 * $0 &gt;= 0)\" "
-                      "Dimensions=\"%" PRIu64 "\">\n",
-                  e->n);
-        put_slab(fp, base, e->positions, rows, e->dim, row0, e->n, 0, 1, "      ");
-        sb_printf(fp, "     </DataItem>\n    </Attribute>\n");
+    sb_printf(fp, "    <Attribute Name=\"cluster\" AttributeType=\"Scalar\" Center=\"Node\">\n");
+    if (e->n > 1) {
+        sb_printf(fp, "     <DataItem ItemType=\"Function\" Function=\"0 * $0 + %" PRIu64 "\" Dimensions=\"%" PRIu64
+                      "\">\n",
+                  i, e->n);
+        put_slab(fp, &s, 0, 1, 6);
+        sb_printf(fp, "     </DataItem>\n");
+    } else {
+        /* One point: the id written out (a Function over one element
+         * fails, see put_column2), a real like the Function's. */
+        sb_printf(fp, "     <DataItem Dimensions=\"1\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">%" PRIu64
+                      "</DataItem>\n",
+                  i);
     }
+    sb_printf(fp, "    </Attribute>\n");
+    put_distance(fp, &s, e->units_per_diameter, 4);
+    /* 0..n-1 within the cluster. */
+    if (e->arrival) put_row_index(fp, &s, "arrival", 4);
     sb_printf(fp, "   </Grid>\n");
 }
 

@@ -1,0 +1,260 @@
+#!/usr/bin/python3
+"""test_xdmf_text.py PDLA XDMF_TOOL - the XDMF 2 sidecars read without
+ParaView, by an evaluator here that follows ParaView 5.11's XDMF 2 reader
+(xdmf2::XdmfDataItem::UpdateFunction): HDF and XML items, HyperSlab items
+(start, stride, count) over any item, Function items ($k the k-th child
+item, arithmetic element by element, sqrt, ";" concatenating along the
+first axis, WHERE(test) the indices where the test holds).
+
+That reader puts a Function argument of one element into the expression as
+a number, printed with 6 significant digits: a Function whose arguments are
+all numbers is a scalar expression it cannot evaluate ("XdmfExpr : syntax
+error": the array comes out empty), and a number of 1e+06 or more crashes
+its parser. So no Function item may have an argument of one element; every
+grid's points and arrays must equal what the HDF5 file holds: positions / D,
+"distance" |position| / D, "arrival" 0..n-1, "cluster" the cluster's index,
+the other arrays their datasets.
+
+Sidecars checked: one-point grids (issue: they lost every computed array in
+ParaView) from `pdla --target 1` (2D --arrival, 3D), `pdla ensemble
+--target 1 --keep-positions` (2D --arrival, 3D) and an event run stopped at
+one stuck particle; the same with more points; and xdmf_tool's sidecars of
+one-point files written here with points off the origin (negative, and of
+3x10^6 units).
+Prints one line per failure and "N checks, N failed"; exit 1 on a failure.
+"""
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import xml.etree.ElementTree as ET
+
+import h5py
+import numpy as np
+
+checks = 0
+fails = 0
+
+
+def check(ok, what):
+    global checks, fails
+    checks += 1
+    if not ok:
+        fails += 1
+        print("FAIL:", what, flush=True)
+    return ok
+
+
+def run(args, cwd=None):
+    p = subprocess.run(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, cwd=cwd)
+    return p.returncode, p.stdout.decode(errors="replace"), p.stderr.decode(errors="replace")
+
+
+class Reader:
+    """Evaluates the DataItems of one sidecar; problems go to self.probs."""
+
+    def __init__(self, path):
+        self.dir = os.path.dirname(path)
+        self.root = ET.parse(path).getroot()
+        self.probs = []
+
+    def dims(self, e):
+        return tuple(int(x) for x in e.get("Dimensions").split())
+
+    def item(self, e):
+        kind = e.get("ItemType", "Uniform")
+        d = self.dims(e)
+        if kind == "Uniform":
+            if e.get("Format", "XML") == "HDF":
+                fn, ds = e.text.strip().split(":", 1)
+                with h5py.File(os.path.join(self.dir, fn), "r") as f:
+                    v = f[ds][()]
+                if tuple(v.shape) != d:
+                    self.probs.append("%s: Dimensions %s, dataset %s" % (e.text.strip(), d, v.shape))
+            else:
+                v = np.array(e.text.split(), dtype=np.float64)
+            if e.get("NumberType", "Float") == "Float":
+                v = np.asarray(v, dtype=np.float64)
+            return np.reshape(v, d)
+        kids = [c for c in e if c.tag == "DataItem"]
+        if kind == "HyperSlab":
+            sel = np.array(kids[0].text.split(), dtype=np.int64).reshape(3, -1)
+            src = self.item(kids[1])
+            idx = tuple(slice(a, a + s * c, s) for a, s, c in zip(*sel))
+            v = src[idx]
+            if v.size != int(np.prod(d)):
+                self.probs.append("HyperSlab %s of %s: %d values for %s" % (sel.tolist(), src.shape, v.size, d))
+            return np.reshape(v, d)
+        if kind == "Function":
+            return self.function(e, kids, d)
+        self.probs.append("ItemType %s" % kind)
+        return np.zeros(d)
+
+    def function(self, e, kids, d):
+        args = [np.ravel(self.item(k)) for k in kids]
+        fn = e.get("Function")
+        for k, a in enumerate(args):
+            if ("$%d" % k) in fn and a.size == 1:
+                self.probs.append("Function %s: $%d has one element (the reader makes it a number)" % (fn, k))
+        if ";" in fn:
+            v = np.concatenate([self.expr(part, args) for part in fn.split(";")])
+        else:
+            v = np.ravel(self.expr(fn, args))
+        if v.size != int(np.prod(d)):
+            self.probs.append("Function %s: %d values for Dimensions %s" % (fn, v.size, d))
+            return np.zeros(d)
+        return np.reshape(v, d)
+
+    def expr(self, fn, args):
+        py = re.sub(r"\$(\d)", r"a[\1]", fn)
+        where = lambda m: np.nonzero(np.ravel(m))[0]
+        return np.asarray(eval(py, {"__builtins__": {}}, {"a": args, "sqrt": np.sqrt, "WHERE": where}),
+                          dtype=np.float64)
+
+    def grids(self):
+        """{name: (n, geometry [n][dim], {attribute: values})} of the Uniform grids."""
+        out = {}
+        for g in self.root.iter("Grid"):
+            if g.get("GridType", "Uniform") != "Uniform":
+                continue
+            n = int(g.find("Topology").get("NumberOfElements"))
+            geo = self.item(g.find("Geometry").find("DataItem"))
+            attrs = {a.get("Name"): np.ravel(self.item(a.find("DataItem"))) for a in g.findall("Attribute")}
+            out[g.get("Name")] = (n, geo, attrs)
+        return out
+
+
+def check_grid(what, grid, pos, upd, distance, row_index, cluster=None, arrays=()):
+    """grid from Reader.grids against the rows pos (integer units) of the file."""
+    n, geo, attrs = grid
+    pos = np.asarray(pos, dtype=np.float64)
+    check(n == len(pos), "%s: %d points, want %d" % (what, n, len(pos)))
+    check(geo.shape == pos.shape and np.allclose(geo, pos / upd, rtol=1e-15, atol=0),
+          "%s: geometry %s, want %s" % (what, geo.tolist()[:3], (pos / upd).tolist()[:3]))
+    want = {}
+    if distance:
+        want["distance"] = np.sqrt(np.sum(pos * pos, axis=1)) / upd
+    if row_index:
+        want[row_index] = np.arange(len(pos), dtype=np.float64)
+    if cluster is not None:
+        want["cluster"] = np.full(len(pos), float(cluster))
+    for name, vals in arrays:
+        want[name] = np.asarray(vals, dtype=np.float64)
+    check(sorted(attrs) == sorted(want), "%s: arrays %s, want %s" % (what, sorted(attrs), sorted(want)))
+    for name, w in want.items():
+        got = attrs.get(name)
+        if got is None:
+            continue
+        check(got.shape == w.shape and np.allclose(got, w, rtol=1e-12, atol=0),
+              "%s: %s = %s, want %s" % (what, name, got.tolist()[:4], w.tolist()[:4]))
+
+
+def read_sidecar(path):
+    if not check(os.path.isfile(path), "%s: no sidecar" % path):
+        return None
+    r = Reader(path)
+    grids = r.grids()
+    for p in r.probs:
+        check(False, "%s: %s" % (path, p))
+    return grids
+
+
+def dla_cases(pdla, tmp):
+    for dim, n, arrival in ((2, 1, True), (3, 1, False), (2, 20, True)):
+        out = os.path.join(tmp, "dla%d_%d" % (dim, n))
+        rc, so, se = run([pdla, "--dim", str(dim), "--target", str(n), "--out", out, "-q"] +
+                         (["--arrival"] if arrival else []))
+        if not check(rc == 0, "pdla --dim %d --target %d: exit %d: %s" % (dim, n, rc, se)):
+            continue
+        with h5py.File(os.path.join(out, "cluster.h5"), "r") as f:
+            pos = f["cluster/positions"][()]
+        grids = read_sidecar(os.path.join(out, "cluster.xdmf2"))
+        if grids is not None and check(list(grids) == ["particles"], "%s: grids %s" % (out, list(grids))):
+            check_grid("DLA %dD N=%d" % (dim, n), grids["particles"], pos, 32, True, "arrival" if arrival else None)
+
+
+def ensemble_cases(pdla, tmp):
+    for dim, m, n, arrival in ((2, 3, 1, True), (3, 2, 1, False), (2, 2, 20, True)):
+        out = os.path.join(tmp, "ens%d_%d" % (dim, n))
+        rc, so, se = run([pdla, "ensemble", "--dim", str(dim), "--clusters", str(m), "--target", str(n),
+                          "--keep-positions", "--out", out, "-q"] + (["--arrival"] if arrival else []))
+        if not check(rc == 0, "pdla ensemble --dim %d --target %d: exit %d: %s" % (dim, n, rc, se)):
+            continue
+        with h5py.File(os.path.join(out, "ensemble.h5"), "r") as f:
+            pos = f["clusters/positions"][()]
+        grids = read_sidecar(os.path.join(out, "ensemble.xdmf2"))
+        if grids is None or not check(len(grids) == m, "%s: %d grids, want %d" % (out, len(grids), m)):
+            continue
+        for i in range(m):
+            check_grid("ensemble %dD N=%d cluster %d" % (dim, n, i), grids["cluster %d" % i],
+                       pos[i * n:(i + 1) * n], 32, True, "arrival" if arrival else None, cluster=i)
+
+
+def event_case(pdla, tmp):
+    out = os.path.join(tmp, "ev1")
+    rc, so, se = run([pdla, "--model", "event", "--dim", "2", "--particles", "50", "--packing", "0.05",
+                      "--seed", "3", "--max-stuck", "1", "--out", out])
+    if not check(rc == 0, "event --max-stuck 1: exit %d: %s" % (rc, se)):
+        return
+    with h5py.File(os.path.join(out, "cluster.h5"), "r") as f:
+        c = {k: f["cluster/" + k][()] for k in ("positions", "radii", "arrival_time", "species", "parent")}
+        fr = {k: f["free/" + k][()] for k in ("positions", "radii", "species")}
+    check(len(c["positions"]) == 1, "event --max-stuck 1: %d stuck" % len(c["positions"]))
+    grids = read_sidecar(os.path.join(out, "cluster.xdmf2"))
+    if grids is not None:
+        check_grid("event stuck", grids["particles"], c["positions"], 1, False, "arrival",
+                   arrays=[("radius", c["radii"]), ("arrival_time", c["arrival_time"]),
+                           ("species", c["species"]), ("parent", c["parent"])])
+    grids = read_sidecar(os.path.join(out, "cluster-free.xdmf2"))
+    if grids is not None:
+        check_grid("event free", grids["particles"], fr["positions"], 1, False, None,
+                   arrays=[("radius", fr["radii"]), ("species", fr["species"])])
+
+
+def off_origin_cases(tool, tmp):
+    """One point away from the origin: xdmf_write_points and
+    xdmf_write_ensemble on files written here."""
+    h5 = os.path.join(tmp, "one.h5")
+    rows2 = np.array([[64, -96]], dtype=np.int64)
+    rows3 = np.array([[-5, 7, 3000001]], dtype=np.int64)
+    ens2 = np.array([[64, -96], [-3, 2000000], [7, 0]], dtype=np.int64)
+    ens3 = np.array([[1, -2, 3], [-3000000, 5, 9]], dtype=np.int32)
+    with h5py.File(h5, "w") as f:
+        f["p2"], f["p3"], f["e2"], f["e3"] = rows2, rows3, ens2, ens3
+    for name, rows, upd in (("p2", rows2, 32), ("p3", rows3, 1)):
+        xmf = os.path.join(tmp, name + ".xdmf2")
+        rc, so, se = run([tool, "points", xmf, h5, "/" + name, "1", str(rows.shape[1]), str(upd), "1", "arrival"])
+        if check(rc == 0, "xdmf_tool points %s: exit %d: %s" % (name, rc, se)):
+            grids = read_sidecar(xmf)
+            if grids is not None:
+                check_grid("points %s" % name, grids["particles"], rows, upd, True, "arrival")
+    for name, rows, upd, arrival in (("e2", ens2, 32, 1), ("e3", ens3, 4, 0)):
+        xmf = os.path.join(tmp, name + ".xdmf2")
+        rc, so, se = run([tool, "ensemble", xmf, h5, "/" + name, str(len(rows)), "1", str(rows.shape[1]),
+                          str(upd), str(arrival)])
+        if not check(rc == 0, "xdmf_tool ensemble %s: exit %d: %s" % (name, rc, se)):
+            continue
+        grids = read_sidecar(xmf)
+        if grids is None:
+            continue
+        for i in range(len(rows)):
+            check_grid("ensemble %s cluster %d" % (name, i), grids["cluster %d" % i], rows[i:i + 1], upd, True,
+                       "arrival" if arrival else None, cluster=i)
+
+
+def main():
+    if len(sys.argv) != 3:
+        sys.exit("usage: test_xdmf_text.py PDLA XDMF_TOOL")
+    pdla, tool = (os.path.abspath(a) for a in sys.argv[1:])
+    with tempfile.TemporaryDirectory() as tmp:
+        dla_cases(pdla, tmp)
+        ensemble_cases(pdla, tmp)
+        event_case(pdla, tmp)
+        off_origin_cases(tool, tmp)
+    print("%d checks, %d failed" % (checks, fails))
+    sys.exit(1 if fails else 0)
+
+
+if __name__ == "__main__":
+    main()

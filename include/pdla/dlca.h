@@ -255,7 +255,9 @@ PDLA_API int dlca_snapshots_check(const dlca_sim *s, const dlca_snapshot *snaps,
  * it as cluster.xdmf2. With snapshots (nsnaps > 0) it is a temporal
  * collection: one time step per snapshot (/snapshots/<i>, at its t) and the
  * end (/monomers at t_end, unless the last snapshot is at t_end). d = 4, 5:
- * nothing written (0). 0 or PDLA_EIO. */
+ * nothing written (0). Every other sidecar of h5_path (xdmf.h kinds), and
+ * in 4D and 5D cluster.xdmf2 itself, is removed: an older run's would
+ * describe another file. 0 or PDLA_EIO. */
 PDLA_API int dlca_write_xdmf(const char *h5_path, int dim, uint64_t n, const dlca_snapshot *snaps, size_t nsnaps,
                              double t_end, char *err, size_t errlen);
 

@@ -49,20 +49,40 @@ typedef struct xdmf_points {
     size_t narrays;
 } xdmf_points;
 
-/* The sidecar's path for an HDF5 file: a trailing ".h5" replaced by
- * ".xdmf2", else ".xdmf2" appended. 0, or -1 if it does not fit in len. */
+/* The sidecars pdla writes for an HDF5 file STEM.h5, by kind: STEM.xdmf2
+ * (DLA, DLCA, ensembles; the event model's stuck particles) and
+ * STEM-free.xdmf2 (the event model's free particles). One list for every
+ * model, so that a run can remove the kinds another model left. */
+enum xdmf_sidecar_kind { XDMF_SIDECAR_MAIN, XDMF_SIDECAR_FREE, XDMF_SIDECAR_KINDS };
+#define XDMF_SIDECAR_BIT(kind) (1u << (kind))
+
+/* The path of h5_path's sidecar of that kind: a trailing ".h5" replaced by
+ * the kind's suffix, else the suffix appended. 0, or -1 if it does not fit
+ * in len or kind is unknown. */
+PDLA_API int xdmf_sidecar_name(const char *h5_path, int kind, char *out, size_t len);
+
+/* xdmf_sidecar_name of XDMF_SIDECAR_MAIN. */
 PDLA_API int xdmf_sidecar_path(const char *h5_path, char *out, size_t len);
+
+/* After h5_path was written: removes every sidecar kind of it whose
+ * XDMF_SIDECAR_BIT is not in `written` (one left by an earlier run, of this
+ * or another model, would describe datasets the new file may not have),
+ * then syncs the folder if one was removed. A missing one is fine. 0, or
+ * -1 with one line in err. */
+PDLA_API int xdmf_remove_sidecars(const char *h5_path, unsigned written, char *err, size_t errlen);
 
 /* Writes the sidecar of p to xmf_path: into xmf_path.tmp.<pid>, fsync'ed,
  * renamed over xmf_path (a sidecar describes the HDF5 file just written, so
  * an older one is stale), then the folder is fsync'ed. Nothing is written
- * for n == 0 (no points to show; XDMF readers refuse empty arrays).
- * 0, or -1 with one line in err; a failure before the rename also removes
- * an older xmf_path, which would describe another file. */
+ * for n == 0 (no points to show; XDMF readers refuse empty arrays) and an
+ * older xmf_path is removed. 0, or -1 with one line in err; a failure
+ * before the rename also removes an older xmf_path, which would describe
+ * another file. */
 PDLA_API int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, size_t errlen);
 
 /* The sidecar of a cluster file written by pdla_output_write (positions in
- * /cluster/positions; "arrival" when arrival is set). 0 or -1 with err. */
+ * /cluster/positions; "arrival" when arrival is set); the other kinds of
+ * sidecar of h5_path are removed (xdmf_remove_sidecars). 0 or -1 with err. */
 PDLA_API int xdmf_write_cluster(const char *h5_path, uint64_t n, int dim, int units_per_diameter,
                                 int arrival, char *err, size_t errlen);
 

@@ -15,12 +15,69 @@
 
 #include "h5util.h"
 
-int xdmf_sidecar_path(const char *h5_path, char *out, size_t len)
+/* The suffix of each kind of sidecar (enum xdmf_sidecar_kind): the one
+ * list the models' writers name their sidecars by and xdmf_remove_sidecars
+ * removes from. */
+static const char *const sidecar_suffix[XDMF_SIDECAR_KINDS] = {".xdmf2", "-free.xdmf2"};
+
+int xdmf_sidecar_name(const char *h5_path, int kind, char *out, size_t len)
 {
+    if (kind < 0 || kind >= XDMF_SIDECAR_KINDS) return -1;
     const size_t n = strlen(h5_path);
     const size_t stem = n >= 3 && strcmp(h5_path + n - 3, ".h5") == 0 ? n - 3 : n;
-    const int w = snprintf(out, len, "%.*s.xdmf2", (int)stem, h5_path);
+    const int w = snprintf(out, len, "%.*s%s", (int)stem, h5_path, sidecar_suffix[kind]);
     return w < 0 || (size_t)w >= len ? -1 : 0;
+}
+
+int xdmf_sidecar_path(const char *h5_path, char *out, size_t len)
+{
+    return xdmf_sidecar_name(h5_path, XDMF_SIDECAR_MAIN, out, len);
+}
+
+/* The folder of path (malloc'ed; "." for a bare name), or NULL. */
+static char *dir_of(const char *path)
+{
+    const char *const ds = strrchr(path, '/');
+    if (!ds) return strdup(".");
+    const size_t dl = ds == path ? 1 : (size_t)(ds - path);
+    char *const dir = malloc(dl + 1);
+    if (dir) {
+        memcpy(dir, path, dl);
+        dir[dl] = '\0';
+    }
+    return dir;
+}
+
+/* Removes path, a sidecar that would describe another file, and syncs its
+ * folder as the writers sync theirs after the rename, so that a crash does
+ * not bring it back beside the new file. Missing is fine. 0 or -1 with err. */
+static int remove_stale(const char *path, char *err, size_t errlen)
+{
+    if (unlink(path) != 0)
+        return errno == ENOENT ? 0 : pdla_errorf(-1, err, errlen, "cannot remove the stale sidecar %s: %s", path,
+                                                 strerror(errno));
+    char *const dir = dir_of(path);
+    int rc = 0;
+    if (!dir || h5u_fsync_dir(dir) != 0)
+        rc = pdla_errorf(-1, err, errlen, "removed the stale sidecar %s, but cannot sync its directory: %s", path,
+                         dir ? strerror(errno) : "out of memory");
+    free(dir);
+    return rc;
+}
+
+int xdmf_remove_sidecars(const char *h5_path, unsigned written, char *err, size_t errlen)
+{
+    const size_t len = strlen(h5_path) + 32;
+    char *const p = malloc(len);
+    if (!p) return pdla_errorf(-1, err, errlen, "out of memory for the sidecars' names");
+    int rc = 0;
+    for (int k = 0; k < XDMF_SIDECAR_KINDS && !rc; k++) {
+        if (written & XDMF_SIDECAR_BIT(k)) continue;
+        (void)xdmf_sidecar_name(h5_path, k, p, len); /* len always fits */
+        rc = remove_stale(p, err, errlen);
+    }
+    free(p);
+    return rc;
 }
 
 /* The sidecar's text, built in memory and written with write(2): it is a
@@ -237,20 +294,13 @@ static int check(const xdmf_points *p, char *err, size_t errlen)
 static int write_text(const char *xmf_path, const sbuf *text, char *err, size_t errlen)
 {
     const size_t len = strlen(xmf_path);
-    char *const tmp = malloc(len + 32), *const dir = malloc(len + 2);
+    char *const tmp = malloc(len + 32), *const dir = dir_of(xmf_path);
     int rc = -1, renamed = 0;
     if (!tmp || !dir) {
         pdla_errorf(-1, err, errlen, "out of memory for the sidecar's name");
         goto out;
     }
     snprintf(tmp, len + 32, "%s.tmp.%ld", xmf_path, (long)getpid());
-    const char *const ds = strrchr(xmf_path, '/');
-    if (!ds) strcpy(dir, ".");
-    else {
-        const size_t dl = ds == xmf_path ? 1 : (size_t)(ds - xmf_path);
-        memcpy(dir, xmf_path, dl);
-        dir[dl] = '\0';
-    }
     if (text->oom) {
         pdla_errorf(-1, err, errlen, "out of memory for the sidecar %s", xmf_path);
         goto out;
@@ -301,7 +351,7 @@ int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, siz
 {
     if (check(p, err, errlen) < 0) return -1;
     if (!xmf_path || !xmf_path[0]) return pdla_errorf(-1, err, errlen, "xdmf: no sidecar path given");
-    if (p->n == 0) return 0;
+    if (p->n == 0) return remove_stale(xmf_path, err, errlen); /* no points: an older one is another file's */
     const char *const slash = strrchr(p->h5_path, '/');
     const char *const base = slash ? slash + 1 : p->h5_path;
     sbuf text = {NULL, 0, 0, 0};
@@ -320,8 +370,13 @@ int xdmf_write_cluster(const char *h5_path, uint64_t n, int dim, int units_per_d
     (void)xdmf_sidecar_path(h5_path, xmf, len); /* len always fits */
     const xdmf_points p = {h5_path, "/cluster/positions", n, dim, units_per_diameter, 1,
                            arrival ? "arrival" : NULL, NULL, 0};
-    const int rc = xdmf_write_points(xmf, &p, err, errlen);
+    int rc = xdmf_write_points(xmf, &p, err, errlen);
     free(xmf);
+    /* A DLA file has no free particles: an event run's -free sidecar of an
+     * older cluster.h5 goes, also when the first failed (its message kept). */
+    char rerr[512];
+    if (xdmf_remove_sidecars(h5_path, XDMF_SIDECAR_BIT(XDMF_SIDECAR_MAIN), rerr, sizeof rerr) && !rc)
+        rc = pdla_errorf(-1, err, errlen, "%s", rerr);
     return rc;
 }
 

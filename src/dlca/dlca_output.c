@@ -334,11 +334,22 @@ int dlca_write_xdmf(const char *h5_path, int dim, uint64_t n, const dlca_snapsho
         if (err && errlen) snprintf(err, errlen, "xdmf: the path %.200s is too long", h5_path);
         return PDLA_EINVAL;
     }
-    if (dim != 2 && dim != 3) return 0; /* ParaView shows 2D and 3D points */
-    if (nsnaps && n) return xdmf_series(xmf, h5_path, dim, n, snaps, nsnaps, t_end, err, errlen);
-    const xdmf_array arrays[] = {{"cluster", "/monomers/cluster", "UInt", 4}, {"site", "/monomers/site", "UInt", 4}};
-    const xdmf_points pts = {h5_path, "/monomers/position", n, dim, 1, 0, NULL, arrays, 2};
-    return xdmf_write_points(xmf, &pts, err, errlen) ? PDLA_EIO : 0;
+    /* ParaView shows 2D and 3D points: in 4D and 5D none is written, and
+     * every sidecar an older cluster.h5 had goes (of a 2D run, or an event
+     * run's two), as do the other kinds beside the one written. */
+    const int shown = dim == 2 || dim == 3;
+    int rc = 0;
+    if (shown && nsnaps && n) rc = xdmf_series(xmf, h5_path, dim, n, snaps, nsnaps, t_end, err, errlen);
+    else if (shown) {
+        const xdmf_array arrays[] = {{"cluster", "/monomers/cluster", "UInt", 4},
+                                     {"site", "/monomers/site", "UInt", 4}};
+        const xdmf_points pts = {h5_path, "/monomers/position", n, dim, 1, 0, NULL, arrays, 2};
+        rc = xdmf_write_points(xmf, &pts, err, errlen) ? PDLA_EIO : 0;
+    }
+    char rerr[512];
+    if (xdmf_remove_sidecars(h5_path, shown ? XDMF_SIDECAR_BIT(XDMF_SIDECAR_MAIN) : 0, rerr, sizeof rerr) && !rc)
+        rc = pdla_errorf(PDLA_EIO, err, errlen, "%s", rerr);
+    return rc;
 }
 
 /* One snapshot as group name under g: site, cluster and the sites'

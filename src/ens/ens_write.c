@@ -311,20 +311,20 @@ fail:
 
 /* The sidecar beside path when positions are kept; without positions an
  * older one (of a replaced ensemble) is removed: it would point at rows
- * that are no longer there. */
+ * that are no longer there. Other kinds of sidecar (xdmf.h) are removed
+ * too. */
 static int write_sidecar(const pdla_ens_config *cfg, const char *path, char *err, size_t errlen)
 {
     char xmf[4400];
     if (xdmf_sidecar_path(path, xmf, sizeof xmf))
         return pdla_errorf(PDLA_EINVAL, err, errlen, "the path %.200s is too long for its sidecar", path);
-    if (!cfg->keep_positions || cfg->params.target == 0) {
-        if (unlink(xmf) && errno != ENOENT)
-            return pdla_errorf(PDLA_EIO, err, errlen, "cannot remove the stale %s: %s", xmf, strerror(errno));
-        return PDLA_OK;
+    const int shown = cfg->keep_positions && cfg->params.target > 0;
+    if (shown) {
+        const xdmf_ensemble e = {path, "/clusters/positions", cfg->clusters, cfg->params.target, cfg->params.dim,
+                                 cfg->params.resolution, cfg->params.record_arrival};
+        if (xdmf_write_ensemble(xmf, &e, err, errlen)) return PDLA_EIO;
     }
-    const xdmf_ensemble e = {path, "/clusters/positions", cfg->clusters, cfg->params.target, cfg->params.dim,
-                             cfg->params.resolution, cfg->params.record_arrival};
-    if (xdmf_write_ensemble(xmf, &e, err, errlen)) return PDLA_EIO;
+    if (xdmf_remove_sidecars(path, shown ? XDMF_SIDECAR_BIT(XDMF_SIDECAR_MAIN) : 0, err, errlen)) return PDLA_EIO;
     return PDLA_OK;
 }
 

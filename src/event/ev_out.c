@@ -381,7 +381,7 @@ int ev_write_h5(const ev_sim *s, const ev_series *ser, const char *path, const c
  * another file), as is the free one when the first cannot be written. */
 int ev_write_xdmf(const ev_sim *s, const char *h5_path, char *err, size_t errlen)
 {
-    const size_t len = strlen(h5_path) + 16;
+    const size_t len = strlen(h5_path) + 32;
     char *side = malloc(len), *free_side = malloc(len);
     int rc = 0;
     if (!side || !free_side) {
@@ -389,10 +389,9 @@ int ev_write_xdmf(const ev_sim *s, const char *h5_path, char *err, size_t errlen
         rc = -1;
     }
     if (!rc) {
-        (void)xdmf_sidecar_path(h5_path, side, len);
-        /* NAME.xdmf2 -> NAME-free.xdmf2 */
-        const size_t b = strlen(side) - strlen(".xdmf2");
-        snprintf(free_side, len, "%.*s-free.xdmf2", (int)b, side);
+        /* the names of xdmf.h's one list; len always fits */
+        (void)xdmf_sidecar_name(h5_path, XDMF_SIDECAR_MAIN, side, len);
+        (void)xdmf_sidecar_name(h5_path, XDMF_SIDECAR_FREE, free_side, len);
         static const xdmf_array stuck_arrays[] = {
             {"radius", "/cluster/radii", "Float", 8},
             {"arrival_time", "/cluster/arrival_time", "Float", 8},
@@ -407,11 +406,14 @@ int ev_write_xdmf(const ev_sim *s, const char *h5_path, char *err, size_t errlen
                                 stuck_arrays, 4};
         const xdmf_points pf = {h5_path, "/free/positions", s->n - s->nstuck, s->dim, 1, 0, NULL,
                                 free_arrays, 2};
-        if (ps.n == 0) unlink(side);
-        else rc = xdmf_write_points(side, &ps, err, errlen);
+        /* n == 0: none written, an older one removed (xdmf_write_points) */
+        rc = xdmf_write_points(side, &ps, err, errlen);
         if (rc) unlink(free_side); /* not written: an older one describes the older cluster.h5 */
-        else if (pf.n == 0) unlink(free_side);
         else rc = xdmf_write_points(free_side, &pf, err, errlen);
+        /* any kind of the list this model does not write (none today) */
+        char rerr[512];
+        const unsigned both = XDMF_SIDECAR_BIT(XDMF_SIDECAR_MAIN) | XDMF_SIDECAR_BIT(XDMF_SIDECAR_FREE);
+        if (xdmf_remove_sidecars(h5_path, both, rerr, sizeof rerr) && !rc) rc = pdla_errorf(-1, err, errlen, "%s", rerr);
     }
     free(side);
     free(free_side);

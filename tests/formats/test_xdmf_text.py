@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""test_xdmf_text.py PDLA XDMF_TOOL - the XDMF 2 sidecars read without
+"""test_xdmf_text.py text|stale PDLA XDMF_TOOL - the XDMF 2 sidecars read without
 ParaView, by an evaluator here that follows ParaView 5.11's XDMF 2 reader
 (xdmf2::XdmfDataItem::UpdateFunction): HDF and XML items, HyperSlab items
 (start, stride, count) over any item, Function items ($k the k-th child
@@ -21,6 +21,13 @@ ParaView) from `pdla --target 1` (2D --arrival, 3D), `pdla ensemble
 one stuck particle; the same with more points; and xdmf_tool's sidecars of
 one-point files written here with points off the origin (negative, and of
 3x10^6 units).
+
+stale: DLCA 2D and 4D, event, DLA runs one after another into one directory
+with --force: after each, the *.xdmf2 there are exactly the run's own (a
+4D DLCA run writes none; only the event model writes cluster-free.xdmf2)
+and each reads cleanly against the new cluster.h5; an ensemble without
+positions leaves no ensemble.xdmf2; xdmf_write_points with no points
+removes an older sidecar.
 Prints one line per failure and "N checks, N failed"; exit 1 on a failure.
 """
 import os
@@ -69,9 +76,13 @@ class Reader:
             if e.get("Format", "XML") == "HDF":
                 fn, ds = e.text.strip().split(":", 1)
                 with h5py.File(os.path.join(self.dir, fn), "r") as f:
+                    if ds not in f:
+                        self.probs.append("%s: no such dataset" % e.text.strip())
+                        return np.zeros(d)
                     v = f[ds][()]
                 if tuple(v.shape) != d:
                     self.probs.append("%s: Dimensions %s, dataset %s" % (e.text.strip(), d, v.shape))
+                    return np.zeros(d)
             else:
                 v = np.array(e.text.split(), dtype=np.float64)
             if e.get("NumberType", "Float") == "Float":
@@ -154,7 +165,11 @@ def read_sidecar(path):
     if not check(os.path.isfile(path), "%s: no sidecar" % path):
         return None
     r = Reader(path)
-    grids = r.grids()
+    try:
+        grids = r.grids()
+    except Exception as ex:  # a sidecar this evaluator cannot follow is a failure, not a crash
+        r.probs.append("cannot evaluate: %r" % ex)
+        grids = None
     for p in r.probs:
         check(False, "%s: %s" % (path, p))
     return grids
@@ -243,15 +258,58 @@ def off_origin_cases(tool, tmp):
                        "arrival" if arrival else None, cluster=i)
 
 
+def stale_cases(pdla, tool, tmp):
+    """Runs of every model into one directory (--force): after each, the
+    sidecars there are exactly the ones that run writes, and each describes
+    the new file (its datasets there, with its Dimensions)."""
+    d = os.path.join(tmp, "dx")
+    dlca2 = ["--model", "dlca", "--dim", "2", "--box", "32", "--fill", "0.05", "--seed", "1", "-q"]
+    dlca4 = ["--model", "dlca", "--dim", "4", "--box", "8", "--fill", "0.05", "--seed", "1", "-q"]
+    event = ["--model", "event", "--dim", "2", "--particles", "50", "--packing", "0.05", "--seed", "3",
+             "--max-stuck", "5", "--quiet"]
+    dla = ["--target", "10", "-q"]
+    ens_pos = ["ensemble", "--clusters", "2", "--target", "10", "--keep-positions", "-q"]
+    ens = ["ensemble", "--clusters", "2", "--target", "10", "-q"]
+    both, main = {"cluster.xdmf2", "cluster-free.xdmf2"}, {"cluster.xdmf2"}
+    steps = [("DLCA 2D", dlca2, main), ("DLCA 4D", dlca4, set()), ("event", event, both), ("DLA", dla, main),
+             ("event", event, both), ("DLCA 2D", dlca2, main), ("event", event, both), ("DLCA 4D", dlca4, set())]
+    for what, args, want in steps:
+        rc, so, se = run([pdla] + args + ["--out", d, "--force"])
+        if not check(rc == 0, "%s --force: exit %d: %s" % (what, rc, se)):
+            continue
+        got = {n for n in os.listdir(d) if n.endswith(".xdmf2")}
+        check(got == want, "%s --force: sidecars %s, want %s" % (what, sorted(got), sorted(want)))
+        for n in sorted(got):
+            read_sidecar(os.path.join(d, n))
+    e = os.path.join(tmp, "ex")
+    for what, args, want in (("with positions", ens_pos, {"ensemble.xdmf2"}), ("without", ens, set())):
+        rc, so, se = run([pdla] + args + ["--out", e, "--force"])
+        if check(rc == 0, "ensemble %s --force: exit %d: %s" % (what, rc, se)):
+            got = {n for n in os.listdir(e) if n.endswith(".xdmf2")}
+            check(got == want, "ensemble %s --force: sidecars %s, want %s" % (what, sorted(got), sorted(want)))
+    # xdmf_write_points of no points: none written, an older one removed
+    h5 = os.path.join(tmp, "none.h5")
+    with h5py.File(h5, "w") as f:
+        f["p"] = np.zeros((0, 2), dtype=np.int64)
+    xmf = os.path.join(tmp, "none.xdmf2")
+    open(xmf, "w").write("an older sidecar\n")
+    rc, so, se = run([tool, "points", xmf, h5, "/p", "0", "2", "1", "1", "-"])
+    check(rc == 0 and not os.path.exists(xmf), "xdmf_write_points, n = 0: exit %d, older sidecar %s" %
+          (rc, "left" if os.path.exists(xmf) else "removed"))
+
+
 def main():
-    if len(sys.argv) != 3:
-        sys.exit("usage: test_xdmf_text.py PDLA XDMF_TOOL")
-    pdla, tool = (os.path.abspath(a) for a in sys.argv[1:])
+    if len(sys.argv) != 4 or sys.argv[1] not in ("text", "stale"):
+        sys.exit("usage: test_xdmf_text.py text|stale PDLA XDMF_TOOL")
+    pdla, tool = (os.path.abspath(a) for a in sys.argv[2:])
     with tempfile.TemporaryDirectory() as tmp:
-        dla_cases(pdla, tmp)
-        ensemble_cases(pdla, tmp)
-        event_case(pdla, tmp)
-        off_origin_cases(tool, tmp)
+        if sys.argv[1] == "text":
+            dla_cases(pdla, tmp)
+            ensemble_cases(pdla, tmp)
+            event_case(pdla, tmp)
+            off_origin_cases(tool, tmp)
+        else:
+            stale_cases(pdla, tool, tmp)
     print("%d checks, %d failed" % (checks, fails))
     sys.exit(1 if fails else 0)
 

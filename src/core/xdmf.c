@@ -80,38 +80,58 @@ int xdmf_remove_sidecars(const char *h5_path, unsigned written, char *err, size_
     return rc;
 }
 
-/* The sidecar's text, built in memory and written with write(2): it is a
- * few kB, and the run's one stdio file stays summary.txt. */
+/* The sidecar's text, streamed to its file through a buffer of SB_CAP bytes
+ * written with write(2) whenever it fills: memory stays the same for any
+ * length of text (an ensemble's is about 2.6 kB a cluster: 2.6 GB for 10^6
+ * clusters, which the whole text in memory took, twice over while it grew),
+ * and the run's one stdio file stays summary.txt. */
+#define SB_CAP 65536
+
 typedef struct sbuf {
+    int fd;
     char *p;
     size_t n, cap;
-    int oom;
+    int err; /* errno of the first failure (ENOMEM too); nothing more is written after one */
 } sbuf;
+
+/* Writes out what b holds. */
+static void sb_flush(sbuf *b)
+{
+    for (size_t done = 0; done < b->n && !b->err;) {
+        const ssize_t w = write(b->fd, b->p + done, b->n - done);
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) b->err = w < 0 ? errno : EIO;
+        else done += (size_t)w;
+    }
+    b->n = 0;
+}
 
 static void sb_printf(sbuf *b, const char *fmt, ...)
 {
-    if (b->oom) return;
-    for (;;) {
+    while (!b->err) {
         va_list ap;
         va_start(ap, fmt);
-        const int w = vsnprintf(b->p ? b->p + b->n : NULL, b->p ? b->cap - b->n : 0, fmt, ap);
+        const int w = vsnprintf(b->p + b->n, b->cap - b->n, fmt, ap);
         va_end(ap);
         if (w < 0) {
-            b->oom = 1;
+            b->err = EINVAL;
             return;
         }
-        if (b->p && (size_t)w < b->cap - b->n) {
+        if ((size_t)w < b->cap - b->n) {
             b->n += (size_t)w;
             return;
         }
-        const size_t cap = 2 * (b->cap + (size_t)w) + 256;
-        char *const q = realloc(b->p, cap);
-        if (!q) {
-            b->oom = 1;
-            return;
+        /* It did not fit: out with what is there, then again; a piece
+         * larger than the buffer (a long file name) gets a buffer of its
+         * size, so memory follows the longest piece, not the text. */
+        sb_flush(b);
+        if (b->err || (size_t)w < b->cap) continue;
+        char *const q = realloc(b->p, (size_t)w + 1);
+        if (!q) b->err = ENOMEM;
+        else {
+            b->p = q;
+            b->cap = (size_t)w + 1;
         }
-        b->p = q;
-        b->cap = cap;
     }
 }
 
@@ -231,8 +251,12 @@ static void put_row_index(sbuf *fp, const slab_src *s, const char *name, int dep
     sb_printf(fp, "%*s</Attribute>\n", depth, "");
 }
 
-static void put_body(sbuf *fp, const xdmf_points *p, const char *base)
+/* The sidecar of the xdmf_points at arg. */
+static void put_body(sbuf *fp, const void *arg)
 {
+    const xdmf_points *const p = arg;
+    const char *const slash = strrchr(p->h5_path, '/');
+    const char *const base = slash ? slash + 1 : p->h5_path;
     sb_printf(fp, "<?xml version=\"1.0\" ?>\n"
                 "<!-- pdla: particles of ");
     put_escaped(fp, base);
@@ -288,37 +312,32 @@ static int check(const xdmf_points *p, char *err, size_t errlen)
     return 0;
 }
 
-/* text into xmf_path: into xmf_path.tmp.<pid>, fsync'ed, renamed, the
- * folder fsync'ed; on a failure before the rename an older xmf_path is
- * removed (it would describe another file). 0 or -1 with err. */
-static int write_text(const char *xmf_path, const sbuf *text, char *err, size_t errlen)
+/* The text body(b, arg) writes, into xmf_path: streamed into
+ * xmf_path.tmp.<pid>, fsync'ed, renamed, the folder fsync'ed; on a failure
+ * before the rename an older xmf_path is removed (it would describe another
+ * file). 0 or -1 with err. */
+static int write_text(const char *xmf_path, void (*body)(sbuf *, const void *), const void *arg, char *err,
+                      size_t errlen)
 {
     const size_t len = strlen(xmf_path);
     char *const tmp = malloc(len + 32), *const dir = dir_of(xmf_path);
+    sbuf b = {-1, malloc(SB_CAP), 0, SB_CAP, 0};
     int rc = -1, renamed = 0;
-    if (!tmp || !dir) {
-        pdla_errorf(-1, err, errlen, "out of memory for the sidecar's name");
-        goto out;
-    }
-    snprintf(tmp, len + 32, "%s.tmp.%ld", xmf_path, (long)getpid());
-    if (text->oom) {
+    if (!tmp || !dir || !b.p) {
         pdla_errorf(-1, err, errlen, "out of memory for the sidecar %s", xmf_path);
         goto out;
     }
-    const int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    if (fd < 0) {
+    snprintf(tmp, len + 32, "%s.tmp.%ld", xmf_path, (long)getpid());
+    b.fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (b.fd < 0) {
         pdla_errorf(-1, err, errlen, "cannot create %s: %s", tmp, strerror(errno));
         goto out;
     }
-    int bad = 0;
-    for (size_t done = 0; done < text->n && !bad;) {
-        const ssize_t w = write(fd, text->p + done, text->n - done);
-        if (w < 0 && errno == EINTR) continue;
-        if (w <= 0) bad = w < 0 ? errno : EIO;
-        else done += (size_t)w;
-    }
-    if (!bad && fsync(fd) != 0) bad = errno;
-    if (close(fd) != 0 && !bad) bad = errno;
+    body(&b, arg);
+    sb_flush(&b);
+    int bad = b.err;
+    if (!bad && fsync(b.fd) != 0) bad = errno;
+    if (close(b.fd) != 0 && !bad) bad = errno;
     if (bad) {
         pdla_errorf(-1, err, errlen, "cannot write %s: %s", tmp, strerror(bad));
         unlink(tmp);
@@ -344,6 +363,7 @@ out:
     }
     free(tmp);
     free(dir);
+    free(b.p);
     return rc;
 }
 
@@ -352,13 +372,7 @@ int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, siz
     if (check(p, err, errlen) < 0) return -1;
     if (!xmf_path || !xmf_path[0]) return pdla_errorf(-1, err, errlen, "xdmf: no sidecar path given");
     if (p->n == 0) return remove_stale(xmf_path, err, errlen); /* no points: an older one is another file's */
-    const char *const slash = strrchr(p->h5_path, '/');
-    const char *const base = slash ? slash + 1 : p->h5_path;
-    sbuf text = {NULL, 0, 0, 0};
-    put_body(&text, p, base);
-    const int rc = write_text(xmf_path, &text, err, errlen);
-    free(text.p);
-    return rc;
+    return write_text(xmf_path, put_body, p, err, errlen);
 }
 
 int xdmf_write_cluster(const char *h5_path, uint64_t n, int dim, int units_per_diameter,
@@ -417,6 +431,22 @@ static void put_cluster(sbuf *fp, const xdmf_ensemble *e, const char *base, uint
     sb_printf(fp, "   </Grid>\n");
 }
 
+/* The sidecar of the xdmf_ensemble at arg, a cluster at a time. */
+static void put_ensemble(sbuf *fp, const void *arg)
+{
+    const xdmf_ensemble *const e = arg;
+    const char *const slash = strrchr(e->h5_path, '/');
+    const char *const base = slash ? slash + 1 : e->h5_path;
+    sb_printf(fp, "<?xml version=\"1.0\" ?>\n<!-- pdla: the clusters of ");
+    put_escaped(fp, base);
+    sb_printf(fp, " for ParaView's \"XDMF Reader\" (XDMF 2): one block per cluster, positions in %s -->\n"
+                  "<Xdmf Version=\"2.0\">\n <Domain>\n"
+                  "  <Grid Name=\"clusters\" GridType=\"Collection\" CollectionType=\"Spatial\">\n",
+              e->units_per_diameter > 1 ? "diameters" : "the file's length unit");
+    for (uint64_t i = 0; i < e->clusters && !fp->err; i++) put_cluster(fp, e, base, i);
+    sb_printf(fp, "  </Grid>\n </Domain>\n</Xdmf>\n");
+}
+
 int xdmf_write_ensemble(const char *xmf_path, const xdmf_ensemble *e, char *err, size_t errlen)
 {
     if (!xmf_path || !xmf_path[0] || !e || !e->h5_path || !e->positions || e->positions[0] != '/')
@@ -427,18 +457,5 @@ int xdmf_write_ensemble(const char *xmf_path, const xdmf_ensemble *e, char *err,
     if (e->clusters == 0 || e->n == 0 || e->n > UINT64_MAX / e->clusters)
         return pdla_errorf(-1, err, errlen, "xdmf: %" PRIu64 " clusters of %" PRIu64 " points: nothing to show",
                     e->clusters, e->n);
-    const char *const slash = strrchr(e->h5_path, '/');
-    const char *const base = slash ? slash + 1 : e->h5_path;
-    sbuf text = {NULL, 0, 0, 0};
-    sb_printf(&text, "<?xml version=\"1.0\" ?>\n<!-- pdla: the clusters of ");
-    put_escaped(&text, base);
-    sb_printf(&text, " for ParaView's \"XDMF Reader\" (XDMF 2): one block per cluster, positions in %s -->\n"
-                     "<Xdmf Version=\"2.0\">\n <Domain>\n"
-                     "  <Grid Name=\"clusters\" GridType=\"Collection\" CollectionType=\"Spatial\">\n",
-              e->units_per_diameter > 1 ? "diameters" : "the file's length unit");
-    for (uint64_t i = 0; i < e->clusters && !text.oom; i++) put_cluster(&text, e, base, i);
-    sb_printf(&text, "  </Grid>\n </Domain>\n</Xdmf>\n");
-    const int rc = write_text(xmf_path, &text, err, errlen);
-    free(text.p);
-    return rc;
+    return write_text(xmf_path, put_ensemble, e, err, errlen);
 }

@@ -339,7 +339,9 @@ uint64_t pdla_ens_memory_bytes(const pdla_ens_config *c)
 {
     const uint64_t k = pdla_ens_rg_samples_max(c);
     /* Per cluster: the journal's offset and length (16), the columns
-     * (14 x 8 + 4), the bootstrap's pick (8), and the R_g row (8 K). */
+     * (14 x 8 + 4), the bootstrap's pick (8), and the R_g row (8 K). The
+     * sidecar (about 2.6 kB of text a cluster) is streamed to its file
+     * through 64 KiB (xdmf.c), inside the fixed MiB. */
     const uint64_t per = sat_muladd(k, 8, 16 + 116 + 8);
     return sat_muladd(c->clusters, per, sat_muladd(k, 64, 1 << 20));
 }

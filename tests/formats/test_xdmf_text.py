@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""test_xdmf_text.py text|stale PDLA XDMF_TOOL - the XDMF 2 sidecars read without
+"""test_xdmf_text.py text|stale|memory PDLA XDMF_TOOL - the XDMF 2 sidecars read without
 ParaView, by an evaluator here that follows ParaView 5.11's XDMF 2 reader
 (xdmf2::XdmfDataItem::UpdateFunction): HDF and XML items, HyperSlab items
 (start, stride, count) over any item, Function items ($k the k-th child
@@ -28,6 +28,10 @@ with --force: after each, the *.xdmf2 there are exactly the run's own (a
 and each reads cleanly against the new cluster.h5; an ensemble without
 positions leaves no ensemble.xdmf2; xdmf_write_points with no points
 removes an older sidecar.
+
+memory: xdmf_write_ensemble (xdmf_tool) of 10^4 clusters of 100 points (26
+MB of text) peaks under 4 MiB of RSS above one of 10 clusters, and the file
+holds every cluster's grid and its end.
 Prints one line per failure and "N checks, N failed"; exit 1 on a failure.
 """
 import os
@@ -298,9 +302,42 @@ def stale_cases(pdla, tool, tmp):
           (rc, "left" if os.path.exists(xmf) else "removed"))
 
 
+def rss_of(tool, xmf, m):
+    """xdmf_tool's peak RSS (KiB) writing an ensemble sidecar of m clusters
+    of 100 3D points with arrival (about 2.6 kB of text a cluster)."""
+    rc, so, se = run([tool, "ensemble", xmf, "e.h5", "/clusters/positions", str(m), "100", "3", "32", "1"])
+    if not check(rc == 0 and so.startswith("peak_rss_kib "), "xdmf_tool ensemble M=%d: exit %d: %s" % (m, rc, se)):
+        return None
+    return int(so.split()[1])
+
+
+def memory_case(tool, tmp):
+    """The ensemble sidecar is streamed to its file: writing one of 10^4
+    clusters (26 MB of text) takes no more memory than one of 10 (the whole
+    text in memory took its size and more)."""
+    xmf = os.path.join(tmp, "m.xdmf2")
+    small = rss_of(tool, xmf, 10)
+    m = 10000
+    big = rss_of(tool, xmf, m)
+    if small is None or big is None:
+        return
+    check(big - small < 4096, "ensemble sidecar of %d clusters: peak RSS %d KiB, %d KiB for 10 (want < 4 MiB more)" %
+          (m, big, small))
+    grids, last = 0, None
+    with open(xmf) as f:
+        for line in f:
+            if line.startswith('   <Grid Name="cluster '):
+                grids += 1
+            last = line
+    slab = '<DataItem Dimensions="3 2" Format="XML">%d 0 1 1 100 3</DataItem>' % ((m - 1) * 100)
+    check(grids == m and last == "</Xdmf>\n" and slab in open(xmf).read(),
+          "ensemble sidecar of %d clusters: %d grids, last line %r, last cluster's rows %s" %
+          (m, grids, last, "found" if slab in open(xmf).read() else "missing"))
+
+
 def main():
-    if len(sys.argv) != 4 or sys.argv[1] not in ("text", "stale"):
-        sys.exit("usage: test_xdmf_text.py text|stale PDLA XDMF_TOOL")
+    if len(sys.argv) != 4 or sys.argv[1] not in ("text", "stale", "memory"):
+        sys.exit("usage: test_xdmf_text.py text|stale|memory PDLA XDMF_TOOL")
     pdla, tool = (os.path.abspath(a) for a in sys.argv[2:])
     with tempfile.TemporaryDirectory() as tmp:
         if sys.argv[1] == "text":
@@ -308,8 +345,10 @@ def main():
             ensemble_cases(pdla, tmp)
             event_case(pdla, tmp)
             off_origin_cases(tool, tmp)
-        else:
+        elif sys.argv[1] == "stale":
             stale_cases(pdla, tool, tmp)
+        else:
+            memory_case(tool, tmp)
     print("%d checks, %d failed" % (checks, fails))
     sys.exit(1 if fails else 0)
 

@@ -71,8 +71,9 @@ static double *read_f64(hid_t f, const char *path, const char *name, size_t *n, 
 
 static void jnum(FILE *o, const char *name, double v, int comma)
 {
-    if (isfinite(v)) fprintf(o, "  \"%s\": %.17g%s\n", name, v, comma ? "," : "");
-    else fprintf(o, "  \"%s\": null%s\n", name, comma ? "," : "");
+    fprintf(o, "  \"%s\": ", name);
+    tool_json_num(o, v, 17); /* null for NaN and inf: JSON has neither */
+    fprintf(o, "%s\n", comma ? "," : "");
 }
 
 /* What `pdla analyze` prints of an ensemble file. */
@@ -139,9 +140,18 @@ static void print_json(const ens_view *v, const char *path)
     jnum(stdout, "corr_A_lo", A("corr_A_lo"), 1), jnum(stdout, "corr_A_hi", A("corr_A_hi"), 1);
     jnum(stdout, "corr_B", A("corr_B"), 1), jnum(stdout, "corr_nu", A("corr_nu"), 1);
     jnum(stdout, "corr_n_lo", A("corr_n_lo"), 1);
+    /* A window's slope or band can be NaN (too few clusters, a window
+     * without two points): null, as jnum, since JSON has no NaN. */
     printf("  \"local_slope\": [");
-    for (size_t i = 0; i < v->ns; i++)
-        printf("%s[%.6g, %.6g, %.6g, %.6g]", i ? ", " : "", v->sn[i], v->sd[i], v->sl[i], v->sh[i]);
+    for (size_t i = 0; i < v->ns; i++) {
+        const double row[4] = {v->sn[i], v->sd[i], v->sl[i], v->sh[i]};
+        fputs(i ? ", [" : "[", stdout);
+        for (int k = 0; k < 4; k++) {
+            if (k) fputs(", ", stdout);
+            tool_json_num(stdout, row[k], 6);
+        }
+        fputc(']', stdout);
+    }
     printf("]\n}\n");
 }
 

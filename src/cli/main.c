@@ -481,6 +481,17 @@ static void json_real(FILE *f, double x)
     else fputs("null", f);
 }
 
+/* ",\n  \"key\": [v0, v1, ...]", each a json_real (JSON has no NaN or inf). */
+static void json_reals(FILE *f, const char *key, const double *v, int n)
+{
+    fprintf(f, ",\n  \"%s\": [", key);
+    for (int i = 0; i < n; i++) {
+        if (i) fputs(", ", f);
+        json_real(f, v[i]);
+    }
+    fputc(']', f);
+}
+
 /* Every row of the parameter table: {"name": value, ...}; a choice as its word. */
 static void json_params(FILE *f, const pdla_params *P)
 {
@@ -532,18 +543,16 @@ static void write_json(FILE *f, const report *r, const char *status)
                ",\n  \"stale_jumps\": %" PRIu64 ",\n  \"stale_births\": %" PRIu64
                ",\n  \"claim_waits\": %" PRIu64 ",\n  \"relaunches\": %" PRIu64
                ",\n  \"mutex_taken\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]"
-               ",\n  \"mutex_contended\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]"
-               ",\n  \"mutex_hold_ns\": [%.0f, %.0f, %.0f]"
-               ",\n  \"mutex_wait_ns\": [%.0f, %.0f, %.0f]"
-               ",\n  \"mutex_long_holds\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]"
-               ",\n  \"worker_cpu_seconds\": %.6f"
-               ",\n  \"binding\": ",
+               ",\n  \"mutex_contended\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "]",
             s->threads, s->recheck_overlaps, s->recheck_continued, s->recheck_discarded,
             s->stale_jumps, s->stale_births, s->claim_waits, s->relaunches, s->mutex_taken[0], s->mutex_taken[1], s->mutex_taken[2], s->mutex_contended[0],
-            s->mutex_contended[1], s->mutex_contended[2], s->mutex_hold_ns[0], s->mutex_hold_ns[1],
-            s->mutex_hold_ns[2], s->mutex_wait_ns[0], s->mutex_wait_ns[1], s->mutex_wait_ns[2],
-            s->mutex_long_holds[0], s->mutex_long_holds[1], s->mutex_long_holds[2],
-            s->worker_cpu_seconds);
+            s->mutex_contended[1], s->mutex_contended[2]);
+    json_reals(f, "mutex_hold_ns", s->mutex_hold_ns, 3);
+    json_reals(f, "mutex_wait_ns", s->mutex_wait_ns, 3);
+    fprintf(f, ",\n  \"mutex_long_holds\": [%" PRIu64 ", %" PRIu64 ", %" PRIu64 "],\n  \"worker_cpu_seconds\": ",
+            s->mutex_long_holds[0], s->mutex_long_holds[1], s->mutex_long_holds[2]);
+    json_real(f, s->worker_cpu_seconds);
+    fprintf(f, ",\n  \"binding\": ");
     json_string(f, s->binding);
     /* PDLA lag (issue 11): particles appended by the others while a walker
      * was in flight, over the particles the workers / reference walkers

@@ -1,0 +1,98 @@
+#!/usr/bin/python3
+"""test_ens_json.py PDLA - `pdla analyze ENSEMBLE --json` is JSON.
+
+An ensemble of 4 clusters of 2000 particles with 2 R_g samples a decade has
+local slopes that are NaN (windows with too few points): the output must
+parse as strict JSON (no NaN, Infinity or nan, which JSON does not have),
+with null where /statistics holds NaN and the file's numbers elsewhere (to
+the 6 digits printed).
+Prints one line per failure and "N checks, N failed"; exit 1 on a failure.
+"""
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+
+import h5py
+
+checks = 0
+fails = 0
+
+
+def check(ok, what):
+    global checks, fails
+    checks += 1
+    if not ok:
+        fails += 1
+        print("FAIL:", what, flush=True)
+    return ok
+
+
+def run(args):
+    p = subprocess.run(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL)
+    return p.returncode, p.stdout.decode(errors="replace"), p.stderr.decode(errors="replace")
+
+
+def strict_json(text):
+    """json.loads that refuses NaN and Infinity (Python takes them by default)."""
+    def refuse(c):
+        raise ValueError("not JSON: " + c)
+    return json.loads(text, parse_constant=refuse)
+
+
+def same(got, want, digits):
+    """got (JSON: a number or None) against want (the file: NaN is None)."""
+    if math.isnan(want):
+        return got is None
+    return got is not None and math.isclose(got, want, rel_tol=10.0 ** (1 - digits), abs_tol=1e-300)
+
+
+def analyze_json(pdla, h5, what):
+    rc, so, se = run([pdla, "analyze", h5, "--json"])
+    if not check(rc == 0, "%s: analyze --json: exit %d: %s" % (what, rc, se)):
+        return None
+    try:
+        return strict_json(so)
+    except ValueError as e:
+        check(False, "%s: analyze --json is not JSON (%s): %s" % (what, e, so[-300:]))
+        return None
+
+
+def local_slope_nan(pdla, tmp):
+    out = os.path.join(tmp, "rp2")
+    rc, so, se = run([pdla, "ensemble", "--clusters", "4", "--target", "2000", "--rg-per-decade", "2", "--out", out,
+                      "-q"])
+    if not check(rc == 0, "ensemble --rg-per-decade 2: exit %d: %s" % (rc, se)):
+        return
+    h5 = os.path.join(out, "ensemble.h5")
+    d = analyze_json(pdla, h5, "4 clusters, 2 samples a decade")
+    if d is None:
+        return
+    with h5py.File(h5, "r") as f:
+        cols = [f["statistics/" + k][()] for k in ("slope_N", "slope_D_f", "slope_D_f_lo", "slope_D_f_hi")]
+        attrs = dict(f["statistics"].attrs)
+    rows = d.get("local_slope", [])
+    check(len(rows) == len(cols[0]) and any(math.isnan(v) for c in cols for v in c),
+          "local_slope: %d rows, file %d (and some NaN, or this case tests nothing)" % (len(rows), len(cols[0])))
+    for i, row in enumerate(rows):
+        check(len(row) == 4 and all(same(row[k], float(cols[k][i]), 6) for k in range(4)),
+              "local_slope[%d] = %s, file %s" % (i, row, [float(c[i]) for c in cols]))
+    for key in ("D_f", "D_f_lo", "D_f_hi", "D_f_cluster_sd", "corr_D"):
+        if key in attrs:
+            check(same(d.get(key), float(attrs[key]), 15), "%s = %s, file %s" % (key, d.get(key), attrs[key]))
+
+
+def main():
+    if len(sys.argv) != 2:
+        sys.exit("usage: test_ens_json.py PDLA")
+    pdla = os.path.abspath(sys.argv[1])
+    with tempfile.TemporaryDirectory() as tmp:
+        local_slope_nan(pdla, tmp)
+    print("%d checks, %d failed" % (checks, fails))
+    sys.exit(1 if fails else 0)
+
+
+if __name__ == "__main__":
+    main()

@@ -271,7 +271,10 @@ typedef struct pdla_ens_stats {
     /* D_f of the mean R_g (least squares of ln <R_g> on ln N over the fit
      * range) with a 95% interval: the 2.5 and 97.5 percentiles over
      * boot_samples resamples of the M clusters with replacement, drawn from
-     * a fixed seed (reproducible); df_boot_sd their standard deviation. */
+     * a fixed seed (reproducible); df_boot_sd their standard deviation.
+     * With M = 1 every resample is that one cluster: no interval, df_lo,
+     * df_hi, df_boot_sd (and the slope bands and the correction fit's
+     * intervals below) are NaN. */
     double df, df_lo, df_hi, df_boot_sd, prefactor_diam;
     int boot_samples;
     uint64_t boot_seed;

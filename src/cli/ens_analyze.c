@@ -155,37 +155,60 @@ static void print_json(const ens_view *v, const char *path)
     printf("]\n}\n");
 }
 
+/* "[lo, hi]" to 4 decimals, or "[n/a]" when the file has no interval (NaN:
+ * an ensemble of one cluster, whose resamples are all that cluster). */
+static const char *band(char *buf, size_t len, double lo, double hi)
+{
+    if (!isfinite(lo) || !isfinite(hi)) return "[n/a]";
+    snprintf(buf, len, "[%.4f, %.4f]", lo, hi);
+    return buf;
+}
+
+/* v to 4 decimals, or "n/a" (NaN: the sd of one cluster). */
+static const char *num4(char *buf, size_t len, double v)
+{
+    if (!isfinite(v)) return "n/a";
+    snprintf(buf, len, "%.4f", v);
+    return buf;
+}
+
 static void print_text(const ens_view *v, const char *path)
 {
     const double M = h5r_attr_num(&v->en, "clusters"), N = h5r_attr_num(&v->en, "particles");
     const double S = h5r_attr_num(&v->en, "first_seed"), dim = h5r_attr_num(&v->par, "dim");
+    char b1[64], b2[64];
     printf("ensemble         %s: %.0f clusters of %.0f particles, %.0fD, seeds %.0f..%.0f\n", path, M, N, dim, S,
            S + M - 1);
     printf("fit range        N in [%.0f, %.0f]\n", A("fit_n_lo"), A("fit_n_hi"));
-    printf("D_f              %.4f, 95%% interval [%.4f, %.4f] (bootstrap over clusters: %.0f resamples, "
-           "seed %.0f; sd %.4f)\n",
-           A("D_f"), A("D_f_lo"), A("D_f_hi"), A("bootstrap_samples"), A("bootstrap_seed"), A("D_f_boot_sd"));
+    char how[160];
+    if (M == 1) snprintf(how, sizeof how, "one cluster: a bootstrap over clusters needs more");
+    else
+        snprintf(how, sizeof how, "bootstrap over clusters: %.0f resamples, seed %.0f; sd %s", A("bootstrap_samples"),
+                 A("bootstrap_seed"), num4(b2, sizeof b2, A("D_f_boot_sd")));
+    printf("D_f              %.4f, 95%% interval %s (%s)\n", A("D_f"), band(b1, sizeof b1, A("D_f_lo"), A("D_f_hi")),
+           how);
     printf("prefactor        R_g = %.4f N^(1/D_f) diameters\n", A("prefactor_diam"));
-    printf("per-cluster D_f  mean %.4f, sd %.4f over %zu clusters\n", A("D_f_cluster_mean"), A("D_f_cluster_sd"),
-           v->ndf);
+    printf("per-cluster D_f  mean %.4f, sd %s over %zu clusters\n", A("D_f_cluster_mean"),
+           num4(b1, sizeof b1, A("D_f_cluster_sd")), v->ndf);
+    if (isfinite(A("corr_D_lo"))) snprintf(how, sizeof how, "interval: %.0f resamples", A("corr_samples"));
+    else snprintf(how, sizeof how, "no interval%s", M == 1 ? ": one cluster" : "");
     if (A("corr_ok") == 1) {
         /* The fit keeps |B N^-nu| <= 0.9 over its range (ens_stats.c): B at
          * that cap, like nu at an end of its range, says the data do not
          * determine the correction. */
         const int nu_end = A("corr_nu") <= 0.2 || A("corr_nu") >= 2.0;
         const int b_cap = fabs(A("corr_B")) * pow(A("corr_n_lo"), -A("corr_nu")) >= 0.9 * (1 - 1e-3);
-        printf("correction fit   R_g = A N^(1/D) (1 + B N^-nu), N in [%.0f, %.0f]: D = %.4f [%.4f, %.4f], "
-               "A = %.4f [%.4f, %.4f] diameters, B = %.4f, nu = %.3f%s%s (interval: %.0f resamples)\n",
-               A("corr_n_lo"), A("fit_n_hi"), A("corr_D"), A("corr_D_lo"), A("corr_D_hi"), A("corr_A_diam"),
-               A("corr_A_lo"), A("corr_A_hi"), A("corr_B"), A("corr_nu"),
+        printf("correction fit   R_g = A N^(1/D) (1 + B N^-nu), N in [%.0f, %.0f]: D = %.4f %s, "
+               "A = %.4f %s diameters, B = %.4f, nu = %.3f%s%s (%s)\n",
+               A("corr_n_lo"), A("fit_n_hi"), A("corr_D"), band(b1, sizeof b1, A("corr_D_lo"), A("corr_D_hi")),
+               A("corr_A_diam"), band(b2, sizeof b2, A("corr_A_lo"), A("corr_A_hi")), A("corr_B"), A("corr_nu"),
                nu_end ? " (at the end of its range [0.2, 2]: poorly determined)" : "",
-               b_cap ? " (B at its cap, |B N^-nu| = 0.9 at the smallest N: poorly determined)" : "",
-               A("corr_samples"));
+               b_cap ? " (B at its cap, |B N^-nu| = 0.9 at the smallest N: poorly determined)" : "", how);
     } else
         printf("correction fit   n/a (too few points)\n");
     printf("local slope      D_f over windows of %.2g decades of N, 95%% band:\n", A("slope_window_decades"));
     for (size_t i = 0; i < v->ns; i++)
-        printf("  N %-10.0f  %.4f  [%.4f, %.4f]\n", v->sn[i], v->sd[i], v->sl[i], v->sh[i]);
+        printf("  N %-10.0f  %.4f  %s\n", v->sn[i], v->sd[i], band(b1, sizeof b1, v->sl[i], v->sh[i]));
 #undef A
 }
 

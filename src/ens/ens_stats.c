@@ -323,6 +323,17 @@ static void intervals(pdla_ens_stats *s, boot_work *w)
     }
 }
 
+/* One cluster: every resample of it is that cluster, so a bootstrap over
+ * clusters says nothing about the scatter between clusters and its
+ * intervals would have zero width. None is given: NaN, like se_rg and the
+ * per-cluster sd. */
+static void no_intervals(pdla_ens_stats *s, const boot_work *w)
+{
+    s->df_lo = s->df_hi = s->df_boot_sd = NAN;
+    for (size_t v = 0; v < w->nw; v++) s->slope_lo[v] = s->slope_hi[v] = NAN;
+    s->corr_A_lo = s->corr_A_hi = s->corr_D_lo = s->corr_D_hi = NAN;
+}
+
 int pdla_ens_stats_compute(const uint64_t *n, size_t k, const double *rg, size_t m, const double *df_cluster,
                            uint64_t n_final, int boot_samples, int corr_samples, uint64_t boot_seed,
                            pdla_ens_stats *s, char *err, size_t errlen)
@@ -347,8 +358,12 @@ int pdla_ens_stats_compute(const uint64_t *n, size_t k, const double *rg, size_t
         rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the ensemble statistics");
     } else {
         point_estimates(s, &w, n, k, rg, m);
-        bootstrap(s, &w, n, k, rg, m, boot_seed);
-        intervals(s, &w);
+        if (m > 1) {
+            bootstrap(s, &w, n, k, rg, m, boot_seed);
+            intervals(s, &w);
+        } else {
+            no_intervals(s, &w);
+        }
         s->df_cluster_mean = s->df_cluster_sd = NAN;
         if (df_cluster) mean_sd(df_cluster, m, &s->df_cluster_mean, &s->df_cluster_sd);
     }

@@ -6,6 +6,12 @@ local slopes that are NaN (windows with too few points): the output must
 parse as strict JSON (no NaN, Infinity or nan, which JSON does not have),
 with null where /statistics holds NaN and the file's numbers elsewhere (to
 the 6 digits printed).
+
+One cluster: no bootstrap interval (its resamples are all that cluster, so
+the interval had zero width): D_f_lo, D_f_hi, D_f_boot_sd, the slope bands
+and the correction fit's intervals NaN in ensemble.h5 (as se_rg and
+D_f_cluster_sd), null in --json, "n/a" in the text; two clusters give real
+intervals.
 Prints one line per failure and "N checks, N failed"; exit 1 on a failure.
 """
 import json
@@ -84,12 +90,60 @@ def local_slope_nan(pdla, tmp):
             check(same(d.get(key), float(attrs[key]), 15), "%s = %s, file %s" % (key, d.get(key), attrs[key]))
 
 
+def one_cluster(pdla, tmp):
+    """M = 1: every bootstrap resample is that cluster, so no interval is
+    given (it had zero width: [D_f, D_f], sd 0): NaN in ensemble.h5 (D_f_lo,
+    D_f_hi, D_f_boot_sd, the slope bands, the correction fit's intervals)
+    like se_rg and D_f_cluster_sd, null in --json, "n/a" in the text; the
+    same with M = 2 gives real intervals of nonzero width."""
+    for m in (1, 2):
+        out = os.path.join(tmp, "m%d" % m)
+        rc, so, se = run([pdla, "ensemble", "--clusters", str(m), "--target", "3000", "--out", out, "-q"])
+        if not check(rc == 0, "ensemble --clusters %d: exit %d: %s" % (m, rc, se)):
+            continue
+        h5 = os.path.join(out, "ensemble.h5")
+        with h5py.File(h5, "r") as f:
+            st = f["statistics"]
+            a = {k: float(st.attrs[k]) for k in ("D_f", "D_f_lo", "D_f_hi", "D_f_boot_sd", "D_f_cluster_sd",
+                                                  "corr_D_lo", "corr_D_hi", "corr_A_lo", "corr_A_hi")}
+            bands = list(st["slope_D_f_lo"][()]) + list(st["slope_D_f_hi"][()])
+            se_rg = list(st["se_rg_diam"][()])
+        what = "%d cluster%s" % (m, "s" if m > 1 else "")
+        check(math.isfinite(a["D_f"]), "%s: D_f %s" % (what, a["D_f"]))
+        nan_keys = [k for k in a if k != "D_f" and math.isnan(a[k])]
+        if m == 1:
+            check(len(nan_keys) == len(a) - 1, "%s: finite %s, want NaN" %
+                  (what, {k: v for k, v in a.items() if k != "D_f" and k not in nan_keys}))
+            check(bands and all(math.isnan(v) for v in bands), "%s: slope bands not all NaN" % what)
+            check(se_rg and all(math.isnan(v) for v in se_rg), "%s: se_rg_diam not NaN" % what)
+        else:
+            check(not nan_keys and a["D_f_lo"] < a["D_f_hi"] and a["D_f_boot_sd"] > 0,
+                  "%s: intervals %s" % (what, a))
+        d = analyze_json(pdla, h5, what)
+        if d is not None:
+            for k in a:
+                check(same(d.get(k), a[k], 15), "%s: --json %s = %s, file %s" % (what, k, d.get(k), a[k]))
+        rc, so, se = run([pdla, "analyze", h5])
+        if not check(rc == 0, "%s: analyze: exit %d: %s" % (what, rc, se)):
+            continue
+        lines = so.splitlines()
+        df = [x for x in lines if x.startswith("D_f ")]
+        if m == 1:
+            check(len(df) == 1 and "interval [n/a]" in df[0] and "nan" not in so,
+                  "%s: analyze text: %s" % (what, "\n".join(lines[:6])))
+            check(any(x.startswith("per-cluster D_f") and "sd n/a" in x for x in lines),
+                  "%s: per-cluster sd not n/a" % what)
+        else:
+            check(len(df) == 1 and "n/a" not in so, "%s: analyze text: %s" % (what, "\n".join(lines[:6])))
+
+
 def main():
     if len(sys.argv) != 2:
         sys.exit("usage: test_ens_json.py PDLA")
     pdla = os.path.abspath(sys.argv[1])
     with tempfile.TemporaryDirectory() as tmp:
         local_slope_nan(pdla, tmp)
+        one_cluster(pdla, tmp)
     print("%d checks, %d failed" % (checks, fails))
     sys.exit(1 if fails else 0)
 

@@ -223,7 +223,7 @@ static int parse_options(int argc, char **argv, analyze_opts *o)
 
 /* A bad --csv fails before any reading: the directory is made, and the two
  * files must be writable (or replaceable with --force). */
-static int check_csv_dir(const analyze_opts *o)
+static int check_csv_dir(const analyze_opts *o, const char *input)
 {
     if (!o->csv_dir) return 0;
     /* the name as shown in a one-line message: control bytes as '?' */
@@ -243,9 +243,9 @@ static int check_csv_dir(const analyze_opts *o)
     }
     char p[4200], err[1024];
     snprintf(p, sizeof p, "%s/rg.csv", o->csv_dir);
-    const int b1 = tools_out_check(p, o->force, err, sizeof err);
+    const int b1 = tools_out_check(p, input, o->force, err, sizeof err);
     snprintf(p, sizeof p, "%s/mass_radius.csv", o->csv_dir);
-    if (b1 || tools_out_check(p, o->force, err, sizeof err)) {
+    if (b1 || tools_out_check(p, input, o->force, err, sizeof err)) {
         fprintf(stderr, "pdla analyze: %s\n", err);
         return TOOL_USAGE;
     }
@@ -404,7 +404,7 @@ int tool_analyze(int argc, char **argv)
         }
         return ens_analyze_main(argv[optind], o.json);
     }
-    if ((rc = check_csv_dir(&o))) return rc;
+    if ((rc = check_csv_dir(&o, argv[optind]))) return rc;
     char err[1024];
     h5r_file f;
     if (h5r_open(&f, argv[optind], err, sizeof err)) {

@@ -318,9 +318,8 @@ int dlca_render_main(int argc, char **argv)
     const int prc = render_parse(argc, argv, &a);
     if (prc >= 0) return prc;
     const char *out = a.out;
-    struct stat st;
-    if (!a.force && stat(out, &st) == 0) {
-        fprintf(stderr, "pdla render: %s exists; not overwriting it (use --force)\n", out);
+    if (tools_out_check(out, argv[optind], a.force, err, sizeof err)) {
+        fprintf(stderr, "pdla render: %s\n", err);
         return TOOL_USAGE;
     }
     dfile f;

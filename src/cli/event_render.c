@@ -268,9 +268,9 @@ int event_render_main(int argc, char **argv)
     long size = 1024;
     int force = 0;
     if (render_args(argc, argv, &in, &out, &size, &force)) return 2;
-    struct stat st;
-    if (!force && stat(out, &st) == 0) {
-        fprintf(stderr, "pdla render: %s exists; not overwriting it (use --force)\n", out);
+    char cerr[1024];
+    if (tools_out_check(out, in, force, cerr, sizeof cerr)) {
+        fprintf(stderr, "pdla render: %s\n", cerr);
         return 2;
     }
     const hid_t f = pdla_hdf5_quiet() ? H5I_INVALID_HID : H5Fopen(in, H5F_ACC_RDONLY, H5P_DEFAULT);

@@ -394,7 +394,7 @@ int tool_export(int argc, char **argv)
     const int prc = parse_options(argc, argv, &o);
     if (prc != GO_ON) return prc;
     char err[1024];
-    if (tools_out_check(o.out, o.force, err, sizeof err)) {
+    if (tools_out_check(o.out, argv[optind], o.force, err, sizeof err)) {
         fprintf(stderr, "pdla export: %s\n", err);
         return TOOL_USAGE;
     }

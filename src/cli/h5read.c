@@ -312,12 +312,14 @@ double h5r_attr_num(const h5r_attrs *a, const char *name)
 
 /* ---- output files ------------------------------------------------------- */
 
-int tools_out_check(const char *path, int force, char *err, size_t errlen)
+int tools_out_check(const char *path, const char *input, int force, char *err, size_t errlen)
 {
-    struct stat st;
+    struct stat st, in;
     if (!path || !path[0]) return pdla_errorf(-1, err, errlen, "no output path given");
     if (lstat(path, &st) == 0) {
         if (S_ISDIR(st.st_mode)) return pdla_errorf(-1, err, errlen, "%s is a directory", path);
+        if (input && stat(input, &in) == 0 && in.st_dev == st.st_dev && in.st_ino == st.st_ino)
+            return pdla_errorf(-1, err, errlen, "%s is the input file; not writing over it (even with --force)", path);
         if (!force) return pdla_errorf(-1, err, errlen, "%s exists; not overwriting it (use --force)", path);
     } else if (errno != ENOENT) {
         return pdla_errorf(-1, err, errlen, "cannot check %s: %s", path, strerror(errno));

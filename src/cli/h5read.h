@@ -80,8 +80,12 @@ double h5r_attr_num(const h5r_attrs *a, const char *name);
 
 /* Tools' output files: refuse an existing path unless force; write to a
  * temporary name beside it and move it into place (replacing only with
- * force). tools_out_check runs before any work, so a bad -o fails early. */
-int tools_out_check(const char *path, int force, char *err, size_t errlen);
+ * force). tools_out_check runs before any work, so a bad -o fails early.
+ * input (the file the tool reads; NULL: none) is refused as path even with
+ * force when path names the same file (st_dev and st_ino; path not
+ * followed if it is a link, which the rename would replace, not its
+ * target): the output would replace what is being read. */
+int tools_out_check(const char *path, const char *input, int force, char *err, size_t errlen);
 
 /* The option errors every tool gives the same way (one line on stderr, the
  * tool named; each returns 2 = TOOL_USAGE so a caller can `return` it):

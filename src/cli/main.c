@@ -879,7 +879,7 @@ static int open_json_step(run *R)
     if (!R->o.stats_json) return GO_ON;
     const int force = R->o.force || (R->o.resume && json_file_is_stats(R->o.stats_json));
     char why[4400];
-    if (tools_out_check(R->o.stats_json, force, why, sizeof why) == 0) {
+    if (tools_out_check(R->o.stats_json, NULL, force, why, sizeof why) == 0) {
         R->json_on = 1;
         R->json_force = force;
         return GO_ON;

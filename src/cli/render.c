@@ -367,7 +367,7 @@ int tool_render(int argc, char **argv)
     int rc = parse_options(argc, argv, &o);
     if (rc != GO_ON) return rc;
     char err[1024];
-    if (tools_out_check(o.out, o.force, err, sizeof err)) {
+    if (tools_out_check(o.out, argv[optind], o.force, err, sizeof err)) {
         fprintf(stderr, "pdla render: %s\n", err);
         return TOOL_USAGE;
     }

@@ -86,6 +86,28 @@ PDLA_API int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char 
 PDLA_API int xdmf_write_cluster(const char *h5_path, uint64_t n, int dim, int units_per_diameter,
                                 int arrival, char *err, size_t errlen);
 
+/* A sidecar's text on its way to the file (xdmf_write_text). */
+typedef struct xdmf_out xdmf_out;
+
+/* Appends printf-style text to o; after a failure (kept in o) nothing more
+ * is written. */
+PDLA_API void xdmf_printf(xdmf_out *o, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+/* Appends s with XML's special characters escaped (for a file name). */
+PDLA_API void xdmf_escaped(xdmf_out *o, const char *s);
+
+/* The one way every sidecar is written, also by the models' own writers:
+ * the text body(o, arg) appends, streamed through a 64 KiB buffer into
+ * xmf_path.tmp.<pid>, fsync'ed, renamed over xmf_path, the folder fsync'ed;
+ * a failure before the rename also removes an older xmf_path (it would
+ * describe another file). 0, or -1 with one line in err. */
+PDLA_API int xdmf_write_text(const char *xmf_path, void (*body)(xdmf_out *o, const void *arg), const void *arg,
+                             char *err, size_t errlen);
+
 /* An ensemble file (`pdla ensemble --keep-positions`): positions [M * n][dim]
  * with cluster i in rows i n .. i n + n - 1. The sidecar is a spatial
  * Collection of M Polyvertex grids ("cluster I", one ParaView block each),

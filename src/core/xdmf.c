@@ -87,12 +87,13 @@ int xdmf_remove_sidecars(const char *h5_path, unsigned written, char *err, size_
  * and the run's one stdio file stays summary.txt. */
 #define SB_CAP 65536
 
-typedef struct sbuf {
+struct xdmf_out {
     int fd;
     char *p;
     size_t n, cap;
     int err; /* errno of the first failure (ENOMEM too); nothing more is written after one */
-} sbuf;
+};
+typedef struct xdmf_out sbuf;
 
 /* Writes out what b holds. */
 static void sb_flush(sbuf *b)
@@ -106,11 +107,11 @@ static void sb_flush(sbuf *b)
     b->n = 0;
 }
 
-static void sb_printf(sbuf *b, const char *fmt, ...)
+static void sb_vprintf(sbuf *b, const char *fmt, va_list ap0)
 {
     while (!b->err) {
         va_list ap;
-        va_start(ap, fmt);
+        va_copy(ap, ap0);
         const int w = vsnprintf(b->p + b->n, b->cap - b->n, fmt, ap);
         va_end(ap);
         if (w < 0) {
@@ -135,6 +136,22 @@ static void sb_printf(sbuf *b, const char *fmt, ...)
     }
 }
 
+static void sb_printf(sbuf *b, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    sb_vprintf(b, fmt, ap);
+    va_end(ap);
+}
+
+void xdmf_printf(xdmf_out *o, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    sb_vprintf(o, fmt, ap);
+    va_end(ap);
+}
+
 /* s with the XML special characters escaped (it goes into element text). */
 static void put_escaped(sbuf *fp, const char *s)
 {
@@ -147,6 +164,11 @@ static void put_escaped(sbuf *fp, const char *s)
         default: sb_printf(fp, "%c", *s);
         }
     }
+}
+
+void xdmf_escaped(xdmf_out *o, const char *s)
+{
+    put_escaped(o, s);
 }
 
 /* The HDF5 reference "file.h5:/dataset", file relative to the sidecar. */
@@ -312,12 +334,9 @@ static int check(const xdmf_points *p, char *err, size_t errlen)
     return 0;
 }
 
-/* The text body(b, arg) writes, into xmf_path: streamed into
- * xmf_path.tmp.<pid>, fsync'ed, renamed, the folder fsync'ed; on a failure
- * before the rename an older xmf_path is removed (it would describe another
- * file). 0 or -1 with err. */
-static int write_text(const char *xmf_path, void (*body)(sbuf *, const void *), const void *arg, char *err,
-                      size_t errlen)
+/* Every sidecar's one way to its file (xdmf.h). */
+int xdmf_write_text(const char *xmf_path, void (*body)(xdmf_out *, const void *), const void *arg, char *err,
+                    size_t errlen)
 {
     const size_t len = strlen(xmf_path);
     char *const tmp = malloc(len + 32), *const dir = dir_of(xmf_path);
@@ -372,7 +391,7 @@ int xdmf_write_points(const char *xmf_path, const xdmf_points *p, char *err, siz
     if (check(p, err, errlen) < 0) return -1;
     if (!xmf_path || !xmf_path[0]) return pdla_errorf(-1, err, errlen, "xdmf: no sidecar path given");
     if (p->n == 0) return remove_stale(xmf_path, err, errlen); /* no points: an older one is another file's */
-    return write_text(xmf_path, put_body, p, err, errlen);
+    return xdmf_write_text(xmf_path, put_body, p, err, errlen);
 }
 
 int xdmf_write_cluster(const char *h5_path, uint64_t n, int dim, int units_per_diameter,
@@ -457,5 +476,5 @@ int xdmf_write_ensemble(const char *xmf_path, const xdmf_ensemble *e, char *err,
     if (e->clusters == 0 || e->n == 0 || e->n > UINT64_MAX / e->clusters)
         return pdla_errorf(-1, err, errlen, "xdmf: %" PRIu64 " clusters of %" PRIu64 " points: nothing to show",
                     e->clusters, e->n);
-    return write_text(xmf_path, put_ensemble, e, err, errlen);
+    return xdmf_write_text(xmf_path, put_ensemble, e, err, errlen);
 }

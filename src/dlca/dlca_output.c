@@ -255,75 +255,70 @@ done:
     return rc < 0 ? PDLA_EIO : 0;
 }
 
-/* name with the XML special characters escaped. */
-static void xml_escaped(FILE *f, const char *s)
-{
-    for (; *s; s++) {
-        switch (*s) {
-        case '&': fputs("&amp;", f); break;
-        case '<': fputs("&lt;", f); break;
-        case '>': fputs("&gt;", f); break;
-        case '"': fputs("&quot;", f); break;
-        default: fputc(*s, f);
-        }
-    }
-}
-
 /* One time step of the temporal collection: the monomers under group
  * (e.g. "/snapshots/0" or "/monomers") of base, at time t. The items are
  * those of xdmf.c's points (positions read as reals through a Function:
  * ParaView's XDMF 2 reader takes them so). */
-static void xdmf_step(FILE *f, const char *base, const char *group, double t, uint64_t n, int dim)
+static void xdmf_step(xdmf_out *f, const char *base, const char *group, double t, uint64_t n, int dim)
 {
-    fprintf(f, "   <Grid Name=\"t = %.6g\" GridType=\"Uniform\">\n    <Time Value=\"%.17g\"/>\n"
-               "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%llu\" NodesPerElement=\"1\"/>\n"
-               "    <Geometry GeometryType=\"%s\">\n"
-               "     <DataItem ItemType=\"Function\" Function=\"$0 / 1\" Dimensions=\"%llu %d\">\n"
-               "      <DataItem Dimensions=\"%llu %d\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">",
-            t, t, (unsigned long long)n, dim == 3 ? "XYZ" : "XY", (unsigned long long)n, dim, (unsigned long long)n, dim);
-    xml_escaped(f, base);
-    fprintf(f, ":%s/position</DataItem>\n     </DataItem>\n    </Geometry>\n", group);
+    xdmf_printf(f, "   <Grid Name=\"t = %.6g\" GridType=\"Uniform\">\n    <Time Value=\"%.17g\"/>\n"
+                   "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%llu\" NodesPerElement=\"1\"/>\n"
+                   "    <Geometry GeometryType=\"%s\">\n"
+                   "     <DataItem ItemType=\"Function\" Function=\"$0 / 1\" Dimensions=\"%llu %d\">\n"
+                   "      <DataItem Dimensions=\"%llu %d\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">",
+                t, t, (unsigned long long)n, dim == 3 ? "XYZ" : "XY", (unsigned long long)n, dim,
+                (unsigned long long)n, dim);
+    xdmf_escaped(f, base);
+    xdmf_printf(f, ":%s/position</DataItem>\n     </DataItem>\n    </Geometry>\n", group);
     const char *arrays[2] = {"cluster", "site"};
     for (int i = 0; i < 2; i++) {
-        fprintf(f, "    <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                   "     <DataItem Dimensions=\"%llu\" NumberType=\"UInt\" Precision=\"4\" Format=\"HDF\">",
-                arrays[i], (unsigned long long)n);
-        xml_escaped(f, base);
-        fprintf(f, ":%s/%s</DataItem>\n    </Attribute>\n", group, arrays[i]);
+        xdmf_printf(f, "    <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+                       "     <DataItem Dimensions=\"%llu\" NumberType=\"UInt\" Precision=\"4\" Format=\"HDF\">",
+                    arrays[i], (unsigned long long)n);
+        xdmf_escaped(f, base);
+        xdmf_printf(f, ":%s/%s</DataItem>\n    </Attribute>\n", group, arrays[i]);
     }
-    fprintf(f, "   </Grid>\n");
+    xdmf_printf(f, "   </Grid>\n");
+}
+
+/* What the series sidecar shows (xdmf_series). */
+typedef struct series_text {
+    const char *base; /* the HDF5 file's name, relative to the sidecar */
+    int dim;
+    uint64_t n;
+    const dlca_snapshot *snaps;
+    size_t nsnaps;
+    double t_end;
+} series_text;
+
+static void series_body(xdmf_out *f, const void *arg)
+{
+    const series_text *const x = arg;
+    xdmf_printf(f, "<?xml version=\"1.0\" ?>\n<!-- pdla: DLCA monomers of ");
+    xdmf_escaped(f, x->base);
+    xdmf_printf(f, " at its snapshot times and the end, for ParaView's \"XDMF Reader\" (XDMF 2); lattice units -->\n"
+                   "<Xdmf Version=\"2.0\">\n <Domain>\n"
+                   "  <Grid Name=\"monomers\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
+    char group[64];
+    for (size_t i = 0; i < x->nsnaps; i++) {
+        snprintf(group, sizeof group, "/snapshots/%zu", i);
+        xdmf_step(f, x->base, group, x->snaps[i].t, x->n, x->dim);
+    }
+    if (!(x->t_end <= x->snaps[x->nsnaps - 1].t)) xdmf_step(f, x->base, "/monomers", x->t_end, x->n, x->dim);
+    xdmf_printf(f, "  </Grid>\n </Domain>\n</Xdmf>\n");
 }
 
 /* The sidecar of a run with snapshots: a temporal collection, one step per
- * snapshot and the end's /monomers (unless the last snapshot is the end). */
+ * snapshot and the end's /monomers (unless the last snapshot is the end).
+ * Written as every sidecar is (xdmf_write_text: a temporary of this
+ * process's own, fsync'ed, renamed, the folder fsync'ed; an older one
+ * removed on a failure). */
 static int xdmf_series(const char *xmf, const char *h5_path, int dim, uint64_t n, const dlca_snapshot *snaps,
                        size_t nsnaps, double t_end, char *err, size_t errlen)
 {
-    char tmp[4300];
-    snprintf(tmp, sizeof tmp, "%s.tmp", xmf);
-    const char *sl = strrchr(h5_path, '/'), *base = sl ? sl + 1 : h5_path;
-    FILE *f = fopen(tmp, "w");
-    if (!f) return pdla_errorf(PDLA_EIO, err, errlen, "xdmf: cannot create %.200s", tmp);
-    fputs("<?xml version=\"1.0\" ?>\n<!-- pdla: DLCA monomers of ", f);
-    xml_escaped(f, base);
-    fputs(" at its snapshot times and the end, for ParaView's \"XDMF Reader\" (XDMF 2); lattice units -->\n"
-          "<Xdmf Version=\"2.0\">\n <Domain>\n"
-          "  <Grid Name=\"monomers\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
-          f);
-    char group[64];
-    for (size_t i = 0; i < nsnaps; i++) {
-        snprintf(group, sizeof group, "/snapshots/%zu", i);
-        xdmf_step(f, base, group, snaps[i].t, n, dim);
-    }
-    if (!(t_end <= snaps[nsnaps - 1].t)) xdmf_step(f, base, "/monomers", t_end, n, dim);
-    fputs("  </Grid>\n </Domain>\n</Xdmf>\n", f);
-    const int bad = ferror(f);
-    if (fclose(f) || bad || rename(tmp, xmf)) {
-        unlink(tmp);
-        unlink(xmf); /* an older sidecar would describe another file */
-        return pdla_errorf(PDLA_EIO, err, errlen, "xdmf: cannot write %.200s", xmf);
-    }
-    return 0;
+    const char *sl = strrchr(h5_path, '/');
+    const series_text x = {sl ? sl + 1 : h5_path, dim, n, snaps, nsnaps, t_end};
+    return xdmf_write_text(xmf, series_body, &x, err, errlen) ? PDLA_EIO : 0;
 }
 
 int dlca_write_xdmf(const char *h5_path, int dim, uint64_t n, const dlca_snapshot *snaps, size_t nsnaps,

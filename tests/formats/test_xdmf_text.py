@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""test_xdmf_text.py text|stale|memory PDLA XDMF_TOOL - the XDMF 2 sidecars read without
+"""test_xdmf_text.py MODE PDLA XDMF_TOOL [FAULTSHIM] - the XDMF 2 sidecars read without
 ParaView, by an evaluator here that follows ParaView 5.11's XDMF 2 reader
 (xdmf2::XdmfDataItem::UpdateFunction): HDF and XML items, HyperSlab items
 (start, stride, count) over any item, Function items ($k the k-th child
@@ -32,6 +32,11 @@ removes an older sidecar.
 memory: xdmf_write_ensemble (xdmf_tool) of 10^4 clusters of 100 points (26
 MB of text) peaks under 4 MiB of RSS above one of 10 clusters, and the file
 holds every cluster's grid and its end.
+
+series (with tests/reliab's faultshim): a DLCA run with --snapshot-every
+writes its temporal sidecar as the others: cluster.xdmf2.tmp.<pid>
+fsync'ed once; a failing fsync gives exit 1 and one line, no sidecar and
+no temporary left.
 Prints one line per failure and "N checks, N failed"; exit 1 on a failure.
 """
 import os
@@ -335,10 +340,42 @@ def memory_case(tool, tmp):
           (m, grids, last, "found" if slab in open(xmf).read() else "missing"))
 
 
+def series_case(pdla, shim, tmp):
+    """The DLCA snapshot series' sidecar goes the way of the others
+    (xdmf_write_text): its temporary is this process's own
+    (cluster.xdmf2.tmp.<pid>) and fsync'ed, once per run; an fsync that
+    fails is one line and exit 1, with no sidecar (the older one removed,
+    it would describe another file) and no temporary left."""
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "reliab"))
+    from reliab_util import shim_preload
+    d = os.path.join(tmp, "series")
+    args = ["--model", "dlca", "--dim", "2", "--box", "40x30", "--fill", "0.05", "--until-clusters", "3",
+            "--snapshot-every", "15", "--seed", "3", "--out", d, "--force", "-q"]
+    count = os.path.join(tmp, "fsyncs")
+    env = dict(os.environ, LD_PRELOAD=shim_preload(pdla, shim), FAULT_OP="fsync",
+               FAULT_PATH="cluster.xdmf2.tmp.", FAULT_COUNT=count)
+    p = subprocess.run([pdla] + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    if not check(p.returncode == 0, "series run: exit %d: %s" % (p.returncode, p.stderr.decode(errors="replace"))):
+        return
+    n = int(open(count).read().split()[0]) if os.path.exists(count) else -1
+    check(n == 1, "series sidecar: %d fsyncs of cluster.xdmf2.tmp.<pid>, want 1" % n)
+    grids = read_sidecar(os.path.join(d, "cluster.xdmf2"))
+    check(grids is not None and len(grids) >= 2, "series sidecar: %s grids" % (len(grids) if grids else None))
+    env = dict(env, FAULT_AT="1", FAULT_ERR="EIO")
+    del env["FAULT_COUNT"]
+    p = subprocess.run([pdla] + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    err = p.stderr.decode(errors="replace").strip()
+    check(p.returncode == 1 and len(err.splitlines()) == 1 and "cluster.xdmf2" in err,
+          "series sidecar, fsync fails: exit %d, stderr %r (want 1 and one line naming it)" % (p.returncode, err))
+    left = sorted(x for x in os.listdir(d) if x.startswith("cluster.xdmf2"))
+    check(left == [], "series sidecar, fsync fails: left %s" % left)
+
+
 def main():
-    if len(sys.argv) != 4 or sys.argv[1] not in ("text", "stale", "memory"):
-        sys.exit("usage: test_xdmf_text.py text|stale|memory PDLA XDMF_TOOL")
-    pdla, tool = (os.path.abspath(a) for a in sys.argv[2:])
+    modes = ("text", "stale", "memory", "series")
+    if len(sys.argv) not in (4, 5) or sys.argv[1] not in modes or (sys.argv[1] == "series") != (len(sys.argv) == 5):
+        sys.exit("usage: test_xdmf_text.py text|stale|memory PDLA XDMF_TOOL, or series PDLA XDMF_TOOL FAULTSHIM")
+    pdla, tool = (os.path.abspath(a) for a in sys.argv[2:4])
     with tempfile.TemporaryDirectory() as tmp:
         if sys.argv[1] == "text":
             dla_cases(pdla, tmp)
@@ -347,8 +384,10 @@ def main():
             off_origin_cases(tool, tmp)
         elif sys.argv[1] == "stale":
             stale_cases(pdla, tool, tmp)
-        else:
+        elif sys.argv[1] == "memory":
             memory_case(tool, tmp)
+        else:
+            series_case(pdla, os.path.abspath(sys.argv[4]), tmp)
     print("%d checks, %d failed" % (checks, fails))
     sys.exit(1 if fails else 0)
 

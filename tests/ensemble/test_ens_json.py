@@ -23,17 +23,11 @@ import tempfile
 
 import h5py
 
-checks = 0
-fails = 0
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "reliab"))
+from reliab_util import Tally  # noqa: E402
 
-
-def check(ok, what):
-    global checks, fails
-    checks += 1
-    if not ok:
-        fails += 1
-        print("FAIL:", what, flush=True)
-    return ok
+TALLY = Tally()
+check = TALLY.check
 
 
 def run(args):
@@ -144,8 +138,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         local_slope_nan(pdla, tmp)
         one_cluster(pdla, tmp)
-    print("%d checks, %d failed" % (checks, fails))
-    sys.exit(1 if fails else 0)
+    TALLY.done()
 
 
 if __name__ == "__main__":

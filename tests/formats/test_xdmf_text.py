@@ -49,17 +49,11 @@ import xml.etree.ElementTree as ET
 import h5py
 import numpy as np
 
-checks = 0
-fails = 0
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "reliab"))
+from reliab_util import Tally  # noqa: E402
 
-
-def check(ok, what):
-    global checks, fails
-    checks += 1
-    if not ok:
-        fails += 1
-        print("FAIL:", what, flush=True)
-    return ok
+TALLY = Tally()
+check = TALLY.check
 
 
 def run(args, cwd=None):
@@ -346,7 +340,6 @@ def series_case(pdla, shim, tmp):
     (cluster.xdmf2.tmp.<pid>) and fsync'ed, once per run; an fsync that
     fails is one line and exit 1, with no sidecar (the older one removed,
     it would describe another file) and no temporary left."""
-    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "reliab"))
     from reliab_util import shim_preload
     d = os.path.join(tmp, "series")
     args = ["--model", "dlca", "--dim", "2", "--box", "40x30", "--fill", "0.05", "--until-clusters", "3",
@@ -388,8 +381,7 @@ def main():
             memory_case(tool, tmp)
         else:
             series_case(pdla, os.path.abspath(sys.argv[4]), tmp)
-    print("%d checks, %d failed" % (checks, fails))
-    sys.exit(1 if fails else 0)
+    TALLY.done()
 
 
 if __name__ == "__main__":

@@ -2,13 +2,34 @@
 models_cli.py, cli_items.py, faults.py, hostile.py, hostile_models.py,
 ens_adversary.py, scene_models.py and models_faults.py; each runs as
 `python3 SCRIPT.py`, so this file, beside them, is on sys.path;
-tests/ensemble/test_ens_builds.py puts this folder on its path)."""
+tests/ensemble/test_ens_builds.py, test_ens_json.py and tests/formats/test_xdmf_text.py
+put this folder on their path)."""
 import os
 import subprocess
 import time
 
 # What failed, in the order seen; a script exits 1 when it is not empty.
 failures = []
+
+
+class Tally:
+    """Counted checks for scripts that end with "N checks, N failed"
+    (tests/formats/test_xdmf_text.py, tests/ensemble/test_ens_json.py)."""
+
+    def __init__(self):
+        self.checks = self.fails = 0
+
+    def check(self, ok, what):
+        self.checks += 1
+        if not ok:
+            self.fails += 1
+            print("FAIL:", what, flush=True)
+        return ok
+
+    def done(self):
+        import sys
+        print("%d checks, %d failed" % (self.checks, self.fails))
+        sys.exit(1 if self.fails else 0)
 
 
 def check(ok, what):

@@ -141,12 +141,14 @@ static char *command_line(int argc, char **argv)
  * write fails late, after growth, for a name known from the start. */
 
 /* Removes what an earlier pdla in dir left behind when it was killed while
- * writing cluster.h5 or summary.txt (kill -9, a second SIGINT): only names
- * pdla makes, and only while we hold the directory's lock, so no live
- * writer can own them. */
+ * writing cluster.h5, its sidecar or summary.txt (kill -9, a second
+ * SIGINT): only names pdla makes (the sidecars' as xdmf.c names them, the
+ * event model's too, as a --force run may follow one), and only while we
+ * hold the directory's lock, so no live writer can own them. */
 static void remove_stale_outputs(const char *dir)
 {
-    static const char *const prefixes[] = {"cluster.h5.tmp.", ".cluster.h5.new", "summary.txt.tmp."};
+    static const char *const prefixes[] = {"cluster.h5.tmp.", ".cluster.h5.new", "summary.txt.tmp.",
+                                           "cluster.xdmf2.tmp.", "cluster-free.xdmf2.tmp."};
     pdla_rundir_remove_prefixed(dir, prefixes, sizeof prefixes / sizeof prefixes[0]);
 }
 

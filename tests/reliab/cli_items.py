@@ -124,7 +124,8 @@ else:
 
 # --- item 8: temporary files of a killed pdla are removed by a later run
 for name in ("cluster.h5.tmp.999999", ".cluster.h5.new", ".cluster.h5.new.tmp.999999",
-             "summary.txt.tmp.999999", ".checkpoint.h5.tmp.999999"):
+             "summary.txt.tmp.999999", ".checkpoint.h5.tmp.999999", "cluster.xdmf2.tmp.999999",
+             "cluster-free.xdmf2.tmp.999999"):
     open(W("R", name), "w").close()
 rc, err = pdla("--resume", W("R"), "--target", "3500", "-q")
 left = [x for x in os.listdir(W("R")) if ".tmp." in x or x.startswith(".cluster")]

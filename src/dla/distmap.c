@@ -678,7 +678,8 @@ int distmap_add(distmap *m, const int64_t *p, uint64_t particles, int concurrent
 typedef struct rebuild_ctx {
     distmap *m;
     distmap_grid *g;
-    int64_t r;
+    int64_t r;      /* the largest |coordinate| */
+    int64_t lo, hi; /* the smallest and the largest coordinate */
 } rebuild_ctx;
 
 static int max_coord(const int64_t *p, void *user)
@@ -687,6 +688,8 @@ static int max_coord(const int64_t *p, void *user)
     for (int a = 0; a < b->m->dim; a++) {
         const int64_t x = p[a] < 0 ? -p[a] : p[a];
         if (x > b->r) b->r = x;
+        if (p[a] < b->lo) b->lo = p[a];
+        if (p[a] > b->hi) b->hi = p[a];
     }
     return 0;
 }
@@ -727,7 +730,7 @@ static int rebuild_reset(distmap *m, const tree *t)
 /* Mark the tree's particles in g and publish it (or disable the map). */
 static int rebuild_fill(distmap *m, const tree *t, distmap_grid *g)
 {
-    rebuild_ctx b = {m, g, 0};
+    rebuild_ctx b = {m, g, 0, 0, 0};
     if (!g || tree_visit(t, zero_cells, &b)) {
         grid_free(g);
         m->disabled = 1;
@@ -741,7 +744,7 @@ static int rebuild_fill(distmap *m, const tree *t, distmap_grid *g)
 int distmap_rebuild(distmap *m, const tree *t)
 {
     if (!rebuild_reset(m, t)) return 0;
-    rebuild_ctx b = {m, NULL, 0};
+    rebuild_ctx b = {m, NULL, 0, 0, 0};
     tree_visit(t, max_coord, &b);
     const int64_t p[3] = {b.r, b.r, b.r};
     return rebuild_fill(m, t, grid_make(m, NULL, wanted_half(m, p, 0), 0.0, NULL));
@@ -772,14 +775,19 @@ int distmap_rebuild_as(distmap *m, const tree *t, const distmap_shape *s)
         m->particles = s->particles;
         return 0;
     }
-    rebuild_ctx b = {m, NULL, 0};
+    rebuild_ctx b = {m, NULL, 0, 0, 0};
     tree_visit(t, max_coord, &b);
+    /* Every particle within the grid as covers() has it (the grid is
+     * [-half, half): a coordinate of -(half - margin) is covered, and such
+     * a run's checkpoints were refused while |x| + margin >= half was
+     * asked). */
+    const int inside = b.hi + m->margin < (int64_t)s->half && b.lo - m->margin >= -(int64_t)s->half;
     const int tiles = m->dim == 2 && s->bits > TREE_LEAF_BITS;
     /* No grid is made finer than its budget allows (fine_bits: the serial
      * one is the largest), so a forged shape cannot ask for more memory. */
     const double most = m->budget_per_particle * (double)s->particles * (m->dim == 2 ? DISTMAP_SERIAL_2D_FACTOR : 1);
     const double budget = most > (double)m->budget_min ? most : (double)m->budget_min;
-    if (!shape_ok(m, s->half, s->bits) || b.r + m->margin >= s->half || s->particles == 0 ||
+    if (!shape_ok(m, s->half, s->bits) || !inside || s->particles == 0 ||
         s->particles > tree_count(t) || (uint32_t)(tiles ? tile_width(s->half) : 0) != s->tw ||
         (s->bits < 24 && (double)fine_bytes(m->dim, s->half, s->bits) > budget))
         return 1;

@@ -729,8 +729,40 @@ static void test_faces3_tight(void)
     CHECK(bad == 0, "faces3 tight: %d of %d bounds not the true distance", bad, n);
 }
 
+/* A particle at the grid's low edge as covers() has it, x = -(half -
+ * margin), does not make a new grid; a checkpoint's shape must then load
+ * (distmap_rebuild_as). It was refused ("the distance map's shape does not
+ * fit the particles"): the load asked |x| + margin < half, one unit
+ * stricter than the growth on the negative side, and such a run's
+ * checkpoints could not be resumed until the map grew again. */
+static void test_edge_shape(int dim)
+{
+    tree t;
+    distmap m, m2;
+    const int64_t margin = 2 * 32 + 8 * 256;
+    CHECK(tree_init(&t, dim) == 0, "tree_init");
+    distmap_init(&m, dim, 8, margin);
+    int64_t p[3] = {0, 0, 0};
+    CHECK(distmap_add(&m, p, 1, 0) == 0 && tree_insert(&t, p) == 0, "dim %d: origin", dim);
+    distmap_shape s0, s;
+    CHECK(distmap_shape_get(&m, &s0) == 0 && s0.half > margin, "dim %d: shape", dim);
+    p[dim - 1] = -(s0.half - margin);
+    CHECK(distmap_add(&m, p, 2, 0) == 0 && tree_insert(&t, p) == 0, "dim %d: edge particle", dim);
+    CHECK(distmap_shape_get(&m, &s) == 0 && s.half == s0.half, "dim %d: the edge made a new grid", dim);
+    distmap_init(&m2, dim, 8, margin);
+    CHECK(distmap_rebuild_as(&m2, &t, &s) == 0, "dim %d: a shape with a particle at -(half - margin) refused",
+          dim);
+    free(s0.unknown);
+    free(s.unknown);
+    distmap_free(&m2);
+    distmap_free(&m);
+    tree_free(&t);
+}
+
 int main(void)
 {
+    test_edge_shape(2);
+    test_edge_shape(3);
     test_faces3_tight();
     test_faces3(51);
     test_faces3(52);

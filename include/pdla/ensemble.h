@@ -285,13 +285,14 @@ typedef struct pdla_ens_stats {
     double slope_window;       /* its width in decades (0.5) */
     double *slope_n, *slope_df, *slope_lo, *slope_hi;
     /* Correction to scaling R_g = A N^(1/D) (1 + B N^-nu) over N in
-     * [corr_n_lo = 30, n_hi] (nonlinear least squares on ln R_g; nu profiled
-     * over [0.2, 2]); the
+     * [corr_n_lo = 30, n_hi] (nonlinear least squares on ln R_g over nu in
+     * [0.2, 2] and B with |B N^-nu| <= 0.9 at every N fitted); the
      * interval of D and A by bootstrap (the first corr_samples resamples). corr_ok = 0
-     * when it could not be fitted (too few points). A in diameters. */
+     * when it could not be fitted (too few points). A in diameters.
+     * corr_max: the largest |B N^-nu| over the N fitted (0.9: B at its cap). */
     int corr_ok, corr_samples;
     uint64_t corr_n_lo;
-    double corr_A, corr_A_lo, corr_A_hi, corr_D, corr_D_lo, corr_D_hi, corr_B, corr_nu, corr_rms;
+    double corr_A, corr_A_lo, corr_A_hi, corr_D, corr_D_lo, corr_D_hi, corr_B, corr_nu, corr_rms, corr_max;
     /* The per-cluster D_f: mean and standard deviation over clusters. */
     double df_cluster_mean, df_cluster_sd;
 } pdla_ens_stats;

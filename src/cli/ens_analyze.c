@@ -140,6 +140,7 @@ static void print_json(const ens_view *v, const char *path)
     jnum(stdout, "corr_A_lo", A("corr_A_lo"), 1), jnum(stdout, "corr_A_hi", A("corr_A_hi"), 1);
     jnum(stdout, "corr_B", A("corr_B"), 1), jnum(stdout, "corr_nu", A("corr_nu"), 1);
     jnum(stdout, "corr_n_lo", A("corr_n_lo"), 1);
+    jnum(stdout, "corr_correction_max", A("corr_correction_max"), 1);
     /* A window's slope or band can be NaN (too few clusters, a window
      * without two points): null, as jnum, since JSON has no NaN. */
     printf("  \"local_slope\": [");
@@ -196,8 +197,13 @@ static void print_text(const ens_view *v, const char *path)
         /* The fit keeps |B N^-nu| <= 0.9 over its range (ens_stats.c): B at
          * that cap, like nu at an end of its range, says the data do not
          * determine the correction. */
-        const int nu_end = A("corr_nu") <= 0.2 || A("corr_nu") >= 2.0;
-        const int b_cap = fabs(A("corr_B")) * pow(A("corr_n_lo"), -A("corr_nu")) >= 0.9 * (1 - 1e-3);
+        const int nu_end = A("corr_nu") <= 0.2 * (1 + 1e-6) || A("corr_nu") >= 2.0 * (1 - 1e-6);
+        /* corr_correction_max: files of session 28 on; before, there was no
+         * cap (the note's test at N = 30 then errs on the safe side). */
+        const double cmax = h5r_attr_find(&v->st, "corr_correction_max")
+                                ? A("corr_correction_max")
+                                : fabs(A("corr_B")) * pow(A("corr_n_lo"), -A("corr_nu"));
+        const int b_cap = cmax >= 0.9 * (1 - 1e-6);
         printf("correction fit   R_g = A N^(1/D) (1 + B N^-nu), N in [%.0f, %.0f]: D = %.4f %s, "
                "A = %.4f %s diameters, B = %.4f, nu = %.3f%s%s (%s)\n",
                A("corr_n_lo"), A("fit_n_hi"), A("corr_D"), band(b1, sizeof b1, A("corr_D_lo"), A("corr_D_hi")),

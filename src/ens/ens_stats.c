@@ -40,7 +40,7 @@ void pdla_ens_stats_free(pdla_ens_stats *s)
 #define CORR_B_CAP 0.9
 #define CORR_B_GRID 12   /* intervals of the grid over B before refining */
 #define CORR_NU_GRID 36  /* intervals of the grid over nu in [0.2, 2] */
-#define CORR_REFINE 30   /* golden-section steps: brackets shrink by 0.618^30 = 5e-7 */
+#define CORR_REFINE 32   /* golden-section steps: brackets shrink by 0.618^32 = 2e-7 */
 
 typedef struct corr_data {
     const double *x, *ly; /* ln N, ln R_g */
@@ -87,17 +87,27 @@ static double corr_min1(const corr_data *c, corr_fn f, double lo, double hi, int
         if (v < best) best = v, *tb = t, memcpy(bp, p, sizeof p);
     }
     if (!isfinite(best)) return best;
+    /* Golden section: one new point a step, the other kept from the step
+     * before (half the evaluations of two fresh points). */
     const double h = (hi - lo) / grid, gr = 0.5 * (sqrt(5.0) - 1.0);
     double a = *tb - h > lo ? *tb - h : lo, b = *tb + h < hi ? *tb + h : hi;
+    double u = b - gr * (b - a), w = a + gr * (b - a), pu[3], pw[3];
+    double fu = f(c, u, pu), fw = f(c, w, pw);
     for (int it = 0; it < CORR_REFINE; it++) {
-        const double u = b - gr * (b - a), w = a + gr * (b - a);
-        double pu[3], pw[3];
-        const double fu = f(c, u, pu), fw = f(c, w, pw);
-        if (fu < fw) b = w;
-        else a = u;
         if (fu < best) best = fu, *tb = u, memcpy(bp, pu, sizeof pu);
         if (fw < best) best = fw, *tb = w, memcpy(bp, pw, sizeof pw);
+        if (fu < fw) { /* the minimum lies in [a, w]: w <- u, a new u */
+            b = w, w = u, fw = fu, memcpy(pw, pu, sizeof pu);
+            u = b - gr * (b - a);
+            fu = f(c, u, pu);
+        } else {       /* in [u, b]: u <- w, a new w */
+            a = u, u = w, fu = fw, memcpy(pu, pw, sizeof pw);
+            w = a + gr * (b - a);
+            fw = f(c, w, pw);
+        }
     }
+    if (fu < best) best = fu, *tb = u, memcpy(bp, pu, sizeof pu);
+    if (fw < best) best = fw, *tb = w, memcpy(bp, pw, sizeof pw);
     return best;
 }
 
@@ -272,6 +282,14 @@ static void point_estimates(pdla_ens_stats *s, const boot_work *w, const uint64_
     s->corr_ok = pdla_ens_corr_fit(n, s->mean_rg, k, s->corr_n_lo, s->n_hi, &s->corr_A, &s->corr_D, &s->corr_B,
                                    &s->corr_nu, &s->corr_rms) == 0;
     if (!s->corr_ok) s->corr_A = s->corr_D = s->corr_B = s->corr_nu = s->corr_rms = NAN;
+    /* The correction's largest size is at the smallest N fitted (the first
+     * grid point at or above corr_n_lo, which need not be 30). */
+    s->corr_max = NAN;
+    for (size_t i = 0; s->corr_ok && i < k; i++)
+        if (n[i] >= s->corr_n_lo && n[i] <= s->n_hi && s->mean_rg[i] > 0 && isfinite(s->mean_rg[i])) {
+            s->corr_max = fabs(s->corr_B) * pow((double)n[i], -s->corr_nu);
+            break;
+        }
 }
 
 /* The bootstrap: the resamples are drawn in turn from one stream seeded

@@ -99,7 +99,9 @@ static int write_statistics(const h5u_writer *w, hid_t file, const uint64_t *gri
         h5u_attr_u64(w, g, "bootstrap_seed", s.boot_seed) < 0 ||
         h5u_attr_str(w, g, "interval", "95% percentile bootstrap over clusters") < 0 ||
         h5u_attr_f64(w, g, "slope_window_decades", s.slope_window) < 0 ||
-        h5u_attr_str(w, g, "correction_model", "R_g = A N^(1/D) (1 + B N^-nu), least squares on ln R_g") < 0 ||
+        h5u_attr_str(w, g, "correction_model",
+                     "R_g = A N^(1/D) (1 + B N^-nu), least squares on ln R_g, |B N^-nu| <= 0.9") < 0 ||
+        h5u_attr_f64(w, g, "corr_correction_max", s.corr_max) < 0 ||
         h5u_attr_int(w, g, "corr_ok", s.corr_ok) < 0 || h5u_attr_int(w, g, "corr_samples", s.corr_samples) < 0 ||
         h5u_attr_u64(w, g, "corr_n_lo", s.corr_n_lo) < 0 ||
         h5u_attr_f64(w, g, "corr_A_diam", s.corr_A) < 0 || h5u_attr_f64(w, g, "corr_A_lo", s.corr_A_lo) < 0 ||

@@ -84,6 +84,41 @@ def local_slope_nan(pdla, tmp):
             check(same(d.get(key), float(attrs[key]), 15), "%s = %s, file %s" % (key, d.get(key), attrs[key]))
 
 
+def correction_notes(pdla, tmp):
+    """The correction fit's notes in analyze: nu at an end of [0.2, 2] (the
+    golden section stops a hair inside it: 1.9999999999999998 printed no
+    note) and B at its cap, |B N^-nu| = 0.9 at the smallest N fitted, which
+    is the first grid point at or above 30 (37 at 7 samples a decade: the
+    test at 30 could note a cap B had not reached). corr_correction_max in
+    the file is that |B N^-nu|, recomputed here from /gyration/N."""
+    for clusters, seed, pd in ((1, 1, 100), (4, 20, 100), (3, 5, 7)):
+        out = os.path.join(tmp, "cn%d-%d-%d" % (clusters, seed, pd))
+        rc, so, se = run([pdla, "ensemble", "--clusters", str(clusters), "--target", "3000", "--seed", str(seed),
+                          "--rg-per-decade", str(pd), "--out", out, "-q"])
+        if not check(rc == 0, "ensemble %s: exit %d: %s" % (out, rc, se)):
+            continue
+        h5 = os.path.join(out, "ensemble.h5")
+        with h5py.File(h5, "r") as f:
+            a = dict(f["statistics"].attrs)
+            n = f["gyration/N"][()]
+        rc, text, se = run([pdla, "analyze", h5])
+        check(rc == 0, "%s: analyze exit %d" % (out, rc))
+        if int(a["corr_ok"]) != 1:
+            continue
+        nu, B = float(a["corr_nu"]), float(a["corr_B"])
+        first = min(x for x in n if x >= int(a["corr_n_lo"]))
+        cmax = abs(B) * first ** -nu
+        check(math.isclose(float(a["corr_correction_max"]), cmax, rel_tol=1e-9),
+              "%s: corr_correction_max %s, |B N^-nu| at N = %d is %s" % (out, a["corr_correction_max"], first, cmax))
+        check(cmax <= 0.9 * (1 + 1e-9), "%s: |B N^-nu| = %s above the cap 0.9" % (out, cmax))
+        at_end = nu <= 0.2 * (1 + 1e-6) or nu >= 2.0 * (1 - 1e-6)
+        check(("end of its range" in text) == at_end, "%s: nu %r, the end-of-range note %s" %
+              (out, nu, "missing" if at_end else "given"))
+        capped = cmax >= 0.9 * (1 - 1e-6)
+        check(("B at its cap" in text) == capped, "%s: |B N^-nu| %r, the cap note %s" %
+              (out, cmax, "missing" if capped else "given"))
+
+
 def one_cluster(pdla, tmp):
     """M = 1: every bootstrap resample is that cluster, so no interval is
     given (it had zero width: [D_f, D_f], sd 0): NaN in ensemble.h5 (D_f_lo,
@@ -137,6 +172,7 @@ def main():
     pdla = os.path.abspath(sys.argv[1])
     with tempfile.TemporaryDirectory() as tmp:
         local_slope_nan(pdla, tmp)
+        correction_notes(pdla, tmp)
         one_cluster(pdla, tmp)
     TALLY.done()
 

@@ -801,7 +801,8 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
             /* Under the lock, what a pdla killed while it wrote here left:
              * cluster.xdmf2.tmp.PID stayed for good (kill -9 during the
              * sidecar); the .new names are taken again, but not at once. */
-            static const char *const stale[] = {".cluster.h5.new", ".checkpoint.h5.new", "cluster.xdmf2.tmp"};
+            static const char *const stale[] = {".cluster.h5.new", ".checkpoint.h5.new", "cluster.xdmf2.tmp",
+                                               "cluster-free.xdmf2.tmp"};
             pdla_rundir_remove_prefixed(dir, stale, sizeof stale / sizeof stale[0]);
         }
         if (!drc && !c->resume) {

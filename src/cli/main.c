@@ -854,8 +854,6 @@ static void clear_old_run_step(const run *R)
     if (!R->o.resume && !R->o.no_output && !R->created) remove_old_checkpoints(R->dir);
 }
 
-/* Does path hold a JSON object (its first byte '{'): the statistics of an
- * earlier run, which a resumed run may replace. */
 /* Whether the file begins as write_json begins its output: a file
  * whose first byte alone was '{' (any JSON document: a notebook, a
  * config) was replaced on --resume without --force. */
@@ -875,7 +873,8 @@ static int json_file_is_stats(const char *path)
  * was opened with "w" here, so any file of that name (a checkpoint
  * included, found by an adversarial test) was emptied at once, without
  * --force, and a killed run left it empty. An existing file is replaced
- * only with --force, or on --resume when it holds JSON (the run's own). */
+ * only with --force, or on --resume when it holds pdla's statistics
+ * (json_file_is_stats: the run's own). */
 static int open_json_step(run *R)
 {
     if (!R->o.stats_json) return GO_ON;

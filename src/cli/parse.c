@@ -197,7 +197,7 @@ static const opt_desc options[] = {
     {"no-output", 0, OPT_NO_OUTPUT, ARG_NONE, NULL,
      "no run directory and no files: grow and print the summary (for benchmarks)"},
     {"stats-json", 0, OPT_STATS_JSON, ARG_STRING, "FILE",
-     "also write counters, timings and fit as JSON to FILE (at the end; an existing FILE only with --force, or on --resume when it holds JSON)"},
+     "also write counters, timings and fit as JSON to FILE (at the end; an existing FILE only with --force, or on --resume when it holds the statistics pdla wrote)"},
     {"quiet", 'q', 'q', ARG_NONE, NULL, "no summary and no progress (unless --progress); errors only"},
     {"progress", 0, OPT_PROGRESS, ARG_NONE, NULL,
      "progress on stderr (default: only when stderr is a terminal)"},

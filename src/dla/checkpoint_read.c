@@ -361,10 +361,12 @@ static int load_state(const reader *r, hid_t file, pdla_engine *e, const tree_ve
     atomic_store(&e->r_ext, rext);
     if (e->params.rg_per_decade > 0 && count > 0 && nn <= count)
         return damaged(r, "the next R_g sample lies behind the particle count");
-    /* The grid position must be the grid's (a forged k of 2^63 stopped the
-     * sampling for good; a small one put samples off the shared grid). */
-    if (e->params.rg_per_decade > 0 ? nn != fit_rg_grid_at(k, e->params.rg_per_decade) : k != 0 || nn != 1)
-        return damaged(r, "the next R_g sample is not on the R_g grid");
+    /* The grid position must be the engine's: the first grid point above
+     * the count (a forged k of 2^63 stopped the sampling for good; a small
+     * one put samples off the shared grid; a later one skipped some). */
+    const int pd = e->params.rg_per_decade;
+    if (pd > 0 ? nn != fit_rg_grid_at(k, pd) || (k > 0 && fit_rg_grid_at(k - 1, pd) > count) : k != 0 || nn != 1)
+        return damaged(r, "the next R_g sample is not the grid's next point");
     if (!(isfinite(e->grow_seconds) && e->grow_seconds >= 0 && e->grow_seconds < 1e12 &&
           isfinite(e->parallel_seconds) && e->parallel_seconds >= 0 && e->parallel_seconds <= e->grow_seconds * (1 + 1e-9) + 1e-6))
         return damaged(r, "/state grow_seconds or parallel_seconds out of range");

@@ -143,6 +143,14 @@ left = [x for x in os.listdir(W("F")) if ".tmp." in x or x.startswith(".cluster"
 check(rc == 0 and not left, "item 8: --force run left %r" % left)
 check(os.path.exists(W("F", ".pdla-probe.%d" % os.getpid())), "item 8: a live process's probe was removed")
 os.unlink(W("F", ".pdla-probe.%d" % os.getpid()))
+# DLCA: a killed event run's cluster-free sidecar temporary goes too, under
+# a later DLCA --force run into that directory (it stayed before session 28).
+os.makedirs(W("DL"), exist_ok=True)
+for name in ("cluster.xdmf2.tmp.999999", "cluster-free.xdmf2.tmp.999999"):
+    open(W("DL", name), "w").close()
+rc, err = pdla(*(models["dlca"] + ["--out", W("DL"), "--force", "-q"]))
+left = [x for x in os.listdir(W("DL")) if ".tmp." in x]
+check(rc == 0 and not left, "item 8: DLCA --force run left %r (%r %r)" % (left, rc, err))
 # A probe left with the new run's own pid (a container's pdla is often pid 1
 # every time): replaced, not "not writable". The child makes it, then execs
 # pdla under the same pid.

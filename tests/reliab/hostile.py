@@ -393,6 +393,19 @@ def _(f):
     f["/state"].attrs.modify("rg_next_k", np.uint64(int(f["/state"].attrs["rg_next_k"]) - 1))
 
 
+@ck("rg_next_later_grid_point")
+def _(f):
+    # On the grid, but one point later than the engine's: a sample skipped.
+    import math
+    k = int(f["/state"].attrs["rg_next_k"]) + 1
+    pd = int(f["/parameters"].attrs["rg_per_decade"])
+    n = 1
+    for j in range(1, k + 1):
+        n = max(int(round(10.0 ** (j / pd))), n + 1)
+    f["/state"].attrs.modify("rg_next_k", np.uint64(k))
+    f["/state"].attrs.modify("rg_next_n", np.uint64(n))
+
+
 @ck("grow_seconds_nan")
 def _(f):
     f["/state"].attrs.modify("grow_seconds", np.float64("nan"))

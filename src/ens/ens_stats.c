@@ -46,7 +46,6 @@ typedef struct corr_data {
     const double *x, *ly; /* ln N, ln R_g */
     double *z, *r;        /* N^-nu at the current nu; scratch residuals */
     size_t k;
-    double zmax;          /* the largest z: it bounds B */
 } corr_data;
 
 /* SSR of ln y = a + s x + ln(1 + B z) at fixed nu (z) and B, with a and s
@@ -112,17 +111,16 @@ static double corr_min1(const corr_data *c, corr_fn f, double lo, double hi, int
 }
 
 /* The best (a, s, B) at fixed nu, B within the cap. */
-static double corr_at_nu(const corr_data *c0, double nu, double p[3])
+static double corr_at_nu(const corr_data *c, double nu, double p[3])
 {
-    corr_data c = *c0;
-    c.zmax = 0;
-    for (size_t i = 0; i < c.k; i++) {
-        c.z[i] = exp(-nu * c.x[i]);
-        if (c.z[i] > c.zmax) c.zmax = c.z[i];
+    double zmax = 0; /* the largest z (the smallest N): it bounds B */
+    for (size_t i = 0; i < c->k; i++) {
+        c->z[i] = exp(-nu * c->x[i]);
+        if (c->z[i] > zmax) zmax = c->z[i];
     }
-    const double bmax = CORR_B_CAP / c.zmax;
+    const double bmax = CORR_B_CAP / zmax;
     double B;
-    return corr_min1(&c, corr_at_b, -bmax, bmax, CORR_B_GRID, &B, p);
+    return corr_min1(c, corr_at_b, -bmax, bmax, CORR_B_GRID, &B, p);
 }
 
 int pdla_ens_corr_fit(const uint64_t *n, const double *y, size_t k, uint64_t n_lo, uint64_t n_hi, double *A,
@@ -139,7 +137,7 @@ int pdla_ens_corr_fit(const uint64_t *n, const double *y, size_t k, uint64_t n_l
     int rc = -1;
     if (used >= 5) {
         /* nu profiled on a grid, then refined; B likewise at each nu. */
-        const corr_data c = {x, ly, z, r, used, 0};
+        const corr_data c = {x, ly, z, r, used};
         double bp[3] = {0, 0, 0}, bnu;
         const double best = corr_min1(&c, corr_at_nu, 0.2, 2.0, CORR_NU_GRID, &bnu, bp);
         if (isfinite(best)) {

@@ -71,6 +71,8 @@ PDLA_API int pdla_h5_attr_value(pdla_h5_id obj, const char *name, pdla_h5_value 
  * models write one), quietly: 0 with the string, or -1 (not a regular
  * file, not HDF5, no such string). Never opens a FIFO or device. */
 PDLA_API int pdla_h5_file_model(const char *path, char *model, size_t len);
+/* The same for any string attribute of the root group (`format`, ...). */
+PDLA_API int pdla_h5_file_attr(const char *path, const char *name, char *value, size_t len);
 
 /* ---- datasets ------------------------------------------------------------ */
 

@@ -428,6 +428,73 @@ PDLA_API int pdla_checkpoint_remove_stale(const char *dir);
  * that must print nothing but its own messages (the CLI) calls this first. */
 PDLA_API int pdla_hdf5_quiet(void);
 
+/* An independent check of a grown cluster from its particle centres alone
+ * (`pdla check`): the rows go into a fresh tree one by one, and each is
+ * compared with the particles already there, exactly, in integers:
+ *  - no two centres closer than one diameter D (every pair is seen once,
+ *    when its later row arrives);
+ *  - contact: in arrival order, every row after the first lies within
+ *    D + eps of an earlier one (it stuck to the cluster as it was); in any
+ *    other order, every particle within D + eps of another (checked over
+ *    the finished tree);
+ *  - the seed: the first row in arrival order, some row otherwise, at the
+ *    origin;
+ *  - the R_g and R_ext of the centres from exact integer sums, as the engine
+ *    computes them, so a caller can compare a file's stored values bit for
+ *    bit; in arrival order also R_g at given counts (the stored series).
+ * Memory: about the tree's, 4-5 bytes a particle. */
+typedef struct pdla_check pdla_check;
+
+/* Where a failed check was first seen: its row (file order) and centre. */
+typedef struct pdla_check_where {
+    uint64_t row;     /* UINT64_MAX when no failure, or found over the tree */
+    int64_t x[3];
+} pdla_check_where;
+
+typedef struct pdla_check_report {
+    uint64_t particles;
+    uint64_t overlaps;          /* pairs closer than D */
+    pdla_check_where first_overlap;
+    uint64_t detached;          /* particles without the contact above */
+    pdla_check_where first_detached;
+    uint64_t out_of_range;      /* rows beyond PDLA_MAX_CLUSTER_RADIUS_UNITS (not stored) */
+    pdla_check_where first_out_of_range;
+    int seed_at_origin;         /* 1 when the seed is at the origin */
+    int arrival;                /* 1: rows in arrival order (the stronger checks) */
+    double closest_diam;        /* least distance between two centres (NaN: < 2 rows) */
+    double widest_contact_diam; /* largest distance from a particle to its nearest
+                                   (earlier) neighbour, below D + eps (NaN: none) */
+    double rg_diam;             /* R_g of the centres, diameters (engine's formula) */
+    int64_t r_ext_units;        /* ceil of the largest |x| of a centre, units */
+    uint64_t series_checked;    /* R_g samples compared (arrival order) */
+    uint64_t series_mismatches; /* samples whose value differs from the recomputed one */
+    uint64_t first_series_mismatch; /* its index, UINT64_MAX when none */
+} pdla_check_report;
+
+/* dim 2 or 3, resolution D a power of two in [PDLA_MIN_RESOLUTION,
+ * PDLA_MAX_RESOLUTION], eps in [2, D/2] (pdla_params' ranges); arrival: the
+ * rows will come in arrival order. */
+PDLA_API int pdla_check_create(pdla_check **out, int dim, int resolution, int eps, int arrival,
+                               char *err, size_t errlen);
+/* Arrival order only, before any row: the stored R_g series (k samples of
+ * R_g in diameters at counts n[], increasing) to recompute and compare. The
+ * arrays are copied. */
+PDLA_API int pdla_check_series(pdla_check *c, const uint64_t *n, const double *rg_diam, size_t k,
+                               char *err, size_t errlen);
+/* The next `rows` centres (dim int32 each, in units), in file order. */
+PDLA_API int pdla_check_add(pdla_check *c, const int32_t *xyz, size_t rows, char *err,
+                            size_t errlen);
+/* Failures found so far (overlaps, detached and out-of-range rows): a caller
+ * may stop feeding rows once it has seen enough. */
+PDLA_API uint64_t pdla_check_failures(const pdla_check *c);
+/* After the last row: the remaining checks and the report. all_rows 0: the
+ * caller stopped early, so the checks that need every row (contacts over
+ * the finished tree when not in arrival order, series samples beyond the
+ * rows) are left out. */
+PDLA_API int pdla_check_finish(pdla_check *c, int all_rows, pdla_check_report *r, char *err,
+                               size_t errlen);
+PDLA_API void pdla_check_destroy(pdla_check *c);
+
 #ifdef __cplusplus
 }
 #endif

@@ -686,6 +686,8 @@ static int run_subcommand(int argc, char **argv, int *code)
         *code = dlca_cmd_main(argc, argv);
     else if (strcmp(sub, "export") == 0)
         *code = tool_export(argc - 1, argv + 1);
+    else if (strcmp(sub, "check") == 0)
+        *code = tool_check(argc - 1, argv + 1);
     else
         return 0;
     return 1;

@@ -17,6 +17,7 @@ int tool_info(int argc, char **argv);
 int tool_render(int argc, char **argv);
 int tool_analyze(int argc, char **argv);
 int tool_export(int argc, char **argv);
+int tool_check(int argc, char **argv);
 /* s as a JSON string (quoted, escaped; bytes that are not UTF-8 as
  * U+FFFD), for every tool's --json (info.c). */
 void tool_json_str(FILE *o, const char *s);

@@ -161,6 +161,11 @@ int pdla_h5_attr_value(pdla_h5_id obj, const char *name, pdla_h5_value *v)
 
 int pdla_h5_file_model(const char *path, char *model, size_t len)
 {
+    return pdla_h5_file_attr(path, "model", model, len);
+}
+
+int pdla_h5_file_attr(const char *path, const char *name, char *model, size_t len)
+{
     struct stat st; /* never open a FIFO or device: HDF5 would block on it */
     if (len) model[0] = '\0';
     if (stat(path, &st) != 0 || !S_ISREG(st.st_mode)) return -1;
@@ -171,7 +176,7 @@ int pdla_h5_file_model(const char *path, char *model, size_t len)
     int rc = -1;
     const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
     if (f >= 0) {
-        rc = pdla_h5_attr_str(f, "model", model, len) == 0 ? 0 : -1;
+        rc = pdla_h5_attr_str(f, name, model, len) == 0 ? 0 : -1;
         if (H5Fclose(f) < 0) rc = -1;
     }
     return H5Eset_auto2(H5E_DEFAULT, fn, data) < 0 ? -1 : rc;

@@ -115,6 +115,8 @@ void pdla_engine_destroy(pdla_engine *e)
     free(e->rg_n);
     free(e->rg_diam);
     free(e->arrival);
+    free(e->gyr_wait_idx);
+    free(e->gyr_wait_p);
     engine_reference_free(e);
     free(e);
 }
@@ -197,13 +199,12 @@ int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errl
     return engine_gyration_add_at(e, p, e->gyr.n, err, errlen);
 }
 
-int engine_gyration_add_at(pdla_engine *e, const int64_t *p, uint64_t index, char *err, size_t errlen)
+/* Adds the particle whose turn it is (index gyr.n) to the sums, R_ext and
+ * the samples. */
+static int gyration_add_next(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
 {
     const int dim = e->params.dim;
     uint64_t r2 = 0;
-    if (e->params.record_arrival && record_arrival(e, p, index))
-        return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the arrival order at %llu particles",
-                    (unsigned long long)e->gyr.n);
     for (int a = 0; a < dim; a++) {
         r2 += (uint64_t)(p[a] * p[a]);
         e->gyr.s1[a] += p[a];
@@ -219,6 +220,64 @@ int engine_gyration_add_at(pdla_engine *e, const int64_t *p, uint64_t index, cha
         while (e->rg_next_n <= e->gyr.n) rg_advance(e);
     }
     return PDLA_OK;
+}
+
+/* Room for index in the waiting slots (index - gyr.n below the capacity,
+ * which doubles as needed; every waiting index lies in [gyr.n, gyr.n + cap)). */
+static int gyration_wait_room(pdla_engine *e, uint64_t index)
+{
+    size_t cap = e->gyr_wait_cap ? e->gyr_wait_cap : 64;
+    while (index - e->gyr.n >= cap) {
+        if (cap > SIZE_MAX / 2 / sizeof(int64_t[3])) return PDLA_ENOMEM;
+        cap *= 2;
+    }
+    if (cap == e->gyr_wait_cap) return PDLA_OK;
+    uint64_t *idx = calloc(cap, sizeof *idx);
+    int64_t(*pp)[3] = malloc(cap * sizeof *pp);
+    if (!idx || !pp) {
+        free(idx), free(pp);
+        return PDLA_ENOMEM;
+    }
+    for (size_t i = 0; i < e->gyr_wait_cap; i++) {
+        if (!e->gyr_wait_idx[i]) continue;
+        const size_t j = (size_t)(e->gyr_wait_idx[i] - 1) & (cap - 1);
+        idx[j] = e->gyr_wait_idx[i];
+        memcpy(pp[j], e->gyr_wait_p[i], sizeof pp[j]);
+    }
+    free(e->gyr_wait_idx);
+    free(e->gyr_wait_p);
+    e->gyr_wait_idx = idx;
+    e->gyr_wait_p = pp;
+    e->gyr_wait_cap = cap;
+    return PDLA_OK;
+}
+
+int engine_gyration_add_at(pdla_engine *e, const int64_t *p, uint64_t index, char *err, size_t errlen)
+{
+    if (e->params.record_arrival && record_arrival(e, p, index))
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the arrival order at %llu particles",
+                    (unsigned long long)e->gyr.n);
+    if (index != e->gyr.n) {
+        /* A later particle than the next: it waits for those before it. */
+        if (index < e->gyr.n)
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "particle %llu counted twice in the R_g sums",
+                               (unsigned long long)index);
+        if (gyration_wait_room(e, index))
+            return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory ordering the R_g sums at %llu particles",
+                               (unsigned long long)e->gyr.n);
+        const size_t j = (size_t)index & (e->gyr_wait_cap - 1);
+        e->gyr_wait_idx[j] = index + 1;
+        memcpy(e->gyr_wait_p[j], p, sizeof e->gyr_wait_p[j]);
+        return PDLA_OK;
+    }
+    int rc = gyration_add_next(e, p, err, errlen);
+    while (rc == PDLA_OK && e->gyr_wait_cap) {
+        const size_t j = (size_t)e->gyr.n & (e->gyr_wait_cap - 1);
+        if (e->gyr_wait_idx[j] != e->gyr.n + 1) break;
+        e->gyr_wait_idx[j] = 0;
+        rc = gyration_add_next(e, e->gyr_wait_p[j], err, errlen);
+    }
+    return rc;
 }
 
 /* Serial insertion (one thread: the serial loop, the reference mode): the

@@ -199,6 +199,13 @@ struct pdla_engine {
     uint64_t rg_next_n;       /* its N */
     int32_t *arrival;         /* record_arrival: positions in arrival order */
     uint64_t arrival_cap;     /* particles it has room for */
+    /* Workers take the gyration mutex in another order than they took their
+     * indices (the bucket mutex): particles that come before their turn
+     * wait here, slot index & (cap - 1), so the sums and the R_g samples
+     * always cover exactly the first gyr.n particles in arrival order. */
+    uint64_t *gyr_wait_idx;   /* index + 1 of the particle in a slot, 0: empty */
+    int64_t (*gyr_wait_p)[3];
+    size_t gyr_wait_cap;      /* a power of two, 0 until needed */
     /* The caller's thread only. */
     walker_ctx walker;        /* the serial phase's walker */
     uint64_t compact_first;   /* serial phase: first tree compaction at this count (0: none; grow.c) */

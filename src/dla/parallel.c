@@ -575,6 +575,11 @@ static int phase_end(pdla_engine *e, phase *ph, int rc, char *err, size_t errlen
     e->claims = NULL;
     for (int i = 0; i < ph->started && rc == PDLA_OK; i++)
         if (ph->ks[i].rc) rc = pdla_errorf(ph->ks[i].rc, err, errlen, "worker %d: %s", i, ph->ks[i].err);
+    /* Every appended particle was counted in its turn (engine.c
+     * engine_gyration_add_at): none may still wait. */
+    if (rc == PDLA_OK && e->gyr.n != tree_count(&e->tree))
+        rc = pdla_errorf(PDLA_EINVAL, err, errlen, "the R_g sums hold %llu of %llu particles",
+                         (unsigned long long)e->gyr.n, (unsigned long long)tree_count(&e->tree));
     e->workers = ph->ws;
     e->nworkers = ph->n;
     ph->ws = NULL;

@@ -1,0 +1,354 @@
+/*
+ * check.c - `pdla check FILE [--json]`: checks a DLA cluster file against
+ * what a grown cluster must be, from its positions alone (pdla_check_* in
+ * the library): no overlap, every particle in contact (with an earlier one
+ * when the file is in arrival order), the seed at the origin, and R_g, R_ext
+ * and the R_g series recomputed exactly and compared with what the file
+ * stores. Exit 0 when everything holds, 1 when something does not (the
+ * report says what, and one line on stderr), 2 for bad usage or a file that
+ * is not a DLA cluster file.
+ */
+#include <getopt.h>
+#include <inttypes.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "h5read.h"
+#include "pdla/h5check.h"
+#include "pdla/pdla.h"
+#include "tools.h"
+
+static const char check_help[] =
+    "Usage: pdla check FILE [--json]\n"
+    "Check a DLA cluster file (cluster.h5) or checkpoint (checkpoint.h5, loaded\n"
+    "and verified as --resume does) from its positions alone, exactly:\n"
+    "no two particles closer than one diameter D; every particle within D + eps\n"
+    "of an earlier one when the file is in arrival order (--arrival), of another\n"
+    "one otherwise; the seed at the origin; and R_g, R_ext and (arrival order)\n"
+    "every R_g(N) sample recomputed from the positions, bit for bit as stored.\n"
+    "Time and memory are about those of inserting the particles into pdla's\n"
+    "tree (4-5 bytes a particle). It stops reading after 10000 failures.\n"
+    "\n"
+    "  --json     one JSON object on stdout instead of text\n"
+    "  -h, --help print this help and exit\n"
+    "\n"
+    "Exit status: 0 the file passes; 1 it fails a check (the report says\n"
+    "which) or a read failed; 2 bad usage or a file that is not a DLA cluster\n"
+    "file.\n";
+
+/* Reading stops after this many failures: a forged file of 10^12 rows at
+ * one point would otherwise cost quadratic time. */
+#define CHECK_MAX_FAILURES 10000u
+
+typedef struct check_feed {
+    pdla_check *c;
+    char *err;
+    size_t errlen;
+    int dim;
+    int stopped;
+} check_feed;
+
+/* h5r_stream's callback: the rows in pieces of 1024, stopping (1) once the
+ * failures pass the cap. */
+static int feed_rows(const int32_t *xyz, size_t rows, uint64_t first, void *user)
+{
+    (void)first;
+    check_feed *f = user;
+    const size_t dim = (size_t)f->dim;
+    for (size_t i = 0; i < rows; i += 1024) {
+        const size_t m = rows - i < 1024 ? rows - i : 1024;
+        if (pdla_check_add(f->c, xyz + i * dim, m, f->err, f->errlen)) return -1;
+        if (pdla_check_failures(f->c) >= CHECK_MAX_FAILURES) {
+            f->stopped = 1;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* What the file stores beside the positions. */
+typedef struct check_stored {
+    int eps;
+    double rg_diam;        /* NaN: not stored */
+    double r_ext_units;    /* NaN: not stored */
+    double particles;      /* /results particles, NaN: not stored */
+    uint64_t *sn;          /* the stored series (malloc'ed from a file) */
+    double *srg;
+    size_t sk;
+    int series_bad;        /* the stored series' counts do not increase */
+} check_stored;
+
+typedef struct check_result {
+    pdla_check_report r;
+    int rg_ok, rext_ok, count_ok, series_ok, stopped;
+} check_result;
+
+static void print_where(FILE *o, const pdla_check_where *w, int dim)
+{
+    if (w->row != UINT64_MAX) fprintf(o, "row %" PRIu64 " ", w->row);
+    fprintf(o, "at (%" PRId64 ", %" PRId64, w->x[0], w->x[1]);
+    if (dim == 3) fprintf(o, ", %" PRId64, w->x[2]);
+    fprintf(o, ") units");
+}
+
+static const char *ok_word(int ok) { return ok ? "as stored" : "DIFFERS from the stored value"; }
+
+static void print_text(FILE *o, const h5r_file *f, const check_stored *s, const check_result *res)
+{
+    const pdla_check_report *r = &res->r;
+    fprintf(o, "file         %s\n", f->path);
+    fprintf(o, "particles    %" PRIu64 " in %dD, D = %d units, eps = %d units, rows in %s order%s\n",
+            r->particles, f->dim, f->diameter_units, s->eps, r->arrival ? "arrival" : "tree",
+            res->stopped ? " (reading stopped: too many failures)" : "");
+    if (!r->overlaps)
+        fprintf(o, "overlaps     none (closest centres %.6f diameters apart)\n", r->closest_diam);
+    else {
+        fprintf(o, "overlaps     %" PRIu64 " pairs closer than D; first: ", r->overlaps);
+        print_where(o, &r->first_overlap, f->dim);
+        fputc('\n', o);
+    }
+    if (!r->detached)
+        fprintf(o, "contacts     every particle within D + eps of %s (widest %.6f diameters)\n",
+                r->arrival ? "an earlier one" : "another", r->widest_contact_diam);
+    else {
+        fprintf(o, "contacts     %" PRIu64 " particles touch no %s particle; first: ", r->detached,
+                r->arrival ? "earlier" : "other");
+        print_where(o, &r->first_detached, f->dim);
+        fputc('\n', o);
+    }
+    if (r->out_of_range) {
+        fprintf(o, "range        %" PRIu64 " rows beyond the coordinate limit; first: ", r->out_of_range);
+        print_where(o, &r->first_out_of_range, f->dim);
+        fputc('\n', o);
+    }
+    fprintf(o, "seed         %s\n", r->seed_at_origin ? "at the origin" : r->arrival ? "NOT at the origin (row 0)" : "NO particle at the origin");
+    fprintf(o, "count        /results particles: %s\n", isnan(s->particles) ? "not stored" : ok_word(res->count_ok));
+    fprintf(o, "R_g          %.9g diameters: %s\n", r->rg_diam, isnan(s->rg_diam) ? "not stored" : ok_word(res->rg_ok));
+    fprintf(o, "R_ext        %" PRId64 " units: %s\n", r->r_ext_units, isnan(s->r_ext_units) ? "not stored" : ok_word(res->rext_ok));
+    if (!r->arrival)
+        fprintf(o, "R_g series   not checked (rows not in arrival order)\n");
+    else if (s->series_bad)
+        fprintf(o, "R_g series   BAD: its counts do not increase\n");
+    else if (r->series_mismatches)
+        fprintf(o, "R_g series   %" PRIu64 " of %zu samples DIFFER; first: sample %" PRIu64 "\n",
+                r->series_mismatches, s->sk, r->first_series_mismatch);
+    else
+        fprintf(o, "R_g series   %" PRIu64 " samples, every one as stored\n", r->series_checked);
+}
+
+static void json_where(FILE *o, const char *name, const pdla_check_where *w, int dim)
+{
+    fprintf(o, "  \"%s\": ", name);
+    if (w->row == UINT64_MAX && w->x[0] == 0 && w->x[1] == 0 && w->x[2] == 0) {
+        fputs("null,\n", o);
+        return;
+    }
+    fprintf(o, "{\"row\": ");
+    if (w->row == UINT64_MAX) fputs("null", o);
+    else fprintf(o, "%" PRIu64, w->row);
+    fprintf(o, ", \"x\": [%" PRId64 ", %" PRId64, w->x[0], w->x[1]);
+    if (dim == 3) fprintf(o, ", %" PRId64, w->x[2]);
+    fputs("]},\n", o);
+}
+
+static void print_json(FILE *o, const h5r_file *f, const check_stored *s, const check_result *res, int pass)
+{
+    const pdla_check_report *r = &res->r;
+    fputs("{\n  \"file\": ", o);
+    tool_json_str(o, f->path);
+    fprintf(o, ",\n  \"pass\": %s,\n  \"particles\": %" PRIu64 ",\n  \"dim\": %d,\n", pass ? "true" : "false",
+            r->particles, f->dim);
+    fprintf(o, "  \"arrival\": %s,\n  \"stopped\": %s,\n", r->arrival ? "true" : "false", res->stopped ? "true" : "false");
+    fprintf(o, "  \"overlaps\": %" PRIu64 ",\n", r->overlaps);
+    json_where(o, "first_overlap", r->overlaps ? &r->first_overlap : &(pdla_check_where){UINT64_MAX, {0, 0, 0}}, f->dim);
+    fprintf(o, "  \"detached\": %" PRIu64 ",\n", r->detached);
+    json_where(o, "first_detached", r->detached ? &r->first_detached : &(pdla_check_where){UINT64_MAX, {0, 0, 0}}, f->dim);
+    fprintf(o, "  \"out_of_range\": %" PRIu64 ",\n  \"seed_at_origin\": %s,\n", r->out_of_range,
+            r->seed_at_origin ? "true" : "false");
+    fputs("  \"closest_diam\": ", o);
+    tool_json_num(o, r->closest_diam, 17);
+    fputs(",\n  \"widest_contact_diam\": ", o);
+    tool_json_num(o, r->widest_contact_diam, 17);
+    fputs(",\n  \"rg_diam\": ", o);
+    tool_json_num(o, r->rg_diam, 17);
+    fprintf(o, ",\n  \"r_ext_units\": %" PRId64 ",\n", r->r_ext_units);
+    fprintf(o, "  \"count_as_stored\": %s,\n", isnan(s->particles) ? "null" : res->count_ok ? "true" : "false");
+    fprintf(o, "  \"rg_as_stored\": %s,\n", isnan(s->rg_diam) ? "null" : res->rg_ok ? "true" : "false");
+    fprintf(o, "  \"r_ext_as_stored\": %s,\n", isnan(s->r_ext_units) ? "null" : res->rext_ok ? "true" : "false");
+    fprintf(o, "  \"series_checked\": %" PRIu64 ",\n  \"series_mismatches\": %" PRIu64 "\n}\n",
+            r->series_checked, r->series_mismatches + (uint64_t)s->series_bad);
+}
+
+/* Reads eps and the stored results; -1 with err when the file lacks eps. */
+static int read_stored(h5r_file *f, check_stored *s, char *err, size_t errlen)
+{
+    h5r_attrs par = {0}, res = {0};
+    int rc = -1;
+    if (h5r_read_attrs(f, "/parameters", &par, err, errlen) || h5r_read_attrs(f, "/results", &res, err, errlen))
+        goto out;
+    const double eps = h5r_attr_num(&par, "eps");
+    if (!(eps >= 2 && eps <= f->diameter_units / 2 && eps == floor(eps))) {
+        snprintf(err, errlen, "%s: /parameters eps is missing or not in [2, D/2]", f->path);
+        goto out;
+    }
+    s->eps = (int)eps;
+    s->rg_diam = h5r_attr_num(&res, "rg_diam");
+    s->r_ext_units = h5r_attr_num(&res, "r_ext_units");
+    s->particles = h5r_attr_num(&res, "particles");
+    rc = h5r_read_series(f, &s->sn, &s->srg, &s->sk, err, errlen) ? -1 : 0;
+out:
+    h5r_attrs_free(&par);
+    h5r_attrs_free(&res);
+    return rc;
+}
+
+/* Where the rows come from: a cluster file (streamed) or a loaded
+ * checkpoint's engine (its arrival record, else its tree). */
+typedef struct check_source {
+    h5r_file *f;
+    const pdla_engine *e;
+} check_source;
+
+static int feed_visit(const int32_t *xyz, size_t n, void *user) { return feed_rows(xyz, n, 0, user); }
+
+static int feed_source(const check_source *src, check_feed *feed, char *err, size_t errlen)
+{
+    if (src->f) return h5r_stream(src->f, H5R_MAX_SLAB_ROWS, feed_rows, feed, err, errlen) < 0 ? -1 : 0;
+    uint64_t n = 0;
+    const int32_t *rows = pdla_engine_arrival(src->e, &n);
+    if (rows && n == pdla_engine_count(src->e)) return feed_rows(rows, (size_t)n, 0, feed) < 0 ? -1 : 0;
+    return pdla_engine_visit(src->e, feed_visit, feed) < 0 ? -1 : 0;
+}
+
+/* Runs the check; TOOL_OK with res filled, or an exit code after the one
+ * line on stderr. f describes the rows (path, dim, D, arrival). */
+static int run_check(const h5r_file *f, const check_source *src, check_stored *s, check_result *res)
+{
+    char err[1024];
+    pdla_check *c = NULL;
+    if (pdla_check_create(&c, f->dim, f->diameter_units, s->eps, f->arrival, err, sizeof err)) {
+        fprintf(stderr, "pdla check: %s: %s\n", f->path, err);
+        return TOOL_USAGE;
+    }
+    if (f->arrival && s->sk && pdla_check_series(c, s->sn, s->srg, s->sk, err, sizeof err)) s->series_bad = 1;
+    check_feed feed = {c, err, sizeof err, f->dim, 0};
+    int rc = TOOL_OK;
+    if (feed_source(src, &feed, err, sizeof err)) {
+        fprintf(stderr, "pdla check: %s\n", err);
+        rc = TOOL_RUNTIME;
+    }
+    if (rc == TOOL_OK && pdla_check_finish(c, !feed.stopped, &res->r, err, sizeof err)) {
+        fprintf(stderr, "pdla check: %s\n", err);
+        rc = TOOL_RUNTIME;
+    }
+    res->stopped = feed.stopped;
+    pdla_check_destroy(c);
+    return rc;
+}
+
+/* The verdict, printed; TOOL_OK when the file passes, else TOOL_RUNTIME
+ * after one line on stderr. */
+static int report(const h5r_file *f, const check_stored *s, check_result *res, int json)
+{
+    const pdla_check_report *r = &res->r;
+    res->count_ok = s->particles == (double)r->particles && r->particles == f->n;
+    res->rg_ok = s->rg_diam == r->rg_diam;
+    res->rext_ok = s->r_ext_units == (double)r->r_ext_units;
+    const int series_ok = !r->arrival || (!s->series_bad && !r->series_mismatches);
+    const int pass = !res->stopped && !r->overlaps && !r->detached && !r->out_of_range && r->seed_at_origin &&
+                     (isnan(s->particles) || res->count_ok) && (isnan(s->rg_diam) || res->rg_ok) &&
+                     (isnan(s->r_ext_units) || res->rext_ok) && series_ok;
+    if (json) print_json(stdout, f, s, res, pass);
+    else {
+        print_text(stdout, f, s, res);
+        fprintf(stdout, "result       %s\n", pass ? "pass" : "FAIL");
+    }
+    if (fflush(stdout) || ferror(stdout)) {
+        fprintf(stderr, "pdla check: cannot write to stdout\n");
+        return TOOL_RUNTIME;
+    }
+    if (pass) return TOOL_OK;
+    fprintf(stderr, "pdla check: %s fails the check (%" PRIu64 " overlaps, %" PRIu64 " detached particles%s)\n",
+            f->path, r->overlaps, r->detached, res->stopped ? ", reading stopped" : "");
+    return TOOL_RUNTIME;
+}
+
+/* A DLA checkpoint: loaded (and so verified) by the library, then its
+ * particles checked as a cluster file's, against the engine's own R_g,
+ * R_ext, count and series. */
+static int check_checkpoint(const char *path, int json)
+{
+    char err[1024];
+    pdla_engine *e = NULL;
+    pdla_checkpoint_info info;
+    if (pdla_checkpoint_load(&e, path, NULL, 0, &info, err, sizeof err)) {
+        fprintf(stderr, "pdla check: %s\n", err);
+        return TOOL_USAGE;
+    }
+    const pdla_params *P = pdla_engine_params(e);
+    pdla_stats st;
+    pdla_engine_stats(e, &st);
+    uint64_t na = 0;
+    const int32_t *arr = pdla_engine_arrival(e, &na);
+    h5r_file f = {0};
+    f.path = path;
+    f.dim = P->dim;
+    f.diameter_units = P->resolution;
+    f.n = st.particles;
+    f.arrival = arr && na == st.particles;
+    check_stored s = {.eps = P->eps, .rg_diam = st.rg_diam, .r_ext_units = (double)st.r_ext,
+                      .particles = (double)st.particles};
+    const uint64_t *sn = NULL;
+    const double *srg = NULL;
+    pdla_engine_rg_series(e, &sn, &srg, &s.sk);
+    s.sn = (uint64_t *)(uintptr_t)sn; /* read only: run_check copies them */
+    s.srg = (double *)(uintptr_t)srg;
+    check_result res = {0};
+    const check_source src = {NULL, e};
+    int rc = run_check(&f, &src, &s, &res);
+    if (rc == TOOL_OK) rc = report(&f, &s, &res, json);
+    pdla_engine_destroy(e);
+    return rc;
+}
+
+static int is_dla_checkpoint(const char *path)
+{
+    char format[32];
+    return pdla_h5_file_attr(path, "format", format, sizeof format) == 0 &&
+           strcmp(format, "pdla-checkpoint") == 0;
+}
+
+int tool_check(int argc, char **argv)
+{
+    static const struct option longopts[] = {
+        {"json", no_argument, NULL, 'j'}, {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
+    int json = 0, c;
+    if (tools_options_begin("check", argc, argv, longopts, "h")) return TOOL_USAGE;
+    while ((c = getopt_long(argc, argv, "h", longopts, NULL)) != -1) {
+        switch (c) {
+        case 'j': json = 1; break;
+        case 'h': fputs(check_help, stdout); return fflush(stdout) ? TOOL_RUNTIME : TOOL_OK;
+        default: return tools_option_error("check", argv, optind, 0); /* no option takes a value */
+        }
+    }
+    if (tools_one_file("check", optind, argc)) return TOOL_USAGE;
+    if (is_dla_checkpoint(argv[optind])) return check_checkpoint(argv[optind], json);
+    char err[1024];
+    h5r_file f;
+    if (h5r_open(&f, argv[optind], err, sizeof err)) {
+        fprintf(stderr, "pdla check: %s\n", err);
+        return TOOL_USAGE;
+    }
+    check_stored s = {0};
+    check_result res = {0};
+    int rc = read_stored(&f, &s, err, sizeof err) ? TOOL_USAGE : TOOL_OK;
+    if (rc) fprintf(stderr, "pdla check: %s\n", err);
+    const check_source src = {&f, NULL};
+    if (rc == TOOL_OK) rc = run_check(&f, &src, &s, &res);
+    if (rc == TOOL_OK) rc = report(&f, &s, &res, json);
+    free(s.sn);
+    free(s.srg);
+    return h5r_close_tool(&f, "check", rc);
+}

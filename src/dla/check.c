@@ -1,0 +1,271 @@
+/*
+ * check.c - pdla_check_*: an independent check of a DLA cluster from its
+ * particle centres (include/pdla/pdla.h). It shares nothing with the growth
+ * but the tree: the rows go into a fresh tree, and each is compared with the
+ * particles already stored by scanning the leaves its contact ball meets
+ * (D + eps <= 192 units < one leaf, so at most 2 leaves per axis), not by the
+ * walkers' bounded searches. Everything is integer and exact.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "engine.h"
+#include "tree.h"
+
+struct pdla_check {
+    tree t;
+    int dim, arrival, finished;
+    int64_t D, reach;       /* D and D + eps, units */
+    uint64_t D2, contact2;  /* D^2 and (D + eps)^2 */
+    uint64_t rows;
+    gyration_sums g;
+    uint64_t r2max;
+    uint64_t least2;        /* least squared distance of two centres */
+    uint64_t widest2;       /* largest squared nearest-(earlier-)neighbour distance in contact */
+    uint64_t *sn;           /* the R_g series to recompute (arrival order) */
+    double *srg;
+    size_t sk, si;
+    pdla_check_report rep;
+};
+
+/* What the leaves around p hold, relative to p: the least squared distance
+ * to a centre other than p itself, and how many centres sit exactly at p. */
+typedef struct check_near {
+    uint64_t least2;
+    uint64_t at_p;
+} check_near;
+
+static void scan_leaf_chunks(const tree *t, uint32_t head, const int64_t *lo, const int64_t *p,
+                             int dim, check_near *n)
+{
+    for (uint32_t c = head; c;) {
+        const uint8_t *ch = tree_chunk_at(t, c);
+        const uint32_t link = tree_chunk_link(t, c, ch);
+        const uint32_t m = tree_fill(c, link);
+        for (uint32_t j = 0; j < m; j++) {
+            uint64_t d2 = 0;
+            for (int a = 0; a < dim; a++) {
+                const int64_t d = lo[a] + (int64_t)ch[a * TREE_CHUNK_CAP + (int)j] - p[a];
+                d2 += (uint64_t)(d * d);
+            }
+            if (d2 == 0)
+                n->at_p++;
+            else if (d2 < n->least2)
+                n->least2 = d2;
+        }
+        c = link > TREE_CHUNK_CAP ? link : 0;
+    }
+}
+
+/* Every leaf that holds a point within r (< TREE_LEAF_SIDE) of p on every
+ * axis: 1 or 2 per axis. Leaves are aligned to their side, so a leaf's
+ * low corner is a coordinate with its low bits cleared. */
+static check_near scan_around(const tree *t, const int64_t *p, int64_t r, int dim)
+{
+    check_near n = {UINT64_MAX, 0};
+    const int64_t mask = ~(int64_t)(TREE_LEAF_SIDE - 1);
+    int64_t first[3] = {0, 0, 0}, count[3] = {1, 1, 1};
+    for (int a = 0; a < dim; a++) {
+        first[a] = (p[a] - r) & mask;
+        count[a] = (((p[a] + r) & mask) - first[a]) / TREE_LEAF_SIDE + 1;
+    }
+    for (int64_t i = 0; i < count[0]; i++)
+        for (int64_t j = 0; j < count[1]; j++)
+            for (int64_t k = 0; k < (dim == 3 ? count[2] : 1); k++) {
+                const int64_t corner[3] = {first[0] + i * TREE_LEAF_SIDE,
+                                           first[1] + j * TREE_LEAF_SIDE,
+                                           first[2] + k * TREE_LEAF_SIDE};
+                int64_t lo[3];
+                const uint32_t head = tree_find_leaf(t, corner, lo);
+                if (head) scan_leaf_chunks(t, head, lo, p, dim, &n);
+            }
+    return n;
+}
+
+static void note_where(pdla_check_where *w, uint64_t *count, uint64_t row, const int64_t *p, int dim)
+{
+    if ((*count)++ == 0) {
+        w->row = row;
+        for (int a = 0; a < dim; a++) w->x[a] = p[a];
+    }
+}
+
+int pdla_check_create(pdla_check **out, int dim, int resolution, int eps, int arrival, char *err,
+                      size_t errlen)
+{
+    *out = NULL;
+    if (dim != 2 && dim != 3) return pdla_errorf(PDLA_EINVAL, err, errlen, "dimension %d: want 2 or 3", dim);
+    if (resolution < PDLA_MIN_RESOLUTION || resolution > PDLA_MAX_RESOLUTION || (resolution & (resolution - 1)))
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "resolution %d: want a power of two from %d to %d",
+                           resolution, PDLA_MIN_RESOLUTION, PDLA_MAX_RESOLUTION);
+    if (eps < 2 || eps > resolution / 2)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "eps %d: want 2 to %d (resolution / 2)", eps,
+                           resolution / 2);
+    pdla_check *c = calloc(1, sizeof *c);
+    if (!c || tree_init(&c->t, dim)) {
+        free(c);
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the check's tree");
+    }
+    c->dim = dim;
+    c->arrival = arrival != 0;
+    c->D = resolution;
+    c->reach = resolution + eps;
+    c->D2 = (uint64_t)resolution * (uint64_t)resolution;
+    c->contact2 = (uint64_t)(resolution + eps) * (uint64_t)(resolution + eps);
+    c->least2 = UINT64_MAX;
+    const pdla_check_where none = {UINT64_MAX, {0, 0, 0}};
+    c->rep.first_overlap = c->rep.first_detached = c->rep.first_out_of_range = none;
+    c->rep.first_series_mismatch = UINT64_MAX;
+    c->rep.arrival = c->arrival;
+    *out = c;
+    return PDLA_OK;
+}
+
+int pdla_check_series(pdla_check *c, const uint64_t *n, const double *rg_diam, size_t k, char *err,
+                      size_t errlen)
+{
+    if (!c->arrival || c->rows)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "an R_g series is checked only in arrival order, before any row");
+    for (size_t i = 1; i < k; i++)
+        if (n[i] <= n[i - 1])
+            return pdla_errorf(PDLA_EINVAL, err, errlen, "the R_g series' counts do not increase (sample %zu)", i);
+    free(c->sn);
+    free(c->srg);
+    c->sn = k ? malloc(k * sizeof *c->sn) : NULL;
+    c->srg = k ? malloc(k * sizeof *c->srg) : NULL;
+    if (k && (!c->sn || !c->srg)) {
+        free(c->sn), free(c->srg);
+        c->sn = NULL, c->srg = NULL;
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for %zu R_g samples", k);
+    }
+    if (k) memcpy(c->sn, n, k * sizeof *n), memcpy(c->srg, rg_diam, k * sizeof *rg_diam);
+    c->sk = k;
+    c->si = 0;
+    return PDLA_OK;
+}
+
+/* The gyration sums, R_ext and the series sample due at this count. */
+static void add_gyration(pdla_check *c, const int64_t *p)
+{
+    uint64_t r2 = 0;
+    for (int a = 0; a < c->dim; a++) {
+        c->g.s1[a] += p[a];
+        r2 += (uint64_t)(p[a] * p[a]);
+    }
+    c->g.s2 += r2;
+    c->g.n++;
+    if (r2 > c->r2max) c->r2max = r2;
+    while (c->si < c->sk && c->sn[c->si] <= c->g.n) {
+        if (c->sn[c->si] == c->g.n) {
+            /* The engine's own formula (engine.c record_rg_sample). */
+            const double rg = sqrt(gyration_rg2_units(&c->g, c->dim)) / (double)c->D;
+            c->rep.series_checked++;
+            if (rg != c->srg[c->si] && c->rep.series_mismatches++ == 0)
+                c->rep.first_series_mismatch = c->si;
+        } else if (c->rep.series_mismatches++ == 0) {
+            c->rep.first_series_mismatch = c->si; /* a count this cluster never had */
+        }
+        c->si++;
+    }
+}
+
+/* One row against the particles before it: overlaps always, contact in
+ * arrival order (the row must have stuck to the cluster as it was). */
+static void check_row(pdla_check *c, const int64_t *p)
+{
+    const uint64_t row = c->rows;
+    const check_near n = scan_around(&c->t, p, c->reach, c->dim);
+    const uint64_t least2 = n.at_p ? 0 : n.least2;
+    if (least2 < c->least2) c->least2 = least2;
+    if (least2 < c->D2) note_where(&c->rep.first_overlap, &c->rep.overlaps, row, p, c->dim);
+    if (c->arrival && row == 0) {
+        c->rep.seed_at_origin = 1;
+        for (int a = 0; a < c->dim; a++) c->rep.seed_at_origin &= p[a] == 0;
+    } else if (c->arrival) {
+        if (least2 >= c->contact2)
+            note_where(&c->rep.first_detached, &c->rep.detached, row, p, c->dim);
+        else if (least2 >= c->D2 && least2 > c->widest2)
+            c->widest2 = least2;
+    } else {
+        int origin = 1;
+        for (int a = 0; a < c->dim; a++) origin &= p[a] == 0;
+        if (origin) c->rep.seed_at_origin = 1;
+    }
+}
+
+int pdla_check_add(pdla_check *c, const int32_t *xyz, size_t rows, char *err, size_t errlen)
+{
+    if (c->finished) return pdla_errorf(PDLA_EINVAL, err, errlen, "rows after pdla_check_finish");
+    for (size_t i = 0; i < rows; i++, c->rows++) {
+        int64_t p[3] = {0, 0, 0};
+        int in = 1;
+        for (int a = 0; a < c->dim; a++) {
+            p[a] = xyz[i * (size_t)c->dim + (size_t)a];
+            in &= p[a] >= -PDLA_MAX_CLUSTER_RADIUS_UNITS && p[a] <= PDLA_MAX_CLUSTER_RADIUS_UNITS;
+        }
+        if (!in) {
+            note_where(&c->rep.first_out_of_range, &c->rep.out_of_range, c->rows, p, c->dim);
+            continue;
+        }
+        check_row(c, p);
+        add_gyration(c, p);
+        const int rc = tree_insert(&c->t, p);
+        if (rc == -2) {
+            note_where(&c->rep.first_out_of_range, &c->rep.out_of_range, c->rows, p, c->dim);
+            continue;
+        }
+        if (rc)
+            return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the check's tree at row %llu",
+                               (unsigned long long)c->rows);
+    }
+    return PDLA_OK;
+}
+
+/* Not in arrival order: every particle must touch another one (a lone
+ * seed touches nothing and needs not). */
+static int contact_visit(const int64_t *p, void *user)
+{
+    pdla_check *c = user;
+    const check_near n = scan_around(&c->t, p, c->reach, c->dim);
+    /* A duplicate of p was counted as an overlap already; it is no contact. */
+    if (n.least2 >= c->contact2) {
+        if (tree_count(&c->t) > 1) note_where(&c->rep.first_detached, &c->rep.detached, UINT64_MAX, p, c->dim);
+    } else if (n.least2 >= c->D2 && n.least2 > c->widest2) {
+        c->widest2 = n.least2;
+    }
+    return 0;
+}
+
+uint64_t pdla_check_failures(const pdla_check *c)
+{
+    return c->rep.overlaps + c->rep.detached + c->rep.out_of_range;
+}
+
+int pdla_check_finish(pdla_check *c, int all_rows, pdla_check_report *r, char *err, size_t errlen)
+{
+    (void)err, (void)errlen;
+    if (!c->finished && all_rows && !c->arrival) tree_visit(&c->t, contact_visit, c);
+    if (!c->finished && all_rows) {
+        /* Samples at counts beyond the rows are samples of another cluster. */
+        for (; c->si < c->sk; c->si++)
+            if (c->rep.series_mismatches++ == 0) c->rep.first_series_mismatch = c->si;
+    }
+    c->finished = 1;
+    c->rep.particles = c->rows;
+    c->rep.closest_diam = c->least2 == UINT64_MAX ? NAN : sqrt((double)c->least2) / (double)c->D;
+    c->rep.widest_contact_diam = c->widest2 == 0 ? NAN : sqrt((double)c->widest2) / (double)c->D;
+    c->rep.rg_diam = sqrt(gyration_rg2_units(&c->g, c->dim)) / (double)c->D;
+    c->rep.r_ext_units = c->g.n ? tree_ceil_sqrt(c->r2max) : 0;
+    *r = c->rep;
+    return PDLA_OK;
+}
+
+void pdla_check_destroy(pdla_check *c)
+{
+    if (!c) return;
+    tree_free(&c->t);
+    free(c->sn);
+    free(c->srg);
+    free(c);
+}

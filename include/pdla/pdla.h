@@ -434,9 +434,10 @@ PDLA_API int pdla_hdf5_quiet(void);
  *  - no two centres closer than one diameter D (every pair is seen once,
  *    when its later row arrives);
  *  - contact: in arrival order, every row after the first lies within
- *    D + eps of an earlier one (it stuck to the cluster as it was); in any
- *    other order, every particle within D + eps of another (checked over
- *    the finished tree);
+ *    D + eps of an earlier one (it stuck to the cluster as it was, so the
+ *    cluster is one piece); in any other order, the contact graph (centres
+ *    closer than D + eps) of the finished tree is one piece holding the
+ *    seed (a breadth-first walk from it, one bit a particle plus its queue);
  *  - the seed: the first row in arrival order, some row otherwise, at the
  *    origin;
  *  - the R_g and R_ext of the centres from exact integer sums, as the engine
@@ -455,7 +456,8 @@ typedef struct pdla_check_report {
     uint64_t particles;
     uint64_t overlaps;          /* pairs closer than D */
     pdla_check_where first_overlap;
-    uint64_t detached;          /* particles without the contact above */
+    uint64_t detached;          /* particles without the contact above (tree order:
+                                   not connected to the seed's piece) */
     pdla_check_where first_detached;
     uint64_t out_of_range;      /* rows beyond PDLA_MAX_CLUSTER_RADIUS_UNITS (not stored) */
     pdla_check_where first_out_of_range;
@@ -484,6 +486,10 @@ PDLA_API int pdla_check_series(pdla_check *c, const uint64_t *n, const double *r
 /* The next `rows` centres (dim int32 each, in units), in file order. */
 PDLA_API int pdla_check_add(pdla_check *c, const int32_t *xyz, size_t rows, char *err,
                             size_t errlen);
+/* Rows of xyz (dim int32 each) that are not among the rows added so far:
+ * with equal counts and no duplicates, 0 means the same set of centres (a
+ * checkpoint's arrival record against its tree). */
+PDLA_API uint64_t pdla_check_missing(const pdla_check *c, const int32_t *xyz, size_t rows);
 /* Failures found so far (overlaps, detached and out-of-range rows): a caller
  * may stop feeding rows once it has seen enough. */
 PDLA_API uint64_t pdla_check_failures(const pdla_check *c);

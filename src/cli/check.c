@@ -78,6 +78,9 @@ typedef struct check_stored {
     double *srg;
     size_t sk;
     int series_bad;        /* the stored series' counts do not increase */
+    int series_wanted;     /* rg_per_decade > 0 and N >= 1: a series must exist */
+    int arrival_wanted;    /* /parameters record_arrival = 1: the rows must be in arrival order */
+    uint64_t tree_missing; /* checkpoint: tree particles not in the arrival record */
 } check_stored;
 
 typedef struct check_result {
@@ -95,6 +98,8 @@ static void print_where(FILE *o, const pdla_check_where *w, int dim)
 
 static const char *ok_word(int ok) { return ok ? "as stored" : "DIFFERS from the stored value"; }
 
+static const char *stored_word(double stored, int ok) { return isnan(stored) ? "NOT stored" : ok_word(ok); }
+
 static void print_text(FILE *o, const h5r_file *f, const check_stored *s, const check_result *res)
 {
     const pdla_check_report *r = &res->r;
@@ -109,12 +114,15 @@ static void print_text(FILE *o, const h5r_file *f, const check_stored *s, const 
         print_where(o, &r->first_overlap, f->dim);
         fputc('\n', o);
     }
-    if (!r->detached)
-        fprintf(o, "contacts     every particle within D + eps of %s (widest %.6f diameters)\n",
-                r->arrival ? "an earlier one" : "another", r->widest_contact_diam);
+    if (!r->detached && r->arrival)
+        fprintf(o, "contacts     every particle within D + eps of an earlier one (widest %.6f diameters)\n",
+                r->widest_contact_diam);
+    else if (!r->detached)
+        fprintf(o, "contacts     every particle joined to the seed through contacts closer than D + eps "
+                   "(widest %.6f diameters)\n", r->widest_contact_diam);
     else {
-        fprintf(o, "contacts     %" PRIu64 " particles touch no %s particle; first: ", r->detached,
-                r->arrival ? "earlier" : "other");
+        fprintf(o, "contacts     %" PRIu64 " particles %s; first: ", r->detached,
+                r->arrival ? "touch no earlier particle" : "not joined to the seed through contacts");
         print_where(o, &r->first_detached, f->dim);
         fputc('\n', o);
     }
@@ -124,11 +132,17 @@ static void print_text(FILE *o, const h5r_file *f, const check_stored *s, const 
         fputc('\n', o);
     }
     fprintf(o, "seed         %s\n", r->seed_at_origin ? "at the origin" : r->arrival ? "NOT at the origin (row 0)" : "NO particle at the origin");
-    fprintf(o, "count        /results particles: %s\n", isnan(s->particles) ? "not stored" : ok_word(res->count_ok));
-    fprintf(o, "R_g          %.9g diameters: %s\n", r->rg_diam, isnan(s->rg_diam) ? "not stored" : ok_word(res->rg_ok));
-    fprintf(o, "R_ext        %" PRId64 " units: %s\n", r->r_ext_units, isnan(s->r_ext_units) ? "not stored" : ok_word(res->rext_ok));
+    fprintf(o, "count        /results particles: %s\n", stored_word(s->particles, res->count_ok));
+    fprintf(o, "R_g          %.9g diameters: %s\n", r->rg_diam, stored_word(s->rg_diam, res->rg_ok));
+    fprintf(o, "R_ext        %" PRId64 " units: %s\n", r->r_ext_units, stored_word(s->r_ext_units, res->rext_ok));
+    if (s->tree_missing)
+        fprintf(o, "tree         %" PRIu64 " particles of the tree are NOT in the arrival record\n", s->tree_missing);
+    if (!r->arrival && s->arrival_wanted)
+        fprintf(o, "order        NOT arrival, although /parameters record_arrival = 1\n");
     if (!r->arrival)
         fprintf(o, "R_g series   not checked (rows not in arrival order)\n");
+    else if (!s->sk && s->series_wanted)
+        fprintf(o, "R_g series   MISSING (rg_per_decade > 0)\n");
     else if (s->series_bad)
         fprintf(o, "R_g series   BAD: its counts do not increase\n");
     else if (r->series_mismatches)
@@ -138,10 +152,10 @@ static void print_text(FILE *o, const h5r_file *f, const check_stored *s, const 
         fprintf(o, "R_g series   %" PRIu64 " samples, every one as stored\n", r->series_checked);
 }
 
-static void json_where(FILE *o, const char *name, const pdla_check_where *w, int dim)
+static void json_where(FILE *o, const char *name, uint64_t count, const pdla_check_where *w, int dim)
 {
     fprintf(o, "  \"%s\": ", name);
-    if (w->row == UINT64_MAX && w->x[0] == 0 && w->x[1] == 0 && w->x[2] == 0) {
+    if (!count) {
         fputs("null,\n", o);
         return;
     }
@@ -162,9 +176,9 @@ static void print_json(FILE *o, const h5r_file *f, const check_stored *s, const 
             r->particles, f->dim);
     fprintf(o, "  \"arrival\": %s,\n  \"stopped\": %s,\n", r->arrival ? "true" : "false", res->stopped ? "true" : "false");
     fprintf(o, "  \"overlaps\": %" PRIu64 ",\n", r->overlaps);
-    json_where(o, "first_overlap", r->overlaps ? &r->first_overlap : &(pdla_check_where){UINT64_MAX, {0, 0, 0}}, f->dim);
+    json_where(o, "first_overlap", r->overlaps, &r->first_overlap, f->dim);
     fprintf(o, "  \"detached\": %" PRIu64 ",\n", r->detached);
-    json_where(o, "first_detached", r->detached ? &r->first_detached : &(pdla_check_where){UINT64_MAX, {0, 0, 0}}, f->dim);
+    json_where(o, "first_detached", r->detached, &r->first_detached, f->dim);
     fprintf(o, "  \"out_of_range\": %" PRIu64 ",\n  \"seed_at_origin\": %s,\n", r->out_of_range,
             r->seed_at_origin ? "true" : "false");
     fputs("  \"closest_diam\": ", o);
@@ -174,9 +188,10 @@ static void print_json(FILE *o, const h5r_file *f, const check_stored *s, const 
     fputs(",\n  \"rg_diam\": ", o);
     tool_json_num(o, r->rg_diam, 17);
     fprintf(o, ",\n  \"r_ext_units\": %" PRId64 ",\n", r->r_ext_units);
-    fprintf(o, "  \"count_as_stored\": %s,\n", isnan(s->particles) ? "null" : res->count_ok ? "true" : "false");
-    fprintf(o, "  \"rg_as_stored\": %s,\n", isnan(s->rg_diam) ? "null" : res->rg_ok ? "true" : "false");
-    fprintf(o, "  \"r_ext_as_stored\": %s,\n", isnan(s->r_ext_units) ? "null" : res->rext_ok ? "true" : "false");
+    fprintf(o, "  \"count_as_stored\": %s,\n", res->count_ok ? "true" : "false");
+    fprintf(o, "  \"rg_as_stored\": %s,\n", res->rg_ok ? "true" : "false");
+    fprintf(o, "  \"r_ext_as_stored\": %s,\n", res->rext_ok ? "true" : "false");
+    fprintf(o, "  \"tree_not_in_arrival\": %" PRIu64 ",\n", s->tree_missing);
     fprintf(o, "  \"series_checked\": %" PRIu64 ",\n  \"series_mismatches\": %" PRIu64 "\n}\n",
             r->series_checked, r->series_mismatches + (uint64_t)s->series_bad);
 }
@@ -193,11 +208,25 @@ static int read_stored(h5r_file *f, check_stored *s, char *err, size_t errlen)
         snprintf(err, errlen, "%s: /parameters eps is missing or not in [2, D/2]", f->path);
         goto out;
     }
+    const double res_units = h5r_attr_num(&par, "resolution");
+    if (!isnan(res_units) && res_units != f->diameter_units) {
+        snprintf(err, errlen, "%s: diameter_units %d and /parameters resolution %.17g disagree", f->path,
+                 f->diameter_units, res_units);
+        goto out;
+    }
     s->eps = (int)eps;
     s->rg_diam = h5r_attr_num(&res, "rg_diam");
     s->r_ext_units = h5r_attr_num(&res, "r_ext_units");
     s->particles = h5r_attr_num(&res, "particles");
-    rc = h5r_read_series(f, &s->sn, &s->srg, &s->sk, err, errlen) ? -1 : 0;
+    s->arrival_wanted = h5r_attr_num(&par, "record_arrival") == 1;
+    /* The series is read only where it is checked (arrival order), and no
+     * longer than the log grid makes it: rg_per_decade samples a decade. */
+    const double rpd = h5r_attr_num(&par, "rg_per_decade");
+    const double n = (double)f->n;
+    s->series_wanted = rpd > 0 && f->n > 0;
+    double most = rpd >= 0 && rpd <= 1e6 ? rpd * (log10(n > 1 ? n : 1) + 1) + 2 : n;
+    if (most > n) most = n;
+    rc = f->arrival && h5r_read_series_max(f, (uint64_t)most, &s->sn, &s->srg, &s->sk, err, errlen) ? -1 : 0;
 out:
     h5r_attrs_free(&par);
     h5r_attrs_free(&res);
@@ -209,17 +238,37 @@ out:
 typedef struct check_source {
     h5r_file *f;
     const pdla_engine *e;
+    uint64_t *tree_missing; /* checkpoint with an arrival record: tree particles not in it */
 } check_source;
 
 static int feed_visit(const int32_t *xyz, size_t n, void *user) { return feed_rows(xyz, n, 0, user); }
+
+/* A checkpoint's tree against the arrival record just checked: the tree is
+ * what --resume grows from, so its particles must be the record's. */
+typedef struct tree_vs_arrival {
+    const pdla_check *c;
+    uint64_t missing;
+} tree_vs_arrival;
+
+static int tree_missing_visit(const int32_t *xyz, size_t n, void *user)
+{
+    tree_vs_arrival *v = user;
+    v->missing += pdla_check_missing(v->c, xyz, n);
+    return 0;
+}
 
 static int feed_source(const check_source *src, check_feed *feed, char *err, size_t errlen)
 {
     if (src->f) return h5r_stream(src->f, H5R_MAX_SLAB_ROWS, feed_rows, feed, err, errlen) < 0 ? -1 : 0;
     uint64_t n = 0;
     const int32_t *rows = pdla_engine_arrival(src->e, &n);
-    if (rows && n == pdla_engine_count(src->e)) return feed_rows(rows, (size_t)n, 0, feed) < 0 ? -1 : 0;
-    return pdla_engine_visit(src->e, feed_visit, feed) < 0 ? -1 : 0;
+    if (!rows || n != pdla_engine_count(src->e)) return pdla_engine_visit(src->e, feed_visit, feed) < 0 ? -1 : 0;
+    const int rc = feed_rows(rows, (size_t)n, 0, feed);
+    if (rc) return rc < 0 ? -1 : 0;
+    tree_vs_arrival v = {feed->c, 0};
+    pdla_engine_visit(src->e, tree_missing_visit, &v);
+    *src->tree_missing = v.missing;
+    return 0;
 }
 
 /* Runs the check; TOOL_OK with res filled, or an exit code after the one
@@ -256,10 +305,11 @@ static int report(const h5r_file *f, const check_stored *s, check_result *res, i
     res->count_ok = s->particles == (double)r->particles && r->particles == f->n;
     res->rg_ok = s->rg_diam == r->rg_diam;
     res->rext_ok = s->r_ext_units == (double)r->r_ext_units;
-    const int series_ok = !r->arrival || (!s->series_bad && !r->series_mismatches);
+    const int series_ok = !r->arrival || (!s->series_bad && !r->series_mismatches && (s->sk || !s->series_wanted));
+    /* Every stored value is required: pdla writes them all. */
     const int pass = !res->stopped && !r->overlaps && !r->detached && !r->out_of_range && r->seed_at_origin &&
-                     (isnan(s->particles) || res->count_ok) && (isnan(s->rg_diam) || res->rg_ok) &&
-                     (isnan(s->r_ext_units) || res->rext_ok) && series_ok;
+                     res->count_ok && res->rg_ok && res->rext_ok && series_ok && !s->tree_missing &&
+                     (r->arrival || !s->arrival_wanted);
     if (json) print_json(stdout, f, s, res, pass);
     else {
         print_text(stdout, f, s, res);
@@ -299,14 +349,15 @@ static int check_checkpoint(const char *path, int json)
     f.n = st.particles;
     f.arrival = arr && na == st.particles;
     check_stored s = {.eps = P->eps, .rg_diam = st.rg_diam, .r_ext_units = (double)st.r_ext,
-                      .particles = (double)st.particles};
+                      .particles = (double)st.particles, .series_wanted = P->rg_per_decade > 0 && st.particles > 0,
+                      .arrival_wanted = P->record_arrival};
     const uint64_t *sn = NULL;
     const double *srg = NULL;
     pdla_engine_rg_series(e, &sn, &srg, &s.sk);
     s.sn = (uint64_t *)(uintptr_t)sn; /* read only: run_check copies them */
     s.srg = (double *)(uintptr_t)srg;
     check_result res = {0};
-    const check_source src = {NULL, e};
+    const check_source src = {NULL, e, &s.tree_missing};
     int rc = run_check(&f, &src, &s, &res);
     if (rc == TOOL_OK) rc = report(&f, &s, &res, json);
     pdla_engine_destroy(e);
@@ -345,7 +396,7 @@ int tool_check(int argc, char **argv)
     check_result res = {0};
     int rc = read_stored(&f, &s, err, sizeof err) ? TOOL_USAGE : TOOL_OK;
     if (rc) fprintf(stderr, "pdla check: %s\n", err);
-    const check_source src = {&f, NULL};
+    const check_source src = {&f, NULL, NULL};
     if (rc == TOOL_OK) rc = run_check(&f, &src, &s, &res);
     if (rc == TOOL_OK) rc = report(&f, &s, &res, json);
     free(s.sn);

@@ -179,8 +179,8 @@ int h5r_stream(h5r_file *f, size_t slab_rows, h5r_rows_fn fn, void *user, char *
 }
 
 /* A whole 1-D dataset of k rows in native type mt; *out malloc'ed. */
-static int read_1d(h5r_file *f, const char *name, pdla_h5_type mt, size_t esize, void **out, size_t *k,
-                   char *err, size_t errlen)
+static int read_1d(h5r_file *f, const char *name, pdla_h5_type mt, size_t esize, uint64_t max_rows, void **out,
+                   size_t *k, char *err, size_t errlen)
 {
     *out = NULL;
     *k = 0;
@@ -197,6 +197,9 @@ static int read_1d(h5r_file *f, const char *name, pdla_h5_type mt, size_t esize,
     int rc = 0;
     if (d.rank != 1) {
         rc = pdla_errorf(-1, err, errlen, "%s: %s is not one-dimensional", f->path, name);
+    } else if (rows > max_rows) {
+        rc = pdla_errorf(-1, err, errlen, "%s: %s has %llu rows, more than the %llu a cluster of this size samples",
+                         f->path, name, (unsigned long long)rows, (unsigned long long)max_rows);
     } else if (rows > 0 && h5r_stored(&d, esize, f->path, name, err, errlen)) {
         rc = -1;
     } else if (rows > 0) {
@@ -221,13 +224,19 @@ static int read_1d(h5r_file *f, const char *name, pdla_h5_type mt, size_t esize,
 
 int h5r_read_series(h5r_file *f, uint64_t **n, double **rg_diam, size_t *k, char *err, size_t errlen)
 {
+    return h5r_read_series_max(f, UINT64_MAX, n, rg_diam, k, err, errlen);
+}
+
+int h5r_read_series_max(h5r_file *f, uint64_t max_rows, uint64_t **n, double **rg_diam, size_t *k, char *err,
+                        size_t errlen)
+{
     size_t kn = 0, kr = 0;
     void *pn = NULL, *pr = NULL;
     *n = NULL;
     *rg_diam = NULL;
     *k = 0;
-    if (read_1d(f, "/gyration/N", PDLA_H5_U64, sizeof(uint64_t), &pn, &kn, err, errlen) ||
-        read_1d(f, "/gyration/rg_diam", PDLA_H5_F64, sizeof(double), &pr, &kr, err, errlen)) {
+    if (read_1d(f, "/gyration/N", PDLA_H5_U64, sizeof(uint64_t), max_rows, &pn, &kn, err, errlen) ||
+        read_1d(f, "/gyration/rg_diam", PDLA_H5_F64, sizeof(double), max_rows, &pr, &kr, err, errlen)) {
         free(pn);
         free(pr);
         return -1;

@@ -69,6 +69,10 @@ int h5r_stream(h5r_file *f, size_t slab_rows, h5r_rows_fn fn, void *user, char *
  * (0 and NULLs when the file has none). 0 or -1 with err. */
 int h5r_read_series(h5r_file *f, uint64_t **n, double **rg_diam, size_t *k, char *err,
                     size_t errlen);
+/* The same, refusing (-1 with err, before any allocation) a series of more
+ * than max_rows rows. */
+int h5r_read_series_max(h5r_file *f, uint64_t max_rows, uint64_t **n, double **rg_diam, size_t *k, char *err,
+                        size_t errlen);
 
 /* Scalar attributes of the object at `where` ("/", "/parameters", ...), in
  * name order. A missing object gives an empty list. 0 or -1 with err. */

@@ -29,41 +29,36 @@ struct pdla_check {
     pdla_check_report rep;
 };
 
-/* What the leaves around p hold, relative to p: the least squared distance
- * to a centre other than p itself, and how many centres sit exactly at p. */
-typedef struct check_near {
-    uint64_t least2;
-    uint64_t at_p;
-} check_near;
+/* A stored particle met by an enumeration: its chunk and slot (its
+ * identity in the tree) and its squared distance from the query point. */
+typedef void (*near_fn)(void *user, uint32_t chunk, uint32_t slot, uint64_t d2, const int64_t *q);
 
-static void scan_leaf_chunks(const tree *t, uint32_t head, const int64_t *lo, const int64_t *p,
-                             int dim, check_near *n)
+static void leaf_each(const tree *t, uint32_t head, const int64_t *lo, const int64_t *p, int dim, near_fn fn,
+                      void *user)
 {
     for (uint32_t c = head; c;) {
         const uint8_t *ch = tree_chunk_at(t, c);
         const uint32_t link = tree_chunk_link(t, c, ch);
         const uint32_t m = tree_fill(c, link);
         for (uint32_t j = 0; j < m; j++) {
+            int64_t q[3] = {0, 0, 0};
             uint64_t d2 = 0;
             for (int a = 0; a < dim; a++) {
-                const int64_t d = lo[a] + (int64_t)ch[a * TREE_CHUNK_CAP + (int)j] - p[a];
+                q[a] = lo[a] + (int64_t)ch[a * TREE_CHUNK_CAP + (int)j];
+                const int64_t d = q[a] - p[a];
                 d2 += (uint64_t)(d * d);
             }
-            if (d2 == 0)
-                n->at_p++;
-            else if (d2 < n->least2)
-                n->least2 = d2;
+            fn(user, c, j, d2, q);
         }
         c = link > TREE_CHUNK_CAP ? link : 0;
     }
 }
 
-/* Every leaf that holds a point within r (< TREE_LEAF_SIDE) of p on every
- * axis: 1 or 2 per axis. Leaves are aligned to their side, so a leaf's
- * low corner is a coordinate with its low bits cleared. */
-static check_near scan_around(const tree *t, const int64_t *p, int64_t r, int dim)
+/* Every particle of every leaf that holds a point within r (< TREE_LEAF_SIDE)
+ * of p on every axis: 1 or 2 leaves per axis. Leaves are aligned to their
+ * side, so a leaf's low corner is a coordinate with its low bits cleared. */
+static void near_each(const tree *t, const int64_t *p, int64_t r, int dim, near_fn fn, void *user)
 {
-    check_near n = {UINT64_MAX, 0};
     const int64_t mask = ~(int64_t)(TREE_LEAF_SIDE - 1);
     int64_t first[3] = {0, 0, 0}, count[3] = {1, 1, 1};
     for (int a = 0; a < dim; a++) {
@@ -72,14 +67,34 @@ static check_near scan_around(const tree *t, const int64_t *p, int64_t r, int di
     }
     for (int64_t i = 0; i < count[0]; i++)
         for (int64_t j = 0; j < count[1]; j++)
-            for (int64_t k = 0; k < (dim == 3 ? count[2] : 1); k++) {
-                const int64_t corner[3] = {first[0] + i * TREE_LEAF_SIDE,
-                                           first[1] + j * TREE_LEAF_SIDE,
+            for (int64_t k = 0; k < count[2]; k++) {
+                const int64_t corner[3] = {first[0] + i * TREE_LEAF_SIDE, first[1] + j * TREE_LEAF_SIDE,
                                            first[2] + k * TREE_LEAF_SIDE};
                 int64_t lo[3];
                 const uint32_t head = tree_find_leaf(t, corner, lo);
-                if (head) scan_leaf_chunks(t, head, lo, p, dim, &n);
+                if (head) leaf_each(t, head, lo, p, dim, fn, user);
             }
+}
+
+/* What the leaves around p hold, relative to p: the least squared distance
+ * to a centre other than p itself, and how many centres sit exactly at p. */
+typedef struct check_near {
+    uint64_t least2;
+    uint64_t at_p;
+} check_near;
+
+static void near_least(void *user, uint32_t chunk, uint32_t slot, uint64_t d2, const int64_t *q)
+{
+    (void)chunk, (void)slot, (void)q;
+    check_near *n = user;
+    if (d2 == 0) n->at_p++;
+    else if (d2 < n->least2) n->least2 = d2;
+}
+
+static check_near scan_around(const tree *t, const int64_t *p, int64_t r, int dim)
+{
+    check_near n = {UINT64_MAX, 0};
+    near_each(t, p, r, dim, near_least, &n);
     return n;
 }
 
@@ -202,7 +217,8 @@ int pdla_check_add(pdla_check *c, const int32_t *xyz, size_t rows, char *err, si
         int in = 1;
         for (int a = 0; a < c->dim; a++) {
             p[a] = xyz[i * (size_t)c->dim + (size_t)a];
-            in &= p[a] >= -PDLA_MAX_CLUSTER_RADIUS_UNITS && p[a] <= PDLA_MAX_CLUSTER_RADIUS_UNITS;
+            /* As engine_check_range: |x| < 2^28. */
+            in &= p[a] > -PDLA_MAX_CLUSTER_RADIUS_UNITS && p[a] < PDLA_MAX_CLUSTER_RADIUS_UNITS;
         }
         if (!in) {
             note_where(&c->rep.first_out_of_range, &c->rep.out_of_range, c->rows, p, c->dim);
@@ -222,19 +238,139 @@ int pdla_check_add(pdla_check *c, const int32_t *xyz, size_t rows, char *err, si
     return PDLA_OK;
 }
 
-/* Not in arrival order: every particle must touch another one (a lone
- * seed touches nothing and needs not). */
-static int contact_visit(const int64_t *p, void *user)
+/* Not in arrival order: the contact graph (centres closer than D + eps)
+ * must be one piece holding the seed, as a cluster grown by sticking is. A
+ * breadth-first walk from the particle at the origin (else from any one)
+ * marks the slots it reaches, one bit each; a particle never reached is
+ * detached. The queue holds positions (int32: |x| < 2^28). */
+typedef struct bfs {
+    pdla_check *c;
+    uint64_t *chunk_bits, *half_bits; /* reached: chunk x 10 + slot, half id x 5 + slot */
+    int32_t *queue;                   /* dim ints a particle */
+    size_t head, tail, cap;           /* in particles */
+    uint64_t reached, least2;
+    int oom, found;
+    int64_t start[3];
+} bfs;
+
+static int bit_test_set(bfs *b, uint32_t chunk, uint32_t slot)
 {
-    pdla_check *c = user;
-    const check_near n = scan_around(&c->t, p, c->reach, c->dim);
-    /* A duplicate of p was counted as an overlap already; it is no contact. */
-    if (n.least2 >= c->contact2) {
-        if (tree_count(&c->t) > 1) note_where(&c->rep.first_detached, &c->rep.detached, UINT64_MAX, p, c->dim);
-    } else if (n.least2 >= c->D2 && n.least2 > c->widest2) {
-        c->widest2 = n.least2;
+    uint64_t *bits = b->chunk_bits;
+    uint64_t i = (uint64_t)chunk * TREE_CHUNK_CAP + slot;
+    if (chunk & TREE_HALF_BIT) bits = b->half_bits, i = (uint64_t)(chunk & ~TREE_HALF_BIT) * TREE_HALF_CAP + slot;
+    const uint64_t m = UINT64_C(1) << (i & 63);
+    const int was = (bits[i >> 6] & m) != 0;
+    bits[i >> 6] |= m;
+    return was;
+}
+
+static void bfs_push(bfs *b, const int64_t *q)
+{
+    const int dim = b->c->dim;
+    if (b->tail == b->cap) {
+        const size_t cap = b->cap ? 2 * b->cap : 4096;
+        int32_t *nq = realloc(b->queue, cap * (size_t)dim * sizeof *nq);
+        if (!nq) {
+            b->oom = 1;
+            return;
+        }
+        b->queue = nq;
+        b->cap = cap;
     }
-    return 0;
+    for (int a = 0; a < dim; a++) b->queue[b->tail * (size_t)dim + (size_t)a] = (int32_t)q[a];
+    b->tail++;
+    b->reached++;
+}
+
+static void bfs_neighbour(void *user, uint32_t chunk, uint32_t slot, uint64_t d2, const int64_t *q)
+{
+    bfs *b = user;
+    if (d2 > 0 && d2 < b->least2) b->least2 = d2;
+    if (d2 < b->c->contact2 && !bit_test_set(b, chunk, slot)) bfs_push(b, q);
+}
+
+/* The start: the particle at the origin (its slot marked), else none yet. */
+static void bfs_origin(void *user, uint32_t chunk, uint32_t slot, uint64_t d2, const int64_t *q)
+{
+    bfs *b = user;
+    if (d2 == 0 && !b->found) {
+        b->found = 1;
+        bit_test_set(b, chunk, slot);
+        bfs_push(b, q);
+    }
+}
+
+static int bfs_any(const int64_t *p, void *user)
+{
+    bfs *b = user;
+    near_each(&b->c->t, p, 0, b->c->dim, bfs_origin, b);
+    return 1; /* the first particle visited is enough */
+}
+
+/* After the walk: the first particle not reached (tree order). */
+typedef struct unreached {
+    bfs *b;
+    const int64_t *p;
+    int hit;
+} unreached;
+
+static void unreached_slot(void *user, uint32_t chunk, uint32_t slot, uint64_t d2, const int64_t *q)
+{
+    (void)q;
+    unreached *u = user;
+    if (d2 == 0 && !bit_test_set(u->b, chunk, slot)) u->hit = 1;
+}
+
+static int unreached_visit(const int64_t *p, void *user)
+{
+    unreached *u = user;
+    near_each(&u->b->c->t, p, 0, u->b->c->dim, unreached_slot, u);
+    if (!u->hit) return 0;
+    note_where(&u->b->c->rep.first_detached, &u->b->c->rep.detached, UINT64_MAX, p, u->b->c->dim);
+    return 1;
+}
+
+static int check_connected(pdla_check *c)
+{
+    const tree *t = &c->t;
+    const uint64_t n = tree_count(t);
+    if (n == 0) return PDLA_OK;
+    bfs b = {.c = c, .least2 = UINT64_MAX};
+    b.chunk_bits = calloc(((uint64_t)t->chunks.count * TREE_CHUNK_CAP + 63) / 64 + 1, sizeof(uint64_t));
+    b.half_bits = calloc(((uint64_t)t->halves.count * 2 * TREE_HALF_CAP + 63) / 64 + 1, sizeof(uint64_t));
+    int rc = b.chunk_bits && b.half_bits ? PDLA_OK : PDLA_ENOMEM;
+    const int64_t origin[3] = {0, 0, 0};
+    if (rc == PDLA_OK) near_each(t, origin, 0, c->dim, bfs_origin, &b);
+    if (rc == PDLA_OK && !b.found) tree_visit(t, bfs_any, &b);
+    for (; rc == PDLA_OK && b.head < b.tail && !b.oom; b.head++) {
+        int64_t p[3] = {0, 0, 0};
+        for (int a = 0; a < c->dim; a++) p[a] = b.queue[b.head * (size_t)c->dim + (size_t)a];
+        b.least2 = UINT64_MAX;
+        near_each(t, p, c->reach, c->dim, bfs_neighbour, &b);
+        if (b.least2 < c->contact2 && b.least2 >= c->D2 && b.least2 > c->widest2) c->widest2 = b.least2;
+    }
+    if (b.oom) rc = PDLA_ENOMEM;
+    if (rc == PDLA_OK && b.reached < n) {
+        unreached u = {&b, NULL, 0};
+        tree_visit(t, unreached_visit, &u);
+        c->rep.detached = n - b.reached; /* note_where counted the first one */
+    }
+    free(b.chunk_bits);
+    free(b.half_bits);
+    free(b.queue);
+    return rc;
+}
+
+/* Rows of xyz (dim int32 each) that are not among the stored centres. */
+uint64_t pdla_check_missing(const pdla_check *c, const int32_t *xyz, size_t rows)
+{
+    uint64_t missing = 0;
+    for (size_t i = 0; i < rows; i++) {
+        int64_t p[3] = {0, 0, 0};
+        for (int a = 0; a < c->dim; a++) p[a] = xyz[i * (size_t)c->dim + (size_t)a];
+        missing += scan_around(&c->t, p, 0, c->dim).at_p == 0;
+    }
+    return missing;
 }
 
 uint64_t pdla_check_failures(const pdla_check *c)
@@ -244,8 +380,9 @@ uint64_t pdla_check_failures(const pdla_check *c)
 
 int pdla_check_finish(pdla_check *c, int all_rows, pdla_check_report *r, char *err, size_t errlen)
 {
-    (void)err, (void)errlen;
-    if (!c->finished && all_rows && !c->arrival) tree_visit(&c->t, contact_visit, c);
+    if (!c->finished && all_rows && !c->arrival && check_connected(c))
+        return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory walking the contacts of %llu particles",
+                           (unsigned long long)c->rows);
     if (!c->finished && all_rows) {
         /* Samples at counts beyond the rows are samples of another cluster. */
         for (; c->si < c->sk; c->si++)

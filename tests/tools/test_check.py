@@ -21,6 +21,7 @@ Refused (exit 2, one line): a missing file, a DLCA and an event file, no
 eps, an unknown option, two files.
 """
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -124,7 +125,7 @@ def forgeries(files, tmp):
     with h5py.File(t2, "r") as f:
         p2 = f["cluster/positions"][:]
     far = p2[123] + np.array([0, 1 << 20])
-    cases.append(("detached-tree", t2, lambda f: moved(f, 123, far), ["contacts     1 particles touch no other"]))
+    cases.append(("detached-tree", t2, lambda f: moved(f, 123, far), ["contacts     1 particles not joined to the seed"]))
     for name, src, fn, texts in cases:
         check_file(forged(src, tmp, name, fn), 1, texts + ["result       FAIL"], "forged " + name)
 
@@ -165,9 +166,103 @@ def checkpoints(tmp):
         if rc == 1:
             caught = (out, err)
             break
+    # The same forged tree under an arrival record: the record passes its
+    # checks, the tree (what --resume grows from) is not the record's.
+    out = os.path.join(tmp, "ck3a")
+    rc, _, err = run([PDLA, "--dim", "3", "--target", "3000", "--seed", "5", "--arrival", "--checkpoint",
+                      "--out", out, "-q"])
+    ck3a = os.path.join(out, "checkpoint.h5")
+    with h5py.File(ck3a, "r") as f:
+        same = f["tree/chunks_packed"][:].tobytes() == packed
+    T.check(rc == 0 and same, "the arrival run's tree differs from the tree-order run's: %s" % err)
+    if caught is not None and same:
+        shutil.copyfile(ck3a, ck3a + ".forged.h5")
+        with h5py.File(ck3a + ".forged.h5", "r+") as f:
+            b = bytearray(packed)
+            off = cands[k]
+            b[off], b[off + 1] = b[off + 1], b[off]
+            f["tree/chunks_packed"][...] = np.frombuffer(bytes(b), dtype=np.uint8)
+        check_file(ck3a + ".forged.h5", 1, ["tree         2 particles of the tree are NOT in the arrival record"],
+                   "forged tree under an arrival record")
     T.check(caught is not None and ("overlaps     " in caught[0] and "none" not in caught[0].split("overlaps")[1][:20]
-                                    or "touch no other" in caught[0]),
+                                    or "not joined to the seed" in caught[0]),
             "no forged checkpoint of %d caught by check while the loader accepts it" % len(cands))
+
+
+def synthetic(tmp, name, P, order="tree", D=32, eps=2, results=True, params=None, gyr=None):
+    """A small cluster file written by hand, with R_g and R_ext computed as
+    the engine does (exact integer sums, long double mean)."""
+    P = np.asarray(P, dtype=np.int64)
+    path = os.path.join(tmp, name + ".h5")
+    with h5py.File(path, "w") as f:
+        f.attrs["format"] = "pdla-cluster"
+        f.attrs["format_version"] = 1
+        g = f.create_group("parameters")
+        g.attrs["dim"], g.attrs["resolution"], g.attrs["eps"] = 2, D, eps
+        for k, v in (params or {}).items():
+            g.attrs[k] = v
+        d = f.create_dataset("cluster/positions", data=P.astype(np.int32))
+        d.attrs["diameter_units"] = D
+        if order:
+            d.attrs["order"] = order
+        r = f.create_group("results")
+        if results:
+            n = np.longdouble(len(P))
+            m2 = sum((np.longdouble(int(x)) / n) ** 2 for x in P.sum(axis=0))
+            v = np.longdouble(int((P * P).sum())) / n - m2
+            r.attrs["particles"] = len(P)
+            r.attrs["rg_diam"] = float(np.sqrt(np.float64(v) if v > 0 else 0.0)) / D
+            r2 = int((P * P).sum(axis=1).max())
+            q = math.isqrt(r2)
+            r.attrs["r_ext_units"] = q + (q * q < r2)
+        if gyr:
+            f.create_dataset("gyration/N", data=np.array(gyr[0], dtype=np.uint64))
+            f.create_dataset("gyration/rg_diam", data=np.array(gyr[1], dtype=np.float64))
+    return path
+
+
+def hand_made(tmp):
+    """Files a reviewer forged by hand: what grown clusters never are."""
+    L = 1 << 28
+    line = [[0, 0], [32, 0], [64, 0]]
+    ok = synthetic(tmp, "line", line)
+    check_file(ok, 0, ["result       pass"], "hand-made line")
+    check_file(synthetic(tmp, "disconnected", [[0, 0], [32, 0], [100000, 0], [100032, 0]]), 1,
+               ["contacts     2 particles not joined to the seed"], "two dimers apart")
+    for sign in (1, -1):
+        check_file(synthetic(tmp, "limit%d" % sign, [[0, 0], [32 * sign, 0], [sign * (L - 32), 0], [sign * L, 0]]),
+                   1, ["range        1 rows beyond"], "a row at x = %d 2^28" % sign)
+    check_file(synthetic(tmp, "no-order", line, order=None, params={"record_arrival": 1},
+                         gyr=([1, 2, 3], [7.0, 8.0, 9.0])), 1, ["order        NOT arrival"], "order dropped")
+    check_file(synthetic(tmp, "no-results", line, order="arrival", results=False,
+                         params={"rg_per_decade": 100}), 1,
+               ["count        /results particles: NOT stored", "R_g series   MISSING"], "no /results, no series")
+    nan = synthetic(tmp, "nan-rg", line)
+    with h5py.File(nan, "r+") as f:
+        f["results"].attrs["rg_diam"] = np.nan
+    check_file(nan, 1, ["R_g          ", "NOT stored"], "R_g NaN")
+    mism = synthetic(tmp, "d-mismatch", [[0, 0], [16, 0], [32, 0]], D=16)
+    with h5py.File(mism, "r+") as f:
+        f["parameters"].attrs["resolution"] = 32
+    check_file(mism, 2, (), "diameter_units against resolution")
+    lone = synthetic(tmp, "lone-seed", [[0, 0], [1000, 0], [1032, 0]])
+    rc, out, _ = run([PDLA, "check", "--json", lone])
+    j = json.loads(out) if out else {}
+    T.check(rc == 1 and j.get("detached") == 2 and j.get("first_detached", {}).get("row", 0) is None
+            and j["first_detached"]["x"] in ([1000, 0], [1032, 0]),
+            "--json of a lone seed: %r" % out[:400])
+    # A series of 2^24 rows (gzip'd zeros, a file of about 100 KB) beside 3 particles.
+    bomb = synthetic(tmp, "series-bomb", line, order="arrival", params={"rg_per_decade": 100})
+    with h5py.File(bomb, "r+") as f:
+        n = 1 << 24
+        for name, t in (("gyration/N", "<u8"), ("gyration/rg_diam", "<f8")):
+            d = f.create_dataset(name, (n,), t, chunks=(1 << 20,), compression="gzip", compression_opts=9)
+            for i in range(0, n, 1 << 20):
+                d[i:i + (1 << 20)] = np.zeros(1 << 20, dtype=t)
+    rc, out, err = run(["/usr/bin/time", "-f", "%e %M", PDLA, "check", bomb], timeout=120)
+    last = err.strip().splitlines()[-1].split()
+    T.check(rc == 2 and "rows, more than" in err and float(last[1]) < 100000,
+            "series bomb: rc %d, %s KB\n%s" % (rc, last[1], err))
 
 
 def zero_rows(files, tmp):
@@ -219,6 +314,7 @@ def main():
         forgeries(files, tmp)
         zero_rows(files, tmp)
         checkpoints(tmp)
+        hand_made(tmp)
         refused(tmp)
         refused_args(files, tmp)
     finally:

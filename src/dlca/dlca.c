@@ -1253,7 +1253,14 @@ int dlca_run_to(dlca_sim *s, uint64_t attempts, double t_pause)
         if (s->compact_due) compact(s);
         if (dlca_check_stop(s)) break;
     }
-    if (s->stop && (!s->nrows || s->rows[s->nrows - 1].attempts != s->attempts)) add_row(s);
+    if (s->stop && (!s->nrows || s->rows[s->nrows - 1].attempts != s->attempts)) {
+        /* The stop row is not a 1% row: row_nc stays at the last of those,
+         * else a run resumed past this stop took its next rows 1% below the
+         * stop's N_c and its series parted from the uninterrupted run's. */
+        const uint64_t row_nc = s->row_nc;
+        add_row(s);
+        s->row_nc = row_nc;
+    }
     return s->stop;
 }
 

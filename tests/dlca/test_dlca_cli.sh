@@ -228,6 +228,19 @@ half=$(( $(attempts_of "$tmp/straight/cluster.h5") / 2 ))
 r1=$(sed -n 's/.*model dlca, \([0-9]*\) series rows.*/\1/p' "$tmp/i1")
 r2=$(sed -n 's/.*model dlca, \([0-9]*\) series rows.*/\1/p' "$tmp/i2")
 [ -n "$r1" ] && [ "$r2" = "$((r1 + 1))" ] || fail "extended run: $r2 series rows, the straight run $r1"
+# ... and its other rows are the straight run's, value for value: the stop
+# row once reset the 1% row schedule, and every row after the stop came at
+# other attempts (another N_c, largest) than the straight run's.
+if /usr/bin/python3 -c 'import h5py' 2>/dev/null; then
+    /usr/bin/python3 - "$tmp/straight/cluster.h5" "$tmp/ext/cluster.h5" $half <<'PY' || fail "extended run: its series rows are not the straight run's and the stop's"
+import sys, h5py, numpy as np
+a, b = (h5py.File(p, 'r')['series'] for p in sys.argv[1:3])
+keep = b['attempts'][:] != int(sys.argv[3])  # all but the row of the first stop
+assert keep.sum() == len(a['attempts'])
+for k in a:
+    assert np.array_equal(a[k][:], b[k][:][keep]), k
+PY
+fi
 
 # cluster.h5 that could not be written: exit 1, one line naming what the
 # close was, and the summary does not say "wrote" (it did before); the same

@@ -657,18 +657,35 @@ static int keep_room(dlca_sim *s, uint32_t keep, uint32_t n)
     return blk_grow(s, keep, dlca_n(s, keep), n + (n / 8 < UINT32_MAX - n ? n / 8 : UINT32_MAX - n));
 }
 
+/* Does cluster v reach across the box (extent >= L on some axis)? Only
+ * after the spanning join: it sets s->spanning. */
+static int wide(const dlca_sim *s, const dlca_view *v)
+{
+    for (int a = 0; a < s->d; a++)
+        if ((int64_t)v->hi[a] - v->lo[a] + 1 >= s->L[a]) return 1;
+    return 0;
+}
+
 /* Append gone's monomers to keep (room made: keep has a record, even if
- * it was a lone monomer), offsets shifted by disp. */
+ * it was a lone monomer), offsets shifted by disp. Into a keeper that
+ * already spans, the joins that finish the spanning step place each
+ * monomer by window() (any offset that matches its site): disp came from
+ * a window that is ambiguous there, and offsets shifted by it could grow
+ * by L a join until they overflowed dlca_off; window's stay in
+ * [lo, lo + L). The unwrapping of a spanning cluster means nothing. */
 static void append(dlca_sim *s, uint32_t keep, uint32_t gone, const int64_t *disp)
 {
     const int d = s->d;
     dlca_view K, G;
     view_blk(s, dlca_blk(s, keep), &K);
     view_of(s, gone, &G);
+    const int by_site = wide(s, &K);
     for (uint32_t j = 0; j < G.n; j++) {
         K.k[K.n + j] = G.k[j];
+        int64_t x[DLCA_MAX_DIM];
+        if (by_site) coords(s, G.k[j], x);
         for (int a = 0; a < d; a++) {
-            const int32_t o = (int32_t)(G.off[(size_t)j * d + a] + disp[a]);
+            const int32_t o = (int32_t)(by_site ? window(s, &K, a, x[a]) : G.off[(size_t)j * d + a] + disp[a]);
             K.off[(size_t)(K.n + j) * d + a] = (dlca_off)o; /* |o| <= 2L - 2 fits (DLCA_MAX_AXIS) */
             if (o < K.lo[a]) K.lo[a] = o;
             if (o > K.hi[a]) K.hi[a] = o;
@@ -679,7 +696,19 @@ static void append(dlca_sim *s, uint32_t keep, uint32_t gone, const int64_t *dis
         if ((int64_t)K.hi[a] - K.lo[a] + 1 >= s->L[a]) s->spanning = 1;
 }
 
-/* Join b into c or c into b (the larger survives; on a tie the lower id),
+/* After spanning: does keep span, or gone not (so keep may absorb it)? A
+ * spanning cluster must survive its joins, as the proof of the stop
+ * (dlca_check asks for one), and append places into its frame. */
+static int keeps_span(const dlca_sim *s, uint32_t keep, uint32_t gone)
+{
+    dlca_view K, G;
+    view_of(s, keep, &K);
+    view_of(s, gone, &G);
+    return wide(s, &K) || !wide(s, &G);
+}
+
+/* Join b into c or c into b (the larger survives; on a tie the lower id;
+ * after spanning a spanning one),
  * disp = b's anchor in c's frame. Returns the survivor, 0 on no memory. */
 static uint32_t join(dlca_sim *s, uint32_t c, uint32_t b, const int64_t *disp_in)
 {
@@ -691,6 +720,11 @@ static uint32_t join(dlca_sim *s, uint32_t c, uint32_t b, const int64_t *disp_in
         keep = b;
         gone = c;
         for (int a = 0; a < d; a++) disp[a] = -disp[a];
+    }
+    if (s->spanning && !keeps_span(s, keep, gone)) { /* the spanning cluster keeps its frame (append) */
+        const uint32_t t = keep;
+        keep = gone;
+        gone = t;
     }
     const uint32_t nk = dlca_n(s, keep), ng = dlca_n(s, gone), n = nk + ng;
     if (keep_room(s, keep, n)) return 0;
@@ -791,13 +825,15 @@ static int join_adjacent(dlca_sim *s, const uint32_t *placed)
     for (uint64_t j = 1; j <= s->N; j++) bysite[j - 1] = (uint64_t)placed[j - 1] << 32 | j;
     qsort(bysite, s->N, sizeof *bysite, cmp_u64);
     int rc = 0;
-    for (uint64_t j = 1; j <= s->N && !s->spanning && !rc; j++) {
+    /* on after spanning: every contact joined, as the step's joins
+     * (join_contacts), so N_c and largest are those of the stop */
+    for (uint64_t j = 1; j <= s->N && !rc; j++) {
         const uint32_t k = placed[j - 1];
         int64_t x[DLCA_MAX_DIM];
         int32_t xw[DLCA_MAX_DIM];
         coords(s, k, x);
         for (int a = 0; a < s->d; a++) xw[a] = (int32_t)x[a];
-        for (int dir = 0; dir < 2 * s->d && !s->spanning; dir++) {
+        for (int dir = 0; dir < 2 * s->d; dir++) {
             int64_t y[DLCA_MAX_DIM];
             memcpy(y, x, sizeof y);
             y[dir >> 1] += (dir & 1) ? -1 : 1;
@@ -1179,7 +1215,10 @@ static int join_contacts(dlca_sim *s, uint32_t c)
             s->con[m - 1] = t;
         }
     uint32_t cur = c;
-    for (size_t j = 0; j < s->ncon && !s->spanning; j++) {
+    /* All of them, also after a join that spans: the stop comes after the
+     * step, with its contacts joined (they were left touching, and N_c and
+     * the largest size at the percolation point were wrong). */
+    for (size_t j = 0; j < s->ncon; j++) {
         if (s->p.sticking < 1 && rng_uniform(&s->rng) >= s->p.sticking) continue;
         cur = join_contact(s, cur, s->con[j].b, s->con[j].xw, s->con[j].dir);
         if (!cur) return PDLA_ENOMEM;

@@ -22,8 +22,29 @@ static void set_box(dlca_params *p, int d, const uint32_t *L)
     for (int a = 0; a < d; a++) p->box[a] = L[a];
 }
 
+/* With sticking 1, face-adjacent monomers of two clusters in the exported
+ * state (owner: cluster + 1 a site, 0 empty); also at a spanning stop,
+ * whose step's last joins were once left undone. */
+static int touching(const dlca_params *p, const uint32_t *owner, uint64_t V)
+{
+    if (p->sticking < 1) return 0;
+    int bad = 0;
+    for (uint64_t k = 0; k < V; k++) {
+        if (!owner[k]) continue;
+        uint64_t stride = 1, rest = k;
+        for (int a = 0; a < p->dim; a++) {
+            const uint64_t L = p->box[a], x = rest % L, up = x + 1 == L ? k - x * stride : k + stride;
+            rest /= L;
+            if (owner[up] && owner[up] != owner[k]) bad++;
+            stride *= L;
+        }
+    }
+    return bad;
+}
+
 /* Independent check of the exported state: distinct sites inside the box,
- * cluster numbers 0..N_c-1 each used, sizes agreeing with the table. */
+ * cluster numbers 0..N_c-1 each used, sizes agreeing with the table, no
+ * two clusters touching (sticking 1). */
 static void check_export(const dlca_sim *s, const char *what)
 {
     dlca_stats st;
@@ -35,7 +56,7 @@ static void check_export(const dlca_sim *s, const char *what)
     const dlca_params *p = dlca_get_params(s);
     uint64_t V = 1;
     for (int a = 0; a < p->dim; a++) V *= p->box[a];
-    unsigned char *seen = calloc(V, 1);
+    uint32_t *seen = calloc(V, sizeof *seen);
     dlca_export_sites(s, site, cid);
     dlca_cluster_table(s, size, rg);
     int bad = 0;
@@ -43,10 +64,13 @@ static void check_export(const dlca_sim *s, const char *what)
     for (size_t i = 0; i < N; i++) {
         if (site[i] >= V || seen[site[i]] || cid[i] >= nc) bad++;
         else {
-            seen[site[i]] = 1;
+            seen[site[i]] = cid[i] + 1;
             count[cid[i]]++;
         }
     }
+    const int touch = bad ? 0 : touching(p, seen, V);
+    CHECK(touch == 0, "%s: %d face contacts between clusters left unjoined (stop %s)", what, touch,
+          dlca_stop_name(st.stop));
     for (size_t c = 0; c < nc; c++) {
         if (count[c] != size[c] || size[c] == 0) bad++;
         sum += size[c];
@@ -543,6 +567,29 @@ static void sticking_statistics(void)
           joins[1], joins[2]);
 }
 
+/* A start whose first joins span the box (4x8: a row of 4 on y = 0) and
+ * whose last monomer, (3,1), touches that row: the joins go on after the
+ * spanning one, so 2 clusters (5 and 1), not 3 with (3,1) left alone. */
+static void spanning_start(void)
+{
+    static const uint32_t L[] = {4, 8}, sites[] = {0, 1, 2, 3, 20, 7};
+    dlca_params p;
+    dlca_params_default(&p);
+    set_box(&p, 2, L);
+    dlca_sim *s = NULL;
+    char err[512];
+    CHECK(dlca_create_sites(&s, &p, sites, 6, err, sizeof err) == 0, "spanning start: %s", err);
+    if (!s) return;
+    dlca_stats st;
+    dlca_get_stats(s, &st);
+    CHECK(st.stop == DLCA_STOP_SPANNING && st.n_clusters == 2 && st.largest == 5,
+          "spanning start: stop %s, %llu clusters, largest %llu (want spanning, 2, 5)", dlca_stop_name(st.stop),
+          (unsigned long long)st.n_clusters, (unsigned long long)st.largest);
+    CHECK(dlca_check(s, err, sizeof err) == 0, "spanning start: %s", err);
+    check_export(s, "spanning start");
+    dlca_destroy(s);
+}
+
 int main(void)
 {
     static const uint32_t L2[] = {40, 36}, L3[] = {24, 20, 18}, L4[] = {16, 14, 15, 13}, L5[] = {10, 9, 11, 10, 9};
@@ -557,6 +604,11 @@ int main(void)
     compacted();
     drift_statistics();
     sticking_statistics();
+    spanning_start();
+    /* A 4D run that spans with two more contacts in its last step (left
+     * touching before; check_export counts them). */
+    static const uint32_t S4[] = {6, 6, 6, 6};
+    compare_searches(4, S4, 0.1, 0, 1, 0, 4, 250, 800);
     for (int d = 2; d <= 5; d++) {
         for (int a = 0; a < d; a++)
             for (int m = 0; m < 3; m++) wrap_join(d, Es[d - 2], a, m);

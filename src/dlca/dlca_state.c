@@ -93,8 +93,7 @@ static int check_counts(const dlca_sim *s, uint64_t m, char *err, size_t errlen)
     return 0;
 }
 
-/* Sorted (site << 32 | slot): no site twice; the lattice holds N sites;
- * with sticking 1 no two clusters face-adjacent. */
+/* Sorted (site << 32 | slot): no site twice; the lattice holds N sites. */
 static int check_sites(const dlca_sim *s, const uint64_t *ks, uint64_t m, char *err, size_t errlen)
 {
     for (uint64_t j = 1; j < m; j++)
@@ -105,27 +104,94 @@ static int check_sites(const dlca_sim *s, const uint64_t *ks, uint64_t m, char *
         if (filled != s->N)
             BAD("the bit lattice holds %llu sites, N = %llu", (unsigned long long)filled, (unsigned long long)s->N);
     }
-    if (s->p.sticking < 1 || s->spanning) return 0;
+    return 0;
+}
+
+/* The entry of ks (sorted, m of them) on site k, or m. */
+static uint64_t entry_at(const uint64_t *ks, uint64_t m, uint64_t k)
+{
+    uint64_t lo = 0, hi = m;
+    while (lo < hi) {
+        const uint64_t mid = (lo + hi) / 2;
+        if (ks[mid] >> 32 < k) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo < m && ks[lo] >> 32 == k ? lo : m;
+}
+
+static uint32_t uf_root(uint32_t *uf, uint32_t j)
+{
+    while (uf[j] != j) j = uf[j] = uf[uf[j]];
+    return j;
+}
+
+/* The cluster (slot) with two pieces, after the unions: the first slot
+ * seen with a second root. */
+static uint32_t split_slot(const dlca_sim *s, const uint64_t *ks, uint64_t m, uint32_t *uf)
+{
+    uint32_t *root = calloc(s->nslot + 1, sizeof *root); /* root + 1 per slot */
+    uint32_t bad = 0;
+    for (uint64_t j = 0; root && j < m && !bad; j++) {
+        const uint32_t c = (uint32_t)ks[j], r = uf_root(uf, (uint32_t)j) + 1;
+        if (root[c] && root[c] != r) bad = c;
+        root[c] = r;
+    }
+    free(root);
+    return bad;
+}
+
+/* Face contacts over ks (sorted): each cluster one face-connected piece
+ * on the torus (a forged slot of two far-apart monomers resumed and passed
+ * --check); with sticking 1 no two clusters touch, save at a spanning stop
+ * (checkpoints of such stops written before session 29 left the step's
+ * last contacts unjoined). Through the torus, not the offsets: they are
+ * the same for a cluster narrower than L (two pieces whose offsets differ
+ * by L on an axis would need L + 1 sites), and a spanning cluster's
+ * offsets are any images of its sites (dlca.c, append). */
+static int check_contacts(const dlca_sim *s, const uint64_t *ks, uint64_t m, char *err, size_t errlen)
+{
+    uint32_t *uf = malloc((m ? m : 1) * sizeof *uf);
+    if (!uf) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory");
+    for (uint64_t j = 0; j < m; j++) uf[j] = (uint32_t)j;
+    const int apart = s->p.sticking >= 1 && !s->spanning;
+    uint64_t pieces = m;
     for (uint64_t j = 0; j < m; j++) {
         int64_t x[DLCA_MAX_DIM];
         dlca_coords(s, ks[j] >> 32, x);
-        for (int dir = 0; dir < 2 * s->d; dir++) {
-            int64_t y[DLCA_MAX_DIM];
-            memcpy(y, x, sizeof y);
-            y[dir >> 1] += (dir & 1) ? -1 : 1;
-            const uint64_t key = (uint64_t)dlca_site(s, y) << 32;
-            uint64_t lo = 0, hi = m; /* binary search for the site */
-            while (lo < hi) {
-                const uint64_t mid = (lo + hi) / 2;
-                if (ks[mid] < key) lo = mid + 1;
-                else hi = mid;
+        for (int dir = 0; dir < 2 * s->d; dir += 2) { /* +1 on each axis: each contact once */
+            x[dir >> 1]++;
+            const uint64_t o = entry_at(ks, m, dlca_site(s, x));
+            x[dir >> 1]--;
+            if (o == m) continue;
+            if ((uint32_t)ks[o] != (uint32_t)ks[j]) {
+                if (!apart) continue;
+                free(uf);
+                BAD("clusters %llu and %llu touch but did not join", (unsigned long long)(uint32_t)ks[j],
+                    (unsigned long long)(uint32_t)ks[o]);
             }
-            if (lo < m && ks[lo] >> 32 == key >> 32 && (ks[lo] & 0xffffffffu) != (ks[j] & 0xffffffffu))
-                BAD("clusters %llu and %llu touch but did not join", (unsigned long long)(ks[j] & 0xffffffffu),
-                    (unsigned long long)(ks[lo] & 0xffffffffu));
+            const uint32_t a = uf_root(uf, (uint32_t)j), b = uf_root(uf, (uint32_t)o);
+            if (a != b) uf[a > b ? a : b] = a > b ? b : a, pieces--;
         }
     }
+    const uint32_t split = pieces == s->nc ? 0 : split_slot(s, ks, m, uf);
+    free(uf);
+    if (pieces != s->nc) BAD("cluster %u is not face-connected (its monomers are in pieces)", split);
     return 0;
+}
+
+/* A spanning stop needs a cluster that spans (extent >= L on an axis):
+ * a forged flag ended a resumed run at once, "stop: spanning" with an
+ * 11-monomer largest cluster, and turned off the contact and box checks. */
+static int check_spanning(const dlca_sim *s, char *err, size_t errlen)
+{
+    if (!s->spanning) return 0;
+    for (uint64_t j = 0; j < s->nc; j++) {
+        dlca_view v;
+        view_of(s, s->act[j], &v);
+        for (int a = 0; a < s->d; a++)
+            if ((int64_t)v.hi[a] - v.lo[a] + 1 >= s->L[a]) return 0;
+    }
+    BAD("it records a spanning cluster, but no cluster spans the box");
 }
 
 /* Is c listed in every box of the range b0, cnt? */
@@ -205,9 +271,11 @@ int dlca_check(const dlca_sim *s, char *err, size_t errlen)
     for (uint64_t c = 1; c <= s->nslot && rc == 0; c++)
         if (dlca_n(s, c)) rc = check_cluster(s, (uint32_t)c, ks, &m, err, errlen);
     if (rc == 0) rc = check_counts(s, m, err, errlen);
+    if (rc == 0) rc = check_spanning(s, err, errlen);
     if (rc == 0) {
         qsort(ks, m, sizeof *ks, cmp_u64);
         rc = check_sites(s, ks, m, err, errlen);
+        if (rc == 0) rc = check_contacts(s, ks, m, err, errlen);
     }
     if (rc == 0) rc = check_boxes(s, err, errlen);
     if (rc == 0) rc = check_arena(s, err, errlen);

@@ -283,6 +283,44 @@ dlca_ck_values = {
     "parameters_fill_doubled": (lambda f: f["parameters"].attrs.__setitem__(
         "fill", 2 * f["parameters"].attrs["fill"]), "monomers are not the"),
 }
+
+
+def dlca_disconnect(f):
+    """Two lone monomers made one cluster (slot_n, site, offset, geom, the
+    active list, N_c, merges and sum s^2 kept consistent): its monomers far
+    apart, as the review forged it (forge_disc.py): it resumed and passed
+    --check, and the output held a cluster that is not face-connected."""
+    d = int(f["parameters"].attrs["dim"])
+    L = np.array(f["parameters"].attrs["box"][:d], dtype=np.int64)
+    sn, site = f["slot_n"][()], f["site"][()]
+    off, geom = f["offset"][()].reshape(-1, d), f["geom"][()].reshape(-1, 3, d)
+    u, dv = f["u64"][()], f["f64"][()]
+    starts = np.concatenate([[0], np.cumsum(sn[1:].astype(np.int64))])
+    a, b = [c for c in range(1, len(sn)) if sn[c] == 1][:2]
+    ia, ib = int(starts[a - 1]), int(starts[b - 1])
+    xa, xb = (np.array([int(site[i]) // int(np.prod(L[:k])) % L[k] for k in range(d)]) for i in (ia, ib))
+    D = (xb - xa + L // 2) % L - L // 2
+    keep = [i for i in range(len(site)) if i != ib]
+    site2, off2 = np.insert(site[keep], ia + 1, site[ib]), np.insert(off[keep], ia + 1, D, axis=0)
+    sn[a], sn[b] = 2, 0
+    geom[a] = [xa, np.minimum(0, D), np.maximum(0, D)]
+    act = np.array([c for c in f["active"][()] if c != b], "u4")
+    u[7] -= 1
+    u[3] += 1
+    dv[1] += 2
+    for k, v in (("slot_n", sn), ("site", site2.astype("u4")), ("offset", off2.astype("i4").ravel()),
+                 ("geom", geom.astype("i4").ravel()), ("active", act), ("u64", u), ("f64", dv)):
+        del f[k]
+        f[k] = v
+
+
+# (review D) a spanning flag with no spanning cluster: the resume stopped
+# at once, "stop: spanning", and the flag turned the contact checks off;
+# a cluster of two pieces passed every check.
+dlca_ck_values.update({
+    "spanning_forged": (dlca_u64(12, 1), "no cluster spans the box"),
+    "cluster_disconnected": (dlca_disconnect, "is not face-connected"),
+})
 # (session 27) the checkpoint schedule a bare --resume keeps: a forged one
 # would set the resumed run's checkpoint triggers
 SCHED_S, SCHED_A = "schedule_every_seconds", "schedule_every_attempts"

@@ -22,4 +22,8 @@ uint64_t dlca_size_at(const dlca_sim *s, uint32_t k);
 int64_t dlca_extent_at(const dlca_sim *s, uint32_t k, int axis);
 /* Site index of coordinates x[0..d). */
 uint32_t dlca_site(const dlca_sim *s, const int64_t *x);
+/* Would a run of V sites and N monomers fit in half of this machine's
+ * memory (the bit lattice and about 32 bytes a monomer)? Its need in GiB
+ * into *gib. dlca_params_validate and a --start file's declared N. */
+int dlca_memory_fits(double V, uint64_t N, double *gib);
 #endif

@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "pdla/dlca.h"
+#include "dlca_internal.h"
 
 /* ---- rules that a range cannot say ------------------------------------- */
 
@@ -227,6 +228,16 @@ uint64_t dlca_params_monomers(const dlca_params *p)
     return (uint64_t)floor(p->fill * V + 0.5);
 }
 
+/* The bit lattice (1 bit a site) and about 32 bytes a monomer at the
+ * mid-run peak (runs/dlca/memory.txt): refuse what cannot fit in memory. */
+int dlca_memory_fits(double V, uint64_t N, double *gib)
+{
+    const long pages = sysconf(_SC_PHYS_PAGES), psz = sysconf(_SC_PAGESIZE);
+    const double need = V / 8 + 32.0 * (double)N;
+    *gib = need / 1073741824.0;
+    return !(pages > 0 && psz > 0 && need > 0.5 * (double)pages * (double)psz);
+}
+
 /* monomers: check N from --fill/--count (0: a --start file gives them) */
 static int validate(const dlca_params *p, int monomers, char *err, size_t errlen)
 {
@@ -238,15 +249,12 @@ static int validate(const dlca_params *p, int monomers, char *err, size_t errlen
     for (int i = 0; i < p->dim; i++) V *= p->box[i];
     if (V >= 2147483648.0) /* a site and a tag bit in one word (dlca_sim.h, DLCA_EMPTY) */
         return pdla_errorf(PDLA_EINVAL, err, errlen, "--box has %.3g sites (at most 2^31 - 1)", V);
-    /* The bit lattice (1 bit a site) and about 32 bytes a monomer at the
-     * mid-run peak (runs/dlca/memory.txt): refuse what cannot fit in memory. */
     const uint64_t N = monomers ? dlca_params_monomers(p) : 0;
-    const long pages = sysconf(_SC_PHYS_PAGES), psz = sysconf(_SC_PAGESIZE);
-    const double need = V / 8 + 32.0 * (double)N;
-    if (pages > 0 && psz > 0 && need > 0.5 * (double)pages * (double)psz)
+    double gib = 0;
+    if (!dlca_memory_fits(V, N, &gib))
         return pdla_errorf(PDLA_EINVAL, err, errlen,
                            "--box and --fill need about %.3g GiB (lattice and monomers), more than half of this "
-                           "machine's memory", need / 1073741824.0);
+                           "machine's memory", gib);
     if (!monomers) return 0;
     if (N < 1 || (double)N >= V)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "the box of %.0f sites cannot hold %llu monomers (need 1 <= N < V)",

@@ -14,28 +14,51 @@
 #include <sys/stat.h>
 
 #include "dlca_h5.h"
+#include "dlca_internal.h"
 #include "pdla/dlca.h"
 #include "pdla/h5check.h"
 
 typedef struct start_buf {
     uint32_t *site;
-    uint64_t *where; /* the line (text) or monomer number (HDF5) of each */
+    uint64_t *where; /* the line of each (text); NULL for HDF5, whose monomer m is row m */
     uint64_t n, cap;
+    uint64_t *seen; /* one bit a site of the box: a shared site is refused at its second monomer */
+    const char *path, *unit; /* "line" or "monomer" */
 } start_buf;
 
-static int push(start_buf *b, uint32_t k, uint64_t where)
+static int grow(start_buf *b)
 {
-    if (b->n == b->cap) {
-        const uint64_t cap = b->cap ? 2 * b->cap : 1024;
-        uint32_t *s = realloc(b->site, cap * sizeof *s);
-        if (s) b->site = s;
-        uint64_t *w = s ? realloc(b->where, cap * sizeof *w) : NULL;
+    const uint64_t cap = b->cap ? 2 * b->cap : 1024;
+    uint32_t *s = realloc(b->site, cap * sizeof *s);
+    if (!s) return -1;
+    b->site = s;
+    if (b->where) {
+        uint64_t *w = realloc(b->where, cap * sizeof *w);
         if (!w) return -1;
         b->where = w;
-        b->cap = cap;
     }
+    b->cap = cap;
+    return 0;
+}
+
+/* Site k of the monomer at `where` (its line or number), unless another
+ * monomer holds it: then PDLA_EINVAL naming both, as soon as the second is
+ * read (a gzip'ed file of 1e8 rows of zeros once was read whole, 2.4 GB,
+ * before the check). */
+static int push(start_buf *b, uint32_t k, uint64_t where, char *err, size_t errlen)
+{
+    const uint64_t bit = UINT64_C(1) << (k & 63);
+    if (b->seen[k >> 6] & bit) {
+        uint64_t i = 0;
+        while (b->site[i] != k) i++;
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: %ss %llu and %llu put two monomers on one site", b->path,
+                           b->unit, (unsigned long long)(b->where ? b->where[i] : i + 1), (unsigned long long)where);
+    }
+    b->seen[k >> 6] |= bit;
+    if (b->n == b->cap && grow(b)) return pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", b->path);
     b->site[b->n] = k;
-    b->where[b->n++] = where;
+    if (b->where) b->where[b->n] = where;
+    b->n++;
     return 0;
 }
 
@@ -141,24 +164,52 @@ static int read_text(FILE *f, const char *path, const dlca_params *p, start_buf 
         uint32_t k = 0;
         if (site_of(p, x, &k, path, "line", ln, err, errlen)) return PDLA_EINVAL;
         if (too_many(b, p, path, err, errlen)) return PDLA_EINVAL;
-        if (push(b, k, ln)) return pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", path);
+        const int rc = push(b, k, ln, err, errlen);
+        if (rc) return rc;
     }
     if (ferror(f)) return pdla_errorf(PDLA_EIO, err, errlen, "%s: read error", path);
     return 0;
+}
+
+/* Rows [0, rows) of d in slabs: each row's site checked and pushed, so a
+ * fault stops the read at its row, within a slab's memory. */
+static int read_rows(const pdla_h5_dset *d, const dlca_params *p, start_buf *b, char *err, size_t errlen)
+{
+    enum { SLAB = 65536 };
+    int32_t *pos = malloc((size_t)SLAB * (size_t)p->dim * sizeof *pos);
+    if (!pos) return pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", b->path);
+    int rc = 0;
+    for (uint64_t r0 = 0; r0 < d->dims[0] && rc == 0; r0 += SLAB) {
+        const uint64_t nr = d->dims[0] - r0 < SLAB ? d->dims[0] - r0 : SLAB;
+        if (pdla_h5_dset_read(d, PDLA_H5_I32, r0, nr, pos) < 0) {
+            rc = pdla_errorf(PDLA_EIO, err, errlen, "%s: cannot read /monomers/position", b->path);
+            break;
+        }
+        for (uint64_t i = 0; i < nr && rc == 0; i++) {
+            long long x[DLCA_MAX_DIM];
+            for (int a = 0; a < p->dim; a++) x[a] = pos[i * (uint64_t)p->dim + (uint64_t)a];
+            uint32_t k = 0;
+            rc = site_of(p, x, &k, b->path, "monomer", r0 + i + 1, err, errlen);
+            if (rc == 0) rc = push(b, k, r0 + i + 1, err, errlen);
+        }
+    }
+    free(pos);
+    return rc;
 }
 
 static int read_h5(const char *path, const dlca_params *p, start_buf *b, char *err, size_t errlen)
 {
     h5u_quiet q;
     if (h5u_silence(&q)) return pdla_errorf(PDLA_EIO, err, errlen, "cannot silence HDF5");
-    int32_t *pos = NULL;
     int rc = PDLA_EINVAL;
+    double gib = 0;
     /* Through the checked reader (pdla/h5check.h): the shape and type first,
-     * then whether the file stores what it declares, before anything is sized. */
+     * then whether the file stores what it declares and the run would fit
+     * in memory, before anything is sized. */
     pdla_h5_dset d = {.id = H5I_INVALID_HID};
     const hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
     const int stored = f >= 0 && pdla_h5_dset_open(f, "monomers/position", &d) == 0 && d.rank == 2
-                           ? pdla_h5_dset_stored(&d, sizeof *pos)
+                           ? pdla_h5_dset_stored(&d, sizeof(int32_t))
                            : -1;
     if (stored < 0 || !pdla_h5_dset_is(&d, PDLA_H5_I32))
         pdla_errorf(PDLA_EINVAL, err, errlen, "%s: no /monomers/position [N][d] of 32-bit integers to start from", path);
@@ -171,21 +222,11 @@ static int read_h5(const char *path, const dlca_params *p, start_buf *b, char *e
     else if (stored != PDLA_H5_STORED)
         pdla_errorf(PDLA_EINVAL, err, errlen, "%s: /monomers/position declares %llu rows, more than the file stores",
                     path, (unsigned long long)d.dims[0]);
-    else if (d.dims[0] && !(pos = malloc(d.dims[0] * d.dims[1] * sizeof *pos)))
-        rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", path);
-    else if (pdla_h5_dset_read(&d, PDLA_H5_I32, 0, d.dims[0], pos) < 0)
-        rc = pdla_errorf(PDLA_EIO, err, errlen, "%s: cannot read /monomers/position", path);
-    else {
-        rc = 0;
-        for (uint64_t i = 0; i < d.dims[0] && rc == 0; i++) {
-            long long x[DLCA_MAX_DIM];
-            for (int a = 0; a < p->dim; a++) x[a] = pos[i * d.dims[1] + (uint64_t)a];
-            uint32_t k = 0;
-            rc = site_of(p, x, &k, path, "monomer", i + 1, err, errlen);
-            if (rc == 0 && push(b, k, i + 1)) rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", path);
-        }
-    }
-    free(pos);
+    else if (!dlca_memory_fits((double)box_sites(p), d.dims[0], &gib))
+        pdla_errorf(PDLA_EINVAL, err, errlen, "%s: %llu monomers in this box need about %.3g GiB, more than half of "
+                    "this machine's memory", path, (unsigned long long)d.dims[0], gib);
+    else
+        rc = read_rows(&d, p, b, err, errlen);
     /* A close that fails after a good read fails the start: HDF5 went wrong. */
     if (pdla_h5_dset_close(&d) < 0 && rc == 0)
         rc = pdla_errorf(PDLA_EIO, err, errlen, "%s: cannot close /monomers/position", path);
@@ -223,21 +264,6 @@ int dlca_shared_site(const uint32_t *site, uint64_t n, uint64_t V, uint64_t *see
     return rc;
 }
 
-/* No two monomers on one site (dlca_shared_site), the pair named by the
- * lines or monomer numbers where the file holds them. */
-static int check_distinct(const start_buf *b, const dlca_params *p, const char *path, const char *unit, char *err,
-                          size_t errlen)
-{
-    uint64_t i = 0, j = 0;
-    const int shared = dlca_shared_site(b->site, b->n, box_sites(p), NULL, &i, &j);
-    if (shared == PDLA_ENOMEM) return pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", path);
-    if (shared < 0) return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: a site outside the box", path);
-    if (shared)
-        return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: %ss %llu and %llu put two monomers on one site", path, unit,
-                           (unsigned long long)b->where[i], (unsigned long long)b->where[j]);
-    return 0;
-}
-
 int dlca_read_start(const char *path, const dlca_params *p, uint32_t **sites, uint64_t *n, char *err, size_t errlen)
 {
     *sites = NULL;
@@ -254,13 +280,18 @@ int dlca_read_start(const char *path, const dlca_params *p, uint32_t **sites, ui
     unsigned char magic[8] = {0};
     const int is_h5 = fread(magic, 1, 8, f) == 8 && memcmp(magic, "\x89HDF\r\n\x1a\n", 8) == 0;
     rewind(f);
-    start_buf b = {0};
-    int rc = is_h5 ? read_h5(path, p, &b, err, errlen) : read_text(f, path, p, &b, err, errlen);
+    /* The bit lattice first: the run's own size (dlca_params_validate_start
+     * has held the box against the memory); where only for text lines. */
+    start_buf b = {.path = path, .unit = is_h5 ? "monomer" : "line"};
+    b.seen = calloc((size_t)((box_sites(p) + 63) / 64), sizeof *b.seen);
+    b.where = is_h5 ? NULL : malloc(sizeof *b.where);
+    int rc = !b.seen || (!is_h5 && !b.where) ? pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: out of memory", path) : 0;
+    if (rc == 0) rc = is_h5 ? read_h5(path, p, &b, err, errlen) : read_text(f, path, p, &b, err, errlen);
     fclose(f);
     if (rc == 0 && b.n == 0) rc = pdla_errorf(PDLA_EINVAL, err, errlen, "%s: no monomers in it", path);
     if (rc == 0 && b.n >= UINT32_MAX) rc = pdla_errorf(PDLA_EINVAL, err, errlen, "%s: too many monomers", path);
-    if (rc == 0) rc = check_distinct(&b, p, path, is_h5 ? "monomer" : "line", err, errlen);
     free(b.where);
+    free(b.seen);
     if (rc) {
         free(b.site);
         return rc;

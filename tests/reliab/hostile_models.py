@@ -126,6 +126,20 @@ for name, fn in dlca_cases.items():
     d, path = forged(CL, "dlca-" + name.replace("^", ""), fn)
     for reader, args in dlca_readers(d, path).items():
         expect("dlca-%s/%s" % (name, reader), args, "fail")
+# (review D) 3e7 rows of zeros, gzip'ed into 0.4 MB (within the 1100:1
+# stored-size rule) in a box of 2^30 sites: the start read all of them
+# (716 MB RSS) before it found monomers 1 and 2 on one site; now the
+# second row is refused, a slab of rows in memory.
+bomb = os.path.join(WORK, "dlca-start-zeros.h5")
+with h5py.File(bomb, "w") as f:
+    ROWS, CHUNK = 3 * 10**7, 10**6
+    dz = f.create_dataset(POS, shape=(ROWS, 3), dtype="i4", chunks=(CHUNK, 3), compression="gzip",
+                          compression_opts=1)
+    zeros = np.zeros((CHUNK, 3), "i4")
+    for r in range(0, ROWS, CHUNK):
+        dz[r:r + CHUNK] = zeros
+expect("dlca-start-gzip-zeros/start", ["--model", "dlca", "--dim", "3", "--box", "1024", "--no-output", "--start",
+                                       bomb], "fail")
 # What only the tools read: /clusters, and /parameters box.
 tool_cases = {
     "clusters_size_2^61_rows": lambda f: replace_dset(f, "/clusters/size", (HUGE,), "u8", chunks=(65536,),

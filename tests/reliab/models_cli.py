@@ -458,6 +458,25 @@ resume_schedules("event", base, ["--t-max", "300", "--quiet"], ".checkpoint.h5.t
                   ("--checkpoint-every 0", ["--checkpoint-every", "0"], (1, 1), 0.0),
                   ("older file, bare", None, (1, 1), 0.0)))
 
+# A --start HDF5 file whose declared monomers would not fit in memory
+# (2e6 in a 256^3 box, a machine of 16 MB: 64 MB for the monomers) is
+# refused before its rows are read (they were read whole, then refused
+# for a shared site or by the run's own check).
+try:
+    import h5py
+    import numpy as np
+    big = os.path.join(WORK, "dlca-start-big.h5")
+    with h5py.File(big, "w") as f:
+        f.create_dataset("monomers/position", data=np.zeros((2 * 10**6, 3), "i4"), chunks=(10**6, 3),
+                         compression="gzip", compression_opts=1)
+    p = subprocess.run([PDLA, "--model", "dlca", "--dim", "3", "--box", "256", "--start", big, "--no-output"],
+                       env=dict(os.environ, LD_PRELOAD=PRELOAD, FAULT_PHYS_PAGES="4096"), capture_output=True,
+                       text=True, timeout=120)
+    check(p.returncode == 2 and one_line(p.stderr) and "2000000 monomers in this box need" in p.stderr,
+          "dlca --start beyond the memory: exit %r, %r" % (p.returncode, p.stderr[-300:]))
+except ImportError:
+    print("SKIP: dlca --start beyond the memory (no h5py)")
+
 # A DLCA run out of memory for snapshots (a machine of 4 pages for the
 # budget, a quarter of the memory: 2 snapshots of 205 monomers fit) takes
 # none after, says so and exits 1; its checkpoint records /snapshots

@@ -230,10 +230,17 @@ PDLA_API double dlca_next_snapshot(double t, double T);
  * them): *snaps (malloc'ed, *n of them, each with its arrays, for the
  * caller to free), *every and *stopped (the optional attribute: 0 or 1);
  * none (0) if the file has no /snapshots. The count attribute must be the
- * number of groups under /snapshots.
- * 0, or PDLA_EIO with nothing left allocated. */
-PDLA_API int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot **snaps, size_t *n,
-                                    double *every, int *stopped, char *err, size_t errlen);
+ * number of groups under /snapshots, at most the snapshots due by the
+ * checkpoint's time t_end (floor(t_end / every) + 1) and within
+ * dlca_snapshots_fit, checked before any is read; each one's time finite,
+ * in order and not past t_end as read.
+ * 0, or PDLA_EIO (PDLA_EINVAL for those checks) with nothing left
+ * allocated. */
+PDLA_API int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, double t_end, dlca_snapshot **snaps,
+                                    size_t *n, double *every, int *stopped, char *err, size_t errlen);
+/* Do n snapshots of n_monomers fit in the snapshot budget, a quarter of
+ * this machine's memory (8 bytes a monomer each; the run may take half)? */
+PDLA_API int dlca_snapshots_fit(size_t n, uint64_t n_monomers);
 /* Could the run s have taken these snapshots (as read from its checkpoint
  * with their period `every`)? every finite and above 0 (0 only with no
  * snapshots); in time order, none later than s (time, attempts) nor with

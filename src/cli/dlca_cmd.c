@@ -390,10 +390,7 @@ static int take_snapshot(const dlca_sim *s, dlca_cli *c)
 {
     /* Held until the file is written: a budget of a quarter of the
      * machine's memory (the run itself may take half, dlca_params_validate) */
-    const long pages = sysconf(_SC_PHYS_PAGES), psz = sysconf(_SC_PAGESIZE);
-    if (pages > 0 && psz > 0 &&
-        (double)(c->nsnaps + 1) * 8.0 * (double)c->n_monomers > 0.25 * (double)pages * (double)psz)
-        return -1;
+    if (!dlca_snapshots_fit(c->nsnaps + 1, c->n_monomers)) return -1;
     dlca_snapshot *sn = realloc(c->snaps, (c->nsnaps + 1) * sizeof *sn);
     if (!sn) return -1;
     c->snaps = sn;
@@ -574,7 +571,8 @@ static int resume_snapshots(dlca_cli *c, const dlca_sim *s, const char *ckpath, 
 {
     char err[1024];
     double every = 0;
-    if (dlca_read_snapshots_h5(ckpath, n_monomers, &c->snaps, &c->nsnaps, &every, &c->snaps_stopped, err, sizeof err)) {
+    if (dlca_read_snapshots_h5(ckpath, n_monomers, dlca_time(s), &c->snaps, &c->nsnaps, &every, &c->snaps_stopped,
+                               err, sizeof err)) {
         fprintf(stderr, "pdla: %s\n", err);
         return -1;
     }

@@ -459,9 +459,51 @@ static int read_snapshot(hid_t g, size_t i, uint64_t N, dlca_snapshot *sn)
     return H5Gclose(sg) < 0 ? -1 : rc;
 }
 
-int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot **snaps, size_t *n, double *every,
-                           int *stopped, char *err, size_t errlen)
+int dlca_snapshots_fit(size_t n, uint64_t n_monomers)
 {
+    const long pages = sysconf(_SC_PHYS_PAGES), psz = sysconf(_SC_PAGESIZE);
+    return !(pages > 0 && psz > 0 && (double)n * 8.0 * (double)n_monomers > 0.25 * (double)pages * (double)psz);
+}
+
+/* Before any snapshot is read: their number against the period and the
+ * checkpoint's time (one due at each multiple of every up to t_end; a
+ * forged count of 2000 hard links to one snapshot read 8N bytes each,
+ * 3.3 GB, before the checks), and their memory against the run's budget.
+ * 0, or -1 with why set. */
+static int snapshots_sane(uint64_t count, double every, double t_end, uint64_t N, char *why, size_t whylen)
+{
+    if (!count) return 0;
+    if (!(isfinite(every) && every > 0)) {
+        snprintf(why, whylen, "its snapshot period %g is not a time above 0", every);
+        return -1;
+    }
+    const double due = floor(t_end / every) + 1;
+    if ((double)count > due) {
+        snprintf(why, whylen, "its /snapshots count %llu is more than the %.0f due by its time %.17g (every %.17g)",
+                 (unsigned long long)count, due, t_end, every);
+        return -1;
+    }
+    if (!dlca_snapshots_fit((size_t)count, N)) {
+        snprintf(why, whylen, "its %llu snapshots of %llu monomers need more than a quarter of this machine's memory",
+                 (unsigned long long)count, (unsigned long long)N);
+        return -1;
+    }
+    return 0;
+}
+
+/* Snapshot i's time as read: finite, in order, not past the checkpoint's
+ * (dlca_snapshots_check checks the rest once all are read). */
+static int snapshot_time_ok(const dlca_snapshot *sn, size_t i, double t_end, char *why, size_t whylen)
+{
+    if (isfinite(sn[i].t) && sn[i].t >= (i ? sn[i - 1].t : 0) && sn[i].t <= t_end) return 0;
+    snprintf(why, whylen, "its snapshot %zu has t out of range (or out of order)", i);
+    return -1;
+}
+
+int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, double t_end, dlca_snapshot **snaps, size_t *n,
+                           double *every, int *stopped, char *err, size_t errlen)
+{
+    char why[256] = "";
     *snaps = NULL;
     *n = 0;
     *every = 0;
@@ -488,12 +530,13 @@ int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot 
             rc = -1;
         else if (count != gi.nlinks)
             rc = -1, miscount = 1;
-        else if (read_stopped(g, stopped) < 0)
+        else if (read_stopped(g, stopped) < 0 || snapshots_sane(count, *every, t_end, n_monomers, why, sizeof why))
             rc = -1;
         if (rc == 0 && count && !(*snaps = calloc(count, sizeof **snaps))) rc = -1;
         for (size_t i = 0; rc == 0 && i < count; i++) {
             rc = read_snapshot(g, i, n_monomers, &(*snaps)[i]);
             *n = i + 1;
+            if (rc == 0) rc = snapshot_time_ok(*snaps, i, t_end, why, sizeof why);
         }
         if (H5Gclose(g) < 0) rc = -1;
     }
@@ -504,6 +547,7 @@ int dlca_read_snapshots_h5(const char *path, uint64_t n_monomers, dlca_snapshot 
     free(*snaps);
     *snaps = NULL;
     *n = 0;
+    if (why[0]) return pdla_errorf(PDLA_EINVAL, err, errlen, "cannot resume from %s: %s", path, why);
     if (miscount)
         return pdla_errorf(PDLA_EIO, err, errlen, "cannot read the snapshots of %s: /snapshots count %llu, but it holds "
                            "%llu", path, (unsigned long long)count, (unsigned long long)gi.nlinks);

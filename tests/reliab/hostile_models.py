@@ -359,6 +359,25 @@ for name, (fn, want) in dlca_ck_values.items():
           % (tag, rc, want, lines[:3]))
     check(not os.path.exists(os.path.join(d, "o")), tag + ": the run directory was made")
 
+# (review D) /snapshots holding 300 hard links to snapshot 0 (count 300) of
+# 2e5 monomers: each was read, 1.7 MB, before the count was held against
+# the schedule (2000 such links took 3.3 GB); now the count is refused
+# first, beside the period, the time and the memory budget.
+sb = os.path.join(WORK, "dlca-snaplinks")
+rc, lines, _ = run(["--model", "dlca", "--box", "2048", "--fill", "0.05", "--seed", "1", "--snapshot-every", "0.05",
+                    "--until-time", "0.06", "--checkpoint", "--out", sb, "-q"])
+if rc != 0:
+    sys.exit("the DLCA snapshot base run failed: %r" % lines)
+with h5py.File(os.path.join(sb, "checkpoint.h5"), "r+") as f:
+    for i in range(1, 300):
+        f["snapshots"][str(i)] = f["snapshots/0"]
+    f["snapshots"].attrs["count"] = np.uint64(300)
+tag = "dlca-ckpt-snapshot_links_300/resume"
+runs.append(tag)
+rc, lines, rss = run(["--model", "dlca", "--resume", sb, "-q"])
+check(rc == 2 and len(lines) == 1 and "more than the 2 due by its time" in lines[0] and rss < RSS_LIMIT_KB,
+      "%s: exit %s, peak RSS %s KB, want 2, one line 'more than the 2 due...': %r" % (tag, rc, rss, lines[:3]))
+
 # ---- DLCA --search boxes checkpoint: the box side A ------------------------
 # A box side of 0, or one that is no power of two >= --grid-box, looped for
 # ever in dlca_search_init (A *= 2 never reaches the clusters' extent; the

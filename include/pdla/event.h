@@ -178,6 +178,11 @@ int ev_checkpoint_write(const ev_sim *s, const ev_series *ser, const char *dir,
 /* Load PATH: the simulation (NULL with one line in err) and its series.
  * The stop conditions t_max, max_stuck, max_events may then be changed. */
 ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t errlen);
+/* Can s's stop conditions, as they are now, end its run? After a resume
+ * changed them (the load checked the checkpoint's): 0, or -1 with the line
+ * a new run gets (a --seeds run whose seeds no particle can touch, with no
+ * --t-max or --max-events). */
+int ev_stop_possible(const ev_sim *s, char *err, size_t errlen);
 /* The command line's --checkpoint-every (wall seconds, 0: none), recorded in
  * each checkpoint (root attribute schedule_every_seconds; absent before
  * session 27) so that a bare --resume keeps it: before, it wrote only its

@@ -521,7 +521,8 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
     char e[4600]; /* a stop passed names the checkpoint's path */
     int bad = pdla_param_check_asked(t, np, c->given, p, &c->p, e, sizeof e);
     if (!bad) pdla_param_apply_resumable(t, np, c->given, p, &c->p);
-    if (bad || ev_params_check(p, e, sizeof e) || stop_passed(c, s, path, e, sizeof e)) {
+    if (bad || ev_params_check(p, e, sizeof e) || ev_stop_possible(s, e, sizeof e) ||
+        stop_passed(c, s, path, e, sizeof e)) {
         fprintf(stderr, "pdla: %s\n", e);
         ev_free(s);
         ev_series_free(ser);

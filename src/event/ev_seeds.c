@@ -108,18 +108,18 @@ int ev_seeds_read(ev_sim *s, const char *path, char *err, size_t errlen)
     return rc;
 }
 
-/* Can a free particle of a sticky kind touch seed a? Between walls a
- * particle of radius rp keeps its centre in [rp, L - rp]^D, so it can touch
- * a seed of radius R at c when that box comes within rp + R of c; a small
- * seed in a corner lies beyond every particle's reach. A periodic box has
- * no such corner. */
-static int seed_reachable(const ev_sim *s, const double *c)
+/* Can a free particle of a sticky kind touch the seed of radius R at c?
+ * Between walls a particle of radius rp keeps its centre in
+ * [rp, L - rp]^D, so it can touch the seed when that box comes within
+ * rp + R of c; a small seed in a corner lies beyond every particle's reach.
+ * A periodic box has no such corner. */
+static int seed_reachable(const ev_sim *s, const double *c, double R)
 {
     if (s->periodic) return 1;
     const int D = s->dim;
     for (int k = 0; k < s->nspecies; k++) {
         if (!s->sp[k].sticky) continue;
-        const double rp = s->sp[k].radius, sig = rp + c[D];
+        const double rp = s->sp[k].radius, sig = rp + R;
         double d2 = 0;
         for (int a = 0; a < D; a++) {
             const double lo = rp, hi = s->L - rp;
@@ -134,14 +134,38 @@ static int seed_reachable(const ev_sim *s, const double *c)
 /* A run that stops only when every particle has stuck never ends when no
  * seed can be touched (the particles bounced forever; found by an
  * adversarial test): refused then, as a run where nothing sticks is
- * (ev_params_check). With --t-max or --max-events it is a plain gas. */
-static int reach_check(const ev_sim *s, char *err, size_t errlen)
+ * (ev_params_check). With --t-max or --max-events it is a plain gas.
+ * `reachable`: whether some seed can be touched. */
+static int reach_line(const ev_sim *s, int reachable, char *err, size_t errlen)
 {
-    if (s->par.t_max > 0 || s->par.max_events > 0) return 0;
-    for (uint32_t a = 0; a < s->nseeds; a++)
-        if (seed_reachable(s, s->seed_xr + (size_t)a * (size_t)(s->dim + 1))) return 0;
+    if (reachable || s->par.t_max > 0 || s->par.max_events > 0) return 0;
     return pdla_errorf(-1, err, errlen, "--seeds %s: no particle of a sticky kind can reach any seed between the "
                        "walls (too near a corner): move a seed or give --t-max or --max-events", s->par.seeds);
+}
+
+/* The file's seeds (seed_xr, while building). */
+static int reach_check(const ev_sim *s, char *err, size_t errlen)
+{
+    int reachable = 0;
+    for (uint32_t a = 0; a < s->nseeds && !reachable; a++) {
+        const double *c = s->seed_xr + (size_t)a * (size_t)(s->dim + 1);
+        reachable = seed_reachable(s, c, c[s->dim]);
+    }
+    return reach_line(s, reachable, err, errlen);
+}
+
+/* The seeds as placed (particles n .. ntot - 1), for a resume whose stop
+ * conditions changed after the load: the load checked the checkpoint's own
+ * (a --t-max 5 run resumed with --t-max 0 ran for ever). */
+int ev_stop_possible(const ev_sim *s, char *err, size_t errlen)
+{
+    if (!s->par.seeds[0]) return 0; /* the central seed: the box is sized to reach it */
+    int reachable = 0;
+    for (uint32_t a = s->n; a < s->ntot && !reachable; a++) {
+        const double *p = EV_P_ANY(s, a);
+        reachable = seed_reachable(s, p, p[2 * s->dim + 1]);
+    }
+    return reach_line(s, reachable, err, errlen);
 }
 
 /* ---- the overlap check ----------------------------------------------------

@@ -102,8 +102,14 @@ refused("corner seed 3D", EV + ["--out", out("c3"), "--dim", "3", "--particles",
         "can reach any seed")
 refused("corner seed, --max-stuck", EV + ["--out", out("c4"), "--particles", "100", "--seeds", c2,
                                           "--max-stuck", "5"], "can reach any seed")
-rc, _, err = run(EV + ["--out", out("c5"), "--particles", "100", "--seeds", c2, "--t-max", "2"])
+rc, _, err = run(EV + ["--out", out("c5"), "--particles", "100", "--seeds", c2, "--t-max", "2", "--checkpoint"])
 check(rc == 0, "corner seed with --t-max (a plain gas) refused: %s %s" % (rc, err))
+# its resume without the stop: the load checked the checkpoint's --t-max 2
+# only, and the run went on for ever
+RS = ["--model", "event", "--quiet", "--resume", out("c5")]
+refused("corner seed resumed with --t-max 0", RS + ["--t-max", "0"], "can reach any seed")
+rc, _, err = run(RS + ["--t-max", "3"])
+check(rc == 0, "corner seed resumed with a later --t-max refused: %s %s" % (rc, err))
 # 0.2 from the corner: a radius-0.5 disc at (0.5, 0.5) is 0.42 from it, within 0.7
 near = w("near.txt", "0.2 0.2 0.2\n")
 rc, so, err = run(EV[:-2] + ["--force", "--out", out("c6"), "--particles", "30", "--seeds", near])

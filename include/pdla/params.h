@@ -82,6 +82,10 @@ typedef struct pdla_param_desc {
      * when the struct fails it. */
     int (*check)(const void *params, char *err, size_t errlen);
     const char *def_s; /* STRING: the default text */
+    /* STRING whose value has more than one spelling (a list of numbers, a
+     * path): 1 when a and b hold the same value, for pdla_param_equal and
+     * so the resume rule; NULL: the texts must be equal. */
+    int (*same)(const void *a, const void *b);
 } pdla_param_desc;
 
 /* The DLA engine's table (pdla_params); *n gets its length. */

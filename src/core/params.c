@@ -287,6 +287,7 @@ void pdla_param_set_real(const pdla_param_desc *d, void *s, double v)
 
 int pdla_param_equal(const pdla_param_desc *d, const void *a, const void *b)
 {
+    if (d->same) return d->same(a, b);
     if (d->type == PDLA_PT_STRING) return strcmp(cfield(d, a), cfield(d, b)) == 0;
     const size_t size = d->type == PDLA_PT_U64 ? sizeof(uint64_t)
                         : d->type == PDLA_PT_REAL ? sizeof(double)

@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "ev_internal.h"
@@ -22,6 +23,9 @@
 static const char *const walls_words[] = {"elastic", "periodic", NULL};
 static const char *const vel_words[] = {"maxwell", "fixed", NULL};
 static const char *const start_words[] = {"random", "lattice", NULL};
+
+static int species_same(const void *a, const void *b);
+static int seeds_same(const void *a, const void *b);
 
 /* The event model's rows of the parameter table (pdla/params.h). `name` is
  * the /parameters attribute and the checkpoint's key as the files have
@@ -50,14 +54,14 @@ static const pdla_param_desc ev_rows[] = {
              "--density); STICKY 1 (default): sticks, 0: a bath kind that never sticks",
      .group = "Event:", .example = "100:0.5:1,50:0.3:2", .type = PDLA_PT_STRING,
      .offset = OFF(species), .bit = BIT(4), .models = EVT, .show_default = 1, .lo_u = 0,
-     .hi_u = sizeof(((ev_params *)0)->species) - 1, .def_s = ""},
+     .hi_u = sizeof(((ev_params *)0)->species) - 1, .def_s = "", .same = species_same},
     {.name = "seeds", .option = "seeds", .label = "seeds", .unit = "", .metavar = "FILE",
      .help = "immobile seeds instead of the central one: a line per seed, x y [z] radius, in "
              "box coordinates [0, side) (the side follows from --packing; the summary prints it); "
-             "# comments. The file must still be there for --resume",
+             "# comments. --resume takes the seeds from the checkpoint, not the file",
      .group = "Event:", .example = "seeds.txt", .type = PDLA_PT_STRING, .offset = OFF(seeds),
      .bit = BIT(17), .models = EVT, .show_default = 1, .lo_u = 0,
-     .hi_u = sizeof(((ev_params *)0)->seeds) - 1, .def_s = ""},
+     .hi_u = sizeof(((ev_params *)0)->seeds) - 1, .def_s = "", .same = seeds_same},
     {.name = "packing", .option = "packing", .label = "packing", .unit = "", .metavar = "X",
      .help = "volume fraction of the particles in the box (sets the box side)", .group = "Event:",
      .example = "0.1", .type = PDLA_PT_REAL, .offset = OFF(packing), .bit = BIT(5),
@@ -256,6 +260,40 @@ int ev_parse_species(const ev_params *p, ev_species *sp, int *nsp, char *err, si
     if (!n) return pdla_errorf(-1, err, errlen, "--species: empty list");
     *nsp = n;
     return 0;
+}
+
+/* The same kinds, however written: a resume compared the texts, so
+ * 100:0.50:1.0 was "a different physics parameter" beside 100:0.5:1. Two
+ * lists are the same when they parse to the same counts, radii, densities
+ * (bit for bit) and STICKY; a list and none (--particles, --radius,
+ * --density) by their text. */
+static int species_same(const void *a, const void *b)
+{
+    const ev_params *p = a, *q = b;
+    if (!strcmp(p->species, q->species)) return 1;
+    if (!p->species[0] || !q->species[0]) return 0;
+    ev_species x[EV_MAX_SPECIES], y[EV_MAX_SPECIES];
+    int nx, ny;
+    char e[400];
+    if (ev_parse_species(p, x, &nx, e, sizeof e) || ev_parse_species(q, y, &ny, e, sizeof e) || nx != ny) return 0;
+    for (int k = 0; k < nx; k++)
+        if (x[k].count != y[k].count || x[k].radius != y[k].radius || x[k].density != y[k].density ||
+            x[k].sticky != y[k].sticky)
+            return 0;
+    return 1;
+}
+
+/* The same seeds file: the same text, or two names of one file (./s.txt
+ * and s.txt, from the working directory). A resume takes the seeds from
+ * the checkpoint and does not read the file (which may have moved since),
+ * so only its name is compared; a name of another file is refused. */
+static int seeds_same(const void *a, const void *b)
+{
+    const ev_params *p = a, *q = b;
+    if (!strcmp(p->seeds, q->seeds)) return 1;
+    struct stat x, y;
+    return p->seeds[0] && q->seeds[0] && stat(p->seeds, &x) == 0 && stat(q->seeds, &y) == 0 &&
+           x.st_dev == y.st_dev && x.st_ino == y.st_ino;
 }
 
 /* About the bytes a particle takes at the peak (the engine's arrays, cells,

@@ -17,7 +17,10 @@ model found (session 23), each case as it was found:
 - a --seeds run's resume reading the file again (moved: refused; edited:
   "damaged", or ignored);
 - messages that named 1.0000001 as "1", 0.05000000000000001 as "0.05", and
-  an empty value as "".
+  an empty value as "";
+- (review E) a resume that removed the stop of a run whose seeds no
+  particle can touch (ran for ever), and --species and --seeds compared as
+  text on resume (100:0.50:1.0 against 100:0.5:1, ./s.txt against s.txt).
 Every refusal must be one line, exit 2, within TIME_LIMIT.
 """
 import json
@@ -274,6 +277,16 @@ common = ["--particles", "300", "--packing", "0.05", "--seeds", "seeds3.txt"]
 rc, _, err = run(EV + ["--out", "A", "--max-events", "3000", "--checkpoint-every", "0.5"] + common, cwd=sdir)
 rc2, _, err2 = run(EV + ["--out", "B"] + common, cwd=sdir)
 check(rc == 0 and rc2 == 0, "seeds runs: %s %s %s %s" % (rc, err, rc2, err2))
+# the same file by another name is the same parameter (the texts were
+# compared: ./seeds3.txt was "a different physics parameter"); another file,
+# though a copy, is not
+RA = ["--model", "event", "--quiet", "--resume", "A"]
+rc, _, err = run(RA + ["--seeds", "./seeds3.txt", "--max-events", "3500"], cwd=sdir)
+check(rc == 0, "resume with --seeds ./seeds3.txt refused: %s %s" % (rc, err))
+shutil.copy(os.path.join(sdir, "seeds3.txt"), os.path.join(sdir, "copy.txt"))
+rc, _, err = run(RA + ["--seeds", "copy.txt", "--max-events", "4000"], cwd=sdir)
+check(rc == 2 and len(err) == 1 and "seeds is seeds3.txt in the checkpoint, copy.txt asked" in err[0],
+      "resume with another seeds file: %s %s" % (rc, err))
 os.rename(os.path.join(sdir, "seeds3.txt"), os.path.join(sdir, "moved.txt"))
 rc, _, err = run(["--model", "event", "--quiet", "--resume", os.path.join(sdir, "A"), "--max-events", "0"],
                  cwd=work)
@@ -295,6 +308,19 @@ check(rc == 2 and len(err) == 1 and "0.050000000000000003 in the checkpoint, 0.0
       "packing that differs in the 17th digit: %s %s" % (rc, err))
 rc, _, err = run(["--model", "event", "--resume", ck, "--species", "200:0.5:1", "--t-max", "2"])
 check(rc == 2 and len(err) == 1 and "(none) in the checkpoint" in err[0], "empty species: %s %s" % (rc, err))
+
+# --species as the kinds it gives, not its text (100:0.50:1.0 was refused
+# beside 100:0.5:1)
+sk = out("spk")
+rc, _, err = run(EV + ["--out", sk, "--species", "100:0.5:1,50:0.3:2:0", "--max-events", "2000", "--checkpoint"])
+check(rc == 0, "two-kind run: %s %s" % (rc, err))
+RK = ["--model", "event", "--quiet", "--resume", sk]
+rc, _, err = run(RK + ["--species", "1e2:0.50:1.0,50:.3:2:0", "--max-events", "3000"])
+check(rc == 0, "resume with the same kinds written otherwise refused: %s %s" % (rc, err))
+refused("resume with another STICKY", RK + ["--species", "100:0.5:1,50:0.3:2:1", "--max-events", "4000"],
+        "species is 100:0.5:1,50:0.3:2:0 in the checkpoint")
+refused("resume with another radius", RK + ["--species", "100:0.5:1,50:0.30000000000000004:2:0", "--max-events",
+                                            "4000"], "species is")
 
 shutil.rmtree(work, ignore_errors=True)
 print("%d failures" % fails)

@@ -575,6 +575,10 @@ static int check_values(const rd *r, const ev_sim *s)
      * resumed run's collision count, a negative ke_stuck went to /results) */
     if (!(s->ke_stuck >= 0) || !(s->wall_impulse >= 0) || !(s->max_overlap >= 0))
         return rfail(r, "%s", "a negative energy, impulse or overlap sum (damaged)");
+    /* an overlap / (r_i + r_j) is at most 1 (centres at one point); a forged
+     * 7 went to /results max_overlap_seen */
+    if (!(s->max_overlap <= 1))
+        return rfail(r, "%s", "a largest overlap above 1 of the contact distance (damaged)");
     uint64_t sum = 0;
     const uint64_t parts[5] = {s->collisions, s->wall_hits, s->sticks, s->cell_crossings, s->invalid};
     int wrapped = 0;

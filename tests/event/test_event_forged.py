@@ -58,7 +58,7 @@ class State:
             self.n = int(f.attrs["particles"])
             g = f["state"]
             self.a = {k: g[k][()].copy() for k in ("ps", "count", "stuck", "t_pair", "t_cell", "partner",
-                                                   "pcount", "kind", "cell_what")}
+                                                   "pcount", "kind", "cell_what", "reals")}
             self.now = float(g["reals"][0])
         self.ps = self.a["ps"].reshape(-1, 2 * self.dim + 2)
 
@@ -193,6 +193,8 @@ check(len(ppairs) >= 1, "periodic: no live pair event")
 expect("periodic clean", forged(PA, "periodic-clean", None), 2, None)
 pi_, pj_ = ppairs[0]
 expect("periodic time", forged(PA, "periodic-time", setv("t_pair", pi_, P.a["t_pair"][pi_] + 0.5)), 2, NOT_MEET)
+# /results max_overlap_seen: an overlap / contact distance is at most 1
+expect("max_overlap 7", forged(PA, "max-overlap", setv("reals", 5, 7.0)), 2, "overlap above 1")
 
 # ---- cell crossings: when a particle reaches that face of its cell ---------
 # The loop moves a particle to the next cell only at that event: a forged

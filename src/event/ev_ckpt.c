@@ -388,13 +388,23 @@ static int check_events(const rd *r, const ev_sim *s, uint32_t i)
 #define CK_TOUCH 1e-6
 #define CK_ROUND (64 * DBL_EPSILON)
 
-/* The absolute part for particle p at time t (see CK_TOUCH). */
-static double round_off(const ev_sim *s, const double *p, double t)
+/* The most the round-off allowance may reach, relative to the length it is
+ * compared with (a contact distance, a radius at a wall, a cell side): a
+ * forged speed, clock or ke_stuck must not widen the contact, wall, cell
+ * and overlap checks without bound (a particle made 1e200 times faster
+ * passed every one). Valid runs stay far below it: the largest round-off
+ * in the tests, the dilute gases of event-forged-pending at t = 1e10
+ * (walls met 3e-5 radii off), is 300 times smaller. */
+#define CK_ROUND_CAP 1e-2
+
+/* The absolute part for particle p at time t (see CK_TOUCH), capped at
+ * CK_ROUND_CAP of `scale`. */
+static double round_off(const ev_sim *s, const double *p, double t, double scale)
 {
     const int D = s->dim;
     double v2 = 0;
     for (int k = 0; k < D; k++) v2 += p[D + k] * p[D + k];
-    return CK_ROUND * (s->L + sqrt(v2) * (fabs(t) + fabs(p[2 * D])));
+    return fmin(CK_ROUND * (s->L + sqrt(v2) * (fabs(t) + fabs(p[2 * D]))), CK_ROUND_CAP * scale);
 }
 
 /* Do free i and j (j any, i != j) touch at time t, approaching? Positions
@@ -417,7 +427,7 @@ static int pair_touches(const ev_sim *s, uint32_t i, uint32_t j, double t)
         vv += v * v;
     }
     const double sig = pi[2 * D + 1] + pj[2 * D + 1];
-    const double tol = CK_TOUCH * sig + round_off(s, pi, t) + round_off(s, pj, t);
+    const double tol = CK_TOUCH * sig + round_off(s, pi, t, 0.5 * sig) + round_off(s, pj, t, 0.5 * sig);
     return fabs(sqrt(rr) - sig) <= tol && rv <= tol * sqrt(vv);
 }
 
@@ -428,7 +438,7 @@ static int wall_touches(const ev_sim *s, uint32_t i, uint32_t what, double t)
     const double *p = EV_P_ANY(s, i);
     const double v = p[D + k], r = p[2 * D + 1], x = p[k] + v * (t - p[2 * D]);
     const double gap = up ? s->L - r - x : x - r;
-    return (up ? v > 0 : v < 0) && fabs(gap) <= CK_TOUCH * r + round_off(s, p, t);
+    return (up ? v > 0 : v < 0) && fabs(gap) <= CK_TOUCH * r + round_off(s, p, t, r);
 }
 
 /* Does i meet a wall some time (ev_core.c pred_wall finds a finite time)? */
@@ -492,7 +502,7 @@ static const char *cell_fault(const ev_sim *s, uint32_t i)
     const ev_evt *e = &s->lk[i].ev;
     const int D = s->dim, face = e->cell_what;
     const double *p = EV_P_ANY(s, i);
-    const double tol = CK_TOUCH * s->w + (face >= 0 ? round_off(s, p, e->t_cell) : 0);
+    const double tol = CK_TOUCH * s->w + (face >= 0 ? round_off(s, p, e->t_cell, s->w) : 0);
     uint32_t c = s->lk[i].cell;
     for (int k = 0; k < D; k++, c /= (uint32_t)s->nc) {
         const int cc = (int)(c % (uint32_t)s->nc);
@@ -621,6 +631,33 @@ static int check_values(const rd *r, const ev_sim *s)
     return rc;
 }
 
+/* The kinetic energy, free and stuck, is what the start velocities gave
+ * (elastic collisions and walls keep it, sticking moves it to ke_stuck):
+ * at most 36.8 d N kT (Box-Muller's |g| <= sqrt(2 ln 2^53) per component;
+ * fixed speeds give N kT). A particle made 1e200 times faster loaded (the
+ * run wrote kinetic_energy_free Infinity, or without a stop never ended:
+ * each cell crossing below one ulp of now). 100 d N kT leaves the drift of
+ * round-off room. After check_values (finite numbers). */
+#define CK_KE_MAX 100.0
+
+static int check_energy(const rd *r, const ev_sim *s)
+{
+    const int D = s->dim;
+    double ke = s->ke_stuck;
+    for (uint32_t i = 0; i < s->n; i++) {
+        const double *p = EV_P_ANY(s, i);
+        double v2 = 0;
+        for (int k = 0; k < D; k++) v2 += p[D + k] * p[D + k];
+        ke += 0.5 * ev_pmass(s, i) * v2;
+    }
+    const double most = CK_KE_MAX * D * (double)s->n * s->par.kT;
+    if (ke <= most) return 0;
+    char m[200];
+    snprintf(m, sizeof m, "kinetic energy %.3g, over %.3g (100 d N kT, beyond what the start velocities give) "
+             "(damaged)", ke, most);
+    return rfail(r, "%s", m);
+}
+
 /* Every kind holds the particles its species parameter gives it: /species
  * count, the masses and energies are the parameter's, so a checkpoint that
  * relabels particles (50 of kind 0 as kind 1) resumed with [50, 150] in a
@@ -638,13 +675,6 @@ static int check_kinds(const rd *r, const ev_sim *s)
         }
     return 0;
 }
-
-/* The most the round-off allowance below may reach, relative to a contact
- * distance: a forged speed or ke_stuck must not widen the overlap and
- * contact checks without bound. Valid runs stay far below it: the largest
- * round-off in the tests, the dilute gases of event-forged-pending at
- * t = 1e10 (walls met 3e-5 radii off), is 300 times smaller. */
-#define CK_ROUND_CAP 1e-2
 
 /* round_off (see CK_TOUCH) for any particle at any time up to now: 64
  * epsilon of the box side and of the fastest speed times the clock. A
@@ -925,6 +955,7 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     if (!rc) rc = check_state(&r, s);
     if (!rc) rc = check_kinds(&r, s);
     if (!rc) rc = check_values(&r, s);
+    if (!rc) rc = check_energy(&r, s);
     if (!rc) rc = check_stuck(&r, s);
     if (!rc) rc = check_pending(&r, s);
     /* the seeds' near lists from the seeds as stored */

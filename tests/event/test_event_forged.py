@@ -193,6 +193,47 @@ check(len(ppairs) >= 1, "periodic: no live pair event")
 expect("periodic clean", forged(PA, "periodic-clean", None), 2, None)
 pi_, pj_ = ppairs[0]
 expect("periodic time", forged(PA, "periodic-time", setv("t_pair", pi_, P.a["t_pair"][pi_] + 0.5)), 2, NOT_MEET)
+
+# ---- speeds beyond any start and an overlap above 1 ------------------------
+# A particle made 1e200 times faster (its crossing re-timed) loaded: the run
+# wrote kinetic_energy_free Infinity or, without a stop, never ended; a gas
+# made 30 times faster (the same paths, events re-timed) ran on as well.
+# The kinetic energy, free and stuck, can be no more than the start's (at
+# most 36.8 d N kT).
+P_free = np.nonzero(P.a["stuck"][:P.n] == 0)[0]
+
+
+def faster(st, k, f):
+    def fn(a):
+        D = st.dim
+        ps = a["ps"].reshape(-1, 2 * D + 2)
+        ps[k, :D] += ps[k, D:2 * D] * (st.now - ps[k, 2 * D])
+        ps[k, 2 * D] = st.now
+        ps[k, D:2 * D] *= f
+        a["kind"][k], a["t_pair"][k] = 0, np.inf
+        a["t_cell"][k] = st.now + (a["t_cell"][k] - st.now) / f
+    return fn
+
+
+def hotter(st, f):
+    """Every free particle f times faster from now on, its events re-timed:
+    the same paths, a gas f^2 hotter than its kT could start."""
+    def fn(a):
+        D = st.dim
+        ps = a["ps"].reshape(-1, 2 * D + 2)
+        for k in np.nonzero(a["stuck"][:st.n] == 0)[0]:
+            ps[k, :D] += ps[k, D:2 * D] * (st.now - ps[k, 2 * D])
+            ps[k, 2 * D] = st.now
+            ps[k, D:2 * D] *= f
+            for name in ("t_pair", "t_cell"):
+                if np.isfinite(a[name][k]):
+                    a[name][k] = st.now + (a[name][k] - st.now) / f
+    return fn
+
+
+expect("speed x 1e200", forged(PA, "fast", faster(P, int(P_free[0]), 1e200)), 2, "kinetic energy")
+expect("gas 900 times hotter", forged(PA, "hot", hotter(P, 30.0)), 2, "kinetic energy")
+expect("gas 4 times hotter", forged(PA, "warm", hotter(P, 2.0)), 2, None)  # within the bound: a valid state
 # /results max_overlap_seen: an overlap / contact distance is at most 1
 expect("max_overlap 7", forged(PA, "max-overlap", setv("reals", 5, 7.0)), 2, "overlap above 1")
 

@@ -527,13 +527,34 @@ static const char *cell_fault(const ev_sim *s, uint32_t i)
     return NULL;
 }
 
-/* Every free particle's pending event (pending_fault) and cell crossing
- * (cell_fault), after check_values (every particle's numbers finite, every
- * partner in range). */
+/* Is free i still between the walls at its pending event's time? Its
+ * wall event is predicted with every pair event, which may only come
+ * earlier (ev_core.c), so it can be no later than the wall: a later one let
+ * i fly through the wall. Straight in a box, so its end is enough. */
+static const char *wall_fault(const ev_sim *s, uint32_t i)
+{
+    if (s->periodic) return NULL;
+    const int D = s->dim;
+    const double *p = EV_P_ANY(s, i), T = s->lk[i].ev.t_pair, r = p[2 * D + 1];
+    if (T == INFINITY)
+        return meets_wall(s, i) ? "a moving particle without a pending event in a box with walls (damaged)" : NULL;
+    const double tol = CK_TOUCH * r + round_off(s, p, T, r);
+    for (int k = 0; k < D; k++) {
+        const double x = p[k] + p[D + k] * (T - p[2 * D]);
+        if (!(x >= r - tol && x <= s->L - r + tol))
+            return "a pending event after its particle has passed a wall (damaged)";
+    }
+    return NULL;
+}
+
+/* Every free particle's pending event (pending_fault, wall_fault) and cell
+ * crossing (cell_fault), after check_values (every particle's numbers
+ * finite, every partner in range). */
 static int check_pending(const rd *r, const ev_sim *s)
 {
     for (uint32_t i = 0; i < s->n; i++) {
         const char *bad = s->stuck[i] ? NULL : pending_fault(s, i);
+        if (!bad && !s->stuck[i]) bad = wall_fault(s, i);
         if (!bad && !s->stuck[i]) bad = cell_fault(s, i);
         if (bad) return rfail(r, "%s", bad);
     }
@@ -734,16 +755,42 @@ static int check_stuck(const rd *r, const ev_sim *s)
  * ev_max_overlap_now (cell lists, O(N)), so after rebuild_derived; the
  * tolerance is the pending events' (CK_TOUCH plus the round-off of two
  * positions, relative to the smallest contact distance, capped). */
-static int check_overlap(const rd *r, ev_sim *s)
+static double overlap_tol(const ev_sim *s)
 {
     const int D = s->dim;
     double rmin = INFINITY;
     for (uint32_t i = 0; i < s->ntot; i++) rmin = fmin(rmin, EV_P_ANY(s, i)[2 * D + 1]);
-    const double tol = CK_TOUCH + fmin(2 * round_off_any(s) / (2 * rmin), CK_ROUND_CAP);
+    return CK_TOUCH + fmin(2 * round_off_any(s) / (2 * rmin), CK_ROUND_CAP);
+}
+
+static int check_overlap(const rd *r, ev_sim *s)
+{
+    const double tol = overlap_tol(s);
     const double worst = ev_max_overlap_now(s);
     if (worst <= tol) return 0; /* -INFINITY: no pair of neighbours */
     char m[200];
     snprintf(m, sizeof m, "particles overlap by %.3g of their contact distance, over %.3g (damaged)", worst, tol);
+    return rfail(r, "%s", m);
+}
+
+/* No pending pair event missing or late: no two neighbours would pass into
+ * each other, moving straight, before either's pending event
+ * (ev_max_overlap_ahead; a checkpoint with its pair events deleted resumed
+ * in a periodic box and particles went 0.64 of a diameter into each
+ * other). pending_fault checks the events present; this one what each
+ * pair's next contact asks of them, with check_overlap's tolerance. Not by
+ * predicting the events again (a particle's own event may be later than
+ * a fresh prediction: the pair's other particle holds the earlier one),
+ * nor changing any: the resumed run's events stay the same. After the
+ * cell lists are rebuilt. */
+static int check_ahead(const rd *r, ev_sim *s)
+{
+    const double tol = overlap_tol(s);
+    const double worst = ev_max_overlap_ahead(s);
+    if (worst <= tol) return 0;
+    char m[240];
+    snprintf(m, sizeof m, "two particles would pass %.3g of their contact distance into each other before "
+             "either's pending event (a pair event missing or late) (damaged)", worst);
     return rfail(r, "%s", m);
 }
 
@@ -967,6 +1014,7 @@ ev_sim *ev_checkpoint_load(const char *path, ev_series *ser, char *err, size_t e
     if (!rc) {
         rebuild_derived(s);
         rc = check_overlap(&r, s); /* needs the cell lists */
+        if (!rc) rc = check_ahead(&r, s);
     }
     if (rc) {
         ev_free(s);

@@ -1087,3 +1087,63 @@ double ev_max_overlap_now(ev_sim *s)
     }
     return worst;
 }
+
+/* Deepest overlap / (r_i + r_j) of free i at xi (now) and j, moving
+ * straight from now to T (INF: for ever): at the closest approach within. */
+static double ahead_overlap(const ev_sim *s, const int D, const double *pi, const double *xi, uint32_t j,
+                            double T)
+{
+    const double *pj = EV_P(s, j);
+    double r[3], rv = 0, vv = 0;
+    for (int k = 0; k < D; k++) {
+        r[k] = pj[k] + pj[D + k] * (s->now - pj[2 * D]) - xi[k];
+        if (s->periodic) {
+            if (r[k] > s->half) r[k] -= s->L;
+            else if (r[k] < -s->half) r[k] += s->L;
+        }
+        const double v = pj[D + k] - pi[D + k];
+        rv += r[k] * v;
+        vv += v * v;
+    }
+    double u = rv < 0 ? -rv / vv : 0; /* the closest approach, if ahead */
+    if (u > T - s->now) u = T - s->now;
+    double rr = 0;
+    for (int k = 0; k < D; k++) {
+        const double d = r[k] + (pj[D + k] - pi[D + k]) * u;
+        rr += d * d;
+    }
+    const double sig = pi[2 * D + 1] + pj[2 * D + 1];
+    return (sig - sqrt(rr)) / sig;
+}
+
+/* Largest overlap / (r_i + r_j) that a pair with a free particle would
+ * reach, both moving straight from their stored states, before either has
+ * its pending pair or wall event (t_pair; a stuck particle or seed has
+ * none). The invariant of the top (of any pair that will touch at t, one
+ * has a pair event <= t pending; cell crossings never raise t_pair) keeps
+ * it at round-off; a checkpoint whose pending events were deleted let
+ * neighbours pass through each other (0.64 of a diameter). Pairs of
+ * neighbouring cells and i's cell's big seeds, as ev_max_overlap_now;
+ * -INF when there is no such pair. */
+double ev_max_overlap_ahead(ev_sim *s)
+{
+    const int D = s->dim;
+    double worst = -INFINITY;
+    for (uint32_t i = 0; i < s->n; i++) {
+        if (s->stuck[i]) continue;
+        const double *pi = EV_P(s, i), ti = s->lk[i].ev.t_pair;
+        double xi[3];
+        for (int k = 0; k < D; k++) xi[k] = pi[k] + pi[D + k] * (s->now - pi[2 * D]);
+        int32_t cc[3] = {0, 0, 0};
+        cell_coords(s, D, s->lk[i].cell, cc);
+        EV_FOR_NEIGHBOURS(s, D, cc, -1, 0, {
+            if (j == i || (j < i && !s->stuck[j])) continue; /* a free pair once */
+            const double T = s->stuck[j] ? ti : fmin(ti, s->lk[j].ev.t_pair);
+            worst = fmax(worst, ahead_overlap(s, D, pi, xi, j, T));
+        });
+        uint32_t lo = 0, hi = 0;
+        if (s->nbig) ev_big_list(s, s->lk[i].cell, &lo, &hi);
+        for (uint32_t a = lo; a < hi; a++) worst = fmax(worst, ahead_overlap(s, D, pi, xi, s->bg_idx[a], ti));
+    }
+    return worst;
+}

@@ -194,6 +194,9 @@ void ev_queue_reset(ev_sim *s);
 void ev_heap_push(ev_sim *s, uint32_t i);
 void ev_cell_insert(ev_sim *s, uint32_t i, uint32_t c);
 void ev_predict(ev_sim *s, uint32_t i, double now);
+/* The deepest overlap / (r_i + r_j) pairs would reach before their pending
+ * events (ev_core.c; checkpoints' check): the state is not changed. */
+double ev_max_overlap_ahead(ev_sim *s);
 int ev_loop(ev_sim *s, double t_end, volatile const int *interrupt);
 /* The stop reason that holds now, before the next event (ev_loop's), or 0. */
 int ev_stop_now(ev_sim *s);

@@ -194,15 +194,40 @@ expect("periodic clean", forged(PA, "periodic-clean", None), 2, None)
 pi_, pj_ = ppairs[0]
 expect("periodic time", forged(PA, "periodic-time", setv("t_pair", pi_, P.a["t_pair"][pi_] + 0.5)), 2, NOT_MEET)
 
+# ---- a pending event missing or late --------------------------------------
+# Only the events present were checked: with every free particle's pair
+# event deleted (no event is valid in a periodic box: a particle at rest)
+# the run resumed and particles passed 0.64 of a diameter into each other.
+# Now no two neighbours may come closer than contact, moving straight,
+# before either's pending event.
+PASS = "into each other before either's pending event"
+P_free = np.nonzero(P.a["stuck"][:P.n] == 0)[0]
+expect("pair events deleted", forged(PA, "drop-all", setm([("kind", P_free, 0), ("t_pair", P_free, np.inf)])), 2,
+       PASS)
+# one pair's events only: both particles of a live pair that hold each other
+mutual = [(a, b) for a, b in ppairs if b < P.n and P.a["partner"][b] == a and P.a["kind"][b] == 1]
+check(len(mutual) >= 1, "periodic: no pair holding each other's event")
+if mutual:
+    a, b = mutual[0]
+    expect("one pair's events deleted", forged(PA, "drop-one", setm([("kind", [a, b], 0), ("t_pair", [a, b], np.inf)])),
+           2, PASS)
+    # moved past the contact (stale: the counter ahead, so no live event to check)
+    late = float(P.a["t_pair"][a]) + 0.5
+    expect("one pair's events late", forged(PA, "late-one", setm([("t_pair", [a, b], late),
+                                                                ("pcount", [a, b], P.a["count"][[b, a]] + 1)])), 2, PASS)
+# between walls, a wall event turned into a stale pair event after the wall
+wl = walls[1]
+expect("pair event after the wall", forged(WA, "after-wall", setm([("kind", wl, 1), ("partner", wl, (wl + 1) % n),
+                                                                   ("pcount", wl, S.a["count"][(wl + 1) % n] + 1),
+                                                                   ("t_pair", wl, S.a["t_pair"][wl] + 0.5)])), 3,
+       "passed a wall")
+
 # ---- speeds beyond any start and an overlap above 1 ------------------------
 # A particle made 1e200 times faster (its crossing re-timed) loaded: the run
 # wrote kinetic_energy_free Infinity or, without a stop, never ended; a gas
 # made 30 times faster (the same paths, events re-timed) ran on as well.
 # The kinetic energy, free and stuck, can be no more than the start's (at
 # most 36.8 d N kT).
-P_free = np.nonzero(P.a["stuck"][:P.n] == 0)[0]
-
-
 def faster(st, k, f):
     def fn(a):
         D = st.dim

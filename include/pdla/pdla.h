@@ -486,10 +486,12 @@ PDLA_API int pdla_check_series(pdla_check *c, const uint64_t *n, const double *r
 /* The next `rows` centres (dim int32 each, in units), in file order. */
 PDLA_API int pdla_check_add(pdla_check *c, const int32_t *xyz, size_t rows, char *err,
                             size_t errlen);
-/* Rows of xyz (dim int32 each) that are not among the rows added so far:
- * with equal counts and no duplicates, 0 means the same set of centres (a
- * checkpoint's arrival record against its tree). */
-PDLA_API uint64_t pdla_check_missing(const pdla_check *c, const int32_t *xyz, size_t rows);
+/* After the last row: of these rows (dim int32 each), how many match no
+ * added row that no earlier call matched (each added row answers one row
+ * at most). Over calls covering as many rows as were added, 0 means the
+ * same multiset of centres (a checkpoint's tree against its arrival
+ * record). PDLA_ENOMEM (negative) when out of memory. */
+PDLA_API int64_t pdla_check_missing(pdla_check *c, const int32_t *xyz, size_t rows);
 /* Failures found so far (overlaps, detached and out-of-range rows): a caller
  * may stop feeding rows once it has seen enough. */
 PDLA_API uint64_t pdla_check_failures(const pdla_check *c);

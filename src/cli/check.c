@@ -35,8 +35,8 @@ static const char check_help[] =
     "  -h, --help print this help and exit\n"
     "\n"
     "Exit status: 0 the file passes; 1 it fails a check (the report says\n"
-    "which) or a read failed; 2 bad usage or a file that is not a DLA cluster\n"
-    "file.\n";
+    "which), a read failed, or the checkpoint loader refused it as damaged;\n"
+    "2 bad usage or a file that is not a DLA cluster file or checkpoint.\n";
 
 /* Reading stops after this many failures: a forged file of 10^12 rows at
  * one point would otherwise cost quadratic time. */
@@ -246,14 +246,16 @@ static int feed_visit(const int32_t *xyz, size_t n, void *user) { return feed_ro
 /* A checkpoint's tree against the arrival record just checked: the tree is
  * what --resume grows from, so its particles must be the record's. */
 typedef struct tree_vs_arrival {
-    const pdla_check *c;
+    pdla_check *c;
     uint64_t missing;
 } tree_vs_arrival;
 
 static int tree_missing_visit(const int32_t *xyz, size_t n, void *user)
 {
     tree_vs_arrival *v = user;
-    v->missing += pdla_check_missing(v->c, xyz, n);
+    const int64_t m = pdla_check_missing(v->c, xyz, n);
+    if (m < 0) return -1;
+    v->missing += (uint64_t)m;
     return 0;
 }
 
@@ -266,7 +268,8 @@ static int feed_source(const check_source *src, check_feed *feed, char *err, siz
     const int rc = feed_rows(rows, (size_t)n, 0, feed);
     if (rc) return rc < 0 ? -1 : 0;
     tree_vs_arrival v = {feed->c, 0};
-    pdla_engine_visit(src->e, tree_missing_visit, &v);
+    if (pdla_engine_visit(src->e, tree_missing_visit, &v))
+        return pdla_errorf(-1, err, errlen, "out of memory matching the tree against the arrival record");
     *src->tree_missing = v.missing;
     return 0;
 }
@@ -334,8 +337,9 @@ static int check_checkpoint(const char *path, int json)
     pdla_engine *e = NULL;
     pdla_checkpoint_info info;
     if (pdla_checkpoint_load(&e, path, NULL, 0, &info, err, sizeof err)) {
+        /* A DLA checkpoint the loader refuses (damaged, forged) fails. */
         fprintf(stderr, "pdla check: %s\n", err);
-        return TOOL_USAGE;
+        return TOOL_RUNTIME;
     }
     const pdla_params *P = pdla_engine_params(e);
     pdla_stats st;

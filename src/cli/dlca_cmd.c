@@ -694,7 +694,9 @@ static int resume_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
     dlca_params p = *dlca_get_params(*s);
     dlca_stats st;
     dlca_get_stats(*s, &st);
-    if (!p.count) p.count = st.n_monomers; /* --count N with the run's own N is not a change */
+    /* --count N with the run's own N is not a change, nor is --count 0 when
+     * the run took its N from --fill (the checkpoint stores 0 then). */
+    if (!p.count && c->p.count) p.count = st.n_monomers;
     const int box_bad = c->box_lengths > 1 && c->box_lengths != p.dim;
     if (box_bad)
         snprintf(err, sizeof err, "--box gives %d lengths but the checkpoint is %dD", c->box_lengths, p.dim);

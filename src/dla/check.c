@@ -23,6 +23,7 @@ struct pdla_check {
     uint64_t r2max;
     uint64_t least2;        /* least squared distance of two centres */
     uint64_t widest2;       /* largest squared nearest-(earlier-)neighbour distance in contact */
+    uint64_t *match_chunk_bits, *match_half_bits; /* pdla_check_missing's matched slots */
     uint64_t *sn;           /* the R_g series to recompute (arrival order) */
     double *srg;
     size_t sk, si;
@@ -361,14 +362,43 @@ static int check_connected(pdla_check *c)
     return rc;
 }
 
-/* Rows of xyz (dim int32 each) that are not among the stored centres. */
-uint64_t pdla_check_missing(const pdla_check *c, const int32_t *xyz, size_t rows)
+/* Rows of xyz that match no stored centre not matched before: each stored
+ * slot answers one row at most (a bit a slot, made on the first call), so
+ * equal counts and no missing row mean the same multiset of centres. */
+typedef struct match {
+    pdla_check *c;
+    int hit;
+} match;
+
+static void match_slot(void *user, uint32_t chunk, uint32_t slot, uint64_t d2, const int64_t *q)
 {
-    uint64_t missing = 0;
+    (void)q;
+    match *m = user;
+    if (d2 != 0 || m->hit) return;
+    uint64_t *bits = m->c->match_chunk_bits;
+    uint64_t i = (uint64_t)chunk * TREE_CHUNK_CAP + slot;
+    if (chunk & TREE_HALF_BIT)
+        bits = m->c->match_half_bits, i = (uint64_t)(chunk & ~TREE_HALF_BIT) * TREE_HALF_CAP + slot;
+    const uint64_t b = UINT64_C(1) << (i & 63);
+    if (bits[i >> 6] & b) return;
+    bits[i >> 6] |= b;
+    m->hit = 1;
+}
+
+int64_t pdla_check_missing(pdla_check *c, const int32_t *xyz, size_t rows)
+{
+    if (!c->match_chunk_bits) {
+        c->match_chunk_bits = calloc(((uint64_t)c->t.chunks.count * TREE_CHUNK_CAP + 63) / 64 + 1, sizeof(uint64_t));
+        c->match_half_bits = calloc(((uint64_t)c->t.halves.count * 2 * TREE_HALF_CAP + 63) / 64 + 1, sizeof(uint64_t));
+        if (!c->match_chunk_bits || !c->match_half_bits) return PDLA_ENOMEM;
+    }
+    int64_t missing = 0;
     for (size_t i = 0; i < rows; i++) {
         int64_t p[3] = {0, 0, 0};
         for (int a = 0; a < c->dim; a++) p[a] = xyz[i * (size_t)c->dim + (size_t)a];
-        missing += scan_around(&c->t, p, 0, c->dim).at_p == 0;
+        match m = {c, 0};
+        near_each(&c->t, p, 0, c->dim, match_slot, &m);
+        missing += !m.hit;
     }
     return missing;
 }
@@ -402,6 +432,8 @@ void pdla_check_destroy(pdla_check *c)
 {
     if (!c) return;
     tree_free(&c->t);
+    free(c->match_chunk_bits);
+    free(c->match_half_bits);
     free(c->sn);
     free(c->srg);
     free(c);

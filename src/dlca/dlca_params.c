@@ -139,7 +139,8 @@ static int parse_num(const char *s, double *out)
     char *end;
     errno = 0;
     double v = strtod(s, &end);
-    if (end == s || errno == ERANGE || s[strspn(s, "0123456789.eE+-kMG")]) return -1;
+    if (end == s || s[strspn(s, "0123456789.eE+-kMG")]) return -1;
+    if (errno == ERANGE) return -2; /* beyond a double, or below its smallest normal */
     if (*end == 'k' || *end == 'K') v *= 1e3, end++;
     else if (*end == 'M') v *= 1e6, end++;
     else if (*end == 'G') v *= 1e9, end++;
@@ -158,7 +159,8 @@ static int parse_box(const pdla_param_desc *d, dlca_params *p, const char *text,
         char *end;
         errno = 0;
         const unsigned long long v = strtoull(s, &end, 10);
-        if (end == s || errno || v < d->lo_u || v > d->hi_u || *s == '-' || *s == '+')
+        /* A digit first: strtoull would skip blanks and take a sign. */
+        if (end == s || errno || v < d->lo_u || v > d->hi_u || *s < '0' || *s > '9')
             return pdla_errorf(PDLA_EINVAL, err, errlen,
                                "invalid --box '%s' (each length an integer in [2, %llu], written L1xL2[x...])",
                                text, (unsigned long long)d->hi_u);
@@ -187,7 +189,10 @@ int dlca_param_set(dlca_params *p, const pdla_param_desc *d, const char *text, c
     }
     double v;
     const int integer = d->type != PDLA_PT_REAL;
-    if (parse_num(text, &v) || (integer && (v != floor(v) || v < 0)))
+    const int prc = parse_num(text, &v);
+    if (prc == -2)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "invalid --%s '%s' (out of range)", d->option, text);
+    if (prc || (integer && (v != floor(v) || v < 0)))
         return pdla_errorf(PDLA_EINVAL, err, errlen, "invalid --%s '%s' (%s)", d->option, text,
                            integer ? "not a whole number of at least 0" : "not a number");
     if (d->type == PDLA_PT_REAL) pdla_param_set_real(d, p, v);

@@ -276,5 +276,21 @@ for o in dim box fill count mobility sticking drift until-clusters until-time ma
     grep -q -- "--$o " "$tmp/help" || fail "--help lacks --$o"
 done
 
+# Leading blanks or a sign in --box, and a real below a double's smallest
+# normal, are refused (strtoull skipped the blank: ' 64' ran as 64; 5e-324
+# was "not a number", now "out of range").
+refused --box ' 64'
+refused --box '+64'
+refused --until-time 5e-324
+grep -q 'out of range' "$tmp/err" || fail "--until-time 5e-324: $(cat "$tmp/err")"
+# --resume with --count 0 when the run took N from --fill (the checkpoint
+# stores 0), or with the run's own N, is no change; another N is.
+f0="$tmp/fill0"
+"$pdla" --model dlca --box 64 --fill 0.05 --until-time 5 --checkpoint --out "$f0" -q || fail "fill run"
+"$pdla" --model dlca --resume "$f0" --count 0 --until-time 8 -q 2>"$tmp/err" || fail "--resume --count 0: $(cat "$tmp/err")"
+"$pdla" --model dlca --resume "$f0" --count 205 --until-time 10 -q 2>"$tmp/err" || fail "--resume --count N: $(cat "$tmp/err")"
+"$pdla" --model dlca --resume "$f0" --count 7 --until-time 12 >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] || fail "--resume --count 7 was taken"
+
 [ $fails -eq 0 ] && echo "dlca cli: all passed"
 exit $((fails != 0))

@@ -184,6 +184,13 @@ def checkpoints(tmp):
             f["tree/chunks_packed"][...] = np.frombuffer(bytes(b), dtype=np.uint8)
         check_file(ck3a + ".forged.h5", 1, ["tree         2 particles of the tree are NOT in the arrival record"],
                    "forged tree under an arrival record")
+    # A checkpoint the loader refuses as damaged fails the check (exit 1).
+    dmg = os.path.join(tmp, "ck-damaged.h5")
+    shutil.copyfile(ck["ck3"], dmg)
+    with h5py.File(dmg, "r+") as f:
+        f["state"].attrs.modify("gyration_n", int(f["state"].attrs["gyration_n"]) + 1)
+    rc, out, err = run([PDLA, "check", dmg])
+    T.check(rc == 1 and err.count("\n") == 1 and "damaged" in err, "damaged checkpoint: rc %d %r" % (rc, err))
     T.check(caught is not None and ("overlaps     " in caught[0] and "none" not in caught[0].split("overlaps")[1][:20]
                                     or "not joined to the seed" in caught[0]),
             "no forged checkpoint of %d caught by check while the loader accepts it" % len(cands))

@@ -179,20 +179,78 @@ static int check_contacts(const dlca_sim *s, const uint64_t *ks, uint64_t m, cha
     return 0;
 }
 
+/* An entry span_walk has not reached (img of its first axis). */
+#define SPAN_UNSEEN INT8_MIN
+
+/* Does the cluster of entry j0 of ks (sorted) span? A walk over its face
+ * contacts on the torus (breadth first) gives each monomer unwrapped
+ * coordinates u = x + img * L (x on the torus); it spans if they reach an
+ * extent >= L on an axis, or if a monomer is reached again at other
+ * coordinates (a loop that winds round the torus). Each is walked to at
+ * most once, so img stays in {-1, 0, 1} (the extent so far is below L and
+ * holds the start, in [0, L)). */
+static int span_walk(const dlca_sim *s, const uint64_t *ks, uint64_t m, uint64_t j0, int8_t *img, uint32_t *queue)
+{
+    const int d = s->d;
+    const uint32_t c = (uint32_t)ks[j0];
+    int64_t lo[DLCA_MAX_DIM], hi[DLCA_MAX_DIM], x[DLCA_MAX_DIM], y[DLCA_MAX_DIM], u[DLCA_MAX_DIM];
+    dlca_coords(s, ks[j0] >> 32, x);
+    for (int a = 0; a < d; a++) lo[a] = hi[a] = x[a], img[j0 * d + a] = 0;
+    uint64_t head = 0, tail = 0;
+    queue[tail++] = (uint32_t)j0;
+    while (head < tail) {
+        const uint64_t j = queue[head++];
+        dlca_coords(s, ks[j] >> 32, x);
+        for (int dir = 0; dir < 2 * d; dir++) {
+            for (int a = 0; a < d; a++) u[a] = x[a] + img[j * d + a] * s->L[a];
+            u[dir >> 1] += dir & 1 ? -1 : 1;
+            const uint64_t o = entry_at(ks, m, dlca_site(s, u));
+            if (o == m || (uint32_t)ks[o] != c) continue;
+            dlca_coords(s, ks[o] >> 32, y);
+            if (img[o * d] != SPAN_UNSEEN) {
+                for (int a = 0; a < d; a++)
+                    if (y[a] + img[o * d + a] * s->L[a] != u[a]) return 1; /* differs by a multiple of L */
+                continue;
+            }
+            for (int a = 0; a < d; a++) {
+                img[o * d + a] = (int8_t)((u[a] - y[a]) / s->L[a]);
+                if (u[a] < lo[a]) lo[a] = u[a];
+                if (u[a] > hi[a]) hi[a] = u[a];
+                if (hi[a] - lo[a] + 1 >= s->L[a]) return 1;
+            }
+            queue[tail++] = (uint32_t)o;
+        }
+    }
+    return 0;
+}
+
 /* A spanning stop needs a cluster that spans (extent >= L on an axis):
  * a forged flag ended a resumed run at once, "stop: spanning" with an
- * 11-monomer largest cluster, and turned off the contact and box checks. */
-static int check_spanning(const dlca_sim *s, char *err, size_t errlen)
+ * 11-monomer largest cluster, and turned off the contact and box checks.
+ * Walked over the contacts on the torus, not read from the offsets: with
+ * the flag set a cluster's offsets may be any images of its sites (dlca.c,
+ * append), so two neighbours stored L - 1 apart made a forged checkpoint
+ * of 2-monomer clusters "span" (and stop at once). A cluster of fewer
+ * monomers than the shortest side cannot span and is not walked. */
+static int check_spanning(const dlca_sim *s, const uint64_t *ks, uint64_t m, char *err, size_t errlen)
 {
     if (!s->spanning) return 0;
-    for (uint64_t j = 0; j < s->nc; j++) {
-        dlca_view v;
-        view_of(s, s->act[j], &v);
-        for (int a = 0; a < s->d; a++)
-            if ((int64_t)v.hi[a] - v.lo[a] + 1 >= s->L[a]) return 0;
-    }
-    BAD("it records a spanning cluster, but no cluster spans the box");
+    int64_t lmin = s->L[0];
+    for (int a = 1; a < s->d; a++)
+        if (s->L[a] < lmin) lmin = s->L[a];
+    int8_t *img = malloc((m ? m : 1) * (size_t)s->d);
+    uint32_t *queue = malloc((m ? m : 1) * sizeof *queue);
+    int spans = 0, nomem = !img || !queue;
+    if (!nomem) memset(img, (unsigned char)SPAN_UNSEEN, m * (size_t)s->d);
+    for (uint64_t j = 0; !nomem && !spans && j < m; j++)
+        if (img[j * s->d] == SPAN_UNSEEN && dlca_n(s, (uint32_t)ks[j]) >= (uint64_t)lmin)
+            spans = span_walk(s, ks, m, j, img, queue);
+    free(img), free(queue);
+    if (nomem) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory");
+    if (!spans) BAD("it records a spanning cluster, but no cluster spans the box (none winds round or reaches L)");
+    return 0;
 }
+#undef SPAN_UNSEEN
 
 /* Is c listed in every box of the range b0, cnt? */
 static int listed_in(const dlca_sim *s, uint32_t c, const int32_t *b0, const int32_t *cnt)
@@ -271,11 +329,11 @@ int dlca_check(const dlca_sim *s, char *err, size_t errlen)
     for (uint64_t c = 1; c <= s->nslot && rc == 0; c++)
         if (dlca_n(s, c)) rc = check_cluster(s, (uint32_t)c, ks, &m, err, errlen);
     if (rc == 0) rc = check_counts(s, m, err, errlen);
-    if (rc == 0) rc = check_spanning(s, err, errlen);
     if (rc == 0) {
         qsort(ks, m, sizeof *ks, cmp_u64);
         rc = check_sites(s, ks, m, err, errlen);
         if (rc == 0) rc = check_contacts(s, ks, m, err, errlen);
+        if (rc == 0) rc = check_spanning(s, ks, m, err, errlen);
     }
     if (rc == 0) rc = check_boxes(s, err, errlen);
     if (rc == 0) rc = check_arena(s, err, errlen);

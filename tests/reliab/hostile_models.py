@@ -335,6 +335,32 @@ dlca_ck_values.update({
     "spanning_forged": (dlca_u64(12, 1), "no cluster spans the box"),
     "cluster_disconnected": (dlca_disconnect, "is not face-connected"),
 })
+
+
+def dlca_span_by_offsets(f):
+    """A 2-monomer cluster's second offset moved by L along the axis the two
+    touch on (the same site on the torus, offsets L - 1 apart, extent L),
+    its bounding box to match, and the spanning flag and stop set: the
+    checks took the stored extent as proof, and the resume (even --check)
+    stopped at once, "stop: spanning" with a largest cluster of 4."""
+    d = int(f["parameters"].attrs["dim"])
+    L = np.array(f["parameters"].attrs["box"][:d], dtype=np.int64)
+    sn, off, g = f["slot_n"][()], f["offset"][()].reshape(-1, d), f["geom"][()].reshape(-1, 3, d)
+    starts = np.concatenate([[0], np.cumsum(sn[1:].astype(np.int64))])
+    c = [c for c in range(1, len(sn)) if sn[c] == 2][0]
+    i = int(starts[c - 1])
+    j = i + 1 if not off[i].any() else i  # not the anchor (offset 0)
+    a = int(np.nonzero(off[j])[0][0])
+    off[j, a] -= np.sign(off[j, a]) * L[a]
+    g[c, 1], g[c, 2] = np.minimum(0, off[j]), np.maximum(0, off[j])
+    u = f["u64"][()]
+    u[12], u[13] = 1, 3  # spanning; stop: spanning
+    for k, v in (("offset", off.astype("i4").ravel()), ("geom", g.astype("i4").ravel()), ("u64", u)):
+        del f[k]
+        f[k] = v
+
+
+dlca_ck_values["spanning_by_offsets"] = (dlca_span_by_offsets, "no cluster spans the box")
 # (session 27) the checkpoint schedule a bare --resume keeps: a forged one
 # would set the resumed run's checkpoint triggers
 SCHED_S, SCHED_A = "schedule_every_seconds", "schedule_every_attempts"

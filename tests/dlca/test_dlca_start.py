@@ -206,6 +206,32 @@ for what in ("count", "length"):
     rc, err = run("--resume", path(f"forge-{what}.h5"), "--out", path(f"forge-{what}"), "-q")
     check(rc == 2 and err.count("\n") == 1 and "snapshots" in err, f"forged snapshot {what}: exit {rc} {err!r}")
 
+
+
+def rchar():
+    """Bytes this process and its waited-for children have read (read,
+    pread: /proc/self/io; a child's are added when it is reaped)."""
+    with open("/proc/self/io") as f:
+        return int(next(ln for ln in f if ln.startswith("rchar:")).split()[1])
+
+
+# An HDF5 start whose /monomers/position is one gzip'ed chunk larger than
+# HDF5's default 1 MiB chunk cache: the start read it in slabs of 65536
+# rows and HDF5 read and decompressed the whole chunk again for each (a
+# start of 1.2e7 monomers took 157 s, not 16 s: quadratic in N). Now the
+# chunk is read once: the run reads about the file's size, where it read 8
+# times that (5e5 rows, 8 slabs). Bytes read, not seconds: deterministic.
+n1, L1 = 500000, 2048
+k1 = np.random.default_rng(5).choice(L1 * L1, size=n1, replace=False)
+with h5py.File(path("onechunk.h5"), "w") as f:
+    f.create_dataset("/monomers/position", data=np.stack([k1 % L1, k1 // L1], axis=1).astype("i4"),
+                     chunks=(n1, 2), compression="gzip", compression_opts=1)
+size1, before = os.path.getsize(path("onechunk.h5")), rchar()
+rc, err = run("--box", str(L1), "--start", path("onechunk.h5"), "--max-attempts", "1", "--no-output", "-q")
+read1 = rchar() - before
+check(rc == 0, f"one-chunk gzip start: exit {rc} {err}")
+check(read1 < 2 * size1, f"one-chunk gzip start: read {read1} bytes of a {size1}-byte file (want < 2x: once)")
+
 subprocess.run(["rm", "-rf", tmp])
 print("dlca start/snapshots:", "all passed" if fails == 0 else f"{fails} failed")
 sys.exit(1 if fails else 0)

@@ -205,7 +205,8 @@ static int read_rows(const pdla_h5_dset *d, const dlca_params *p, start_buf *b, 
  * 16 s). Bounded: only a chunk no larger than twice the dataset's bytes
  * (the memory check has held N, so the dataset, against the machine) plus
  * 1 MiB; a larger one (extendible, mostly beyond the rows) keeps the
- * default cache, as before. 0, or -1 when HDF5 failed (d then closed). */
+ * default cache, as before. 0, or -1 when HDF5 failed (d->id then closed
+ * or the one the caller closes). */
 static int cache_one_chunk(hid_t f, pdla_h5_dset *d)
 {
     const hid_t dcpl = H5Dget_create_plist(d->id);
@@ -223,14 +224,13 @@ static int cache_one_chunk(hid_t f, pdla_h5_dset *d)
     d->id = H5I_INVALID_HID;
     const hid_t dapl = H5Pcreate(H5P_DATASET_ACCESS);
     if (dapl < 0) return -1;
-    const herr_t set = H5Pset_chunk_cache(dapl, H5D_CHUNK_CACHE_NSLOTS_DEFAULT, (size_t)chunk, H5D_CHUNK_CACHE_W0_DEFAULT);
+    const herr_t set =
+        H5Pset_chunk_cache(dapl, H5D_CHUNK_CACHE_NSLOTS_DEFAULT, (size_t)chunk, H5D_CHUNK_CACHE_W0_DEFAULT);
     const hid_t id = set < 0 ? H5I_INVALID_HID : H5Dopen2(f, "monomers/position", dapl);
-    if (H5Pclose(dapl) < 0 || id < 0) {
-        if (id >= 0) (void)H5Dclose(id); /* the failure being returned is the one to report */
-        return -1;
-    }
-    d->id = id; /* the same dataset (the file is read-only): its description holds */
-    return 0;
+    /* The same dataset (the file is read-only): its description holds. Kept
+     * in d even when the list fails to close, so that the caller closes it. */
+    d->id = id;
+    return H5Pclose(dapl) < 0 || id < 0 ? -1 : 0;
 }
 
 static int read_h5(const char *path, const dlca_params *p, start_buf *b, char *err, size_t errlen)

@@ -1,7 +1,8 @@
 /*
  * check.c - pdla_check_*: an independent check of a DLA cluster from its
  * particle centres (include/pdla/pdla.h). It shares nothing with the growth
- * but the tree: the rows go into a fresh tree, and each is compared with the
+ * but the tree and the R_g formula (engine.c gyration_sums_add and
+ * gyration_rg_diam, so R_g compares bit for bit): the rows go into a fresh tree, and each is compared with the
  * particles already stored by scanning the leaves its contact ball meets
  * (D + eps <= 192 units < one leaf, so at most 2 leaves per axis), not by the
  * walkers' bounded searches. Everything is integer and exact.
@@ -13,6 +14,12 @@
 #include "engine.h"
 #include "tree.h"
 
+/* One bit per tree slot (chunk x 10 + slot; half id x 5 + slot), for the
+ * walk's reached set and the arrival match's used set. */
+typedef struct slot_bits {
+    uint64_t *chunk, *half;
+} slot_bits;
+
 struct pdla_check {
     tree t;
     int dim, arrival, finished;
@@ -23,7 +30,7 @@ struct pdla_check {
     uint64_t r2max;
     uint64_t least2;        /* least squared distance of two centres */
     uint64_t widest2;       /* largest squared nearest-(earlier-)neighbour distance in contact */
-    uint64_t *match_chunk_bits, *match_half_bits; /* pdla_check_missing's matched slots */
+    slot_bits matched;      /* pdla_check_missing's matched slots */
     uint64_t *sn;           /* the R_g series to recompute (arrival order) */
     double *srg;
     size_t sk, si;
@@ -164,18 +171,11 @@ int pdla_check_series(pdla_check *c, const uint64_t *n, const double *rg_diam, s
 /* The gyration sums, R_ext and the series sample due at this count. */
 static void add_gyration(pdla_check *c, const int64_t *p)
 {
-    uint64_t r2 = 0;
-    for (int a = 0; a < c->dim; a++) {
-        c->g.s1[a] += p[a];
-        r2 += (uint64_t)(p[a] * p[a]);
-    }
-    c->g.s2 += r2;
-    c->g.n++;
+    const uint64_t r2 = gyration_sums_add(&c->g, p, c->dim);
     if (r2 > c->r2max) c->r2max = r2;
     while (c->si < c->sk && c->sn[c->si] <= c->g.n) {
         if (c->sn[c->si] == c->g.n) {
-            /* The engine's own formula (engine.c record_rg_sample). */
-            const double rg = sqrt(gyration_rg2_units(&c->g, c->dim)) / (double)c->D;
+            const double rg = gyration_rg_diam(&c->g, c->dim, (int)c->D); /* the engine's own */
             c->rep.series_checked++;
             if (rg != c->srg[c->si] && c->rep.series_mismatches++ == 0)
                 c->rep.first_series_mismatch = c->si;
@@ -226,15 +226,12 @@ int pdla_check_add(pdla_check *c, const int32_t *xyz, size_t rows, char *err, si
             continue;
         }
         check_row(c, p);
-        add_gyration(c, p);
-        const int rc = tree_insert(&c->t, p);
-        if (rc == -2) {
-            note_where(&c->rep.first_out_of_range, &c->rep.out_of_range, c->rows, p, c->dim);
-            continue;
-        }
-        if (rc)
+        /* |x| < 2^28 lies well inside the largest root (2^31): a failure
+         * here is memory. */
+        if (tree_insert(&c->t, p))
             return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory for the check's tree at row %llu",
                                (unsigned long long)c->rows);
+        add_gyration(c, p);
     }
     return PDLA_OK;
 }
@@ -244,26 +241,40 @@ int pdla_check_add(pdla_check *c, const int32_t *xyz, size_t rows, char *err, si
  * breadth-first walk from the particle at the origin (else from any one)
  * marks the slots it reaches, one bit each; a particle never reached is
  * detached. The queue holds positions (int32: |x| < 2^28). */
-typedef struct bfs {
-    pdla_check *c;
-    uint64_t *chunk_bits, *half_bits; /* reached: chunk x 10 + slot, half id x 5 + slot */
-    int32_t *queue;                   /* dim ints a particle */
-    size_t head, tail, cap;           /* in particles */
-    uint64_t reached, least2;
-    int oom, found;
-    int64_t start[3];
-} bfs;
-
-static int bit_test_set(bfs *b, uint32_t chunk, uint32_t slot)
+static int slot_bits_alloc(slot_bits *b, const tree *t)
 {
-    uint64_t *bits = b->chunk_bits;
+    b->chunk = calloc(((uint64_t)t->chunks.count * TREE_CHUNK_CAP + 63) / 64 + 1, sizeof(uint64_t));
+    b->half = calloc(((uint64_t)t->halves.count * 2 * TREE_HALF_CAP + 63) / 64 + 1, sizeof(uint64_t));
+    return b->chunk && b->half ? PDLA_OK : PDLA_ENOMEM;
+}
+
+static void slot_bits_free(slot_bits *b)
+{
+    free(b->chunk);
+    free(b->half);
+    b->chunk = b->half = NULL;
+}
+
+/* Sets the slot's bit; returns whether it was set already. */
+static int slot_bits_test_set(slot_bits *b, uint32_t chunk, uint32_t slot)
+{
+    uint64_t *bits = b->chunk;
     uint64_t i = (uint64_t)chunk * TREE_CHUNK_CAP + slot;
-    if (chunk & TREE_HALF_BIT) bits = b->half_bits, i = (uint64_t)(chunk & ~TREE_HALF_BIT) * TREE_HALF_CAP + slot;
+    if (chunk & TREE_HALF_BIT) bits = b->half, i = (uint64_t)(chunk & ~TREE_HALF_BIT) * TREE_HALF_CAP + slot;
     const uint64_t m = UINT64_C(1) << (i & 63);
     const int was = (bits[i >> 6] & m) != 0;
     bits[i >> 6] |= m;
     return was;
 }
+
+typedef struct bfs {
+    pdla_check *c;
+    slot_bits seen;                   /* reached */
+    int32_t *queue;                   /* dim ints a particle */
+    size_t head, tail, cap;           /* in particles */
+    uint64_t reached, least2;
+    int oom, found;
+} bfs;
 
 static void bfs_push(bfs *b, const int64_t *q)
 {
@@ -287,7 +298,7 @@ static void bfs_neighbour(void *user, uint32_t chunk, uint32_t slot, uint64_t d2
 {
     bfs *b = user;
     if (d2 > 0 && d2 < b->least2) b->least2 = d2;
-    if (d2 < b->c->contact2 && !bit_test_set(b, chunk, slot)) bfs_push(b, q);
+    if (d2 < b->c->contact2 && !slot_bits_test_set(&b->seen, chunk, slot)) bfs_push(b, q);
 }
 
 /* The start: the particle at the origin (its slot marked), else none yet. */
@@ -296,7 +307,7 @@ static void bfs_origin(void *user, uint32_t chunk, uint32_t slot, uint64_t d2, c
     bfs *b = user;
     if (d2 == 0 && !b->found) {
         b->found = 1;
-        bit_test_set(b, chunk, slot);
+        slot_bits_test_set(&b->seen, chunk, slot);
         bfs_push(b, q);
     }
 }
@@ -308,26 +319,33 @@ static int bfs_any(const int64_t *p, void *user)
     return 1; /* the first particle visited is enough */
 }
 
-/* After the walk: the first particle not reached (tree order). */
-typedef struct unreached {
-    bfs *b;
-    const int64_t *p;
+/* Marks the first unmarked slot holding a centre exactly at p: 1 when
+ * there was one (a centre at p not yet reached or matched), else 0. */
+typedef struct slot_claim {
+    slot_bits *bits;
     int hit;
-} unreached;
+} slot_claim;
 
-static void unreached_slot(void *user, uint32_t chunk, uint32_t slot, uint64_t d2, const int64_t *q)
+static void claim_slot(void *user, uint32_t chunk, uint32_t slot, uint64_t d2, const int64_t *q)
 {
     (void)q;
-    unreached *u = user;
-    if (d2 == 0 && !bit_test_set(u->b, chunk, slot)) u->hit = 1;
+    slot_claim *k = user;
+    if (d2 == 0 && !k->hit && !slot_bits_test_set(k->bits, chunk, slot)) k->hit = 1;
 }
 
+static int claim_at(const tree *t, const int64_t *p, int dim, slot_bits *bits)
+{
+    slot_claim k = {bits, 0};
+    near_each(t, p, 0, dim, claim_slot, &k);
+    return k.hit;
+}
+
+/* After the walk: the first particle not reached (tree order). */
 static int unreached_visit(const int64_t *p, void *user)
 {
-    unreached *u = user;
-    near_each(&u->b->c->t, p, 0, u->b->c->dim, unreached_slot, u);
-    if (!u->hit) return 0;
-    note_where(&u->b->c->rep.first_detached, &u->b->c->rep.detached, UINT64_MAX, p, u->b->c->dim);
+    bfs *b = user;
+    if (!claim_at(&b->c->t, p, b->c->dim, &b->seen)) return 0;
+    note_where(&b->c->rep.first_detached, &b->c->rep.detached, UINT64_MAX, p, b->c->dim);
     return 1;
 }
 
@@ -337,9 +355,7 @@ static int check_connected(pdla_check *c)
     const uint64_t n = tree_count(t);
     if (n == 0) return PDLA_OK;
     bfs b = {.c = c, .least2 = UINT64_MAX};
-    b.chunk_bits = calloc(((uint64_t)t->chunks.count * TREE_CHUNK_CAP + 63) / 64 + 1, sizeof(uint64_t));
-    b.half_bits = calloc(((uint64_t)t->halves.count * 2 * TREE_HALF_CAP + 63) / 64 + 1, sizeof(uint64_t));
-    int rc = b.chunk_bits && b.half_bits ? PDLA_OK : PDLA_ENOMEM;
+    int rc = slot_bits_alloc(&b.seen, t);
     const int64_t origin[3] = {0, 0, 0};
     if (rc == PDLA_OK) near_each(t, origin, 0, c->dim, bfs_origin, &b);
     if (rc == PDLA_OK && !b.found) tree_visit(t, bfs_any, &b);
@@ -352,12 +368,10 @@ static int check_connected(pdla_check *c)
     }
     if (b.oom) rc = PDLA_ENOMEM;
     if (rc == PDLA_OK && b.reached < n) {
-        unreached u = {&b, NULL, 0};
-        tree_visit(t, unreached_visit, &u);
+        tree_visit(t, unreached_visit, &b);
         c->rep.detached = n - b.reached; /* note_where counted the first one */
     }
-    free(b.chunk_bits);
-    free(b.half_bits);
+    slot_bits_free(&b.seen);
     free(b.queue);
     return rc;
 }
@@ -365,40 +379,17 @@ static int check_connected(pdla_check *c)
 /* Rows of xyz that match no stored centre not matched before: each stored
  * slot answers one row at most (a bit a slot, made on the first call), so
  * equal counts and no missing row mean the same multiset of centres. */
-typedef struct match {
-    pdla_check *c;
-    int hit;
-} match;
-
-static void match_slot(void *user, uint32_t chunk, uint32_t slot, uint64_t d2, const int64_t *q)
-{
-    (void)q;
-    match *m = user;
-    if (d2 != 0 || m->hit) return;
-    uint64_t *bits = m->c->match_chunk_bits;
-    uint64_t i = (uint64_t)chunk * TREE_CHUNK_CAP + slot;
-    if (chunk & TREE_HALF_BIT)
-        bits = m->c->match_half_bits, i = (uint64_t)(chunk & ~TREE_HALF_BIT) * TREE_HALF_CAP + slot;
-    const uint64_t b = UINT64_C(1) << (i & 63);
-    if (bits[i >> 6] & b) return;
-    bits[i >> 6] |= b;
-    m->hit = 1;
-}
-
 int64_t pdla_check_missing(pdla_check *c, const int32_t *xyz, size_t rows)
 {
-    if (!c->match_chunk_bits) {
-        c->match_chunk_bits = calloc(((uint64_t)c->t.chunks.count * TREE_CHUNK_CAP + 63) / 64 + 1, sizeof(uint64_t));
-        c->match_half_bits = calloc(((uint64_t)c->t.halves.count * 2 * TREE_HALF_CAP + 63) / 64 + 1, sizeof(uint64_t));
-        if (!c->match_chunk_bits || !c->match_half_bits) return PDLA_ENOMEM;
+    if (!c->matched.chunk && slot_bits_alloc(&c->matched, &c->t)) {
+        slot_bits_free(&c->matched);
+        return PDLA_ENOMEM;
     }
     int64_t missing = 0;
     for (size_t i = 0; i < rows; i++) {
         int64_t p[3] = {0, 0, 0};
         for (int a = 0; a < c->dim; a++) p[a] = xyz[i * (size_t)c->dim + (size_t)a];
-        match m = {c, 0};
-        near_each(&c->t, p, 0, c->dim, match_slot, &m);
-        missing += !m.hit;
+        missing += !claim_at(&c->t, p, c->dim, &c->matched);
     }
     return missing;
 }
@@ -422,7 +413,7 @@ int pdla_check_finish(pdla_check *c, int all_rows, pdla_check_report *r, char *e
     c->rep.particles = c->rows;
     c->rep.closest_diam = c->least2 == UINT64_MAX ? NAN : sqrt((double)c->least2) / (double)c->D;
     c->rep.widest_contact_diam = c->widest2 == 0 ? NAN : sqrt((double)c->widest2) / (double)c->D;
-    c->rep.rg_diam = sqrt(gyration_rg2_units(&c->g, c->dim)) / (double)c->D;
+    c->rep.rg_diam = gyration_rg_diam(&c->g, c->dim, (int)c->D);
     c->rep.r_ext_units = c->g.n ? tree_ceil_sqrt(c->r2max) : 0;
     *r = c->rep;
     return PDLA_OK;
@@ -432,8 +423,7 @@ void pdla_check_destroy(pdla_check *c)
 {
     if (!c) return;
     tree_free(&c->t);
-    free(c->match_chunk_bits);
-    free(c->match_half_bits);
+    slot_bits_free(&c->matched);
     free(c->sn);
     free(c->srg);
     free(c);

@@ -134,6 +134,23 @@ double gyration_rg2_units(const gyration_sums *g, int dim)
     return rg2 > 0 ? (double)rg2 : 0.0;
 }
 
+double gyration_rg_diam(const gyration_sums *g, int dim, int resolution)
+{
+    return sqrt(gyration_rg2_units(g, dim)) / resolution;
+}
+
+uint64_t gyration_sums_add(gyration_sums *g, const int64_t *p, int dim)
+{
+    uint64_t r2 = 0;
+    for (int a = 0; a < dim; a++) {
+        r2 += (uint64_t)(p[a] * p[a]);
+        g->s1[a] += p[a];
+    }
+    g->s2 += r2;
+    g->n++;
+    return r2;
+}
+
 static int record_rg_sample(pdla_engine *e)
 {
     if (e->rg_count == e->rg_cap) {
@@ -147,7 +164,7 @@ static int record_rg_sample(pdla_engine *e)
         e->rg_cap = cap;
     }
     e->rg_n[e->rg_count] = e->gyr.n;
-    e->rg_diam[e->rg_count] = sqrt(gyration_rg2_units(&e->gyr, e->params.dim)) / e->params.resolution;
+    e->rg_diam[e->rg_count] = gyration_rg_diam(&e->gyr, e->params.dim, e->params.resolution);
     e->rg_count++;
     return PDLA_OK;
 }
@@ -203,14 +220,7 @@ int engine_gyration_add(pdla_engine *e, const int64_t *p, char *err, size_t errl
  * the samples. */
 static int gyration_add_next(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
 {
-    const int dim = e->params.dim;
-    uint64_t r2 = 0;
-    for (int a = 0; a < dim; a++) {
-        r2 += (uint64_t)(p[a] * p[a]);
-        e->gyr.s1[a] += p[a];
-    }
-    e->gyr.s2 += r2;
-    e->gyr.n++;
+    const uint64_t r2 = gyration_sums_add(&e->gyr, p, e->params.dim);
     if (r2 > e->r_ext2) {
         e->r_ext2 = r2;
         engine_raise_r_ext(e, p);
@@ -346,7 +356,7 @@ void pdla_engine_stats(const pdla_engine *e, pdla_stats *s)
     snprintf(s->binding, sizeof s->binding, "%s", e->binding);
     s->r_ext = atomic_load_explicit(&e->r_ext, memory_order_relaxed);
     PDLA_MUST(pthread_mutex_lock(&m->gyration_mu));
-    s->rg_diam = sqrt(gyration_rg2_units(&e->gyr, e->params.dim)) / e->params.resolution;
+    s->rg_diam = gyration_rg_diam(&e->gyr, e->params.dim, e->params.resolution);
     PDLA_MUST(pthread_mutex_unlock(&m->gyration_mu));
     PDLA_MUST(pthread_mutex_lock(&m->bucket_mu)); /* the workers' order: bucket, then node */
     PDLA_MUST(pthread_mutex_lock(&m->node_mu));

@@ -309,6 +309,11 @@ static inline void walker_note_lag(walker_ctx *w, uint64_t index)
 void walker_ctx_add_counts(walker_ctx *into, const walker_ctx *o);
 
 double gyration_rg2_units(const gyration_sums *g, int dim);
+/* R_g in diameters, as every R_g the engine reports or samples (and as
+ * pdla_check recomputes it, bit for bit). */
+double gyration_rg_diam(const gyration_sums *g, int dim, int resolution);
+/* Add p to the sums; returns |p|^2 (for R_ext). */
+uint64_t gyration_sums_add(gyration_sums *g, const int64_t *p, int dim);
 
 /* PDLA_ERANGE if p lies beyond the coordinate limit. */
 int engine_check_range(const pdla_engine *e, const int64_t *p, char *err, size_t errlen);

@@ -403,7 +403,10 @@ PDLA_API int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdl
 
 /* Lock a run directory against a second writer (flock on the directory
  * itself, so nothing is created). *fd gets the lock to pass to
- * pdla_rundir_unlock. PDLA_EEXIST when another process holds it. */
+ * pdla_rundir_unlock. PDLA_EEXIST when another process holds it, PDLA_EIO
+ * when the directory cannot be opened or flock fails otherwise (ENOLCK on a
+ * file system without locks); err names the directory and the reason. The
+ * commands refuse on either: no lock, no writes. */
 PDLA_API int pdla_rundir_lock(const char *dir, int *fd, char *err, size_t errlen);
 PDLA_API void pdla_rundir_unlock(int fd);
 /* Whether dir takes new files: one is made and removed again, since access()

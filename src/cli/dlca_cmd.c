@@ -664,12 +664,15 @@ static int lock_and_load(dlca_cli *c, char *ckpath, size_t cklen, dlca_sim **s)
     if (S_ISDIR(sb.st_mode)) snprintf(ckpath, cklen, "%s/checkpoint.h5", c->resume);
     else snprintf(ckpath, cklen, "%s", c->resume);
     /* The checkpoint's directory is locked before it is read: the run
-     * writing it may still be going (then this one is refused). */
+     * writing it may still be going (then this one is refused). Any other
+     * failure (ENOLCK, a directory that cannot be opened) is refused too:
+     * before, the checkpoint was read unlocked and the run refused later
+     * with "already exists (use --force ...)", which named no lock. */
     char ckdir[4200];
     snprintf(ckdir, sizeof ckdir, "%s", ckpath);
     char *slash = strrchr(ckdir, '/');
     if (slash) *slash = '\0';
-    if (pdla_rundir_lock(slash ? (ckdir[0] ? ckdir : "/") : ".", &c->lock, err, sizeof err) == PDLA_EEXIST) {
+    if (pdla_rundir_lock(slash ? (ckdir[0] ? ckdir : "/") : ".", &c->lock, err, sizeof err) != PDLA_OK) {
         fprintf(stderr, "pdla: cannot resume: %s\n", err);
         return EXIT_USAGE;
     }

@@ -485,13 +485,17 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
     char *slash = is_dir ? NULL : strrchr(dir, '/');
     if (!is_dir && !slash) snprintf(dir, len, ".");
     else if (slash) slash[slash == dir ? 1 : 0] = '\0';
-    char lerr[600]; /* locked before the checkpoint is read: the run writing it may still be going */
-    if (pdla_rundir_lock(dir, &c->lock, lerr, sizeof lerr) == PDLA_EEXIST) {
+    /* Locked before the checkpoint is read: the run writing it may still be
+     * going. Refused on any failure, not only a lock held elsewhere: on
+     * ENOLCK (a file system without locks) the resume ran and wrote its
+     * checkpoints and cluster.h5 there unlocked, as the DLA command never did. */
+    char lerr[600];
+    if (pdla_rundir_lock(dir, &c->lock, lerr, sizeof lerr) != PDLA_OK) {
         fprintf(stderr, "pdla: cannot resume: %s\n", lerr);
         return NULL;
     }
-    if (c->lock >= 0) remove_stale(dir, 0);
-    if (c->lock >= 0 && dir_takes_files(dir)) return NULL;
+    remove_stale(dir, 0);
+    if (dir_takes_files(dir)) return NULL;
     char path[4200], err[600], err2[600];
     if (is_dir) snprintf(path, sizeof path, "%s/checkpoint.h5", dir);
     else snprintf(path, sizeof path, "%s", c->resume);

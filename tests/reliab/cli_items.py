@@ -1,9 +1,10 @@
 #!/usr/bin/python3
 """cli_items.py PDLA SHIM WORKDIR - regression tests of issue 10's
 command-line items: resume from a scene, --force and summary.txt, the lost
-lock race, limits checked before growth, stale temporary files, a STOP
-directory, --force over an older run's checkpoints, abbreviated options,
-render --zoom 1e6, and what SOURCE_DATE_EPOCH makes identical. Each check
+lock race, a run directory that cannot be locked (every model), limits
+checked before growth, stale temporary files, a STOP directory, --force over
+an older run's checkpoints, abbreviated options, render --zoom 1e6, and what
+SOURCE_DATE_EPOCH makes identical. Each check
 failed on the build before the fixes (see the commit message)."""
 import os
 import resource
@@ -71,6 +72,44 @@ for i in range(10):
     check(all(rc in (0, 2) for rc, _ in res) and any(rc == 0 for rc, _ in res),
           "item 6: race %d: %r" % (i, res))
     check(os.path.exists(os.path.join(d, "cluster.h5")), "item 6: race %d left no cluster.h5" % i)
+
+# --- item 6: a run directory that cannot be locked at all (flock fails with
+# ENOLCK, as on a file system that keeps no locks): every model refuses a
+# new run and a resume with one line naming the directory, exit 2, and
+# leaves the directory's files as they were. Before, an event --resume ran
+# and wrote there unlocked, and a DLCA --resume read the checkpoint and then
+# refused for "already exists (use --force ...)", naming no lock.
+def snapshot(d):
+    return {x: open(os.path.join(d, x), "rb").read() for x in sorted(os.listdir(d))}
+
+
+t_nolock = time.monotonic()
+NOLOCK = {  # a tiny run with a checkpoint, --force over it, a resume that would run on
+    "dla": (["--target", "200", "--checkpoint", "-q"], ["--target", "200", "--force", "-q"],
+            ["--target", "400", "-q"]),
+    "dlca": (["--model", "dlca", "--dim", "2", "--box", "32", "--fill", "0.05", "--checkpoint", "-q"],
+             ["--model", "dlca", "--dim", "2", "--box", "32", "--fill", "0.05", "--force", "-q"],
+             ["--model", "dlca", "-q"]),
+    "event": (["--model", "event", "--dim", "2", "--particles", "50", "--packing", "0.1", "--max-events", "100",
+               "--checkpoint", "--quiet"],
+              ["--model", "event", "--dim", "2", "--particles", "50", "--packing", "0.1", "--max-events", "100",
+               "--force", "--quiet"], ["--model", "event", "--max-events", "200", "--quiet"]),
+}
+for name, (first, force, resume) in NOLOCK.items():
+    d = W("nolock-" + name)
+    rc, err = pdla(*(first + ["--out", d]))
+    check(rc == 0 and {"checkpoint.h5", "cluster.h5"} <= set(os.listdir(d)),
+          "item 6: %s nolock base run: %r %r" % (name, rc, err))
+    before = snapshot(d)
+    for what, args in (("new run", force + ["--out", d]), ("--resume", ["--resume", d] + resume)):
+        rc, err = pdla(*args, env={"LD_PRELOAD": preload(), "FAULT_FLOCK": "2"})
+        check(rc == 2 and one_line(err) and "cannot lock run directory '%s'" % d in err and
+              "No locks available" in err,
+              "item 6: %s %s on a directory that cannot be locked: exit %r %r" % (name, what, rc, err))
+        after = snapshot(d)
+        check(after == before, "item 6: %s %s on a directory that cannot be locked changed %r" %
+              (name, what, sorted(x for x in set(before) | set(after) if before.get(x) != after.get(x))))
+print("item 6: unlockable directory, 6 cases: %.2f s" % (time.monotonic() - t_nolock))
 
 # --- item 7: limits before growth (a 1e9 target would run for an hour)
 long4001 = os.path.join(WORK, *(["e" * 200] * 19)) + "/"

@@ -22,6 +22,12 @@
  *   FAULT_COUNT=F   at exit, write the number of counted calls to file F
  *   FAULT_FLOCK=1   flock(LOCK_NB) answers EWOULDBLOCK: another process won
  *                   the run directory's lock (a deterministic lost race)
+ *   FAULT_FLOCK=2   flock(LOCK_NB) on a directory answers ENOLCK: the run
+ *                   directory's lock cannot be taken (an NFS mount without
+ *                   a lock daemon). Files are left alone: HDF5 flocks what
+ *                   it opens, and failing those too would refuse every read
+ *                   (users there set HDF5_USE_FILE_LOCKING=FALSE), hiding
+ *                   whether pdla refused for its own lock
  *   FAULT_PATH=S    count only calls on files whose path contains S (e.g.
  *                   "ensemble.h5.tmp.": the final write of an ensemble)
  *   FAULT_SIGNAL=N  the k-th counted call does not fail: it raises signal N
@@ -325,8 +331,13 @@ int flock(int fd, int op)
 {
     REAL(flock, int, int, int);
     const char *s = getenv("FAULT_FLOCK");
+    struct stat st;
     if (s && *s == '1' && (op & LOCK_NB)) {
         errno = EWOULDBLOCK;
+        return -1;
+    }
+    if (s && *s == '2' && (op & LOCK_NB) && fstat(fd, &st) == 0 && S_ISDIR(st.st_mode)) {
+        errno = ENOLCK;
         return -1;
     }
     return real_flock(fd, op);

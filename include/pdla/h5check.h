@@ -108,6 +108,16 @@ PDLA_API int pdla_h5_dset_is(const pdla_h5_dset *d, pdla_h5_type t);
 enum { PDLA_H5_STORED = 0, PDLA_H5_TOO_LARGE = 1, PDLA_H5_NOT_STORED = 2 };
 PDLA_API int pdla_h5_dset_stored(const pdla_h5_dset *d, size_t esize);
 
+/* Reopens d, opened from loc/name, with a chunk cache that holds one whole
+ * chunk, when it is chunked and a chunk is larger than HDF5's default
+ * cache (1 MiB) but at most twice the dataset's bytes plus 1 MiB; else
+ * leaves it as it is. For a reader that reads in slabs: a chunk the cache
+ * cannot hold is decompressed again for every slab. Call it once the
+ * dataset's size is checked (pdla_h5_dset_stored, the caller's memory
+ * check), with nothing else holding the dataset open. 0, or -1 when HDF5
+ * failed (d->id then invalid, or an id the caller still closes). */
+PDLA_API int pdla_h5_dset_cache_chunk(pdla_h5_id loc, const char *name, pdla_h5_dset *d);
+
 /* Reads rows [row0, row0 + nrows) of a rank 1 or 2 dataset, all columns,
  * converted to t, into buf. 0, or -1 (rows out of range, a value that does
  * not fit t, which HDF5 would clamp, a checksum or I/O error). */

@@ -104,7 +104,13 @@ static int open_positions(h5r_file *f, char *err, size_t errlen)
                     (unsigned long long)d->dims[1]);
     f->n = d->dims[0];
     f->dim = (int)d->dims[1];
-    return h5r_stored(d, sizeof(int32_t), path, "/cluster/positions", err, errlen);
+    if (h5r_stored(d, sizeof(int32_t), path, "/cluster/positions", err, errlen)) return -1;
+    /* h5r_stream reads slabs of H5R_MAX_SLAB_ROWS rows: a foreign file's
+     * one gzip'ed chunk larger than HDF5's 1 MiB cache was decompressed
+     * again for each (analyze, two passes over 2e6 rows: 62 times). */
+    if (pdla_h5_dset_cache_chunk(f->file, "/cluster/positions", &f->pos) < 0)
+        return pdla_errorf(-1, err, errlen, "%s: cannot reopen /cluster/positions with a chunk cache", path);
+    return 0;
 }
 
 /* The units per diameter (/cluster/positions diameter_units, else

@@ -197,42 +197,6 @@ static int read_rows(const pdla_h5_dset *d, const dlca_params *p, start_buf *b, 
     return rc;
 }
 
-/* d reopened (from f) with a chunk cache that holds one whole chunk, when
- * it is chunked and a chunk is larger than HDF5's default cache (1 MiB):
- * a chunk the cache cannot hold is read and decompressed again for every
- * slab read_rows takes from it, so one gzip'ed chunk of n rows cost
- * n / 65536 decompressions of it (a start of 1.2e7 monomers: 157 s, not
- * 16 s). Bounded: only a chunk no larger than twice the dataset's bytes
- * (the memory check has held N, so the dataset, against the machine) plus
- * 1 MiB; a larger one (extendible, mostly beyond the rows) keeps the
- * default cache, as before. 0, or -1 when HDF5 failed (d->id then closed
- * or the one the caller closes). */
-static int cache_one_chunk(hid_t f, pdla_h5_dset *d)
-{
-    const hid_t dcpl = H5Dget_create_plist(d->id);
-    if (dcpl < 0) return -1;
-    hsize_t cd[2] = {0, 0};
-    const H5D_layout_t layout = H5Pget_layout(dcpl);
-    const int rank = layout == H5D_CHUNKED ? H5Pget_chunk(dcpl, 2, cd) : 0;
-    if (H5Pclose(dcpl) < 0 || layout < 0 || rank < 0) return -1;
-    const double chunk = (double)cd[0] * (double)cd[1] * (double)d->size;
-    const double data = (double)d->dims[0] * (double)d->dims[1] * (double)d->size, mib = 1048576.0;
-    if (rank != 2 || chunk <= mib || chunk > 2 * data + mib) return 0;
-    /* Closed first: HDF5 shares an open dataset's cache between its ids,
-     * so a second open while d is open kept the default cache. */
-    if (H5Dclose(d->id) < 0) return d->id = H5I_INVALID_HID, -1;
-    d->id = H5I_INVALID_HID;
-    const hid_t dapl = H5Pcreate(H5P_DATASET_ACCESS);
-    if (dapl < 0) return -1;
-    const herr_t set =
-        H5Pset_chunk_cache(dapl, H5D_CHUNK_CACHE_NSLOTS_DEFAULT, (size_t)chunk, H5D_CHUNK_CACHE_W0_DEFAULT);
-    const hid_t id = set < 0 ? H5I_INVALID_HID : H5Dopen2(f, "monomers/position", dapl);
-    /* The same dataset (the file is read-only): its description holds. Kept
-     * in d even when the list fails to close, so that the caller closes it. */
-    d->id = id;
-    return H5Pclose(dapl) < 0 || id < 0 ? -1 : 0;
-}
-
 static int read_h5(const char *path, const dlca_params *p, start_buf *b, char *err, size_t errlen)
 {
     h5u_quiet q;
@@ -261,7 +225,9 @@ static int read_h5(const char *path, const dlca_params *p, start_buf *b, char *e
     else if (!dlca_memory_fits((double)box_sites(p), d.dims[0], &gib))
         pdla_errorf(PDLA_EINVAL, err, errlen, "%s: %llu monomers in this box need about %.3g GiB, more than half of "
                     "this machine's memory", path, (unsigned long long)d.dims[0], gib);
-    else if (cache_one_chunk(f, &d) < 0)
+    /* one chunk of a single-chunk gzip start decompressed once, not once
+     * per slab (the memory check above bounds the chunk the cache keeps) */
+    else if (pdla_h5_dset_cache_chunk(f, "monomers/position", &d) < 0)
         pdla_errorf(PDLA_EIO, err, errlen, "%s: cannot reopen /monomers/position with a chunk cache", path);
     else
         rc = read_rows(&d, p, b, err, errlen);

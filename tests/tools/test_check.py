@@ -15,7 +15,9 @@ order) and a particle moved out of a tree-order file (detached, found over
 the tree); rows 0 and 1 swapped (seed not first); /results rg_diam and one
 R_g sample changed by one ulp, r_ext_units by one unit, particles by one; a
 coordinate beyond 2^28; 2e6 rows all at the origin (reading stops at 10000
-failures, in seconds and bounded memory).
+failures, in seconds and bounded memory). A passing 2e6-row file whose
+positions are one gzip'ed chunk is read by check and analyze once, not once
+per slab (bytes read under 3x the file's size).
 
 Refused (exit 2, one line): a missing file, a DLCA and an event file, no
 eps, an unknown option, two files.
@@ -196,9 +198,10 @@ def checkpoints(tmp):
             "no forged checkpoint of %d caught by check while the loader accepts it" % len(cands))
 
 
-def synthetic(tmp, name, P, order="tree", D=32, eps=2, results=True, params=None, gyr=None):
+def synthetic(tmp, name, P, order="tree", D=32, eps=2, results=True, params=None, gyr=None, layout=None):
     """A small cluster file written by hand, with R_g and R_ext computed as
-    the engine does (exact integer sums, long double mean)."""
+    the engine does (exact integer sums, long double mean); layout: h5py's
+    create_dataset options for /cluster/positions (chunks, compression)."""
     P = np.asarray(P, dtype=np.int64)
     path = os.path.join(tmp, name + ".h5")
     with h5py.File(path, "w") as f:
@@ -208,7 +211,7 @@ def synthetic(tmp, name, P, order="tree", D=32, eps=2, results=True, params=None
         g.attrs["dim"], g.attrs["resolution"], g.attrs["eps"] = 2, D, eps
         for k, v in (params or {}).items():
             g.attrs[k] = v
-        d = f.create_dataset("cluster/positions", data=P.astype(np.int32))
+        d = f.create_dataset("cluster/positions", data=P.astype(np.int32), **(layout or {}))
         d.attrs["diameter_units"] = D
         if order:
             d.attrs["order"] = order
@@ -291,6 +294,37 @@ def zero_rows(files, tmp):
     T.check(float(last[0]) < 20 and float(last[1]) < 200000, "zero rows: %s s, %s KB" % tuple(last))
 
 
+def rchar():
+    """Bytes this process and its reaped children have read (/proc/self/io)."""
+    with open("/proc/self/io") as f:
+        return int(next(ln for ln in f if ln.startswith("rchar:")).split()[1])
+
+
+def one_chunk(tmp):
+    """A foreign file whose /cluster/positions (2e6 rows, a filled square
+    lattice, a passing cluster) is one gzip'ed 16 MB chunk: the tools read
+    it in slabs of 65536 rows, and HDF5's 1 MiB chunk cache cannot hold the
+    chunk, so each slab decompressed it again: check read 68 MB of a 2.2 MB
+    file, analyze (two passes) 136 MB in 2 s. Now the chunk is cached and
+    read once. Bytes read, not seconds: deterministic."""
+    k = 707
+    g = np.arange(-k, k + 1) * 32
+    x, y = np.meshgrid(g, g)
+    P = np.stack([x.ravel(), y.ravel()], axis=1)
+    o = np.flatnonzero((P == 0).all(axis=1))[0]
+    P[[0, o]] = P[[o, 0]]  # the seed first, at the origin
+    path = synthetic(tmp, "one-chunk", P, layout={"chunks": (len(P), 2), "compression": "gzip",
+                                                   "compression_opts": 1})
+    size = os.path.getsize(path)
+    for tool, want in (("check", "result       pass"), ("analyze", "D_f")):
+        before = rchar()
+        rc, out, err = run([PDLA, tool, path], timeout=120)
+        got = rchar() - before
+        T.check(rc == 0 and want in out, "one-chunk %s: rc %d\n%s%s" % (tool, rc, out[-400:], err))
+        T.check(got < 3 * size, "one-chunk %s: read %d bytes of a %d-byte file (want < 3x: the chunk once)" %
+                (tool, got, size))
+
+
 def refused(tmp):
     check_file(os.path.join(tmp, "nope.h5"), 2, (), "missing file")
     d = os.path.join(tmp, "dlca")
@@ -320,6 +354,7 @@ def main():
         files = passing(tmp)
         forgeries(files, tmp)
         zero_rows(files, tmp)
+        one_chunk(tmp)
         checkpoints(tmp)
         hand_made(tmp)
         refused(tmp)

@@ -417,6 +417,17 @@ PDLA_API int pdla_rundir_probe(const char *dir);
  * (what a killed pdla left half written; hold the lock, so no live writer
  * owns them). */
 PDLA_API void pdla_rundir_remove_prefixed(const char *dir, const char *const *prefixes, size_t n);
+/* A new run written with --force into dir (hold the lock): remove what
+ * would let the older run come back or describe it. Every model's
+ * checkpoint names (a --resume of any model would otherwise grow the older
+ * run, perhaps of another model, and write it over this run's cluster.h5),
+ * and, unless the new run writes its own (the DLA command, which replaces
+ * it whole at its end, beside its cluster.h5), the DLA summary.txt: it
+ * would describe the older run beside another model's cluster.h5. Then
+ * the directory is synced, so that a crash cannot bring them back. PDLA_OK,
+ * or PDLA_EIO with err naming the file when one cannot be removed (a
+ * missing one is fine): the commands refuse the run then. */
+PDLA_API int pdla_rundir_remove_old_run(const char *dir, int writes_summary, char *err, size_t errlen);
 /* fsync the directory itself, so that renames and links in it are on disk
  * (a file system that cannot sync a directory counts as synced). 0, or -1
  * with errno. */

@@ -812,9 +812,10 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
             /* A new run (--force) replaces an older run's checkpoint: a
              * later --resume would otherwise grow the old run and write it
              * over this run's cluster.h5. */
-            char old[4200];
-            snprintf(old, sizeof old, "%s/checkpoint.h5", dir);
-            unlink(old);
+            if (pdla_rundir_remove_old_run(dir, 0, err, sizeof err) != PDLA_OK) {
+                fprintf(stderr, "pdla: %s\n", err);
+                drc = EXIT_USAGE;
+            }
         }
         if (drc) {
             dlca_destroy(*s);

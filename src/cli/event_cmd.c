@@ -381,21 +381,19 @@ static int ticker(ev_sim *s, void *u)
 /* Under the directory's lock (no live writer can own them): the temporary
  * files a killed pdla left (kill -9 while writing: each as large as a
  * checkpoint, one per kill), and with old_checkpoints also an older run's
- * checkpoints, which a new --force run replaces: a later --resume would
- * otherwise grow the old run and write it over the new cluster.h5. */
-static void remove_stale(const char *dir, int old_checkpoints)
+ * checkpoints (every model's names), which a new --force run replaces: a
+ * later --resume would otherwise grow the old run and write it over the new
+ * cluster.h5. 0, or 2 with the line printed. */
+static int remove_stale(const char *dir, int old_checkpoints)
 {
     static const char *const prefixes[] = {".checkpoint.h5.tmp.", "cluster.h5.tmp", "cluster.xdmf2.tmp.",
                                            "cluster-free.xdmf2.tmp."};
     pdla_rundir_remove_prefixed(dir, prefixes, sizeof prefixes / sizeof prefixes[0]);
-    char p[4400];
-    if (!old_checkpoints) return;
-    snprintf(p, sizeof p, "%s/checkpoint.h5", dir);
-    unlink(p);
-    snprintf(p, sizeof p, "%s/checkpoint.prev.h5", dir);
-    unlink(p);
-    snprintf(p, sizeof p, "%s/checkpoint.damaged.h5", dir);
-    unlink(p);
+    if (!old_checkpoints) return 0;
+    char err[4600]; /* every model's checkpoint names: pdla.h */
+    if (pdla_rundir_remove_old_run(dir, 0, err, sizeof err) == PDLA_OK) return 0;
+    fprintf(stderr, "pdla: %s\n", err);
+    return 2;
 }
 
 /* Can a file be made in dir? Seen before the run (chattr +i, a read-only
@@ -494,7 +492,7 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
         fprintf(stderr, "pdla: cannot resume: %s\n", lerr);
         return NULL;
     }
-    remove_stale(dir, 0);
+    (void)remove_stale(dir, 0);
     if (dir_takes_files(dir)) return NULL;
     char path[4200], err[600], err2[600];
     if (is_dir) snprintf(path, sizeof path, "%s/checkpoint.h5", dir);
@@ -572,7 +570,7 @@ static ev_sim *start_sim(ev_cli *c, ev_series *ser, char *dir, size_t len, int *
         drc = 2;
     }
     if (!drc) drc = dir_takes_files(dir);
-    if (!drc) remove_stale(dir, 1);
+    if (!drc) drc = remove_stale(dir, 1);
     if (drc) {
         ev_free(s);
         *rc = drc;

@@ -152,19 +152,6 @@ static void remove_stale_outputs(const char *dir)
     pdla_rundir_remove_prefixed(dir, prefixes, sizeof prefixes / sizeof prefixes[0]);
 }
 
-/* A new run written with --force into a directory that holds another run's
- * checkpoints: those would let a later --resume grow the old run and replace
- * the new cluster.h5 with it, so they go (the new run writes its own). */
-static void remove_old_checkpoints(const char *dir)
-{
-    char p[4200];
-    for (int k = 0; k < PDLA_CHECKPOINT_GENERATIONS; k++) {
-        if (k == 0) snprintf(p, sizeof p, "%s/%s", dir, PDLA_CHECKPOINT_NAME);
-        else snprintf(p, sizeof p, "%s/checkpoint.%d.h5", dir, k);
-        unlink(p);
-    }
-}
-
 /* Make the run directory (path filled in dir) before any work, so that a bad
  * or taken name fails at once. *created says whether we made it (and may
  * remove it again while it is empty). 0, or EXIT_USAGE with a message. */
@@ -851,9 +838,13 @@ static int new_run_step(run *R)
  * run's directory loses the older run's checkpoints (they were removed in
  * new_run_step, before the --stats-json check, so a run refused for its
  * path left the older run unable to resume). */
-static void clear_old_run_step(const run *R)
+static int clear_old_run_step(const run *R)
 {
-    if (!R->o.resume && !R->o.no_output && !R->created) remove_old_checkpoints(R->dir);
+    if (R->o.resume || R->o.no_output || R->created) return GO_ON;
+    char err[4600];
+    if (pdla_rundir_remove_old_run(R->dir, 1, err, sizeof err) == PDLA_OK) return GO_ON;
+    fprintf(stderr, "pdla: %s\n", err);
+    return EXIT_USAGE;
 }
 
 /* Whether the file begins as write_json begins its output: a file
@@ -1077,8 +1068,8 @@ int main(int argc, char **argv)
     code = parse_step(&R, argc, argv);
     if (code == GO_ON) code = R.o.resume ? resume_step(&R) : new_run_step(&R);
     if (code == GO_ON) code = open_json_step(&R);
+    if (code == GO_ON) code = clear_old_run_step(&R);
     if (code == GO_ON) {
-        clear_old_run_step(&R);
         grow_step(&R);
         write_outputs_step(&R);
         report_step(&R);

@@ -91,6 +91,30 @@ int pdla_rundir_probe(const char *dir)
     return 0;
 }
 
+/* Every name under which a model keeps a checkpoint (DLA: the
+ * generations checkpoint.h5, checkpoint.1.h5, ...; event: .prev and
+ * .damaged; DLCA: checkpoint.h5), and the DLA run summary. One list for
+ * every model: a --force run of one model over another's directory left
+ * the other's checkpoints, and a later --resume brought the older run
+ * back over the new cluster.h5. The summary last (see writes_summary). */
+static const char *const old_run_names[] = {PDLA_CHECKPOINT_NAME, "checkpoint.1.h5", "checkpoint.2.h5",
+                                            "checkpoint.prev.h5", "checkpoint.damaged.h5", "summary.txt"};
+_Static_assert(PDLA_CHECKPOINT_GENERATIONS == 3, "old_run_names lists the DLA generations .1 and .2");
+
+int pdla_rundir_remove_old_run(const char *dir, int writes_summary, char *err, size_t errlen)
+{
+    char p[4400];
+    const size_t n = sizeof old_run_names / sizeof old_run_names[0] - (writes_summary ? 1 : 0);
+    for (size_t i = 0; i < n; i++) {
+        snprintf(p, sizeof p, "%s/%s", dir, old_run_names[i]);
+        if (unlink(p) != 0 && errno != ENOENT)
+            return pdla_errorf(PDLA_EIO, err, errlen, "cannot remove the older run's '%s': %s", p, strerror(errno));
+    }
+    if (h5u_fsync_dir(dir) != 0)
+        return pdla_errorf(PDLA_EIO, err, errlen, "cannot sync run directory '%s': %s", dir, strerror(errno));
+    return PDLA_OK;
+}
+
 int pdla_rundir_fsync(const char *dir)
 {
     return h5u_fsync_dir(dir);

@@ -253,6 +253,53 @@ check(np.array_equal(positions(W("O", "cluster.h5")), new),
       "item 10: --resume replaced the --force run's cluster.h5 with the older run's (%r %r)" % (rc, err))
 check(rc == 2, "item 10: --resume after --force: exit %r %r" % (rc, err))
 
+# --- item 10, across models: a --force run of one model over a directory
+# where another model checkpointed removes every model's checkpoints, so no
+# --resume (of any model) brings the older run back over the new cluster.h5;
+# a non-DLA run also removes the DLA summary.txt, which would describe the
+# older run. Before, each model removed only its own names: an event
+# --force over a DLA run left checkpoint.1.h5 and checkpoint.2.h5, and a
+# DLA --resume then replaced the event cluster.h5 with the grown DLA run.
+# The older runs checkpoint several times, so that every name a model keeps
+# is there (DLA generations; event checkpoint.prev.h5), checked below.
+t_cross = time.monotonic()
+OLDER = {"dla": ["--target", "3000", "--checkpoint-particles", "1000", "-q"],
+         "dlca": NOLOCK["dlca"][0],
+         "event": ["--model", "event", "--dim", "2", "--particles", "500", "--packing", "0.1", "--seed-radius",
+                   "0", "--checkpoint-every", "0.02s", "--max-events", "400000", "--quiet"]}
+# Resumes that would go on from any of the older runs (past their stops).
+FURTHER = {"dla": ["--target", "6000", "-q"], "dlca": ["--model", "dlca", "-q"],
+           "event": ["--model", "event", "--max-events", "800000", "--quiet"]}
+for old, old_args in OLDER.items():
+    for new, (_, force, resume) in NOLOCK.items():
+        if new == old:
+            continue
+        d = W("cross-%s-%s" % (old, new))
+        rc, err = pdla(*(old_args + ["--out", d]))
+        kept = sorted(x for x in os.listdir(d) if x.startswith("checkpoint"))
+        want = {"dla": ["checkpoint.1.h5", "checkpoint.2.h5", "checkpoint.h5"], "dlca": ["checkpoint.h5"],
+                "event": ["checkpoint.h5", "checkpoint.prev.h5"]}[old]
+        check(rc == 0 and kept == want, "item 10: %s older run: %r %r %r" % (old, rc, err, kept))
+        rc, err = pdla(*(force + ["--out", d]))
+        check(rc == 0, "item 10: %s --force over %s: %r %r" % (new, old, rc, err))
+        left = sorted(x for x in os.listdir(d) if x.startswith("checkpoint") or x == "summary.txt")
+        check(left == (["summary.txt"] if new == "dla" else []),
+              "item 10: %s --force over %s (which kept %r) left %r" % (new, old, kept, left))
+        after = open(os.path.join(d, "cluster.h5"), "rb").read()
+        for r, rargs in FURTHER.items():
+            rc, err = pdla(*(["--resume", d] + rargs))
+            check(rc == 2 and open(os.path.join(d, "cluster.h5"), "rb").read() == after,
+                  "item 10: %s --resume after %s --force over %s: exit %r %r" % (r, new, old, rc, err))
+print("item 10: --force across models, 6 pairs: %.2f s" % (time.monotonic() - t_cross))
+# A name that cannot be removed (here a directory in its place): the run is
+# refused with one line naming it, before it starts, and nothing is written.
+for new, (_, force, _) in NOLOCK.items():
+    d = W("cross-stuck-" + new)
+    os.makedirs(os.path.join(d, "checkpoint.2.h5", "x"))
+    rc, err = pdla(*(force + ["--out", d]))
+    check(rc == 2 and one_line(err) and "checkpoint.2.h5" in err and sorted(os.listdir(d)) == ["checkpoint.2.h5"],
+          "item 10: %s --force where checkpoint.2.h5 cannot be removed: %r %r %r" % (new, rc, err, os.listdir(d)))
+
 # --- item 10: abbreviated long options
 for args in (["--targ", "100", "--no-output"], ["info", "--js", W("F", "cluster.h5")],
              ["render", W("F", "cluster.h5"), "--zo", "2", "-o", W("a.png")],

@@ -424,9 +424,11 @@ PDLA_API void pdla_rundir_remove_prefixed(const char *dir, const char *const *pr
  * and, unless the new run writes its own (the DLA command, which replaces
  * it whole at its end, beside its cluster.h5), the DLA summary.txt: it
  * would describe the older run beside another model's cluster.h5. Then
- * the directory is synced, so that a crash cannot bring them back. PDLA_OK,
- * or PDLA_EIO with err naming the file when one cannot be removed (a
- * missing one is fine): the commands refuse the run then. */
+ * the directory is synced (when something was removed), so that a crash
+ * cannot bring them back. PDLA_OK, or PDLA_EIO with err naming the file
+ * when one cannot be removed (a missing one is fine) or the directory when
+ * it cannot be synced: the commands stop before the run then, exit 1 (an
+ * I/O failure, as a failed write). */
 PDLA_API int pdla_rundir_remove_old_run(const char *dir, int writes_summary, char *err, size_t errlen);
 /* fsync the directory itself, so that renames and links in it are on disk
  * (a file system that cannot sync a directory counts as synced). 0, or -1

@@ -814,7 +814,7 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
              * over this run's cluster.h5. */
             if (pdla_rundir_remove_old_run(dir, 0, err, sizeof err) != PDLA_OK) {
                 fprintf(stderr, "pdla: %s\n", err);
-                drc = EXIT_USAGE;
+                drc = EXIT_RUNTIME;
             }
         }
         if (drc) {

@@ -383,7 +383,7 @@ static int ticker(ev_sim *s, void *u)
  * checkpoint, one per kill), and with old_checkpoints also an older run's
  * checkpoints (every model's names), which a new --force run replaces: a
  * later --resume would otherwise grow the old run and write it over the new
- * cluster.h5. 0, or 2 with the line printed. */
+ * cluster.h5. 0, or 1 (an I/O failure) with the line printed. */
 static int remove_stale(const char *dir, int old_checkpoints)
 {
     static const char *const prefixes[] = {".checkpoint.h5.tmp.", "cluster.h5.tmp", "cluster.xdmf2.tmp.",
@@ -393,7 +393,7 @@ static int remove_stale(const char *dir, int old_checkpoints)
     char err[4600]; /* every model's checkpoint names: pdla.h */
     if (pdla_rundir_remove_old_run(dir, 0, err, sizeof err) == PDLA_OK) return 0;
     fprintf(stderr, "pdla: %s\n", err);
-    return 2;
+    return 1;
 }
 
 /* Can a file be made in dir? Seen before the run (chattr +i, a read-only

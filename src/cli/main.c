@@ -844,7 +844,7 @@ static int clear_old_run_step(const run *R)
     char err[4600];
     if (pdla_rundir_remove_old_run(R->dir, 1, err, sizeof err) == PDLA_OK) return GO_ON;
     fprintf(stderr, "pdla: %s\n", err);
-    return EXIT_USAGE;
+    return EXIT_RUNTIME;
 }
 
 /* Whether the file begins as write_json begins its output: a file

@@ -105,12 +105,16 @@ int pdla_rundir_remove_old_run(const char *dir, int writes_summary, char *err, s
 {
     char p[4400];
     const size_t n = sizeof old_run_names / sizeof old_run_names[0] - (writes_summary ? 1 : 0);
+    int removed = 0;
     for (size_t i = 0; i < n; i++) {
         snprintf(p, sizeof p, "%s/%s", dir, old_run_names[i]);
-        if (unlink(p) != 0 && errno != ENOENT)
+        if (unlink(p) == 0) removed = 1;
+        else if (errno != ENOENT)
             return pdla_errorf(PDLA_EIO, err, errlen, "cannot remove the older run's '%s': %s", p, strerror(errno));
     }
-    if (h5u_fsync_dir(dir) != 0)
+    /* Only when something went: a run over a directory without an older
+     * run's files syncs nothing more (and fails at no new point). */
+    if (removed && h5u_fsync_dir(dir) != 0)
         return pdla_errorf(PDLA_EIO, err, errlen, "cannot sync run directory '%s': %s", dir, strerror(errno));
     return PDLA_OK;
 }

@@ -291,13 +291,14 @@ for old, old_args in OLDER.items():
             check(rc == 2 and open(os.path.join(d, "cluster.h5"), "rb").read() == after,
                   "item 10: %s --resume after %s --force over %s: exit %r %r" % (r, new, old, rc, err))
 print("item 10: --force across models, 6 pairs: %.2f s" % (time.monotonic() - t_cross))
-# A name that cannot be removed (here a directory in its place): the run is
-# refused with one line naming it, before it starts, and nothing is written.
+# A name that cannot be removed (here a directory in its place): the run
+# stops before it starts with one line naming it, exit 1 (an I/O failure,
+# as a failed write), and nothing is written.
 for new, (_, force, _) in NOLOCK.items():
     d = W("cross-stuck-" + new)
     os.makedirs(os.path.join(d, "checkpoint.2.h5", "x"))
     rc, err = pdla(*(force + ["--out", d]))
-    check(rc == 2 and one_line(err) and "checkpoint.2.h5" in err and sorted(os.listdir(d)) == ["checkpoint.2.h5"],
+    check(rc == 1 and one_line(err) and "checkpoint.2.h5" in err and sorted(os.listdir(d)) == ["checkpoint.2.h5"],
           "item 10: %s --force where checkpoint.2.h5 cannot be removed: %r %r %r" % (new, rc, err, os.listdir(d)))
 
 # --- item 10: abbreviated long options

@@ -35,7 +35,8 @@ static const char check_help[] =
     "  -h, --help print this help and exit\n"
     "\n"
     "Exit status: 0 the file passes; 1 it fails a check (the report says\n"
-    "which), a read failed, or the checkpoint loader refused it as damaged;\n"
+    "which), a read failed, the checkpoint loader refused it as damaged, or it\n"
+    "is an HDF5 file that HDF5 cannot open (truncated);\n"
     "2 bad usage or a file that is not a DLA cluster file or checkpoint.\n";
 
 /* Reading stops after this many failures: a forged file of 10^12 rows at
@@ -394,7 +395,10 @@ int tool_check(int argc, char **argv)
     h5r_file f;
     if (h5r_open(&f, argv[optind], err, sizeof err)) {
         fprintf(stderr, "pdla check: %s\n", err);
-        return TOOL_USAGE;
+        /* A file HDF5 calls its own but cannot open (a truncated cluster.h5
+         * or checkpoint) fails the check, as a damaged checkpoint the
+         * loader refuses does; any other file is not one to check. */
+        return f.damaged ? TOOL_RUNTIME : TOOL_USAGE;
     }
     check_stored s = {0};
     check_result res = {0};

@@ -64,8 +64,10 @@ static int open_file(h5r_file *f, char *err, size_t errlen)
     if (fd < 0) return pdla_errorf(-1, err, errlen, "cannot open %s: %s", path, strerror(errno));
     close(fd);
     if (H5Fis_hdf5(path) <= 0) return pdla_errorf(-1, err, errlen, "%s is not an HDF5 file", path);
-    if ((f->file = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT)) < 0)
+    if ((f->file = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT)) < 0) {
+        f->damaged = 1; /* the HDF5 signature is there: a damaged file, not a foreign one */
         return pdla_errorf(-1, err, errlen, "%s: HDF5 cannot open it (damaged?)", path);
+    }
     return 0;
 }
 

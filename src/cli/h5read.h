@@ -28,6 +28,7 @@ typedef struct h5r_file {
     int diameter_units; /* D: units per particle diameter */
     int arrival;        /* 1 when the rows are in arrival order */
     char order[64];     /* the order attribute as written */
+    int damaged;        /* h5r_open failed on a file HDF5 calls its own but cannot open (truncated) */
 } h5r_file;
 
 /* One scalar attribute. kind: 'i' signed integer, 'u' unsigned, 'f' real,

@@ -15,7 +15,8 @@ order) and a particle moved out of a tree-order file (detached, found over
 the tree); rows 0 and 1 swapped (seed not first); /results rg_diam and one
 R_g sample changed by one ulp, r_ext_units by one unit, particles by one; a
 coordinate beyond 2^28; 2e6 rows all at the origin (reading stops at 10000
-failures, in seconds and bounded memory). A passing 2e6-row file whose
+failures, in seconds and bounded memory); a checkpoint and a cluster.h5
+cut to half their size (HDF5 cannot open them). A passing 2e6-row file whose
 positions are one gzip'ed chunk is read by check and analyze once, not once
 per slab (bytes read under 3x the file's size).
 
@@ -193,6 +194,17 @@ def checkpoints(tmp):
         f["state"].attrs.modify("gyration_n", int(f["state"].attrs["gyration_n"]) + 1)
     rc, out, err = run([PDLA, "check", dmg])
     T.check(rc == 1 and err.count("\n") == 1 and "damaged" in err, "damaged checkpoint: rc %d %r" % (rc, err))
+    # Truncated (a copy cut short, a full disk): HDF5 sees its signature but
+    # cannot open the file. A damaged file fails (exit 1), as the loader's
+    # refusal does; before, check called it a foreign file (exit 2).
+    for src, what in ((ck["ck3"], "checkpoint"), (os.path.join(os.path.dirname(ck["ck3"]), "cluster.h5"),
+                                                   "cluster.h5")):
+        cut = os.path.join(tmp, "truncated-" + what)
+        with open(src, "rb") as f_in, open(cut, "wb") as f_out:
+            f_out.write(f_in.read()[:os.path.getsize(src) // 2])
+        rc, out, err = run([PDLA, "check", cut])
+        T.check(rc == 1 and out == "" and err.count("\n") == 1 and "damaged" in err,
+                "truncated %s: rc %d %r %r" % (what, rc, out, err))
     T.check(caught is not None and ("overlaps     " in caught[0] and "none" not in caught[0].split("overlaps")[1][:20]
                                     or "not joined to the seed" in caught[0]),
             "no forged checkpoint of %d caught by check while the loader accepts it" % len(cands))

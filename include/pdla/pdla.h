@@ -348,6 +348,10 @@ enum {
  * generations before it. */
 #define PDLA_CHECKPOINT_NAME "checkpoint.h5"
 #define PDLA_CHECKPOINT_GENERATIONS 3
+/* Names a fallback resume sets the skipped (damaged) generations aside
+ * under (pdla_checkpoint_recover): checkpoint.damaged.h5,
+ * checkpoint.damaged.2.h5, ...; never read by a directory resume. */
+#define PDLA_CHECKPOINT_ASIDE_PREFIX "checkpoint.damaged."
 
 typedef struct pdla_checkpoint_opts {
     int compress;             /* 1: shuffle + deflate 1 on the pools (slower). Default 0. */
@@ -367,6 +371,10 @@ typedef struct pdla_checkpoint_info {
     uint64_t bytes;           /* size of the file */
     double seconds;           /* write or load time */
     char note[1024];          /* on load: why newer generations were skipped, or "" */
+    /* On load from a run directory: which generation name was loaded (0
+     * checkpoint.h5, 1 checkpoint.1.h5, ...; above 0 after a fallback, see
+     * pdla_checkpoint_recover); -1 when a file was named. */
+    int slot;
     /* On load: the schedule the writer recorded (pdla_checkpoint_opts) and
      * whether the pools were compressed; has_schedule 0 for files written
      * before session 26, which did not record it. */
@@ -400,6 +408,28 @@ PDLA_API int pdla_checkpoint_write(pdla_engine *e, const char *dir,
 PDLA_API int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params *asked,
                                   uint32_t asked_fields, pdla_checkpoint_info *info,
                                   char *err, size_t errlen);
+
+/* After pdla_checkpoint_load of run directory dir (info->slot >= 0; a file
+ * named, slot -1, is left alone), before the first write. When the load
+ * took an older name (slot > 0: the newer ones damaged, unreadable or
+ * missing), the directory is put back in the shape the rotation of
+ * pdla_checkpoint_write expects, so that its hard link of checkpoint.h5
+ * never keeps a damaged file as a generation: each skipped file is moved
+ * aside (PDLA_CHECKPOINT_ASIDE_PREFIX, the first free name; a kept file is
+ * never replaced), then the loaded and older generations are renamed to the
+ * front (checkpoint.1.h5 -> checkpoint.h5, checkpoint.2.h5 ->
+ * checkpoint.1.h5), with the directory fsync'ed after each step, so that a
+ * crash at any point leaves every generation name a complete file or
+ * absent. Always, e's generation is raised past every generation seen in
+ * dir (each checkpoint file's, kept ones included, whose root reads; a
+ * skipped one whose root does not read counts as the generation its place
+ * gave it), so that no write reuses a damaged file's number. Hold the lock.
+ * done (may be NULL) gets one line saying what moved, or "" when nothing
+ * did. PDLA_OK, or PDLA_EIO with err naming the file and the reason (what
+ * moved before it stays moved: every name is still a complete checkpoint or
+ * absent, and the next resume takes it from there). */
+PDLA_API int pdla_checkpoint_recover(pdla_engine *e, const char *dir, const pdla_checkpoint_info *info,
+                                     char *done, size_t donelen, char *err, size_t errlen);
 
 /* Lock a run directory against a second writer (flock on the directory
  * itself, so nothing is created). *fd gets the lock to pass to

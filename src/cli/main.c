@@ -803,6 +803,16 @@ static int resume_step(run *R)
     if (R->loaded.note[0])
         fprintf(stderr, "pdla: note: %s; resuming from %s (generation %" PRIu64 ")\n", R->loaded.note,
                 R->loaded.path, R->loaded.generation);
+    /* Loaded from an older name: the skipped files go aside and the good
+     * generations to the front before any write, else the next write's
+     * rotation kept the damaged checkpoint.h5 as a generation and pushed out
+     * the one loaded; and the next generation comes after every one there. */
+    char done[2048];
+    if (pdla_checkpoint_recover(R->eng, R->dir, &R->loaded, done, sizeof done, err, sizeof err) != PDLA_OK) {
+        fprintf(stderr, "pdla: cannot resume: %s\n", err);
+        return EXIT_RUNTIME;
+    }
+    if (done[0]) fprintf(stderr, "pdla: note: %s\n", done);
     keep_schedule(R);
     pdla_checkpoint_remove_stale(R->dir);
     remove_stale_outputs(R->dir);

@@ -92,13 +92,37 @@ int pdla_rundir_probe(const char *dir)
 }
 
 /* Every name under which a model keeps a checkpoint (DLA: the
- * generations checkpoint.h5, checkpoint.1.h5, ...; event: .prev and
- * .damaged; DLCA: checkpoint.h5), and the DLA run summary. One list for
+ * generations checkpoint.h5, checkpoint.1.h5, ...; event: .prev; DLCA:
+ * checkpoint.h5; the damaged ones set aside: remove_aside), and the DLA
+ * run summary. One list for
  * every model: a --force run of one model over another's directory left
  * the other's checkpoints, and a later --resume brought the older run
  * back over the new cluster.h5. The summary last (see writes_summary). */
 static const char *const old_run_names[] = {PDLA_CHECKPOINT_NAME, "checkpoint.1.h5", "checkpoint.2.h5",
-                                            "checkpoint.prev.h5", "checkpoint.damaged.h5", "summary.txt"};
+                                            "checkpoint.prev.h5", "summary.txt"};
+
+/* The damaged checkpoints a DLA fallback resume set aside
+ * (PDLA_CHECKPOINT_ASIDE_PREFIX: checkpoint.damaged.h5, .damaged.2.h5, ...):
+ * they belong to the run being replaced. 0 (*removed set when one went),
+ * or -1 with err. */
+static int remove_aside(const char *dir, int *removed, char *err, size_t errlen)
+{
+    DIR *d = opendir(dir);
+    if (!d) return pdla_errorf(-1, err, errlen, "cannot read run directory '%s': %s", dir, strerror(errno));
+    const size_t plen = strlen(PDLA_CHECKPOINT_ASIDE_PREFIX);
+    char p[4400];
+    int rc = 0;
+    const struct dirent *de;
+    while (rc == 0 && (de = readdir(d))) {
+        if (strncmp(de->d_name, PDLA_CHECKPOINT_ASIDE_PREFIX, plen)) continue;
+        snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
+        if (unlink(p) == 0) *removed = 1;
+        else if (errno != ENOENT)
+            rc = pdla_errorf(-1, err, errlen, "cannot remove the older run's '%s': %s", p, strerror(errno));
+    }
+    closedir(d);
+    return rc;
+}
 _Static_assert(PDLA_CHECKPOINT_GENERATIONS == 3, "old_run_names lists the DLA generations .1 and .2");
 
 int pdla_rundir_remove_old_run(const char *dir, int writes_summary, char *err, size_t errlen)
@@ -112,6 +136,7 @@ int pdla_rundir_remove_old_run(const char *dir, int writes_summary, char *err, s
         else if (errno != ENOENT)
             return pdla_errorf(PDLA_EIO, err, errlen, "cannot remove the older run's '%s': %s", p, strerror(errno));
     }
+    if (remove_aside(dir, &removed, err, errlen)) return PDLA_EIO;
     /* Only when something went: a run over a directory without an older
      * run's files syncs nothing more (and fails at no new point). */
     if (removed && h5u_fsync_dir(dir) != 0)

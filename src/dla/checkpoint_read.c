@@ -650,6 +650,33 @@ static int read_schedule(const reader *r, hid_t file, pdla_checkpoint_info *info
     return PDLA_OK;
 }
 
+/* The root's generation of the checkpoint at path, without loading the
+ * rest: a damaged file the loader skipped may still name its generation
+ * (a checksum error in a dataset leaves the root readable), and
+ * pdla_checkpoint_recover numbers the next write past it. 0, or -1 when the
+ * file is not a checkpoint whose root reads (truncated, foreign, missing).
+ * The caller silences HDF5's error stack. */
+int ckpt_peek_generation(const char *path, uint64_t *generation)
+{
+    char scratch[1024];
+    const reader rr = {path, scratch, sizeof scratch}, *r = &rr;
+    struct stat st;
+    if (check_file(r, &st)) return -1;
+    const hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
+    if (fapl < 0 || H5Pset_fapl_sec2(fapl) < 0) {
+        close_id(r, PDLA_EIO, fapl, H5Pclose, "the file access properties"); /* -1 either way */
+        return -1;
+    }
+    const hid_t file = H5Fopen(path, H5F_ACC_RDONLY, fapl);
+    int rc = close_id(r, PDLA_OK, fapl, H5Pclose, "the file access properties");
+    if (file < 0) return -1;
+    uint64_t particles = 0;
+    int version = 0;
+    if (rc == PDLA_OK) rc = check_root(r, file, generation, &particles, &version);
+    if (H5Fclose(file) < 0) rc = PDLA_EIO;
+    return rc == PDLA_OK ? 0 : -1;
+}
+
 /* One file: every check; *out on success. */
 static int load_file(const char *path, const pdla_params *asked, uint32_t fields,
                      pdla_engine **out, pdla_checkpoint_info *info, char *err, size_t errlen)
@@ -693,6 +720,7 @@ static int load_file(const char *path, const pdla_params *asked, uint32_t fields
     if ((rc = load_map(r, file, e))) goto out;
     e->ckpt_generation = generation;
     if (info) {
+        info->slot = -1; /* a file named; the directory walk sets its name's */
         snprintf(info->path, sizeof info->path, "%s", path);
         info->generation = generation;
         info->particles = particles;
@@ -738,6 +766,7 @@ int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params 
             found++;
             char e1[1024] = "";
             rc = load_file(name, asked, asked_fields, out, info, e1, sizeof e1);
+            if (rc == PDLA_OK && info) info->slot = k;
             if (rc == PDLA_OK || rc == PDLA_EINVAL || rc == PDLA_ENOMEM) {
                 if (rc != PDLA_OK && err && errlen) snprintf(err, errlen, "%s", e1);
                 break;

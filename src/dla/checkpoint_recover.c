@@ -1,0 +1,190 @@
+/*
+ * checkpoint_recover.c - pdla_checkpoint_recover() (pdla.h): after a resume
+ * from a run directory fell back past damaged newer generations, those go
+ * aside as checkpoint.damaged*.h5 and the good generations move to the
+ * front, so that the rotation of the next writes (checkpoint_write.c,
+ * shift_generations) shifts only complete checkpoints. Without it the first
+ * write after such a resume hard-linked the damaged checkpoint.h5 as
+ * checkpoint.1.h5, the second pushed the file the run had resumed from out
+ * and kept the damaged one as checkpoint.2.h5, and the new file took the
+ * damaged one's generation number.
+ */
+#define _GNU_SOURCE
+
+#include <dirent.h>
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "checkpoint_fmt.h"
+#include "engine.h"
+#include "h5util.h"
+
+/* Kept files are numbered up to this; past it the resume is refused rather
+ * than a kept file replaced (a directory that needed so many fallbacks has
+ * a disk to look at, and each kept file may be gigabytes). */
+#define ASIDE_MAX 999
+
+/* Generation numbers from here up are no run's (a forged root): followed,
+ * the next write's number would wrap. */
+#define GENERATION_LIMIT (UINT64_C(1) << 62)
+
+/* peek's generation when the root of path reads and the number is a run's. */
+static int peek(const char *path, uint64_t *g)
+{
+    return ckpt_peek_generation(path, g) == 0 && *g < GENERATION_LIMIT ? 0 : -1;
+}
+
+/* The generation the next write must come after: the loaded file's, each
+ * generation name's own where its root reads (a checksum error in a
+ * dataset leaves it readable), and each kept file's (checkpoint.damaged*:
+ * a resume killed after the set-aside, or refused after it, finds the
+ * damaged file only there). A skipped name j whose root does not read (a
+ * truncated file) counts as the generation it had by its place, the loaded
+ * one's plus slot - j, since each write moves every name one place on. The
+ * caller silences HDF5's error stack. */
+static uint64_t generation_past(const char *dir, const pdla_checkpoint_info *info)
+{
+    uint64_t past = info->generation, g = 0;
+    char name[4400];
+    for (int k = 0; k < PDLA_CHECKPOINT_GENERATIONS; k++) {
+        ckpt_gen_name(name, sizeof name, dir, k);
+        struct stat st;
+        if (lstat(name, &st) != 0) continue;
+        if (peek(name, &g) != 0) {
+            if (k >= info->slot) continue; /* an older one: the loaded one is past it */
+            g = info->generation + (uint64_t)(info->slot - k);
+        }
+        if (g > past) past = g;
+    }
+    DIR *d = opendir(dir);
+    if (!d) return past; /* the set-aside that follows reports what is wrong */
+    const struct dirent *de;
+    const size_t plen = strlen(PDLA_CHECKPOINT_ASIDE_PREFIX);
+    while ((de = readdir(d)))
+        if (!strncmp(de->d_name, PDLA_CHECKPOINT_ASIDE_PREFIX, plen)) {
+            snprintf(name, sizeof name, "%s/%s", dir, de->d_name);
+            if (peek(name, &g) == 0 && g > past) past = g;
+        }
+    (void)closedir(d); /* opened to read names only: a failed close loses nothing */
+    return past;
+}
+
+/* Moves the skipped file src to the first free aside name, claimed without
+ * replacing anything (h5u_publish: renameat2 RENAME_NOREPLACE, else a hard
+ * link and an unlink); kept gets that name, or "" when src is not there.
+ * When an aside name already is this file (a crash between that link and
+ * unlink left both names), src is only unlinked, so a file is never kept
+ * twice. PDLA_OK or PDLA_EIO with err. */
+static int set_aside(const char *dir, const char *src, char *kept, size_t keptlen, char *err, size_t errlen)
+{
+    struct stat s0, sk;
+    kept[0] = '\0';
+    if (lstat(src, &s0) != 0)
+        return errno == ENOENT ? PDLA_OK : pdla_errorf(PDLA_EIO, err, errlen, "cannot set %s aside: %s", src,
+                                                       strerror(errno));
+    for (int k = 1; k <= ASIDE_MAX; k++) {
+        ckpt_aside_name(kept, keptlen, dir, k);
+        if (lstat(kept, &sk) == 0) {
+            if (sk.st_dev != s0.st_dev || sk.st_ino != s0.st_ino) continue;
+            if (unlink(src) == 0) return PDLA_OK;
+            return pdla_errorf(PDLA_EIO, err, errlen, "%s is kept as %s, but cannot remove it: %s", src, kept,
+                               strerror(errno));
+        }
+        if (errno != ENOENT)
+            return pdla_errorf(PDLA_EIO, err, errlen, "cannot look at %s: %s", kept, strerror(errno));
+        const int rc = h5u_publish(src, kept);
+        if (rc == 0) return PDLA_OK;
+        if (rc == PDLA_EEXIST) continue; /* made since the lstat: take the next name */
+        if (rc == 1)
+            return pdla_errorf(PDLA_EIO, err, errlen, "%s is kept as %s, but cannot remove it: %s", src, kept,
+                               strerror(errno));
+        return pdla_errorf(PDLA_EIO, err, errlen, "cannot set %s aside as %s: %s", src, kept, strerror(errno));
+    }
+    return pdla_errorf(PDLA_EIO, err, errlen,
+                       "cannot set %s aside: %d files are kept as %s/" PDLA_CHECKPOINT_ASIDE_PREFIX
+                       "*h5 already; remove those no longer needed",
+                       src, ASIDE_MAX, dir);
+}
+
+/* The loaded generation (name slot) and the older ones move to the front:
+ * name slot + i becomes name i. The names before slot are free (set aside,
+ * or never there) and each rename frees the next target, so none replaces a
+ * file. The directory is synced after each rename: on a power loss a later
+ * one must not land without the earlier (checkpoint.2.h5 renamed over
+ * checkpoint.1.h5 before that had become checkpoint.h5 would lose the file
+ * the run resumed from). */
+static int to_front(const char *dir, int slot, char *err, size_t errlen)
+{
+    char from[4200], to[4200];
+    for (int i = 0; slot + i < PDLA_CHECKPOINT_GENERATIONS; i++) {
+        ckpt_gen_name(from, sizeof from, dir, slot + i);
+        ckpt_gen_name(to, sizeof to, dir, i);
+        if (rename(from, to) != 0) {
+            if (errno == ENOENT && i > 0) continue; /* no older generation there */
+            return pdla_errorf(PDLA_EIO, err, errlen, "cannot rename %s to %s: %s", from, to, strerror(errno));
+        }
+        if (h5u_fsync_dir(dir) != 0)
+            return pdla_errorf(PDLA_EIO, err, errlen, "cannot sync directory %s: %s", dir, strerror(errno));
+    }
+    return PDLA_OK;
+}
+
+/* Appends "; " (unless first) and a, b, c to line; a line too long for it
+ * (names of 4000 bytes) is cut, which only shortens a note. */
+static void add_clause(char *line, size_t len, const char *a, const char *b, const char *c)
+{
+    const size_t used = strlen(line);
+    if (used + 1 >= len) return;
+    const int n = snprintf(line + used, len - used, "%s%s%s%s", used ? "; " : "", a, b, c);
+    if (n < 0) line[used] = '\0';
+}
+
+/* The skipped names (before slot) go aside, synced, then the generations to
+ * the front; line gets what moved. A crash between the steps leaves the
+ * skipped names free or still damaged (the next resume falls back again),
+ * never a damaged file under a name the good one left. */
+static int move_generations(const char *dir, int slot, char *line, size_t linelen, char *err, size_t errlen)
+{
+    char name[4200], kept[4200];
+    for (int j = 0; j < slot; j++) {
+        ckpt_gen_name(name, sizeof name, dir, j);
+        const int rc = set_aside(dir, name, kept, sizeof kept, err, errlen);
+        if (rc) return rc;
+        if (kept[0]) add_clause(line, linelen, name, " set aside as ", kept);
+    }
+    if (h5u_fsync_dir(dir) != 0)
+        return pdla_errorf(PDLA_EIO, err, errlen, "cannot sync directory %s: %s", dir, strerror(errno));
+    const int rc = to_front(dir, slot, err, errlen);
+    if (rc) return rc;
+    ckpt_gen_name(kept, sizeof kept, dir, slot);
+    ckpt_gen_name(name, sizeof name, dir, 0);
+    add_clause(line, linelen, kept, " is now ", name);
+    return PDLA_OK;
+}
+
+int pdla_checkpoint_recover(pdla_engine *e, const char *dir, const pdla_checkpoint_info *info,
+                            char *done, size_t donelen, char *err, size_t errlen)
+{
+    char line[2048] = "";
+    if (err && errlen) err[0] = '\0';
+    if (done && donelen) done[0] = '\0';
+    if (!e || !dir || !info || strlen(dir) > 4000 || info->slot >= PDLA_CHECKPOINT_GENERATIONS)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "checkpoint recovery: no engine, directory or load");
+    if (info->slot < 0) return PDLA_OK; /* a file named: its folder's names are the user's choice */
+    h5u_quiet q;
+    if (h5u_silence(&q) < 0) return pdla_errorf(PDLA_EIO, err, errlen, "cannot silence the HDF5 error stack");
+    const uint64_t past = generation_past(dir, info);
+    if (h5u_restore(&q) < 0) return pdla_errorf(PDLA_EIO, err, errlen, "cannot restore the HDF5 error handler");
+    if (info->slot > 0) {
+        const int rc = move_generations(dir, info->slot, line, sizeof line, err, errlen);
+        if (rc) return rc;
+    }
+    if (past > e->ckpt_generation) e->ckpt_generation = past;
+    if (done && donelen && line[0])
+        snprintf(done, donelen, "%s; the next checkpoint is generation %llu", line,
+                 (unsigned long long)e->ckpt_generation + 1);
+    return PDLA_OK;
+}

@@ -1,0 +1,297 @@
+#!/usr/bin/python3
+"""ckpt_fallback.py PDLA SHIM WORKDIR - the DLA checkpoint generations after a
+`--resume DIR` that fell back past a damaged checkpoint.h5 (README
+"Checkpoints and resume", Files).
+
+Before the fix the first write after such a resume hard-linked the damaged
+checkpoint.h5 as checkpoint.1.h5 and the second kept it as checkpoint.2.h5,
+having pushed out the checkpoint the run had resumed from, and the new file
+took the damaged one's generation number. Checked here:
+
+  - past a truncated checkpoint.h5, a checksum-damaged one (with a forged
+    higher generation, which the next writes must pass) and both
+    checkpoint.h5 and checkpoint.1.h5 damaged: after two more checkpoint
+    writes every generation name present passes `pdla check`, the run's
+    generations increase past every generation seen, the file resumed from
+    is kept as the oldest, each damaged file is kept byte for byte as
+    checkpoint.damaged.h5 and a second fallback's as checkpoint.damaged.2.h5
+    (the first is not replaced);
+  - a truncated file kept aside before a kill: the generation names still
+    increase (its own number may be taken again: it no longer reads);
+  - a file kept under both names by a crash inside the set-aside is kept
+    once; no directory resume reads a kept file; the set-aside and each
+    rename are followed by a directory sync (faultshim counts them);
+  - a failed rename while the generations move: exit 1, one line, and the
+    directory still resumes;
+  - kill -9 (faultshim) before each rename of a checkpoint name in the
+    resume and its first write, and at the directory sync after the
+    set-aside: every generation name present passes `pdla check`, the
+    damaged bytes are still in the directory once, and a plain resume then
+    completes with every name sound and the generations past the damaged
+    file's;
+  - a --force run removes the older run's checkpoint.damaged*.h5.
+The pdla runs are counted and printed (50; about 4 s of CPU in release).
+"""
+import glob
+import os
+import resource
+import shutil
+import sys
+
+import h5py
+
+from reliab_util import check, failures, run_faulted, runner, shim_preload
+
+PDLA, SHIM, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
+_pdla = runner(PDLA, 120)
+runs = 0
+
+
+def pdla(*args):
+    global runs
+    runs += 1
+    return _pdla(*args)
+
+
+def faulted(args, env):
+    global runs
+    runs += 1
+    return run_faulted(PDLA, args, env)
+
+
+NAMES = ["checkpoint.h5", "checkpoint.1.h5", "checkpoint.2.h5"]
+
+shutil.rmtree(WORK, ignore_errors=True)
+os.makedirs(WORK)
+W = lambda *p: os.path.join(WORK, *p)
+
+
+def generation(path):
+    """The root's generation, or None where the file does not open."""
+    try:
+        with h5py.File(path, "r") as f:
+            return int(f.attrs["generation"])
+    except (OSError, KeyError):
+        return None
+
+
+def read(path):
+    with open(path, "rb") as f:
+        return f.read()
+
+
+passed = set()  # the bytes of files `pdla check` passed: each is checked once
+
+
+def sound(d, tag):
+    """Every generation name in d passes `pdla check` (a checkpoint loaded and
+    verified as --resume loads it: exit 0). The names present."""
+    present = [n for n in NAMES if os.path.lexists(os.path.join(d, n))]
+    for n in present:
+        data = read(os.path.join(d, n))
+        if data in passed:
+            continue
+        rc, err = pdla("check", os.path.join(d, n))
+        check(rc == 0, "%s: %s does not pass pdla check (exit %s): %s" % (tag, n, rc, err.strip()[-300:]))
+        if rc == 0:
+            passed.add(data)
+    return present
+
+
+def truncate(path):
+    os.truncate(path, os.path.getsize(path) // 2)
+
+
+def flip_data(path, forged_generation=None):
+    """A checksum error in /tree/chunks_packed (bytes of its first chunk
+    inverted); the root, and a forged generation written there, still read."""
+    with h5py.File(path, "r+") as f:
+        if forged_generation is not None:
+            f.attrs.modify("generation", forged_generation)
+        d = f["/tree/chunks_packed"]
+        off = d.id.get_chunk_info(0).byte_offset if d.chunks else d.id.get_offset()
+    with open(path, "r+b") as f:
+        f.seek(off + 16)
+        b = f.read(8)
+        f.seek(off + 16)
+        f.write(bytes(x ^ 0xFF for x in b))
+
+
+# The template: generations 2, 3, 4 (1000 particles each) in checkpoint.2.h5,
+# checkpoint.1.h5, checkpoint.h5.
+T = W("T")
+rc, err = pdla("--target", "4000", "--out", T, "--checkpoint-particles", "1000", "-q")
+check(rc == 0, "template run: %s" % err)
+check([generation(os.path.join(T, n)) for n in NAMES] == [4, 3, 2], "template generations")
+
+
+def fresh(name):
+    d = W(name)
+    shutil.rmtree(d, ignore_errors=True)
+    shutil.copytree(T, d)
+    return d
+
+
+def resume(d, target):
+    """A bare resume: the schedule, every 1000 particles, is kept."""
+    return pdla("--resume", d, "--target", str(target), "-q")
+
+
+def after(d, tag, want_gens, kept):
+    """d after its fallback resume and two writes: every name sound, the
+    generations want_gens (newest first), kept {aside name: bytes}."""
+    present = sound(d, tag)
+    gens = [generation(os.path.join(d, n)) for n in present]
+    check(gens == want_gens, "%s: generations %r, want %r" % (tag, gens, want_gens))
+    for name, data in kept.items():
+        p = os.path.join(d, name)
+        check(os.path.exists(p) and read(p) == data, "%s: the damaged file is not kept as %s" % (tag, name))
+    extra = sorted(set(os.path.basename(p) for p in glob.glob(os.path.join(d, "checkpoint.damaged*"))) - set(kept))
+    check(not extra, "%s: unexpected kept files %r" % (tag, extra))
+
+
+# --- a truncated checkpoint.h5 (generation 4, unreadable): resumed from
+# generation 3 (3000 particles); the writes at 4000 and 5000 are 5 and 6,
+# past the damaged one's place.
+A = fresh("A")
+truncate(os.path.join(A, "checkpoint.h5"))
+badA = read(os.path.join(A, "checkpoint.h5"))
+goodA = read(os.path.join(A, "checkpoint.1.h5"))
+rc, err = resume(A, 5000)
+check(rc == 0, "truncated: resume: %s" % err)
+check("note: skipped %s/checkpoint.h5: damaged checkpoint (truncated); resuming from %s/checkpoint.1.h5" % (A, A) in err,
+      "truncated: no fallback note: %s" % err)
+check("note: %s/checkpoint.h5 set aside as %s/checkpoint.damaged.h5; %s/checkpoint.1.h5 is now %s/checkpoint.h5; "
+      "the next checkpoint is generation 5" % (A, A, A, A) in err, "truncated: no set-aside note: %s" % err)
+after(A, "truncated", [6, 5, 3], {"checkpoint.damaged.h5": badA})
+check(read(os.path.join(A, "checkpoint.2.h5")) == goodA, "truncated: the checkpoint resumed from is not kept")
+
+# --- then a checksum error in the new checkpoint.h5, whose (forged) root
+# generation 40 still reads: the second fallback keeps it as
+# checkpoint.damaged.2.h5 beside the first, and the writes go on from 41.
+flip_data(os.path.join(A, "checkpoint.h5"), forged_generation=40)
+badB = read(os.path.join(A, "checkpoint.h5"))
+rc, err = resume(A, 6000)
+check(rc == 0, "checksum: resume: %s" % err)
+check("checksum or I/O error" in err and "set aside as %s/checkpoint.damaged.2.h5" % A in err and
+      "the next checkpoint is generation 41" in err, "checksum: notes: %s" % err)
+after(A, "checksum", [42, 41, 5], {"checkpoint.damaged.h5": badA, "checkpoint.damaged.2.h5": badB})
+
+# --- both newer names damaged: resumed from checkpoint.2.h5 (generation 2);
+# checkpoint.1.h5's root reads (3), checkpoint.h5's does not (its place: 4).
+C = fresh("C")
+truncate(os.path.join(C, "checkpoint.h5"))
+flip_data(os.path.join(C, "checkpoint.1.h5"))
+bad0, bad1 = read(os.path.join(C, "checkpoint.h5")), read(os.path.join(C, "checkpoint.1.h5"))
+rc, err = resume(C, 4000)
+check(rc == 0 and "resuming from %s/checkpoint.2.h5 (generation 2)" % C in err, "two damaged: resume: %s" % err)
+after(C, "two damaged", [6, 5, 2], {"checkpoint.damaged.h5": bad0, "checkpoint.damaged.2.h5": bad1})
+
+# --- a truncated file already kept aside (a kill between the set-aside and
+# the first write) has no place any more: its number, 4, may be taken again
+# (README), while the generation names still increase.
+G = fresh("G")
+truncate(os.path.join(G, "checkpoint.h5"))
+os.rename(os.path.join(G, "checkpoint.h5"), os.path.join(G, "checkpoint.damaged.h5"))
+rc, err = resume(G, 5000)
+check(rc == 0, "kept before the kill: resume: %s" % err)
+after(G, "kept before the kill", [5, 4, 3], {"checkpoint.damaged.h5": read(os.path.join(G, "checkpoint.damaged.h5"))})
+
+# --- no resume of the directory reads a kept file: with only those left
+# there is no checkpoint to resume.
+os.mkdir(W("D"))
+shutil.copy(os.path.join(C, "checkpoint.damaged.2.h5"), W("D", "checkpoint.damaged.h5"))
+rc, err = pdla("--resume", W("D"), "-q")
+check(rc == 2 and "no checkpoint in this directory" in err, "kept files only: exit %s: %s" % (rc, err))
+
+# --- a --force run over it removes the kept files with the checkpoints.
+rc, err = pdla("--target", "500", "--out", C, "--force", "-q")
+check(rc == 0 and not glob.glob(os.path.join(C, "checkpoint*")), "--force: left %r" % os.listdir(C))
+
+# --- the rename to the front fails (EIO): one line, exit 1; what moved stays
+# moved and the directory resumes, numbering past the kept file's generation
+# (4: its root reads), though no generation name holds it any more.
+PRELOAD = shim_preload(PDLA, SHIM)
+
+
+def dirsyncs(d):
+    """Directory syncs of a resume of d to 4000 (one write), counted by faultshim."""
+    n = W("count")
+    rc, lines = faulted(["--resume", d, "--target", "4000", "-q"],
+                        dict(os.environ, LD_PRELOAD=PRELOAD, FAULT_OP="dirsync", FAULT_COUNT=n))
+    check(rc == 0, "counting %s: %r" % (d, lines))
+    return int(read(n))
+
+
+# --- the set-aside and each rename to the front are synced: three directory
+# syncs more than a plain resume from the same file (3000 particles).
+S = fresh("S")
+flip_data(os.path.join(S, "checkpoint.h5"))
+P = fresh("P")  # its cluster.h5 too: a first cluster.h5 is published with one sync fewer
+shutil.copy(os.path.join(T, "checkpoint.1.h5"), os.path.join(P, "checkpoint.h5"))
+shutil.copy(os.path.join(T, "checkpoint.2.h5"), os.path.join(P, "checkpoint.1.h5"))
+os.unlink(os.path.join(P, "checkpoint.2.h5"))
+ns, np_ = dirsyncs(S), dirsyncs(P)
+check(ns == np_ + 3, "directory syncs: %d after a fallback, %d without" % (ns, np_))
+env = dict(os.environ, LD_PRELOAD=PRELOAD, FAULT_OP="rename", FAULT_AT="1", FAULT_ERR="EIO")
+E = fresh("E")
+flip_data(os.path.join(E, "checkpoint.h5"))
+badE = read(os.path.join(E, "checkpoint.h5"))
+rc, lines = faulted(["--resume", E, "--target", "5000", "-q"], env)
+check(rc == 1 and lines[-1:] == ["pdla: cannot resume: cannot rename %s/checkpoint.1.h5 to %s/checkpoint.h5: "
+                                 "Input/output error" % (E, E)] and len(lines) == 2,
+      "failed rename: exit %s: %r" % (rc, lines))
+sound(E, "failed rename")
+rc, err = resume(E, 5000)
+check(rc == 0, "after the failed rename: %s" % err)
+after(E, "after the failed rename", [6, 5, 3], {"checkpoint.damaged.h5": badE})
+
+
+# --- a crash between the hard link and the unlink of the set-aside (its
+# fallback where renameat2 RENAME_NOREPLACE is missing) leaves the damaged
+# file under both names: the next fallback resume drops checkpoint.h5 and
+# keeps the one file once, not again as checkpoint.damaged.2.h5.
+L = fresh("L")
+flip_data(os.path.join(L, "checkpoint.h5"))
+badL = read(os.path.join(L, "checkpoint.h5"))
+os.link(os.path.join(L, "checkpoint.h5"), os.path.join(L, "checkpoint.damaged.h5"))
+rc, err = resume(L, 5000)
+check(rc == 0, "linked twice: resume: %s" % err)
+after(L, "linked twice", [6, 5, 3], {"checkpoint.damaged.h5": badL})
+
+# --- kill -9 before each rename of a checkpoint name (the two to the front,
+# then the first write's three) and before the directory sync that follows
+# the set-aside (for kill -9 a sync changes nothing, so the renames' kills
+# cover the other syncs); later writes are a plain rotation, which test
+# checkpoint-kill covers. The damaged file's
+# generation, 4, reads: no later write may take it, wherever the kill left
+# the file. A kill past the last counted call lets the run end (exit 0).
+def killed(op, last, path=None):
+    for k in range(1, last + 1):
+        d = fresh("K")
+        flip_data(os.path.join(d, "checkpoint.h5"))
+        bad = read(os.path.join(d, "checkpoint.h5"))
+        env = dict(os.environ, LD_PRELOAD=PRELOAD, FAULT_OP=op, FAULT_AT=str(k), FAULT_SIGNAL="9")
+        if path:
+            env["FAULT_PATH"] = path
+        rc, lines = faulted(["--resume", d, "--target", "4000", "-q"], env)
+        tag = "kill -9 at %s #%d" % (op, k)
+        check(rc == -9, "%s: not killed (exit %s): %r" % (tag, rc, lines))
+        check(bool(sound(d, tag)), "%s: no generation name left" % tag)
+        kept = [p for p in glob.glob(os.path.join(d, "checkpoint*")) if read(p) == bad]
+        check(len(kept) == 1, "%s: the damaged bytes are under %r" % (tag, kept))
+        rc, err = resume(d, 5000)
+        check(rc == 0, "%s: the resume after: %s" % (tag, err))
+        present = sound(d, tag + ", resumed")
+        gens = [generation(os.path.join(d, n)) for n in present]
+        check(None not in gens and gens == sorted(gens, reverse=True) and gens[0] >= 6 and
+              all(g in (2, 3) or g > 4 for g in gens), "%s, resumed: generations %r" % (tag, gens))
+
+
+killed("rename", 5, "/checkpoint")
+killed("dirsync", 1)
+
+print("ckpt_fallback: %d pdla runs, %d failures" % (runs, len(failures)))
+_ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+print("children's CPU time: %.1f s user, %.1f s system" % (_ru.ru_utime, _ru.ru_stime))
+sys.exit(1 if failures else 0)

@@ -98,6 +98,17 @@ static const real_case reals[] = {
     {"1,5", 0, 0},     {"e5", 0, 0},     {"-", 0, 0},
 };
 
+/* Durations (cli_parse_duration: --checkpoint-every of the DLA, DLCA and
+ * event commands): README's `90`, `30m`, `1.5h`, seconds without a
+ * suffix; 0 is no time trigger; at most 1e9 s. */
+static const real_case durations[] = {
+    {"90", 1, 90.0},      {"90s", 1, 90.0},   {"30m", 1, 1800.0}, {"1.5h", 1, 5400.0},
+    {"0", 1, 0.0},        {"0.05", 1, 0.05},  {".5m", 1, 30.0},   {"1000000000", 1, 1e9},
+    {"1000000001", 0, 0}, {"277778h", 0, 0},  {"", 0, 0},         {"h", 0, 0},
+    {"10x", 0, 0},        {"1e3", 0, 0},      {"-5", 0, 0},       {"1.5 h", 0, 0},
+    {"1.5hh", 0, 0},      {"nan", 0, 0},      {"inf", 0, 0},      {"90S", 0, 0},
+};
+
 /* Run cli_parse on a NULL-terminated word list (argv[0] added). */
 static int parse(cli_options *o, char *err, size_t errlen, const char *const *words)
 {
@@ -185,6 +196,19 @@ int main(void)
         } else {
             CHECK(why != NULL, "'%s': accepted as %g", c->in, v);
             CHECK(v == -7, "'%s': output touched on error", c->in);
+        }
+    }
+
+    for (size_t i = 0; i < sizeof durations / sizeof durations[0]; i++) {
+        const real_case *c = &durations[i];
+        double v = -7;
+        const char *why = cli_parse_duration(c->in, &v);
+        if (c->ok) {
+            CHECK(why == NULL && v == c->want, "duration '%s': got %g (%s), want %g", c->in, v,
+                  why ? why : "ok", c->want);
+        } else {
+            CHECK(why != NULL, "duration '%s': accepted as %g", c->in, v);
+            CHECK(v == -7, "duration '%s': output touched on error", c->in);
         }
     }
 

@@ -201,6 +201,9 @@ def sigterm_in_scan(journal):
         p.kill()
         p.wait()
     dt, se = time.time() - t1, p.stderr.read().strip()
+    # The time README quotes (runs/readme-claims/ensemble-files.txt).
+    print("SIGTERM after %.2f s of scan: the process ended %.3f s later (%s)" %
+          (t1 - t0, dt, "by the signal" if p.returncode == -signal.SIGTERM else "exit %s" % p.returncode), flush=True)
     check(scanning and p.returncode == -signal.SIGTERM and dt < 2 and "stopped by signal while reading" in se and
           len(se.splitlines()) == 1,
           "SIGTERM in the scan of 4 MiB of this ensemble's heads: running %s, exit %s after %.2f s (want by "

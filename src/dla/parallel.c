@@ -120,6 +120,7 @@ typedef struct worker {
     hwloc_topology_t topo;   /* NULL unless binding */
     hwloc_obj_t core;        /* core to bind to, or NULL */
     pthread_t thread;
+    int bind_refused;        /* hwloc_set_cpubind failed (written by the worker, read after the join) */
     int rc;
     char err[256];
 } worker;
@@ -368,8 +369,9 @@ static void *worker_main(void *arg)
     pdla_engine *e = k->e;
     if (k->topo && k->core) {
         /* Binding is a placement hint: a refusal (containers, cgroups) is
-         * reported in the binding string by the caller, not fatal. */
-        hwloc_set_cpubind(k->topo, k->core->cpuset, HWLOC_CPUBIND_THREAD);
+         * not fatal; the coordinating thread adds it to the binding string
+         * after the join (mark_refused_bindings). */
+        k->bind_refused = hwloc_set_cpubind(k->topo, k->core->cpuset, HWLOC_CPUBIND_THREAD) != 0;
     }
     while (!atomic_load_explicit(&e->stop, memory_order_relaxed) &&
            tree_count(&e->tree) < k->n_until) {
@@ -528,6 +530,22 @@ static void phase_begin(pdla_engine *e, phase *ph)
     e->claims = &ph->claims;
 }
 
+
+/* After the join: the workers whose binding the system refused (a cgroup's
+ * cpuset, a container) are named in e->binding, which the file's /results
+ * binding records, so that "core: 0 1" is never claimed for threads that
+ * ran where the scheduler put them. */
+static void mark_refused_bindings(pdla_engine *e, const phase *ph)
+{
+    size_t used = strlen(e->binding);
+    const char *sep = " (refused by the system for workers";
+    for (int i = 0; i < ph->started; i++) {
+        if (!ph->ks[i].bind_refused || used >= sizeof e->binding) continue;
+        used += (size_t)snprintf(e->binding + used, sizeof e->binding - used, "%s %d", sep, i);
+        sep = ",";
+    }
+    if (*sep == ',' && used < sizeof e->binding) snprintf(e->binding + used, sizeof e->binding - used, ")");
+}
 /* Step 4: start the threads, then report progress, relay a stop request and
  * free retired map grids from this thread until the target or a stop; join.
  * PDLA_OK, or the first failure of this thread (the workers' own come in
@@ -561,6 +579,7 @@ static int phase_run(pdla_engine *e, phase *ph, uint64_t n_until, pdla_progress_
         if (j && rc == PDLA_OK)
             rc = pdla_errorf(PDLA_EINVAL, err, errlen, "cannot join worker thread %d: %s", i, strerror(j));
     }
+    mark_refused_bindings(e, ph);
     return rc;
 }
 

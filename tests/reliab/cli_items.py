@@ -301,6 +301,24 @@ for new, (_, force, _) in NOLOCK.items():
     check(rc == 1 and one_line(err) and "checkpoint.2.h5" in err and sorted(os.listdir(d)) == ["checkpoint.2.h5"],
           "item 10: %s --force where checkpoint.2.h5 cannot be removed: %r %r %r" % (new, rc, err, os.listdir(d)))
 
+# --- --bind core refused by the system (a cgroup cpuset, a container):
+# the run goes on, and /results binding names the refused workers instead
+# of claiming "core: 0 1" for threads the scheduler placed. Before, the
+# result of hwloc_set_cpubind was thrown away.
+rc, err = pdla("--target", "3000", "--serial-until", "1000", "--threads", "2", "--bind", "core",
+               "--out", W("bindrefused"), "-q", env={"LD_PRELOAD": preload(), "FAULT_AFFINITY": "1"})
+with h5py.File(W("bindrefused", "cluster.h5"), "r") as f:
+    binding = f["results"].attrs["binding"]
+binding = binding.decode() if isinstance(binding, bytes) else str(binding)
+check(rc == 0 and binding.endswith("(refused by the system for workers 0, 1)"),
+      "bind refused: exit %r %r, binding %r" % (rc, err, binding))
+rc, err = pdla("--target", "3000", "--serial-until", "1000", "--threads", "2", "--bind", "core",
+               "--out", W("bindok"), "-q")
+with h5py.File(W("bindok", "cluster.h5"), "r") as f:
+    binding = f["results"].attrs["binding"]
+binding = binding.decode() if isinstance(binding, bytes) else str(binding)
+check(rc == 0 and "refused" not in binding, "bind allowed: exit %r %r, binding %r" % (rc, err, binding))
+
 # --- item 10: abbreviated long options
 for args in (["--targ", "100", "--no-output"], ["info", "--js", W("F", "cluster.h5")],
              ["render", W("F", "cluster.h5"), "--zo", "2", "-o", W("a.png")],

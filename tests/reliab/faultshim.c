@@ -28,6 +28,9 @@
  *                   it opens, and failing those too would refuse every read
  *                   (users there set HDF5_USE_FILE_LOCKING=FALSE), hiding
  *                   whether pdla refused for its own lock
+ *   FAULT_AFFINITY=1  sched_setaffinity and pthread_setaffinity_np fail
+ *                   with EPERM: the system refuses --bind core's pinning
+ *                   (a cgroup cpuset, a container)
  *   FAULT_PATH=S    count only calls on files whose path contains S (e.g.
  *                   "ensemble.h5.tmp.": the final write of an ensemble)
  *   FAULT_SIGNAL=N  the k-th counted call does not fail: it raises signal N
@@ -47,6 +50,8 @@
 #undef _FILE_OFFSET_BITS /* define pwrite and pwrite64 both, as libc does */
 #define _GNU_SOURCE
 #include <dlfcn.h>
+#include <pthread.h>
+#include <sched.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <signal.h>
@@ -341,6 +346,26 @@ int flock(int fd, int op)
         return -1;
     }
     return real_flock(fd, op);
+}
+
+static int affinity_refused(void)
+{
+    const char *s = getenv("FAULT_AFFINITY");
+    return s && *s == '1';
+}
+
+int sched_setaffinity(pid_t pid, size_t n, const cpu_set_t *mask)
+{
+    REAL(sched_setaffinity, int, pid_t, size_t, const cpu_set_t *);
+    if (!affinity_refused()) return real_sched_setaffinity(pid, n, mask);
+    errno = EPERM;
+    return -1;
+}
+
+int pthread_setaffinity_np(pthread_t t, size_t n, const cpu_set_t *mask)
+{
+    REAL(pthread_setaffinity_np, int, pthread_t, size_t, const cpu_set_t *);
+    return affinity_refused() ? EPERM : real_pthread_setaffinity_np(t, n, mask);
 }
 
 int fflush(FILE *fp)

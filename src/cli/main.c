@@ -349,7 +349,7 @@ static void print_parameters(FILE *f, const pdla_params *P)
     for (size_t i = 0; i < n; i++) {
         char v[64];
         pdla_param_format(&t[i], P, 0, v, sizeof v);
-        fprintf(f, "  %-15s%s%s%s\n", t[i].name, v, t[i].unit[0] ? " " : "", t[i].unit);
+        fprintf(f, "  %-14s %s%s%s\n", t[i].name, v, t[i].unit[0] ? " " : "", t[i].unit); /* a space after a long name too */
     }
 }
 

@@ -1411,27 +1411,31 @@ void dlca_export_sites(const dlca_sim *s, uint32_t *site, uint32_t *cluster)
     (void)dlca_export_chunk(s, &cur, s->N, site, cluster);
 }
 
+double dlca_rg_offsets(const dlca_off *off, uint32_t n, int d)
+{
+    double var = 0;
+    for (int a = 0; a < d; a++) {
+        double m1 = 0, m2 = 0;
+        for (uint32_t i = 0; i < n; i++) {
+            const double o = off[(size_t)i * d + a];
+            m1 += o;
+            m2 += o * o;
+        }
+        m1 /= n;
+        var += m2 / n - m1 * m1;
+    }
+    return sqrt(var > 0 ? var : 0);
+}
+
 void dlca_cluster_table(const dlca_sim *s, uint64_t *size, double *rg)
 {
     uint64_t id = 0;
-    const int d = s->d;
     for (uint64_t c = 1; c <= s->nslot; c++) {
         if (!dlca_n(s, c)) continue;
         dlca_view v;
         view_of(s, (uint32_t)c, &v);
-        double var = 0;
-        for (int a = 0; a < d; a++) {
-            double m1 = 0, m2 = 0;
-            for (uint32_t i = 0; i < v.n; i++) {
-                const double o = v.off[(size_t)i * d + a];
-                m1 += o;
-                m2 += o * o;
-            }
-            m1 /= v.n;
-            var += m2 / v.n - m1 * m1;
-        }
         size[id] = v.n;
-        rg[id] = sqrt(var > 0 ? var : 0);
+        rg[id] = dlca_rg_offsets(v.off, v.n, s->d);
         id++;
     }
 }

@@ -565,13 +565,13 @@ double dlca_next_snapshot(double t, double T)
 
 /* Snapshot i's numbers against s and the snapshot before: 0, or
  * PDLA_EINVAL naming the first out of range. */
-static int check_numbers(const dlca_sim *s, const dlca_snapshot *snaps, size_t i, char *err, size_t errlen)
+static int check_numbers(const dlca_snap_end *s, const dlca_snapshot *snaps, size_t i, char *err, size_t errlen)
 {
     const dlca_snapshot *sn = &snaps[i], *prev = i ? &snaps[i - 1] : NULL;
     const char *bad = NULL;
     if (!isfinite(sn->t) || sn->t < (prev ? prev->t : 0) || sn->t > s->t) bad = "t";
     else if (sn->attempts > s->attempts || (prev && sn->attempts < prev->attempts)) bad = "attempts";
-    else if (sn->n_clusters < s->nc || sn->n_clusters > (prev ? prev->n_clusters : s->N)) bad = "n_clusters";
+    else if (sn->n_clusters < s->n_clusters || sn->n_clusters > (prev ? prev->n_clusters : s->N)) bad = "n_clusters";
     for (uint64_t m = 0; !bad && m < s->N; m++) {
         if (sn->site[m] >= s->V) bad = "a site";
         else if (sn->cluster[m] >= sn->n_clusters) bad = "a cluster number";
@@ -585,7 +585,7 @@ static int check_numbers(const dlca_sim *s, const dlca_snapshot *snaps, size_t i
  * and the cluster numbers 0, 1, ..., n_clusters - 1 with each cluster's
  * monomers together, in that order (all set to 0 under n_clusters 34 was
  * written back as one cluster). 0, PDLA_EINVAL or PDLA_ENOMEM. */
-static int check_monomers(const dlca_sim *s, const dlca_snapshot *sn, size_t i, uint64_t *seen, char *err,
+static int check_monomers(const dlca_snap_end *s, const dlca_snapshot *sn, size_t i, uint64_t *seen, char *err,
                           size_t errlen)
 {
     for (uint64_t m = 0; m < s->N; m++) {
@@ -611,9 +611,9 @@ static int check_monomers(const dlca_sim *s, const dlca_snapshot *sn, size_t i, 
  * are left: 1 / (N_c m_max) (dlca.c's step), with m_max, the mobility of
  * the smallest (gamma < 0) or largest (gamma > 0) size present, at least
  * min(1, N^gamma). */
-static double longest_step(const dlca_sim *s, uint64_t n_clusters)
+static double longest_step(const dlca_snap_end *s, uint64_t n_clusters)
 {
-    const double m_max = s->mob && s->p.mobility < 0 ? pow((double)s->N, s->p.mobility) : 1;
+    const double m_max = s->mobility < 0 ? pow((double)s->N, s->mobility) : 1;
     return 1.0 / ((double)n_clusters * m_max);
 }
 
@@ -626,7 +626,7 @@ static double longest_step(const dlca_sim *s, uint64_t n_clusters)
  * gone and the later ones renumbered. A run that ran out of memory for
  * snapshots (dlca_cmd.c's snapshot_due) takes none after it and says so
  * (`stopped`): then the last may be followed by none. */
-static int check_schedule(const dlca_sim *s, const dlca_snapshot *snaps, size_t n, double every, int stopped,
+static int check_schedule(const dlca_snap_end *s, const dlca_snapshot *snaps, size_t n, double every, int stopped,
                           char *err, size_t errlen)
 {
     if (!(every > 0)) return 0; /* a run without snapshots */
@@ -647,8 +647,8 @@ static int check_schedule(const dlca_sim *s, const dlca_snapshot *snaps, size_t 
 /* The values a resumed run writes back into its cluster.h5 as they are (a
  * forged NaN time, 10^9 clusters or a site outside the box went there
  * without a word, and a NaN or negative period was taken as the run's). */
-int dlca_snapshots_check(const dlca_sim *s, const dlca_snapshot *snaps, size_t n, double every, int stopped,
-                         char *err, size_t errlen)
+int dlca_snapshots_check_end(const dlca_snap_end *s, const dlca_snapshot *snaps, size_t n, double every,
+                             int stopped, char *err, size_t errlen)
 {
     if (n ? !(isfinite(every) && every > 0) : !(every == 0 || (isfinite(every) && every > 0)))
         return pdla_errorf(PDLA_EINVAL, err, errlen, "its snapshot period %g is not a time above 0", every);
@@ -662,4 +662,11 @@ int dlca_snapshots_check(const dlca_sim *s, const dlca_snapshot *snaps, size_t n
     }
     free(seen);
     return rc ? rc : check_schedule(s, snaps, n, every, stopped, err, errlen);
+}
+
+int dlca_snapshots_check(const dlca_sim *s, const dlca_snapshot *snaps, size_t n, double every, int stopped,
+                         char *err, size_t errlen)
+{
+    const dlca_snap_end e = {s->t, s->attempts, s->nc, s->N, s->V, s->p.mobility};
+    return dlca_snapshots_check_end(&e, snaps, n, every, stopped, err, errlen);
 }

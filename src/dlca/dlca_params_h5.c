@@ -18,7 +18,7 @@ int dlca_write_parameters_h5(const h5u_writer *w, hid_t file, const dlca_params 
     return h5u_write_param_table(w, file, t, n, p);
 }
 
-int dlca_read_parameters_h5(hid_t file, dlca_params *p)
+int dlca_read_parameters_h5(hid_t file, dlca_params *p, int monomers)
 {
     const hid_t g = H5Gopen2(file, "parameters", H5P_DEFAULT);
     if (g < 0) return -1;
@@ -27,5 +27,6 @@ int dlca_read_parameters_h5(hid_t file, dlca_params *p)
     int rc = 0;
     for (size_t i = 0; i < n && rc == 0; i++) rc = pdla_param_read_h5(g, &t[i], p);
     if (H5Gclose(g) < 0) rc = -1;
-    return rc == 0 && dlca_params_validate(p, NULL, 0) == 0 ? 0 : -1;
+    if (rc) return -1;
+    return (monomers ? dlca_params_validate(p, NULL, 0) : dlca_params_validate_start(p, NULL, 0)) == 0 ? 0 : -1;
 }

@@ -215,6 +215,32 @@ static inline void view_of(const dlca_sim *s, uint32_t c, dlca_view *v)
  * names, so that compaction changes nothing of the history). */
 static inline uint32_t dlca_slot_id(const dlca_sim *s, uint64_t c) { return s->id ? s->id[c] : (uint32_t)c; }
 
+/* The radius of gyration of n monomers at offsets off[n][d] from their
+ * cluster's anchor, in lattice units: what /clusters/rg holds
+ * (dlca_cluster_table). One function, so that `pdla check`
+ * (dlca_check.c), which rebuilds the offsets by walking the cluster's face
+ * contacts, sums them in the same order and compares bit for bit. */
+double dlca_rg_offsets(const dlca_off *off, uint32_t n, int d);
+
+/* Is row w of a series, after prev (NULL for the first), one the run
+ * could have written before ending at end (its t, attempts, n_clusters
+ * and largest) with N monomers? NULL, or the first field that is not
+ * (dlca_state.c: the checkpoint loader and `pdla check`). */
+const char *dlca_row_fault(const dlca_row *w, const dlca_row *prev, const dlca_row *end, uint64_t N);
+
+/* The end of a run as the snapshot checks see it: the run's state
+ * (dlca_snapshots_check), or what a cluster.h5 records of it (`pdla
+ * check`, dlca_check_h5.c). mobility: gamma (the longest step of an
+ * attempt depends on it). */
+typedef struct dlca_snap_end {
+    double t;
+    uint64_t attempts, n_clusters, N, V;
+    double mobility;
+} dlca_snap_end;
+/* dlca_snapshots_check against e. */
+int dlca_snapshots_check_end(const dlca_snap_end *e, const dlca_snapshot *snaps, size_t n, double every,
+                             int stopped, char *err, size_t errlen);
+
 /* Shared between dlca.c and dlca_state.c. */
 void dlca_sim_free(dlca_sim *s);
 /* The arrays of a simulation of p with N monomers, nothing placed. */

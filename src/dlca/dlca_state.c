@@ -560,25 +560,34 @@ static int check_counters(const dlca_sim *s, char *why, size_t whylen)
     return 0;
 }
 
-/* Row r of the series after row r - 1 (prev, NULL for the first), against
- * the state: times and attempts in order and not past the state's, N_c
- * not rising and not below the state's, each row later than the one before
+/* Row w of a series after prev (NULL for the first), against the state at
+ * the series' end (end: its t, attempts, n_clusters and largest; N its
+ * monomers): times and attempts in order and not past the end's, N_c not
+ * rising and not below the end's, each row later than the one before
  * (fewer clusters: N_c fell by 1%; or more attempts: the row of a stop),
- * the largest size growing and not above the state's, the two average
- * sizes finite in [1, N] (the series is written to cluster.h5 as it is: a
- * forged NaN or 10^9 clusters went there without a word). */
+ * the largest size growing and not above the end's, the two average sizes
+ * finite in [1, N] (the series is written to cluster.h5 as it is: a forged
+ * NaN or 10^9 clusters went there without a word). NULL, or the first
+ * field out of range. The loader and `pdla check` (dlca_check_h5.c) share
+ * it, so a file and a checkpoint are held to one rule. */
+const char *dlca_row_fault(const dlca_row *w, const dlca_row *prev, const dlca_row *end, uint64_t N)
+{
+    if (!isfinite(w->t) || w->t < (prev ? prev->t : 0) || w->t > end->t) return "t";
+    if (w->attempts > end->attempts || (prev && w->attempts < prev->attempts)) return "attempts";
+    if (w->n_clusters < end->n_clusters || w->n_clusters > (prev ? prev->n_clusters : N) ||
+        (prev && w->n_clusters == prev->n_clusters && w->attempts == prev->attempts))
+        return "n_clusters";
+    if (w->largest < 1 || w->largest > end->largest || (prev && w->largest < prev->largest)) return "largest";
+    if (!(w->mean_size >= 1 && w->mean_size <= (double)N)) return "mean_size";
+    if (!(w->weight_size >= 1 && w->weight_size <= (double)N)) return "weight_size";
+    return NULL;
+}
+
+/* Row r of the series against the state (dlca_row_fault). */
 static int check_row(const dlca_sim *s, size_t r, const dlca_row *w, const dlca_row *prev, char *why, size_t whylen)
 {
-    const double N = (double)s->N;
-    const char *bad = NULL;
-    if (!isfinite(w->t) || w->t < (prev ? prev->t : 0) || w->t > s->t) bad = "t";
-    else if (w->attempts > s->attempts || (prev && w->attempts < prev->attempts)) bad = "attempts";
-    else if (w->n_clusters < s->nc || w->n_clusters > (prev ? prev->n_clusters : s->N) ||
-             (prev && w->n_clusters == prev->n_clusters && w->attempts == prev->attempts))
-        bad = "n_clusters";
-    else if (w->largest < 1 || w->largest > s->largest || (prev && w->largest < prev->largest)) bad = "largest";
-    else if (!(w->mean_size >= 1 && w->mean_size <= N)) bad = "mean_size";
-    else if (!(w->weight_size >= 1 && w->weight_size <= N)) bad = "weight_size";
+    const dlca_row end = {.t = s->t, .attempts = s->attempts, .n_clusters = s->nc, .largest = s->largest};
+    const char *bad = dlca_row_fault(w, prev, &end, s->N);
     if (bad) LOAD_FAIL(PDLA_EIO, "its series row %zu has %s out of range (or out of order)", r, bad);
     return 0;
 }
@@ -635,7 +644,7 @@ static int load_state(dlca_sim **out, hid_t f, char *why, size_t whylen)
 {
     dlca_params p; /* the parameters, through the table: every field the writer wrote */
     dlca_params_default(&p);
-    if (dlca_read_parameters_h5(f, &p)) LOAD_FAIL(PDLA_EIO, "not a DLCA checkpoint (no readable /parameters)");
+    if (dlca_read_parameters_h5(f, &p, 1)) LOAD_FAIL(PDLA_EIO, "not a DLCA checkpoint (no readable /parameters)");
     uint64_t u[CK_NU];
     double dv[CK_ND];
     if (ck_read(f, "u64", PDLA_H5_U64, u, CK_NU) || ck_read(f, "f64", PDLA_H5_F64, dv, CK_ND))

@@ -293,6 +293,94 @@ PDLA_API int dlca_checkpoint_schedule(const dlca_sim *s, dlca_ckpt_schedule *sc)
 /* New stop conditions for a resumed run; returns the stop they give now. */
 PDLA_API int dlca_set_stops(dlca_sim *s, uint64_t until_clusters, double until_time, uint64_t max_attempts);
 
+/* ---- `pdla check` of a DLCA file ----------------------------------------
+ * dlca_check_file reads a DLCA cluster.h5 (root attribute model = "dlca")
+ * or checkpoint ("dlca-checkpoint") and checks it against what a run
+ * writes, exactly, in integers where the values are integers:
+ *  - every monomer's position inside the box and its /monomers/site the
+ *    k-index of that position; no two monomers on one site;
+ *  - the cluster numbers 0, 1, ..., N_c - 1 in monomer order, each
+ *    cluster's monomers together (as the writer numbers them);
+ *  - each cluster one face-connected piece on the periodic lattice, and,
+ *    with sticking 1, no two clusters face-adjacent (a move joins every
+ *    contact, a start every adjacent pair, and the step that spans the box
+ *    joins all of its contacts too);
+ *  - a spanning stop proved by a cluster that spans (a walk over its face
+ *    contacts reaches an extent of L on an axis or winds round the torus),
+ *    and no cluster spanning under any other stop;
+ *  - /clusters/size the clusters' monomer counts, and /clusters/rg
+ *    recomputed by the engine's own function (dlca_rg_offsets) from the
+ *    offsets the walk gives, bit for bit; a spanning cluster's offsets
+ *    depend on its history (dlca.c, append), so its R_g is only bounded;
+ *  - /results: n_monomers, n_clusters, largest, mean and weight-average
+ *    size (bit for bit), merges = N - N_c, the move counters, the search
+ *    used, D_f and D_f_err (dlca_fractal_dim of the stored table, bit for
+ *    bit), and the stop against the state and the stops asked;
+ *  - /series: every row in range and order (the loader's rule), its mean
+ *    size bit for bit, the first row at the start and, after a stop, the
+ *    last row the final state;
+ *  - /snapshots: as a resume checks them, and each snapshot's clusters as
+ *    the final ones (one piece each, apart with sticking 1).
+ * A checkpoint is loaded by dlca_checkpoint_load (so verified as --resume
+ * does) and its state checked the same way, its own cluster table, totals
+ * and series taking the place of the stored ones.
+ * Memory: a bit a site of the box and about 24 bytes a monomer (the file
+ * must store what it declares, and both must fit in half of this machine's
+ * memory, before anything is allocated). Reading stops once
+ * DLCA_CHECK_MAX_FAILURES failures are counted (r->stopped). */
+enum {
+    DLCA_CK_BOX,       /* a monomer outside the box */
+    DLCA_CK_SITE,      /* /monomers/site is not the k-index of the position */
+    DLCA_CK_SHARED,    /* two monomers on one site */
+    DLCA_CK_NUMBERING, /* cluster numbers not as the writer gives them */
+    DLCA_CK_PIECES,    /* a cluster that is not one face-connected piece */
+    DLCA_CK_TOUCH,     /* two clusters face-adjacent with sticking 1 */
+    DLCA_CK_SPANNING,  /* the stop and the clusters disagree about spanning */
+    DLCA_CK_SIZE,      /* /clusters/size, or its length */
+    DLCA_CK_RG,        /* /clusters/rg, or its length */
+    DLCA_CK_RESULTS,   /* a /results value */
+    DLCA_CK_STOP,      /* /results stop against the state and the stops asked */
+    DLCA_CK_SERIES,    /* /series */
+    DLCA_CK_SNAPSHOTS, /* /snapshots */
+    DLCA_CK_KINDS
+};
+#define DLCA_CHECK_MAX_FAILURES 10000u
+
+typedef struct dlca_check_report {
+    int checkpoint;             /* 1: a checkpoint, 0: a cluster.h5 */
+    int dim;
+    uint64_t box[DLCA_MAX_DIM];
+    double sticking;
+    uint64_t monomers;          /* rows of /monomers (N) */
+    uint64_t clusters;          /* clusters numbered in /monomers */
+    uint64_t largest;           /* the largest of them */
+    char stop[16];              /* /results stop */
+    uint64_t spanning;          /* clusters that span the box */
+    uint64_t rg_exact;          /* R_g values recomputed and compared bit for bit */
+    uint64_t rg_bounded;        /* R_g values of spanning clusters, only bounded */
+    uint64_t series_rows;
+    uint64_t snapshots;
+    int stopped;                /* reading stopped at DLCA_CHECK_MAX_FAILURES */
+    uint64_t fail[DLCA_CK_KINDS];
+    char first[DLCA_CK_KINDS][256]; /* the first failure of each kind, in words */
+    int pass;                   /* 1: no failure and every check ran */
+} dlca_check_report;
+
+/* The kind's name: "box", "site", "shared", "numbering", "pieces",
+ * "touch", "spanning", "size", "rg", "results", "stop", "series",
+ * "snapshots" (JSON keys of `pdla check --json`); NULL past the last. */
+PDLA_API const char *dlca_check_kind_name(int kind);
+/* 1 if path is a regular HDF5 file whose root attribute model is "dlca" or
+ * "dlca-checkpoint" (quietly, never opening a FIFO), else 0. */
+PDLA_API int dlca_check_wanted(const char *path);
+/* Check path as above into *r. 0: checked (r->pass says whether it
+ * passes); PDLA_EINVAL: not a DLCA file, or one pdla cannot have written
+ * (a dataset missing, of another type or shape, declaring more than the
+ * file stores, /parameters out of the model's ranges: err says which);
+ * PDLA_EIO: the checkpoint loader refused it as damaged, or a read failed
+ * midway; PDLA_ENOMEM. */
+PDLA_API int dlca_check_file(const char *path, dlca_check_report *r, char *err, size_t errlen);
+
 /* ---- the parameter table ----------------------------------------------
  * Rows of the shared machinery (pdla/params.h, models = PDLA_MODEL_DLCA): the
  * options and scene keys are the rows' `option`, the /parameters attributes

@@ -6,7 +6,7 @@
  * and the R_g series recomputed exactly and compared with what the file
  * stores. Exit 0 when everything holds, 1 when something does not (the
  * report says what, and one line on stderr), 2 for bad usage or a file that
- * is not a DLA cluster file.
+ * is not a DLA cluster file. A DLCA file goes to check_dlca.c.
  */
 #include <getopt.h>
 #include <inttypes.h>
@@ -15,7 +15,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dlca_cmd.h"
 #include "h5read.h"
+#include "pdla/dlca.h"
 #include "pdla/h5check.h"
 #include "pdla/pdla.h"
 #include "tools.h"
@@ -31,13 +33,23 @@ static const char check_help[] =
     "Time and memory are about those of inserting the particles into pdla's\n"
     "tree (4-5 bytes a particle). It stops reading after 10000 failures.\n"
     "\n"
+    "A DLCA cluster.h5 or checkpoint (--model dlca) is checked against what the\n"
+    "model writes, exactly: every monomer inside the box, on its own site;\n"
+    "clusters numbered in monomer order, each one face-connected piece on the\n"
+    "torus, none touching another with sticking 1; a spanning stop proved by a\n"
+    "walk over a cluster's contacts, and no cluster spanning under another stop;\n"
+    "/clusters size and R_g (bit for bit, from the walk's offsets), /results,\n"
+    "the stop, /series and /snapshots recomputed from the monomers.\n"
+    "\n"
     "  --json     one JSON object on stdout instead of text\n"
     "  -h, --help print this help and exit\n"
     "\n"
     "Exit status: 0 the file passes; 1 it fails a check (the report says\n"
     "which), a read failed, the checkpoint loader refused it as damaged, or it\n"
     "is an HDF5 file that HDF5 cannot open (truncated);\n"
-    "2 bad usage or a file that is not a DLA cluster file or checkpoint.\n";
+    "2 bad usage or a file that is not a DLA or DLCA cluster file or\n"
+    "checkpoint (or a DLCA file pdla cannot have written: a dataset missing or\n"
+    "declaring more than the file stores, /parameters out of range).\n";
 
 /* Reading stops after this many failures: a forged file of 10^12 rows at
  * one point would otherwise cost quadratic time. */
@@ -390,6 +402,7 @@ int tool_check(int argc, char **argv)
         }
     }
     if (tools_one_file("check", optind, argc)) return TOOL_USAGE;
+    if (dlca_check_wanted(argv[optind])) return dlca_check_main(argv[optind], json); /* model dlca: check_dlca.c */
     if (is_dla_checkpoint(argv[optind])) return check_checkpoint(argv[optind], json);
     char err[1024];
     h5r_file f;

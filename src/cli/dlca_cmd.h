@@ -24,6 +24,9 @@ int dlca_tool_file(int argc, char **argv);
 /* `pdla render` and `pdla analyze` of a DLCA file (dlca_tools.c). */
 int dlca_render_main(int argc, char **argv);
 int dlca_analyze_main(int argc, char **argv);
+/* `pdla check` of a DLCA cluster.h5 or checkpoint (check_dlca.c; check.c
+ * hands over a file for which dlca_check_wanted holds); the exit status. */
+int dlca_check_main(const char *path, int json);
 /* /parameters dim (2..DLCA_MAX_DIM) and box (L, dim lengths of 1 to
  * DLCA_MAX_AXIS, fewer than 2^31 sites) of the open DLCA file f, through
  * the checked readers (dlca_tools.c; export reads it too). 0, or -1 with

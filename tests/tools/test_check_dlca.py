@@ -1,0 +1,387 @@
+#!/usr/bin/python3
+"""test_check_dlca.py PDLA - `pdla check` of DLCA files (cluster.h5 and
+checkpoint.h5; src/dlca/dlca_check*.c, src/cli/check_dlca.c).
+
+Pass (exit 0, "result       pass", every check's line): grown 2D, 3D, 4D
+and 5D files; --search boxes and allpairs; --mobility, --drift and
+--sticking < 1; stops by clusters, time, attempts and spanning (2D and a
+4D box of side 6); --snapshot-every; a --start text file and a --start
+cluster.h5; a run resumed from its checkpoint; a run stopped by SIGINT
+(stop "running"); checkpoints (model dlca-checkpoint), with snapshots.
+--json gives one object with every check's count.
+
+Fail (exit 1, the report naming the check, one line on stderr), each on a
+copy of a passing file changed in one way: a monomer moved onto another's
+site (shared); a leaf monomer moved to an empty site away from everything
+(pieces); a lone monomer moved next to another cluster (touch); a
+position outside the box (box); a /monomers/site that is not its
+position's (site); two clusters' numbers swapped (numbering); /results
+n_clusters + 1 and weight_average_size one ulp up (results); a
+/clusters/size + 1 (size); a /clusters/rg one ulp up (rg); the series' last
+row's largest - 1 (series); the stop 'clusters' made 'time' (stop), a
+spanning stop made 'clusters' and a clusters stop made 'spanning'
+(spanning); a lone monomer moved next to another cluster in snapshot 0
+(snapshots) and a snapshot count above the snapshots held (snapshots);
+every monomer on one site, 13000 monomers: reading stops at 10000 failures.
+A checkpoint the loader refuses (merges forged) fails with the loader's
+line; one whose series row's mean size is one ulp off, which the loader
+takes (it checks a range), fails the series check.
+
+Refused (exit 2, one line on stderr, nothing on stdout): /monomers/cluster,
+/clusters and /series/largest missing; /monomers/position declaring 2^40
+rows the file does not store; a box of 100000 x 100000 (over the model's
+axis limit, before any bitmap); format_version 2. A forged box of
+16384 x 16384 (within the limits: a 32 MiB bitmap) fails in bounded memory
+(peak RSS under 200 MB). /results missing fails (exit 1, results).
+"""
+import json
+import os
+import resource
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+import h5py
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "reliab"))
+from reliab_util import Tally  # noqa: E402
+
+T = Tally()
+PDLA = sys.argv[1]
+KINDS = ["box", "site", "shared", "numbering", "pieces", "touch", "spanning", "size", "rg", "results", "stop",
+         "series", "snapshots"]
+
+
+def run(args, timeout=120):
+    p = subprocess.run(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL,
+                       timeout=timeout)
+    return p.returncode, p.stdout.decode(errors="replace"), p.stderr.decode(errors="replace")
+
+
+def grow(tmp, name, args, ckpt=False):
+    out = os.path.join(tmp, name)
+    rc, _, err = run([PDLA, "--model", "dlca", *args, "--out", out, "-q"] + (["--checkpoint"] if ckpt else []))
+    T.check(rc == 0, "grow %s: rc %d %s" % (name, rc, err))
+    return out
+
+
+def check(path, want_rc, kinds=(), what=""):
+    """pdla check PATH: the exit status, and for a failure the kinds named
+    FAILED in the report (and only those when kinds is given exactly)."""
+    rc, out, err = run([PDLA, "check", path])
+    T.check(rc == want_rc, "%s: rc %d, want %d\n%s%s" % (what, rc, want_rc, out, err))
+    if want_rc == 0:
+        T.check(out.endswith("result       pass\n") and err == "", "%s: report %r %r" % (what, out, err))
+        T.check(all(("\n%-12s " % k) in out for k in KINDS), "%s: a check's line is missing\n%s" % (what, out))
+    if want_rc == 1 and kinds:
+        failed = [k for k in KINDS if ("\n%-12s " % k) in out and out.split("\n%-12s " % k)[1].split("\n")[0]
+                  .split(" ")[1:2] == ["FAILED;"]]
+        for k in kinds:
+            T.check(k in failed, "%s: %s not named in the report (failed: %s)\n%s" % (what, k, failed, out))
+        T.check(err.count("\n") == 1 and "fails the check" in err and kinds[0] in err,
+                "%s: stderr %r" % (what, err))
+    if want_rc == 2:
+        T.check(out == "" and err.count("\n") == 1 and err.startswith("pdla check: "),
+                "%s: want one line on stderr, got %r / %r" % (what, out, err))
+    return out, err
+
+
+def forged(src, tmp, name, fn):
+    dst = os.path.join(tmp, name + ".h5")
+    shutil.copyfile(src, dst)
+    with h5py.File(dst, "r+") as f:
+        fn(f)
+    return dst
+
+
+def passing(tmp):
+    runs = {}
+    runs["2d"] = grow(tmp, "2d", ["--dim", "2", "--box", "64", "--fill", "0.05", "--until-clusters", "60",
+                                  "--seed", "1"], ckpt=True)
+    runs["span"] = grow(tmp, "span", ["--dim", "2", "--box", "32", "--fill", "0.3", "--seed", "1"], ckpt=True)
+    runs["3d"] = grow(tmp, "3d", ["--dim", "3", "--box", "16", "--fill", "0.08", "--search", "boxes", "--seed", "2"])
+    runs["3dr"] = grow(tmp, "3dr", ["--dim", "3", "--box", "12x16x20", "--fill", "0.05", "--mobility", "-0.5",
+                                    "--until-time", "40", "--seed", "3"])
+    runs["4d"] = grow(tmp, "4d", ["--dim", "4", "--box", "6", "--fill", "0.1", "--seed", "4"])
+    runs["5d"] = grow(tmp, "5d", ["--dim", "5", "--box", "5", "--fill", "0.08", "--search", "allpairs",
+                                  "--max-attempts", "2000", "--seed", "5"])
+    runs["soft"] = grow(tmp, "soft", ["--dim", "2", "--box", "64", "--fill", "0.08", "--sticking", "0.6",
+                                      "--drift", "0.2", "--mobility", "0.5", "--until-clusters", "20", "--seed", "6"])
+    runs["snap"] = grow(tmp, "snap", ["--dim", "2", "--box", "64", "--fill", "0.05", "--snapshot-every", "3",
+                                      "--until-clusters", "30", "--seed", "7"], ckpt=True)
+    txt = os.path.join(tmp, "start.txt")
+    with open(txt, "w") as f:
+        f.write("# a start file\n0 0\n1 0\n5 5\n10 3\n31 31\n0 31\n")
+    runs["start"] = grow(tmp, "start", ["--dim", "2", "--box", "32", "--start", txt, "--seed", "8"])
+    runs["starth5"] = grow(tmp, "starth5", ["--dim", "2", "--box", "64x80", "--until-clusters", "5", "--start",
+                                            os.path.join(runs["2d"], "cluster.h5")])
+    runs["resumed"] = grow(tmp, "resumed", ["--dim", "2", "--box", "128", "--fill", "0.03", "--max-attempts", "5000",
+                                            "--seed", "9"], ckpt=True)
+    rc, _, err = run([PDLA, "--model", "dlca", "--resume", runs["resumed"], "--max-attempts", "20000", "-q"])
+    T.check(rc == 0, "resume: %s" % err)
+    for name, d in sorted(runs.items()):
+        check(os.path.join(d, "cluster.h5"), 0, (), "grown " + name)
+        if os.path.exists(os.path.join(d, "checkpoint.h5")):
+            check(os.path.join(d, "checkpoint.h5"), 0, (), "checkpoint " + name)
+    return runs
+
+
+def signal_stop(tmp):
+    """A run stopped by SIGINT writes stop 'running' and a checkpoint."""
+    out = os.path.join(tmp, "sig")
+    p = subprocess.Popen([PDLA, "--model", "dlca", "--dim", "2", "--box", "1024", "--fill", "0.03", "--out", out,
+                          "-q", "--checkpoint"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(0.3)  # the run takes minutes to one cluster
+    p.send_signal(signal.SIGINT)
+    p.wait(timeout=60)
+    o, _ = check(os.path.join(out, "cluster.h5"), 0, (), "stopped by SIGINT")
+    T.check("stop running" in o, "SIGINT run: %s" % o)
+    check(os.path.join(out, "checkpoint.h5"), 0, (), "checkpoint of a SIGINT stop")
+
+
+def json_report(runs):
+    rc, out, err = run([PDLA, "check", "--json", os.path.join(runs["span"], "cluster.h5")])
+    try:
+        j = json.loads(out)
+    except ValueError:
+        j = {}
+    T.check(rc == 0 and j.get("pass") is True and j.get("stop") == "spanning" and j.get("spanning_clusters", 0) >= 1
+            and j.get("rg_bounded", 0) >= 1 and sorted(j.get("failures", {})) == sorted(KINDS)
+            and all(v == {"count": 0, "first": None} for v in j["failures"].values()),
+            "json of a spanning run: %d %r %r" % (rc, out, err))
+
+
+# ---- forging helpers ----------------------------------------------------------
+
+def arrays(f):
+    L = [int(v) for v in f["parameters"].attrs["box"]]
+    pos = f["monomers/position"][:].astype(np.int64)
+    cl = f["monomers/cluster"][:]
+    return L, pos, cl
+
+
+def site_of(L, x):
+    k, s = 0, 1
+    for a, v in enumerate(x):
+        k += (int(v) % L[a]) * s
+        s *= L[a]
+    return k
+
+
+def neighbours(L, x):
+    for a in range(len(L)):
+        for sg in (1, -1):
+            y = list(x)
+            y[a] = (y[a] + sg) % L[a]
+            yield tuple(y)
+
+
+def occupancy(pos):
+    return {tuple(int(v) for v in p): i for i, p in enumerate(pos)}
+
+
+def put(f, L, pos, i, x):
+    """Monomer i to site x, position and site both."""
+    p = f["monomers/position"]
+    row = p[i]
+    row[:] = x
+    p[i] = row
+    s = f["monomers/site"]
+    s[i] = site_of(L, x)
+
+
+def all_sites(L):
+    return [tuple(int(v) for v in np.unravel_index(k, L[::-1])[::-1]) for k in range(int(np.prod(L)))]
+
+
+def move_apart(f):
+    """A leaf monomer of the largest cluster to a site with no neighbour."""
+    L, pos, cl = arrays(f)
+    occ = occupancy(pos)
+    big = np.bincount(cl).argmax()
+    for i in np.nonzero(cl == big)[0]:
+        own = [occ[y] for y in neighbours(L, tuple(pos[i])) if y in occ]
+        if len(own) == 1 and i != np.nonzero(cl == big)[0][0]:
+            break
+    for x in all_sites(L):
+        if x not in occ and not any(y in occ for y in neighbours(L, x)):
+            put(f, L, pos, int(i), x)
+            return
+    raise RuntimeError("no free site")
+
+
+def lone_next_to(L, pos, cl, sizes, site_of_row=None):
+    """(i, x): a lone monomer i and an empty site x beside one monomer of
+    another cluster, its other neighbours empty."""
+    occ = occupancy(pos)
+    lone = [i for i in range(len(cl)) if sizes[cl[i]] == 1]
+    for i in lone:
+        for j in range(len(cl)):
+            if cl[j] == cl[i]:
+                continue
+            for x in neighbours(L, tuple(pos[j])):
+                if x in occ:
+                    continue
+                near = [occ[y] for y in neighbours(L, x) if y in occ and occ[y] != i]
+                if near == [j]:
+                    return i, x
+    raise RuntimeError("no lone monomer to move")
+
+
+def make_touch(f):
+    L, pos, cl = arrays(f)
+    i, x = lone_next_to(L, pos, cl, np.bincount(cl))
+    put(f, L, pos, i, x)
+
+
+def move_onto(f):
+    L, pos, cl = arrays(f)
+    big = np.bincount(cl).argmax()
+    i = int(np.nonzero(cl == big)[0][1])
+    j = int(np.nonzero(cl != big)[0][0])
+    put(f, L, pos, i, tuple(pos[j]))
+
+
+def outside(f):
+    p = f["monomers/position"]
+    row = p[3]
+    row[0] = f["parameters"].attrs["box"][0]
+    p[3] = row
+
+
+def bump(ds, i, fn):
+    v = ds[...]
+    v[i] = fn(v[i])
+    ds[...] = v
+
+
+def swap_numbers(f):
+    cl = f["monomers/cluster"][:]
+    a, b = cl == 0, cl == 1
+    cl[a], cl[b] = 1, 0
+    f["monomers/cluster"][...] = cl
+
+
+def set_attr(group, name, value):
+    group.attrs.modify(name, value)
+
+
+def snapshot_touch(f):
+    L = [int(v) for v in f["parameters"].attrs["box"]]
+    g = f["snapshots/0"]
+    sites = g["site"][:]
+    cl = g["cluster"][:]
+    pos = np.array([[(int(k) // int(np.prod(L[:a]))) % L[a] for a in range(len(L))] for k in sites])
+    i, x = lone_next_to(L, pos, cl, np.bincount(cl))
+    sites[i] = site_of(L, x)
+    g["site"][...] = sites
+
+
+def forgeries(runs, tmp):
+    c2 = os.path.join(runs["2d"], "cluster.h5")
+    ulp_up = np.nextafter
+    cases = [
+        (c2, "shared", move_onto, ["shared"]),
+        (c2, "apart", move_apart, ["pieces"]),
+        (c2, "touch", make_touch, ["touch"]),
+        (c2, "outside", outside, ["box"]),
+        (c2, "site", lambda f: bump(f["monomers/site"], 5, lambda v: v ^ 1), ["site"]),
+        (c2, "numbering", swap_numbers, ["numbering"]),
+        (c2, "nclusters", lambda f: set_attr(f["results"], "n_clusters", np.uint64(61)), ["results"]),
+        (c2, "weight", lambda f: set_attr(f["results"], "weight_average_size",
+                                          ulp_up(f["results"].attrs["weight_average_size"], 1e300)), ["results"]),
+        (c2, "size", lambda f: bump(f["clusters/size"], 2, lambda v: v + 1), ["size"]),
+        (c2, "rg", lambda f: bump(f["clusters/rg"], 0, lambda v: ulp_up(v, 1e300)), ["rg"]),
+        (c2, "series", lambda f: bump(f["series/largest"], -1, lambda v: v - 1), ["series"]),
+        (c2, "stop", lambda f: set_attr(f["results"], "stop", "time"), ["stop"]),
+        (c2, "claim", lambda f: set_attr(f["results"], "stop", "spanning"), ["spanning"]),
+        (os.path.join(runs["span"], "cluster.h5"), "unclaimed", lambda f: set_attr(f["results"], "stop", "clusters"),
+         ["spanning"]),
+        (os.path.join(runs["snap"], "cluster.h5"), "snaptouch", snapshot_touch, ["snapshots"]),
+        (os.path.join(runs["snap"], "cluster.h5"), "snapcount",
+         lambda f: set_attr(f["snapshots"], "count", np.uint64(f["snapshots"].attrs["count"] + 1)), ["snapshots"]),
+        (os.path.join(runs["soft"], "cluster.h5"), "softapart", move_apart, ["pieces"]),
+    ]
+    for src, name, fn, kinds in cases:
+        check(forged(src, tmp, name, fn), 1, kinds, "forged " + name)
+
+
+def checkpoint_forgeries(runs, tmp):
+    ck = os.path.join(runs["2d"], "checkpoint.h5")
+
+    def merges(f):
+        u = f["u64"][:]
+        u[3] += 1  # CK_U_MRG
+        f["u64"][...] = u
+    o, e = check(forged(ck, tmp, "ckmerges", merges), 1, (), "checkpoint the loader refuses")
+    T.check(o == "" and "merges counter" in e and e.count("\n") == 1, "loader refusal: %r %r" % (o, e))
+
+    def mean(f):
+        r = f["rows_f64"][:]
+        r[3 * 1 + 1] = np.nextafter(r[3 * 1 + 1], 1e300)  # row 1's mean size
+        f["rows_f64"][...] = r
+    check(forged(ck, tmp, "ckmean", mean), 1, ["series"], "checkpoint with a row's mean size off by one ulp")
+
+
+def many_failures(tmp):
+    d = grow(tmp, "many", ["--dim", "2", "--box", "512", "--fill", "0.05", "--max-attempts", "100", "--seed", "1"])
+
+    def one_site(f):
+        f["monomers/position"][...] = np.zeros(f["monomers/position"].shape, np.int32)
+        f["monomers/site"][...] = np.zeros(f["monomers/site"].shape, np.uint32)
+    t0 = time.time()
+    o, _ = check(forged(os.path.join(d, "cluster.h5"), tmp, "onesite", one_site), 1, ["shared"], "all on one site")
+    T.check("STOPPED after 10000 failures" in o and "10000 FAILED" in o and time.time() - t0 < 5,
+            "failure cap: %.1f s\n%s" % (time.time() - t0, o))
+
+
+def peak_rss_kb(args):
+    code = ("import resource, subprocess, sys; p = subprocess.run(sys.argv[1:], capture_output=True); "
+            "print(p.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
+    p = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, timeout=120)
+    rc, kb = p.stdout.decode().split()
+    return int(rc), int(kb)
+
+
+def hostile(runs, tmp):
+    c2 = os.path.join(runs["2d"], "cluster.h5")
+    for name, fn in (("nocluster", lambda f: f["monomers"].__delitem__("cluster")),
+                     ("noclusters", lambda f: f.__delitem__("clusters")),
+                     ("noseries", lambda f: f["series"].__delitem__("largest")),
+                     ("version", lambda f: set_attr(f, "format_version", np.int32(2))),
+                     ("hugebox", lambda f: set_attr(f["parameters"], "box", np.array([100000, 100000], np.uint64)))):
+        check(forged(c2, tmp, name, fn), 2, (), "refused " + name)
+
+    def declared(f):
+        del f["monomers/position"]
+        f["monomers"].create_dataset("position", shape=(2 ** 40, 2), dtype="<i4", chunks=(65536, 2))
+    _, e = check(forged(c2, tmp, "declared", declared), 2, (), "2^40 rows declared")
+    T.check("more than the file stores" in e, "declared rows: %r" % e)
+    check(forged(c2, tmp, "noresults", lambda f: f.__delitem__("results")), 1, ["results"], "no /results")
+    big = forged(c2, tmp, "bigbox", lambda f: set_attr(f["parameters"], "box", np.array([16384, 16384], np.uint64)))
+    rc, kb = peak_rss_kb([PDLA, "check", big])
+    T.check(rc == 1 and kb < 200000, "16384^2 box: rc %d, peak RSS %d kB" % (rc, kb))
+
+
+def main():
+    tmp = tempfile.mkdtemp(prefix="pdla-check-dlca-")
+    t0 = time.time()
+    try:
+        runs = passing(tmp)
+        signal_stop(tmp)
+        json_report(runs)
+        forgeries(runs, tmp)
+        checkpoint_forgeries(runs, tmp)
+        many_failures(tmp)
+        hostile(runs, tmp)
+        print("%.1f s" % (time.time() - t0))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    T.done()
+
+
+main()

@@ -4,8 +4,8 @@ checkpoint.h5; src/dlca/dlca_check*.c, src/cli/check_dlca.c).
 
 Pass (exit 0, "result       pass", every check's line): grown 2D, 3D, 4D
 and 5D files; --search boxes and allpairs; --mobility, --drift and
---sticking < 1; stops by clusters, time, attempts and spanning (2D and a
-4D box of side 6); --snapshot-every; a --start text file and a --start
+--sticking < 1; stops by clusters (2D), time (3D), attempts (5D) and
+spanning (2D and a 4D box of side 6), each asserted; --snapshot-every; a --start text file and a --start
 cluster.h5; a run resumed from its checkpoint; a run stopped by SIGINT
 (stop "running"); checkpoints (model dlca-checkpoint), with snapshots.
 --json gives one object with every check's count.
@@ -33,6 +33,12 @@ rows the file does not store; a box of 100000 x 100000 (over the model's
 axis limit, before any bitmap); format_version 2. A forged box of
 16384 x 16384 (within the limits: a 32 MiB bitmap) fails in bounded memory
 (peak RSS under 200 MB). /results missing fails (exit 1, results).
+104858 monomers in a 1024^2 box peak under 80 bytes a monomer (and the
+box's bit a site) above a small file's check.
+
+test_check_dlca.py PDLA --shim FAULTSHIM (test tools-check-dlca-memory):
+under FAULT_PHYS_PAGES=4, a 16 KiB machine, a cluster.h5 and a checkpoint
+are refused before the check allocates (exit 1, one line).
 """
 import json
 import os
@@ -48,7 +54,7 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "reliab"))
-from reliab_util import Tally  # noqa: E402
+from reliab_util import Tally, shim_preload  # noqa: E402
 
 T = Tally()
 PDLA = sys.argv[1]
@@ -107,8 +113,8 @@ def passing(tmp):
     runs["3dr"] = grow(tmp, "3dr", ["--dim", "3", "--box", "12x16x20", "--fill", "0.05", "--mobility", "-0.5",
                                     "--until-time", "40", "--seed", "3"])
     runs["4d"] = grow(tmp, "4d", ["--dim", "4", "--box", "6", "--fill", "0.1", "--seed", "4"])
-    runs["5d"] = grow(tmp, "5d", ["--dim", "5", "--box", "5", "--fill", "0.08", "--search", "allpairs",
-                                  "--max-attempts", "2000", "--seed", "5"])
+    runs["5d"] = grow(tmp, "5d", ["--dim", "5", "--box", "8", "--fill", "0.02", "--search", "allpairs",
+                                  "--max-attempts", "200", "--seed", "5"])
     runs["soft"] = grow(tmp, "soft", ["--dim", "2", "--box", "64", "--fill", "0.08", "--sticking", "0.6",
                                       "--drift", "0.2", "--mobility", "0.5", "--until-clusters", "20", "--seed", "6"])
     runs["snap"] = grow(tmp, "snap", ["--dim", "2", "--box", "64", "--fill", "0.05", "--snapshot-every", "3",
@@ -123,8 +129,11 @@ def passing(tmp):
                                             "--seed", "9"], ckpt=True)
     rc, _, err = run([PDLA, "--model", "dlca", "--resume", runs["resumed"], "--max-attempts", "20000", "-q"])
     T.check(rc == 0, "resume: %s" % err)
+    stops = {"2d": "clusters", "span": "spanning", "3dr": "time", "4d": "spanning", "5d": "attempts"}
     for name, d in sorted(runs.items()):
-        check(os.path.join(d, "cluster.h5"), 0, (), "grown " + name)
+        o, _ = check(os.path.join(d, "cluster.h5"), 0, (), "grown " + name)
+        T.check(name not in stops or "; stop %s\n" % stops[name] in o, "grown %s: not the stop %s\n%s"
+                % (name, stops.get(name), o))
         if os.path.exists(os.path.join(d, "checkpoint.h5")):
             check(os.path.join(d, "checkpoint.h5"), 0, (), "checkpoint " + name)
     return runs
@@ -367,7 +376,39 @@ def hostile(runs, tmp):
     T.check(rc == 1 and kb < 200000, "16384^2 box: rc %d, peak RSS %d kB" % (rc, kb))
 
 
+def memory(tmp):
+    """Peak RSS beyond a small file's: a bit a site and dck_fits' 56 bytes a
+    monomer in 2D (allowed 80, and 1 MB of slack)."""
+    d = grow(tmp, "mem", ["--dim", "2", "--box", "1024", "--fill", "0.1", "--max-attempts", "1", "--seed", "2"])
+    rc0, kb0 = peak_rss_kb([PDLA, "check", os.path.join(d, "..", "2d", "cluster.h5")])
+    rc, kb = peak_rss_kb([PDLA, "check", os.path.join(d, "cluster.h5")])
+    n, v = 104858, 1024 * 1024
+    T.check(rc0 == 0 and rc == 0 and kb - kb0 < (v / 8 + 80 * n) / 1024 + 1024,
+            "memory: %d kB beyond a small file's for %d monomers (rc %d %d)" % (kb - kb0, n, rc0, rc))
+
+
+def memory_refused(shim):
+    """Under faultshim's FAULT_PHYS_PAGES=4 (a 16 KiB machine) the check of
+    205 monomers (about 12 KB) is refused before it allocates, exit 1, for a
+    cluster.h5 and a checkpoint alike."""
+    tmp = tempfile.mkdtemp(prefix="pdla-check-dlca-mem-")
+    try:
+        d = grow(tmp, "small", ["--dim", "2", "--box", "64", "--fill", "0.05", "--seed", "1"], ckpt=True)
+        env = dict(os.environ, LD_PRELOAD=shim_preload(PDLA, shim), FAULT_PHYS_PAGES="4")
+        for f in ("cluster.h5", "checkpoint.h5"):
+            p = subprocess.run([PDLA, "check", os.path.join(d, f)], capture_output=True, env=env, timeout=60)
+            err = p.stderr.decode(errors="replace")
+            T.check(p.returncode == 1 and p.stdout == b"" and err.count("\n") == 1 and "half of this machine's memory"
+                    in err, "%s on a 16 KiB machine: rc %d %r" % (f, p.returncode, err))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    T.done()
+
+
 def main():
+    if sys.argv[2:3] == ["--shim"]:
+        memory_refused(sys.argv[3])
+        return
     tmp = tempfile.mkdtemp(prefix="pdla-check-dlca-")
     t0 = time.time()
     try:
@@ -378,6 +419,7 @@ def main():
         checkpoint_forgeries(runs, tmp)
         many_failures(tmp)
         hostile(runs, tmp)
+        memory(tmp)
         print("%.1f s" % (time.time() - t0))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

@@ -324,9 +324,10 @@ PDLA_API int dlca_set_stops(dlca_sim *s, uint64_t until_clusters, double until_t
  * A checkpoint is loaded by dlca_checkpoint_load (so verified as --resume
  * does) and its state checked the same way, its own cluster table, totals
  * and series taking the place of the stored ones.
- * Memory: a bit a site of the box and about 24 bytes a monomer (the file
+ * Memory: a bit a site of the box and 44 + 6d bytes a monomer (the file
  * must store what it declares, and both must fit in half of this machine's
- * memory, before anything is allocated). Reading stops once
+ * memory, before anything is allocated: else PDLA_ENOMEM), plus the
+ * snapshots as a resume holds them. Reading stops once
  * DLCA_CHECK_MAX_FAILURES failures are counted (r->stopped). */
 enum {
     DLCA_CK_BOX,       /* a monomer outside the box */
@@ -352,7 +353,7 @@ typedef struct dlca_check_report {
     uint64_t box[DLCA_MAX_DIM];
     double sticking;
     uint64_t monomers;          /* rows of /monomers (N) */
-    uint64_t clusters;          /* clusters numbered in /monomers */
+    uint64_t clusters;          /* clusters numbered in /monomers (0: the numbers are not the writer's) */
     uint64_t largest;           /* the largest of them */
     char stop[16];              /* /results stop */
     uint64_t spanning;          /* clusters that span the box */

@@ -132,8 +132,19 @@ int ev_species_of(const ev_sim *s, size_t i);
 size_t ev_sticky_count(const ev_sim *s);
 int ev_species_sticky(const ev_sim *s, int k);
 int ev_has_seed(const ev_sim *s);
+/* The seeds: the central one (0 or 1) or a --seeds file's, indices
+ * ev_count(s) .. ev_count(s) + ev_seed_count(s) - 1. */
+size_t ev_seed_count(const ev_sim *s);
 /* Stuck particles in arrival order: index and the time they stuck. */
 size_t ev_stuck_list(const ev_sim *s, const uint32_t **idx, const double **t);
+/* What particle i < ev_count(s) stuck to, as cluster.h5's /cluster/parent
+ * stores it: the particle's index, -1 - k for seed k (the central seed:
+ * -1), or INT64_MIN when i is not stuck. */
+int64_t ev_parent(const ev_sim *s, size_t i);
+/* The kinds of particles: their number, and kind k's count, radius,
+ * density and stickiness (NULL for k out of range). */
+int ev_species_count(const ev_sim *s);
+const ev_species *ev_species_get(const ev_sim *s, int k);
 /* Pressure P from the collision virial over the time [t0, t] with
  * virial sum difference dvir: (2 KE/d + dvir/(d (t - t0))) / V. */
 double ev_pressure(const ev_sim *s, double dvir, double dt);
@@ -193,5 +204,71 @@ void ev_set_checkpoint_every(ev_sim *s, double seconds);
  * recorded one (or one was set), else 0 (and *seconds 0). */
 int ev_checkpoint_every(const ev_sim *s, double *seconds);
 ev_params *ev_params_of(ev_sim *s);
+
+/* `pdla check` of an event-model file (ev_check.c): a cluster.h5, or a
+ * checkpoint.h5 loaded by ev_checkpoint_load (which verifies its own
+ * invariants, with a looser tolerance) and then checked as one. Each kind
+ * of check counts its failures and describes the first one. Geometry is
+ * compared with a tolerance relative to each pair's contact distance:
+ * EV_CHECK_TOL (the engine's stated bound, tests/event TOL) plus the
+ * round-off of two positions (64 epsilon of the box side and of the fastest
+ * speed times twice the clock, as the checkpoint loader reckons it), the
+ * round-off capped at 1e-2 of the contact distance. Overlaps are found on
+ * a grid of cells, O(N); checking stops after EV_CHECK_MAX_FAILURES. */
+#define EV_CHECK_TOL 1e-10
+#define EV_CHECK_MAX_FAILURES 10000u
+enum ev_check_kind {
+    EV_CHECK_FINITE,   /* a position, radius, velocity or time not finite */
+    EV_CHECK_BOX,      /* a centre outside the box */
+    EV_CHECK_OVERLAP,  /* two bodies (seeds, stuck, free) overlapping */
+    EV_CHECK_CONTACT,  /* a stuck particle not at contact with its parent */
+    EV_CHECK_PARENT,   /* a parent that is no seed and no earlier stuck particle */
+    EV_CHECK_ARRIVAL,  /* arrival times out of order or outside [0, time] */
+    EV_CHECK_INDEX,    /* a stuck particle's index repeated or out of range */
+    EV_CHECK_SPECIES,  /* a kind id out of range, a radius not its kind's, a bath kind stuck */
+    EV_CHECK_COUNTS,   /* counts that disagree (rows, /results, /species, particles) */
+    EV_CHECK_ENERGY,   /* kinetic energies not as recomputed or not conserved */
+    EV_CHECK_SERIES,   /* /series out of order or not ending at /results */
+    EV_CHECK_SEEDS,    /* the seeds not as their parameters describe them */
+    EV_CHECK_NKINDS
+};
+/* The kind's name in reports ("overlap", ...). */
+const char *ev_check_kind_name(int kind);
+typedef struct ev_check_item {
+    uint64_t count;      /* failures of this kind */
+    int64_t a, b;        /* the first: its row, and the other one's (-1: none); for finite, box
+                          * and overlap a body number: the seeds, then the stuck rows, then
+                          * the free rows */
+    double value, limit; /* the first: what was found and what was allowed (NaN: not a number) */
+    char first[320];     /* the first, in words */
+} ev_check_item;
+typedef struct ev_check_report {
+    int checkpoint;          /* 1: a checkpoint.h5, loaded */
+    int dim, periodic;
+    uint64_t particles;      /* stuck + free as declared */
+    uint64_t seeds, stuck, free_rows;
+    double box, time;        /* box side, the clock */
+    double round_off;        /* the tolerance's absolute part (before its cap) */
+    double worst_overlap;    /* largest (contact - distance) / contact over compared pairs (-inf: none) */
+    double worst_contact;    /* largest |distance - contact| / contact of a stuck particle and its parent */
+    double ke_free;          /* recomputed from the free velocities and the kinds' masses */
+    double ke_balance;       /* (ke_free + ke_stuck) / series' first energy - 1 (NaN: not checked) */
+    uint64_t pairs;          /* pairs of bodies compared */
+    uint64_t series_rows;
+    int series_at_end;       /* 1: the last row was compared with the end state (a run that ended) */
+    int stopped;             /* checking stopped after EV_CHECK_MAX_FAILURES */
+    uint64_t failures;
+    int pass;                /* no failure of any kind */
+    ev_check_item item[EV_CHECK_NKINDS];
+} ev_check_report;
+/* ev_check_file's returns besides 0 (checked, r filled). */
+enum { EV_CHECK_NOT_EVENT = 1, /* not an event cluster file or checkpoint (err says why) */
+       EV_CHECK_DAMAGED = 2    /* unreadable, a dataset missing or malformed, or the
+                                * checkpoint loader refused it (err has its line) */ };
+int ev_check_file(const char *path, ev_check_report *r, char *err, size_t errlen);
+/* The same checks on a loaded simulation and its series (ev_sync is called:
+ * the free particles are advanced to the clock). 0, or EV_CHECK_DAMAGED
+ * when out of memory. */
+int ev_check_sim(ev_sim *s, const ev_series *ser, ev_check_report *r, char *err, size_t errlen);
 
 #endif

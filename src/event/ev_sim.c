@@ -878,6 +878,7 @@ void ev_get_stats(const ev_sim *s, ev_stats *st)
 int ev_dim(const ev_sim *s) { return s->dim; }
 size_t ev_count(const ev_sim *s) { return s->n; }
 int ev_has_seed(const ev_sim *s) { return s->has_seed; }
+size_t ev_seed_count(const ev_sim *s) { return s->nseeds; }
 const double *ev_pos(const ev_sim *s, size_t i)
 {
     const int D = s->dim;
@@ -903,6 +904,15 @@ size_t ev_stuck_list(const ev_sim *s, const uint32_t **idx, const double **t)
     *t = s->stuck_t;
     return s->nstuck;
 }
+/* cluster.h5's encoding of a parent (ev_out.c write_cluster) */
+int64_t ev_parent(const ev_sim *s, size_t i)
+{
+    if (i >= s->n || !s->stuck[i] || s->parent[i] == UINT32_MAX) return INT64_MIN;
+    const uint32_t p = s->parent[i];
+    return p >= s->n ? -1 - (int64_t)(p - s->n) : (int64_t)p;
+}
+int ev_species_count(const ev_sim *s) { return s->nspecies; }
+const ev_species *ev_species_get(const ev_sim *s, int k) { return k >= 0 && k < s->nspecies ? &s->sp[k] : NULL; }
 
 /* The virial pressure from the free kinetic energy ke and the collision
  * virial dvir over dt (one expression for ev_pressure and the series). */

@@ -15,6 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "check_event.h"
 #include "dlca_cmd.h"
 #include "h5read.h"
 #include "pdla/dlca.h"
@@ -47,9 +48,10 @@ static const char check_help[] =
     "Exit status: 0 the file passes; 1 it fails a check (the report says\n"
     "which), a read failed, the checkpoint loader refused it as damaged, or it\n"
     "is an HDF5 file that HDF5 cannot open (truncated);\n"
-    "2 bad usage or a file that is not a DLA or DLCA cluster file or\n"
+    "2 bad usage or a file that is not a DLA, DLCA or event cluster file or\n"
     "checkpoint (or a DLCA file pdla cannot have written: a dataset missing or\n"
-    "declaring more than the file stores, /parameters out of range).\n";
+    "declaring more than the file stores, /parameters out of range).\n"
+    "\n";
 
 /* Reading stops after this many failures: a forged file of 10^12 rows at
  * one point would otherwise cost quadratic time. */
@@ -397,12 +399,17 @@ int tool_check(int argc, char **argv)
     while ((c = getopt_long(argc, argv, "h", longopts, NULL)) != -1) {
         switch (c) {
         case 'j': json = 1; break;
-        case 'h': fputs(check_help, stdout); return fflush(stdout) ? TOOL_RUNTIME : TOOL_OK;
+        case 'h':
+            fputs(check_help, stdout);
+            fputs(check_event_help, stdout);
+            return fflush(stdout) ? TOOL_RUNTIME : TOOL_OK;
         default: return tools_option_error("check", argv, optind, 0); /* no option takes a value */
         }
     }
     if (tools_one_file("check", optind, argc)) return TOOL_USAGE;
     if (dlca_check_wanted(argv[optind])) return dlca_check_main(argv[optind], json); /* model dlca: check_dlca.c */
+    const int ev = check_event(argv[optind], json); /* check_event.c: -1 when not an event file */
+    if (ev >= 0) return ev;
     if (is_dla_checkpoint(argv[optind])) return check_checkpoint(argv[optind], json);
     char err[1024];
     h5r_file f;

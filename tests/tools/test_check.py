@@ -20,9 +20,9 @@ cut to half their size (HDF5 cannot open them). A passing 2e6-row file whose
 positions are one gzip'ed chunk is read by check and analyze once, not once
 per slab (bytes read under 3x the file's size).
 
-Refused (exit 2, one line): a missing file, an event file, no eps, an
-unknown option, two files. A DLCA file is checked (test_check_dlca.py: a
-grown one passes here too).
+Refused (exit 2, one line): a missing file, no eps, an unknown option,
+two files. A DLCA file is checked (test_check_dlca.py: a grown one passes
+here too), and so is an event file (test_check_event.py).
 """
 import json
 import math
@@ -349,7 +349,7 @@ def refused(tmp):
     rc, _, err = run([PDLA, "--model", "event", "--dim", "2", "--particles", "200", "--packing", "0.05",
                       "--out", e])
     if T.check(rc == 0, "event run: %s" % err):
-        check_file(os.path.join(e, "cluster.h5"), 2, (), "event file")
+        check_file(os.path.join(e, "cluster.h5"), 0, ("model        event",), "event file (test_check_event.py)")
 
 
 def refused_args(files, tmp):

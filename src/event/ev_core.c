@@ -307,6 +307,21 @@ static void cell_remove(ev_sim *s, uint32_t i)
 
 /* ---- predictions (D is a compile-time constant at every call) ------------ */
 
+/* pred_pp's `per`: 0 walls; EV_PER_NEAR periodic, the pair in neighbouring
+ * cells of a box of >= 8 cells a side, so its true separation is at most
+ * 2 cells, L/4: the separation now from the stored states is then within
+ * L/4 of a multiple m of L, one side off (m = +-1) when a particle crossed
+ * the face since its stored state, and |rn| > 1.5 L only after a flight of
+ * more than a side (then ev_image); EV_PER_ANY periodic with no such bound
+ * (4 to 7 cells a side, where a neighbour cell reaches L/2 and the images
+ * may tie; big seeds, met from a shell of cells): every pair by ev_image. */
+enum { EV_PER_NEAR = 1, EV_PER_ANY = 2 };
+
+static inline int ev_per(const ev_sim *s)
+{
+    return !s->periodic ? 0 : s->nc >= 8 ? EV_PER_NEAR : EV_PER_ANY;
+}
+
 /* Where the image of a periodic pair must be chosen with care: |rn| above
  * this. Below it (every pair of neighbouring cells but those of 4-cell
  * boxes and long flights) the image is the one at hand. The margin is the
@@ -353,7 +368,7 @@ static inline double ev_image(double rn, double v, double half, double L)
  * bound (2D, 20 particles at packing 1e-4, periodic, seed 4). Here the
  * round-off is epsilon |r| in the separation, not its square. Depends only
  * on the stored states, as every prediction (see the top). */
-static inline double solve_far(const int D, const double *r, const double *v, double b, double vv,
+static __attribute__((noinline, cold)) double solve_far(const int D, const double *r, const double *v, double b, double vv,
                                double sig, double t0, double now)
 {
     const double s = -b / vv;
@@ -368,48 +383,93 @@ static inline double solve_far(const int D, const double *r, const double *v, do
     return t > now ? t : now;
 }
 
-/* Time at which the particles at pi and pj touch, or INF; never before
- * `now`. Depends only on the two stored states (see the top comment).
- * per/half/L: the box, passed in so a scan keeps them in registers. The
- * wrap `|r| > half: r -= sign(r) L` is the minimum image r > half ? r - L :
- * r < -half ? r + L : r, bit for bit, with one test in the usual case. */
-static inline __attribute__((always_inline)) double
-pred_pp(const int D, const double *pi, const double *pj, double now, int per, double half,
-        double L)
+/* The separation at t0 and relative velocity of the pair (pi, pj) with
+ * every periodic image chosen by ev_image (pred_pp's rare case). */
+static void rare_images(const int D, const double *pi, const double *pj, double now, double half, double L,
+                        double *r, double *v)
 {
     const double ti = pi[2 * D], tj = pj[2 * D];
-    const double t0 = ti > tj ? ti : tj; /* the time the pair is solved from */
+    const double t0 = ti > tj ? ti : tj;
     const double di = t0 - ti, dj = t0 - tj, dn = now - t0;
-    double r[3], v[3];
-    int far = 0;
     for (int k = 0; k < D; k++) {
-        r[k] = (pj[k] + pj[D + k] * dj) - (pi[k] + pi[D + k] * di);
+        const double r0 = (pj[k] + pj[D + k] * dj) - (pi[k] + pi[D + k] * di);
         v[k] = pj[D + k] - pi[D + k];
-        if (per) far |= fabs(r[k] + v[k] * dn) > ev_half_near(half, r[k] + v[k] * dn);
+        const double rn = r0 + v[k] * dn;
+        r[k] = fabs(rn) > ev_half_near(half, rn) ? r0 - L * ev_image(rn, v[k], half, L) : r0;
     }
-    if (far) /* the image is the nearest one now, not at t0 (see the top) */
-        for (int k = 0; k < D; k++) r[k] -= L * ev_image(r[k] + v[k] * dn, v[k], half, L);
-    double b = 0, rr = 0, vv = 0;
-    for (int k = 0; k < D; k++) {
-        b += r[k] * v[k];
-        rr += r[k] * r[k];
-        vv += v[k] * v[k];
-    }
+}
+
+/* The contact time from separation r at t0 and relative velocity v (b =
+ * r.v, vv = v.v), as pred_pp solves it. */
+static inline __attribute__((always_inline)) double solve(const int D, const double *r, const double *v, double b,
+                                                          double rr, double vv, double sig, double t0, double now)
+{
     if (b >= 0) return EV_INF; /* receding or at rest: no event */
-    const double sig = pi[2 * D + 1] + pj[2 * D + 1];
     const double c = rr - sig * sig;
     if (c <= 0) return t0 > now ? t0 : now; /* round-off overlap, approaching: now */
-    if (rr > EV_SOLVE_FAR2 * sig * sig) return solve_far(D, r, v, b, vv, sig, t0, now);
+    if (__builtin_expect(rr > EV_SOLVE_FAR2 * sig * sig, 0)) return solve_far(D, r, v, b, vv, sig, t0, now);
     const double disc = b * b - vv * c;
     if (disc <= 0) return EV_INF; /* miss or exact graze */
     const double t = t0 + c / (-b + sqrt(disc)); /* stable root (no cancellation) */
     return t > now ? t : now;
 }
 
+/* pred_pp's rare case, out of line: every image by ev_image. */
+static __attribute__((noinline, cold)) double pred_rare(const int D, const double *pi, const double *pj, double now,
+                                                       double half, double L)
+{
+    double r[3], v[3], b = 0, rr = 0, vv = 0;
+    rare_images(D, pi, pj, now, half, L, r, v);
+    for (int k = 0; k < D; k++) {
+        b += r[k] * v[k];
+        rr += r[k] * r[k];
+        vv += v[k] * v[k];
+    }
+    const double ti = pi[2 * D], tj = pj[2 * D];
+    return solve(D, r, v, b, rr, vv, pi[2 * D + 1] + pj[2 * D + 1], ti > tj ? ti : tj, now);
+}
+
+/* Time at which the particles at pi and pj touch, or INF; never before
+ * `now`. Depends only on the two stored states (see the top comment).
+ * per/half/L: the box, passed in so a scan keeps them in registers (per:
+ * 0 walls, or EV_PER_NEAR / EV_PER_ANY). The wrap `|r| > half: r -=
+ * sign(r) L` is the minimum image r > half ? r - L : r < -half ? r + L :
+ * r, bit for bit, with one test in the usual case; a separation beyond
+ * 1.5 L (a long flight) or a box without the neighbour bound goes to
+ * pred_rare (ev_image). */
+static inline __attribute__((always_inline)) double
+pred_pp(const int D, const double *pi, const double *pj, double now, int per, double half,
+        double L)
+{
+    if (per == EV_PER_ANY) return pred_rare(D, pi, pj, now, half, L);
+    const double ti = pi[2 * D], tj = pj[2 * D];
+    const double t0 = ti > tj ? ti : tj; /* the time the pair is solved from */
+    const double di = t0 - ti, dj = t0 - tj, dn = now - t0;
+    double r[3], v[3], b = 0, rr = 0, vv = 0;
+    int rare = 0;
+    for (int k = 0; k < D; k++) {
+        r[k] = (pj[k] + pj[D + k] * dj) - (pi[k] + pi[D + k] * di);
+        v[k] = pj[D + k] - pi[D + k];
+        if (per) {
+            /* the image is the nearest one now, not at t0 (see the top) */
+            const double rn = r[k] + v[k] * dn;
+            if (fabs(rn) > half) {
+                r[k] = rn > 0 ? r[k] - L : r[k] + L;
+                rare |= fabs(rn) > 1.5 * L;
+            }
+        }
+        b += r[k] * v[k];
+        rr += r[k] * r[k];
+        vv += v[k] * v[k];
+    }
+    if (__builtin_expect(rare, 0)) return pred_rare(D, pi, pj, now, half, L);
+    return solve(D, r, v, b, rr, vv, pi[2 * D + 1] + pj[2 * D + 1], t0, now);
+}
+
 static inline __attribute__((always_inline)) double
 pred_pair(const ev_sim *s, const int D, uint32_t i, uint32_t j, double now)
 {
-    return pred_pp(D, EV_P(s, i), EV_P(s, j), now, s->periodic, s->half, s->L);
+    return pred_pp(D, EV_P(s, i), EV_P(s, j), now, s->periodic ? EV_PER_ANY : 0, s->half, s->L);
 }
 
 /* Earliest wall event of i (elastic walls only): time, *what = 2k+side. */
@@ -537,16 +597,35 @@ pred_cell(const ev_sim *s, const int D, uint32_t i, double now, int *what)
  * divide by zero on the way (inf or NaN, no trap; the mask drops it).
  * out[0] for pa, out[1] for pb. */
 #if defined(__SSE2__)
+/* pred_pp2's rare lanes (ev_image, solve_far), out of line so the scan's
+ * loop keeps its registers. D is 2 or 3. */
+static __attribute__((noinline, cold)) void pred_pp2_slow(const int D, const double *pi, const double *pa,
+                                                          const double *pb, double now, int per, double half,
+                                                          double L, double *out)
+{
+    if (D == 2) {
+        out[0] = pred_pp(2, pi, pa, now, per, half, L);
+        out[1] = pred_pp(2, pi, pb, now, per, half, L);
+    } else {
+        out[0] = pred_pp(3, pi, pa, now, per, half, L);
+        out[1] = pred_pp(3, pi, pb, now, per, half, L);
+    }
+}
+
 static inline __attribute__((always_inline)) void
 pred_pp2(const int D, const double *pi, const double *pa, const double *pb, double now, int per,
          double half, double L, double *out)
 {
+    if (per == EV_PER_ANY) {
+        pred_pp2_slow(D, pi, pa, pb, now, per, half, L, out);
+        return;
+    }
     const __m128d sgn = _mm_set1_pd(-0.0), inf = _mm_set1_pd(EV_INF), zero = _mm_setzero_pd();
     const __m128d ti = _mm_set1_pd(pi[2 * D]), tj = _mm_set_pd(pb[2 * D], pa[2 * D]);
     const __m128d tr = _mm_max_pd(ti, tj); /* ti > tj ? ti : tj */
     const __m128d di = _mm_sub_pd(tr, ti), dj = _mm_sub_pd(tr, tj);
     const __m128d dn = _mm_sub_pd(_mm_set1_pd(now), tr);
-    __m128d b = zero, rr = zero, vv = zero;
+    __m128d b = zero, rr = zero, vv = zero, slow = zero;
 #pragma GCC unroll 3
     for (int k = 0; k < D; k++) {
         const __m128d xj = _mm_set_pd(pb[k], pa[k]), vj = _mm_set_pd(pb[D + k], pa[D + k]);
@@ -554,26 +633,28 @@ pred_pp2(const int D, const double *pi, const double *pa, const double *pb, doub
         __m128d r = _mm_sub_pd(_mm_add_pd(xj, _mm_mul_pd(vj, dj)), _mm_add_pd(xi, _mm_mul_pd(vi, di)));
         const __m128d v = _mm_sub_pd(vj, vi);
         if (per) {
-            /* A lane whose separation now (rn = r + v dn) is near half
-             * the box or beyond needs its image chosen (ev_image): rare
-             * (long flights, 4-cell boxes), so both lanes go to pred_pp,
-             * whose arithmetic is this one's, bit for bit. */
+            /* |rn| > half (rn = r + v dn, the separation now): r -
+             * copysign(L, rn), i.e. r - L or r + L exactly, as pred_pp's
+             * usual case. A lane beyond 1.5 L (a long flight: ev_image,
+             * see EV_PER_NEAR) is rare, so both lanes go to pred_pp
+             * (pred_pp2_slow), whose arithmetic is this one's, bit for
+             * bit; EV_PER_ANY goes there at once. */
             const __m128d rn = _mm_add_pd(r, _mm_mul_pd(v, dn));
-            const __m128d lim = _mm_set1_pd(0.5 * half); /* below ev_half_near for any rn */
-            if (_mm_movemask_pd(_mm_cmpgt_pd(_mm_andnot_pd(sgn, rn), lim))) {
-                out[0] = pred_pp(D, pi, pa, now, per, half, L);
-                out[1] = pred_pp(D, pi, pb, now, per, half, L);
-                return;
-            }
+            const __m128d arn = _mm_andnot_pd(sgn, rn);
+            const __m128d far = _mm_cmpgt_pd(arn, _mm_set1_pd(half));
+            const __m128d sl = _mm_or_pd(_mm_and_pd(sgn, rn), _mm_set1_pd(L));
+            r = _mm_sub_pd(r, _mm_and_pd(far, sl));
+            slow = _mm_or_pd(slow, _mm_cmpgt_pd(arn, _mm_set1_pd(1.5 * L)));
         }
         b = _mm_add_pd(b, _mm_mul_pd(r, v));
         rr = _mm_add_pd(rr, _mm_mul_pd(r, r));
         vv = _mm_add_pd(vv, _mm_mul_pd(v, v));
     }
     const __m128d sig = _mm_add_pd(_mm_set1_pd(pi[2 * D + 1]), _mm_set_pd(pb[2 * D + 1], pa[2 * D + 1]));
-    if (_mm_movemask_pd(_mm_cmpgt_pd(rr, _mm_mul_pd(_mm_set1_pd(EV_SOLVE_FAR2), _mm_mul_pd(sig, sig))))) {
-        out[0] = pred_pp(D, pi, pa, now, per, half, L); /* a pair far apart: solve_far */
-        out[1] = pred_pp(D, pi, pb, now, per, half, L);
+    /* and a pair far apart at tr: solve_far */
+    slow = _mm_or_pd(slow, _mm_cmpgt_pd(rr, _mm_mul_pd(_mm_set1_pd(EV_SOLVE_FAR2), _mm_mul_pd(sig, sig))));
+    if (__builtin_expect(_mm_movemask_pd(slow), 0)) {
+        pred_pp2_slow(D, pi, pa, pb, now, per, half, L, out);
         return;
     }
     const __m128d c = _mm_sub_pd(rr, _mm_mul_pd(sig, sig));
@@ -630,7 +711,8 @@ static inline __attribute__((always_inline)) void
 scan_batch(const ev_sim *s, const int D, uint32_t i, const double *pi, const uint32_t *cand,
            int n, double now, double *bt, uint32_t *bj)
 {
-    if (s->periodic) scan_batch_per(s, D, 1, i, pi, cand, n, now, bt, bj);
+    if (s->periodic && s->nc >= 8) scan_batch_per(s, D, EV_PER_NEAR, i, pi, cand, n, now, bt, bj);
+    else if (s->periodic) scan_batch_per(s, D, EV_PER_ANY, i, pi, cand, n, now, bt, bj);
     else scan_batch_per(s, D, 0, i, pi, cand, n, now, bt, bj);
 }
 
@@ -642,13 +724,13 @@ scan_batch(const ev_sim *s, const int D, uint32_t i, const double *pi, const uin
  * candidates per scan, too few to pay for the list): one at a time by
  * pred_pp, as they come. */
 static inline __attribute__((always_inline)) void
-scan_pairs_body(ev_sim *s, const int D, const int batch, uint32_t i, double now, int sk, int slab)
+scan_pairs_body(ev_sim *s, const int D, const int batch, const int per, uint32_t i, double now, int sk,
+                int slab)
 {
     ev_evt *e = &s->lk[i].ev;
     int32_t cc[3] = {0, 0, 0};
     cell_coords(s, D, s->lk[i].cell, cc);
     const double *const ps = s->ps, *const pi = EV_P(s, i);
-    const int per = s->periodic;
     const double half = s->half, L = s->L;
     double bt = e->t_pair;
     const uint32_t bj0 = e->kind == EV_K_PAIR ? e->partner : UINT32_MAX;
@@ -686,13 +768,16 @@ scan_pairs_body(ev_sim *s, const int D, const int batch, uint32_t i, double now,
  * step(), the scan's counters went to the stack). */
 static __attribute__((noinline)) void scan_pairs3(ev_sim *s, uint32_t i, double now, int sk, int slab)
 {
-    scan_pairs_body(s, 3, 1, i, now, sk, slab);
+    scan_pairs_body(s, 3, 1, ev_per(s), i, now, sk, slab); /* per: used by pred_pp only in 2D */
 }
 
 static inline __attribute__((always_inline)) void
 scan_pairs(ev_sim *s, const int D, uint32_t i, double now, int sk, int slab)
 {
-    if (D == 2) scan_pairs_body(s, 2, 0, i, now, sk, slab);
+    /* 2D predicts pair by pair: the box's kind a constant of each copy */
+    if (D == 2 && !s->periodic) scan_pairs_body(s, 2, 0, 0, i, now, sk, slab);
+    else if (D == 2 && s->nc >= 8) scan_pairs_body(s, 2, 0, EV_PER_NEAR, i, now, sk, slab);
+    else if (D == 2) scan_pairs_body(s, 2, 0, EV_PER_ANY, i, now, sk, slab);
     else scan_pairs3(s, i, now, sk, slab);
 }
 
@@ -711,7 +796,7 @@ static __attribute__((noinline)) void scan_big(ev_sim *s, const int D, uint32_t 
     uint32_t bj = bj0;
     for (uint32_t a = lo; a < hi; a++) {
         const uint32_t j = s->bg_idx[a];
-        const double t = pred_pp(D, pi, EV_P(s, j), now, s->periodic, s->half, s->L);
+        const double t = pred_pp(D, pi, EV_P(s, j), now, s->periodic ? EV_PER_ANY : 0, s->half, s->L);
         if (t < bt || (t == bt && bj != UINT32_MAX && j < bj)) {
             bt = t;
             bj = j;

@@ -15,6 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 int pdla_rundir_lock(const char *dir, int *fd, char *err, size_t errlen)
@@ -93,55 +94,101 @@ int pdla_rundir_probe(const char *dir)
 
 /* Every name under which a model keeps a checkpoint (DLA: the
  * generations checkpoint.h5, checkpoint.1.h5, ...; event: .prev; DLCA:
- * checkpoint.h5; the damaged ones set aside: remove_aside), and the DLA
- * run summary. One list for
- * every model: a --force run of one model over another's directory left
+ * checkpoint.h5; the damaged ones set aside: is_aside_name), and the DLA
+ * run summary. One list for every model: a --force run of one model over another's directory left
  * the other's checkpoints, and a later --resume brought the older run
- * back over the new cluster.h5. The summary last (see writes_summary). */
+ * back over the new cluster.h5. The summary last (writes_summary drops it). */
 static const char *const old_run_names[] = {PDLA_CHECKPOINT_NAME, "checkpoint.1.h5", "checkpoint.2.h5",
                                             "checkpoint.prev.h5", "summary.txt"};
 
-/* The damaged checkpoints a DLA fallback resume set aside
- * (PDLA_CHECKPOINT_ASIDE_PREFIX: checkpoint.damaged.h5, .damaged.2.h5, ...):
- * they belong to the run being replaced. 0 (*removed set when one went),
- * or -1 with err. */
-static int remove_aside(const char *dir, int *removed, char *err, size_t errlen)
+/* Whether name is one a DLA fallback resume sets aside
+ * (checkpoint_recover.c: PDLA_CHECKPOINT_ASIDE_PREFIX "h5", or the prefix,
+ * a number and ".h5"): only those, not a user's checkpoint.damaged.notes.txt. */
+static int is_aside_name(const char *name)
 {
+    const size_t plen = strlen(PDLA_CHECKPOINT_ASIDE_PREFIX);
+    if (strncmp(name, PDLA_CHECKPOINT_ASIDE_PREFIX, plen)) return 0;
+    const char *q = name + plen;
+    if (!strcmp(q, "h5")) return 1;
+    size_t digits = 0;
+    while (q[digits] >= '0' && q[digits] <= '9') digits++;
+    return digits > 0 && digits <= 3 && q[0] != '0' && !strcmp(q + digits, ".h5");
+}
+
+/* Every old-run name present in dir (the first n of old_run_names and the
+ * set-aside checkpoints) goes into *list (malloc'ed, *count of them).
+ * Checked before anything is removed: a name that is a directory refuses
+ * the whole removal, so a refused run leaves the older run as it was
+ * (its checkpoints resumable). 0, or -1 with err. */
+static int old_run_list(const char *dir, size_t n, char ***list, size_t *count, char *err, size_t errlen)
+{
+    *list = NULL;
+    *count = 0;
     DIR *d = opendir(dir);
     if (!d) return pdla_errorf(-1, err, errlen, "cannot read run directory '%s': %s", dir, strerror(errno));
-    const size_t plen = strlen(PDLA_CHECKPOINT_ASIDE_PREFIX);
-    char p[4400];
     int rc = 0;
     const struct dirent *de;
     while (rc == 0 && (de = readdir(d))) {
-        if (strncmp(de->d_name, PDLA_CHECKPOINT_ASIDE_PREFIX, plen)) continue;
+        int take = is_aside_name(de->d_name);
+        for (size_t i = 0; i < n && !take; i++) take = !strcmp(de->d_name, old_run_names[i]);
+        if (!take) continue;
+        char p[4400];
         snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
-        if (unlink(p) == 0) *removed = 1;
-        else if (errno != ENOENT)
-            rc = pdla_errorf(-1, err, errlen, "cannot remove the older run's '%s': %s", p, strerror(errno));
+        struct stat st;
+        if (lstat(p, &st) != 0) {
+            if (errno == ENOENT) continue; /* gone meanwhile */
+            rc = pdla_errorf(-1, err, errlen, "cannot look at the older run's '%s': %s", p, strerror(errno));
+            break;
+        }
+        if (S_ISDIR(st.st_mode)) {
+            rc = pdla_errorf(-1, err, errlen, "cannot remove the older run's '%s': %s", p, strerror(EISDIR));
+            break;
+        }
+        char **grown = realloc(*list, (*count + 1) * sizeof *grown);
+        if (grown) *list = grown;
+        if (!grown || !(grown[*count] = strdup(p))) {
+            rc = pdla_errorf(-1, err, errlen, "out of memory listing run directory '%s'", dir);
+            break;
+        }
+        (*count)++;
     }
-    closedir(d);
+    if (closedir(d) != 0 && rc == 0)
+        rc = pdla_errorf(-1, err, errlen, "cannot read run directory '%s': %s", dir, strerror(errno));
     return rc;
 }
+
 _Static_assert(PDLA_CHECKPOINT_GENERATIONS == 3, "old_run_names lists the DLA generations .1 and .2");
+
+static void free_list(char **list, size_t count)
+{
+    for (size_t i = 0; i < count; i++) free(list[i]);
+    free(list);
+}
 
 int pdla_rundir_remove_old_run(const char *dir, int writes_summary, char *err, size_t errlen)
 {
-    char p[4400];
+    char **list;
+    size_t count;
     const size_t n = sizeof old_run_names / sizeof old_run_names[0] - (writes_summary ? 1 : 0);
-    int removed = 0;
-    for (size_t i = 0; i < n; i++) {
-        snprintf(p, sizeof p, "%s/%s", dir, old_run_names[i]);
-        if (unlink(p) == 0) removed = 1;
-        else if (errno != ENOENT)
-            return pdla_errorf(PDLA_EIO, err, errlen, "cannot remove the older run's '%s': %s", p, strerror(errno));
+    if (old_run_list(dir, n, &list, &count, err, errlen)) {
+        free_list(list, count);
+        return PDLA_EIO;
     }
-    if (remove_aside(dir, &removed, err, errlen)) return PDLA_EIO;
-    /* Only when something went: a run over a directory without an older
-     * run's files syncs nothing more (and fails at no new point). */
-    if (removed && h5u_fsync_dir(dir) != 0)
-        return pdla_errorf(PDLA_EIO, err, errlen, "cannot sync run directory '%s': %s", dir, strerror(errno));
-    return PDLA_OK;
+    int rc = PDLA_OK;
+    /* The checkpoints, then the summary: a removal that fails midway
+     * leaves the older run's description with what is left of it. */
+    for (int pass = 0; pass < 2; pass++)
+        for (size_t i = 0; i < count && rc == PDLA_OK; i++) {
+            if ((strstr(list[i], "/summary.txt") != NULL) != pass) continue;
+            if (unlink(list[i]) != 0 && errno != ENOENT)
+                rc = pdla_errorf(PDLA_EIO, err, errlen, "cannot remove the older run's '%s': %s", list[i],
+                                 strerror(errno));
+        }
+    /* Synced when something went: a crash must not bring them back. */
+    if (rc == PDLA_OK && count > 0 && h5u_fsync_dir(dir) != 0)
+        rc = pdla_errorf(PDLA_EIO, err, errlen, "cannot sync run directory '%s': %s", dir, strerror(errno));
+    free_list(list, count);
+    return rc;
 }
 
 int pdla_rundir_fsync(const char *dir)

@@ -301,6 +301,29 @@ for new, (_, force, _) in NOLOCK.items():
     check(rc == 1 and one_line(err) and "checkpoint.2.h5" in err and sorted(os.listdir(d)) == ["checkpoint.2.h5"],
           "item 10: %s --force where checkpoint.2.h5 cannot be removed: %r %r %r" % (new, rc, err, os.listdir(d)))
 
+# A refusal removes nothing: an older DLA run with its three generations
+# and a name that cannot be removed (a directory at a set-aside name) keeps
+# every checkpoint, still resumable; a user's checkpoint.damaged.notes.txt
+# is not one of pdla's names and survives a --force run. Before, the fixed
+# names went first and the refusal came after (the run unresumable), and
+# every name with the set-aside prefix was removed.
+d = W("cross-keep")
+rc, err = pdla("--target", "3000", "--checkpoint-particles", "1000", "-q", "--out", d)
+os.makedirs(os.path.join(d, "checkpoint.damaged.2.h5"))
+with open(os.path.join(d, "checkpoint.damaged.notes.txt"), "w") as f:
+    f.write("mine\n")
+before = sorted(os.listdir(d))
+rc, err = pdla("--model", "event", "--dim", "2", "--particles", "50", "--max-events", "100", "--force", "--quiet",
+               "--out", d)
+check(rc == 1 and one_line(err) and "checkpoint.damaged.2.h5" in err and sorted(os.listdir(d)) == before,
+      "item 10: refused --force removed %r (%r %r)" % (sorted(set(before) - set(os.listdir(d))), rc, err))
+os.rmdir(os.path.join(d, "checkpoint.damaged.2.h5"))
+rc, err = pdla("--model", "event", "--dim", "2", "--particles", "50", "--max-events", "100", "--force", "--quiet",
+               "--out", d)
+check(rc == 0 and "checkpoint.damaged.notes.txt" in os.listdir(d) and
+      not [x for x in os.listdir(d) if x.startswith("checkpoint.") and x.endswith(".h5")],
+      "item 10: --force over a user's file: %r %r %r" % (rc, err, sorted(os.listdir(d))))
+
 # --- --bind core refused by the system (a cgroup cpuset, a container):
 # the run goes on, and /results binding names the refused workers instead
 # of claiming "core: 0 1" for threads the scheduler placed. Before, the

@@ -808,10 +808,13 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
                                                "cluster-free.xdmf2.tmp"};
             pdla_rundir_remove_prefixed(dir, stale, sizeof stale / sizeof stale[0]);
         }
-        if (!drc && !c->resume) {
+        if (!drc && (!c->resume || !same_dir(c->lock, dir))) {
             /* A new run (--force) replaces an older run's checkpoint: a
              * later --resume would otherwise grow the old run and write it
-             * over this run's cluster.h5. */
+             * over this run's cluster.h5. So does a resume written into
+             * another directory (--resume CK --out DIR --force): a DLA
+             * run's checkpoints there outlived it, and a DLA --resume of
+             * DIR then grew that run over the DLCA cluster.h5. */
             if (pdla_rundir_remove_old_run(dir, 0, err, sizeof err) != PDLA_OK) {
                 fprintf(stderr, "pdla: %s\n", err);
                 drc = EXIT_RUNTIME;

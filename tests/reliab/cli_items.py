@@ -324,6 +324,33 @@ check(rc == 0 and "checkpoint.damaged.notes.txt" in os.listdir(d) and
       not [x for x in os.listdir(d) if x.startswith("checkpoint.") and x.endswith(".h5")],
       "item 10: --force over a user's file: %r %r %r" % (rc, err, sorted(os.listdir(d))))
 
+# A DLCA resume written into another directory (--resume CK --out DIR
+# --force) removes the older run's checkpoints there too; and a DLA --resume
+# of a directory whose checkpoint.h5 is another model's refuses (exit 2)
+# instead of falling back past it to an older DLA generation (whose
+# recovery would then have set the DLCA file aside as damaged).
+dl = W("cross-dlca-src")
+rc, err = pdla("--model", "dlca", "--dim", "2", "--box", "64", "--fill", "0.05", "--until-clusters", "10",
+               "--checkpoint", "-q", "--out", dl)
+d = W("cross-resume-out")
+rc2, err2 = pdla("--target", "3000", "--checkpoint-particles", "1000", "-q", "--out", d)
+rc3, err3 = pdla("--model", "dlca", "--resume", os.path.join(dl, "checkpoint.h5"), "--out", d, "--force",
+                 "--until-clusters", "5", "--checkpoint", "-q")
+check(rc == 0 and rc2 == 0 and rc3 == 0 and sorted(x for x in os.listdir(d) if x.startswith("checkpoint")) ==
+      ["checkpoint.h5"], "item 10: dlca --resume --out over a DLA run: %r %r %r" % (rc3, err3, os.listdir(d)))
+after = open(os.path.join(d, "cluster.h5"), "rb").read()
+rc, err = pdla("--resume", d, "--target", "6000", "-q")
+check(rc == 2 and open(os.path.join(d, "cluster.h5"), "rb").read() == after,
+      "item 10: DLA --resume over the DLCA resume's directory: %r %r" % (rc, err))
+m = W("cross-mixed")
+rc, err = pdla("--target", "3000", "--checkpoint-particles", "1000", "-q", "--out", m)
+shutil.copyfile(os.path.join(dl, "checkpoint.h5"), os.path.join(m, "checkpoint.h5"))
+rc, err = pdla("--resume", m, "--target", "6000", "-q")
+check(rc == 2 and one_line(err) and "another model" in err and
+      sorted(x for x in os.listdir(m) if x.startswith("checkpoint")) ==
+      ["checkpoint.1.h5", "checkpoint.2.h5", "checkpoint.h5"],
+      "item 10: DLA --resume past another model's checkpoint.h5: %r %r %r" % (rc, err, os.listdir(m)))
+
 # --- --bind core refused by the system (a cgroup cpuset, a container):
 # the run goes on, and /results binding names the refused workers instead
 # of claiming "core: 0 1" for threads the scheduler placed. Before, the

@@ -107,6 +107,9 @@
  * distribution of a cluster thousands of particles younger. */
 #define STRAGGLER_FACTOR ((uint64_t)PDLA_STRAGGLER_FACTOR)
 
+/* Room at the end of e->binding for mark_refused_bindings' note. */
+#define BINDING_NOTE_ROOM 64
+
 typedef struct worker {
     /* The map epoch this worker saw between two walks, when it held no map
      * grid (UINT64_MAX once it has returned); written by the worker once a
@@ -506,9 +509,13 @@ static void phase_setup_workers(pdla_engine *e, phase *ph, uint64_t n_until)
             k->topo = ph->topo;
             k->core = hwloc_get_obj_by_type(ph->topo, HWLOC_OBJ_CORE, (unsigned)(i % ph->cores));
             if (!k->core) k->core = hwloc_get_obj_by_type(ph->topo, HWLOC_OBJ_PU, (unsigned)(i % ph->cores));
-            if (used < sizeof e->binding)
+            /* room kept for mark_refused_bindings' note: the list ends
+             * with "..." past it (126 workers filled the string) */
+            if (used + BINDING_NOTE_ROOM < sizeof e->binding)
                 used += (size_t)snprintf(e->binding + used, sizeof e->binding - used, " %u",
                                          k->core ? k->core->logical_index : 0u);
+            else if (used + 4 < sizeof e->binding && strcmp(e->binding + used - 4, " ..."))
+                used += (size_t)snprintf(e->binding + used, sizeof e->binding - used, " ...");
         }
     }
     rng_jump(&stream);
@@ -531,20 +538,20 @@ static void phase_begin(pdla_engine *e, phase *ph)
 }
 
 
-/* After the join: the workers whose binding the system refused (a cgroup's
- * cpuset, a container) are named in e->binding, which the file's /results
- * binding records, so that "core: 0 1" is never claimed for threads that
- * ran where the scheduler put them. */
+/* After the join: how many workers' binding the system refused (a
+ * cgroup's cpuset, a container), added to e->binding, which the file's
+ * /results binding records, so that "core: 0 1" is never claimed for
+ * threads that ran where the scheduler put them. A count, in the room
+ * phase_setup_workers keeps: a list of refused workers overflowed the
+ * string at 60 workers and was lost at 126. */
 static void mark_refused_bindings(pdla_engine *e, const phase *ph)
 {
-    size_t used = strlen(e->binding);
-    const char *sep = " (refused by the system for workers";
-    for (int i = 0; i < ph->started; i++) {
-        if (!ph->ks[i].bind_refused || used >= sizeof e->binding) continue;
-        used += (size_t)snprintf(e->binding + used, sizeof e->binding - used, "%s %d", sep, i);
-        sep = ",";
-    }
-    if (*sep == ',' && used < sizeof e->binding) snprintf(e->binding + used, sizeof e->binding - used, ")");
+    int refused = 0;
+    for (int i = 0; i < ph->started; i++) refused += ph->ks[i].bind_refused;
+    const size_t used = strlen(e->binding);
+    if (refused && used < sizeof e->binding)
+        snprintf(e->binding + used, sizeof e->binding - used, " (refused by the system for %d of %d workers)",
+                 refused, ph->started);
 }
 /* Step 4: start the threads, then report progress, relay a stop request and
  * free retired map grids from this thread until the target or a stop; join.

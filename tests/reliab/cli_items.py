@@ -360,8 +360,17 @@ rc, err = pdla("--target", "3000", "--serial-until", "1000", "--threads", "2", "
 with h5py.File(W("bindrefused", "cluster.h5"), "r") as f:
     binding = f["results"].attrs["binding"]
 binding = binding.decode() if isinstance(binding, bytes) else str(binding)
-check(rc == 0 and binding.endswith("(refused by the system for workers 0, 1)"),
+check(rc == 0 and binding == "core: 0 1 (refused by the system for 2 of 2 workers)",
       "bind refused: exit %r %r, binding %r" % (rc, err, binding))
+# 126 workers fill the string: the core list ends with "..." and the note
+# still fits (a list of refused workers overflowed it before).
+rc, err = pdla("--target", "5000", "--serial-until", "300", "--threads", "126", "--bind", "core",
+               "--out", W("bindrefused126"), "-q", env={"LD_PRELOAD": preload(), "FAULT_AFFINITY": "1"})
+with h5py.File(W("bindrefused126", "cluster.h5"), "r") as f:
+    binding = f["results"].attrs["binding"]
+binding = binding.decode() if isinstance(binding, bytes) else str(binding)
+check(rc == 0 and binding.endswith(" ... (refused by the system for 126 of 126 workers)"),
+      "bind refused, 126 workers: exit %r %r, binding %r" % (rc, err, binding))
 rc, err = pdla("--target", "3000", "--serial-until", "1000", "--threads", "2", "--bind", "core",
                "--out", W("bindok"), "-q")
 with h5py.File(W("bindok", "cluster.h5"), "r") as f:

@@ -33,8 +33,27 @@ int dlca_check_wanted(const char *path)
 /* loc/name as pdla writes it: rank (1, or 2 with cols columns) of type t,
  * storing what it declares; chunks cached whole for slab reads. 0, or
  * PDLA_EINVAL with the line (d closed). */
-static int open_ds(hid_t loc, const char *name, pdla_h5_type t, int rank, uint64_t cols, pdla_h5_dset *d,
-                   const char *path, char *err, size_t errlen)
+/* The rows of d's chunks (0 when it is not chunked), or -1. */
+static int64_t chunk_rows(const pdla_h5_dset *d)
+{
+    const hid_t dcpl = H5Dget_create_plist(d->id);
+    if (dcpl < 0) return -1;
+    hsize_t cd[PDLA_H5_MAX_RANK] = {0};
+    const H5D_layout_t layout = H5Pget_layout(dcpl);
+    const int rank = layout == H5D_CHUNKED ? H5Pget_chunk(dcpl, PDLA_H5_MAX_RANK, cd) : 0;
+    if (H5Pclose(dcpl) < 0 || layout < 0 || rank < 0) return -1;
+    return rank > 0 ? (int64_t)cd[0] : 0;
+}
+
+/* The /series columns are read side by side, six open at once, so each is
+ * held to the chunks pdla writes (at most 65536 rows, 512 KB, which HDF5's
+ * default cache holds): a forged column in one gzip'ed chunk of 2^26 rows
+ * made each keep a 512 MB decompressed chunk (3.2 GB for a 3 MB file) or,
+ * uncached, decompress it again for every slab. */
+#define SERIES_CHUNK_MAX 65536
+
+static int open_ds_as(hid_t loc, const char *name, pdla_h5_type t, int rank, uint64_t cols, int series,
+                      pdla_h5_dset *d, const char *path, char *err, size_t errlen)
 {
     const size_t esize = t == PDLA_H5_U64 || t == PDLA_H5_F64 ? 8 : 4;
     if (pdla_h5_dset_open(loc, name, d) < 0)
@@ -42,16 +61,28 @@ static int open_ds(hid_t loc, const char *name, pdla_h5_type t, int rank, uint64
                            path, name);
     const int stored = pdla_h5_dset_stored(d, esize);
     int rc = 0;
+    int64_t cr = 0;
     if (!pdla_h5_dset_is(d, t) || d->rank != rank || (rank == 2 && d->dims[1] != cols))
         rc = pdla_errorf(PDLA_EINVAL, err, errlen, "%s: %s is not of the type and shape pdla writes", path, name);
     else if (stored != PDLA_H5_STORED)
         rc = pdla_errorf(PDLA_EINVAL, err, errlen, "%s: %s declares %" PRIu64 " elements, %s", path, name, d->elems,
                          stored == PDLA_H5_TOO_LARGE ? "more than this machine can address"
                                                      : "more than the file stores (damaged or forged)");
-    else if (pdla_h5_dset_cache_chunk(loc, name, d) < 0)
+    else if (series && (cr = chunk_rows(d)) < 0)
+        rc = pdla_errorf(PDLA_EIO, err, errlen, "%s: cannot read how %s is stored", path, name);
+    else if (series && cr > SERIES_CHUNK_MAX)
+        rc = pdla_errorf(PDLA_EINVAL, err, errlen, "%s: %s is stored in chunks of %" PRId64 " rows, more than the %d "
+                         "pdla writes", path, name, cr, SERIES_CHUNK_MAX);
+    else if (!series && pdla_h5_dset_cache_chunk(loc, name, d) < 0)
         rc = pdla_errorf(PDLA_EIO, err, errlen, "%s: cannot open %s", path, name);
     if (rc) (void)pdla_h5_dset_close(d); /* the first error is the one to report */
     return rc;
+}
+
+static int open_ds(hid_t loc, const char *name, pdla_h5_type t, int rank, uint64_t cols, pdla_h5_dset *d,
+                   const char *path, char *err, size_t errlen)
+{
+    return open_ds_as(loc, name, t, rank, cols, 0, d, path, err, errlen);
 }
 
 /* The whole rank-1 dataset name (type t, 8-byte elements) of at most max
@@ -180,7 +211,8 @@ static const pdla_h5_type series_types[6] = {PDLA_H5_F64, PDLA_H5_U64, PDLA_H5_U
 static int series_open(hid_t f, pdla_h5_dset *d, int *open, const char *path, char *err, size_t errlen)
 {
     for (*open = 0; *open < 6; ++*open) {
-        const int rc = open_ds(f, series_names[*open], series_types[*open], 1, 1, &d[*open], path, err, errlen);
+        const int rc =
+            open_ds_as(f, series_names[*open], series_types[*open], 1, 1, 1, &d[*open], path, err, errlen);
         if (rc) return rc;
         if (d[*open].dims[0] != d[0].dims[0]) {
             ++*open;

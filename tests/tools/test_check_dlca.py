@@ -366,6 +366,17 @@ def hostile(runs, tmp):
                      ("hugebox", lambda f: set_attr(f["parameters"], "box", np.array([100000, 100000], np.uint64)))):
         check(forged(c2, tmp, name, fn), 2, (), "refused " + name)
 
+    def one_chunk_series(f):
+        # six /series columns each one gzip'ed chunk of 2^22 rows: each kept
+        # its decompressed chunk (6 x 32 MB here, 3.2 GB at 2^26) before the
+        # columns were held to pdla's 65536-row chunks
+        for n in ("t", "attempts", "n_clusters", "largest", "mean_size", "weight_average_size"):
+            dt = f["series/" + n].dtype
+            del f["series/" + n]
+            f["series"].create_dataset(n, data=np.zeros(2 ** 22, dt), chunks=(2 ** 22,), compression="gzip")
+    _, e = check(forged(c2, tmp, "one_chunk_series", one_chunk_series), 2, (), "one-chunk series")
+    T.check("chunks of 4194304 rows" in e, "one-chunk series: %r" % e)
+
     def declared(f):
         del f["monomers/position"]
         f["monomers"].create_dataset("position", shape=(2 ** 40, 2), dtype="<i4", chunks=(65536, 2))

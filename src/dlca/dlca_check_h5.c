@@ -287,8 +287,8 @@ static int check_rest(dck *c, hid_t f, const dck_table *tab, const dlca_params *
     return rc ? pdla_errorf(rc, err, errlen, "%s: out of memory", path) : 0;
 }
 
-/* The parameters (through the model's table; a --start run's count and
- * fill need not give N), then the monomers and the rest. */
+/* The parameters (through the model's table; N checked against count and
+ * fill below), then the monomers and the rest. */
 static int check_open(hid_t f, const char *path, dlca_check_report *r, char *err, size_t errlen)
 {
     dlca_params p;
@@ -308,6 +308,13 @@ static int check_open(hid_t f, const char *path, dlca_check_report *r, char *err
     if (N < 1 || N >= V)
         rc = pdla_errorf(PDLA_EINVAL, err, errlen, "%s: %" PRIu64 " monomers in a box of %" PRIu64 " sites (a run has "
                          "1 to V - 1)", path, N, V);
+    /* The writer records count = N for a --start run too, so every file it
+     * writes has N = count, or round(fill V) with count 0 (a forged count
+     * of 500 over 205 monomers passed). */
+    else if (dlca_params_monomers(&p) != N)
+        rc = pdla_errorf(PDLA_EINVAL, err, errlen, "%s: %" PRIu64 " monomers, but /parameters count %" PRIu64
+                         " and fill %.17g give %" PRIu64, path, N, (uint64_t)p.count, p.fill,
+                         dlca_params_monomers(&p));
     else if (!dck_fits(V, N, p.dim))
         rc = pdla_errorf(PDLA_ENOMEM, err, errlen, "%s: %" PRIu64 " monomers in a box of %" PRIu64 " sites need more "
                          "than half of this machine's memory to check", path, N, V);

@@ -374,6 +374,9 @@ def hostile(runs, tmp):
             dt = f["series/" + n].dtype
             del f["series/" + n]
             f["series"].create_dataset(n, data=np.zeros(2 ** 22, dt), chunks=(2 ** 22,), compression="gzip")
+    _, e = check(forged(c2, tmp, "count", lambda f: set_attr(f["parameters"], "count", np.uint64(500))), 2, (),
+                 "count 500")
+    T.check("/parameters count 500" in e, "count 500: %r" % e)
     _, e = check(forged(c2, tmp, "one_chunk_series", one_chunk_series), 2, (), "one-chunk series")
     T.check("chunks of 4194304 rows" in e, "one-chunk series: %r" % e)
 
@@ -383,7 +386,11 @@ def hostile(runs, tmp):
     _, e = check(forged(c2, tmp, "declared", declared), 2, (), "2^40 rows declared")
     T.check("more than the file stores" in e, "declared rows: %r" % e)
     check(forged(c2, tmp, "noresults", lambda f: f.__delitem__("results")), 1, ["results"], "no /results")
-    big = forged(c2, tmp, "bigbox", lambda f: set_attr(f["parameters"], "box", np.array([16384, 16384], np.uint64)))
+    def bigbox(f):
+        set_attr(f["parameters"], "box", np.array([16384, 16384], np.uint64))
+        # count = N, so that the parameters still give N and the bitmap is made
+        set_attr(f["parameters"], "count", np.uint64(f["monomers/site"].shape[0]))
+    big = forged(c2, tmp, "bigbox", bigbox)
     rc, kb = peak_rss_kb([PDLA, "check", big])
     T.check(rc == 1 and kb < 200000, "16384^2 box: rc %d, peak RSS %d kB" % (rc, kb))
 

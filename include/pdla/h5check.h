@@ -108,6 +108,9 @@ PDLA_API int pdla_h5_dset_is(const pdla_h5_dset *d, pdla_h5_type t);
 enum { PDLA_H5_STORED = 0, PDLA_H5_TOO_LARGE = 1, PDLA_H5_NOT_STORED = 2 };
 PDLA_API int pdla_h5_dset_stored(const pdla_h5_dset *d, size_t esize);
 
+/* d's chunk dimensions into cd[0 .. rank): its rank when it is chunked, 0
+ * when it is not (contiguous or compact), -1 when HDF5 failed. */
+PDLA_API int pdla_h5_dset_chunk(const pdla_h5_dset *d, uint64_t *cd);
 /* Reopens d, opened from loc/name, with a chunk cache that holds one whole
  * chunk, when it is chunked and a chunk is larger than HDF5's default
  * cache (1 MiB) but at most twice the dataset's bytes plus 1 MiB; else

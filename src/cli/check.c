@@ -333,10 +333,7 @@ static int report(const h5r_file *f, const check_stored *s, check_result *res, i
         print_text(stdout, f, s, res);
         fprintf(stdout, "result       %s\n", pass ? "pass" : "FAIL");
     }
-    if (fflush(stdout) || ferror(stdout)) {
-        fprintf(stderr, "pdla check: cannot write to stdout\n");
-        return TOOL_RUNTIME;
-    }
+    if (tools_stdout_done("check")) return TOOL_RUNTIME;
     if (pass) return TOOL_OK;
     fprintf(stderr, "pdla check: %s fails the check (%" PRIu64 " overlaps, %" PRIu64 " detached particles%s)\n",
             f->path, r->overlaps, r->detached, res->stopped ? ", reading stopped" : "");

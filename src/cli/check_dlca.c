@@ -104,10 +104,7 @@ int dlca_check_main(const char *path, int json)
     }
     if (json) print_json(stdout, path, &r);
     else print_text(stdout, path, &r);
-    if (fflush(stdout) || ferror(stdout)) {
-        fprintf(stderr, "pdla check: cannot write to stdout\n");
-        return TOOL_RUNTIME;
-    }
+    if (tools_stdout_done("check")) return TOOL_RUNTIME;
     if (r.pass) return TOOL_OK;
     char kinds[512] = "";
     size_t k = 0;

@@ -151,10 +151,7 @@ int check_event(const char *path, int json)
     }
     if (json) print_json(stdout, path, &r);
     else print_text(stdout, path, &r);
-    if (fflush(stdout) || ferror(stdout)) {
-        fprintf(stderr, "pdla check: cannot write to stdout\n");
-        return TOOL_RUNTIME;
-    }
+    if (tools_stdout_done("check")) return TOOL_RUNTIME;
     if (r.pass) return TOOL_OK;
     print_fail_line(path, &r);
     return TOOL_RUNTIME;

@@ -3,6 +3,7 @@
  * and the tools' safe output files.
  */
 #include "h5read.h"
+#include "tools.h"
 #include "optcheck.h"
 
 #include "pdla/pdla.h"
@@ -455,4 +456,11 @@ int tools_one_file(const char *tool, int optind_now, int argc)
     fprintf(stderr, "pdla %s: %s (see pdla %s --help)\n", tool,
             optind_now >= argc ? "no FILE given" : "more than one FILE given", tool);
     return 2;
+}
+
+int tools_stdout_done(const char *tool)
+{
+    if (!fflush(stdout) && !ferror(stdout)) return 0;
+    fprintf(stderr, "pdla %s: cannot write to stdout\n", tool);
+    return 1;
 }

@@ -18,6 +18,11 @@ int tool_render(int argc, char **argv);
 int tool_analyze(int argc, char **argv);
 int tool_export(int argc, char **argv);
 int tool_check(int argc, char **argv);
+/* 0 when stdout took every byte written to it (flushed, no error), else 1
+ * with "pdla TOOL: cannot write to stdout" on stderr: a report that did
+ * not reach a full disk or a closed pipe must not exit as passed
+ * (h5read.c). */
+int tools_stdout_done(const char *tool);
 /* s as a JSON string (quoted, escaped; bytes that are not UTF-8 as
  * U+FFFD), for every tool's --json (info.c). */
 void tool_json_str(FILE *o, const char *s);

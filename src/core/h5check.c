@@ -293,15 +293,24 @@ int pdla_h5_dset_read(const pdla_h5_dset *d, pdla_h5_type t, uint64_t row0, uint
  * more memory than the read already took; a chunk more than twice the
  * data's bytes (an extendible dataset, mostly beyond its rows) is left to
  * the default cache. */
+int pdla_h5_dset_chunk(const pdla_h5_dset *d, uint64_t *cd)
+{
+    const hid_t dcpl = H5Dget_create_plist(d->id);
+    if (dcpl < 0) return -1;
+    hsize_t c[PDLA_H5_MAX_RANK] = {0};
+    const H5D_layout_t layout = H5Pget_layout(dcpl);
+    const int rank = layout == H5D_CHUNKED ? H5Pget_chunk(dcpl, PDLA_H5_MAX_RANK, c) : 0;
+    if (H5Pclose(dcpl) < 0 || layout < 0 || rank < 0 || rank > PDLA_H5_MAX_RANK) return -1;
+    for (int a = 0; a < rank; a++) cd[a] = c[a];
+    return rank;
+}
+
 int pdla_h5_dset_cache_chunk(pdla_h5_id loc, const char *name, pdla_h5_dset *d)
 {
     if (d->rank < 1) return 0;
-    const hid_t dcpl = H5Dget_create_plist(d->id);
-    if (dcpl < 0) return -1;
-    hsize_t cd[PDLA_H5_MAX_RANK] = {0};
-    const H5D_layout_t layout = H5Pget_layout(dcpl);
-    const int rank = layout == H5D_CHUNKED ? H5Pget_chunk(dcpl, PDLA_H5_MAX_RANK, cd) : 0;
-    if (H5Pclose(dcpl) < 0 || layout < 0 || rank < 0) return -1;
+    uint64_t cd[PDLA_H5_MAX_RANK] = {0};
+    const int rank = pdla_h5_dset_chunk(d, cd);
+    if (rank < 0) return -1;
     if (rank != d->rank) return 0; /* contiguous or compact: no chunk cache */
     const double mib = 1048576.0;
     double chunk = (double)d->size, data = (double)d->size;

@@ -36,13 +36,9 @@ int dlca_check_wanted(const char *path)
 /* The rows of d's chunks (0 when it is not chunked), or -1. */
 static int64_t chunk_rows(const pdla_h5_dset *d)
 {
-    const hid_t dcpl = H5Dget_create_plist(d->id);
-    if (dcpl < 0) return -1;
-    hsize_t cd[PDLA_H5_MAX_RANK] = {0};
-    const H5D_layout_t layout = H5Pget_layout(dcpl);
-    const int rank = layout == H5D_CHUNKED ? H5Pget_chunk(dcpl, PDLA_H5_MAX_RANK, cd) : 0;
-    if (H5Pclose(dcpl) < 0 || layout < 0 || rank < 0) return -1;
-    return rank > 0 ? (int64_t)cd[0] : 0;
+    uint64_t cd[PDLA_H5_MAX_RANK] = {0};
+    const int rank = pdla_h5_dset_chunk(d, cd);
+    return rank < 0 ? -1 : rank > 0 ? (int64_t)cd[0] : 0;
 }
 
 /* The /series columns are read side by side, six open at once, so each is

@@ -27,7 +27,11 @@
  *    two are in neighbouring cells, which with >= 4 cells a side is at most
  *    half the box apart, so the nearest image is the one that meets; when
  *    it is also the nearest at max(t_i, t_j), as nearly always, the bits
- *    are those of before.
+ *    are those of before. At exactly half the box (4 to 7 cells a side)
+ *    the two images tie and the approached one is taken, and after a
+ *    flight of many sides as many are taken off (ev_image, EV_PER_NEAR);
+ *    a pair solved from far apart is solved from its closest approach
+ *    (solve_far). Both found by `pdla check` (session 30).
  * Stability rules (Bannerman 2014), each tested in tests/event:
  *  - overlapping by round-off and approaching (r.v < 0): collide now;
  *    overlapping and receding: no event (they separate, no pass-through);
@@ -711,8 +715,9 @@ static inline __attribute__((always_inline)) void
 scan_batch(const ev_sim *s, const int D, uint32_t i, const double *pi, const uint32_t *cand,
            int n, double now, double *bt, uint32_t *bj)
 {
-    if (s->periodic && s->nc >= 8) scan_batch_per(s, D, EV_PER_NEAR, i, pi, cand, n, now, bt, bj);
-    else if (s->periodic) scan_batch_per(s, D, EV_PER_ANY, i, pi, cand, n, now, bt, bj);
+    const int per = ev_per(s); /* a constant in each copy */
+    if (per == EV_PER_NEAR) scan_batch_per(s, D, EV_PER_NEAR, i, pi, cand, n, now, bt, bj);
+    else if (per == EV_PER_ANY) scan_batch_per(s, D, EV_PER_ANY, i, pi, cand, n, now, bt, bj);
     else scan_batch_per(s, D, 0, i, pi, cand, n, now, bt, bj);
 }
 
@@ -775,8 +780,9 @@ static inline __attribute__((always_inline)) void
 scan_pairs(ev_sim *s, const int D, uint32_t i, double now, int sk, int slab)
 {
     /* 2D predicts pair by pair: the box's kind a constant of each copy */
-    if (D == 2 && !s->periodic) scan_pairs_body(s, 2, 0, 0, i, now, sk, slab);
-    else if (D == 2 && s->nc >= 8) scan_pairs_body(s, 2, 0, EV_PER_NEAR, i, now, sk, slab);
+    const int per = ev_per(s);
+    if (D == 2 && per == 0) scan_pairs_body(s, 2, 0, 0, i, now, sk, slab);
+    else if (D == 2 && per == EV_PER_NEAR) scan_pairs_body(s, 2, 0, EV_PER_NEAR, i, now, sk, slab);
     else if (D == 2) scan_pairs_body(s, 2, 0, EV_PER_ANY, i, now, sk, slab);
     else scan_pairs3(s, i, now, sk, slab);
 }

@@ -84,15 +84,19 @@ def masks(pid):
 
 def running_masks(tmp, name, bind):
     """Starts 2 workers that would run long, waits (up to 20 s) until the
-    threads besides the main one are 2 and 300 particles are long past,
-    reads every thread's CPU mask, kills the run. (main mask, [worker masks])."""
+    process has at least 3 threads and its threads and their masks have not
+    changed for a second (under ThreadSanitizer its background thread makes
+    3 before the second worker exists: CI, session 31), reads every thread's
+    CPU mask, kills the run. (main mask, [worker masks])."""
     p = subprocess.Popen([PDLA, "--dim", "2", "--threads", "2", "--serial-until", "300", "--target", "1e8",
                           "--no-output", "-q"] + bind, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
-        t0, got = time.time(), {}
+        t0, got, since = time.time(), {}, time.time()
         while p.poll() is None and time.time() < t0 + 20:
-            got = masks(p.pid)
-            if len(got) >= 3 and time.time() > t0 + 0.3:
+            now = masks(p.pid)
+            if now != got:
+                got, since = now, time.time()
+            elif len(got) >= 3 and time.time() > since + 1.0:
                 break
             time.sleep(0.02)
         alive = p.poll() is None

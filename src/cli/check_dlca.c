@@ -41,7 +41,7 @@ static const char *holds(const dlca_check_report *r, int k, char *buf, size_t le
         snprintf(buf, len, "%" PRIu64 " rows in range and order, the last the final state", r->series_rows);
         return buf;
     default:
-        snprintf(buf, len, "%" PRIu64 " checked as a resume does, and their clusters", r->snapshots);
+        snprintf(buf, len, "%" PRIu64 " checked as a resume does, their positions and their clusters", r->snapshots);
         return buf;
     }
 }

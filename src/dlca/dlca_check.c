@@ -11,7 +11,9 @@
  * (dlca_row_fault), the snapshot rule (dlca_snapshots_check_end) and the
  * fractal fit (dlca_fractal_dim), so that a file is held to the rules the
  * writer and the loader keep; the contacts and the spanning walk are
- * found afresh from the sites. Also the check of a checkpoint
+ * found afresh from the sites, and each snapshot's position dataset is
+ * compared with the coordinates of its sites (read through
+ * dlca_check_pos.c). Also the check of a checkpoint
  * (dck_checkpoint): loaded, then its state as the cluster.h5 it would
  * write.
  */
@@ -578,6 +580,68 @@ int dck_snapshots(dck *c, const dlca_snap_end *e, const dlca_snapshot *sn, size_
     return 0;
 }
 
+/* Rows of a snapshot's position read at a time: 1.3 MB of buffer in 5D. */
+enum { POS_SLAB = 1 << 16 };
+
+/* Rows r0..r0+n of snapshot i's position (pos, d a row) against the
+ * coordinates the writer derives from its sites (dlca_output.c,
+ * write_snapshot: x_a = (k / stride_a) mod L_a, coords_of's rule), exactly:
+ * each row that differs a failure. 1 at the failure cap, else 0. */
+static int position_rows(dck *c, size_t i, const uint32_t *site, uint64_t r0, uint64_t n, const int32_t *pos)
+{
+    const int d = c->d;
+    for (uint64_t j = 0; j < n; j++) {
+        int64_t want[DLCA_MAX_DIM], got[DLCA_MAX_DIM];
+        coords_of(c, site[r0 + j], want);
+        int same = 1;
+        for (int a = 0; a < d; a++) {
+            got[a] = pos[j * (uint64_t)d + (uint64_t)a];
+            if (got[a] != want[a]) same = 0;
+        }
+        if (same) continue;
+        char b1[96], b2[96];
+        dck_fail(c, DLCA_CK_SNAPSHOTS, "/snapshots/%zu/position row %" PRIu64 " is %s, but its site %" PRIu32
+                 " is at %s", i, r0 + j, point(c, got, b1, sizeof b1), site[r0 + j], point(c, want, b2, sizeof b2));
+        if (dck_failures(c) >= DLCA_CHECK_MAX_FAILURES) return 1;
+    }
+    return 0;
+}
+
+/* Each snapshot's /snapshots/<i>/position (what ParaView shows of it;
+ * the resume reads only its sites), read in slabs through dck_pos_*, its
+ * failures those of snapshot i. 0 or PDLA_ENOMEM. */
+static int snapshot_positions(dck *c, const char *path, const dlca_snapshot *sn, size_t n)
+{
+    char why[256];
+    dck_pos p;
+    if (dck_pos_open(&p, path, why, sizeof why)) {
+        dck_fail(c, DLCA_CK_SNAPSHOTS, "%s", why);
+        return 0;
+    }
+    int32_t *pos = malloc((size_t)POS_SLAB * (size_t)c->d * sizeof *pos);
+    int rc = pos ? 0 : PDLA_ENOMEM;
+    for (size_t i = 0; !rc && i < n && !c->r->stopped; i++) {
+        c->snap = (long)i; /* dck_fail names the snapshot */
+        if (dck_pos_snapshot(&p, i, c->N, c->d, why, sizeof why)) {
+            dck_fail(c, DLCA_CK_SNAPSHOTS, "%s", why);
+            continue;
+        }
+        for (uint64_t r0 = 0; r0 < c->N && !c->r->stopped; r0 += POS_SLAB) {
+            const uint64_t k = c->N - r0 < POS_SLAB ? c->N - r0 : POS_SLAB;
+            if (dck_pos_read(&p, r0, k, pos) < 0) {
+                dck_fail(c, DLCA_CK_SNAPSHOTS, "cannot read /snapshots/%zu/position rows %" PRIu64 "..%" PRIu64
+                         " (damaged?)", i, r0, r0 + k - 1);
+                break;
+            }
+            if (position_rows(c, i, sn[i].site, r0, k, pos)) c->r->stopped = 1;
+        }
+        if (dck_failures(c) >= DLCA_CHECK_MAX_FAILURES) c->r->stopped = 1;
+    }
+    if (dck_pos_close(&p) < 0) dck_fail(c, DLCA_CK_SNAPSHOTS, "cannot close the snapshots' position datasets");
+    free(pos);
+    return rc;
+}
+
 int dck_snapshots_file(dck *c, const char *path, const dlca_snap_end *e, const dck_totals *t)
 {
     dlca_snapshot *sn = NULL;
@@ -596,7 +660,8 @@ int dck_snapshots_file(dck *c, const char *path, const dlca_snap_end *e, const d
         dck_fail(c, DLCA_CK_SNAPSHOTS, "%s", at);
         return 0;
     }
-    const int rc = dck_snapshots(c, e, sn, n, every, stopped, t);
+    int rc = dck_snapshots(c, e, sn, n, every, stopped, t);
+    if (!rc && !c->r->stopped) rc = snapshot_positions(c, path, sn, n);
     for (size_t i = 0; i < n; i++) free(sn[i].site), free(sn[i].cluster);
     free(sn);
     return rc;

@@ -12,7 +12,9 @@
 #include <stdint.h>
 
 #include "dlca_sim.h"
+#include "h5util.h"
 #include "pdla/dlca.h"
+#include "pdla/h5check.h"
 
 /* The state of one check: a bit a site, and per monomer its entry in the
  * sorted sites, its cluster number and a union-find word. */
@@ -96,9 +98,31 @@ dlca_row dck_end_row(const dck *c, const dck_totals *tot);
 int dck_snapshots(dck *c, const dlca_snap_end *e, const dlca_snapshot *sn, size_t n, double every, int stopped,
                   const dck_totals *tot);
 /* The snapshots of the file at path (none: nothing to check), read as a
- * resume reads them (dlca_read_snapshots_h5), then dck_snapshots; a
+ * resume reads them (dlca_read_snapshots_h5), then dck_snapshots, then
+ * each one's /snapshots/<i>/position against its sites (dck_pos_*); a
  * refusal is a failure. 0 or PDLA_ENOMEM. */
 int dck_snapshots_file(dck *c, const char *path, const dlca_snap_end *e, const dck_totals *tot);
+/* The snapshots' position datasets of a file, read for dck_snapshots_file
+ * (dlca_check_pos.c, which uses nothing of the core): the file, the
+ * dataset open (open 1) and HDF5's printing, off until dck_pos_close. */
+typedef struct dck_pos {
+    pdla_h5_id f;
+    pdla_h5_dset d;
+    int open;
+    h5u_quiet q;
+} dck_pos;
+/* Open path read-only. 0, or -1 with why (nothing to close). */
+int dck_pos_open(dck_pos *p, const char *path, char *why, size_t len);
+/* Open /snapshots/<i>/position (closing the one before), held to what pdla
+ * writes before a row is read: int32, N rows of d, storing what it
+ * declares, in chunks of at most 65536 rows of d. 0, or -1 with why, a
+ * line that names the dataset. */
+int dck_pos_snapshot(dck_pos *p, size_t i, uint64_t N, int d, char *why, size_t len);
+/* Rows [r0, r0 + n) of the dataset open, d int32 each, into buf. 0 or -1
+ * (a checksum or I/O error). */
+int dck_pos_read(const dck_pos *p, uint64_t r0, uint64_t n, int32_t *buf);
+/* Close the dataset and the file, HDF5's printing as it was. 0 or -1. */
+int dck_pos_close(dck_pos *p);
 /* The report's header (the box, N), the final state's counts after
  * dck_finish, and the verdict once every check has run. */
 void dck_report_params(dlca_check_report *r, const dlca_params *p, uint64_t N);

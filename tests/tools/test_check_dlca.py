@@ -23,6 +23,12 @@ spanning stop made 'clusters' and a clusters stop made 'spanning'
 (spanning); a lone monomer moved next to another cluster in snapshot 0
 (snapshots) and a snapshot count above the snapshots held (snapshots);
 every monomer on one site, 13000 monomers: reading stops at 10000 failures.
+A snapshot's /snapshots/<i>/position that is not the coordinates of its
+sites (a row moved one site, in a cluster.h5 and in a checkpoint; two rows
+swapped; every row of every snapshot moved, one failure a row) or not as
+pdla writes it (removed, float64, 3 columns, declared and not stored, one
+gzip'ed chunk of 2^22 rows, 2^40 rows declared) fails (snapshots), the
+first failure naming the snapshot and the dataset, under 200 MB.
 A checkpoint the loader refuses (merges forged) fails with the loader's
 line; one whose series row's mean size is one ulp off, which the loader
 takes (it checks a range), fails the series check.
@@ -281,6 +287,8 @@ def set_attr(group, name, value):
 
 
 def snapshot_touch(f):
+    """A lone monomer moved next to another cluster in snapshot 0: its site
+    and its position both, so that only the touch is wrong."""
     L = [int(v) for v in f["parameters"].attrs["box"]]
     g = f["snapshots/0"]
     sites = g["site"][:]
@@ -289,6 +297,9 @@ def snapshot_touch(f):
     i, x = lone_next_to(L, pos, cl, np.bincount(cl))
     sites[i] = site_of(L, x)
     g["site"][...] = sites
+    p = g["position"][:]
+    p[i] = x
+    g["position"][...] = p
 
 
 def forgeries(runs, tmp):
@@ -318,6 +329,87 @@ def forgeries(runs, tmp):
     ]
     for src, name, fn, kinds in cases:
         check(forged(src, tmp, name, fn), 1, kinds, "forged " + name)
+
+
+def first_of(out, kind):
+    """The report's line of kind, without its name."""
+    lines = [ln for ln in out.split("\n") if ln.startswith("%-12s " % kind)]
+    return lines[0][13:] if lines else ""
+
+
+def shift_row(snap, row, axis=0):
+    """Snapshot snap's position row moved one site along axis (inside the
+    box): the site is left as it was."""
+    def fn(f):
+        L = [int(v) for v in f["parameters"].attrs["box"]]
+        p = f["snapshots/%d/position" % snap][:]
+        p[row, axis] = (p[row, axis] + 1) % L[axis]
+        f["snapshots/%d/position" % snap][...] = p
+    return fn
+
+
+def replace_position(snap, **kw):
+    """Snapshot snap's position dataset made anew with h5py's
+    create_dataset(**kw) (data=... or shape=... and dtype=...)."""
+    def fn(f):
+        g = f["snapshots/%d" % snap]
+        del g["position"]
+        g.create_dataset("position", **kw)
+    return fn
+
+
+def snapshot_positions(runs, tmp):
+    """Each snapshot's /snapshots/<i>/position must be the coordinates the
+    writer derives from its sites (dlca_output.c, write_snapshot), exactly;
+    a position dataset pdla cannot have written is damage, in bounded
+    memory: each a failure of `snapshots` (exit 1) naming the snapshot and
+    the dataset. Before session 32 the check read no snapshot position and
+    every one of these passed."""
+    c = os.path.join(runs["snap"], "cluster.h5")
+    ck = os.path.join(runs["snap"], "checkpoint.h5")
+    with h5py.File(c, "r") as f:
+        N = f["monomers/site"].shape[0]
+        snaps = int(f["snapshots"].attrs["count"])
+        p2 = f["snapshots/2/position"][:]
+    swapped = p2.copy()
+    swapped[[0, 1]] = swapped[[1, 0]]
+    cases = [
+        (c, "snappos", shift_row(1, 3), 1, "snapshot 1: /snapshots/1/position row 3 is"),
+        (ck, "ckpos", shift_row(1, 3, 1), 1, "snapshot 1: /snapshots/1/position row 3 is"),
+        (c, "snapswap", replace_position(2, data=swapped), 2, "snapshot 2: /snapshots/2/position row 0 is"),
+        (c, "snapgone", lambda f: f["snapshots/0"].__delitem__("position"), 1, "snapshot 0: /snapshots/0/position"),
+        (c, "snapf64", replace_position(0, data=p2.astype("<f8")), 1, "snapshot 0: /snapshots/0/position is"),
+        (c, "snapcols", replace_position(0, data=np.zeros((N, 3), "<i4")), 1, "snapshot 0: /snapshots/0/position is"),
+        (c, "snapunstored", replace_position(0, shape=(N, 2), dtype="<i4"), 1,
+         "snapshot 0: /snapshots/0/position declares"),
+        (c, "snapchunk", replace_position(0, data=p2, maxshape=(None, 2), chunks=(1 << 22, 2), compression="gzip"), 1,
+         "snapshot 0: /snapshots/0/position is stored in chunks of 4194304 rows"),
+    ]
+    for src, name, fn, nfail, text in cases:
+        path = forged(src, tmp, name, fn)
+        rc, kb = peak_rss_kb([PDLA, "check", path])
+        out, err = check(path, 1, ["snapshots"], "forged " + name)
+        want = "%d FAILED; first: %s" % (nfail, text)
+        T.check(first_of(out, "snapshots").startswith(want) and rc == 1 and kb < 200000,
+                "forged %s: rc %d, %d kB, want %r\n%s" % (name, rc, kb, want, out))
+    # 2^40 rows declared and none stored: refused before a slab is read
+    path = forged(c, tmp, "snapdeclared", replace_position(0, shape=(1 << 40, 2), dtype="<i4", chunks=(65536, 2)))
+    t0 = time.time()
+    rc, kb = peak_rss_kb([PDLA, "check", path])
+    out, _ = check(path, 1, ["snapshots"], "forged snapdeclared")
+    T.check(rc == 1 and kb < 200000 and time.time() - t0 < 20 and
+            first_of(out, "snapshots").startswith("1 FAILED; first: snapshot 0: /snapshots/0/position is"),
+            "2^40 snapshot positions declared: rc %d, %d kB, %.1f s\n%s" % (rc, kb, time.time() - t0, out))
+    # every row of every snapshot moved: one failure a row, up to the cap
+    def all_moved(f):
+        for k in f["snapshots"]:
+            p = f["snapshots/%s/position" % k][:]
+            f["snapshots/%s/position" % k][...] = (p + 1) % 64
+    out, _ = check(forged(c, tmp, "snapall", all_moved), 1, ["snapshots"], "every snapshot position moved")
+    T.check(first_of(out, "snapshots").startswith("%d FAILED; first: snapshot 0: /snapshots/0/position row 0 is"
+                                                  % (N * snaps)), "every snapshot position moved:\n%s" % out)
+    out, _ = check(forged(c, tmp, "snaptouch2", snapshot_touch), 1, ["snapshots"], "snapshot touch")
+    T.check("touch" in first_of(out, "snapshots"), "snapshot touch: the first failure is not the touch\n%s" % out)
 
 
 def checkpoint_forgeries(runs, tmp):
@@ -440,6 +532,7 @@ def main():
         json_report(runs)
         forgeries(runs, tmp)
         checkpoint_forgeries(runs, tmp)
+        snapshot_positions(runs, tmp)
         many_failures(tmp)
         hostile(runs, tmp)
         memory(tmp)

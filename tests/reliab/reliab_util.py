@@ -2,9 +2,11 @@
 models_cli.py, cli_items.py, faults.py, hostile.py, hostile_models.py,
 ens_adversary.py, scene_models.py and models_faults.py; each runs as
 `python3 SCRIPT.py`, so this file, beside them, is on sys.path;
-tests/ensemble/test_ens_builds.py, test_ens_json.py and tests/formats/test_xdmf_text.py
-put this folder on their path)."""
+tests/ensemble/test_ens_builds.py, test_ens_json.py, tests/formats/test_xdmf_text.py
+and the `pdla check` tests tests/tools/test_check*.py put this folder on
+their path)."""
 import os
+import shutil
 import subprocess
 import time
 
@@ -125,3 +127,35 @@ def run_usage(exe, args, limit, errf, env=None):
     err = errf.read()
     rc = os.WEXITSTATUS(status) if os.WIFEXITED(status) else -os.WTERMSIG(status)
     return rc, err, ru
+
+
+def run_text(args, timeout=120):
+    """Run args with stdin from /dev/null: (exit status, stdout text, stderr
+    text), bytes that are not UTF-8 replaced (tests/tools/test_check*.py)."""
+    p = subprocess.run(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL,
+                       timeout=timeout)
+    return p.returncode, p.stdout.decode(errors="replace"), p.stderr.decode(errors="replace")
+
+
+def forged_copy(src, tmp, name, fn):
+    """A copy of the HDF5 file src as TMP/NAME.h5, changed by fn(f) with f
+    the copy opened by h5py in r+ mode: the copy's path."""
+    import h5py
+    dst = os.path.join(tmp, name + ".h5")
+    shutil.copyfile(src, dst)
+    with h5py.File(dst, "r+") as f:
+        fn(f)
+    return dst
+
+
+def child_peak_rss(args, timeout):
+    """Run args from a fresh python, whose RUSAGE_CHILDREN is then that run's
+    alone: (exit status, its stderr text, its peak RSS in KB)."""
+    import sys
+    code = ("import resource, subprocess, sys\n"
+            "p = subprocess.run(sys.argv[1:], capture_output=True)\n"
+            "sys.stderr.write(p.stderr.decode(errors='replace'))\n"
+            "print(p.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)\n")
+    p = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, timeout=timeout)
+    rc, kb = p.stdout.decode().split()
+    return int(rc), p.stderr.decode(errors="replace"), int(kb)

@@ -28,7 +28,6 @@ import json
 import math
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
 
@@ -36,16 +35,14 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "reliab"))
-from reliab_util import Tally  # noqa: E402
+from reliab_util import Tally, forged_copy as forged, run_text  # noqa: E402
 
 T = Tally()
 PDLA = sys.argv[1]
 
 
 def run(args, timeout=300):
-    p = subprocess.run(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL,
-                       timeout=timeout)
-    return p.returncode, p.stdout.decode(errors="replace"), p.stderr.decode(errors="replace")
+    return run_text(args, timeout)
 
 
 def grow(tmp, name, args):
@@ -66,14 +63,6 @@ def check_file(path, want_rc, want_text=(), what=""):
         T.check(out == "" and err.count("\n") == 1 and err.startswith("pdla check: "),
                 "%s: want one line on stderr, got %r / %r" % (what, out, err))
     return ok, out
-
-
-def forged(src, tmp, name, fn):
-    dst = os.path.join(tmp, name + ".h5")
-    shutil.copyfile(src, dst)
-    with h5py.File(dst, "r+") as f:
-        fn(f)
-    return dst
 
 
 def passing(tmp):

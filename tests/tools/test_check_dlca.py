@@ -49,7 +49,6 @@ are refused before the check allocates (exit 1, one line).
 """
 import json
 import os
-import resource
 import shutil
 import signal
 import subprocess
@@ -61,18 +60,12 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "reliab"))
-from reliab_util import Tally, shim_preload  # noqa: E402
+from reliab_util import Tally, child_peak_rss, forged_copy as forged, run_text as run, shim_preload  # noqa: E402
 
 T = Tally()
 PDLA = sys.argv[1]
 KINDS = ["box", "site", "shared", "numbering", "pieces", "touch", "spanning", "size", "rg", "results", "stop",
          "series", "snapshots"]
-
-
-def run(args, timeout=120):
-    p = subprocess.run(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL,
-                       timeout=timeout)
-    return p.returncode, p.stdout.decode(errors="replace"), p.stderr.decode(errors="replace")
 
 
 def grow(tmp, name, args, ckpt=False):
@@ -101,14 +94,6 @@ def check(path, want_rc, kinds=(), what=""):
         T.check(out == "" and err.count("\n") == 1 and err.startswith("pdla check: "),
                 "%s: want one line on stderr, got %r / %r" % (what, out, err))
     return out, err
-
-
-def forged(src, tmp, name, fn):
-    dst = os.path.join(tmp, name + ".h5")
-    shutil.copyfile(src, dst)
-    with h5py.File(dst, "r+") as f:
-        fn(f)
-    return dst
 
 
 def passing(tmp):
@@ -442,11 +427,8 @@ def many_failures(tmp):
 
 
 def peak_rss_kb(args):
-    code = ("import resource, subprocess, sys; p = subprocess.run(sys.argv[1:], capture_output=True); "
-            "print(p.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
-    p = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, timeout=120)
-    rc, kb = p.stdout.decode().split()
-    return int(rc), int(kb)
+    rc, _, kb = child_peak_rss(args, 120)
+    return rc, kb
 
 
 def hostile(runs, tmp):

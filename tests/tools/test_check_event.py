@@ -30,9 +30,7 @@ Two engine faults the check found (engine_faults) pass since their fix.
 """
 import json
 import os
-import resource
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
@@ -41,16 +39,10 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "reliab"))
-from reliab_util import Tally  # noqa: E402
+from reliab_util import Tally, child_peak_rss, forged_copy as forged, run_text as run  # noqa: E402
 
 T = Tally()
 PDLA = sys.argv[1]
-
-
-def run(args, timeout=120):
-    p = subprocess.run(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL,
-                       timeout=timeout)
-    return p.returncode, p.stdout.decode(errors="replace"), p.stderr.decode(errors="replace")
 
 
 def grow(tmp, name, args, files=None):
@@ -80,14 +72,6 @@ def failed(path, kind, what):
     T.check(any(line.startswith(kind + " ") and "FAILED" in line for line in out.split("\n")),
             "%s: no %r FAILED line\n%s" % (what, kind, out))
     T.check("fails the check" in err and kind in err, "%s: stderr %r" % (what, err))
-
-
-def forged(src, tmp, name, fn):
-    dst = os.path.join(tmp, name + ".h5")
-    shutil.copyfile(src, dst)
-    with h5py.File(dst, "r+") as f:
-        fn(f)
-    return dst
 
 
 def passing(tmp):
@@ -295,13 +279,8 @@ def checkpoint_forgeries(ck, tmp):
 
 def peak_rss_mb(args):
     """Run args in a fresh python: (exit status, stderr, the child's peak RSS in MB)."""
-    code = ("import resource, subprocess, sys\n"
-            "p = subprocess.run(sys.argv[1:], capture_output=True)\n"
-            "sys.stderr.write(p.stderr.decode(errors='replace'))\n"
-            "print(p.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)\n")
-    p = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, timeout=60)
-    rc, kb = p.stdout.decode().split()
-    return int(rc), p.stderr.decode(errors="replace"), int(kb) / 1024
+    rc, err, kb = child_peak_rss(args, 60)
+    return rc, err, kb / 1024
 
 
 def hostile(files, tmp):

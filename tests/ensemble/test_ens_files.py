@@ -20,7 +20,7 @@ Usage: test_ens_files.py PDLA PV_SCRIPT
    at once (no allocation or loop for the declared rows);
  - hostile journals: 2 MiB of forged record heads cost a resume a few
    seconds at most; a resume scanning 4 MiB of heads that look like this
-   ensemble's own (each read whole: tens of seconds) ends by SIGTERM within
+   ensemble's own (each read whole: 4.2 GB, seconds of CPU) ends by SIGTERM within
    2 s of it, with one line, the journal byte for byte as it was.
 A missing ParaView, h5py or h5dump is a failure, not a skip.
 """
@@ -174,7 +174,8 @@ def sigterm_in_scan(journal):
     """(session 27) `journal` is record 0 of "dos" and then 4 MiB of copies
     of record 1's head: this ensemble's own fingerprint and fixed fields,
     each read whole to its declared length (160 kB) and hashed before its
-    checksum fails: about 40 s of scan in the release build. A SIGTERM was
+    checksum fails: 4.2 GB read, 4.9-6.0 s of CPU in the release build
+    (runs/readme-claims/journal-scan.txt, the scan run to its end). A SIGTERM was
     seen only when the scan ended, and the resume then cut the heads as a
     torn tail. SIGTERM once the scan has read 20 MB must end the process by
     the signal within 2 s, with the line saying so, and leave the journal as

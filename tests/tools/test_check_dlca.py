@@ -348,7 +348,7 @@ def snapshot_positions(runs, tmp):
     writer derives from its sites (dlca_output.c, write_snapshot), exactly;
     a position dataset pdla cannot have written is damage, in bounded
     memory: each a failure of `snapshots` (exit 1) naming the snapshot and
-    the dataset. Before session 32 the check read no snapshot position and
+    the dataset. Before session 31 the check read no snapshot position and
     every one of these passed."""
     c = os.path.join(runs["snap"], "cluster.h5")
     ck = os.path.join(runs["snap"], "checkpoint.h5")

@@ -329,11 +329,17 @@ static inline int ev_per(const ev_sim *s)
 /* Where the image of a periodic pair must be chosen with care: |rn| above
  * this. Below it (every pair of neighbouring cells but those of 4-cell
  * boxes and long flights) the image is the one at hand. The margin is the
- * round-off of rn, a separation carried over a flight that may be many box
- * sides long (64 epsilon of |rn| + L). */
-static inline __attribute__((always_inline)) double ev_half_near(double half, double rn)
+ * round-off of rn, 64 epsilon of |rn| + L and of ro, the size of what rn
+ * was computed from (rare_images: the stored positions, and the speeds
+ * times the clock). Without ro, at a late clock the round-off of a time,
+ * |v| epsilon t (1e-9 at t = 1e7), outgrew the margin (5e-12 in a box of
+ * 219): a tie was not seen, the receding image was taken and the particle
+ * passed through the seed (3D, `--particles 20 --packing 1e-6 --box-walls
+ * periodic --seed 4`: 0.425 of a contact distance deep at t = 1.3e6; test
+ * event-periodic-tie-late). */
+static inline __attribute__((always_inline)) double ev_half_near(double half, double rn, double ro)
 {
-    return half - 64 * DBL_EPSILON * (fabs(rn) + 2 * half);
+    return half - 64 * DBL_EPSILON * (fabs(rn) + 2 * half + ro);
 }
 
 /* How many box sides k to take off the separation rn (now, along one axis)
@@ -348,11 +354,11 @@ static inline __attribute__((always_inline)) double ev_half_near(double half, do
  * slab, and the particle passed 0.19 diameters into the seed (3D, 20
  * particles at packing 1e-4, seeds 2, 3, 6; test event-periodic-few).
  * k = +-1 away from a tie gives r -+ L, the bits of before. */
-static inline double ev_image(double rn, double v, double half, double L)
+static inline double ev_image(double rn, double v, double half, double L, double ro)
 {
     double k = nearbyint(rn / L);
     const double rk = rn - k * L;
-    if (fabs(rk) > ev_half_near(half, rn) && rk * v > 0) k += rk > 0 ? 1 : -1;
+    if (fabs(rk) > ev_half_near(half, rn, ro) && rk * v > 0) k += rk > 0 ? 1 : -1;
     return k;
 }
 
@@ -399,7 +405,8 @@ static void rare_images(const int D, const double *pi, const double *pj, double 
         const double r0 = (pj[k] + pj[D + k] * dj) - (pi[k] + pi[D + k] * di);
         v[k] = pj[D + k] - pi[D + k];
         const double rn = r0 + v[k] * dn;
-        r[k] = fabs(rn) > ev_half_near(half, rn) ? r0 - L * ev_image(rn, v[k], half, L) : r0;
+        const double ro = fabs(pi[k]) + fabs(pj[k]) + (fabs(pi[D + k]) + fabs(pj[D + k])) * fabs(now);
+        r[k] = fabs(rn) > ev_half_near(half, rn, ro) ? r0 - L * ev_image(rn, v[k], half, L, ro) : r0;
     }
 }
 

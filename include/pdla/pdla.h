@@ -348,9 +348,10 @@ enum {
  * generations before it. */
 #define PDLA_CHECKPOINT_NAME "checkpoint.h5"
 #define PDLA_CHECKPOINT_GENERATIONS 3
-/* Names a fallback resume sets the skipped (damaged) generations aside
- * under (pdla_checkpoint_recover): checkpoint.damaged.h5,
- * checkpoint.damaged.2.h5, ...; never read by a directory resume. */
+/* Names a fallback resume sets the skipped (damaged) checkpoints aside
+ * under (pdla_rundir_set_aside, for pdla_checkpoint_recover and the event
+ * command): checkpoint.damaged.h5, checkpoint.damaged.2.h5, ...; never read
+ * by a directory resume. */
 #define PDLA_CHECKPOINT_ASIDE_PREFIX "checkpoint.damaged."
 
 typedef struct pdla_checkpoint_opts {
@@ -460,6 +461,20 @@ PDLA_API void pdla_rundir_remove_prefixed(const char *dir, const char *const *pr
  * it cannot be synced: the commands stop before the run then, exit 1 (an
  * I/O failure, as a failed write). */
 PDLA_API int pdla_rundir_remove_old_run(const char *dir, int writes_summary, char *err, size_t errlen);
+/* A damaged checkpoint src of run directory dir that a fallback resume
+ * skipped goes aside, kept byte for byte, under the first free name of
+ * PDLA_CHECKPOINT_ASIDE_PREFIX: checkpoint.damaged.h5, then
+ * checkpoint.damaged.2.h5, ... up to .999 (every model: DLA's
+ * pdla_checkpoint_recover, the event command's fallback). The name is
+ * claimed without replacing anything (renameat2 RENAME_NOREPLACE, else a
+ * hard link and an unlink), so an earlier kept file is never overwritten;
+ * when an aside name already is this file (a crash between that link and
+ * unlink), src is only unlinked, so a file is never kept twice. kept (may
+ * not be NULL) gets the name, or "" when src is not there. The caller
+ * syncs the directory. Hold the lock. PDLA_OK, or PDLA_EIO with err naming
+ * the file and the reason. */
+PDLA_API int pdla_rundir_set_aside(const char *dir, const char *src, char *kept, size_t keptlen, char *err,
+                                   size_t errlen);
 /* fsync the directory itself, so that renames and links in it are on disk
  * (a file system that cannot sync a directory counts as synced). 0, or -1
  * with errno. */

@@ -409,20 +409,29 @@ static int dir_takes_files(const char *dir)
 }
 
 /* checkpoint.h5 is damaged and the run resumes from checkpoint.prev.h5:
- * the damaged file goes aside (checkpoint.damaged.h5, kept, not lost) and
- * the previous one becomes checkpoint.h5 too (a hard link, else renamed).
- * The next write moves checkpoint.h5 to checkpoint.prev.h5 before it puts
- * the new one in place; without this it moved the damaged file over the
- * good previous one, and a crash before the new file was in place left no
- * whole checkpoint under either name. 0, or 1 with the line printed. */
+ * the damaged file goes aside, kept, under the first free name of
+ * checkpoint.damaged.h5, checkpoint.damaged.2.h5, ... (pdla_rundir_set_aside,
+ * as the DLA recovery: until session 32 a second fallback renamed its
+ * damaged file over the first one's checkpoint.damaged.h5), the directory
+ * is synced, and the previous one becomes checkpoint.h5 too (a hard link,
+ * else renamed). The next write moves checkpoint.h5 to checkpoint.prev.h5
+ * before it puts the new one in place; without this it moved the damaged
+ * file over the good previous one, and a crash before the new file was in
+ * place left no whole checkpoint under either name. 0, or 1 with the line
+ * printed. */
 static int promote_previous(const char *dir)
 {
-    char cur[4200], prev[4200], bad[4200];
+    char cur[4200], prev[4200], kept[4200], err[4600];
     snprintf(cur, sizeof cur, "%s/checkpoint.h5", dir);
     snprintf(prev, sizeof prev, "%s/checkpoint.prev.h5", dir);
-    snprintf(bad, sizeof bad, "%s/checkpoint.damaged.h5", dir);
-    if (rename(cur, bad) != 0 && errno != ENOENT) {
-        fprintf(stderr, "pdla: cannot set the damaged %s aside: %s\n", cur, strerror(errno));
+    if (pdla_rundir_set_aside(dir, cur, kept, sizeof kept, err, sizeof err) != PDLA_OK) {
+        fprintf(stderr, "pdla: cannot resume: %s\n", err);
+        return 1;
+    }
+    /* synced before checkpoint.h5 is taken again: on a power loss the new
+     * name must not land without the set-aside (the DLA recovery's order) */
+    if (kept[0] && pdla_rundir_fsync(dir) != 0) {
+        fprintf(stderr, "pdla: cannot sync directory %s: %s\n", dir, strerror(errno));
         return 1;
     }
     if (link(prev, cur) != 0 && rename(prev, cur) != 0) {
@@ -433,6 +442,7 @@ static int promote_previous(const char *dir)
         fprintf(stderr, "pdla: cannot sync directory %s: %s\n", dir, strerror(errno));
         return 1;
     }
+    if (kept[0]) fprintf(stderr, "pdla: note: %s set aside as %s\n", cur, kept);
     return 0;
 }
 

@@ -1,7 +1,11 @@
 /*
  * rundir.c - the run directory's lock: one writer per run directory, by
  * flock on the directory itself (nothing is created, so a crash leaves no
- * stale lock). pdla_rundir_lock / pdla_rundir_unlock in pdla.h.
+ * stale lock). pdla_rundir_lock / pdla_rundir_unlock in pdla.h. Also what
+ * every model does to the directory's names: the writability probe, the
+ * set-aside of a damaged checkpoint after a fallback resume (one numbering,
+ * checkpoint.damaged[.N].h5, for DLA and the event model) and the removal
+ * of an older run's files.
  */
 #include "pdla/pdla.h"
 #include "h5util.h"
@@ -101,9 +105,56 @@ int pdla_rundir_probe(const char *dir)
 static const char *const old_run_names[] = {PDLA_CHECKPOINT_NAME, "checkpoint.1.h5", "checkpoint.2.h5",
                                             "checkpoint.prev.h5", "summary.txt"};
 
-/* Whether name is one a DLA fallback resume sets aside
- * (checkpoint_recover.c: PDLA_CHECKPOINT_ASIDE_PREFIX "h5", or the prefix,
- * a number and ".h5"): only those, not a user's checkpoint.damaged.notes.txt. */
+/* Kept files are numbered up to this (three digits: is_aside_name); past
+ * it a set-aside is refused rather than a kept file replaced (a directory
+ * that needed so many fallbacks has a disk to look at, and each kept file
+ * may be gigabytes). */
+#define ASIDE_MAX 999
+
+/* The k-th name a fallback resume sets a damaged checkpoint aside under
+ * (pdla_rundir_set_aside): k = 1 is checkpoint.damaged.h5, then
+ * checkpoint.damaged.2.h5, ... */
+static void aside_name(char *buf, size_t n, const char *dir, int k)
+{
+    if (k == 1) snprintf(buf, n, "%s/" PDLA_CHECKPOINT_ASIDE_PREFIX "h5", dir);
+    else snprintf(buf, n, "%s/" PDLA_CHECKPOINT_ASIDE_PREFIX "%d.h5", dir, k);
+}
+
+int pdla_rundir_set_aside(const char *dir, const char *src, char *kept, size_t keptlen, char *err, size_t errlen)
+{
+    struct stat s0, sk;
+    kept[0] = '\0';
+    if (lstat(src, &s0) != 0)
+        return errno == ENOENT ? PDLA_OK : pdla_errorf(PDLA_EIO, err, errlen, "cannot set %s aside: %s", src,
+                                                       strerror(errno));
+    for (int k = 1; k <= ASIDE_MAX; k++) {
+        aside_name(kept, keptlen, dir, k);
+        if (lstat(kept, &sk) == 0) {
+            if (sk.st_dev != s0.st_dev || sk.st_ino != s0.st_ino) continue;
+            if (unlink(src) == 0) return PDLA_OK;
+            return pdla_errorf(PDLA_EIO, err, errlen, "%s is kept as %s, but cannot remove it: %s", src, kept,
+                               strerror(errno));
+        }
+        if (errno != ENOENT)
+            return pdla_errorf(PDLA_EIO, err, errlen, "cannot look at %s: %s", kept, strerror(errno));
+        const int rc = h5u_publish(src, kept);
+        if (rc == 0) return PDLA_OK;
+        if (rc == PDLA_EEXIST) continue; /* made since the lstat: take the next name */
+        if (rc == 1)
+            return pdla_errorf(PDLA_EIO, err, errlen, "%s is kept as %s, but cannot remove it: %s", src, kept,
+                               strerror(errno));
+        return pdla_errorf(PDLA_EIO, err, errlen, "cannot set %s aside as %s: %s", src, kept, strerror(errno));
+    }
+    kept[0] = '\0';
+    return pdla_errorf(PDLA_EIO, err, errlen,
+                       "cannot set %s aside: %d files are kept as %s/" PDLA_CHECKPOINT_ASIDE_PREFIX
+                       "*h5 already; remove those no longer needed",
+                       src, ASIDE_MAX, dir);
+}
+
+/* Whether name is one a fallback resume sets aside (pdla_rundir_set_aside:
+ * PDLA_CHECKPOINT_ASIDE_PREFIX "h5", or the prefix, a number and ".h5"):
+ * only those, not a user's checkpoint.damaged.notes.txt. */
 static int is_aside_name(const char *name)
 {
     const size_t plen = strlen(PDLA_CHECKPOINT_ASIDE_PREFIX);

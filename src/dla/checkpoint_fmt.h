@@ -73,16 +73,6 @@ static inline void ckpt_gen_name(char *buf, size_t n, const char *dir, int k)
     else snprintf(buf, n, "%s/checkpoint.%d.h5", dir, k);
 }
 
-/* A name the loader skipped after a fallback resume, set aside by
- * pdla_checkpoint_recover (checkpoint_recover.c): k = 1 is
- * checkpoint.damaged.h5 (the event model's name for the same case), then
- * checkpoint.damaged.2.h5, ... No directory resume reads these names. */
-static inline void ckpt_aside_name(char *buf, size_t n, const char *dir, int k)
-{
-    if (k == 1) snprintf(buf, n, "%s/" PDLA_CHECKPOINT_ASIDE_PREFIX "h5", dir);
-    else snprintf(buf, n, "%s/" PDLA_CHECKPOINT_ASIDE_PREFIX "%d.h5", dir, k);
-}
-
 /* checkpoint_read.c: the generation in the root of the checkpoint at path,
  * without loading the rest. 0, or -1 when the root does not read. */
 int ckpt_peek_generation(const char *path, uint64_t *generation);

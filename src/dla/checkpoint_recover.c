@@ -1,13 +1,13 @@
 /*
  * checkpoint_recover.c - pdla_checkpoint_recover() (pdla.h): after a resume
  * from a run directory fell back past damaged newer generations, those go
- * aside as checkpoint.damaged*.h5 and the good generations move to the
- * front, so that the rotation of the next writes (checkpoint_write.c,
- * shift_generations) shifts only complete checkpoints. Without it the first
- * write after such a resume hard-linked the damaged checkpoint.h5 as
- * checkpoint.1.h5, the second pushed the file the run had resumed from out
- * and kept the damaged one as checkpoint.2.h5, and the new file took the
- * damaged one's generation number.
+ * aside as checkpoint.damaged*.h5 (pdla_rundir_set_aside) and the good
+ * generations move to the front, so that the rotation of the next writes
+ * (checkpoint_write.c, shift_generations) shifts only complete checkpoints.
+ * Without it the first write after such a resume hard-linked the damaged
+ * checkpoint.h5 as checkpoint.1.h5, the second pushed the file the run had
+ * resumed from out and kept the damaged one as checkpoint.2.h5, and the new
+ * file took the damaged one's generation number.
  */
 #define _GNU_SOURCE
 
@@ -21,11 +21,6 @@
 #include "checkpoint_fmt.h"
 #include "engine.h"
 #include "h5util.h"
-
-/* Kept files are numbered up to this; past it the resume is refused rather
- * than a kept file replaced (a directory that needed so many fallbacks has
- * a disk to look at, and each kept file may be gigabytes). */
-#define ASIDE_MAX 999
 
 /* Generation numbers from here up are no run's (a forged root): followed,
  * the next write's number would wrap. */
@@ -72,43 +67,6 @@ static uint64_t generation_past(const char *dir, const pdla_checkpoint_info *inf
     return past;
 }
 
-/* Moves the skipped file src to the first free aside name, claimed without
- * replacing anything (h5u_publish: renameat2 RENAME_NOREPLACE, else a hard
- * link and an unlink); kept gets that name, or "" when src is not there.
- * When an aside name already is this file (a crash between that link and
- * unlink left both names), src is only unlinked, so a file is never kept
- * twice. PDLA_OK or PDLA_EIO with err. */
-static int set_aside(const char *dir, const char *src, char *kept, size_t keptlen, char *err, size_t errlen)
-{
-    struct stat s0, sk;
-    kept[0] = '\0';
-    if (lstat(src, &s0) != 0)
-        return errno == ENOENT ? PDLA_OK : pdla_errorf(PDLA_EIO, err, errlen, "cannot set %s aside: %s", src,
-                                                       strerror(errno));
-    for (int k = 1; k <= ASIDE_MAX; k++) {
-        ckpt_aside_name(kept, keptlen, dir, k);
-        if (lstat(kept, &sk) == 0) {
-            if (sk.st_dev != s0.st_dev || sk.st_ino != s0.st_ino) continue;
-            if (unlink(src) == 0) return PDLA_OK;
-            return pdla_errorf(PDLA_EIO, err, errlen, "%s is kept as %s, but cannot remove it: %s", src, kept,
-                               strerror(errno));
-        }
-        if (errno != ENOENT)
-            return pdla_errorf(PDLA_EIO, err, errlen, "cannot look at %s: %s", kept, strerror(errno));
-        const int rc = h5u_publish(src, kept);
-        if (rc == 0) return PDLA_OK;
-        if (rc == PDLA_EEXIST) continue; /* made since the lstat: take the next name */
-        if (rc == 1)
-            return pdla_errorf(PDLA_EIO, err, errlen, "%s is kept as %s, but cannot remove it: %s", src, kept,
-                               strerror(errno));
-        return pdla_errorf(PDLA_EIO, err, errlen, "cannot set %s aside as %s: %s", src, kept, strerror(errno));
-    }
-    return pdla_errorf(PDLA_EIO, err, errlen,
-                       "cannot set %s aside: %d files are kept as %s/" PDLA_CHECKPOINT_ASIDE_PREFIX
-                       "*h5 already; remove those no longer needed",
-                       src, ASIDE_MAX, dir);
-}
-
 /* The loaded generation (name slot) and the older ones move to the front:
  * name slot + i becomes name i. The names before slot are free (set aside,
  * or never there) and each rename frees the next target, so none replaces a
@@ -151,7 +109,7 @@ static int move_generations(const char *dir, int slot, char *line, size_t linele
     char name[4200], kept[4200];
     for (int j = 0; j < slot; j++) {
         ckpt_gen_name(name, sizeof name, dir, j);
-        const int rc = set_aside(dir, name, kept, sizeof kept, err, errlen);
+        const int rc = pdla_rundir_set_aside(dir, name, kept, sizeof kept, err, errlen);
         if (rc) return rc;
         if (kept[0]) add_clause(line, linelen, name, " set aside as ", kept);
     }

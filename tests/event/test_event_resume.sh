@@ -82,6 +82,18 @@ cmp -s "$t/good.h5" "$t/F/checkpoint.prev.h5" || fail "the good previous checkpo
 cmp -s "$t/bad.h5" "$t/F/checkpoint.damaged.h5" || fail "the damaged checkpoint was not kept as checkpoint.damaged.h5"
 same "$t/E/cluster.h5" "$t/F/cluster.h5" ||
     fail "run resumed from the previous checkpoint differs from the one never stopped: $(head -5 "$t/diff")"
+# A second damaged checkpoint.h5 in the same directory: its fallback keeps
+# it as checkpoint.damaged.2.h5 beside the first, which stays byte for byte
+# (the numbering of the DLA recovery, pdla_rundir_set_aside; until session
+# 32 the second fallback renamed its damaged file over checkpoint.damaged.h5
+# and the first was lost), and says where it went.
+head -c 7000 "$t/F/checkpoint.h5" >"$t/bad2.h5" && cp "$t/bad2.h5" "$t/F/checkpoint.h5"
+"$pdla" --model event --resume "$t/F" --t-max 14 >"$t/outF2" 2>&1 || fail "second resume past a damaged checkpoint: $(cat "$t/outF2")"
+grep -q "resuming from the previous checkpoint" "$t/outF2" || fail "no second fallback said: $(cat "$t/outF2")"
+grep -q "note: $t/F/checkpoint.h5 set aside as $t/F/checkpoint.damaged.2.h5" "$t/outF2" ||
+    fail "the second set-aside not said: $(cat "$t/outF2")"
+cmp -s "$t/bad.h5" "$t/F/checkpoint.damaged.h5" || fail "the first damaged checkpoint was not kept by the second fallback"
+cmp -s "$t/bad2.h5" "$t/F/checkpoint.damaged.2.h5" || fail "the second damaged checkpoint was not kept as checkpoint.damaged.2.h5"
 
 # --resume refuses other parameters, and a directory without a checkpoint
 "$pdla" --model event --resume "$t/B" --packing 0.3 >/dev/null 2>"$t/err"

@@ -374,7 +374,8 @@ typedef struct pdla_checkpoint_info {
     char note[1024];          /* on load: why newer generations were skipped, or "" */
     /* On load from a run directory: which generation name was loaded (0
      * checkpoint.h5, 1 checkpoint.1.h5, ...; above 0 after a fallback, see
-     * pdla_checkpoint_recover); -1 when a file was named. */
+     * pdla_checkpoint_recover); -1 when a file was named (the caller of a
+     * resume puts the file's place here, from pdla_checkpoint_place). */
     int slot;
     /* On load: the schedule the writer recorded (pdla_checkpoint_opts) and
      * whether the pools were compressed; has_schedule 0 for files written
@@ -410,9 +411,34 @@ PDLA_API int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdl
                                   uint32_t asked_fields, pdla_checkpoint_info *info,
                                   char *err, size_t errlen);
 
-/* After pdla_checkpoint_load of run directory dir (info->slot >= 0; a file
- * named, slot -1, is left alone), before the first write. When the load
- * took an older name (slot > 0: the newer ones damaged, unreadable or
+/* Before pdla_checkpoint_load of a checkpoint FILE named for a resume (not
+ * a run directory), whose checkpoints then go to its folder dir (hold its
+ * lock): the file's place among dir's generation names, which those writes
+ * rotate. *slot gets k when path is generation name k of dir (the same
+ * file: a hard link or the name itself), PDLA_CHECKPOINT_GENERATIONS when
+ * it is none (every generation name of dir is then ahead of it), or -1
+ * when path is no regular file whose checkpoint root reads (the load then
+ * says what is wrong). Every generation name ahead of the file (before
+ * *slot) is loaded and verified as a directory resume would, one at a time
+ * (never beside the named file's engine): absent or damaged is fine, and
+ * pdla_checkpoint_recover, given *slot in info->slot after the load, sets
+ * those aside and moves the file and the older names to the front, as after
+ * a directory resume's fallback; note (may be NULL) then gets "skipped
+ * NAME: damaged checkpoint (why)" for the first, as pdla_checkpoint_info's
+ * note, or "". A valid checkpoint there is PDLA_EEXIST, with err naming it
+ * (its generation and particles) and the two ways on: --resume dir, or
+ * move it out of dir to go on from path (the writes would rotate it out,
+ * and the directory would mix two histories). Another model's checkpoint
+ * there is PDLA_EINVAL; PDLA_EIO when a name cannot be looked at,
+ * PDLA_ENOMEM. Reads only. */
+PDLA_API int pdla_checkpoint_place(const char *path, const char *dir, int *slot, char *note, size_t notelen,
+                                   char *err, size_t errlen);
+
+/* After pdla_checkpoint_load of run directory dir (info->slot >= 0; for a
+ * file named, the place pdla_checkpoint_place found, else -1: left alone),
+ * before the first write. When the load took an older name (slot > 0: the
+ * newer ones damaged, unreadable or missing; PDLA_CHECKPOINT_GENERATIONS:
+ * a file named under another name, every generation name damaged or
  * missing), the directory is put back in the shape the rotation of
  * pdla_checkpoint_write expects, so that its hard link of checkpoint.h5
  * never keeps a damaged file as a generation: each skipped file is moved

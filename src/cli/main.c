@@ -763,6 +763,37 @@ static void keep_schedule(run *R)
     o->checkpoint_compress = in->compressed;
 }
 
+/* The checkpoint --resume names, loaded: a run directory's newest valid
+ * generation, or the file named, placed first among its folder's
+ * generation names (pdla_checkpoint_place: a valid checkpoint ahead of it,
+ * which this resume's writes would rotate out, refuses the resume; damaged
+ * ones there go aside in resume_step, as after a directory's fallback).
+ * GO_ON, or the exit status with the line printed. */
+static int load_resume(run *R, int is_dir)
+{
+    const cli_options *o = &R->o;
+    char err[1024], note[1024] = "";
+    int slot = -1;
+    if (!is_dir) {
+        const int prc = pdla_checkpoint_place(o->resume, R->dir, &slot, note, sizeof note, err, sizeof err);
+        if (prc != PDLA_OK) {
+            fprintf(stderr, "pdla: cannot resume: %s\n", err);
+            return prc == PDLA_EEXIST || prc == PDLA_EINVAL ? EXIT_USAGE : EXIT_RUNTIME;
+        }
+    }
+    const int lrc = pdla_checkpoint_load(&R->eng, o->resume, &o->params, o->given, &R->loaded, err,
+                                         sizeof err);
+    if (lrc != PDLA_OK) {
+        fprintf(stderr, "pdla: cannot resume: %s\n", err);
+        return lrc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
+    }
+    if (!is_dir) {
+        R->loaded.slot = slot;
+        snprintf(R->loaded.note, sizeof R->loaded.note, "%s", note);
+    }
+    return GO_ON;
+}
+
 static int resume_step(run *R)
 {
     const cli_options *o = &R->o;
@@ -784,12 +815,8 @@ static int resume_step(run *R)
         fprintf(stderr, "pdla: %s\n", err);
         return EXIT_USAGE;
     }
-    const int lrc = pdla_checkpoint_load(&R->eng, o->resume, &o->params, o->given, &R->loaded, err,
-                                         sizeof err);
-    if (lrc != PDLA_OK) {
-        fprintf(stderr, "pdla: cannot resume: %s\n", err);
-        return lrc == PDLA_ENOMEM ? EXIT_RUNTIME : EXIT_USAGE;
-    }
+    const int lrc = load_resume(R, S_ISDIR(st.st_mode));
+    if (lrc != GO_ON) return lrc;
     /* Writability now, not after growth: a resume writes checkpoints,
      * cluster.h5 and summary.txt there. (After the load, so that a resume
      * refused for its checkpoint or parameters touches nothing, not even the
@@ -803,7 +830,8 @@ static int resume_step(run *R)
     if (R->loaded.note[0])
         fprintf(stderr, "pdla: note: %s; resuming from %s (generation %" PRIu64 ")\n", R->loaded.note,
                 R->loaded.path, R->loaded.generation);
-    /* Loaded from an older name: the skipped files go aside and the good
+    /* Loaded from an older name (a directory's fallback, or a file named
+     * behind damaged newer names): the skipped files go aside and the good
      * generations to the front before any write, else the next write's
      * rotation kept the damaged checkpoint.h5 as a generation and pushed out
      * the one loaded; and the next generation comes after every one there. */

@@ -77,6 +77,15 @@ static inline void ckpt_gen_name(char *buf, size_t n, const char *dir, int k)
  * without loading the rest. 0, or -1 when the root does not read. */
 int ckpt_peek_generation(const char *path, uint64_t *generation);
 
+/* checkpoint_read.c: generation name `name` of a run directory loaded as
+ * the directory walk of pdla_checkpoint_load takes each: another model's
+ * checkpoint is refused (PDLA_EINVAL: not a damaged generation to fall back
+ * past, which the recovery would set aside), else the file is loaded with
+ * every check. PDLA_EIO: damaged, unreadable or foreign (skipped by the
+ * walk); PDLA_ENOMEM. The caller silences HDF5's error stack. */
+int ckpt_load_name(const char *name, const pdla_params *asked, uint32_t fields, pdla_engine **out,
+                   pdla_checkpoint_info *info, char *err, size_t errlen);
+
 /* Whether path's base name is a writer's temporary file. */
 static inline int ckpt_is_tmp_name(const char *path)
 {

@@ -736,6 +736,20 @@ out:
     return PDLA_OK;
 }
 
+int ckpt_load_name(const char *name, const pdla_params *asked, uint32_t fields, pdla_engine **out,
+                   pdla_checkpoint_info *info, char *err, size_t errlen)
+{
+    char model[32];
+    *out = NULL;
+    /* Another model's checkpoint (a DLCA or event run's, whole) is not a
+     * damaged generation to fall back past (the recovery would then set it
+     * aside as damaged): refused. */
+    if (pdla_h5_file_model(name, model, sizeof model) == 0)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: another model's file (model '%s'), not a DLA checkpoint "
+                           "(resume it with --model)", name, model);
+    return load_file(name, asked, fields, out, info, err, errlen);
+}
+
 int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params *asked,
                          uint32_t asked_fields, pdla_checkpoint_info *info, char *err,
                          size_t errlen)
@@ -764,16 +778,8 @@ int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params 
             ckpt_gen_name(name, sizeof name, path, k);
             if (access(name, F_OK) != 0) continue;
             found++;
-            char e1[1024] = "", model[32];
-            /* Another model's checkpoint (a DLCA or event run's, whole) is
-             * not a damaged generation to fall back past (the recovery
-             * would then set it aside as damaged): refused. */
-            if (pdla_h5_file_model(name, model, sizeof model) == 0) {
-                rc = pdla_errorf(PDLA_EINVAL, err, errlen, "%s: another model's file (model '%s'), not a DLA checkpoint "
-                                 "(resume it with --model)", name, model);
-                break;
-            }
-            rc = load_file(name, asked, asked_fields, out, info, e1, sizeof e1);
+            char e1[1024] = "";
+            rc = ckpt_load_name(name, asked, asked_fields, out, info, e1, sizeof e1);
             if (rc == PDLA_OK && info) info->slot = k;
             if (rc == PDLA_OK || rc == PDLA_EINVAL || rc == PDLA_ENOMEM) {
                 if (rc != PDLA_OK && err && errlen) snprintf(err, errlen, "%s", e1);

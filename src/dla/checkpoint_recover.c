@@ -8,6 +8,14 @@
  * checkpoint.h5 as checkpoint.1.h5, the second pushed the file the run had
  * resumed from out and kept the damaged one as checkpoint.2.h5, and the new
  * file took the damaged one's generation number.
+ *
+ * pdla_checkpoint_place() does the same for a checkpoint FILE named
+ * (`--resume DIR/checkpoint.1.h5`), whose resume writes into DIR's
+ * generations too: every generation name ahead of the file must be damaged
+ * or absent (those go aside as above), and a valid one there refuses the
+ * resume, since its writes would rotate it out. Until session 32 a named
+ * file's folder was left as it was, and the writes rotated a damaged
+ * checkpoint.h5 into the generations and pushed out good ones.
  */
 #define _GNU_SOURCE
 
@@ -101,20 +109,25 @@ static void add_clause(char *line, size_t len, const char *a, const char *b, con
 }
 
 /* The skipped names (before slot) go aside, synced, then the generations to
- * the front; line gets what moved. A crash between the steps leaves the
- * skipped names free or still damaged (the next resume falls back again),
- * never a damaged file under a name the good one left. */
+ * the front (none when slot is PDLA_CHECKPOINT_GENERATIONS: a file named
+ * that is no generation name); line gets what moved. A crash between the
+ * steps leaves the skipped names free or still damaged (the next resume
+ * falls back again), never a damaged file under a name the good one left. */
 static int move_generations(const char *dir, int slot, char *line, size_t linelen, char *err, size_t errlen)
 {
     char name[4200], kept[4200];
+    int moved = 0;
     for (int j = 0; j < slot; j++) {
         ckpt_gen_name(name, sizeof name, dir, j);
         const int rc = pdla_rundir_set_aside(dir, name, kept, sizeof kept, err, errlen);
         if (rc) return rc;
         if (kept[0]) add_clause(line, linelen, name, " set aside as ", kept);
+        moved += kept[0] != '\0';
     }
+    if (slot == PDLA_CHECKPOINT_GENERATIONS && !moved) return PDLA_OK; /* nothing there */
     if (h5u_fsync_dir(dir) != 0)
         return pdla_errorf(PDLA_EIO, err, errlen, "cannot sync directory %s: %s", dir, strerror(errno));
+    if (slot == PDLA_CHECKPOINT_GENERATIONS) return PDLA_OK;
     const int rc = to_front(dir, slot, err, errlen);
     if (rc) return rc;
     ckpt_gen_name(kept, sizeof kept, dir, slot);
@@ -129,9 +142,9 @@ int pdla_checkpoint_recover(pdla_engine *e, const char *dir, const pdla_checkpoi
     char line[2048] = "";
     if (err && errlen) err[0] = '\0';
     if (done && donelen) done[0] = '\0';
-    if (!e || !dir || !info || strlen(dir) > 4000 || info->slot >= PDLA_CHECKPOINT_GENERATIONS)
+    if (!e || !dir || !info || strlen(dir) > 4000 || info->slot > PDLA_CHECKPOINT_GENERATIONS)
         return pdla_errorf(PDLA_EINVAL, err, errlen, "checkpoint recovery: no engine, directory or load");
-    if (info->slot < 0) return PDLA_OK; /* a file named: its folder's names are the user's choice */
+    if (info->slot < 0) return PDLA_OK; /* a file named, not placed (pdla_checkpoint_place): left alone */
     h5u_quiet q;
     if (h5u_silence(&q) < 0) return pdla_errorf(PDLA_EIO, err, errlen, "cannot silence the HDF5 error stack");
     const uint64_t past = generation_past(dir, info);
@@ -145,4 +158,85 @@ int pdla_checkpoint_recover(pdla_engine *e, const char *dir, const pdla_checkpoi
         snprintf(done, donelen, "%s; the next checkpoint is generation %llu", line,
                  (unsigned long long)e->ckpt_generation + 1);
     return PDLA_OK;
+}
+
+/* ---- a checkpoint file named: its place among the generation names ---- */
+
+/* The generation name of dir that is the file st describes (the first when
+ * a kill inside a write left one file under two names), or
+ * PDLA_CHECKPOINT_GENERATIONS when none is. */
+static int slot_of(const char *dir, const struct stat *st)
+{
+    char name[4200];
+    for (int k = 0; k < PDLA_CHECKPOINT_GENERATIONS; k++) {
+        struct stat sk;
+        ckpt_gen_name(name, sizeof name, dir, k);
+        if (lstat(name, &sk) == 0 && sk.st_dev == st->st_dev && sk.st_ino == st->st_ino) return k;
+    }
+    return PDLA_CHECKPOINT_GENERATIONS;
+}
+
+/* Each generation name of dir before slot, loaded as a directory resume
+ * loads it, one at a time (never two engines at once): absent or damaged
+ * is PDLA_OK (note gets the first one's reason), a valid checkpoint
+ * PDLA_EEXIST, with err naming it, what it holds and the two ways on. The
+ * caller silences HDF5's error stack. */
+static int check_ahead(const char *path, const char *dir, int slot, char *note, size_t notelen, char *err,
+                       size_t errlen)
+{
+    char name[4200], why[1024];
+    for (int k = 0; k < slot; k++) {
+        ckpt_gen_name(name, sizeof name, dir, k);
+        struct stat st;
+        if (lstat(name, &st) != 0) {
+            if (errno == ENOENT) continue;
+            return pdla_errorf(PDLA_EIO, err, errlen, "cannot look at %s: %s", name, strerror(errno));
+        }
+        pdla_engine *e = NULL;
+        pdla_checkpoint_info in;
+        memset(&in, 0, sizeof in);
+        why[0] = '\0';
+        const int rc = ckpt_load_name(name, NULL, 0, &e, &in, why, sizeof why);
+        pdla_engine_destroy(e);
+        if (rc == PDLA_EIO) { /* damaged: pdla_checkpoint_recover sets it aside */
+            if (note && notelen && !note[0]) snprintf(note, notelen, "skipped %s", why);
+            continue;
+        }
+        if (rc != PDLA_OK) return pdla_errorf(rc, err, errlen, "%s", why);
+        return pdla_errorf(PDLA_EEXIST, err, errlen,
+                           "%s: %s is a %svalid checkpoint (generation %llu, %llu particles) that the "
+                           "checkpoints of this resume would rotate out; resume the newest with --resume %s, "
+                           "or move %s out of %s to go on from %s",
+                           path, name, slot < PDLA_CHECKPOINT_GENERATIONS ? "newer " : "",
+                           (unsigned long long)in.generation, (unsigned long long)in.particles, dir, name, dir,
+                           path);
+    }
+    return PDLA_OK;
+}
+
+int pdla_checkpoint_place(const char *path, const char *dir, int *slot, char *note, size_t notelen, char *err,
+                          size_t errlen)
+{
+    if (err && errlen) err[0] = '\0';
+    if (note && notelen) note[0] = '\0';
+    if (!slot || !path || !dir || strlen(path) > 4000 || strlen(dir) > 4000)
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "checkpoint place: no slot, file or directory");
+    *slot = -1;
+    struct stat st;
+    /* not a regular checkpoint file: the load that follows says why */
+    if (stat(path, &st) != 0 || !S_ISREG(st.st_mode) || ckpt_is_tmp_name(path)) return PDLA_OK;
+    h5u_quiet q;
+    if (h5u_silence(&q) < 0) return pdla_errorf(PDLA_EIO, err, errlen, "cannot silence the HDF5 error stack");
+    uint64_t g;
+    int rc = PDLA_OK, k = -1;
+    if (ckpt_peek_generation(path, &g) == 0) { /* its root reads: a checkpoint, perhaps whole */
+        k = slot_of(dir, &st);
+        rc = check_ahead(path, dir, k, note, notelen, err, errlen);
+    }
+    if (h5u_restore(&q) < 0 && rc == PDLA_OK)
+        rc = pdla_errorf(PDLA_EIO, err, errlen, "cannot restore the HDF5 error handler");
+    if (rc == PDLA_OK) *slot = k;
+    else if (note && notelen) note[0] = '\0';
+    if (err && errlen) h5u_one_line(err);
+    return rc;
 }

@@ -29,8 +29,13 @@ took the damaged one's generation number. Checked here:
     damaged bytes are still in the directory once, and a plain resume then
     completes with every name sound and the generations past the damaged
     file's;
-  - a --force run removes the older run's checkpoint.damaged*.h5.
-The pdla runs are counted and printed (50; about 4 s of CPU in release).
+  - a --force run removes the older run's checkpoint.damaged*.h5;
+  - a checkpoint FILE named in the directory (--resume D/checkpoint.1.h5,
+    D/checkpoint.2.h5, a copy D/save.h5): damaged generation names ahead of
+    it go aside and the generations move to the front as above (also under
+    the kill -9 cases), a valid one ahead refuses the resume with one line,
+    exit 2, the directory untouched.
+The pdla runs are counted and printed (about 90; about 8 s of CPU in release).
 """
 import glob
 import os
@@ -266,20 +271,25 @@ after(L, "linked twice", [6, 5, 3], {"checkpoint.damaged.h5": badL})
 # checkpoint-kill covers. The damaged file's
 # generation, 4, reads: no later write may take it, wherever the kill left
 # the file. A kill past the last counted call lets the run end (exit 0).
-def killed(op, last, path=None):
+def killed(op, last, path=None, name=None):
+    """name: the resume names that file of the directory (--resume
+    D/name), else the directory itself."""
     for k in range(1, last + 1):
         d = fresh("K")
         flip_data(os.path.join(d, "checkpoint.h5"))
         bad = read(os.path.join(d, "checkpoint.h5"))
+        good = read(os.path.join(d, "checkpoint.1.h5"))  # the one resumed from
         env = dict(os.environ, LD_PRELOAD=PRELOAD, FAULT_OP=op, FAULT_AT=str(k), FAULT_SIGNAL="9")
         if path:
             env["FAULT_PATH"] = path
-        rc, lines = faulted(["--resume", d, "--target", "4000", "-q"], env)
-        tag = "kill -9 at %s #%d" % (op, k)
+        rc, lines = faulted(["--resume", os.path.join(d, name) if name else d, "--target", "4000", "-q"], env)
+        tag = "kill -9 at %s #%d%s" % (op, k, " (--resume D/%s)" % name if name else "")
         check(rc == -9, "%s: not killed (exit %s): %r" % (tag, rc, lines))
         check(bool(sound(d, tag)), "%s: no generation name left" % tag)
         kept = [p for p in glob.glob(os.path.join(d, "checkpoint*")) if read(p) == bad]
         check(len(kept) == 1, "%s: the damaged bytes are under %r" % (tag, kept))
+        check(any(read(os.path.join(d, n)) == good for n in NAMES if os.path.exists(os.path.join(d, n))),
+              "%s: the checkpoint resumed from is under no generation name" % tag)
         rc, err = resume(d, 5000)
         check(rc == 0, "%s: the resume after: %s" % (tag, err))
         present = sound(d, tag + ", resumed")
@@ -290,6 +300,92 @@ def killed(op, last, path=None):
 
 killed("rename", 5, "/checkpoint")
 killed("dirsync", 1)
+
+
+# --- a checkpoint FILE named inside the run directory (--resume
+# D/checkpoint.1.h5): its resume writes into D's generations as well, so
+# the generation names ahead of the file are verified as a directory resume
+# verifies them. Damaged ones go aside and the file and the older names
+# move to the front, as after a directory's fallback (before session 32 the
+# folder was left as it was: the writes rotated the damaged checkpoint.h5
+# into the generations, as checkpoint.1.h5 then checkpoint.2.h5, pushed out
+# the file resumed from and numbered past it, not past the damaged one).
+# A valid one ahead refuses the resume with one line naming it and the two
+# ways on, exit 2, the directory untouched: the writes would rotate it out.
+def named(d, name, target):
+    return pdla("--resume", os.path.join(d, name), "--target", str(target), "-q")
+
+
+def snapshot(d):
+    return {n: read(os.path.join(d, n)) for n in sorted(os.listdir(d))}
+
+
+N = fresh("N1")
+truncate(os.path.join(N, "checkpoint.h5"))
+badN, goodN = read(os.path.join(N, "checkpoint.h5")), read(os.path.join(N, "checkpoint.1.h5"))
+rc, err = named(N, "checkpoint.1.h5", 5000)
+check(rc == 0, "named .1 past a truncated checkpoint.h5: resume: %s" % err)
+check("note: skipped %s/checkpoint.h5: damaged checkpoint (truncated); resuming from %s/checkpoint.1.h5 "
+      "(generation 3)" % (N, N) in err and
+      "note: %s/checkpoint.h5 set aside as %s/checkpoint.damaged.h5; %s/checkpoint.1.h5 is now %s/checkpoint.h5; "
+      "the next checkpoint is generation 5" % (N, N, N, N) in err, "named .1: notes: %s" % err)
+after(N, "named .1", [6, 5, 3], {"checkpoint.damaged.h5": badN})
+check(read(os.path.join(N, "checkpoint.2.h5")) == goodN, "named .1: the checkpoint resumed from is not kept")
+
+# both newer names damaged, checkpoint.2.h5 named
+N = fresh("N2")
+truncate(os.path.join(N, "checkpoint.h5"))
+flip_data(os.path.join(N, "checkpoint.1.h5"))
+bad0, bad1 = read(os.path.join(N, "checkpoint.h5")), read(os.path.join(N, "checkpoint.1.h5"))
+rc, err = named(N, "checkpoint.2.h5", 4000)
+check(rc == 0 and "resuming from %s/checkpoint.2.h5 (generation 2)" % N in err, "named .2: resume: %s" % err)
+after(N, "named .2", [6, 5, 2], {"checkpoint.damaged.h5": bad0, "checkpoint.damaged.2.h5": bad1})
+
+
+def refused(d, name, ahead, newer):
+    before = snapshot(d)
+    rc, err = named(d, name, 6000)
+    want = ("pdla: cannot resume: %s/%s: %s/%s is a %svalid checkpoint (generation %d, %d particles) that the "
+            "checkpoints of this resume would rotate out; resume the newest with --resume %s, or move %s/%s out of "
+            "%s to go on from %s/%s" % (d, name, d, ahead, "newer " if newer else "",
+                                        generation(os.path.join(d, ahead)), 1000 * generation(os.path.join(d, ahead)),
+                                        d, d, ahead, d, d, name))
+    check(rc == 2 and err.strip() == want, "named %s behind a valid %s: exit %s: %r" % (name, ahead, rc, err))
+    check(snapshot(d) == before, "named %s behind a valid %s: the directory changed" % (name, ahead))
+
+
+# a valid newer generation ahead: refused, whether the one between is damaged
+N = fresh("N3")
+refused(N, "checkpoint.1.h5", "checkpoint.h5", True)
+refused(N, "checkpoint.2.h5", "checkpoint.h5", True)
+flip_data(os.path.join(N, "checkpoint.h5"))
+refused(N, "checkpoint.2.h5", "checkpoint.1.h5", True)
+
+# a file under another name (a copy of generation 3): every generation name
+# is ahead of it; a valid one, even an older one, refuses the resume (the
+# writes would rotate it out), damaged ones go aside, and the file stays
+N = fresh("N4")
+shutil.copy(os.path.join(N, "checkpoint.1.h5"), os.path.join(N, "save.h5"))
+saveN = read(os.path.join(N, "save.h5"))
+os.unlink(os.path.join(N, "checkpoint.h5"))
+os.unlink(os.path.join(N, "checkpoint.1.h5"))
+refused(N, "save.h5", "checkpoint.2.h5", False)
+flip_data(os.path.join(N, "checkpoint.2.h5"), forged_generation=9)
+badN = read(os.path.join(N, "checkpoint.2.h5"))
+rc, err = named(N, "save.h5", 5000)
+check(rc == 0 and "note: %s/checkpoint.2.h5 set aside as %s/checkpoint.damaged.h5; the next checkpoint is "
+      "generation 10" % (N, N) in err, "named save.h5: resume: %s" % err)
+after(N, "named save.h5", [11, 10], {"checkpoint.damaged.h5": badN})
+check(read(os.path.join(N, "save.h5")) == saveN, "named save.h5: the file named changed")
+
+# checkpoint.h5 named, all sound: as a directory resume
+N = fresh("N5")
+rc, err = named(N, "checkpoint.h5", 6000)
+check(rc == 0 and not err.strip(), "named checkpoint.h5: %s" % err)
+after(N, "named checkpoint.h5", [6, 5, 4], {})
+
+killed("rename", 5, "/checkpoint", "checkpoint.1.h5")
+killed("dirsync", 1, None, "checkpoint.1.h5")
 
 print("ckpt_fallback: %d pdla runs, %d failures" % (runs, len(failures)))
 _ru = resource.getrusage(resource.RUSAGE_CHILDREN)

@@ -478,6 +478,117 @@ static int stop_passed(const ev_cli *c, const ev_sim *s, const char *path, char 
     return 0;
 }
 
+/* The event model's checkpoint names in dir, newest first. */
+static const char *const ckpt_names[2] = {"checkpoint.h5", "checkpoint.prev.h5"};
+
+/* --resume FILE: the names of its folder dir that the resume's writes move
+ * on ahead of it (checkpoint.h5 ahead of checkpoint.prev.h5, both ahead of
+ * a file under another name, none ahead of checkpoint.h5 itself), each
+ * loaded with every check, one at a time, before the file named. A valid
+ * one refuses the resume (its writes would push it out: the first moves
+ * checkpoint.h5 to checkpoint.prev.h5, the second drops it); a damaged one
+ * gets its bit in *bad (1 checkpoint.h5, 2 checkpoint.prev.h5) and why in
+ * why, to go aside once the file named has loaded (set_aside_ahead). Until
+ * session 32 a file named was resumed with its folder as it was: named
+ * checkpoint.prev.h5 past a damaged checkpoint.h5, the first write removed
+ * it and kept the damaged file as checkpoint.prev.h5. *is_prev: the file is
+ * checkpoint.prev.h5. 0, or 2 with the line printed. */
+static int named_ahead(const char *file, const char *dir, int *bad, int *is_prev, char *why, size_t whylen)
+{
+    struct stat sf, sn;
+    char p[2][4200];
+    int ahead = 2;
+    *bad = *is_prev = 0;
+    if (stat(file, &sf) != 0 || !S_ISREG(sf.st_mode)) return 0; /* the load says why */
+    for (int k = 0; k < 2; k++) {
+        snprintf(p[k], sizeof p[k], "%s/%s", dir, ckpt_names[k]);
+        if (ahead == 2 && lstat(p[k], &sn) == 0 && sn.st_dev == sf.st_dev && sn.st_ino == sf.st_ino) ahead = k;
+    }
+    *is_prev = ahead == 1;
+    for (int k = 0; k < ahead; k++) {
+        if (lstat(p[k], &sn) != 0 && errno == ENOENT) continue;
+        ev_series ser = {0};
+        char err[600];
+        ev_sim *s = ev_checkpoint_load(p[k], &ser, err, sizeof err);
+        ev_series_free(&ser);
+        if (!s) {
+            if (!*bad) snprintf(why, whylen, "%s", err);
+            *bad |= 1 << k;
+            continue;
+        }
+        ev_free(s);
+        fprintf(stderr, "pdla: cannot resume: %s: %s is a %svalid checkpoint that the checkpoints of this resume "
+                "would push out; resume the newest with --resume %s, or move %s out of %s to go on from %s\n",
+                file, p[k], ahead < 2 ? "newer " : "", dir, p[k], dir, file);
+        return 2;
+    }
+    return 0;
+}
+
+/* The damaged names named_ahead found (bits of bad) go aside, kept
+ * (pdla_rundir_set_aside), the directory synced. 0, or 1 with the line
+ * printed. */
+static int set_aside_ahead(const char *dir, int bad)
+{
+    char name[4200], kept[4200], err[4600];
+    for (int k = 0; k < 2; k++) {
+        if (!(bad & 1 << k)) continue;
+        snprintf(name, sizeof name, "%s/%s", dir, ckpt_names[k]);
+        if (pdla_rundir_set_aside(dir, name, kept, sizeof kept, err, sizeof err) != PDLA_OK) {
+            fprintf(stderr, "pdla: cannot resume: %s\n", err);
+            return 1;
+        }
+        if (kept[0]) fprintf(stderr, "pdla: note: %s set aside as %s\n", name, kept);
+    }
+    if (bad && pdla_rundir_fsync(dir) != 0) {
+        fprintf(stderr, "pdla: cannot sync directory %s: %s\n", dir, strerror(errno));
+        return 1;
+    }
+    return 0;
+}
+
+/* The checkpoint --resume names, loaded (its path into path): a run
+ * directory's checkpoint.h5, or past a damaged one its checkpoint.prev.h5
+ * (promote_previous); or the file named, whose folder is then put in order
+ * as after that fallback: checkpoint.prev.h5 named becomes checkpoint.h5
+ * too (promote_previous), damaged names ahead of another file go aside
+ * (named_ahead). NULL with the line printed. */
+static ev_sim *load_checkpoint(const ev_cli *c, ev_series *ser, const char *dir, int is_dir, char *path,
+                               size_t plen)
+{
+    char err[600], err2[600] = "";
+    int bad = 0, is_prev = 0;
+    if (!is_dir && named_ahead(c->resume, dir, &bad, &is_prev, err2, sizeof err2)) return NULL;
+    if (is_dir) snprintf(path, plen, "%s/checkpoint.h5", dir);
+    else snprintf(path, plen, "%s", c->resume);
+    ev_sim *s = ev_checkpoint_load(path, ser, err, sizeof err);
+    if (!s && !is_dir) { /* the file named: no other to fall back on */
+        fprintf(stderr, "pdla: cannot resume: %s\n", err);
+        return NULL;
+    }
+    const int fell_back = !s; /* a directory's checkpoint.h5 unusable */
+    if (fell_back) {
+        snprintf(path, plen, "%s/checkpoint.prev.h5", dir);
+        s = ev_checkpoint_load(path, ser, err2, sizeof err2);
+        if (!s) {
+            fprintf(stderr, "pdla: cannot resume: %s\n", err);
+            return NULL;
+        }
+        fprintf(stderr, "pdla: %s; resuming from the previous checkpoint\n", err);
+    } else if (bad) {
+        fprintf(stderr, "pdla: note: %s; resuming from %s\n", err2, path);
+    }
+    /* checkpoint.prev.h5 named: checkpoint.h5 is damaged or missing (a
+     * valid one refused the resume), and the first write would remove the
+     * file named before its own is in place */
+    if (fell_back || is_prev ? promote_previous(dir) : set_aside_ahead(dir, bad)) {
+        ev_free(s);
+        ev_series_free(ser);
+        return NULL;
+    }
+    return s;
+}
+
 /* --resume PATH: a run directory (its checkpoint.h5, or the previous one if
  * that is unusable) or one checkpoint file, as the DLA and DLCA commands
  * take; the run directory, locked, is then the file's folder. */
@@ -504,28 +615,9 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
     }
     (void)remove_stale(dir, 0);
     if (dir_takes_files(dir)) return NULL;
-    char path[4200], err[600], err2[600];
-    if (is_dir) snprintf(path, sizeof path, "%s/checkpoint.h5", dir);
-    else snprintf(path, sizeof path, "%s", c->resume);
-    ev_sim *s = ev_checkpoint_load(path, ser, err, sizeof err);
-    if (!s && !is_dir) { /* the file named: no other to fall back on */
-        fprintf(stderr, "pdla: cannot resume: %s\n", err);
-        return NULL;
-    }
-    if (!s) {
-        snprintf(path, sizeof path, "%s/checkpoint.prev.h5", dir);
-        s = ev_checkpoint_load(path, ser, err2, sizeof err2);
-        if (!s) {
-            fprintf(stderr, "pdla: cannot resume: %s\n", err);
-            return NULL;
-        }
-        fprintf(stderr, "pdla: %s; resuming from the previous checkpoint\n", err);
-        if (promote_previous(dir)) {
-            ev_free(s);
-            ev_series_free(ser);
-            return NULL;
-        }
-    }
+    char path[4200];
+    ev_sim *s = load_checkpoint(c, ser, dir, is_dir, path, sizeof path);
+    if (!s) return NULL;
     /* the table's resume rule: stop conditions may change, the rest must match */
     ev_params *p = ev_params_of(s);
     size_t np;

@@ -95,6 +95,44 @@ grep -q "note: $t/F/checkpoint.h5 set aside as $t/F/checkpoint.damaged.2.h5" "$t
 cmp -s "$t/bad.h5" "$t/F/checkpoint.damaged.h5" || fail "the first damaged checkpoint was not kept by the second fallback"
 cmp -s "$t/bad2.h5" "$t/F/checkpoint.damaged.2.h5" || fail "the second damaged checkpoint was not kept as checkpoint.damaged.2.h5"
 
+# A checkpoint FILE named in the run directory: the names its writes move
+# on ahead of it (checkpoint.h5 ahead of checkpoint.prev.h5, both ahead of
+# a file under another name) are loaded first. A valid one refuses the
+# resume with one line, exit 2, nothing touched; a damaged one goes aside
+# as after a directory's fallback, and checkpoint.prev.h5 named is kept
+# through the writes. Until session 32 the folder was left as it was: the
+# first write removed the checkpoint.prev.h5 named and kept the damaged
+# checkpoint.h5 in its place; a valid newer checkpoint.h5 was pushed out.
+"$pdla" $fargs --t-max 4 --checkpoint --out "$t/G" >"$t/outG" 2>&1 || fail "run to t 4: $(cat "$t/outG")"
+"$pdla" --model event --resume "$t/G" --t-max 8 >"$t/outG" 2>&1 || fail "resume to t 8: $(cat "$t/outG")"
+cp -r "$t/G" "$t/H"
+"$pdla" --model event --resume "$t/H/checkpoint.prev.h5" --t-max 12 >/dev/null 2>"$t/err"
+rc=$?
+[ $rc -eq 2 ] && [ "$(wc -l <"$t/err")" -eq 1 ] &&
+    grep -q "^pdla: cannot resume: $t/H/checkpoint.prev.h5: $t/H/checkpoint.h5 is a newer valid checkpoint" "$t/err" ||
+    fail "checkpoint.prev.h5 named behind a valid checkpoint.h5: exit $rc: $(cat "$t/err")"
+diff -r "$t/G" "$t/H" >/dev/null || fail "a refused resume of checkpoint.prev.h5 changed the directory"
+cp "$t/G/checkpoint.prev.h5" "$t/good3.h5"
+head -c 5000 "$t/G/checkpoint.h5" >"$t/bad3.h5" && cp "$t/bad3.h5" "$t/G/checkpoint.h5"
+"$pdla" --model event --resume "$t/G/checkpoint.prev.h5" --t-max 12 >"$t/outG" 2>&1 ||
+    fail "checkpoint.prev.h5 named past a damaged checkpoint.h5: $(cat "$t/outG")"
+grep -q "note: $t/G/checkpoint.h5 set aside as $t/G/checkpoint.damaged.h5" "$t/outG" || fail "no set-aside said: $(cat "$t/outG")"
+cmp -s "$t/good3.h5" "$t/G/checkpoint.prev.h5" || fail "the checkpoint.prev.h5 named was not kept through the write"
+cmp -s "$t/bad3.h5" "$t/G/checkpoint.damaged.h5" || fail "the damaged checkpoint.h5 was not kept as checkpoint.damaged.h5"
+same "$t/E/cluster.h5" "$t/G/cluster.h5" ||
+    fail "run resumed from checkpoint.prev.h5 named differs from the one never stopped: $(head -5 "$t/diff")"
+# a copy under another name: the valid checkpoint.prev.h5 beside it refuses;
+# with only a damaged checkpoint.h5 there, that goes aside and the copy stays
+mkdir "$t/J" && cp "$t/good3.h5" "$t/J/save.h5" && cp "$t/good3.h5" "$t/J/checkpoint.prev.h5" && cp "$t/bad3.h5" "$t/J/checkpoint.h5"
+"$pdla" --model event --resume "$t/J/save.h5" --t-max 12 >/dev/null 2>"$t/err"
+rc=$?
+[ $rc -eq 2 ] && [ "$(wc -l <"$t/err")" -eq 1 ] && grep -q "$t/J/checkpoint.prev.h5 is a valid checkpoint" "$t/err" ||
+    fail "save.h5 named beside a valid checkpoint.prev.h5: exit $rc: $(cat "$t/err")"
+rm "$t/J/checkpoint.prev.h5"
+"$pdla" --model event --resume "$t/J/save.h5" --t-max 12 >"$t/outJ" 2>&1 || fail "save.h5 named: $(cat "$t/outJ")"
+cmp -s "$t/bad3.h5" "$t/J/checkpoint.damaged.h5" && cmp -s "$t/good3.h5" "$t/J/save.h5" ||
+    fail "save.h5 named: the damaged checkpoint.h5 not kept aside, or the file named changed: $(ls "$t/J")"
+
 # --resume refuses other parameters, and a directory without a checkpoint
 "$pdla" --model event --resume "$t/B" --packing 0.3 >/dev/null 2>"$t/err"
 [ $? -eq 2 ] && [ "$(wc -l <"$t/err")" -eq 1 ] || fail "changed parameter on --resume: $(cat "$t/err")"

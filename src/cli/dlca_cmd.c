@@ -33,6 +33,7 @@
 #include "parse.h"
 #include "rundir.h"
 #include "pdla/dlca.h"
+#include "pdla/h5check.h"
 #include "pdla/params.h"
 #include "pdla/pdla.h"
 #include "scene.h"
@@ -58,6 +59,8 @@ typedef struct dlca_cli {
     int snaps_stopped;            /* out of memory for snapshots: none after the last (kept in checkpoints) */
     uint64_t n_monomers;          /* of the run (set when it starts) */
     int lock, lock_out;           /* flocks (pdla_rundir_lock) of the checkpoint's and the run directory, -1: none */
+    int ahead_bad;                /* --resume FILE: its folder's checkpoint.h5 is damaged (named_ahead) */
+    char ahead_why[1024];         /* why, for the note when it goes aside */
     cli_fail fail;                /* the write failures: one line on stderr at the end (fail_note.h) */
 } dlca_cli;
 
@@ -553,14 +556,19 @@ static void catch_signals(void)
  * record that its run had run out of memory for snapshots: its snapshots
  * may end early. When that alone fails the check, take it as stopped, as
  * such a run had taken none after (the resume says so): else a week-long
- * run could not go on after an upgrade. 1 when taken so. */
-static int old_snapshots_stopped(dlca_cli *c, const dlca_sim *s, double every)
+ * run could not go on after an upgrade. 1 when they pass so. */
+static int old_stopped_pass(const dlca_sim *s, const dlca_snapshot *snaps, size_t n, double every, int stopped)
 {
     dlca_ckpt_schedule sc;
     char why[512];
-    if (c->snaps_stopped || dlca_checkpoint_schedule(s, &sc) ||
-        dlca_snapshots_check(s, c->snaps, c->nsnaps, every, 1, why, sizeof why))
-        return 0;
+    return !stopped && !dlca_checkpoint_schedule(s, &sc) &&
+           !dlca_snapshots_check(s, snaps, n, every, 1, why, sizeof why);
+}
+
+/* old_stopped_pass for the snapshots read into c; 1 when taken so. */
+static int old_snapshots_stopped(dlca_cli *c, const dlca_sim *s, double every)
+{
+    if (!old_stopped_pass(s, c->snaps, c->nsnaps, every, c->snaps_stopped)) return 0;
     c->snaps_stopped = 1;
     return 1;
 }
@@ -650,9 +658,128 @@ static int stop_passed(const dlca_cli *c, const dlca_params *p, const dlca_param
     return 0;
 }
 
+/* ---- --resume FILE: the checkpoint.h5 its writes would replace ---- */
+
+/* Checkpoint path loaded as a resume of its directory loads it (the state
+ * with every check, then its snapshots), and freed: 0 with *st, or the
+ * error (PDLA_ENOMEM: could not tell) with why, one line without the
+ * "cannot resume from PATH: " of the loaders. */
+static int ahead_loads(const char *path, dlca_stats *st, char *why, size_t whylen)
+{
+    dlca_sim *s = NULL;
+    char err[1024], head[4400];
+    int rc = dlca_checkpoint_load(&s, path, err, sizeof err);
+    if (!rc) {
+        dlca_get_stats(s, st);
+        dlca_snapshot *snaps = NULL;
+        size_t n = 0;
+        double every = 0;
+        int stopped = 0;
+        rc = dlca_read_snapshots_h5(path, st->n_monomers, dlca_time(s), &snaps, &n, &every, &stopped, err,
+                                    sizeof err);
+        if (!rc) rc = dlca_snapshots_check(s, snaps, n, every, stopped, err, sizeof err);
+        if (rc && rc != PDLA_ENOMEM && snaps && old_stopped_pass(s, snaps, n, every, stopped)) rc = 0;
+        for (size_t i = 0; i < n && snaps; i++) free(snaps[i].site), free(snaps[i].cluster);
+        free(snaps);
+        dlca_destroy(s);
+    }
+    snprintf(head, sizeof head, "cannot resume from %s: ", path);
+    if (rc) snprintf(why, whylen, "%s", strncmp(err, head, strlen(head)) ? err : err + strlen(head));
+    return rc;
+}
+
+/* Is path, which no DLCA load takes, another model's file (its root
+ * attribute model, or a DLA checkpoint that loads)? 1 with what it is in
+ * what, else 0 (damaged). */
+static int ahead_foreign(const char *path, char *what, size_t whatlen)
+{
+    char model[32], err[1024];
+    if (pdla_h5_file_model(path, model, sizeof model) == 0) {
+        if (!strcmp(model, "dlca-checkpoint")) return 0; /* a DLCA checkpoint that does not load */
+        snprintf(what, whatlen, "another model's file (model '%s')", model);
+        return 1;
+    }
+    struct stat sb;
+    if (stat(path, &sb) != 0 || !S_ISREG(sb.st_mode)) return 0; /* the DLA loader takes a directory as a run's */
+    pdla_engine *e = NULL;
+    pdla_checkpoint_info in;
+    const int rc = pdla_checkpoint_load(&e, path, NULL, 0, &in, err, sizeof err);
+    pdla_engine_destroy(e);
+    if (rc != PDLA_OK) return 0;
+    snprintf(what, whatlen, "a DLA checkpoint (generation %llu, %llu particles)", (unsigned long long)in.generation,
+             (unsigned long long)in.particles);
+    return 1;
+}
+
+/* --resume FILE whose checkpoints go to FILE's folder dir (no --out
+ * elsewhere): before FILE is loaded, dir/checkpoint.h5, which the first
+ * write replaces, unless it is FILE (the normal resume), is loaded as
+ * `--resume dir` would load it, and freed. Absent is fine; damaged sets
+ * c->ahead_bad (why in c->ahead_why), to go aside once nothing can refuse
+ * the resume (set_aside_ahead); a valid one, or another model's file,
+ * refuses the resume, exit 2, one line, nothing touched (the DLA and event
+ * rule). Until session 31 the first write replaced it silently: a
+ * 5000-attempt checkpoint.h5 by the 3000 attempts of a copy D/save.h5
+ * resumed in D. 0, or the exit status with the line printed. */
+static int named_ahead(dlca_cli *c, const char *file, const char *dir)
+{
+    char name[4300], what[1200];
+    struct stat sf, sn;
+    c->ahead_bad = 0;
+    snprintf(name, sizeof name, "%s/checkpoint.h5", dir);
+    if (stat(file, &sf) != 0 || !S_ISREG(sf.st_mode)) return 0; /* the load says why */
+    if (lstat(name, &sn) != 0) {
+        if (errno == ENOENT) return 0;
+        fprintf(stderr, "pdla: cannot resume: cannot look at %s: %s\n", name, strerror(errno));
+        return EXIT_RUNTIME;
+    }
+    if (stat(name, &sn) == 0 && sn.st_dev == sf.st_dev && sn.st_ino == sf.st_ino) return 0; /* FILE itself */
+    dlca_stats st;
+    const int rc = ahead_loads(name, &st, c->ahead_why, sizeof c->ahead_why);
+    if (rc == PDLA_ENOMEM) {
+        fprintf(stderr, "pdla: cannot resume: %s: %s\n", name, c->ahead_why);
+        return EXIT_RUNTIME;
+    }
+    char way[4400] = "";
+    if (rc == 0) {
+        snprintf(what, sizeof what, "a valid checkpoint (%" PRIu64 " attempts, t = %.6g, %" PRIu64 " clusters)",
+                 st.attempts, st.t, st.n_clusters);
+        snprintf(way, sizeof way, "resume it with --resume %s, or ", dir);
+    } else if (!ahead_foreign(name, what, sizeof what)) {
+        c->ahead_bad = 1;
+        return 0;
+    }
+    fprintf(stderr, "pdla: cannot resume: %s: %s is %s that the checkpoints of this resume would replace; "
+            "%smove %s out of %s to go on from %s\n", file, name, what, way, name, dir, file);
+    return EXIT_USAGE;
+}
+
+/* The damaged checkpoint.h5 named_ahead found goes aside, kept
+ * (pdla_rundir_set_aside, as the DLA and event fallbacks), the directory
+ * synced, before the first write could replace it. 0, or 1 with the line
+ * printed. */
+static int set_aside_ahead(const dlca_cli *c, const char *dir)
+{
+    char name[4200], kept[4200], err[4600];
+    snprintf(name, sizeof name, "%s/checkpoint.h5", dir);
+    fprintf(stderr, "pdla: note: skipped %s: damaged checkpoint (%s); resuming from %s\n", name, c->ahead_why,
+            c->resume);
+    if (pdla_rundir_set_aside(dir, name, kept, sizeof kept, err, sizeof err) != PDLA_OK) {
+        fprintf(stderr, "pdla: cannot resume: %s\n", err);
+        return EXIT_RUNTIME;
+    }
+    if (kept[0]) fprintf(stderr, "pdla: note: %s set aside as %s\n", name, kept);
+    if (pdla_rundir_fsync(dir) != 0) {
+        fprintf(stderr, "pdla: cannot resume: cannot sync directory %s: %s\n", dir, strerror(errno));
+        return EXIT_RUNTIME;
+    }
+    return 0;
+}
+
 /* The checkpoint --resume names (a run directory stands for its
- * checkpoint.h5) into ckpath, its directory locked, then loaded into *s.
- * 0, or the exit status with the line printed. */
+ * checkpoint.h5) into ckpath, its directory locked, then loaded into *s;
+ * a file resumed in its own folder after that folder's checkpoint.h5 is
+ * looked at (named_ahead). 0, or the exit status with the line printed. */
 static int lock_and_load(dlca_cli *c, char *ckpath, size_t cklen, dlca_sim **s)
 {
     char err[1024];
@@ -672,9 +799,16 @@ static int lock_and_load(dlca_cli *c, char *ckpath, size_t cklen, dlca_sim **s)
     snprintf(ckdir, sizeof ckdir, "%s", ckpath);
     char *slash = strrchr(ckdir, '/');
     if (slash) *slash = '\0';
-    if (pdla_rundir_lock(slash ? (ckdir[0] ? ckdir : "/") : ".", &c->lock, err, sizeof err) != PDLA_OK) {
+    const char *folder = slash ? (ckdir[0] ? ckdir : "/") : ".";
+    if (pdla_rundir_lock(folder, &c->lock, err, sizeof err) != PDLA_OK) {
         fprintf(stderr, "pdla: cannot resume: %s\n", err);
         return EXIT_USAGE;
+    }
+    /* a file resumed in its own folder (--out elsewhere needs --force,
+     * which replaces that directory's run): the checkpoint.h5 there first */
+    if (!S_ISDIR(sb.st_mode) && (!c->out || same_dir(c->lock, c->out))) {
+        const int arc = named_ahead(c, ckpath, folder);
+        if (arc) return arc;
     }
     const int lrc = dlca_checkpoint_load(s, ckpath, err, sizeof err);
     if (lrc) {
@@ -808,6 +942,7 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
                                                "cluster-free.xdmf2.tmp"};
             pdla_rundir_remove_prefixed(dir, stale, sizeof stale / sizeof stale[0]);
         }
+        if (!drc && c->resume && c->ahead_bad && same_dir(c->lock, dir)) drc = set_aside_ahead(c, dir);
         if (!drc && (!c->resume || !same_dir(c->lock, dir))) {
             /* A new run (--force) replaces an older run's checkpoint: a
              * later --resume would otherwise grow the old run and write it

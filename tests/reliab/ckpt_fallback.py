@@ -34,13 +34,24 @@ took the damaged one's generation number. Checked here:
     D/checkpoint.2.h5, a copy D/save.h5): damaged generation names ahead of
     it go aside and the generations move to the front as above (also under
     the kill -9 cases), a valid one ahead refuses the resume with one line,
-    exit 2, the directory untouched.
-The pdla runs are counted and printed (about 90; about 8 s of CPU in release).
+    exit 2, the directory untouched;
+  - DLCA (one checkpoint.h5): `--model dlca --resume D/save.h5` beside a
+    valid checkpoint.h5 (newer or older, also with --out D --force), a DLA
+    checkpoint or another model's file there: refused with one line, exit 2,
+    D untouched (before session 31 the first write replaced it); past a
+    truncated or empty one: kept aside as checkpoint.damaged.h5, the file
+    named kept, the run ends with the straight run's monomers (and past one
+    whose snapshots a directory resume refuses: aside too); checkpoint.h5
+    named or hard-linked resumes as before; --out another directory needs
+    --force (without: refused, kept; with: replaced).
+The pdla runs are counted and printed (107; about 9 s of CPU in release).
 """
 import glob
 import os
 import resource
+import re
 import shutil
+import subprocess
 import sys
 
 import h5py
@@ -386,6 +397,145 @@ after(N, "named checkpoint.h5", [6, 5, 4], {})
 
 killed("rename", 5, "/checkpoint", "checkpoint.1.h5")
 killed("dirsync", 1, None, "checkpoint.1.h5")
+
+
+
+# --- DLCA (one checkpoint.h5, no generations): --resume D/save.h5, a copy
+# in the run directory D, writes D/checkpoint.h5, so that name is loaded
+# first, as `--resume D` loads it (session 31; before, the first write
+# replaced a newer valid checkpoint.h5 silently: its 5000 attempts by the
+# 3000 of the copy). A valid one refuses the resume with one line, exit 2,
+# D untouched, whether or not --out names D (--force there changes
+# nothing: a resume in its own folder always writes there); so does another
+# model's file there. A damaged one goes aside, kept byte for byte, and the
+# run ends as one never stopped. checkpoint.h5 named itself, or a hard link
+# of it, is the normal resume; --out into another directory still needs
+# --force, which replaces that directory's run (session 30).
+DLCA = ["--model", "dlca", "--box", "64x48", "--fill", "0.05", "--seed", "3"]
+
+
+def dlca_run(d, attempts):
+    """The run to `attempts` into d; its summary's "t = T; clusters N"."""
+    p = subprocess.run([PDLA] + DLCA + ["--max-attempts", str(attempts), "--out", d, "--checkpoint", "--force"],
+                       capture_output=True, text=True, timeout=120)
+    m = re.search(r"; t = (\S+); clusters (\d+);", p.stdout)
+    check(p.returncode == 0 and m, "dlca run to %d attempts: %s" % (attempts, p.stderr))
+    return "t = %s, %s clusters" % m.groups() if m else "?"
+
+
+def dlca_resume(path, attempts, *more):
+    return pdla("--model", "dlca", "--resume", path, "--max-attempts", str(attempts), "-q", *more)
+
+
+def sites(d):
+    """The monomers' sites and the last series row's attempts (a resumed run
+    has one row more than the straight run: its first stop's, README DLCA)."""
+    with h5py.File(os.path.join(d, "cluster.h5"), "r") as f:
+        return f["/monomers/site"][()].tolist(), int(f["/series/attempts"][-1])
+
+
+C3, C5, C6 = W("dlca3"), W("dlca5"), W("dlca6")
+dlca_run(C3, 3000)
+at5 = dlca_run(C5, 5000)
+dlca_run(C6, 6000)
+
+
+def dlca_dir(name, ahead):
+    """A run directory holding save.h5 (the 3000-attempt checkpoint) and,
+    as checkpoint.h5, a copy of `ahead` (None: none)."""
+    d = W(name)
+    shutil.rmtree(d, ignore_errors=True)
+    os.makedirs(d)
+    shutil.copy(os.path.join(C3, "checkpoint.h5"), os.path.join(d, "save.h5"))
+    if ahead:
+        shutil.copy(ahead, os.path.join(d, "checkpoint.h5"))
+    return d
+
+
+def dlca_refused(d, what, way, *more):
+    before = snapshot(d)
+    rc, err = dlca_resume(os.path.join(d, "save.h5"), 6000, *more)
+    want = ("pdla: cannot resume: %s/save.h5: %s/checkpoint.h5 is %s that the checkpoints of this resume would "
+            "replace; %smove %s/checkpoint.h5 out of %s to go on from %s/save.h5" % (d, d, what, way, d, d, d))
+    check(rc == 2 and err.strip() == want, "dlca save.h5 %s behind %s: exit %s: %r" % (more, what, rc, err))
+    check(snapshot(d) == before, "dlca save.h5 %s behind %s: the directory changed" % (more, what))
+
+
+# the fault: a newer valid checkpoint.h5 (5000 attempts) beside the copy
+Dv = dlca_dir("dlca-valid", os.path.join(C5, "checkpoint.h5"))
+valid5 = "a valid checkpoint (5000 attempts, %s)" % at5
+dlca_refused(Dv, valid5, "resume it with --resume %s, or " % Dv)
+dlca_refused(Dv, valid5, "resume it with --resume %s, or " % Dv, "--out", Dv + "/", "--force")
+# an older valid one refuses too (what it would replace is the user's to move)
+Do = dlca_dir("dlca-older", os.path.join(C3, "checkpoint.h5"))
+shutil.copy(os.path.join(C5, "checkpoint.h5"), os.path.join(Do, "save.h5"))
+before = snapshot(Do)
+rc, err = dlca_resume(os.path.join(Do, "save.h5"), 6000)
+check(rc == 2 and "checkpoint.h5 is a valid checkpoint (3000 attempts" in err and snapshot(Do) == before,
+      "dlca save.h5 (5000) beside an older valid checkpoint.h5: exit %s: %r" % (rc, err))
+# another model's checkpoint there: a DLA one (no model attribute) and an
+# event one's model attribute
+Dd = dlca_dir("dlca-dla", os.path.join(T, "checkpoint.h5"))
+dlca_refused(Dd, "a DLA checkpoint (generation 4, 4000 particles)", "")
+Dm = dlca_dir("dlca-model", None)
+with h5py.File(os.path.join(Dm, "checkpoint.h5"), "w") as f:
+    f.attrs["model"] = b"event-checkpoint"
+dlca_refused(Dm, "another model's file (model 'event-checkpoint')", "")
+
+# a damaged checkpoint.h5 (truncated): kept aside, the run goes on from the
+# copy and ends as the straight run to 6000
+for name, damage in (("dlca-trunc", truncate), ("dlca-empty", lambda p: os.truncate(p, 0))):
+    Dt = dlca_dir(name, os.path.join(C5, "checkpoint.h5"))
+    damage(os.path.join(Dt, "checkpoint.h5"))
+    bad, save = read(os.path.join(Dt, "checkpoint.h5")), read(os.path.join(Dt, "save.h5"))
+    rc, err = dlca_resume(os.path.join(Dt, "save.h5"), 6000)
+    check(rc == 0 and "pdla: note: skipped %s/checkpoint.h5: damaged checkpoint (" % Dt in err and
+          "resuming from %s/save.h5\npdla: note: %s/checkpoint.h5 set aside as %s/checkpoint.damaged.h5" % (Dt, Dt, Dt)
+          in err, "dlca %s: resume: exit %s: %r" % (name, rc, err))
+    check(os.path.exists(os.path.join(Dt, "checkpoint.damaged.h5")) and
+          read(os.path.join(Dt, "checkpoint.damaged.h5")) == bad, "dlca %s: the damaged bytes not kept" % name)
+    check(read(os.path.join(Dt, "save.h5")) == save, "dlca %s: the file named changed" % name)
+    rc, err = pdla("check", os.path.join(Dt, "checkpoint.h5"))
+    check(rc == 0, "dlca %s: the new checkpoint.h5 does not pass pdla check: %s" % (name, err.strip()[-300:]))
+    check(sites(Dt) == sites(C6), "dlca %s: not the straight run's monomers" % name)
+
+# snapshots a directory resume refuses (the state sound): damaged too
+Ds = W("dlca-snaps")
+shutil.rmtree(Ds, ignore_errors=True)
+rc, err = pdla(*DLCA, "--max-attempts", "3000", "--out", Ds, "--checkpoint", "--snapshot-every", "50", "-q")
+shutil.copy(os.path.join(Ds, "checkpoint.h5"), os.path.join(Ds, "save.h5"))
+rc2, err2 = dlca_resume(Ds, 5000)
+check(rc == 0 and rc2 == 0, "dlca snapshots runs: %r %r" % (err, err2))
+with h5py.File(os.path.join(Ds, "checkpoint.h5"), "r+") as f:
+    f["snapshots"].attrs.modify("count", 1000)
+rc, err = dlca_resume(os.path.join(Ds, "save.h5"), 6000)
+check(rc == 0 and "pdla: note: skipped %s/checkpoint.h5: damaged checkpoint (cannot read the snapshots of "
+      "%s/checkpoint.h5: /snapshots count 1000, but it holds " % (Ds, Ds) in err and
+      os.path.exists(os.path.join(Ds, "checkpoint.damaged.h5")), "dlca forged snapshots: exit %s: %r" % (rc, err))
+
+# the normal resume: checkpoint.h5 named, or a hard link of it
+for how in ("named", "link"):
+    Dn = dlca_dir("dlca-" + how, os.path.join(C5, "checkpoint.h5"))
+    path = os.path.join(Dn, "checkpoint.h5")
+    if how == "link":
+        os.unlink(os.path.join(Dn, "save.h5"))
+        os.link(path, os.path.join(Dn, "save.h5"))
+        path = os.path.join(Dn, "save.h5")
+    rc, err = dlca_resume(path, 6000)
+    check(rc == 0 and not err.strip() and sites(Dn) == sites(C6), "dlca %s checkpoint.h5: %s: %r" % (how, rc, err))
+
+# --out another directory: refused without --force (its checkpoint kept),
+# replaced with it (session 30)
+Dx = dlca_dir("dlca-out", os.path.join(C5, "checkpoint.h5"))
+O = W("dlca-other")
+shutil.rmtree(O, ignore_errors=True)
+shutil.copytree(C5, O)
+before = snapshot(O)
+rc, err = dlca_resume(os.path.join(Dx, "save.h5"), 6000, "--out", O)
+check(rc == 2 and err.strip() == "pdla: run directory '%s' already exists (use --force to write into it)" % O and
+      snapshot(O) == before, "dlca --out another directory without --force: exit %s: %r" % (rc, err))
+rc, err = dlca_resume(os.path.join(Dx, "save.h5"), 6000, "--out", O, "--force")
+check(rc == 0 and sites(O) == sites(C6), "dlca --out another directory --force: exit %s: %r" % (rc, err))
 
 print("ckpt_fallback: %d pdla runs, %d failures" % (runs, len(failures)))
 _ru = resource.getrusage(resource.RUSAGE_CHILDREN)

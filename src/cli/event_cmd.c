@@ -411,7 +411,7 @@ static int dir_takes_files(const char *dir)
 /* checkpoint.h5 is damaged and the run resumes from checkpoint.prev.h5:
  * the damaged file goes aside, kept, under the first free name of
  * checkpoint.damaged.h5, checkpoint.damaged.2.h5, ... (pdla_rundir_set_aside,
- * as the DLA recovery: until session 32 a second fallback renamed its
+ * as the DLA recovery: until session 31 a second fallback renamed its
  * damaged file over the first one's checkpoint.damaged.h5), the directory
  * is synced, and the previous one becomes checkpoint.h5 too (a hard link,
  * else renamed). The next write moves checkpoint.h5 to checkpoint.prev.h5
@@ -489,7 +489,7 @@ static const char *const ckpt_names[2] = {"checkpoint.h5", "checkpoint.prev.h5"}
  * checkpoint.h5 to checkpoint.prev.h5, the second drops it); a damaged one
  * gets its bit in *bad (1 checkpoint.h5, 2 checkpoint.prev.h5) and why in
  * why, to go aside once the file named has loaded (set_aside_ahead). Until
- * session 32 a file named was resumed with its folder as it was: named
+ * session 31 a file named was resumed with its folder as it was: named
  * checkpoint.prev.h5 past a damaged checkpoint.h5, the first write removed
  * it and kept the damaged file as checkpoint.prev.h5. *is_prev: the file is
  * checkpoint.prev.h5. 0, or 2 with the line printed. */

@@ -13,7 +13,7 @@
  * (`--resume DIR/checkpoint.1.h5`), whose resume writes into DIR's
  * generations too: every generation name ahead of the file must be damaged
  * or absent (those go aside as above), and a valid one there refuses the
- * resume, since its writes would rotate it out. Until session 32 a named
+ * resume, since its writes would rotate it out. Until session 31 a named
  * file's folder was left as it was, and the writes rotated a damaged
  * checkpoint.h5 into the generations and pushed out good ones.
  */

@@ -100,7 +100,7 @@ cmp -s "$t/bad2.h5" "$t/F/checkpoint.damaged.2.h5" || fail "the second damaged c
 # a file under another name) are loaded first. A valid one refuses the
 # resume with one line, exit 2, nothing touched; a damaged one goes aside
 # as after a directory's fallback, and checkpoint.prev.h5 named is kept
-# through the writes. Until session 32 the folder was left as it was: the
+# through the writes. Until session 31 the folder was left as it was: the
 # first write removed the checkpoint.prev.h5 named and kept the damaged
 # checkpoint.h5 in its place; a valid newer checkpoint.h5 was pushed out.
 "$pdla" $fargs --t-max 4 --checkpoint --out "$t/G" >"$t/outG" 2>&1 || fail "run to t 4: $(cat "$t/outG")"

@@ -317,7 +317,7 @@ killed("dirsync", 1)
 # D/checkpoint.1.h5): its resume writes into D's generations as well, so
 # the generation names ahead of the file are verified as a directory resume
 # verifies them. Damaged ones go aside and the file and the older names
-# move to the front, as after a directory's fallback (before session 32 the
+# move to the front, as after a directory's fallback (before session 31 the
 # folder was left as it was: the writes rotated the damaged checkpoint.h5
 # into the generations, as checkpoint.1.h5 then checkpoint.2.h5, pushed out
 # the file resumed from and numbered past it, not past the damaged one).

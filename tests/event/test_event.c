@@ -2261,6 +2261,23 @@ static void gz_review(void)
     ev_free(s);
 }
 
+/* Two free particles in a walled box, the first in the middle with a random
+ * velocity (at_wall: at the wall x = r instead, moving into it at 1e-20),
+ * the second grazing it (gz_place; on the box's side of a wall particle). */
+static ev_sim *gz_pair(int D, uint64_t *st, int at_wall)
+{
+    ev_params q = base(D, 2, D == 3 ? 0.01 : 0.05, 0, 0, 1);
+    q.max_events = 2000;
+    ev_sim *s = ev_create(&q, NULL, 0);
+    if (!s) abort();
+    double *A = EV_P_ANY(s, 0), *B = EV_P_ANY(s, 1);
+    for (int k = 0; k < D; k++) A[k] = 0.5 * s->L, A[D + k] = gz_u(st) - 0.5;
+    if (at_wall) A[0] = A[2 * D + 1], A[D] = -1e-20;
+    gz_place(st, D, A, A + D, B, B + D, 1, at_wall ? -1 : 1);
+    A[2 * D] = B[2 * D] = 0;
+    return s;
+}
+
 /* A particle at the wall (x = r, its normal velocity -1e-20 into it) and a
  * free one touching it from the box's side, grazing: the wall sets the
  * sign of v (no loop of its own) and the pair is pushed apart; the push
@@ -2270,15 +2287,8 @@ static void gz_wall(int D, int nstart, uint64_t st)
 {
     int worst = 0, at0 = 0;
     for (int a = 0; a < nstart; a++) {
-        ev_params q = base(D, 2, D == 3 ? 0.01 : 0.05, 0, 0, 1);
-        q.max_events = 2000;
-        ev_sim *s = ev_create(&q, NULL, 0);
-        if (!s) abort();
-        double *A = EV_P_ANY(s, 0), *B = EV_P_ANY(s, 1);
-        for (int k = 0; k < D; k++) A[k] = 0.5 * s->L, A[D + k] = gz_u(&st) - 0.5;
-        A[0] = A[2 * D + 1], A[D] = -1e-20;
-        gz_place(&st, D, A, A + D, B, B + D, 1, -1);
-        A[2 * D] = B[2 * D] = 0;
+        ev_sim *s = gz_pair(D, &st, 1);
+        const double *A = EV_P_ANY(s, 0);
         const int n0 = gz_run(s, 1, 0, "wall graze");
         worst = n0 > worst ? n0 : worst;
         at0 += n0 > 1;
@@ -2297,14 +2307,7 @@ static void gz_brute(int D, int nstart, uint64_t st)
 {
     size_t events = 0, differ = 0;
     for (int a = 0; a < nstart; a++) {
-        ev_params q = base(D, 2, D == 3 ? 0.01 : 0.05, 0, 0, 1);
-        q.max_events = 2000;
-        ev_sim *s = ev_create(&q, NULL, 0);
-        if (!s) abort();
-        double *A = EV_P_ANY(s, 0), *B = EV_P_ANY(s, 1);
-        for (int k = 0; k < D; k++) A[k] = 0.5 * s->L, A[D + k] = gz_u(&st) - 0.5;
-        gz_place(&st, D, A, A + D, B, B + D, 1, 1);
-        A[2 * D] = B[2 * D] = 0;
+        ev_sim *s = gz_pair(D, &st, 0);
         if (ev_rebuild(s)) abort();
         bf *b = bf_from(s);
         trace te = {0}, tb = {0};

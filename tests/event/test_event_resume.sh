@@ -132,6 +132,29 @@ rm "$t/J/checkpoint.prev.h5"
 "$pdla" --model event --resume "$t/J/save.h5" --t-max 12 >"$t/outJ" 2>&1 || fail "save.h5 named: $(cat "$t/outJ")"
 cmp -s "$t/bad3.h5" "$t/J/checkpoint.damaged.h5" && cmp -s "$t/good3.h5" "$t/J/save.h5" ||
     fail "save.h5 named: the damaged checkpoint.h5 not kept aside, or the file named changed: $(ls "$t/J")"
+# Another model's valid checkpoint where the event writes go (a DLA
+# run's checkpoint.h5, which has no model attribute, or a DLCA run's): not a
+# damaged event checkpoint to set aside but a run to keep, refused with one
+# line, exit 2, the directory untouched, as the DLA and DLCA commands refuse
+# an event checkpoint there. Until session 31 it went aside as
+# checkpoint.damaged.h5 and the event run's cluster.h5 replaced that run's
+# (found by the review: an event checkpoint copied into a DLCA run folder).
+"$pdla" --dim 2 --target 300 --checkpoint --out "$t/KL" >/dev/null 2>&1 || fail "DLA run with a checkpoint"
+"$pdla" --model dlca --max-attempts 2000 --checkpoint --out "$t/KC" >/dev/null 2>&1 || fail "DLCA run with a checkpoint"
+for k in KL KC; do
+    mv "$t/$k" "$t/$k.0"
+    # each case from the run's own directory: name, its folder as it must stay
+    for case in save.h5:save.h5 checkpoint.prev.h5:checkpoint.prev.h5 checkpoint.prev.h5:; do
+        cp -r "$t/$k.0" "$t/$k.1" && cp "$t/good3.h5" "$t/$k.1/${case%%:*}" && rm -rf "$t/$k" && cp -r "$t/$k.1" "$t/$k"
+        r="$t/$k/${case#*:}" && r=${r%/}
+        "$pdla" --model event --resume "$r" --t-max 12 >/dev/null 2>"$t/err"
+        rc=$?
+        [ $rc -eq 2 ] && [ "$(wc -l <"$t/err")" -eq 1 ] && grep -q "$t/$k/checkpoint.h5 is another model's" "$t/err" ||
+            fail "--resume $r beside a $k checkpoint.h5: exit $rc: $(cat "$t/err")"
+        diff -r "$t/$k.1" "$t/$k" >/dev/null || fail "--resume $r beside a $k checkpoint.h5 changed the directory: $(ls "$t/$k")"
+        rm -rf "$t/$k.1"
+    done
+done
 
 # --resume refuses other parameters, and a directory without a checkpoint
 "$pdla" --model event --resume "$t/B" --packing 0.3 >/dev/null 2>"$t/err"

@@ -585,9 +585,10 @@ static int set_aside_ahead(const char *dir, int bad)
  * (promote_previous); or the file named, whose folder is then put in order
  * as after that fallback: checkpoint.prev.h5 named becomes checkpoint.h5
  * too (promote_previous), damaged names ahead of another file go aside
- * (named_ahead). NULL with the line printed. */
+ * (named_ahead). NULL with the line printed; *rc is then set to 1 when the
+ * directory could not be put in order (a disk's failure, not bad use). */
 static ev_sim *load_checkpoint(const ev_cli *c, ev_series *ser, const char *dir, int is_dir, char *path,
-                               size_t plen)
+                               size_t plen, int *rc)
 {
     char err[600], err2[600] = "";
     int bad = 0, is_prev = 0;
@@ -621,6 +622,7 @@ static ev_sim *load_checkpoint(const ev_cli *c, ev_series *ser, const char *dir,
      * valid one refused the resume), and the first write would remove the
      * file named before its own is in place */
     if (fell_back || is_prev ? promote_previous(dir) : set_aside_ahead(dir, bad)) {
+        *rc = 1; /* until session 31 the exit status 2 of bad use */
         ev_free(s);
         ev_series_free(ser);
         return NULL;
@@ -631,7 +633,7 @@ static ev_sim *load_checkpoint(const ev_cli *c, ev_series *ser, const char *dir,
 /* --resume PATH: a run directory (its checkpoint.h5, or the previous one if
  * that is unusable) or one checkpoint file, as the DLA and DLCA commands
  * take; the run directory, locked, is then the file's folder. */
-static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
+static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len, int *rc)
 {
     struct stat st;
     if (stat(c->resume, &st) != 0) {
@@ -655,7 +657,7 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len)
     (void)remove_stale(dir, 0);
     if (dir_takes_files(dir)) return NULL;
     char path[4200];
-    ev_sim *s = load_checkpoint(c, ser, dir, is_dir, path, sizeof path);
+    ev_sim *s = load_checkpoint(c, ser, dir, is_dir, path, sizeof path, rc);
     if (!s) return NULL;
     /* the table's resume rule: stop conditions may change, the rest must match */
     ev_params *p = ev_params_of(s);
@@ -696,7 +698,7 @@ static int print_help(void)
 static ev_sim *start_sim(ev_cli *c, ev_series *ser, char *dir, size_t len, int *rc)
 {
     *rc = 2;
-    if (c->resume) return load_resume(c, ser, dir, len);
+    if (c->resume) return load_resume(c, ser, dir, len, rc);
     char err[512];
     ev_sim *s = ev_create(&c->p, err, sizeof err);
     if (!s) {

@@ -44,7 +44,10 @@ took the damaged one's generation number. Checked here:
     whose snapshots a directory resume refuses: aside too); checkpoint.h5
     named or hard-linked resumes as before; --out another directory needs
     --force (without: refused, kept; with: replaced).
-The pdla runs are counted and printed (107; about 9 s of CPU in release).
+  - event: a fallback's promotion, the promotion of checkpoint.prev.h5
+    named, or the sync after a set-aside that fails (EIO) is one line, exit
+    1 (2 before session 31), and the directory resumes after.
+The pdla runs are counted and printed (119; about 9 s of CPU in release).
 """
 import glob
 import os
@@ -536,6 +539,38 @@ check(rc == 2 and err.strip() == "pdla: run directory '%s' already exists (use -
       snapshot(O) == before, "dlca --out another directory without --force: exit %s: %r" % (rc, err))
 rc, err = dlca_resume(os.path.join(Dx, "save.h5"), 6000, "--out", O, "--force")
 check(rc == 0 and sites(O) == sites(C6), "dlca --out another directory --force: exit %s: %r" % (rc, err))
+
+# --- event: a set-aside or promotion that fails for the disk (EIO) is one
+# line and exit 1, as the DLA recovery's (README, Limits: 2 is for bad use);
+# until session 31 the event command exited 2 there. The directory still
+# resumes afterwards.
+EV = ["--model", "event", "--dim", "2", "--particles", "2000", "--packing", "0.2", "--seed-radius", "1", "--seed", "3"]
+
+
+def event_dir(name):
+    d = W(name)
+    shutil.rmtree(d, ignore_errors=True)
+    rc, err = pdla(*EV, "--t-max", "4", "--checkpoint", "--out", d)
+    rc2, err2 = pdla("--model", "event", "--resume", d, "--t-max", "6")
+    check(rc == 0 and rc2 == 0, "event run %s: %r %r" % (name, err, err2))
+    truncate(os.path.join(d, "checkpoint.h5"))
+    return d
+
+
+for name, op, what, last in (("ev-dir", "rename", None, "cannot make %s/checkpoint.prev.h5 the current checkpoint"),
+                             ("ev-prev", "rename", "checkpoint.prev.h5",
+                              "cannot make %s/checkpoint.prev.h5 the current checkpoint"),
+                             ("ev-save", "dirsync", "save.h5", "cannot sync directory %s")):
+    d = event_dir(name)
+    if what == "save.h5":
+        shutil.copy(os.path.join(d, "checkpoint.prev.h5"), os.path.join(d, what))
+        os.unlink(os.path.join(d, "checkpoint.prev.h5"))
+    env = dict(os.environ, LD_PRELOAD=PRELOAD, FAULT_OP=op, FAULT_AT="1", FAULT_STICKY="1", FAULT_ERR="EIO")
+    rc, lines = faulted(["--model", "event", "--resume", os.path.join(d, what) if what else d, "--t-max", "8"], env)
+    check(rc == 1 and len(lines) >= 1 and lines[-1].startswith("pdla: ") and (last % d) in lines[-1] and
+          lines[-1].endswith("Input/output error"), "%s: failed %s: exit %s: %r" % (name, op, rc, lines))
+    rc, err = pdla("--model", "event", "--resume", os.path.join(d, what) if what else d, "--t-max", "8")
+    check(rc == 0, "%s: the resume after the failed %s: exit %s: %r" % (name, op, rc, err))
 
 print("ckpt_fallback: %d pdla runs, %d failures" % (runs, len(failures)))
 _ru = resource.getrusage(resource.RUSAGE_CHILDREN)

@@ -580,19 +580,30 @@ static int set_aside_ahead(const char *dir, int bad)
     return 0;
 }
 
+/* What a resume leaves to do to its folder once it is accepted
+ * (order_folder): a resume refused for what it asks (a changed parameter, a
+ * stop passed) is one line and leaves the folder as it was, as the DLA
+ * command's; until session 31 the set-aside and the promotion came first,
+ * with their notes. */
+typedef struct ev_order {
+    int promote;     /* checkpoint.prev.h5 becomes checkpoint.h5 (promote_previous) */
+    int bad;         /* named_ahead's damaged names, to go aside (set_aside_ahead) */
+    char note[5000]; /* what was skipped and why (names of 4000 bytes) */
+} ev_order;
+
 /* The checkpoint --resume names, loaded (its path into path): a run
  * directory's checkpoint.h5, or past a damaged one its checkpoint.prev.h5
- * (promote_previous); or the file named, whose folder is then put in order
+ * (then promoted); or the file named, whose folder is then put in order
  * as after that fallback: checkpoint.prev.h5 named becomes checkpoint.h5
- * too (promote_previous), damaged names ahead of another file go aside
- * (named_ahead). NULL with the line printed; *rc is then set to 1 when the
- * directory could not be put in order (a disk's failure, not bad use). */
+ * too, damaged names ahead of another file go aside (named_ahead). What to
+ * do to the folder goes into *o. NULL with the line printed. */
 static ev_sim *load_checkpoint(const ev_cli *c, ev_series *ser, const char *dir, int is_dir, char *path,
-                               size_t plen, int *rc)
+                               size_t plen, ev_order *o)
 {
     char err[600], err2[600] = "";
-    int bad = 0, is_prev = 0;
-    if (!is_dir && named_ahead(c->resume, dir, &bad, &is_prev, err2, sizeof err2)) return NULL;
+    int is_prev = 0;
+    memset(o, 0, sizeof *o);
+    if (!is_dir && named_ahead(c->resume, dir, &o->bad, &is_prev, err2, sizeof err2)) return NULL;
     if (is_dir) snprintf(path, plen, "%s/checkpoint.h5", dir);
     else snprintf(path, plen, "%s", c->resume);
     ev_sim *s = ev_checkpoint_load(path, ser, err, sizeof err);
@@ -614,20 +625,23 @@ static ev_sim *load_checkpoint(const ev_cli *c, ev_series *ser, const char *dir,
             fprintf(stderr, "pdla: cannot resume: %s\n", err);
             return NULL;
         }
-        fprintf(stderr, "pdla: %s; resuming from the previous checkpoint\n", err);
-    } else if (bad) {
-        fprintf(stderr, "pdla: note: %s; resuming from %s\n", err2, path);
+        snprintf(o->note, sizeof o->note, "pdla: %s; resuming from the previous checkpoint", err);
+    } else if (o->bad) {
+        snprintf(o->note, sizeof o->note, "pdla: note: %s; resuming from %s", err2, path);
     }
     /* checkpoint.prev.h5 named: checkpoint.h5 is damaged or missing (a
      * valid one refused the resume), and the first write would remove the
      * file named before its own is in place */
-    if (fell_back || is_prev ? promote_previous(dir) : set_aside_ahead(dir, bad)) {
-        *rc = 1; /* until session 31 the exit status 2 of bad use */
-        ev_free(s);
-        ev_series_free(ser);
-        return NULL;
-    }
+    o->promote = fell_back || is_prev;
     return s;
+}
+
+/* The folder put in order for the accepted resume (load_checkpoint's *o),
+ * its notes said. 0, or 1 with the line printed. */
+static int order_folder(const char *dir, const ev_order *o)
+{
+    if (o->note[0]) fprintf(stderr, "%s\n", o->note);
+    return o->promote ? promote_previous(dir) : set_aside_ahead(dir, o->bad);
 }
 
 /* --resume PATH: a run directory (its checkpoint.h5, or the previous one if
@@ -657,7 +671,8 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len, int
     (void)remove_stale(dir, 0);
     if (dir_takes_files(dir)) return NULL;
     char path[4200];
-    ev_sim *s = load_checkpoint(c, ser, dir, is_dir, path, sizeof path, rc);
+    ev_order order;
+    ev_sim *s = load_checkpoint(c, ser, dir, is_dir, path, sizeof path, &order);
     if (!s) return NULL;
     /* the table's resume rule: stop conditions may change, the rest must match */
     ev_params *p = ev_params_of(s);
@@ -669,6 +684,12 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len, int
     if (bad || ev_params_check(p, e, sizeof e) || ev_stop_possible(s, e, sizeof e) ||
         stop_passed(c, s, path, e, sizeof e)) {
         fprintf(stderr, "pdla: %s\n", e);
+        ev_free(s);
+        ev_series_free(ser);
+        return NULL;
+    }
+    if (order_folder(dir, &order)) {
+        *rc = 1; /* the disk's failure, not bad use (until session 31 exit 2) */
         ev_free(s);
         ev_series_free(ser);
         return NULL;

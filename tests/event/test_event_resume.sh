@@ -132,6 +132,24 @@ rm "$t/J/checkpoint.prev.h5"
 "$pdla" --model event --resume "$t/J/save.h5" --t-max 12 >"$t/outJ" 2>&1 || fail "save.h5 named: $(cat "$t/outJ")"
 cmp -s "$t/bad3.h5" "$t/J/checkpoint.damaged.h5" && cmp -s "$t/good3.h5" "$t/J/save.h5" ||
     fail "save.h5 named: the damaged checkpoint.h5 not kept aside, or the file named changed: $(ls "$t/J")"
+# A resume refused for what it asks (a changed parameter, a stop already
+# passed) past a damaged checkpoint.h5 is one line, exit 2, and leaves the
+# folder as it was, as the DLA command's: the set-aside and the promotion of
+# checkpoint.prev.h5 wait until the resume is accepted. Until session 31
+# they came first, with their two notes (found by the review).
+mkdir "$t/R" && cp "$t/bad3.h5" "$t/R/checkpoint.h5" && cp "$t/good3.h5" "$t/R/checkpoint.prev.h5" &&
+    cp "$t/good3.h5" "$t/R/save.h5" && cp -r "$t/R" "$t/R.0"
+for r in "$t/R" "$t/R/checkpoint.prev.h5" "$t/R/save.h5"; do
+    for ask in "--packing 0.3" "--t-max 1"; do
+        [ "$r" = "$t/R/save.h5" ] && rm -f "$t/R.0/checkpoint.prev.h5"
+        rm -rf "$t/R" && cp -r "$t/R.0" "$t/R"
+        "$pdla" --model event --resume "$r" $ask >/dev/null 2>"$t/err"
+        rc=$?
+        [ $rc -eq 2 ] && [ "$(wc -l <"$t/err")" -eq 1 ] ||
+            fail "--resume $r $ask past a damaged checkpoint.h5: exit $rc, want 2 and one line: $(cat "$t/err")"
+        diff -r "$t/R.0" "$t/R" >/dev/null || fail "--resume $r $ask, refused, changed the directory: $(ls "$t/R")"
+    done
+done
 # Another model's valid checkpoint where the event writes go (a DLA
 # run's checkpoint.h5, which has no model attribute, or a DLCA run's): not a
 # damaged event checkpoint to set aside but a run to keep, refused with one

@@ -1033,16 +1033,33 @@ static inline __attribute__((always_inline)) void collide(ev_sim *s, const int D
     if (ov > s->max_overlap) s->max_overlap = ov;
     const double mi = ev_pmass(s, i), mj = ev_pmass(s, j);
     /* Reflection along r with r.r in the denominator: exact for any |r|. */
-    const double f = 2 * rv / (rr * (mi + mj));
+    const double den = rr * (mi + mj);
+    const double f = 2 * rv / den;
+    /* r_ij = -r, dp_i = mi mj f r: r_ij . dp_i = -mi mj f rr (> 0, f < 0). */
+    double fi = mj * f, fj = mi * f, vir = -mi * mj * f * rr;
+    if (__builtin_expect(!(den >= DBL_MIN) || !(fabs(f) <= DBL_MAX) || !(mi * mj >= DBL_MIN), 0)) {
+        /* Tiny particles: r.r (m_i + m_j) or m_i m_j under DBL_MIN (2D
+         * radius 1e-80 at density 1, r^4 ~ 1e-320; 3D 1e-65), where the
+         * product underflowed: f was infinite, the velocities NaN, and the
+         * wall events of a NaN position repeated at one instant until
+         * --max-events; 3D radius 1e-55: m_i m_j = 0, the collisions added
+         * nothing to the virial. The
+         * same reflection by the velocity change 2 r.v / r.r (~ |v| / |r|)
+         * and the mass shares, which do not underflow; ordinary scales keep
+         * the bits above. Test event-tiny. */
+        const double g = 2 * rv / rr, wi = mj / (mi + mj), wj = mi / (mi + mj);
+        fi = wi * g;
+        fj = wj * g;
+        vir = -(mi * wj) * g * rr;
+    }
     double rv1 = 0; /* r.v after: approach(D, r, pi + D, pj + D) */
     for (int k = 0; k < D; k++) {
-        const double ui = pi[D + k] + mj * f * r[k], uj = pj[D + k] - mi * f * r[k];
+        const double ui = pi[D + k] + fi * r[k], uj = pj[D + k] - fj * r[k];
         pi[D + k] = ui;
         pj[D + k] = uj;
         rv1 += r[k] * (uj - ui);
     }
-    /* r_ij = -r, dp_i = mi mj f r: r_ij . dp_i = -mi mj f rr (> 0, f < 0). */
-    s->virial += -mi * mj * f * rr;
+    s->virial += vir;
     /* a graze whose change was lost: pushed apart, as it is predicted */
     if (__builtin_expect(rv1 < 0, 0))
         s->virial += mi * mj / (mi + mj) * recede(D, r, rr, pi + D, pj + D, mj / (mi + mj), mi / (mi + mj)) * rr;

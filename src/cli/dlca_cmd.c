@@ -688,29 +688,6 @@ static int ahead_loads(const char *path, dlca_stats *st, char *why, size_t whyle
     return rc;
 }
 
-/* Is path, which no DLCA load takes, another model's file (its root
- * attribute model, or a DLA checkpoint that loads)? 1 with what it is in
- * what, else 0 (damaged). */
-static int ahead_foreign(const char *path, char *what, size_t whatlen)
-{
-    char model[32], err[1024];
-    if (pdla_h5_file_model(path, model, sizeof model) == 0) {
-        if (!strcmp(model, "dlca-checkpoint")) return 0; /* a DLCA checkpoint that does not load */
-        snprintf(what, whatlen, "another model's file (model '%s')", model);
-        return 1;
-    }
-    struct stat sb;
-    if (stat(path, &sb) != 0 || !S_ISREG(sb.st_mode)) return 0; /* the DLA loader takes a directory as a run's */
-    pdla_engine *e = NULL;
-    pdla_checkpoint_info in;
-    const int rc = pdla_checkpoint_load(&e, path, NULL, 0, &in, err, sizeof err);
-    pdla_engine_destroy(e);
-    if (rc != PDLA_OK) return 0;
-    snprintf(what, whatlen, "a DLA checkpoint (generation %llu, %llu particles)", (unsigned long long)in.generation,
-             (unsigned long long)in.particles);
-    return 1;
-}
-
 /* --resume FILE whose checkpoints go to FILE's folder dir (no --out
  * elsewhere): before FILE is loaded, dir/checkpoint.h5, which the first
  * write replaces, unless it is FILE (the normal resume), is loaded as
@@ -745,7 +722,7 @@ static int named_ahead(dlca_cli *c, const char *file, const char *dir)
         snprintf(what, sizeof what, "a valid checkpoint (%" PRIu64 " attempts, t = %.6g, %" PRIu64 " clusters)",
                  st.attempts, st.t, st.n_clusters);
         snprintf(way, sizeof way, "resume it with --resume %s, or ", dir);
-    } else if (!ahead_foreign(name, what, sizeof what)) {
+    } else if (!cli_foreign_checkpoint(name, "dlca-checkpoint", what, sizeof what)) {
         c->ahead_bad = 1;
         return 0;
     }

@@ -27,7 +27,6 @@
 #include "rundir.h"
 #include "scene.h"
 #include "pdla/event.h"
-#include "pdla/h5check.h"
 #include "pdla/pdla.h"
 
 /* Set by SIGINT/SIGTERM: the engine stops at its next check; the signal's
@@ -482,32 +481,6 @@ static int stop_passed(const ev_cli *c, const ev_sim *s, const char *path, char 
 /* The event model's checkpoint names in dir, newest first. */
 static const char *const ckpt_names[2] = {"checkpoint.h5", "checkpoint.prev.h5"};
 
-/* Is path, which the event loader refused, another model's file (a root
- * attribute model other than event, or a DLA checkpoint that loads)? 1 with
- * what it is in what, else 0 (a damaged event checkpoint). Such a file is a
- * run to keep, not one to set aside as damaged: until session 31 a DLA or
- * DLCA checkpoint.h5 beside an event checkpoint resumed there went aside as
- * checkpoint.damaged.h5 (the DLA and DLCA commands refuse an event one). */
-static int foreign_file(const char *path, char *what, size_t whatlen)
-{
-    char model[32], err[1024];
-    if (pdla_h5_file_model(path, model, sizeof model) == 0) {
-        if (!strcmp(model, "event")) return 0;
-        snprintf(what, whatlen, "another model's file (model '%s')", model);
-        return 1;
-    }
-    struct stat sb;
-    if (stat(path, &sb) != 0 || !S_ISREG(sb.st_mode)) return 0; /* the DLA loader takes a directory as a run's */
-    pdla_engine *e = NULL;
-    pdla_checkpoint_info in;
-    const int rc = pdla_checkpoint_load(&e, path, NULL, 0, &in, err, sizeof err);
-    pdla_engine_destroy(e);
-    if (rc != PDLA_OK) return 0;
-    snprintf(what, whatlen, "another model's file (a DLA checkpoint, generation %llu, %llu particles)",
-             (unsigned long long)in.generation, (unsigned long long)in.particles);
-    return 1;
-}
-
 /* --resume FILE: the names of its folder dir that the resume's writes move
  * on ahead of it (checkpoint.h5 ahead of checkpoint.prev.h5, both ahead of
  * a file under another name, none ahead of checkpoint.h5 itself), each
@@ -539,7 +512,7 @@ static int named_ahead(const char *file, const char *dir, int *bad, int *is_prev
         ev_sim *s = ev_checkpoint_load(p[k], &ser, err, sizeof err);
         ev_series_free(&ser);
         char what[1200];
-        if (!s && foreign_file(p[k], what, sizeof what)) {
+        if (!s && cli_foreign_checkpoint(p[k], "event", what, sizeof what)) {
             fprintf(stderr, "pdla: cannot resume: %s: %s is %s that the checkpoints of this resume would push "
                     "out; move %s out of %s to go on from %s\n", file, p[k], what, p[k], dir, file);
             return 2;
@@ -613,7 +586,7 @@ static ev_sim *load_checkpoint(const ev_cli *c, ev_series *ser, const char *dir,
     }
     const int fell_back = !s; /* a directory's checkpoint.h5 unusable */
     char what[1200];
-    if (fell_back && foreign_file(path, what, sizeof what)) { /* not damaged: kept, not fallen back past */
+    if (fell_back && cli_foreign_checkpoint(path, "event", what, sizeof what)) { /* not damaged: kept, not fallen back past */
         fprintf(stderr, "pdla: cannot resume: %s is %s, not an event checkpoint (resume it with --model)\n", path,
                 what);
         return NULL;

@@ -2,11 +2,15 @@
  * rundir.c - making run directories (rundir.h).
  */
 #include "rundir.h"
+#include <stdio.h>
 
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+
+#include "pdla/h5check.h"
+#include "pdla/pdla.h"
 
 int cli_mkdir_p(const char *path)
 {
@@ -49,4 +53,24 @@ int cli_mkdir_parents(const char *dir)
     }
     free(parent);
     return rc;
+}
+
+int cli_foreign_checkpoint(const char *path, const char *own_model, char *what, size_t whatlen)
+{
+    char model[32], err[1024];
+    if (pdla_h5_file_model(path, model, sizeof model) == 0) {
+        if (!strcmp(model, own_model)) return 0;
+        snprintf(what, whatlen, "another model's file (model '%s')", model);
+        return 1;
+    }
+    struct stat sb;
+    if (stat(path, &sb) != 0 || !S_ISREG(sb.st_mode)) return 0; /* the DLA loader takes a directory as a run's */
+    pdla_engine *e = NULL;
+    pdla_checkpoint_info in;
+    const int rc = pdla_checkpoint_load(&e, path, NULL, 0, &in, err, sizeof err);
+    pdla_engine_destroy(e);
+    if (rc != PDLA_OK) return 0;
+    snprintf(what, whatlen, "a DLA checkpoint (generation %llu, %llu particles)", (unsigned long long)in.generation,
+             (unsigned long long)in.particles);
+    return 1;
 }

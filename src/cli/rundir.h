@@ -4,6 +4,7 @@
  */
 #ifndef PDLA_CLI_RUNDIR_H
 #define PDLA_CLI_RUNDIR_H
+#include <stddef.h>
 
 /* mkdir -p: make every missing directory of path. 0 or an errno. */
 int cli_mkdir_p(const char *path);
@@ -11,5 +12,13 @@ int cli_mkdir_p(const char *path);
 /* The parents of dir (everything before its last '/'), as cli_mkdir_p.
  * 0 or an errno. */
 int cli_mkdir_parents(const char *dir);
+
+/* Is path, which the loader of model own_model (its root attribute `model`:
+ * "event", "dlca-checkpoint") refused, another model's file: a root
+ * attribute model other than own_model, or a DLA checkpoint that loads (it
+ * has no such attribute)? 1 with what it is in what, else 0 (a damaged file
+ * of own_model). Such a file is another run's to keep, not one to set aside
+ * as damaged. */
+int cli_foreign_checkpoint(const char *path, const char *own_model, char *what, size_t whatlen);
 
 #endif

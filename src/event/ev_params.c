@@ -43,7 +43,7 @@ static const pdla_param_desc ev_rows[] = {
     {.name = "radius", .option = "radius", .label = "radius", .unit = "length", .metavar = "X",
      .help = "particle radius (one species)", .group = "Event:", .example = "0.4",
      .type = PDLA_PT_REAL, .offset = OFF(radius), .bit = BIT(2), .models = EVT,
-     .show_default = 1, .def_r = 0.5, .lo_r = 0, .hi_r = 1e6, .lo_open = 1},
+     .show_default = 1, .def_r = 0.5, .lo_r = EV_RADIUS_MIN, .hi_r = 1e6},
     {.name = "density", .option = "density", .label = "density", .unit = "mass/length^dim",
      .metavar = "X", .help = "mass density: mass = density * (pi r^2 | 4/3 pi r^3)",
      .group = "Event:", .example = "2", .type = PDLA_PT_REAL, .offset = OFF(density),
@@ -219,6 +219,7 @@ int ev_parse_species(const ev_params *p, ev_species *sp, int *nsp, char *err, si
     }
     int n = 0;
     const char *c = p->species;
+    const double rlo = pdla_param_find(ev_rows, N_EV_ROWS, "radius")->lo_r;
     const double rhi = pdla_param_find(ev_rows, N_EV_ROWS, "radius")->hi_r;
     const double dhi = pdla_param_find(ev_rows, N_EV_ROWS, "density")->hi_r;
     while (*c) {
@@ -234,9 +235,9 @@ int ev_parse_species(const ev_params *p, ev_species *sp, int *nsp, char *err, si
         if (species_num(c, &r, &end) || *end != ':')
             return pdla_errorf(-1, err, errlen, "--species: kind %d: RADIUS is not a number (want "
                                "COUNT:RADIUS:DENSITY)", n + 1);
-        if (!(r > 0) || !(r <= rhi))
-            return pdla_errorf(-1, err, errlen, "--species: kind %d: RADIUS must be in (0, %g], got %.17g", n + 1,
-                               rhi, r);
+        if (!(r >= rlo) || !(r <= rhi))
+            return pdla_errorf(-1, err, errlen, "--species: kind %d: RADIUS must be in [%g, %g], got %.17g", n + 1,
+                               rlo, rhi, r);
         c = end + 1;
         if (species_num(c, &rho, &end) || (*end != ',' && *end != ':' && *end))
             return pdla_errorf(-1, err, errlen, "--species: kind %d: DENSITY is not a number (want "

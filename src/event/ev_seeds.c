@@ -77,7 +77,8 @@ static int read_lines(ev_sim *s, FILE *f, const char *path, char *err, size_t er
         if (r < 0)
             return pdla_errorf(-1, err, errlen, "--seeds %s:%d: want %d decimal numbers (x y%s radius)", path,
                                line, D + 1, D == 3 ? " z" : "");
-        if (!(xr[D] > 0)) return pdla_errorf(-1, err, errlen, "--seeds %s:%d: radius must be > 0", path, line);
+        if (!(xr[D] >= EV_RADIUS_MIN))
+            return pdla_errorf(-1, err, errlen, "--seeds %s:%d: radius must be >= %g", path, line, EV_RADIUS_MIN);
         if (s->nseeds == EV_MAX_SEEDS)
             return pdla_errorf(-1, err, errlen, "--seeds %s: more than %d seeds", path, EV_MAX_SEEDS);
         if (s->nseeds == cap) {

@@ -85,6 +85,19 @@ refused("tiny mass, event limit", EV + ["--out", out("m2"), "--radius", "1e-6", 
 refused("species, huge speed", EV + ["--out", out("m3"), "--species", "100:0.5:1,50:1e-6:1e-290"],
         "--species kind 2")
 check(not os.path.exists(os.path.join(out("m2"), "cluster.h5")), "tiny mass: a cluster.h5 was written")
+# radii whose squared sums are subnormal doubles (mass and speed in range):
+# radius 1e-158 ran and wrote 173 overlapping pairs; 1e-150 is the floor
+TINY = ["--density", "1e12", "--kT", "1e-300", "--particles", "200", "--seed", "1"]
+refused("radius 1e-158", EV + ["--out", out("r1"), "--radius", "1e-158", "--seed-radius", "1e-158"] + TINY,
+        "radius must be in [1e-150")
+refused("species radius 1e-158", EV + ["--out", out("r2"), "--species", "200:1e-158:1e12", "--seed-radius",
+                                       "1e-158", "--kT", "1e-300"], "RADIUS must be in [1e-150")
+rc, _, err = run(EV + ["--out", out("r3"), "--radius", "1e-150", "--seed-radius", "1e-150"] + TINY)
+check(rc == 0, "radius 1e-150 (the floor) refused: %s %s" % (rc, err))
+rc, so, err = run(["check", os.path.join(out("r3"), "cluster.h5")])
+check(rc == 0, "radius 1e-150: pdla check fails: %s %s %s" % (rc, so[-300:], err))
+refused("seeds file radius 1e-200", EV + ["--out", out("r4"), "--seeds", w("tiny.txt", "0 0 1e-200\n"),
+                                         "--max-events", "100"], "radius must be >= 1e-150")
 rc, _, err = run(EV + ["--out", out("m4"), "--species", "100:0.5:1,50:0.01:1e-3", "--max-events", "2000"])
 check(rc == 0, "species of very different masses (in range) refused: %s %s" % (rc, err))
 

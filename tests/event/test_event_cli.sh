@@ -35,7 +35,7 @@ expect_usage "bad walls" --model event --box-walls sticky --out "$t/a"
 # that never reached the seed), and a box that positions resolve (packing
 # 1e-300: side Infinity in 3D, 1e151 radii in 2D; both ran without end)
 expect_usage "species radius 1e300" --model event --species 1:1e300:1 --out "$t/a"
-grep -q "kind 1: RADIUS must be in (0, 1e+06]" "$t/err" || fail "species radius 1e300: $(cat "$t/err")"
+grep -qF "kind 1: RADIUS must be in [1e-150, 1e+06]" "$t/err" || fail "species radius 1e300: $(cat "$t/err")"
 expect_usage "species density 1e300" --model event --species 10:0.5:1e300 --out "$t/a"
 grep -q "kind 1: DENSITY must be in (0, 1e+12]" "$t/err" || fail "species density 1e300: $(cat "$t/err")"
 # a run that cannot fit in memory is refused before it allocates (each array

@@ -765,6 +765,13 @@ static int lock_and_load(dlca_cli *c, char *ckpath, size_t cklen, dlca_sim **s)
         fprintf(stderr, "pdla: cannot resume from '%s': %s\n", c->resume, strerror(errno));
         return EXIT_USAGE;
     }
+    /* a killed run's temporary file: the sweep under the lock removed it
+     * once it was loaded (as the event command, which lost it unread) */
+    if (!S_ISDIR(sb.st_mode) && cli_is_temp_name(c->resume)) {
+        fprintf(stderr, "pdla: cannot resume from '%s': an unfinished temporary file (a killed run's); not loaded "
+                        "(rename it to resume from it)\n", c->resume);
+        return EXIT_USAGE;
+    }
     if (S_ISDIR(sb.st_mode)) snprintf(ckpath, cklen, "%s/checkpoint.h5", c->resume);
     else snprintf(ckpath, cklen, "%s", c->resume);
     /* The checkpoint's directory is locked before it is read: the run
@@ -915,9 +922,7 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
             /* Under the lock, what a pdla killed while it wrote here left:
              * cluster.xdmf2.tmp.PID stayed for good (kill -9 during the
              * sidecar); the .new names are taken again, but not at once. */
-            static const char *const stale[] = {".cluster.h5.new", ".checkpoint.h5.new", "cluster.xdmf2.tmp",
-                                               "cluster-free.xdmf2.tmp"};
-            pdla_rundir_remove_prefixed(dir, stale, sizeof stale / sizeof stale[0]);
+            pdla_rundir_remove_prefixed(dir, cli_temp_prefixes, cli_n_temp_prefixes);
         }
         if (!drc && c->resume && c->ahead_bad && same_dir(c->lock, dir)) drc = set_aside_ahead(c, dir);
         if (!drc && (!c->resume || !same_dir(c->lock, dir))) {

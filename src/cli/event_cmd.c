@@ -386,9 +386,7 @@ static int ticker(ev_sim *s, void *u)
  * cluster.h5. 0, or 1 (an I/O failure) with the line printed. */
 static int remove_stale(const char *dir, int old_checkpoints)
 {
-    static const char *const prefixes[] = {".checkpoint.h5.tmp.", "cluster.h5.tmp", "cluster.xdmf2.tmp.",
-                                           "cluster-free.xdmf2.tmp."};
-    pdla_rundir_remove_prefixed(dir, prefixes, sizeof prefixes / sizeof prefixes[0]);
+    pdla_rundir_remove_prefixed(dir, cli_temp_prefixes, cli_n_temp_prefixes);
     if (!old_checkpoints) return 0;
     char err[4600]; /* every model's checkpoint names: pdla.h */
     if (pdla_rundir_remove_old_run(dir, 0, err, sizeof err) == PDLA_OK) return 0;
@@ -628,6 +626,14 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len, int
         return NULL;
     }
     const int is_dir = S_ISDIR(st.st_mode);
+    /* A killed run's temporary file named (or a user's copy so named): the
+     * stale-file sweep below removed it before it was read, so a resume
+     * from it lost the file. Refused untouched, as the DLA command does. */
+    if (!is_dir && cli_is_temp_name(c->resume)) {
+        fprintf(stderr, "pdla: cannot resume from '%s': an unfinished temporary file (a killed run's); not loaded "
+                        "(rename it to resume from it)\n", c->resume);
+        return NULL;
+    }
     snprintf(dir, len, "%s", c->resume);
     char *slash = is_dir ? NULL : strrchr(dir, '/');
     if (!is_dir && !slash) snprintf(dir, len, ".");

@@ -74,3 +74,16 @@ int cli_foreign_checkpoint(const char *path, const char *own_model, char *what, 
              (unsigned long long)in.particles);
     return 1;
 }
+
+const char *const cli_temp_prefixes[] = {".checkpoint.h5.tmp.", "cluster.h5.tmp",          "cluster.xdmf2.tmp",
+                                         "cluster-free.xdmf2.tmp", ".cluster.h5.new", ".checkpoint.h5.new"};
+const size_t cli_n_temp_prefixes = sizeof cli_temp_prefixes / sizeof cli_temp_prefixes[0];
+
+int cli_is_temp_name(const char *path)
+{
+    const char *b = strrchr(path, '/');
+    b = b ? b + 1 : path;
+    for (size_t i = 0; i < cli_n_temp_prefixes; i++)
+        if (!strncmp(b, cli_temp_prefixes[i], strlen(cli_temp_prefixes[i]))) return 1;
+    return 0;
+}

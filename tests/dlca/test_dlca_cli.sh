@@ -104,6 +104,14 @@ c="$tmp/ck"
 [ $? -eq 2 ] && [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "--resume with --seed: $(cat "$tmp/err")"
 "$pdla" --model dlca --resume "$d/cluster.h5" >/dev/null 2>"$tmp/err"
 [ $? -eq 2 ] && [ "$(wc -l <"$tmp/err")" -eq 1 ] || fail "--resume from a cluster.h5: $(cat "$tmp/err")"
+# a checkpoint under a temporary name (a killed run's .checkpoint.h5.new):
+# loaded, then removed by the sweep of leftovers; refused, kept
+cp "$c/checkpoint.h5" "$c/.checkpoint.h5.new"
+"$pdla" --model dlca --resume "$c/.checkpoint.h5.new" >/dev/null 2>"$tmp/err"
+[ $? -eq 2 ] && [ "$(wc -l <"$tmp/err")" -eq 1 ] && grep -q "unfinished temporary file" "$tmp/err" ||
+    fail "--resume from a temporary name: $(cat "$tmp/err")"
+[ -f "$c/.checkpoint.h5.new" ] || fail "--resume from a temporary name removed it"
+rm -f "$c/.checkpoint.h5.new"
 # Resumed without --dim, --box's lengths are held against the checkpoint's
 # dimension, not the default 2 (a 3D run's own --box was refused).
 c3="$tmp/ck3"

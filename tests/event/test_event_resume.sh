@@ -55,6 +55,16 @@ interrupted "$t/B" || fail "the second part ended before SIGTERM came"
 
 "$pdla" --model event --resume "$t/B" >"$t/outB3" 2>&1 || fail "final resume: $(cat "$t/outB3")"
 grep -q "stopped: time reached at time 40" "$t/outB3" || fail "resumed run did not reach t = 40: $(cat "$t/outB3")"
+# A checkpoint under a killed run's temporary name, named by --resume: the
+# stale-file sweep removed it before it was read (the resume lost it);
+# refused in one line, exit 2, and the file kept.
+cp "$t/B/checkpoint.h5" "$t/B/.checkpoint.h5.tmp.77"
+"$pdla" --model event --resume "$t/B/.checkpoint.h5.tmp.77" >"$t/outT" 2>"$t/errT"
+rc=$?
+[ $rc -eq 2 ] && [ "$(wc -l <"$t/errT")" -eq 1 ] && grep -q "unfinished temporary file" "$t/errT" ||
+    fail "resume from a temporary name: exit $rc, want 2 and one line: $(cat "$t/errT")"
+[ -e "$t/B/.checkpoint.h5.tmp.77" ] || fail "resume from a temporary name removed the file"
+rm -f "$t/B/.checkpoint.h5.tmp.77"
 # same A B: h5diff -c and nothing printed (without -c h5diff exits 0 for
 # datasets of other shapes, say 5 series rows against 6; with -c it says so)
 same() { h5diff -c --exclude-path /Code "$1" "$2" >"$t/diff" 2>&1 && [ ! -s "$t/diff" ]; }

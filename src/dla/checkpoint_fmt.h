@@ -63,6 +63,8 @@
  * Version 1 files (no halves) still load. */
 #define FORMAT_VERSION 2
 #define TMP_PREFIX ".checkpoint.h5.tmp."
+/* Root generations from here up are refused as damaged (checkpoint_read.c). */
+#define CKPT_GENERATION_MAX (UINT64_C(1) << 62)
 /* Bytes per read and write of the packed chunk stream (/tree/chunks_packed). */
 #define PACK_BUF_BYTES ((size_t)1 << 22)
 

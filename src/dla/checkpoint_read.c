@@ -10,6 +10,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <inttypes.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -620,6 +621,12 @@ static int check_root(const reader *r, hid_t file, uint64_t *generation, uint64_
         pdla_h5_attr_exact(file, "generation", PDLA_H5_U64, generation) < 0 ||
         pdla_h5_attr_exact(file, "particles", PDLA_H5_U64, particles) < 0)
         return damaged(r, "root attributes");
+    /* A run writes one generation per checkpoint, never near 2^62; a forged
+     * 2^64 - 1 loaded, and the next write's generation wrapped to 0, so the
+     * next resume took the old file as the newest and went back in time. */
+    if (*generation >= CKPT_GENERATION_MAX)
+        return rfail(r, "damaged checkpoint (root generation %" PRIu64 " out of range: at most 2^62 - 1)",
+                     *generation);
     const uint16_t probe = 1;
     if (strcmp(order, "little") != 0 || *(const uint8_t *)&probe != 1)
         return rfail(r, "records in byte order '%s' cannot be read on this machine", order);

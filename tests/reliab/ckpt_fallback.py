@@ -216,6 +216,20 @@ rc, err = resume(G, 5000)
 check(rc == 0, "kept before the kill: resume: %s" % err)
 after(G, "kept before the kill", [5, 4, 3], {"checkpoint.damaged.h5": read(os.path.join(G, "checkpoint.damaged.h5"))})
 
+# --- an intact checkpoint.h5 whose root generation is forged to 2^64 - 1:
+# it loaded and the next write's generation wrapped to 0, so the next resume
+# took the forged file (then checkpoint.2.h5) as the newest and went back.
+# Now damaged (generations stop at 2^62 - 1): resumed from generation 3,
+# the forged file kept aside, and the writes are 5, 6, 7.
+H = fresh("H")
+with h5py.File(os.path.join(H, "checkpoint.h5"), "r+") as f:
+    f.attrs.modify("generation", 2**64 - 1)
+badH = read(os.path.join(H, "checkpoint.h5"))
+rc, err = resume(H, 6000)
+check(rc == 0 and "root generation 18446744073709551615 out of range" in err and
+      "the next checkpoint is generation 5" in err, "generation 2^64 - 1: %s %s" % (rc, err))
+after(H, "generation 2^64 - 1", [7, 6, 5], {"checkpoint.damaged.h5": badH})
+
 # --- no resume of the directory reads a kept file: with only those left
 # there is no checkpoint to resume.
 os.mkdir(W("D"))

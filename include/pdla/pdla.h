@@ -411,6 +411,13 @@ PDLA_API int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdl
                                   uint32_t asked_fields, pdla_checkpoint_info *info,
                                   char *err, size_t errlen);
 
+/* The root of the DLA checkpoint at path, without loading the rest (a
+ * quick look, whatever the file's size): its generation and particle
+ * count. PDLA_OK when the root reads as a DLA checkpoint's (its data may
+ * still be damaged), else PDLA_EIO (not a regular file, not HDF5, another
+ * model's file, a root that does not read). Reads only. */
+PDLA_API int pdla_checkpoint_peek(const char *path, uint64_t *generation, uint64_t *particles);
+
 /* Before pdla_checkpoint_load of a checkpoint FILE named for a resume (not
  * a run directory), whose checkpoints then go to its folder dir (hold its
  * lock): the file's place among dir's generation names, which those writes

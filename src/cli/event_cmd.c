@@ -584,9 +584,10 @@ static ev_sim *load_checkpoint(const ev_cli *c, ev_series *ser, const char *dir,
     }
     const int fell_back = !s; /* a directory's checkpoint.h5 unusable */
     char what[1200];
-    if (fell_back && cli_foreign_checkpoint(path, "event", what, sizeof what)) { /* not damaged: kept, not fallen back past */
-        fprintf(stderr, "pdla: cannot resume: %s is %s, not an event checkpoint (resume it with --model)\n", path,
-                what);
+    const int foreign = fell_back ? cli_foreign_checkpoint(path, "event", what, sizeof what) : 0;
+    if (foreign) { /* not damaged: kept, not fallen back past */
+        fprintf(stderr, "pdla: cannot resume: %s is %s, not an event checkpoint (%s)\n", path, what,
+                foreign == 1 ? "resume it with --model" : "move it away to resume from checkpoint.prev.h5");
         return NULL;
     }
     if (fell_back) {

@@ -57,21 +57,25 @@ int cli_mkdir_parents(const char *dir)
 
 int cli_foreign_checkpoint(const char *path, const char *own_model, char *what, size_t whatlen)
 {
-    char model[32], err[1024];
+    char model[32];
     if (pdla_h5_file_model(path, model, sizeof model) == 0) {
         if (!strcmp(model, own_model)) return 0;
         snprintf(what, whatlen, "another model's file (model '%s')", model);
         return 1;
     }
     struct stat sb;
-    if (stat(path, &sb) != 0 || !S_ISREG(sb.st_mode)) return 0; /* the DLA loader takes a directory as a run's */
-    pdla_engine *e = NULL;
-    pdla_checkpoint_info in;
-    const int rc = pdla_checkpoint_load(&e, path, NULL, 0, &in, err, sizeof err);
-    pdla_engine_destroy(e);
-    if (rc != PDLA_OK) return 0;
-    snprintf(what, whatlen, "a DLA checkpoint (generation %llu, %llu particles)", (unsigned long long)in.generation,
-             (unsigned long long)in.particles);
+    if (stat(path, &sb) != 0) return 0;
+    /* a directory or device under the name was put there: not damaged */
+    if (S_ISDIR(sb.st_mode) || !S_ISREG(sb.st_mode)) {
+        snprintf(what, whatlen, "%s", S_ISDIR(sb.st_mode) ? "a directory" : "not a regular file");
+        return 2;
+    }
+    /* the root only: a whole load of a 1e9-particle DLA checkpoint took
+     * gigabytes to refuse it */
+    uint64_t gen, particles;
+    if (pdla_checkpoint_peek(path, &gen, &particles) != PDLA_OK) return 0;
+    snprintf(what, whatlen, "a DLA checkpoint (generation %llu, %llu particles)", (unsigned long long)gen,
+             (unsigned long long)particles);
     return 1;
 }
 

@@ -15,10 +15,11 @@ int cli_mkdir_parents(const char *dir);
 
 /* Is path, which the loader of model own_model (its root attribute `model`:
  * "event", "dlca-checkpoint") refused, another model's file: a root
- * attribute model other than own_model, or a DLA checkpoint that loads (it
- * has no such attribute)? 1 with what it is in what, else 0 (a damaged file
- * of own_model). Such a file is another run's to keep, not one to set aside
- * as damaged. */
+ * attribute model other than own_model, or a DLA checkpoint whose root
+ * reads (it has no such attribute)? 1 with what it is in what; 2 for a
+ * directory or a device under the name (what says which); else 0 (a
+ * damaged file of own_model). Such a file is another run's, or the user's,
+ * to keep, not one to set aside as damaged. */
 int cli_foreign_checkpoint(const char *path, const char *own_model, char *what, size_t whatlen);
 
 /* Is path's last name one of the temporary names the event and DLCA

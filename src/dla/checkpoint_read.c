@@ -563,13 +563,20 @@ static int check_file(const reader *r, struct stat *st)
     if (fd < 0) return rfail(r, "cannot open: %s", strerror(errno));
     unsigned char sb[48];
     const int fst = fstat(fd, st);
+    /* A directory or a device under a checkpoint name is something put
+     * there, not a write a crash damaged: refused (PDLA_EINVAL), so that a
+     * run directory's recovery does not fall back past it and rename it
+     * aside as checkpoint.damaged.h5 (it did, a directory with its files). */
     if (fst == 0 && S_ISDIR(st->st_mode)) {
         close(fd);
-        return rfail(r, "is a directory");
+        rfail(r, "is a directory, not a checkpoint (move it away to resume)");
+        return PDLA_EINVAL;
     }
     if (fst != 0 || !S_ISREG(st->st_mode)) {
         close(fd);
-        return rfail(r, "not a regular file, so not a pdla checkpoint");
+        if (fst != 0) return rfail(r, "cannot stat: %s", strerror(errno));
+        rfail(r, "not a regular file, so not a pdla checkpoint (move it away to resume)");
+        return PDLA_EINVAL;
     }
     const ssize_t got = read(fd, sb, sizeof sb);
     close(fd);
@@ -663,7 +670,24 @@ static int read_schedule(const reader *r, hid_t file, pdla_checkpoint_info *info
  * pdla_checkpoint_recover numbers the next write past it. 0, or -1 when the
  * file is not a checkpoint whose root reads (truncated, foreign, missing).
  * The caller silences HDF5's error stack. */
+static int ckpt_peek_root(const char *path, uint64_t *generation, uint64_t *particles);
+
 int ckpt_peek_generation(const char *path, uint64_t *generation)
+{
+    uint64_t particles;
+    return ckpt_peek_root(path, generation, &particles);
+}
+
+int pdla_checkpoint_peek(const char *path, uint64_t *generation, uint64_t *particles)
+{
+    h5u_quiet q;
+    if (!path || h5u_silence(&q) < 0) return PDLA_EIO;
+    const int rc = ckpt_peek_root(path, generation, particles);
+    return h5u_restore(&q) < 0 || rc ? PDLA_EIO : PDLA_OK;
+}
+
+/* ckpt_peek_generation with the root's particle count too. */
+static int ckpt_peek_root(const char *path, uint64_t *generation, uint64_t *particles)
 {
     char scratch[1024];
     const reader rr = {path, scratch, sizeof scratch}, *r = &rr;
@@ -677,9 +701,8 @@ int ckpt_peek_generation(const char *path, uint64_t *generation)
     const hid_t file = H5Fopen(path, H5F_ACC_RDONLY, fapl);
     int rc = close_id(r, PDLA_OK, fapl, H5Pclose, "the file access properties");
     if (file < 0) return -1;
-    uint64_t particles = 0;
     int version = 0;
-    if (rc == PDLA_OK) rc = check_root(r, file, generation, &particles, &version);
+    if (rc == PDLA_OK) rc = check_root(r, file, generation, particles, &version);
     if (H5Fclose(file) < 0) rc = PDLA_EIO;
     return rc == PDLA_OK ? 0 : -1;
 }

@@ -30,14 +30,11 @@
 #include "engine.h"
 #include "h5util.h"
 
-/* Generation numbers from here up are no run's (a forged root): followed,
- * the next write's number would wrap. */
-#define GENERATION_LIMIT (UINT64_C(1) << 62)
-
-/* peek's generation when the root of path reads and the number is a run's. */
+/* peek's generation when the root of path reads (its check refuses the
+ * numbers from CKPT_GENERATION_MAX up: no run's, a forged root). */
 static int peek(const char *path, uint64_t *g)
 {
-    return ckpt_peek_generation(path, g) == 0 && *g < GENERATION_LIMIT ? 0 : -1;
+    return ckpt_peek_generation(path, g);
 }
 
 /* The generation the next write must come after: the loaded file's, each

@@ -729,7 +729,9 @@ int dlca_checkpoint_load(dlca_sim **out, const char *path, char *err, size_t err
     const int found = stat(path, &st) == 0, stat_errno = errno;
     const int reg = found && S_ISREG(st.st_mode);
     const hid_t f = reg ? H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT) : H5I_INVALID_HID;
-    if (!reg) snprintf(why, sizeof why, "%s", found ? "not a regular file" : strerror(stat_errno));
+    if (!reg)
+        snprintf(why, sizeof why, "%s",
+                 !found ? strerror(stat_errno) : S_ISDIR(st.st_mode) ? "a directory, not a checkpoint" : "not a regular file");
     else if (f < 0) snprintf(why, sizeof why, "cannot open it as HDF5");
     else if ((rc = load_state(&s, f, why, sizeof why)) == 0 && (rc = load_schedule(s, f, why, sizeof why)) == 0) {
         char cerr[160];

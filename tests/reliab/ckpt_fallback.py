@@ -586,6 +586,39 @@ for name, op, what, last in (("ev-dir", "rename", None, "cannot make %s/checkpoi
     rc, err = pdla("--model", "event", "--resume", os.path.join(d, what) if what else d, "--t-max", "8")
     check(rc == 0, "%s: the resume after the failed %s: exit %s: %r" % (name, op, rc, err))
 
+# --- a directory (with a file in it) under the name checkpoint.h5 is the
+# user's, not a damaged write: the DLA, event and DLCA resumes each refuse
+# in one line, exit 2, and leave the folder as it was (the DLA and event
+# recoveries renamed it aside as checkpoint.damaged.h5 and fell back).
+
+
+def dir_in_place(d, tag, *args):
+    os.replace(os.path.join(d, "checkpoint.h5"), os.path.join(d, "moved.h5"))
+    os.mkdir(os.path.join(d, "checkpoint.h5"))
+    with open(os.path.join(d, "checkpoint.h5", "notes.txt"), "w") as f:
+        f.write("mine\n")
+    before = sorted(os.listdir(d))
+    rc, err = pdla(*args)
+    lines = err.strip().split("\n")
+    check(rc == 2 and len(lines) == 1 and "checkpoint.h5" in lines[0] and "directory" in lines[0],
+          "%s: a directory checkpoint.h5: exit %s: %r" % (tag, rc, err))
+    check(sorted(os.listdir(d)) == before and os.path.exists(os.path.join(d, "checkpoint.h5", "notes.txt")),
+          "%s: the folder changed: %r" % (tag, sorted(os.listdir(d))))
+
+
+J = fresh("J")
+dir_in_place(J, "DLA", "--resume", J, "--target", "5000", "-q")
+Je = W("Je")
+shutil.rmtree(Je, ignore_errors=True)
+rc, err = pdla(*EV, "--t-max", "4", "--checkpoint", "--out", Je)
+rc2, err2 = pdla("--model", "event", "--resume", Je, "--t-max", "6")
+check(rc == 0 and rc2 == 0, "event run Je: %r %r" % (err, err2))
+dir_in_place(Je, "event", "--model", "event", "--resume", Je, "--t-max", "8")
+Jd = W("Jd")
+shutil.rmtree(Jd, ignore_errors=True)
+dlca_run(Jd, 20000)
+dir_in_place(Jd, "DLCA", "--model", "dlca", "--resume", Jd, "--max-attempts", "40000")
+
 print("ckpt_fallback: %d pdla runs, %d failures" % (runs, len(failures)))
 _ru = resource.getrusage(resource.RUSAGE_CHILDREN)
 print("children's CPU time: %.1f s user, %.1f s system" % (_ru.ru_utime, _ru.ru_stime))

@@ -266,7 +266,22 @@ shutil.copy(os.path.join(T, "checkpoint.2.h5"), os.path.join(P, "checkpoint.1.h5
 os.unlink(os.path.join(P, "checkpoint.2.h5"))
 ns, np_ = dirsyncs(S), dirsyncs(P)
 check(ns == np_ + 3, "directory syncs: %d after a fallback, %d without" % (ns, np_))
+# The shim counts the set-aside's renameat2 (RENAME_NOREPLACE) as rename #1
+# (before session 33 it did not reach renameat2, so no fault hit it): failed,
+# exit 1, the note and one line, and nothing moved.
+E1 = fresh("E1")
+flip_data(os.path.join(E1, "checkpoint.h5"))
+beforeE1 = {n: read(os.path.join(E1, n)) for n in sorted(os.listdir(E1))}
 env = dict(os.environ, LD_PRELOAD=PRELOAD, FAULT_OP="rename", FAULT_AT="1", FAULT_ERR="EIO")
+rc, lines = faulted(["--resume", E1, "--target", "5000", "-q"], env)
+check(rc == 1 and len(lines) == 2 and lines[-1] == "pdla: cannot resume: cannot set %s/checkpoint.h5 aside as "
+      "%s/checkpoint.damaged.h5: Input/output error" % (E1, E1), "failed set-aside: exit %s: %r" % (rc, lines))
+check({n: read(os.path.join(E1, n)) for n in sorted(os.listdir(E1))} == beforeE1, "failed set-aside: the folder changed")
+rc, err = resume(E1, 5000)
+check(rc == 0, "after the failed set-aside: %s" % err)
+after(E1, "after the failed set-aside", [6, 5, 3], {"checkpoint.damaged.h5": beforeE1["checkpoint.h5"]})
+# rename #2: the move of checkpoint.1.h5 to the front
+env = dict(os.environ, LD_PRELOAD=PRELOAD, FAULT_OP="rename", FAULT_AT="2", FAULT_ERR="EIO")
 E = fresh("E")
 flip_data(os.path.join(E, "checkpoint.h5"))
 badE = read(os.path.join(E, "checkpoint.h5"))
@@ -310,10 +325,14 @@ def killed(op, last, path=None, name=None):
         env = dict(os.environ, LD_PRELOAD=PRELOAD, FAULT_OP=op, FAULT_AT=str(k), FAULT_SIGNAL="9")
         if path:
             env["FAULT_PATH"] = path
+        before = {n: read(os.path.join(d, n)) for n in sorted(os.listdir(d))}
         rc, lines = faulted(["--resume", os.path.join(d, name) if name else d, "--target", "4000", "-q"], env)
         tag = "kill -9 at %s #%d%s" % (op, k, " (--resume D/%s)" % name if name else "")
         check(rc == -9, "%s: not killed (exit %s): %r" % (tag, rc, lines))
-        check(bool(sound(d, tag)), "%s: no generation name left" % tag)
+        # killed before the set-aside (rename #1): the folder as it was, the
+        # damaged checkpoint.h5 still there for the next resume to skip
+        untouched = {n: read(os.path.join(d, n)) for n in sorted(os.listdir(d))} == before
+        check(untouched or bool(sound(d, tag)), "%s: no generation name left" % tag)
         kept = [p for p in glob.glob(os.path.join(d, "checkpoint*")) if read(p) == bad]
         check(len(kept) == 1, "%s: the damaged bytes are under %r" % (tag, kept))
         check(any(read(os.path.join(d, n)) == good for n in NAMES if os.path.exists(os.path.join(d, n))),
@@ -326,7 +345,7 @@ def killed(op, last, path=None, name=None):
               all(g in (2, 3) or g > 4 for g in gens), "%s, resumed: generations %r" % (tag, gens))
 
 
-killed("rename", 5, "/checkpoint")
+killed("rename", 6, "/checkpoint")
 killed("dirsync", 1)
 
 
@@ -412,7 +431,7 @@ rc, err = named(N, "checkpoint.h5", 6000)
 check(rc == 0 and not err.strip(), "named checkpoint.h5: %s" % err)
 after(N, "named checkpoint.h5", [6, 5, 4], {})
 
-killed("rename", 5, "/checkpoint", "checkpoint.1.h5")
+killed("rename", 6, "/checkpoint", "checkpoint.1.h5")
 killed("dirsync", 1, None, "checkpoint.1.h5")
 
 
@@ -579,7 +598,10 @@ for name, op, what, last in (("ev-dir", "rename", None, "cannot make %s/checkpoi
     if what == "save.h5":
         shutil.copy(os.path.join(d, "checkpoint.prev.h5"), os.path.join(d, what))
         os.unlink(os.path.join(d, "checkpoint.prev.h5"))
-    env = dict(os.environ, LD_PRELOAD=PRELOAD, FAULT_OP=op, FAULT_AT="1", FAULT_STICKY="1", FAULT_ERR="EIO")
+    # rename #1 is the set-aside (renameat2), which succeeds; the fault hits
+    # what follows it
+    at = "2" if op == "rename" else "1"
+    env = dict(os.environ, LD_PRELOAD=PRELOAD, FAULT_OP=op, FAULT_AT=at, FAULT_STICKY="1", FAULT_ERR="EIO")
     rc, lines = faulted(["--model", "event", "--resume", os.path.join(d, what) if what else d, "--t-max", "8"], env)
     check(rc == 1 and len(lines) >= 1 and lines[-1].startswith("pdla: ") and (last % d) in lines[-1] and
           lines[-1].endswith("Input/output error"), "%s: failed %s: exit %s: %r" % (name, op, rc, lines))

@@ -12,7 +12,7 @@
  *                   returning EOF with the error, as a failed flush does;
  *                   pread (only when asked, never in any): pread and
  *                   pread64 fail with the error, as a bad sector does;
- *                   rename (only when asked): rename, renameat, link and
+ *                   rename (only when asked): rename, renameat, renameat2, link and
  *                   linkat fail with the error (FAULT_PATH is matched
  *                   against either name); dirsync (only when asked): fsync
  *                   and fdatasync of a directory
@@ -45,7 +45,7 @@
  *
  * Counted: write, pwrite, pwrite64, writev, fsync, fdatasync, fallocate,
  * posix_fallocate - only on regular files, so stderr and pipes are left alone;
- * rename, renameat, link, linkat and a directory's fsync only when asked.
+ * rename, renameat, renameat2, link, linkat and a directory's fsync only when asked.
  */
 #undef _FILE_OFFSET_BITS /* define pwrite and pwrite64 both, as libc does */
 #define _GNU_SOURCE
@@ -308,6 +308,15 @@ int renameat(int fd1, const char *from, int fd2, const char *to)
     REAL(renameat, int, int, const char *, int, const char *);
     if (hit_names(from, to)) return name_fail();
     return real_renameat(fd1, from, fd2, to);
+}
+
+/* h5u_publish moves a finished file in place with renameat2
+ * (RENAME_NOREPLACE): without this a rename fault never reached it. */
+int renameat2(int fd1, const char *from, int fd2, const char *to, unsigned int flags)
+{
+    REAL(renameat2, int, int, const char *, int, const char *, unsigned int);
+    if (hit_names(from, to)) return name_fail();
+    return real_renameat2(fd1, from, fd2, to, flags);
 }
 
 int link(const char *from, const char *to)

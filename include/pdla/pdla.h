@@ -415,7 +415,8 @@ PDLA_API int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdl
  * quick look, whatever the file's size): its generation and particle
  * count. PDLA_OK when the root reads as a DLA checkpoint's (its data may
  * still be damaged), else PDLA_EIO (not a regular file, not HDF5, another
- * model's file, a root that does not read). Reads only. */
+ * model's file, a root that does not read), or PDLA_EINVAL when path,
+ * generation or particles is NULL. Reads only. */
 PDLA_API int pdla_checkpoint_peek(const char *path, uint64_t *generation, uint64_t *particles);
 
 /* Before pdla_checkpoint_load of a checkpoint FILE named for a resume (not

@@ -680,8 +680,10 @@ int ckpt_peek_generation(const char *path, uint64_t *generation)
 
 int pdla_checkpoint_peek(const char *path, uint64_t *generation, uint64_t *particles)
 {
+    /* no place for the numbers: refused, not a write through NULL */
+    if (!path || !generation || !particles) return PDLA_EINVAL;
     h5u_quiet q;
-    if (!path || h5u_silence(&q) < 0) return PDLA_EIO;
+    if (h5u_silence(&q) < 0) return PDLA_EIO;
     const int rc = ckpt_peek_root(path, generation, particles);
     return h5u_restore(&q) < 0 || rc ? PDLA_EIO : PDLA_OK;
 }

@@ -271,6 +271,16 @@ static void basic(void)
     CHECK(file_generation(path) == 2, "generation 2 back");
     snprintf(path, sizeof path, "%s/checkpoint.3.h5", dir);
     CHECK(access(path, F_OK) != 0, "a fourth generation is kept");
+    /* pdla_checkpoint_peek: the root's numbers; a missing output is
+     * refused (it wrote through NULL), as are a directory and no path */
+    uint64_t pg = 0, pn = 0;
+    snprintf(path, sizeof path, "%s/checkpoint.h5", dir);
+    CHECK(pdla_checkpoint_peek(path, &pg, &pn) == PDLA_OK && pg == 4 && pn == 1300, "peek: generation %llu, %llu",
+          (unsigned long long)pg, (unsigned long long)pn);
+    CHECK(pdla_checkpoint_peek(path, NULL, &pn) == PDLA_EINVAL, "peek without a generation");
+    CHECK(pdla_checkpoint_peek(path, &pg, NULL) == PDLA_EINVAL, "peek without a particle count");
+    CHECK(pdla_checkpoint_peek(NULL, &pg, &pn) == PDLA_EINVAL, "peek without a path");
+    CHECK(pdla_checkpoint_peek(dir, &pg, &pn) == PDLA_EIO, "peek of a directory");
 
     /* Parameters: physics may not change, the target not drop. */
     pdla_params asked = *pdla_engine_params(e);

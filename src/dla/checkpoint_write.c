@@ -419,6 +419,13 @@ int pdla_checkpoint_write(pdla_engine *e, const char *dir, const pdla_checkpoint
         if (err && errlen) snprintf(err, errlen, "checkpoint: no engine or no (or too long a) directory");
         return PDLA_EINVAL;
     }
+    /* The loader takes a root generation from CKPT_GENERATION_MAX up as
+     * damaged: a run resumed from a (forged) 2^62 - 1 wrote 2^62 and on,
+     * and its next resume set those aside and went back to the forged file.
+     * Refused before anything is written, the generations as they were. */
+    if (e->ckpt_generation >= CKPT_GENERATION_MAX - 1)
+        return pdla_errorf(PDLA_EIO, err, errlen, "checkpoint: generation %llu is the last there may be (2^62 - 1); "
+                           "no later one is written", (unsigned long long)e->ckpt_generation);
     ckpt_gen_name(path, sizeof path, dir, 0);
     ckpt_gen_name(g1, sizeof g1, dir, 1);
     ckpt_gen_name(g2, sizeof g2, dir, 2);

@@ -230,6 +230,21 @@ check(rc == 0 and "root generation 18446744073709551615 out of range" in err and
       "the next checkpoint is generation 5" in err, "generation 2^64 - 1: %s %s" % (rc, err))
 after(H, "generation 2^64 - 1", [7, 6, 5], {"checkpoint.damaged.h5": badH})
 
+# --- the last generation there may be, 2^62 - 1 (forged): it loads, but the
+# writes after it were 2^62 and on, which the loader takes as damaged, so
+# the next resume set the run's own checkpoints aside and went back to the
+# forged file. No later generation is written: exit 1, the names as they were.
+H2 = fresh("H2")
+with h5py.File(os.path.join(H2, "checkpoint.h5"), "r+") as f:
+    f.attrs.modify("generation", 2**62 - 1)
+beforeH2 = {n: read(os.path.join(H2, n)) for n in NAMES}
+rc, err = resume(H2, 6000)
+check(rc == 1 and "generation 4611686018427387903 is the last there may be" in err,
+      "generation 2^62 - 1: exit %s: %s" % (rc, err))
+check({n: read(os.path.join(H2, n)) for n in NAMES} == beforeH2 and
+      not glob.glob(os.path.join(H2, "checkpoint.damaged*")), "generation 2^62 - 1: the names changed")
+sound(H2, "generation 2^62 - 1")
+
 # --- no resume of the directory reads a kept file: with only those left
 # there is no checkpoint to resume.
 os.mkdir(W("D"))

@@ -922,7 +922,7 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
             /* Under the lock, what a pdla killed while it wrote here left:
              * cluster.xdmf2.tmp.PID stayed for good (kill -9 during the
              * sidecar); the .new names are taken again, but not at once. */
-            pdla_rundir_remove_prefixed(dir, cli_temp_prefixes, cli_n_temp_prefixes);
+            cli_remove_temp(dir);
         }
         if (!drc && c->resume && c->ahead_bad && same_dir(c->lock, dir)) drc = set_aside_ahead(c, dir);
         if (!drc && (!c->resume || !same_dir(c->lock, dir))) {

@@ -386,7 +386,7 @@ static int ticker(ev_sim *s, void *u)
  * cluster.h5. 0, or 1 (an I/O failure) with the line printed. */
 static int remove_stale(const char *dir, int old_checkpoints)
 {
-    pdla_rundir_remove_prefixed(dir, cli_temp_prefixes, cli_n_temp_prefixes);
+    cli_remove_temp(dir);
     if (!old_checkpoints) return 0;
     char err[4600]; /* every model's checkpoint names: pdla.h */
     if (pdla_rundir_remove_old_run(dir, 0, err, sizeof err) == PDLA_OK) return 0;

@@ -4,10 +4,12 @@
 #include "rundir.h"
 #include <stdio.h>
 
+#include <dirent.h>
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "pdla/h5check.h"
 #include "pdla/pdla.h"
@@ -79,15 +81,36 @@ int cli_foreign_checkpoint(const char *path, const char *own_model, char *what, 
     return 1;
 }
 
-const char *const cli_temp_prefixes[] = {".checkpoint.h5.tmp.", "cluster.h5.tmp",          "cluster.xdmf2.tmp",
+/* The names pdla writes under (xdmf.c, output_h5.c and the checkpoint
+ * writers add ".PID"; the event model's cluster.h5.tmp and the DLCA
+ * model's .new names are bare): each name is one of these, or one followed
+ * by '.' and more. Matched as prefixes, "cluster.h5.tmp" also took a
+ * user's cluster.h5.tmpcopy, which the DLCA sweep (since this list) and the
+ * event sweep removed, and a --resume of it was refused. */
+static const char *const temp_stems[] = {".checkpoint.h5.tmp", "cluster.h5.tmp",  "cluster.xdmf2.tmp",
                                          "cluster-free.xdmf2.tmp", ".cluster.h5.new", ".checkpoint.h5.new"};
-const size_t cli_n_temp_prefixes = sizeof cli_temp_prefixes / sizeof cli_temp_prefixes[0];
 
 int cli_is_temp_name(const char *path)
 {
     const char *b = strrchr(path, '/');
     b = b ? b + 1 : path;
-    for (size_t i = 0; i < cli_n_temp_prefixes; i++)
-        if (!strncmp(b, cli_temp_prefixes[i], strlen(cli_temp_prefixes[i]))) return 1;
+    for (size_t i = 0; i < sizeof temp_stems / sizeof temp_stems[0]; i++) {
+        const size_t n = strlen(temp_stems[i]);
+        if (!strncmp(b, temp_stems[i], n) && (b[n] == '\0' || b[n] == '.')) return 1;
+    }
     return 0;
+}
+
+void cli_remove_temp(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d) return;
+    char p[4400];
+    const struct dirent *de;
+    while ((de = readdir(d)))
+        if (cli_is_temp_name(de->d_name)) {
+            snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
+            unlink(p);
+        }
+    closedir(d); /* opened to read names only */
 }

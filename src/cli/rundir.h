@@ -24,12 +24,14 @@ int cli_foreign_checkpoint(const char *path, const char *own_model, char *what, 
 
 /* Is path's last name one of the temporary names the event and DLCA
  * commands write and sweep away under a run directory's lock (a killed
- * run's leftovers)? 1 or 0. A --resume that names one is refused before
- * the sweep, which removed the file named. */
+ * run's leftovers: .checkpoint.h5.tmp.PID, cluster.h5.tmp, .cluster.h5.new,
+ * ...; not a longer name such as cluster.h5.tmpcopy)? 1 or 0. A --resume
+ * that names one is refused before the sweep, which removed the file
+ * named. */
 int cli_is_temp_name(const char *path);
 
-/* Those temporary names' prefixes (for the sweep), and how many. */
-extern const char *const cli_temp_prefixes[];
-extern const size_t cli_n_temp_prefixes;
+/* The sweep: the files of dir under those temporary names removed (hold
+ * its lock, so no live writer owns them). */
+void cli_remove_temp(const char *dir);
 
 #endif

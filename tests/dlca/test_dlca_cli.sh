@@ -97,7 +97,17 @@ c="$tmp/ck"
 "$pdla" --model dlca --box 64x48 --fill 0.05 --until-clusters 40 --seed 3 --out "$c" --checkpoint -q ||
     fail "--checkpoint run"
 [ -f "$c/checkpoint.h5" ] || fail "no checkpoint.h5"
+# a user's files whose names only start as the temporary names do: the
+# sweep of leftovers took cluster.h5.tmpcopy (it matched the prefix
+# cluster.h5.tmp); kept, as a killed run's cluster.h5.tmp.PID is not
+echo mine >"$c/cluster.h5.tmpcopy"
+echo mine >"$c/cluster.xdmf2.tmpnotes"
+echo left >"$c/cluster.xdmf2.tmp.77"
 "$pdla" --model dlca --resume "$c/checkpoint.h5" --until-clusters 10 -q || fail "--resume"
+[ -f "$c/cluster.h5.tmpcopy" ] && [ -f "$c/cluster.xdmf2.tmpnotes" ] ||
+    fail "the sweep of leftovers removed a user's file: $(ls -a "$c" | tr '\n' ' ')"
+[ ! -e "$c/cluster.xdmf2.tmp.77" ] || fail "the sweep of leftovers kept cluster.xdmf2.tmp.77"
+rm -f "$c/cluster.h5.tmpcopy" "$c/cluster.xdmf2.tmpnotes"
 "$pdla" info "$c/cluster.h5" >"$tmp/info3"
 [ "$(digest "$tmp/info3")" = "$dg" ] || fail "resumed: history digest $(digest "$tmp/info3") != $dg"
 "$pdla" --model dlca --resume "$c/checkpoint.h5" --seed 5 >/dev/null 2>"$tmp/err"

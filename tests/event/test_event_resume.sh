@@ -53,7 +53,17 @@ rc=$?
 [ $rc -eq 0 ] || fail "SIGTERM on the resumed run: exit $rc, want 0: $(cat "$t/outB2")"
 interrupted "$t/B" || fail "the second part ended before SIGTERM came"
 
+# a user's files whose names only start as the temporary names do (the
+# sweep of leftovers matched prefixes: cluster.h5.tmp took cluster.h5.tmpcopy)
+# are kept; a killed run's cluster.xdmf2.tmp.PID goes
+echo mine >"$t/B/cluster.h5.tmpcopy"
+echo mine >"$t/B/cluster.xdmf2.tmpnotes"
+echo left >"$t/B/cluster.xdmf2.tmp.77"
 "$pdla" --model event --resume "$t/B" >"$t/outB3" 2>&1 || fail "final resume: $(cat "$t/outB3")"
+[ -f "$t/B/cluster.h5.tmpcopy" ] && [ -f "$t/B/cluster.xdmf2.tmpnotes" ] ||
+    fail "the sweep of leftovers removed a user's file: $(ls -a "$t/B" | tr '\n' ' ')"
+[ ! -e "$t/B/cluster.xdmf2.tmp.77" ] || fail "the sweep of leftovers kept cluster.xdmf2.tmp.77"
+rm -f "$t/B/cluster.h5.tmpcopy" "$t/B/cluster.xdmf2.tmpnotes"
 grep -q "stopped: time reached at time 40" "$t/outB3" || fail "resumed run did not reach t = 40: $(cat "$t/outB3")"
 # A checkpoint under a killed run's temporary name, named by --resume: the
 # stale-file sweep removed it before it was read (the resume lost it);

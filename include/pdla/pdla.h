@@ -405,8 +405,9 @@ PDLA_API int pdla_checkpoint_write(pdla_engine *e, const char *dir,
  * caller's parameters, of which those named by asked_fields are applied:
  * PDLA_PARAM_RESUMABLE ones replace the checkpoint's, any other must be
  * equal. Returns PDLA_EIO (unreadable, foreign or damaged: err names the
- * file and the reason), PDLA_EINVAL (a parameter may not change),
- * PDLA_ENOMEM. Reads only. */
+ * file and the reason), PDLA_EINVAL (a parameter may not change; a
+ * directory or a device as the file, or under any generation name of the
+ * run directory), PDLA_ENOMEM. Reads only. */
 PDLA_API int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params *asked,
                                   uint32_t asked_fields, pdla_checkpoint_info *info,
                                   char *err, size_t errlen);
@@ -437,7 +438,8 @@ PDLA_API int pdla_checkpoint_peek(const char *path, uint64_t *generation, uint64
  * (its generation and particles) and the two ways on: --resume dir, or
  * move it out of dir to go on from path (the writes would rotate it out,
  * and the directory would mix two histories). Another model's checkpoint
- * there is PDLA_EINVAL; PDLA_EIO when a name cannot be looked at,
+ * there is PDLA_EINVAL, as is a directory or a device under any generation
+ * name of dir; PDLA_EIO when a name cannot be looked at,
  * PDLA_ENOMEM. Reads only. */
 PDLA_API int pdla_checkpoint_place(const char *path, const char *dir, int *slot, char *note, size_t notelen,
                                    char *err, size_t errlen);

@@ -574,6 +574,17 @@ static ev_sim *load_checkpoint(const ev_cli *c, ev_series *ser, const char *dir,
     char err[600], err2[600] = "";
     int is_prev = 0;
     memset(o, 0, sizeof *o);
+    /* A directory or a device as checkpoint.prev.h5 is the user's: each
+     * write of the resume failed to remove it, after the whole run (exit
+     * 1). Refused before anything, as one under checkpoint.h5. */
+    struct stat sp;
+    snprintf(path, plen, "%s/%s", dir, ckpt_names[1]);
+    if (stat(path, &sp) == 0 && !S_ISREG(sp.st_mode)) {
+        fprintf(stderr, "pdla: cannot resume: %s is %s, not a checkpoint; the checkpoints of this resume would "
+                "replace it (move it away to resume)\n", path,
+                S_ISDIR(sp.st_mode) ? "a directory" : "not a regular file");
+        return NULL;
+    }
     if (!is_dir && named_ahead(c->resume, dir, &o->bad, &is_prev, err2, sizeof err2)) return NULL;
     if (is_dir) snprintf(path, plen, "%s/checkpoint.h5", dir);
     else snprintf(path, plen, "%s", c->resume);

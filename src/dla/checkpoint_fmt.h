@@ -78,6 +78,11 @@ static inline void ckpt_gen_name(char *buf, size_t n, const char *dir, int k)
 /* checkpoint_read.c: the generation in the root of the checkpoint at path,
  * without loading the rest. 0, or -1 when the root does not read. */
 int ckpt_peek_generation(const char *path, uint64_t *generation);
+/* checkpoint_read.c: PDLA_OK, or PDLA_EINVAL (err names it) when a
+ * generation name of dir is a directory or a device: the rotation of the
+ * resume's writes renamed a directory checkpoint.1.h5 to checkpoint.2.h5
+ * and then failed at every write, after the run. */
+int ckpt_foreign_names(const char *dir, char *err, size_t errlen);
 
 /* checkpoint_read.c: generation name `name` of a run directory loaded as
  * the directory walk of pdla_checkpoint_load takes each: another model's

@@ -782,6 +782,19 @@ int ckpt_load_name(const char *name, const pdla_params *asked, uint32_t fields, 
     return load_file(name, asked, fields, out, info, err, errlen);
 }
 
+int ckpt_foreign_names(const char *dir, char *err, size_t errlen)
+{
+    char name[4200];
+    for (int k = 0; k < PDLA_CHECKPOINT_GENERATIONS; k++) {
+        ckpt_gen_name(name, sizeof name, dir, k);
+        struct stat st; /* through a link: a dangling one is a name the writes replace */
+        if (stat(name, &st) != 0 || S_ISREG(st.st_mode)) continue;
+        return pdla_errorf(PDLA_EINVAL, err, errlen, "%s: %s, not a checkpoint (move it away to resume)", name,
+                           S_ISDIR(st.st_mode) ? "is a directory" : "not a regular file");
+    }
+    return PDLA_OK;
+}
+
 int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params *asked,
                          uint32_t asked_fields, pdla_checkpoint_info *info, char *err,
                          size_t errlen)
@@ -805,8 +818,11 @@ int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params 
         /* A run directory: the newest generation that passes every check. */
         char name[4200], first_err[1024] = "", note[1024] = "";
         int found = 0;
-        rc = PDLA_EIO;
-        for (int k = 0; k < PDLA_CHECKPOINT_GENERATIONS; k++) {
+        /* every name, not only those up to the one that loads: the writes
+         * rotate them all */
+        const int foreign = ckpt_foreign_names(path, err, errlen);
+        rc = foreign ? foreign : PDLA_EIO;
+        for (int k = 0; !foreign && k < PDLA_CHECKPOINT_GENERATIONS; k++) {
             ckpt_gen_name(name, sizeof name, path, k);
             if (access(name, F_OK) != 0) continue;
             found++;
@@ -820,7 +836,9 @@ int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params 
             if (!first_err[0]) snprintf(first_err, sizeof first_err, "%s", e1);
             if (!note[0]) snprintf(note, sizeof note, "skipped %s", e1);
         }
-        if (!found) {
+        if (foreign) {
+            /* err says which name */
+        } else if (!found) {
             if (err && errlen) snprintf(err, errlen, "%s: no checkpoint in this directory", path);
             rc = PDLA_EIO;
         } else if (rc == PDLA_EIO) {

@@ -225,8 +225,8 @@ int pdla_checkpoint_place(const char *path, const char *dir, int *slot, char *no
     h5u_quiet q;
     if (h5u_silence(&q) < 0) return pdla_errorf(PDLA_EIO, err, errlen, "cannot silence the HDF5 error stack");
     uint64_t g;
-    int rc = PDLA_OK, k = -1;
-    if (ckpt_peek_generation(path, &g) == 0) { /* its root reads: a checkpoint, perhaps whole */
+    int rc = ckpt_foreign_names(dir, err, errlen), k = -1;
+    if (rc == PDLA_OK && ckpt_peek_generation(path, &g) == 0) { /* its root reads: a checkpoint, perhaps whole */
         k = slot_of(dir, &st);
         rc = check_ahead(path, dir, k, note, notelen, err, errlen);
     }

@@ -629,17 +629,17 @@ for name, op, what, last in (("ev-dir", "rename", None, "cannot make %s/checkpoi
 # recoveries renamed it aside as checkpoint.damaged.h5 and fell back).
 
 
-def dir_in_place(d, tag, *args):
-    os.replace(os.path.join(d, "checkpoint.h5"), os.path.join(d, "moved.h5"))
-    os.mkdir(os.path.join(d, "checkpoint.h5"))
-    with open(os.path.join(d, "checkpoint.h5", "notes.txt"), "w") as f:
+def dir_in_place(d, tag, *args, name="checkpoint.h5"):
+    os.replace(os.path.join(d, name), os.path.join(d, "moved.h5"))
+    os.mkdir(os.path.join(d, name))
+    with open(os.path.join(d, name, "notes.txt"), "w") as f:
         f.write("mine\n")
     before = sorted(os.listdir(d))
     rc, err = pdla(*args)
     lines = err.strip().split("\n")
-    check(rc == 2 and len(lines) == 1 and "checkpoint.h5" in lines[0] and "directory" in lines[0],
-          "%s: a directory checkpoint.h5: exit %s: %r" % (tag, rc, err))
-    check(sorted(os.listdir(d)) == before and os.path.exists(os.path.join(d, "checkpoint.h5", "notes.txt")),
+    check(rc == 2 and len(lines) == 1 and name in lines[0] and "directory" in lines[0],
+          "%s: a directory %s: exit %s: %r" % (tag, name, rc, err))
+    check(sorted(os.listdir(d)) == before and os.path.exists(os.path.join(d, name, "notes.txt")),
           "%s: the folder changed: %r" % (tag, sorted(os.listdir(d))))
 
 
@@ -655,6 +655,24 @@ Jd = W("Jd")
 shutil.rmtree(Jd, ignore_errors=True)
 dlca_run(Jd, 20000)
 dir_in_place(Jd, "DLCA", "--model", "dlca", "--resume", Jd, "--max-attempts", "40000")
+
+# --- the same under an older generation name, behind the one that loads:
+# the rotation of the resume's writes renamed the DLA directory
+# checkpoint.1.h5 to checkpoint.2.h5 and then failed at every write, and
+# the event write failed to remove a directory checkpoint.prev.h5, each
+# after the whole run (exit 1). Refused before, in one line, exit 2.
+K = fresh("K")
+dir_in_place(K, "DLA, older name", "--resume", K, "--target", "5000", "-q", name="checkpoint.1.h5")
+K2 = fresh("K2")
+dir_in_place(K2, "DLA, file named", "--resume", os.path.join(K2, "checkpoint.h5"), "--target", "5000", "-q",
+             name="checkpoint.2.h5")
+Ke = W("Ke")
+shutil.rmtree(Ke, ignore_errors=True)
+rc, err = pdla(*EV, "--t-max", "4", "--checkpoint", "--out", Ke)
+rc2, err2 = pdla("--model", "event", "--resume", Ke, "--t-max", "6")
+check(rc == 0 and rc2 == 0, "event run Ke: %r %r" % (err, err2))
+dir_in_place(Ke, "event, previous name", "--model", "event", "--resume", Ke, "--t-max", "8",
+             name="checkpoint.prev.h5")
 
 print("ckpt_fallback: %d pdla runs, %d failures" % (runs, len(failures)))
 _ru = resource.getrusage(resource.RUSAGE_CHILDREN)

@@ -767,11 +767,7 @@ static int lock_and_load(dlca_cli *c, char *ckpath, size_t cklen, dlca_sim **s)
     }
     /* a killed run's temporary file: the sweep under the lock removed it
      * once it was loaded (as the event command, which lost it unread) */
-    if (!S_ISDIR(sb.st_mode) && cli_is_temp_name(c->resume)) {
-        fprintf(stderr, "pdla: cannot resume from '%s': an unfinished temporary file (a killed run's); not loaded "
-                        "(rename it to resume from it)\n", c->resume);
-        return EXIT_USAGE;
-    }
+    if (!S_ISDIR(sb.st_mode) && cli_refuse_temp_resume(c->resume)) return EXIT_USAGE;
     if (S_ISDIR(sb.st_mode)) snprintf(ckpath, cklen, "%s/checkpoint.h5", c->resume);
     else snprintf(ckpath, cklen, "%s", c->resume);
     /* The checkpoint's directory is locked before it is read: the run

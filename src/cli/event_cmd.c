@@ -641,11 +641,7 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len, int
     /* A killed run's temporary file named (or a user's copy so named): the
      * stale-file sweep below removed it before it was read, so a resume
      * from it lost the file. Refused untouched, as the DLA command does. */
-    if (!is_dir && cli_is_temp_name(c->resume)) {
-        fprintf(stderr, "pdla: cannot resume from '%s': an unfinished temporary file (a killed run's); not loaded "
-                        "(rename it to resume from it)\n", c->resume);
-        return NULL;
-    }
+    if (!is_dir && cli_refuse_temp_resume(c->resume)) return NULL;
     snprintf(dir, len, "%s", c->resume);
     char *slash = is_dir ? NULL : strrchr(dir, '/');
     if (!is_dir && !slash) snprintf(dir, len, ".");

@@ -145,22 +145,9 @@ static char *command_line(int argc, char **argv)
  * SIGINT): only names pdla makes (the sidecars' as xdmf.c names them, the
  * event model's too, as a --force run may follow one), and only while we
  * hold the directory's lock, so no live writer can own them. */
-static const char *const stale_prefixes[] = {"cluster.h5.tmp.", ".cluster.h5.new", "summary.txt.tmp.",
-                                             "cluster.xdmf2.tmp.", "cluster-free.xdmf2.tmp."};
-
 static void remove_stale_outputs(const char *dir)
 {
-    pdla_rundir_remove_prefixed(dir, stale_prefixes, sizeof stale_prefixes / sizeof stale_prefixes[0]);
-}
-
-/* Is path's last name one remove_stale_outputs removes? 1 or 0. */
-static int stale_output_name(const char *path)
-{
-    const char *b = strrchr(path, '/');
-    b = b ? b + 1 : path;
-    for (size_t i = 0; i < sizeof stale_prefixes / sizeof stale_prefixes[0]; i++)
-        if (!strncmp(b, stale_prefixes[i], strlen(stale_prefixes[i]))) return 1;
-    return 0;
+    cli_remove_temp(dir); /* the names every model's command writes under (rundir.c) */
 }
 
 /* Make the run directory (path filled in dir) before any work, so that a bad
@@ -817,11 +804,7 @@ static int resume_step(run *R)
      * named .cluster.h5.new): it loaded, and the sweep then removed the file
      * named, so a kill before the first checkpoint lost it. Refused, kept,
      * as the event and DLCA commands refuse their temporary names. */
-    if (!S_ISDIR(st.st_mode) && stale_output_name(o->resume)) {
-        fprintf(stderr, "pdla: cannot resume from '%s': an unfinished temporary file (a killed run's); not loaded "
-                        "(rename it to resume from it)\n", o->resume);
-        return EXIT_USAGE;
-    }
+    if (!S_ISDIR(st.st_mode) && cli_refuse_temp_resume(o->resume)) return EXIT_USAGE;
     resume_dir(o->resume, S_ISDIR(st.st_mode), R->dir, sizeof R->dir);
     if (strlen(o->resume) > CLI_RUN_DIR_MAX) {
         fprintf(stderr, "pdla: cannot resume: the checkpoint path is too long (%zu bytes; at most %d)\n",

@@ -84,11 +84,13 @@ int cli_foreign_checkpoint(const char *path, const char *own_model, char *what, 
 /* The names pdla writes under (xdmf.c, output_h5.c and the checkpoint
  * writers add ".PID"; the event model's cluster.h5.tmp and the DLCA
  * model's .new names are bare): each name is one of these, or one followed
- * by '.' and more. Matched as prefixes, "cluster.h5.tmp" also took a
+ * by '.' and more (.cluster.h5.new.tmp.PID, summary.txt.tmp.PID: the DLA
+ * command's). Matched as prefixes, "cluster.h5.tmp" also took a
  * user's cluster.h5.tmpcopy, which the DLCA sweep (since this list) and the
  * event sweep removed, and a --resume of it was refused. */
 static const char *const temp_stems[] = {".checkpoint.h5.tmp", "cluster.h5.tmp",  "cluster.xdmf2.tmp",
-                                         "cluster-free.xdmf2.tmp", ".cluster.h5.new", ".checkpoint.h5.new"};
+                                         "cluster-free.xdmf2.tmp", ".cluster.h5.new", ".checkpoint.h5.new",
+                                         "summary.txt.tmp"};
 
 int cli_is_temp_name(const char *path)
 {
@@ -113,4 +115,12 @@ void cli_remove_temp(const char *dir)
             unlink(p);
         }
     closedir(d); /* opened to read names only */
+}
+
+int cli_refuse_temp_resume(const char *path)
+{
+    if (!cli_is_temp_name(path)) return 0;
+    fprintf(stderr, "pdla: cannot resume from '%s': an unfinished temporary file (a killed run's); not loaded "
+                    "(rename it to resume from it)\n", path);
+    return 1;
 }

@@ -22,8 +22,8 @@ int cli_mkdir_parents(const char *dir);
  * to keep, not one to set aside as damaged. */
 int cli_foreign_checkpoint(const char *path, const char *own_model, char *what, size_t whatlen);
 
-/* Is path's last name one of the temporary names the event and DLCA
- * commands write and sweep away under a run directory's lock (a killed
+/* Is path's last name one of the temporary names the model commands
+ * write and sweep away under a run directory's lock (a killed
  * run's leftovers: .checkpoint.h5.tmp.PID, cluster.h5.tmp, .cluster.h5.new,
  * ...; not a longer name such as cluster.h5.tmpcopy)? 1 or 0. A --resume
  * that names one is refused before the sweep, which removed the file
@@ -33,5 +33,10 @@ int cli_is_temp_name(const char *path);
 /* The sweep: the files of dir under those temporary names removed (hold
  * its lock, so no live writer owns them). */
 void cli_remove_temp(const char *dir);
+
+/* A --resume of a file (not a directory) under one of those names: the
+ * sweep would remove it (before or after it is read). 1 with the line
+ * printed (the caller exits 2), else 0. Every model's command calls it. */
+int cli_refuse_temp_resume(const char *path);
 
 #endif

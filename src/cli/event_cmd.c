@@ -655,6 +655,9 @@ static ev_sim *load_resume(ev_cli *c, ev_series *ser, char *dir, size_t len, int
         fprintf(stderr, "pdla: cannot resume: %s\n", lerr);
         return NULL;
     }
+    /* a link to a temporary name: the sweep below left it dangling, and
+     * the resume fell back to checkpoint.prev.h5 (rundir.h) */
+    if (cli_refuse_temp_links(dir)) return NULL;
     (void)remove_stale(dir, 0);
     if (dir_takes_files(dir)) return NULL;
     char path[4200];

@@ -818,6 +818,9 @@ static int resume_step(run *R)
         fprintf(stderr, "pdla: %s\n", err);
         return EXIT_USAGE;
     }
+    /* a link to a temporary name: loaded through, then the sweep below
+     * removed the file it names (rundir.h) */
+    if (cli_refuse_temp_links(R->dir)) return EXIT_USAGE;
     const int lrc = load_resume(R, S_ISDIR(st.st_mode));
     if (lrc != GO_ON) return lrc;
     /* Writability now, not after growth: a resume writes checkpoints,

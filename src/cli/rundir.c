@@ -124,3 +124,65 @@ int cli_refuse_temp_resume(const char *path)
                     "(rename it to resume from it)\n", path);
     return 1;
 }
+
+/* Is p a name of the directory dst (its stat) that cli_remove_temp
+ * unlinks: a temporary name there, not a directory (unlink leaves those)? */
+static int swept_name(const char *p, const struct stat *dst)
+{
+    const char *slash = strrchr(p, '/');
+    if (!cli_is_temp_name(p)) return 0;
+    char parent[4400];
+    if (!slash) snprintf(parent, sizeof parent, ".");
+    else snprintf(parent, sizeof parent, "%.*s", slash == p ? 1 : (int)(slash - p), p);
+    struct stat ps, st;
+    if (stat(parent, &ps) != 0 || ps.st_dev != dst->st_dev || ps.st_ino != dst->st_ino) return 0;
+    return lstat(p, &st) == 0 && !S_ISDIR(st.st_mode);
+}
+
+/* Does the symbolic link path lead, hop by hop (at most 40, the kernel's
+ * limit), through a name that the sweep of dir (dst) unlinks? That name
+ * into hop. Followed by name, not by inode: a hard link under a temporary
+ * name loses nothing when the sweep unlinks it, a link to the name
+ * dangles. */
+static int link_through_temp(const char *path, const struct stat *dst, char *hop, size_t hoplen)
+{
+    char cur[4400], tgt[4400];
+    snprintf(cur, sizeof cur, "%s", path);
+    for (int k = 0; k < 40; k++) {
+        struct stat st;
+        if (lstat(cur, &st) != 0 || !S_ISLNK(st.st_mode)) return 0;
+        const ssize_t n = readlink(cur, tgt, sizeof tgt - 1);
+        if (n < 0 || n >= (ssize_t)sizeof tgt - 1) return 0;
+        tgt[n] = '\0';
+        /* a relative target is read from the link's own folder */
+        const char *slash = strrchr(cur, '/');
+        char next[4400];
+        const int len = tgt[0] == '/' || !slash ? snprintf(next, sizeof next, "%s", tgt)
+                                                : snprintf(next, sizeof next, "%.*s/%s", (int)(slash - cur), cur, tgt);
+        if (len < 0 || (size_t)len >= sizeof next) return 0;
+        if (swept_name(next, dst)) return snprintf(hop, hoplen, "%s", next), 1;
+        memcpy(cur, next, (size_t)len + 1);
+    }
+    return 0;
+}
+
+int cli_refuse_temp_links(const char *dir)
+{
+    struct stat dst;
+    DIR *d = stat(dir, &dst) == 0 ? opendir(dir) : NULL;
+    if (!d) return 0; /* the sweep cannot read it either; the load says why */
+    char p[4400], hop[4400];
+    int found = 0;
+    const struct dirent *de;
+    while (!found && (de = readdir(d))) {
+        if (cli_is_temp_name(de->d_name)) continue; /* swept itself: a killed run's, not the user's */
+        snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
+        found = link_through_temp(p, &dst, hop, sizeof hop);
+    }
+    closedir(d); /* opened to read names only */
+    if (found)
+        fprintf(stderr, "pdla: cannot resume: %s is a symbolic link to %s, a temporary name (a killed run's) that "
+                "the resume removes; nothing loaded or changed (rename that file and point the link at the new "
+                "name to resume from it)\n", p, hop);
+    return found;
+}

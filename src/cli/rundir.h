@@ -39,4 +39,15 @@ void cli_remove_temp(const char *dir);
  * printed (the caller exits 2), else 0. Every model's command calls it. */
 int cli_refuse_temp_resume(const char *path);
 
+/* Before a resume's sweep of dir (hold its lock): a symbolic link in dir
+ * (checkpoint.h5 -> .checkpoint.h5.tmp.1234, or through a chain) to a file
+ * of dir under one of those names. The sweep removed the file and the link
+ * dangled: the event command fell back to checkpoint.prev.h5, the DLA and
+ * DLCA commands loaded through the link and then lost the file named, so a
+ * kill before the first write lost the checkpoint. Refused, as a temporary
+ * name named (cli_refuse_temp_resume): no loader takes such a file. 1 with
+ * the line printed (the caller exits 2, dir untouched), else 0. Every
+ * model's command calls it. */
+int cli_refuse_temp_links(const char *dir);
+
 #endif

@@ -47,7 +47,16 @@ took the damaged one's generation number. Checked here:
   - event: a fallback's promotion, the promotion of checkpoint.prev.h5
     named, or the sync after a set-aside that fails (EIO) is one line, exit
     1 (2 before session 31), and the directory resumes after.
-The pdla runs are counted and printed (119; about 9 s of CPU in release).
+  - every model: a checkpoint name (DLA checkpoint.h5 or checkpoint.1.h5,
+    event checkpoint.h5 or checkpoint.prev.h5, DLCA checkpoint.h5) that is
+    a symbolic link, or a chain of two, to a file of its folder under a
+    temporary name (.checkpoint.h5.tmp.1234), resumed as a directory or
+    named: refused in one line, exit 2, the folder as it was (before, the
+    sweep of leftovers removed the file: the event resume fell back to
+    checkpoint.prev.h5, the DLA and DLCA resumes loaded through the link and
+    then lost the file); a hard link under the name, or a link to another
+    name, resumes.
+The pdla runs are counted and printed (165; about 3 s of CPU in release).
 """
 import glob
 import os
@@ -688,6 +697,82 @@ for n in (".cluster.h5.new", "cluster.h5.tmp.77"):
           "DLA resume from %s: exit %s: %r" % (n, rc, err))
     check(sorted(os.listdir(L)) == [n], "DLA resume from %s: the folder changed: %r" % (n, sorted(os.listdir(L))))
     os.remove(os.path.join(L, n))
+
+# --- a checkpoint name that is a symbolic link to a file of its folder
+# under a temporary name (checkpoint.h5 -> .checkpoint.h5.tmp.1234): the
+# resume's sweep of leftovers removed the file and the link dangled. The
+# event resume then fell back to checkpoint.prev.h5 and set the dangling
+# link aside; the DLA and DLCA resumes loaded through the link, then the
+# sweep removed the file (a kill before the first write lost it). Every
+# model refuses in one line, exit 2, the folder as it was (links and
+# bytes); a hard link under the name, and a link to another name, resume.
+def linked(d):
+    """d's names: each link's target, each file's bytes."""
+    return {n: ("->", os.readlink(os.path.join(d, n))) if os.path.islink(os.path.join(d, n))
+            else read(os.path.join(d, n)) for n in sorted(os.listdir(d))}
+
+
+def temp_link(d, name, tag, args, chain=False):
+    """name in d moved to a temporary name and linked to it (chain: through
+    mine.h5), then --resume with args; d then made again as it was."""
+    shutil.rmtree(d + ".0", ignore_errors=True)
+    shutil.copytree(d, d + ".0")
+    tmp = os.path.join(d, ".checkpoint.h5.tmp.1234")
+    os.replace(os.path.join(d, name), tmp)
+    via = os.path.join(d, "mine.h5")
+    if chain:
+        os.symlink(".checkpoint.h5.tmp.1234", via)
+    os.symlink("mine.h5" if chain else ".checkpoint.h5.tmp.1234", os.path.join(d, name))
+    before = linked(d)
+    rc, err = pdla(*args)
+    lines = err.strip().split("\n")
+    want = "pdla: cannot resume: %s/%s is a symbolic link to %s, a temporary name" % (
+        d, "mine.h5" if chain else name, tmp)
+    check(rc == 2 and len(lines) == 1 and lines[0].startswith(want),
+          "%s: %s linked to a temporary name: exit %s: %r" % (tag, name, rc, err))
+    check(linked(d) == before, "%s: %s linked to a temporary name: the folder changed: %r"
+          % (tag, name, sorted(os.listdir(d))))
+    shutil.rmtree(d)
+    os.replace(d + ".0", d)
+
+
+Q = fresh("Q")
+temp_link(Q, "checkpoint.h5", "DLA", ("--resume", Q, "--target", "5000", "-q"))
+temp_link(Q, "checkpoint.1.h5", "DLA, older name", ("--resume", Q, "--target", "5000", "-q"))
+temp_link(Q, "checkpoint.h5", "DLA, link named", ("--resume", os.path.join(Q, "checkpoint.h5"), "--target", "5000",
+                                                  "-q"))
+temp_link(Q, "checkpoint.h5", "DLA, chain", ("--resume", Q, "--target", "5000", "-q"), chain=True)
+Qe = event_dir("Qe")
+os.replace(os.path.join(Qe, "checkpoint.prev.h5"), os.path.join(Qe, "checkpoint.h5"))
+rc, err = pdla("--model", "event", "--resume", Qe, "--t-max", "6")
+check(rc == 0, "event run Qe: %r" % err)
+EVR = ("--model", "event", "--resume", Qe, "--t-max", "8")
+temp_link(Qe, "checkpoint.h5", "event", EVR)
+temp_link(Qe, "checkpoint.prev.h5", "event, previous name", EVR)
+temp_link(Qe, "checkpoint.h5", "event, chain", EVR, chain=True)
+temp_link(Qe, "checkpoint.h5", "event, previous named",
+          ("--model", "event", "--resume", os.path.join(Qe, "checkpoint.prev.h5"), "--t-max", "8"))
+Qd = W("Qd")
+dlca_run(Qd, 3000)
+temp_link(Qd, "checkpoint.h5", "DLCA", ("--model", "dlca", "--resume", Qd, "--max-attempts", "6000", "-q"))
+temp_link(Qd, "checkpoint.h5", "DLCA, link named",
+          ("--model", "dlca", "--resume", os.path.join(Qd, "checkpoint.h5"), "--max-attempts", "6000", "-q"))
+# not refused: a hard link under a temporary name (its sweep loses nothing),
+# and a link to a name of the user's
+os.link(os.path.join(Qe, "checkpoint.h5"), os.path.join(Qe, ".checkpoint.h5.tmp.1234"))
+os.replace(os.path.join(Qe, "checkpoint.prev.h5"), os.path.join(Qe, "mine.h5"))
+os.symlink("mine.h5", os.path.join(Qe, "checkpoint.prev.h5"))
+rc, err = pdla(*EVR)
+check(rc == 0 and not os.path.lexists(os.path.join(Qe, ".checkpoint.h5.tmp.1234")),
+      "event: a hard link under a temporary name, a link to mine.h5: exit %s: %r" % (rc, err))
+os.link(os.path.join(Qd, "checkpoint.h5"), os.path.join(Qd, ".checkpoint.h5.tmp.1234"))
+rc, err = dlca_resume(Qd, 6000)
+check(rc == 0 and not os.path.lexists(os.path.join(Qd, ".checkpoint.h5.tmp.1234")),
+      "DLCA: a hard link under a temporary name: exit %s: %r" % (rc, err))
+os.replace(os.path.join(Q, "checkpoint.h5"), os.path.join(Q, "mine.h5"))
+os.symlink("mine.h5", os.path.join(Q, "checkpoint.h5"))
+rc, err = resume(Q, 5000)
+check(rc == 0, "DLA: checkpoint.h5 a link to mine.h5: exit %s: %r" % (rc, err))
 
 print("ckpt_fallback: %d pdla runs, %d failures" % (runs, len(failures)))
 _ru = resource.getrusage(resource.RUSAGE_CHILDREN)

@@ -604,8 +604,8 @@ static ev_sim *load_checkpoint(const ev_cli *c, ev_series *ser, const char *dir,
     if (fell_back) {
         snprintf(path, plen, "%s/checkpoint.prev.h5", dir);
         s = ev_checkpoint_load(path, ser, err2, sizeof err2);
-        if (!s) {
-            fprintf(stderr, "pdla: cannot resume: %s\n", err);
+        if (!s) { /* both reasons: the first alone hid why the fallback failed */
+            fprintf(stderr, "pdla: cannot resume: %s; %s\n", err, err2);
             return NULL;
         }
         snprintf(o->note, sizeof o->note, "pdla: %s; resuming from the previous checkpoint", err);

@@ -114,6 +114,29 @@ grep -q "note: $t/F/checkpoint.h5 set aside as $t/F/checkpoint.damaged.2.h5" "$t
     fail "the second set-aside not said: $(cat "$t/outF2")"
 cmp -s "$t/bad.h5" "$t/F/checkpoint.damaged.h5" || fail "the first damaged checkpoint was not kept by the second fallback"
 cmp -s "$t/bad2.h5" "$t/F/checkpoint.damaged.2.h5" || fail "the second damaged checkpoint was not kept as checkpoint.damaged.2.h5"
+# Nothing to fall back on: checkpoint.h5 and checkpoint.prev.h5 both
+# damaged, or one damaged and the other missing. The one line names both
+# files and both reasons (it gave only checkpoint.h5's: past a
+# missing checkpoint.h5 it said "No such file or directory" and not why the
+# checkpoint.prev.h5 there failed), exit 2, and the folder as it was.
+# no_fallback CUR PREV WHY1 WHY2: the files (of $t, "" for none) as
+# checkpoint.h5 and checkpoint.prev.h5 of $t/P, and the two reasons.
+no_fallback() {
+    rm -rf "$t/P" "$t/P.0" && mkdir "$t/P"
+    [ -z "$1" ] || cp "$t/$1" "$t/P/checkpoint.h5"
+    [ -z "$2" ] || cp "$t/$2" "$t/P/checkpoint.prev.h5"
+    cp -r "$t/P" "$t/P.0"
+    "$pdla" --model event --resume "$t/P" --t-max 14 >/dev/null 2>"$t/err"
+    rc=$?
+    want="pdla: cannot resume: checkpoint $t/P/checkpoint.h5: $3; checkpoint $t/P/checkpoint.prev.h5: $4"
+    [ $rc -eq 2 ] && [ "$(cat "$t/err")" = "$want" ] ||
+        fail "checkpoint.h5 ${1:-missing}, checkpoint.prev.h5 ${2:-missing}: exit $rc, want 2 and '$want': $(cat "$t/err")"
+    diff -r "$t/P.0" "$t/P" >/dev/null || fail "a resume with nothing to fall back on changed the folder: $(ls "$t/P")"
+}
+nf="not an HDF5 file (or damaged)"
+no_fallback bad.h5 bad2.h5 "$nf" "$nf"
+no_fallback bad.h5 "" "$nf" "No such file or directory"
+no_fallback "" bad2.h5 "No such file or directory" "$nf"
 
 # A checkpoint FILE named in the run directory: the names its writes move
 # on ahead of it (checkpoint.h5 ahead of checkpoint.prev.h5, both ahead of

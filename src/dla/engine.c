@@ -292,15 +292,29 @@ int engine_gyration_add_at(pdla_engine *e, const int64_t *p, uint64_t index, cha
 
 /* Serial insertion (one thread: the serial loop, the reference mode): the
  * tree, the distance map, the gyration sums, R_ext and the samples. */
-int engine_add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
+static int add_particle_from(pdla_engine *e, const int64_t *p, const tree_start *from, char *err,
+                             size_t errlen)
 {
     int rc = engine_check_range(e, p, err, errlen);
     if (rc) return rc;
     distmap_add(&e->dmap, p, tree_count(&e->tree) + 1, 0);
-    rc = tree_insert(&e->tree, p);
+    rc = tree_insert_from(&e->tree, p, from);
     if (rc) return pdla_errorf(PDLA_ENOMEM, err, errlen, "out of memory (or the tree's record limit) at %llu particles",
                         (unsigned long long)tree_count(&e->tree));
     return engine_gyration_add(e, p, err, errlen);
+}
+
+int engine_add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errlen)
+{
+    return add_particle_from(e, p, NULL, err, errlen);
+}
+
+int engine_add_walker_particle(pdla_engine *e, const int64_t *p, const search_state *k, char *err,
+                               size_t errlen)
+{
+    tree_start from;
+    search_path_start(k, &e->tree, p, &from);
+    return add_particle_from(e, p, &from, err, errlen);
 }
 
 const pdla_params *pdla_engine_params(const pdla_engine *e) { return &e->params; }

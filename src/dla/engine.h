@@ -332,4 +332,8 @@ int engine_gyration_add_at(pdla_engine *e, const int64_t *p, uint64_t index, cha
 
 /* Serial insertion (one thread): tree, map, gyration, R_ext. */
 int engine_add_particle(pdla_engine *e, const int64_t *p, char *err, size_t errlen);
+/* The same, descending the tree from the lowest node of walker state k's
+ * cached path that contains p (search_path_start) instead of the root. */
+int engine_add_walker_particle(pdla_engine *e, const int64_t *p, const search_state *k, char *err,
+                               size_t errlen);
 #endif

@@ -125,7 +125,7 @@ int pdla_engine_grow(pdla_engine *e, uint64_t n_until, pdla_progress_fn progress
             break;
         }
         if (e->params.snap_contact) walker_snap_to_contact(&e->tree, p, D, stick2, &e->walker.ss);
-        rc = engine_add_particle(e, p, err, errlen);
+        rc = engine_add_walker_particle(e, p, &e->walker.ss, err, errlen);
         /* Not at n_until: a stop asked there would cut nothing short, yet
          * report the complete cluster as stopped (the CLI would then end by
          * the signal after writing it whole). */

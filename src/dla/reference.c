@@ -44,7 +44,7 @@ static int reference_insert(pdla_engine *e, walker_ctx *w, int64_t *p, int statu
         walker_snap_to_contact(&e->tree, p, D, stick2, &w->ss);
     }
     const uint64_t index = tree_count(&e->tree);
-    const int rc = engine_add_particle(e, p, err, errlen);
+    const int rc = engine_add_walker_particle(e, p, &w->ss, err, errlen);
     if (rc == PDLA_OK && continued) w->recheck_continued++;
     if (rc == PDLA_OK) walker_note_lag(w, index);
     return rc;

@@ -610,6 +610,19 @@ static inline __attribute__((always_inline)) int cached_start_level(const search
     return level;
 }
 
+void search_path_start(const search_state *k, const tree *t, const int64_t *p, tree_start *out)
+{
+    out->node = 0;
+    const tree_root root = tree_root_get(t);
+    if (k->root != root.node || k->root_level != root.level) return;
+    const int level = t->dim == 2 ? cached_start_level(k, root, p, 2)
+                                  : cached_start_level(k, root, p, 3);
+    if (level >= root.level) return;
+    out->node = k->node[level];
+    out->level = level;
+    for (int a = 0; a < 3; a++) out->lo[a] = a < t->dim ? k->lo[level][a] : 0;
+}
+
 /* Descent of lower_bound_dim: from node (at level, corner lo) along p's own
  * path to the deepest existing node, recording each node, its own child and
  * its corner in the cache; scans p's own leaf when it exists. Returns the

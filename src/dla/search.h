@@ -114,6 +114,12 @@ static inline void search_state_forget_indices(search_state *s)
     s->blk_valid = 0;
 }
 
+/* The lowest node of the walker's cached path that contains p, as a
+ * start for tree_insert_from (none when the cache is empty or was made
+ * under another root). The serial insertion of a walker's particle, right
+ * after its last search near that spot, so descends a level or two. */
+void search_path_start(const search_state *k, const tree *t, const int64_t *p, tree_start *out);
+
 /* Per-level squared far thresholds: a non-empty node at level L whose box is
  * at squared distance > far2[L] from the query is not opened; its box
  * distance is used as the lower bound. UINT64_MAX disables it (exact). */

@@ -302,19 +302,19 @@ static int leaf_append(tree *t, const tree_slot *slot, uint32_t head, const uint
     return 0;
 }
 
-/* Walk p's path from the root (which must contain p) down to its level-1
- * node. A missing node is made when `maker` is the tree (the writer holding
+/* Walk p's path from node `from` (the root, or a node below it; it must
+ * contain p) down to its level-1 node. A missing node is made when `maker` is the tree (the writer holding
  * the node mutex); with maker NULL the walk only reads and gives up there.
  * Returns 1 with the slot filled, 0 if a node is missing, -1 when out of
  * memory. */
-static int walk_to_slot(const tree *t, tree *maker, tree_root root, const int64_t *p,
-                        tree_slot *slot)
+static int walk_from(const tree *t, tree *maker, const tree_start *from, const int64_t *p,
+                     tree_slot *slot)
 {
     const int dim = t->dim;
     int64_t lo[3];
-    for (int a = 0; a < dim; a++) lo[a] = -tree_root_half(root.level);
-    uint32_t node = root.node;
-    for (int level = root.level;; level--) {
+    for (int a = 0; a < dim; a++) lo[a] = from->lo[a];
+    uint32_t node = from->node;
+    for (int level = from->level;; level--) {
         const int64_t half = (int64_t)TREE_LEAF_SIDE << (level - 1);
         uint32_t k = 0;
         for (int a = 0; a < dim; a++)
@@ -337,6 +337,15 @@ static int walk_to_slot(const tree *t, tree *maker, tree_root root, const int64_
         }
         node = child;
     }
+}
+
+static int walk_to_slot(const tree *t, tree *maker, tree_root root, const int64_t *p,
+                        tree_slot *slot)
+{
+    const tree_start from = {.node = root.node, .level = root.level,
+                             .lo = {-tree_root_half(root.level), -tree_root_half(root.level),
+                                    -tree_root_half(root.level)}};
+    return walk_from(t, maker, &from, p, slot);
 }
 
 int tree_make_path(tree *t, const int64_t *p, tree_slot *slot)
@@ -380,6 +389,14 @@ int tree_insert(tree *t, const int64_t *p)
     tree_slot slot;
     const int rc = tree_make_path(t, p, &slot);
     return rc ? rc : tree_append(t, &slot, p, 0);
+}
+
+int tree_insert_from(tree *t, const int64_t *p, const tree_start *from)
+{
+    if (!from || !from->node || from->level < 1) return tree_insert(t, p);
+    tree_slot slot;
+    if (walk_from(t, t, from, p, &slot) != 1) return -1;
+    return tree_append(t, &slot, p, 0);
 }
 
 uint32_t tree_find_leaf(const tree *t, const int64_t *p, int64_t *leaf_lo)

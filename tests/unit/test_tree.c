@@ -371,6 +371,54 @@ static void test_find_slot(int dim, int kind, uint64_t seed)
     tree_free(&t);
 }
 
+/* tree_insert_from, started from a walker's cached search path
+ * (search_path_start) after a search near the point, builds the same tree
+ * as tree_insert: the same points in the same visiting order, the same
+ * node and chunk counts. The points include far ones that grow the root
+ * (a cache made under the old root must give no start), and half the
+ * searches are made away from the point (the start is then a higher node,
+ * or none). */
+static void test_insert_from(int dim, int kind, size_t n, uint64_t seed)
+{
+    pdla_rng r;
+    rng_seed(&r, seed);
+    tree a, b;
+    CHECK(tree_init(&a, dim) == 0 && tree_init(&b, dim) == 0, "tree_init");
+    search_config vp;
+    search_config_init(&vp, 2.0, 32, 2);
+    search_state k;
+    search_state_reset(&k);
+    size_t started = 0;
+    for (size_t i = 0; i < n; i++) {
+        int64_t p[3] = {0, 0, 0}, q[3] = {0, 0, 0};
+        random_point(&r, dim, i % 97 == 96 ? 1 : kind, p);
+        for (int ax = 0; ax < dim; ax++) q[ax] = i % 2 ? p[ax] + rand_range(&r, -40, 40) : p[ax];
+        if (i > 0) (void)search_lower_bound2(&b, &vp, q, UINT64_MAX, &k);
+        tree_start from;
+        search_path_start(&k, &b, p, &from);
+        started += from.node != 0;
+        CHECK(tree_insert(&a, p) == 0 && tree_insert_from(&b, p, &from) == 0,
+              "dim %d kind %d i %zu: insert", dim, kind, i);
+    }
+    CHECK(started > n / 4, "dim %d kind %d: a cached start in only %zu of %zu insertions", dim, kind,
+          started, n);
+    CHECK(a.inner.count == b.inner.count && tree_count(&a) == tree_count(&b) &&
+              (unsigned long long)a.leaves == (unsigned long long)b.leaves,
+          "dim %d kind %d: nodes %u/%u, leaves %llu/%llu", dim, kind, a.inner.count, b.inner.count,
+          (unsigned long long)a.leaves, (unsigned long long)b.leaves);
+    pt *oa = calloc(n, sizeof *oa), *ob = calloc(n, sizeof *ob); /* 2D leaves x[2] unset */
+    CHECK(oa && ob, "alloc");
+    collect ca = {oa, 0, n, dim}, cb = {ob, 0, n, dim};
+    CHECK(tree_visit(&a, collect_visit, &ca) == 0 && tree_visit(&b, collect_visit, &cb) == 0 &&
+              ca.n == n && cb.n == n,
+          "visit");
+    CHECK(memcmp(oa, ob, n * sizeof *oa) == 0, "dim %d kind %d: the trees differ", dim, kind);
+    free(oa);
+    free(ob);
+    tree_free(&a);
+    tree_free(&b);
+}
+
 /* tree_ceil_sqrt (engine R_ext, checkpoint check, searches) is exact at
  * k^2 - 1, k^2 and k^2 + 1 for k up to 2^31 - 1, r2 up to ~2^62, where the
  * double r2 rounds (above 2^53). */
@@ -507,6 +555,8 @@ int main(void)
         for (int kind = 0; kind < 4; kind++) test_compact(dim, kind, kind == 0 ? 3000 : 800, 99 + (uint64_t)kind);
     for (int dim = 2; dim <= 3; dim++)
         for (int kind = 0; kind < 4; kind++) test_find_slot(dim, kind, 4242 + (uint64_t)kind);
+    for (int dim = 2; dim <= 3; dim++)
+        for (int kind = 0; kind < 4; kind++) test_insert_from(dim, kind, 3000, 777 + (uint64_t)kind);
     for (int dim = 2; dim <= 3; dim++) {
         test_near_list_full(dim);
         for (int kind = 0; kind < 4; kind++) test_near_list(dim, kind, kind == 0 ? 3000 : 800, 555 + (uint64_t)kind);

@@ -816,7 +816,10 @@ int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params 
     int rc;
     if (stat(path, &st) == 0 && S_ISDIR(st.st_mode)) {
         /* A run directory: the newest generation that passes every check. */
-        char name[4200], first_err[1024] = "", note[1024] = "";
+        /* every failed generation's reason, oldest last: a resume that
+         * finds none usable names them all, not only the newest */
+        char name[4200], all_err[3072] = "", note[1024] = "";
+        size_t used = 0;
         int found = 0;
         /* every name, not only those up to the one that loads: the writes
          * rotate them all */
@@ -833,7 +836,10 @@ int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params 
                 if (rc != PDLA_OK && err && errlen) snprintf(err, errlen, "%s", e1);
                 break;
             }
-            if (!first_err[0]) snprintf(first_err, sizeof first_err, "%s", e1);
+            if (used < sizeof all_err) {
+                const int n = snprintf(all_err + used, sizeof all_err - used, "%s%s", used ? "; " : "", e1);
+                if (n > 0) used += (size_t)n;
+            }
             if (!note[0]) snprintf(note, sizeof note, "skipped %s", e1);
         }
         if (foreign) {
@@ -842,9 +848,7 @@ int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params 
             if (err && errlen) snprintf(err, errlen, "%s: no checkpoint in this directory", path);
             rc = PDLA_EIO;
         } else if (rc == PDLA_EIO) {
-            if (err && errlen)
-                snprintf(err, errlen, "%s%s", first_err,
-                         found > 1 ? " (and no older generation is usable)" : "");
+            if (err && errlen) snprintf(err, errlen, "%s", all_err);
         } else if (rc == PDLA_OK && info && note[0]) {
             snprintf(info->note, sizeof info->note, "%s", note);
         }

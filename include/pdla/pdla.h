@@ -480,10 +480,6 @@ PDLA_API void pdla_rundir_unlock(int fd);
  * cannot see an immutable directory or a read-only mount for root. 0, or an
  * errno. */
 PDLA_API int pdla_rundir_probe(const char *dir);
-/* Remove the files of dir whose names start with one of the n prefixes
- * (what a killed pdla left half written; hold the lock, so no live writer
- * owns them). */
-PDLA_API void pdla_rundir_remove_prefixed(const char *dir, const char *const *prefixes, size_t n);
 /* A new run written with --force into dir (hold the lock): remove what
  * would let the older run come back or describe it. Every model's
  * checkpoint names (a --resume of any model would otherwise grow the older

@@ -246,19 +246,3 @@ int pdla_rundir_fsync(const char *dir)
 {
     return h5u_fsync_dir(dir);
 }
-
-void pdla_rundir_remove_prefixed(const char *dir, const char *const *prefixes, size_t n)
-{
-    DIR *d = opendir(dir);
-    if (!d) return;
-    char p[4400];
-    const struct dirent *de;
-    while ((de = readdir(d)))
-        for (size_t i = 0; i < n; i++)
-            if (!strncmp(de->d_name, prefixes[i], strlen(prefixes[i]))) {
-                snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
-                unlink(p);
-                break;
-            }
-    closedir(d);
-}

@@ -55,8 +55,9 @@ took the damaged one's generation number. Checked here:
     sweep of leftovers removed the file: the event resume fell back to
     checkpoint.prev.h5, the DLA and DLCA resumes loaded through the link and
     then lost the file); a hard link under the name, or a link to another
-    name, resumes.
-The pdla runs are counted and printed (165; about 3 s of CPU in release).
+    name, resumes; so does a DLCA resume into --out elsewhere (--force),
+    whose sweep is that directory's, not the folder's.
+The pdla runs are counted and printed (166; about 3 s of CPU in release).
 """
 import glob
 import os
@@ -757,6 +758,22 @@ dlca_run(Qd, 3000)
 temp_link(Qd, "checkpoint.h5", "DLCA", ("--model", "dlca", "--resume", Qd, "--max-attempts", "6000", "-q"))
 temp_link(Qd, "checkpoint.h5", "DLCA, link named",
           ("--model", "dlca", "--resume", os.path.join(Qd, "checkpoint.h5"), "--max-attempts", "6000", "-q"))
+# ... but not with --out elsewhere (--force): the sweep is that directory's,
+# the folder resumed from is left as it is, so the link loses nothing (it
+# was refused, "the resume removes", while the folder was never swept)
+os.replace(os.path.join(Qd, "checkpoint.h5"), os.path.join(Qd, ".checkpoint.h5.tmp.1234"))
+os.symlink(".checkpoint.h5.tmp.1234", os.path.join(Qd, "checkpoint.h5"))
+before = linked(Qd)
+Qo = W("Qo")
+shutil.rmtree(Qo, ignore_errors=True)
+rc, err = pdla("--model", "dlca", "--resume", os.path.join(Qd, "checkpoint.h5"), "--max-attempts", "6000", "-q",
+               "--out", Qo, "--force")
+check(rc == 0 and linked(Qd) == before and os.path.isfile(os.path.join(Qo, "checkpoint.h5")),
+      "DLCA: a link to a temporary name, resumed into --out elsewhere: exit %s: %r, folder %r" % (rc, err,
+                                                                                                sorted(os.listdir(Qd))))
+shutil.rmtree(Qo, ignore_errors=True)
+os.remove(os.path.join(Qd, "checkpoint.h5"))
+os.replace(os.path.join(Qd, ".checkpoint.h5.tmp.1234"), os.path.join(Qd, "checkpoint.h5"))
 # not refused: a hard link under a temporary name (its sweep loses nothing),
 # and a link to a name of the user's
 os.link(os.path.join(Qe, "checkpoint.h5"), os.path.join(Qe, ".checkpoint.h5.tmp.1234"))

@@ -770,7 +770,10 @@ static void keep_schedule(run *R)
 static int load_resume(run *R, int is_dir)
 {
     const cli_options *o = &R->o;
-    char err[1024], note[1024] = "";
+    /* a run directory's every generation with its reason (up to 4800
+     * bytes each, checkpoint_read.c): at 1024 a directory of ~330 bytes
+     * lost the oldest generation's name */
+    char err[16384], note[1024] = "";
     int slot = -1;
     if (!is_dir) {
         const int prc = pdla_checkpoint_place(o->resume, R->dir, &slot, note, sizeof note, err, sizeof err);

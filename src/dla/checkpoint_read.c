@@ -795,6 +795,11 @@ int ckpt_foreign_names(const char *dir, char *err, size_t errlen)
     return PDLA_OK;
 }
 
+/* One generation's reason: its name (a run directory of up to 4000 bytes,
+ * pdla_checkpoint_load) and rfail's what, whole: at 1024 bytes a long run
+ * directory's reasons were cut inside the name. */
+#define CKPT_REASON_MAX 4800
+
 int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params *asked,
                          uint32_t asked_fields, pdla_checkpoint_info *info, char *err,
                          size_t errlen)
@@ -818,7 +823,7 @@ int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params 
         /* A run directory: the newest generation that passes every check. */
         /* every failed generation's reason, oldest last: a resume that
          * finds none usable names them all, not only the newest */
-        char name[4200], all_err[3072] = "", note[1024] = "";
+        char name[4200], all_err[PDLA_CHECKPOINT_GENERATIONS * CKPT_REASON_MAX] = "", note[1024] = "";
         size_t used = 0;
         int found = 0;
         /* every name, not only those up to the one that loads: the writes
@@ -829,7 +834,7 @@ int pdla_checkpoint_load(pdla_engine **out, const char *path, const pdla_params 
             ckpt_gen_name(name, sizeof name, path, k);
             if (access(name, F_OK) != 0) continue;
             found++;
-            char e1[1024] = "";
+            char e1[CKPT_REASON_MAX] = "";
             rc = ckpt_load_name(name, asked, asked_fields, out, info, e1, sizeof e1);
             if (rc == PDLA_OK && info) info->slot = k;
             if (rc == PDLA_OK || rc == PDLA_EINVAL || rc == PDLA_ENOMEM) {

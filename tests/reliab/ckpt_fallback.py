@@ -57,7 +57,9 @@ took the damaged one's generation number. Checked here:
     then lost the file); a hard link under the name, or a link to another
     name, resumes; so does a DLCA resume into --out elsewhere (--force),
     whose sweep is that directory's, not the folder's.
-The pdla runs are counted and printed (166; about 3 s of CPU in release).
+  - DLA: a run directory of 3900 bytes whose every generation is damaged:
+    the one line names each generation file with its reason.
+The pdla runs are counted and printed (167; about 3 s of CPU in release).
 """
 import glob
 import os
@@ -698,6 +700,25 @@ for n in (".cluster.h5.new", "cluster.h5.tmp.77"):
           "DLA resume from %s: exit %s: %r" % (n, rc, err))
     check(sorted(os.listdir(L)) == [n], "DLA resume from %s: the folder changed: %r" % (n, sorted(os.listdir(L))))
     os.remove(os.path.join(L, n))
+
+# --- every generation unusable in a run directory with a long path (up to
+# the 4000 bytes a run directory may have): the one line names each
+# generation file with its reason (it was cut at 1023 bytes, the CLI's
+# buffer, so past a run directory of about 330 bytes the oldest
+# generation went unnamed; each reason at 1023, the library's)
+LD = W("long")
+shutil.rmtree(LD, ignore_errors=True)
+while len(LD) < 3900:
+    LD = os.path.join(LD, "d" * min(200, 3900 - len(LD)))
+shutil.copytree(T, LD)
+for n in NAMES:
+    truncate(os.path.join(LD, n))
+rc, err = resume(LD, 5000)
+lines = err.strip().split("\n")
+check(rc == 2 and len(lines) == 1 and all("%s/%s: damaged checkpoint" % (LD, n) in lines[0] for n in NAMES),
+      "long run directory, every generation truncated: exit %s, %d lines, names %r" % (
+          rc, len(lines), [n for n in NAMES if "%s/%s: " % (LD, n) in err]))
+shutil.rmtree(W("long"))
 
 # --- a checkpoint name that is a symbolic link to a file of its folder
 # under a temporary name (checkpoint.h5 -> .checkpoint.h5.tmp.1234): the

@@ -571,7 +571,9 @@ typedef struct ev_order {
 static ev_sim *load_checkpoint(const ev_cli *c, ev_series *ser, const char *dir, int is_dir, char *path,
                                size_t plen, ev_order *o)
 {
-    char err[600], err2[600] = "";
+    /* each a path (a run directory of up to 4000 bytes) and its reason,
+     * whole: at 600 bytes a run directory of ~580 bytes lost both */
+    char err[4800], err2[4800] = "";
     int is_prev = 0;
     memset(o, 0, sizeof *o);
     /* A directory or a device as checkpoint.prev.h5 is the user's: each

@@ -58,8 +58,9 @@ took the damaged one's generation number. Checked here:
     name, resumes; so does a DLCA resume into --out elsewhere (--force),
     whose sweep is that directory's, not the folder's.
   - DLA: a run directory of 3900 bytes whose every generation is damaged:
-    the one line names each generation file with its reason.
-The pdla runs are counted and printed (167; about 3 s of CPU in release).
+    the one line names each generation file with its reason; the event
+    model's checkpoint.h5 and checkpoint.prev.h5 likewise.
+The pdla runs are counted and printed (170; about 3 s of CPU in release).
 """
 import glob
 import os
@@ -719,6 +720,23 @@ check(rc == 2 and len(lines) == 1 and all("%s/%s: damaged checkpoint" % (LD, n) 
       "long run directory, every generation truncated: exit %s, %d lines, names %r" % (
           rc, len(lines), [n for n in NAMES if "%s/%s: " % (LD, n) in err]))
 shutil.rmtree(W("long"))
+# The same for the event model: checkpoint.h5 and checkpoint.prev.h5 both
+# damaged under a run directory of 3900 bytes (each reason was held in 600
+# bytes, so past ~580 bytes neither was named whole).
+LE = W("long-ev")
+shutil.rmtree(LE, ignore_errors=True)
+while len(LE) < 3900:
+    LE = os.path.join(LE, "e" * min(200, 3900 - len(LE)))
+rc, err = pdla(*EV, "--t-max", "4", "--checkpoint", "--out", LE)
+rc2, err2 = pdla("--model", "event", "--resume", LE, "--t-max", "6")
+check(rc == 0 and rc2 == 0, "long event run directory: %r %r" % (err, err2))
+for n in ("checkpoint.h5", "checkpoint.prev.h5"):
+    truncate(os.path.join(LE, n))
+rc, err = pdla("--model", "event", "--resume", LE, "--t-max", "8")
+lines = err.strip().split("\n")
+check(rc == 2 and len(lines) == 1 and all("%s/%s: " % (LE, n) in lines[0] for n in ("checkpoint.h5", "checkpoint.prev.h5")),
+      "long event run directory, both checkpoints truncated: exit %s, %d lines, %r" % (rc, len(lines), err[-300:]))
+shutil.rmtree(W("long-ev"))
 
 # --- a checkpoint name that is a symbolic link to a file of its folder
 # under a temporary name (checkpoint.h5 -> .checkpoint.h5.tmp.1234): the

@@ -303,8 +303,9 @@ static int leaf_append(tree *t, const tree_slot *slot, uint32_t head, const uint
 }
 
 /* Walk p's path from node `from` (the root, or a node below it; it must
- * contain p) down to its level-1 node. A missing node is made when `maker` is the tree (the writer holding
- * the node mutex); with maker NULL the walk only reads and gives up there.
+ * contain p) down to its level-1 node. A missing node is made when
+ * `maker` is the tree (the writer holding the node mutex); with maker NULL
+ * the walk only reads and gives up there.
  * Returns 1 with the slot filled, 0 if a node is missing, -1 when out of
  * memory. */
 static int walk_from(const tree *t, tree *maker, const tree_start *from, const int64_t *p,

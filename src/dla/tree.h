@@ -171,9 +171,10 @@ typedef struct tree_start {
     int64_t lo[3];
 } tree_start;
 
-/* tree_insert from `from` (a node that contains p, or none): the same
- * tree, without the descent's upper levels (2D 1e7: tree_make_path from
- * the root was 2.7% of the run, an inner node a level at 1e7 particles). */
+/* tree_insert from `from` (a node that contains p, or none: then from
+ * the root, growing it as needed): the same tree, without the descent's
+ * upper levels (at 2D 1e7 the descent from the root, a random inner node
+ * per level, was 2.7% of the run). */
 int tree_insert_from(tree *t, const int64_t *p, const tree_start *from);
 
 /* The same slot without creating anything: 1 if the nodes down to p's

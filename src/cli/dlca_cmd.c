@@ -27,6 +27,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "cmdline.h"
 #include "dlca_cmd.h"
 #include "fail_note.h"
 #include "optcheck.h"
@@ -306,20 +307,6 @@ static int make_dir(const dlca_cli *c, char *dir, size_t len)
         return EXIT_USAGE;
     }
     return 0;
-}
-
-static char *join_args(int argc, char **argv)
-{
-    size_t len = 1;
-    for (int i = 0; i < argc; i++) len += strlen(argv[i]) + 1;
-    char *s = malloc(len);
-    if (!s) return NULL;
-    s[0] = '\0';
-    for (int i = 0; i < argc; i++) {
-        if (i) strcat(s, " ");
-        strcat(s, argv[i]);
-    }
-    return s;
 }
 
 /* fsync of a file or a directory: 0, or -1 with errno (a directory that
@@ -1064,7 +1051,7 @@ int dlca_cmd_main(int argc, char **argv)
         return orc;
     }
     const double t0 = pdla_clock_seconds();
-    char *cmd = join_args(argc, argv);
+    char *cmd = cli_command_line(NULL, argc, argv);
     int asked = ASKED_NONE, ck_failed = 0, final_ck = 0, wrote = 0;
     const int stop = run_loop(s, &c, dir, cmd, &asked, &ck_failed);
     const double wall = pdla_clock_seconds() - t0;

@@ -38,6 +38,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "cmdline.h"
 #include "ens_cmd.h"
 #include "parse.h"
 #include "pdla/ensemble.h"
@@ -109,31 +110,6 @@ static void print_help(void)
            "This build has no MPI (meson option -Dmpi); under mpirun it refuses to start.\n"
 #endif
            );
-}
-
-/* argv joined with shell quoting, for provenance. */
-static char *command_line(int argc, char **argv)
-{
-    size_t len = 16;
-    for (int i = 0; i < argc; i++) len += 4 * strlen(argv[i]) + 3;
-    char *s = malloc(len), *p = s;
-    if (!s) return NULL;
-    p += sprintf(p, "pdla");
-    for (int i = 0; i < argc; i++) {
-        *p++ = ' ';
-        *p++ = '\'';
-        for (const char *c = argv[i]; *c; c++) {
-            if (*c == '\'') {
-                memcpy(p, "'\\''", 4);
-                p += 4;
-            } else {
-                *p++ = *c;
-            }
-        }
-        *p++ = '\'';
-    }
-    *p = '\0';
-    return s;
 }
 
 typedef struct ens_args {
@@ -691,7 +667,7 @@ int ens_cmd_main(int argc, char **argv)
     const double t0 = pdla_clock_seconds();
     ens_cmd *const c = calloc(1, sizeof *c);
     char **rest = calloc((size_t)argc + 2, sizeof *rest);
-    char *cmd = command_line(argc, argv);
+    char *cmd = cli_command_line("pdla", argc, argv);
     int code = EXIT_RUNTIME;
     if (!c || !rest || !cmd) {
         fprintf(stderr, "pdla ensemble: out of memory\n");

@@ -22,6 +22,7 @@
 
 #include <unistd.h>
 
+#include "cmdline.h"
 #include "fail_note.h"
 #include "parse.h"
 #include "rundir.h"
@@ -279,20 +280,6 @@ static unsigned long long peak_rss(void)
         if (sscanf(line, "VmHWM: %llu kB", &kib) == 1) break;
     fclose(f);
     return kib * 1024;
-}
-
-static char *joined(int argc, char **argv)
-{
-    size_t n = 1;
-    for (int k = 0; k < argc; k++) n += strlen(argv[k]) + 1;
-    char *s = malloc(n);
-    if (!s) return NULL;
-    s[0] = '\0';
-    for (int k = 0; k < argc; k++) {
-        strcat(s, argv[k]);
-        if (k + 1 < argc) strcat(s, " ");
-    }
-    return s;
 }
 
 /* ---- progress lines and interval checkpoints (called between events) --- */
@@ -829,7 +816,7 @@ int event_cmd_main(int argc, char **argv)
     ev_sim *s = start_sim(&c, &ser, dir, sizeof dir, &rc);
     if (!s) return rc;
     ev_set_checkpoint_every(s, c.checkpoint_every); /* recorded in each checkpoint, for a later bare --resume */
-    char *cmd = joined(argc, argv);
+    char *cmd = cli_command_line(NULL, argc, argv);
     ev_ticker tk;
     cli_fail fail = {"", ""};
     ticker_init(&tk, &c, &ser, &fail, s, dir, cmd);

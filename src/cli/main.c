@@ -29,6 +29,7 @@
 
 #include <hdf5.h>
 
+#include "cmdline.h"
 #include "dlca_cmd.h"
 #include "ens_cmd.h"
 #include "parse.h"
@@ -87,49 +88,6 @@ static uint64_t peak_rss_bytes(void)
     struct rusage ru;
     if (getrusage(RUSAGE_SELF, &ru)) return 0;
     return (uint64_t)ru.ru_maxrss * 1024; /* Linux reports KiB */
-}
-
-/* ---- the command line as typed, for provenance ------------------------- */
-
-static int shell_safe(const char *s)
-{
-    if (!*s) return 0;
-    for (; *s; s++)
-        if (!((*s >= 'a' && *s <= 'z') || (*s >= 'A' && *s <= 'Z') || (*s >= '0' && *s <= '9') ||
-              strchr("%+,-./:=@_^", *s)))
-            return 0;
-    return 1;
-}
-
-/* argv joined with POSIX shell quoting, so it can be pasted back. Must be
- * called before getopt permutes argv. NULL when out of memory. */
-static char *command_line(int argc, char **argv)
-{
-    size_t len = 1;
-    for (int i = 0; i < argc; i++) len += 4 * strlen(argv[i]) + 3;
-    char *s = malloc(len), *p = s;
-    if (!s) return NULL;
-    for (int i = 0; i < argc; i++) {
-        if (i) *p++ = ' ';
-        if (shell_safe(argv[i])) {
-            const size_t n = strlen(argv[i]);
-            memcpy(p, argv[i], n);
-            p += n;
-            continue;
-        }
-        *p++ = '\'';
-        for (const char *c = argv[i]; *c; c++) {
-            if (*c == '\'') {
-                memcpy(p, "'\\''", 4);
-                p += 4;
-            } else {
-                *p++ = *c;
-            }
-        }
-        *p++ = '\'';
-    }
-    *p = '\0';
-    return s;
 }
 
 /* ---- the run directory ------------------------------------------------- */
@@ -708,7 +666,7 @@ static int print_help_or_version(const cli_options *o)
  * silent HDF5 for what follows. */
 static int parse_step(run *R, int argc, char **argv)
 {
-    R->cmd = command_line(argc, argv); /* before getopt reorders argv */
+    R->cmd = cli_command_line(NULL, argc, argv); /* before getopt reorders argv */
     if (!R->cmd) {
         fprintf(stderr, "pdla: out of memory\n");
         return EXIT_RUNTIME;

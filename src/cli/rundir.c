@@ -1,11 +1,14 @@
 /*
  * rundir.c - making run directories (rundir.h).
  */
+#define _GNU_SOURCE /* O_PATH */
 #include "rundir.h"
 #include <stdio.h>
 
 #include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -125,45 +128,176 @@ int cli_refuse_temp_resume(const char *path)
     return 1;
 }
 
-/* Is p a name of the directory dst (its stat) that cli_remove_temp
- * unlinks: a temporary name there, not a directory (unlink leaves those)? */
-static int swept_name(const char *p, const struct stat *dst)
+/* Links are followed as the kernel follows them (path_resolution(7)),
+ * component by component from the directory reached so far, so that a
+ * temporary name used as a directory step (a -> .checkpoint.h5.new/x, with
+ * .checkpoint.h5.new a link to a folder) is seen as well as one at the
+ * end. The directory is held open, not as a path: ".." is then its real
+ * parent, and no path of the run directory is built or cut. */
+#ifdef O_PATH
+#define DIR_OPEN (O_PATH | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC) /* search permission only, as the kernel needs */
+#else
+#define DIR_OPEN (O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC)
+#endif
+
+/* The kernel's limit on the links followed for one path (Linux
+ * MAXSYMLINKS). */
+enum { LINK_HOPS = 40 };
+
+enum link_walk {
+    WALK_SAFE, /* resolved, or failed where the loader fails too: the sweep loses nothing through it */
+    WALK_TEMP, /* through a name that the sweep unlinks */
+    WALK_LOOP, /* more than LINK_HOPS links: a loop or too long a chain, not proven safe */
+    WALK_LONG, /* the path left to follow outgrew rest: not proven safe */
+    WALK_ERR   /* a call failed otherwise (err) */
+};
+
+struct walk {
+    char rest[2 * PATH_MAX]; /* the names still to follow */
+    char name[NAME_MAX + 1]; /* WALK_TEMP: the run directory's name that the sweep unlinks */
+    int step;                /* WALK_TEMP: name is a directory step, not the end */
+    int err;                 /* WALK_ERR: the errno */
+};
+
+/* A failure that the loader's open meets at the same component (followed
+ * in the same order): the link is broken already, and no name before it
+ * was a swept one, so the sweep breaks nothing. */
+static enum link_walk walk_failed(int e, struct walk *w)
 {
-    const char *slash = strrchr(p, '/');
-    if (!cli_is_temp_name(p)) return 0;
-    char parent[4400];
-    if (!slash) snprintf(parent, sizeof parent, ".");
-    else snprintf(parent, sizeof parent, "%.*s", slash == p ? 1 : (int)(slash - p), p);
-    struct stat ps, st;
-    if (stat(parent, &ps) != 0 || ps.st_dev != dst->st_dev || ps.st_ino != dst->st_ino) return 0;
-    return lstat(p, &st) == 0 && !S_ISDIR(st.st_mode);
+    if (e == ENOENT || e == ENOTDIR || e == EACCES || e == ENAMETOOLONG) return WALK_SAFE;
+    w->err = e;
+    return WALK_ERR;
 }
 
-/* Does the symbolic link path lead, hop by hop (at most 40, the kernel's
- * limit), through a name that the sweep of dir (dst) unlinks? That name
- * into hop. Followed by name, not by inode: a hard link under a temporary
- * name loses nothing when the sweep unlinks it, a link to the name
- * dangles. */
-static int link_through_temp(const char *path, const struct stat *dst, char *hop, size_t hoplen)
+/* Into the directory name (absolute, or under *fd), held as *fd. 0 or an
+ * errno. */
+static int enter_dir(int *fd, const char *name)
 {
-    char cur[4400], tgt[4400];
-    snprintf(cur, sizeof cur, "%s", path);
-    for (int k = 0; k < 40; k++) {
-        struct stat st;
-        if (lstat(cur, &st) != 0 || !S_ISLNK(st.st_mode)) return 0;
-        const ssize_t n = readlink(cur, tgt, sizeof tgt - 1);
-        if (n < 0 || n >= (ssize_t)sizeof tgt - 1) return 0;
-        tgt[n] = '\0';
-        /* a relative target is read from the link's own folder */
-        const char *slash = strrchr(cur, '/');
-        char next[4400];
-        const int len = tgt[0] == '/' || !slash ? snprintf(next, sizeof next, "%s", tgt)
-                                                : snprintf(next, sizeof next, "%.*s/%s", (int)(slash - cur), cur, tgt);
-        if (len < 0 || (size_t)len >= sizeof next) return 0;
-        if (swept_name(next, dst)) return snprintf(hop, hoplen, "%s", next), 1;
-        memcpy(cur, next, (size_t)len + 1);
-    }
+    const int nfd = openat(*fd, name, DIR_OPEN);
+    if (nfd < 0) return errno;
+    close(*fd);
+    *fd = nfd;
     return 0;
+}
+
+/* Is fd the swept directory (dst, its stat)? */
+static int is_swept_dir(int fd, const struct stat *dst)
+{
+    struct stat st;
+    return fstat(fd, &st) == 0 && st.st_dev == dst->st_dev && st.st_ino == dst->st_ino;
+}
+
+/* w->rest becomes the target of the link name (under fd) followed by tail,
+ * the names after it (tail lies inside w->rest). Where the walk ends here,
+ * w->rest is left empty. */
+static enum link_walk splice_link(int fd, const char *name, const char *tail, struct walk *w)
+{
+    char tgt[PATH_MAX + 1];
+    const ssize_t n = readlinkat(fd, name, tgt, sizeof tgt);
+    w->rest[0] = '\0';
+    if (n < 0) return walk_failed(errno, w);
+    if ((size_t)n >= sizeof tgt) return WALK_LONG;
+    if (n == 0) return WALK_SAFE; /* an empty target resolves to nothing (ENOENT) */
+    const size_t t = strlen(tail);
+    if ((size_t)n + 1 + t + 1 > sizeof w->rest) return WALK_LONG;
+    memmove(w->rest + n + 1, tail, t + 1);
+    memcpy(w->rest, tgt, (size_t)n);
+    w->rest[n] = t ? '/' : '\0'; /* no '/' added at the end: "file/" fails, "file" does not */
+    return WALK_SAFE;
+}
+
+/* Follow the name entry of the run directory dfd (dst, its stat) as the
+ * kernel would: does it lead, through any component, to a name of that
+ * directory that cli_remove_temp unlinks (a temporary name, not a
+ * directory: unlink leaves those)? By name, not by inode: a hard link
+ * under a temporary name loses nothing when the sweep unlinks it, a path
+ * through the name dangles. */
+static enum link_walk walk_link(int dfd, const struct stat *dst, const char *entry, struct walk *w)
+{
+    int fd = openat(dfd, ".", DIR_OPEN);
+    if (fd < 0) return walk_failed(errno, w);
+    snprintf(w->rest, sizeof w->rest, "%s", entry); /* a d_name: NAME_MAX at most */
+    char *r = w->rest;
+    int hops = 0, e;
+    enum link_walk res = WALK_SAFE;
+    for (;;) {
+        while (*r == '/') r++;
+        if (!*r) break;
+        char *c = r;
+        r += strcspn(r, "/");
+        if (*r) *r++ = '\0';
+        while (*r == '/') r++;
+        if (!strcmp(c, ".")) continue;
+        if (!strcmp(c, "..")) {
+            if ((e = enter_dir(&fd, ".."))) {
+                res = walk_failed(e, w);
+                break;
+            }
+            continue;
+        }
+        struct stat st;
+        if (fstatat(fd, c, &st, AT_SYMLINK_NOFOLLOW) != 0) {
+            res = walk_failed(errno, w);
+            break;
+        }
+        /* at the end any name but a directory; as a step only a link (a
+         * file there fails already, ENOTDIR) */
+        const int swept_kind = *r ? S_ISLNK(st.st_mode) : !S_ISDIR(st.st_mode);
+        if (swept_kind && cli_is_temp_name(c) && is_swept_dir(fd, dst)) {
+            snprintf(w->name, sizeof w->name, "%.*s", NAME_MAX, c); /* fstatat took it: NAME_MAX at most */
+            w->step = *r != '\0';
+            res = WALK_TEMP;
+            break;
+        }
+        if (S_ISLNK(st.st_mode)) {
+            if (++hops > LINK_HOPS) {
+                res = WALK_LOOP;
+                break;
+            }
+            res = splice_link(fd, c, r, w);
+            r = w->rest;
+            if (res != WALK_SAFE || !*r) break;
+            if (*r == '/' && (e = enter_dir(&fd, "/"))) {
+                res = walk_failed(e, w);
+                break;
+            }
+            continue;
+        }
+        /* the end, or a file as a directory step (ENOTDIR) */
+        if (!*r || !S_ISDIR(st.st_mode)) break;
+        if ((e = enter_dir(&fd, c))) {
+            res = walk_failed(e, w);
+            break;
+        }
+    }
+    close(fd);
+    return res;
+}
+
+/* The line for a link of dir (name) that walk_link could not prove safe. */
+static void refuse_link(const char *dir, const char *name, enum link_walk res, const struct walk *w)
+{
+    const char *const keep = "nothing loaded or changed";
+    switch (res) {
+    case WALK_TEMP:
+        fprintf(stderr, "pdla: cannot resume: %s/%s is a symbolic link %s %s/%s, a temporary name (a killed run's) "
+                "that the resume removes; %s (rename %s and point the link at the new name to resume from it)\n", dir,
+                name, w->step ? "through" : "to", dir, w->name, keep, w->step ? "that link" : "that file");
+        break;
+    case WALK_LOOP:
+        fprintf(stderr, "pdla: cannot resume: %s/%s is a symbolic link that does not resolve within %d links (a "
+                "loop or too long a chain), so it may lead to a temporary name that the resume removes; %s "
+                "(shorten or remove the link)\n", dir, name, LINK_HOPS, keep);
+        break;
+    case WALK_LONG:
+        fprintf(stderr, "pdla: cannot resume: %s/%s is a symbolic link whose path grows past %zu bytes as it is "
+                "followed, so it may lead to a temporary name that the resume removes; %s (shorten the link's "
+                "target)\n", dir, name, sizeof w->rest - 1, keep);
+        break;
+    default:
+        fprintf(stderr, "pdla: cannot resume: cannot follow the symbolic link %s/%s: %s; %s\n", dir, name,
+                strerror(w->err), keep);
+    }
 }
 
 int cli_refuse_temp_links(const char *dir)
@@ -171,18 +305,14 @@ int cli_refuse_temp_links(const char *dir)
     struct stat dst;
     DIR *d = stat(dir, &dst) == 0 ? opendir(dir) : NULL;
     if (!d) return 0; /* the sweep cannot read it either; the load says why */
-    char p[4400], hop[4400];
-    int found = 0;
+    struct walk w;
+    enum link_walk res = WALK_SAFE;
     const struct dirent *de;
-    while (!found && (de = readdir(d))) {
+    while (res == WALK_SAFE && (de = readdir(d))) {
         if (cli_is_temp_name(de->d_name)) continue; /* swept itself: a killed run's, not the user's */
-        snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
-        found = link_through_temp(p, &dst, hop, sizeof hop);
+        res = walk_link(dirfd(d), &dst, de->d_name, &w);
+        if (res != WALK_SAFE) refuse_link(dir, de->d_name, res, &w);
     }
     closedir(d); /* opened to read names only */
-    if (found)
-        fprintf(stderr, "pdla: cannot resume: %s is a symbolic link to %s, a temporary name (a killed run's) that "
-                "the resume removes; nothing loaded or changed (rename that file and point the link at the new "
-                "name to resume from it)\n", p, hop);
-    return found;
+    return res != WALK_SAFE;
 }

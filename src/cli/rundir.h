@@ -41,7 +41,10 @@ int cli_refuse_temp_resume(const char *path);
 
 /* Before a resume's sweep of dir (hold its lock): a symbolic link in dir
  * (checkpoint.h5 -> .checkpoint.h5.tmp.1234, or through a chain) to a file
- * of dir under one of those names. The sweep removed the file and the link
+ * of dir under one of those names, or through one as a directory step
+ * (checkpoint.h5 -> .checkpoint.h5.new/x, a link to a folder); also a link
+ * that does not resolve within 40 links or whose path outgrows the check's
+ * buffer (not proven safe). The sweep removed the file and the link
  * dangled: the event command fell back to checkpoint.prev.h5, the DLA and
  * DLCA commands loaded through the link and then lost the file named, so a
  * kill before the first write lost the checkpoint. Refused, as a temporary

@@ -56,11 +56,17 @@ took the damaged one's generation number. Checked here:
     checkpoint.prev.h5, the DLA and DLCA resumes loaded through the link and
     then lost the file); a hard link under the name, or a link to another
     name, resumes; so does a DLCA resume into --out elsewhere (--force),
-    whose sweep is that directory's, not the folder's.
+    whose sweep is that directory's, not the folder's. Also refused: such a
+    name as a directory step (checkpoint.h5 -> .checkpoint.h5.new/real.h5,
+    .checkpoint.h5.new a link to a folder; through "..", a subfolder's link
+    or an absolute path), a chain of 46 links or a loop, a path that grows
+    past 8191 bytes as it is followed, and a 600-byte relative link under a
+    3900-byte run directory (the check passed each; the sweep removed the
+    name and the link dangled), the folder and its subfolders untouched.
   - DLA: a run directory of 3900 bytes whose every generation is damaged:
     the one line names each generation file with its reason; the event
     model's checkpoint.h5 and checkpoint.prev.h5 likewise.
-The pdla runs are counted and printed (170; about 3 s of CPU in release).
+The pdla runs are counted and printed (194; about 3 s of CPU in release).
 """
 import glob
 import os
@@ -797,9 +803,143 @@ dlca_run(Qd, 3000)
 temp_link(Qd, "checkpoint.h5", "DLCA", ("--model", "dlca", "--resume", Qd, "--max-attempts", "6000", "-q"))
 temp_link(Qd, "checkpoint.h5", "DLCA, link named",
           ("--model", "dlca", "--resume", os.path.join(Qd, "checkpoint.h5"), "--max-attempts", "6000", "-q"))
-# ... but not with --out elsewhere (--force): the sweep is that directory's,
-# the folder resumed from is left as it is, so the link loses nothing (it
-# was refused, "the resume removes", while the folder was never swept)
+# --- links the check above let through (session 35). A temporary name as a
+# directory step: the sweep unlinks .checkpoint.h5.new, a link to a folder,
+# and checkpoint.h5 -> .checkpoint.h5.new/real.h5 (or ./.checkpoint.h5.new
+# /../mine.h5, or sub/d/real.h5 with sub/d -> ../.checkpoint.h5.new, or the
+# same by an absolute path) dangles; only the last name was looked at. A
+# chain of more than 40 links (to a temporary name, or a loop): the check
+# stopped at 40 and passed it, and the sweep removed the temporary file at
+# its end. A relative target followed under a run directory of 3900 bytes:
+# the joined path outgrew its 4400 bytes and the link was passed (the sweep
+# removed the file). And a link whose path outgrows what the check holds
+# (8191 bytes as it is followed): passed unchecked, now refused. Each is
+# refused in one line, exit 2, the folder (links, files, subfolders) as it
+# was, in every model.
+def tree(d):
+    """d's names, subfolders' too: each link's target, each file's bytes."""
+    out = {}
+    for root, dirs, files in os.walk(d):
+        for n in dirs + files:
+            p = os.path.join(root, n)
+            out[os.path.relpath(p, d)] = (("->", os.readlink(p)) if os.path.islink(p) else
+                                          "dir" if os.path.isdir(p) else read(p))
+    return out
+
+
+def moved(d, to):
+    """checkpoint.h5 of d moved to d/to (its folder made)."""
+    os.makedirs(os.path.dirname(os.path.join(d, to)), exist_ok=True)
+    os.replace(os.path.join(d, "checkpoint.h5"), os.path.join(d, to))
+
+
+def step_link(d):
+    moved(d, "sub/real.h5")
+    os.symlink("sub", os.path.join(d, ".checkpoint.h5.new"))
+    os.symlink(".checkpoint.h5.new/real.h5", os.path.join(d, "checkpoint.h5"))
+
+
+def dotdot_link(d):
+    moved(d, "mine.h5")
+    os.mkdir(os.path.join(d, "sub"))
+    os.symlink("sub", os.path.join(d, ".checkpoint.h5.new"))
+    os.symlink("./.checkpoint.h5.new/../mine.h5", os.path.join(d, "checkpoint.h5"))
+
+
+def nested_link(d):
+    moved(d, "sub2/real.h5")
+    os.mkdir(os.path.join(d, "sub"))
+    os.symlink("../.checkpoint.h5.new", os.path.join(d, "sub", "d"))
+    os.symlink("sub2", os.path.join(d, ".checkpoint.h5.new"))
+    os.symlink("sub/d/real.h5", os.path.join(d, "checkpoint.h5"))
+
+
+def absolute_link(d):
+    moved(d, "sub/real.h5")
+    os.symlink("sub", os.path.join(d, ".checkpoint.h5.new"))
+    os.symlink(os.path.join(os.path.abspath(d), ".checkpoint.h5.new", "real.h5"), os.path.join(d, "checkpoint.h5"))
+
+
+def chain_link(d):
+    """checkpoint.h5 -> chain/l0 -> ... -> chain/l44 -> ../.checkpoint.h5.tmp.1234: 46 links."""
+    moved(d, ".checkpoint.h5.tmp.1234")
+    os.mkdir(os.path.join(d, "chain"))
+    for i in range(45):
+        os.symlink("l%d" % (i + 1) if i < 44 else "../.checkpoint.h5.tmp.1234", os.path.join(d, "chain", "l%d" % i))
+    os.symlink("chain/l0", os.path.join(d, "checkpoint.h5"))
+
+
+def loop_link(d):
+    moved(d, "mine.h5")
+    os.mkdir(os.path.join(d, "loop"))
+    os.symlink("b", os.path.join(d, "loop", "a"))
+    os.symlink("a", os.path.join(d, "loop", "b"))
+    os.symlink("loop/a", os.path.join(d, "checkpoint.h5"))
+
+
+def long_target_link(d):
+    moved(d, ".checkpoint.h5.tmp.1234")
+    os.symlink("./" * 300 + ".checkpoint.h5.tmp.1234", os.path.join(d, "checkpoint.h5"))
+
+
+def grown_link(d):
+    """checkpoint.h5 -> L/b/././.../mine.h5, L/b -> a/././..., L/a -> ./././../..:
+    each target under 4096 bytes, the kernel resolves it to mine.h5; followed,
+    the path held grows past 12000 bytes."""
+    moved(d, "mine.h5")
+    os.mkdir(os.path.join(d, "L"))
+    os.symlink("./" * 2045 + "..", os.path.join(d, "L", "a"))
+    os.symlink("a/" + "./" * 2040 + ".", os.path.join(d, "L", "b"))
+    os.symlink("L/b/" + "./" * 2040 + "mine.h5", os.path.join(d, "checkpoint.h5"))
+
+
+THROUGH = "pdla: cannot resume: %(d)s/checkpoint.h5 is a symbolic link through %(d)s/.checkpoint.h5.new, a temporary name"
+TO_TMP = "pdla: cannot resume: %(d)s/checkpoint.h5 is a symbolic link to %(d)s/.checkpoint.h5.tmp.1234, a temporary name"
+HOPS = "pdla: cannot resume: %(d)s/checkpoint.h5 is a symbolic link that does not resolve within 40 links"
+GROWN = "pdla: cannot resume: %(d)s/checkpoint.h5 is a symbolic link whose path grows past 8191 bytes"
+LINK_CASES = (("a temporary name as a directory step", step_link, THROUGH),
+              ("through ./.checkpoint.h5.new/..", dotdot_link, THROUGH),
+              ("through a link of a subfolder to a temporary name", nested_link, THROUGH),
+              ("an absolute path through a temporary name", absolute_link, THROUGH),
+              ("a chain of 46 links to a temporary name", chain_link, HOPS),
+              ("a loop", loop_link, HOPS),
+              ("a path outgrowing 8191 bytes", grown_link, GROWN))
+
+
+def link_refused(d, tag, args, make, want):
+    """make(d) run on d, then the resume args(d): refused with want, d as
+    it was; d then made again as it was."""
+    shutil.rmtree(d + ".0", ignore_errors=True)
+    shutil.copytree(d, d + ".0", symlinks=True)
+    make(d)
+    before = tree(d)
+    rc, err = pdla(*args(d))
+    lines = err.strip().split("\n")
+    check(rc == 2 and len(lines) == 1 and lines[0].startswith(want % {"d": d}),
+          "%s: exit %s: %r" % (tag, rc, err[-600:]))
+    check(tree(d) == before, "%s: the folder changed: %r" % (tag, sorted(tree(d))))
+    shutil.rmtree(d)
+    os.replace(d + ".0", d)
+
+
+for model, d, args in (("DLA", Q, lambda d: ("--resume", d, "--target", "5000", "-q")),
+                       ("event", Qe, lambda d: ("--model", "event", "--resume", d, "--t-max", "8")),
+                       ("DLCA", Qd, lambda d: ("--model", "dlca", "--resume", d, "--max-attempts", "6000", "-q"))):
+    for what, make, want in LINK_CASES:
+        link_refused(d, "%s: %s" % (model, what), args, make, want)
+    # a run directory of 3900 bytes: the check's joined path had 4400
+    LQ = W("long-link")
+    shutil.rmtree(LQ, ignore_errors=True)
+    while len(LQ) < 3900:
+        LQ = os.path.join(LQ, "q" * min(200, 3900 - len(LQ)))
+    shutil.copytree(d, LQ)
+    link_refused(LQ, "%s: a 600-byte link to a temporary name in a 3900-byte run directory" % model, args,
+                 long_target_link, TO_TMP)
+    shutil.rmtree(W("long-link"))
+# A DLCA link to a temporary name is not refused with --out elsewhere
+# (--force): the sweep is that directory's, the folder resumed from is left
+# as it is, so the link loses nothing (it was refused, "the resume
+# removes", while the folder was never swept)
 os.replace(os.path.join(Qd, "checkpoint.h5"), os.path.join(Qd, ".checkpoint.h5.tmp.1234"))
 os.symlink(".checkpoint.h5.tmp.1234", os.path.join(Qd, "checkpoint.h5"))
 before = linked(Qd)

@@ -775,7 +775,7 @@ static int lock_and_load(dlca_cli *c, char *ckpath, size_t cklen, dlca_sim **s)
      * run directory removed the file it names (rundir.h). Only when the
      * folder is the run directory swept: with --out elsewhere (--force)
      * the sweep is that directory's, and the folder is left as it is */
-    if ((!c->out || same_dir(c->lock, c->out)) && cli_refuse_temp_links(folder)) return EXIT_USAGE;
+    if ((!c->out || same_dir(c->lock, c->out)) && cli_refuse_temp_links(c->out ? c->out : folder)) return EXIT_USAGE;
     /* a file resumed in its own folder (--out elsewhere needs --force,
      * which replaces that directory's run): the checkpoint.h5 there first */
     if (!S_ISDIR(sb.st_mode) && (!c->out || same_dir(c->lock, c->out))) {

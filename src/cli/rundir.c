@@ -214,9 +214,10 @@ static enum link_walk splice_link(int fd, const char *name, const char *tail, st
  * through the name dangles. */
 static enum link_walk walk_link(int dfd, const struct stat *dst, const char *entry, struct walk *w)
 {
-    int fd = openat(dfd, ".", DIR_OPEN);
+    if (strlen(entry) >= sizeof w->rest) return WALK_LONG; /* a d_name: NAME_MAX at most; a path may be longer */
+    int fd = openat(dfd, *entry == '/' ? "/" : ".", DIR_OPEN);
     if (fd < 0) return walk_failed(errno, w);
-    snprintf(w->rest, sizeof w->rest, "%s", entry); /* a d_name: NAME_MAX at most */
+    snprintf(w->rest, sizeof w->rest, "%s", entry);
     char *r = w->rest;
     int hops = 0, e;
     enum link_walk res = WALK_SAFE;
@@ -306,7 +307,24 @@ int cli_refuse_temp_links(const char *dir)
     DIR *d = stat(dir, &dst) == 0 ? opendir(dir) : NULL;
     if (!d) return 0; /* the sweep cannot read it either; the load says why */
     struct walk w;
-    enum link_walk res = WALK_SAFE;
+    /* The sweep unlinks dir/NAME by this path, and the resume then writes
+     * there by it: a path that goes through a temporary name of the
+     * directory itself (--resume D/.checkpoint.h5.new, a link to ".", or
+     * D/.cluster.h5.new/.. with a link to a subfolder) lost its link to the
+     * sweep, and every write after it failed (ENOENT). */
+    enum link_walk res = walk_link(AT_FDCWD, &dst, dir, &w);
+    if (res != WALK_SAFE) {
+        if (res == WALK_TEMP)
+            fprintf(stderr, "pdla: cannot resume: the run directory %s is named through its own %s, a temporary "
+                    "name (a killed run's) that the resume removes; nothing loaded or changed (name the run "
+                    "directory by a path without it)\n", dir, w.name);
+        else
+            fprintf(stderr, "pdla: cannot resume: cannot follow the run directory's path %s: %s; nothing loaded "
+                    "or changed\n", dir, res == WALK_ERR ? strerror(w.err) : res == WALK_LOOP ? "too many links"
+                    : "it grows past 8191 bytes as its links are followed");
+        closedir(d);
+        return 1;
+    }
     const struct dirent *de;
     while (res == WALK_SAFE && (de = readdir(d))) {
         if (cli_is_temp_name(de->d_name)) continue; /* swept itself: a killed run's, not the user's */

@@ -44,7 +44,10 @@ int cli_refuse_temp_resume(const char *path);
  * of dir under one of those names, or through one as a directory step
  * (checkpoint.h5 -> .checkpoint.h5.new/x, a link to a folder); also a link
  * that does not resolve within 40 links or whose path outgrows the check's
- * buffer (not proven safe). The sweep removed the file and the link
+ * buffer (not proven safe); also dir itself named through such a name of
+ * its own (--resume D/.checkpoint.h5.new, a link to "."): the sweep, which
+ * unlinks dir/NAME by that path, broke the path and every later write
+ * failed. The sweep removed the file and the link
  * dangled: the event command fell back to checkpoint.prev.h5, the DLA and
  * DLCA commands loaded through the link and then lost the file named, so a
  * kill before the first write lost the checkpoint. Refused, as a temporary

@@ -62,11 +62,16 @@ took the damaged one's generation number. Checked here:
     or an absolute path), a chain of 46 links or a loop, a path that grows
     past 8191 bytes as it is followed, and a 600-byte relative link under a
     3900-byte run directory (the check passed each; the sweep removed the
-    name and the link dangled), the folder and its subfolders untouched.
+    name and the link dangled), the folder and its subfolders untouched;
+    and the run directory named through a temporary name of its own
+    (D/.checkpoint.h5.new a link to ".", D/.cluster.h5.new/.. with that a
+    link to a subfolder, also as a DLCA --out): the sweep removed the link
+    and the writes after it failed (DLA, DLCA exit 1; event exit 2 with
+    the link gone); a link to the run directory, or D/sub/.., resumes.
   - DLA: a run directory of 3900 bytes whose every generation is damaged:
     the one line names each generation file with its reason; the event
     model's checkpoint.h5 and checkpoint.prev.h5 likewise.
-The pdla runs are counted and printed (194; about 3 s of CPU in release).
+The pdla runs are counted and printed (206; about 3 s of CPU in release).
 """
 import glob
 import os
@@ -936,6 +941,52 @@ for model, d, args in (("DLA", Q, lambda d: ("--resume", d, "--target", "5000", 
     link_refused(LQ, "%s: a 600-byte link to a temporary name in a 3900-byte run directory" % model, args,
                  long_target_link, TO_TMP)
     shutil.rmtree(W("long-link"))
+# --- the run directory itself named through a temporary name of its own
+# (--resume D/.checkpoint.h5.new with that a link to ".", D/.cluster.h5.new/..
+# with that a link to a subfolder, a DLCA --out so named): the sweep unlinks
+# D/NAME by that path, so it removed the link the path went through; the DLA
+# and DLCA resumes then loaded and failed every write after it (exit 1), the
+# event resume failed "takes no files" with the link gone. Refused in one
+# line, exit 2, the folder as it was; a plain link to the run directory, or a
+# path through a subfolder and "..", still resumes.
+SELF = "pdla: cannot resume: the run directory %(p)s is named through its own %(n)s, a temporary name"
+
+
+def self_link_refused(d, tag, args, name, target, via):
+    shutil.rmtree(d + ".0", ignore_errors=True)
+    shutil.copytree(d, d + ".0", symlinks=True)
+    if target != ".":
+        os.mkdir(os.path.join(d, target))
+    os.symlink(target, os.path.join(d, name))
+    p = os.path.join(d, name, via) if via else os.path.join(d, name)
+    before = tree(d)
+    rc, err = pdla(*args(d, p))
+    lines = err.strip().split("\n")
+    check(rc == 2 and len(lines) == 1 and lines[0].startswith(SELF % {"p": p, "n": name}),
+          "%s: exit %s: %r" % (tag, rc, err[-600:]))
+    check(tree(d) == before, "%s: the folder changed: %r" % (tag, sorted(tree(d))))
+    shutil.rmtree(d)
+    os.replace(d + ".0", d)
+
+
+for model, d, args in (("DLA", Q, lambda d, p: ("--resume", p, "--target", "5000", "-q")),
+                       ("DLA, file", Q, lambda d, p: ("--resume", os.path.join(p, "checkpoint.h5"), "--target",
+                                                      "5000", "-q")),
+                       ("event", Qe, lambda d, p: ("--model", "event", "--resume", p, "--t-max", "8")),
+                       ("DLCA", Qd, lambda d, p: ("--model", "dlca", "--resume", p, "--max-attempts", "6000", "-q")),
+                       ("DLCA, --out", Qd, lambda d, p: ("--model", "dlca", "--resume", os.path.join(d, "checkpoint.h5"),
+                                                         "--max-attempts", "6000", "-q", "--out", p))):
+    self_link_refused(d, "%s: the run directory through its own link to ." % model, args, ".checkpoint.h5.new",
+                      ".", "")
+    self_link_refused(d, "%s: the run directory through its own link to a subfolder, then .." % model, args,
+                      ".cluster.h5.new", "sub", "..")
+os.symlink(os.path.basename(Q), W("Q-link"))
+os.mkdir(os.path.join(Q, "sub"))
+rc, err = resume(W("Q-link"), 4500)
+rc2, err2 = resume(os.path.join(Q, "sub", ".."), 4600)
+check(rc == 0 and rc2 == 0, "DLA: the run directory by a link, and by sub/..: exit %s %s: %r %r" % (rc, rc2, err, err2))
+os.rmdir(os.path.join(Q, "sub"))
+os.unlink(W("Q-link"))
 # A DLCA link to a temporary name is not refused with --out elsewhere
 # (--force): the sweep is that directory's, the folder resumed from is left
 # as it is, so the link loses nothing (it was refused, "the resume

@@ -18,10 +18,12 @@ static int shell_safe(const char *s)
 }
 
 /* Append word w at p, quoted when it must be; returns the new end. A quoted
- * word takes at most 4 bytes a byte plus its two quotes. */
-static char *put_word(char *p, const char *w)
+ * word takes at most 4 bytes a byte plus its two quotes. The command word
+ * (first) is quoted also when it holds '=': unquoted, the shell read
+ * "b=c/pdla --target 200" as an assignment and ran "--target". */
+static char *put_word(char *p, const char *w, int first)
 {
-    if (shell_safe(w)) {
+    if (shell_safe(w) && !(first && strchr(w, '='))) {
         const size_t n = strlen(w);
         memcpy(p, w, n);
         return p + n;
@@ -46,10 +48,10 @@ char *cli_command_line(const char *prefix, int argc, char **argv)
     char *const s = malloc(len);
     if (!s) return NULL;
     char *p = s;
-    if (prefix) p = put_word(p, prefix);
+    if (prefix) p = put_word(p, prefix, 1);
     for (int i = 0; i < argc; i++) {
         if (p != s) *p++ = ' ';
-        p = put_word(p, argv[i]);
+        p = put_word(p, argv[i], p == s);
     }
     *p = '\0';
     return s;

@@ -8,8 +8,9 @@
 
 /* prefix (NULL: none), then argv[0..argc-1], joined by spaces; a word that
  * holds anything but letters, digits and %+,-./:=@_^ (or is empty) is put in
- * single quotes, with each ' written as '\''. Call it before getopt permutes
- * argv. A malloc'd string, or NULL when out of memory. */
+ * single quotes, with each ' written as '\'' (the first word also when it
+ * holds '=', which the shell took for an assignment). Call it before getopt
+ * permutes argv. A malloc'd string, or NULL when out of memory. */
 char *cli_command_line(const char *prefix, int argc, char **argv);
 
 #endif

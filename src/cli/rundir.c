@@ -275,15 +275,34 @@ static enum link_walk walk_link(int dfd, const struct stat *dst, const char *ent
     return res;
 }
 
-/* The line for a link of dir (name) that walk_link could not prove safe. */
-static void refuse_link(const char *dir, const char *name, enum link_walk res, const struct walk *w)
+/* s for a one-line message: each control byte (a newline or a tab in a
+ * name of the folder) as \ooo, the rest as it is; into out (len bytes,
+ * cut to fit). */
+static const char *one_line(const char *s, char *out, size_t len)
 {
+    size_t k = 0;
+    for (; *s && k + 5 <= len; s++) {
+        const unsigned char b = (unsigned char)*s;
+        if (b < 0x20 || b == 0x7f) k += (size_t)snprintf(out + k, len - k, "\\%03o", b);
+        else out[k++] = (char)b;
+    }
+    out[k] = '\0';
+    return out;
+}
+
+/* The line for a link of dir (name) that walk_link could not prove safe. */
+static void refuse_link(const char *dir_raw, const char *name_raw, enum link_walk res, const struct walk *w)
+{
+    char dir_b[4 * PATH_MAX + 1], name_b[4 * NAME_MAX + 1], to_b[4 * NAME_MAX + 1];
+    const char *const dir = one_line(dir_raw, dir_b, sizeof dir_b), *const name = one_line(name_raw, name_b,
+                                                                                          sizeof name_b);
     const char *const keep = "nothing loaded or changed";
     switch (res) {
     case WALK_TEMP:
         fprintf(stderr, "pdla: cannot resume: %s/%s is a symbolic link %s %s/%s, a temporary name (a killed run's) "
                 "that the resume removes; %s (rename %s and point the link at the new name to resume from it)\n", dir,
-                name, w->step ? "through" : "to", dir, w->name, keep, w->step ? "that link" : "that file");
+                name, w->step ? "through" : "to", dir, one_line(w->name, to_b, sizeof to_b), keep,
+                w->step ? "that link" : "that file");
         break;
     case WALK_LOOP:
         fprintf(stderr, "pdla: cannot resume: %s/%s is a symbolic link that does not resolve within %d links (a "
@@ -314,13 +333,15 @@ int cli_refuse_temp_links(const char *dir)
      * sweep, and every write after it failed (ENOENT). */
     enum link_walk res = walk_link(AT_FDCWD, &dst, dir, &w);
     if (res != WALK_SAFE) {
+        char dir_b[4 * PATH_MAX + 1], name_b[4 * NAME_MAX + 1];
+        one_line(dir, dir_b, sizeof dir_b);
         if (res == WALK_TEMP)
             fprintf(stderr, "pdla: cannot resume: the run directory %s is named through its own %s, a temporary "
                     "name (a killed run's) that the resume removes; nothing loaded or changed (name the run "
-                    "directory by a path without it)\n", dir, w.name);
+                    "directory by a path without it)\n", dir_b, one_line(w.name, name_b, sizeof name_b));
         else
             fprintf(stderr, "pdla: cannot resume: cannot follow the run directory's path %s: %s; nothing loaded "
-                    "or changed\n", dir, res == WALK_ERR ? strerror(w.err) : res == WALK_LOOP ? "too many links"
+                    "or changed\n", dir_b, res == WALK_ERR ? strerror(w.err) : res == WALK_LOOP ? "too many links"
                     : "it grows past 8191 bytes as its links are followed");
         closedir(d);
         return 1;

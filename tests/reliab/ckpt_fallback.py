@@ -67,11 +67,12 @@ took the damaged one's generation number. Checked here:
     (D/.checkpoint.h5.new a link to ".", D/.cluster.h5.new/.. with that a
     link to a subfolder, also as a DLCA --out): the sweep removed the link
     and the writes after it failed (DLA, DLCA exit 1; event exit 2 with
-    the link gone); a link to the run directory, or D/sub/.., resumes.
+    the link gone); a link to the run directory, or D/sub/.., resumes. A
+    link named with a newline is named in the one line as \012.
   - DLA: a run directory of 3900 bytes whose every generation is damaged:
     the one line names each generation file with its reason; the event
     model's checkpoint.h5 and checkpoint.prev.h5 likewise.
-The pdla runs are counted and printed (206; about 3 s of CPU in release).
+The pdla runs are counted and printed (207; about 3 s of CPU in release).
 """
 import glob
 import os
@@ -980,6 +981,19 @@ for model, d, args in (("DLA", Q, lambda d, p: ("--resume", p, "--target", "5000
                       ".", "")
     self_link_refused(d, "%s: the run directory through its own link to a subfolder, then .." % model, args,
                       ".cluster.h5.new", "sub", "..")
+# A link named with a newline (and a tab) to a temporary name: the line
+# named it as it was, so the one line was two; now each control byte is
+# shown as \ooo, in one line.
+os.replace(os.path.join(Q, "checkpoint.1.h5"), os.path.join(Q, ".checkpoint.h5.tmp.1234"))
+os.symlink(".checkpoint.h5.tmp.1234", os.path.join(Q, "my\nlink\t"))
+before = linked(Q)
+rc, err = resume(Q, 5000)
+check(rc == 2 and err.endswith("\n") and err.count("\n") == 1 and
+      err.startswith("pdla: cannot resume: %s/my\\012link\\011 is a symbolic link to %s/.checkpoint.h5.tmp.1234"
+                     % (Q, Q)) and linked(Q) == before,
+      "DLA: a link named with a newline: exit %s: %r" % (rc, err))
+os.unlink(os.path.join(Q, "my\nlink\t"))
+os.replace(os.path.join(Q, ".checkpoint.h5.tmp.1234"), os.path.join(Q, "checkpoint.1.h5"))
 os.symlink(os.path.basename(Q), W("Q-link"))
 os.mkdir(os.path.join(Q, "sub"))
 rc, err = resume(W("Q-link"), 4500)

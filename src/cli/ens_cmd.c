@@ -170,6 +170,17 @@ static int split_args(int argc, char **argv, ens_args *a, char **rest, int *nres
  * the directory's lock): the temporaries of clusters.journal,
  * ensemble.h5 and ensemble.xdmf2, and with old_outputs (a new ensemble with --force) the old
  * journal and file. */
+static const char *const ens_temp_prefixes[] = {PDLA_ENS_JOURNAL_NAME ".tmp.", PDLA_ENS_FILE_NAME ".tmp.",
+                                                 PDLA_ENS_SIDECAR_NAME ".tmp."};
+
+/* Is name one that remove_named sweeps as a leftover? */
+static int ens_temp_name(const char *name)
+{
+    for (size_t i = 0; i < sizeof ens_temp_prefixes / sizeof ens_temp_prefixes[0]; i++)
+        if (!strncmp(name, ens_temp_prefixes[i], strlen(ens_temp_prefixes[i]))) return 1;
+    return 0;
+}
+
 static void remove_named(const char *dir, int old_outputs)
 {
     char p[4400];
@@ -183,15 +194,12 @@ static void remove_named(const char *dir, int old_outputs)
     }
     DIR *d = opendir(dir);
     if (!d) return;
-    static const char *const prefixes[] = {PDLA_ENS_JOURNAL_NAME ".tmp.", PDLA_ENS_FILE_NAME ".tmp.",
-                                           PDLA_ENS_SIDECAR_NAME ".tmp."};
     const struct dirent *de;
     while ((de = readdir(d)))
-        for (size_t i = 0; i < 3; i++)
-            if (!strncmp(de->d_name, prefixes[i], strlen(prefixes[i]))) {
-                snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
-                unlink(p);
-            }
+        if (ens_temp_name(de->d_name)) {
+            snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
+            unlink(p);
+        }
     closedir(d);
 }
 
@@ -435,6 +443,10 @@ static int open_resume(ens_cmd *c)
         fprintf(stderr, "pdla ensemble: cannot resume: %s\n", c->err);
         return EXIT_USAGE;
     }
+    /* A link to a leftover name (clusters.journal -> clusters.journal.tmp.5),
+     * or through one: the sweep below removed the file, and the journal
+     * with every cluster recorded was lost (rundir.h). */
+    if (cli_refuse_links_through(c->dir, ens_temp_name, "pdla ensemble")) return EXIT_USAGE;
     /* The scan of a large (or forged) journal may take long: a signal
      * stops it, and it has written nothing. A signal after its last poll
      * stops here, before the journal is touched (a torn tail cut, an

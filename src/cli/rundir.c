@@ -157,6 +157,7 @@ struct walk {
     char name[NAME_MAX + 1]; /* WALK_TEMP: the run directory's name that the sweep unlinks */
     int step;                /* WALK_TEMP: name is a directory step, not the end */
     int err;                 /* WALK_ERR: the errno */
+    int (*swept)(const char *name); /* the names the sweep unlinks */
 };
 
 /* A failure that the loader's open meets at the same component (followed
@@ -244,7 +245,7 @@ static enum link_walk walk_link(int dfd, const struct stat *dst, const char *ent
         /* at the end any name but a directory; as a step only a link (a
          * file there fails already, ENOTDIR) */
         const int swept_kind = *r ? S_ISLNK(st.st_mode) : !S_ISDIR(st.st_mode);
-        if (swept_kind && cli_is_temp_name(c) && is_swept_dir(fd, dst)) {
+        if (swept_kind && w->swept(c) && is_swept_dir(fd, dst)) {
             snprintf(w->name, sizeof w->name, "%.*s", NAME_MAX, c); /* fstatat took it: NAME_MAX at most */
             w->step = *r != '\0';
             res = WALK_TEMP;
@@ -291,7 +292,8 @@ static const char *one_line(const char *s, char *out, size_t len)
 }
 
 /* The line for a link of dir (name) that walk_link could not prove safe. */
-static void refuse_link(const char *dir_raw, const char *name_raw, enum link_walk res, const struct walk *w)
+static void refuse_link(const char *who, const char *dir_raw, const char *name_raw, enum link_walk res,
+                        const struct walk *w)
 {
     char dir_b[4 * PATH_MAX + 1], name_b[4 * NAME_MAX + 1], to_b[4 * NAME_MAX + 1];
     const char *const dir = one_line(dir_raw, dir_b, sizeof dir_b), *const name = one_line(name_raw, name_b,
@@ -299,33 +301,34 @@ static void refuse_link(const char *dir_raw, const char *name_raw, enum link_wal
     const char *const keep = "nothing loaded or changed";
     switch (res) {
     case WALK_TEMP:
-        fprintf(stderr, "pdla: cannot resume: %s/%s is a symbolic link %s %s/%s, a temporary name (a killed run's) "
-                "that the resume removes; %s (rename %s and point the link at the new name to resume from it)\n", dir,
+        fprintf(stderr, "%s: cannot resume: %s/%s is a symbolic link %s %s/%s, a temporary name (a killed run's) "
+                "that the resume removes; %s (rename %s and point the link at the new name to resume from it)\n", who, dir,
                 name, w->step ? "through" : "to", dir, one_line(w->name, to_b, sizeof to_b), keep,
                 w->step ? "that link" : "that file");
         break;
     case WALK_LOOP:
-        fprintf(stderr, "pdla: cannot resume: %s/%s is a symbolic link that does not resolve within %d links (a "
+        fprintf(stderr, "%s: cannot resume: %s/%s is a symbolic link that does not resolve within %d links (a "
                 "loop or too long a chain), so it may lead to a temporary name that the resume removes; %s "
-                "(shorten or remove the link)\n", dir, name, LINK_HOPS, keep);
+                "(shorten or remove the link)\n", who, dir, name, LINK_HOPS, keep);
         break;
     case WALK_LONG:
-        fprintf(stderr, "pdla: cannot resume: %s/%s is a symbolic link whose path grows past %zu bytes as it is "
+        fprintf(stderr, "%s: cannot resume: %s/%s is a symbolic link whose path grows past %zu bytes as it is "
                 "followed, so it may lead to a temporary name that the resume removes; %s (shorten the link's "
-                "target)\n", dir, name, sizeof w->rest - 1, keep);
+                "target)\n", who, dir, name, sizeof w->rest - 1, keep);
         break;
     default:
-        fprintf(stderr, "pdla: cannot resume: cannot follow the symbolic link %s/%s: %s; %s\n", dir, name,
-                strerror(w->err), keep);
+        fprintf(stderr, "%s: cannot resume: cannot follow the symbolic link %s/%s: %s; %s\n", who, dir,
+                name, strerror(w->err), keep);
     }
 }
 
-int cli_refuse_temp_links(const char *dir)
+int cli_refuse_links_through(const char *dir, int (*swept)(const char *name), const char *who)
 {
     struct stat dst;
     DIR *d = stat(dir, &dst) == 0 ? opendir(dir) : NULL;
     if (!d) return 0; /* the sweep cannot read it either; the load says why */
     struct walk w;
+    w.swept = swept;
     /* The sweep unlinks dir/NAME by this path, and the resume then writes
      * there by it: a path that goes through a temporary name of the
      * directory itself (--resume D/.checkpoint.h5.new, a link to ".", or
@@ -336,22 +339,27 @@ int cli_refuse_temp_links(const char *dir)
         char dir_b[4 * PATH_MAX + 1], name_b[4 * NAME_MAX + 1];
         one_line(dir, dir_b, sizeof dir_b);
         if (res == WALK_TEMP)
-            fprintf(stderr, "pdla: cannot resume: the run directory %s is named through its own %s, a temporary "
+            fprintf(stderr, "%s: cannot resume: the run directory %s is named through its own %s, a temporary "
                     "name (a killed run's) that the resume removes; nothing loaded or changed (name the run "
-                    "directory by a path without it)\n", dir_b, one_line(w.name, name_b, sizeof name_b));
+                    "directory by a path without it)\n", who, dir_b, one_line(w.name, name_b, sizeof name_b));
         else
-            fprintf(stderr, "pdla: cannot resume: cannot follow the run directory's path %s: %s; nothing loaded "
-                    "or changed\n", dir_b, res == WALK_ERR ? strerror(w.err) : res == WALK_LOOP ? "too many links"
+            fprintf(stderr, "%s: cannot resume: cannot follow the run directory's path %s: %s; nothing loaded "
+                    "or changed\n", who, dir_b, res == WALK_ERR ? strerror(w.err) : res == WALK_LOOP ? "too many links"
                     : "it grows past 8191 bytes as its links are followed");
         closedir(d);
         return 1;
     }
     const struct dirent *de;
     while (res == WALK_SAFE && (de = readdir(d))) {
-        if (cli_is_temp_name(de->d_name)) continue; /* swept itself: a killed run's, not the user's */
+        if (swept(de->d_name)) continue; /* swept itself: a killed run's, not the user's */
         res = walk_link(dirfd(d), &dst, de->d_name, &w);
-        if (res != WALK_SAFE) refuse_link(dir, de->d_name, res, &w);
+        if (res != WALK_SAFE) refuse_link(who, dir, de->d_name, res, &w);
     }
     closedir(d); /* opened to read names only */
     return res != WALK_SAFE;
+}
+
+int cli_refuse_temp_links(const char *dir)
+{
+    return cli_refuse_links_through(dir, cli_is_temp_name, "pdla");
 }

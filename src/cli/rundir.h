@@ -56,4 +56,8 @@ int cli_refuse_temp_resume(const char *path);
  * model's command calls it. */
 int cli_refuse_temp_links(const char *dir);
 
+/* The same for a sweep of the names swept() takes (`pdla ensemble
+ * --resume`: clusters.journal.tmp.*, ...), the line starting "who: ". */
+int cli_refuse_links_through(const char *dir, int (*swept)(const char *name), const char *who);
+
 #endif

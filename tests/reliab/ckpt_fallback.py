@@ -69,10 +69,14 @@ took the damaged one's generation number. Checked here:
     and the writes after it failed (DLA, DLCA exit 1; event exit 2 with
     the link gone); a link to the run directory, or D/sub/.., resumes. A
     link named with a newline is named in the one line as \012.
+  - `pdla ensemble --resume`: clusters.journal a link to
+    clusters.journal.tmp.5, or the folder named through its own
+    ensemble.h5.tmp.7 (a link to "."): refused in one line, exit 2, the
+    folder as it was (the sweep removed the journal); a plain resume goes on.
   - DLA: a run directory of 3900 bytes whose every generation is damaged:
     the one line names each generation file with its reason; the event
     model's checkpoint.h5 and checkpoint.prev.h5 likewise.
-The pdla runs are counted and printed (207; about 3 s of CPU in release).
+The pdla runs are counted and printed (211; about 3 s of CPU in release).
 """
 import glob
 import os
@@ -1034,6 +1038,41 @@ os.replace(os.path.join(Q, "checkpoint.h5"), os.path.join(Q, "mine.h5"))
 os.symlink("mine.h5", os.path.join(Q, "checkpoint.h5"))
 rc, err = resume(Q, 5000)
 check(rc == 0, "DLA: checkpoint.h5 a link to mine.h5: exit %s: %r" % (rc, err))
+
+# --- `pdla ensemble --resume`: its sweep removes clusters.journal.tmp.*,
+# ensemble.h5.tmp.*, ensemble.xdmf2.tmp.*; with clusters.journal a link to
+# clusters.journal.tmp.5 the resume opened the journal, the sweep removed
+# the file (every cluster recorded in it) and the resume failed, "cannot
+# open E/clusters.journal for writing". Refused as the models' resumes
+# are, in one line, exit 2, the folder as it was; so is the ensemble's
+# folder named through such a name of its own; a plain resume goes on.
+EN = W("ens")
+shutil.rmtree(EN, ignore_errors=True)
+shutil.rmtree(EN + ".0", ignore_errors=True)
+rc, err = pdla("ensemble", "--clusters", "3", "--target", "200", "--out", EN, "-q")
+check(rc == 0, "ensemble run: %r" % err)
+shutil.copytree(EN, EN + ".0")
+os.replace(os.path.join(EN, "clusters.journal"), os.path.join(EN, "clusters.journal.tmp.5"))
+os.symlink("clusters.journal.tmp.5", os.path.join(EN, "clusters.journal"))
+before = linked(EN)
+rc, err = pdla("ensemble", "--resume", EN, "--clusters", "4", "-q")
+check(rc == 2 and err.count("\n") == 1 and err.startswith(
+    "pdla ensemble: cannot resume: %s/clusters.journal is a symbolic link to %s/clusters.journal.tmp.5, a temporary "
+    "name" % (EN, EN)) and linked(EN) == before, "ensemble: the journal a link to a temporary name: exit %s: %r"
+      % (rc, err))
+shutil.rmtree(EN)
+shutil.copytree(EN + ".0", EN)
+os.symlink(".", os.path.join(EN, "ensemble.h5.tmp.7"))
+before = linked(EN)
+rc, err = pdla("ensemble", "--resume", os.path.join(EN, "ensemble.h5.tmp.7"), "--clusters", "4", "-q")
+check(rc == 2 and err.count("\n") == 1 and err.startswith(
+    "pdla ensemble: cannot resume: the run directory %s/ensemble.h5.tmp.7 is named through its own "
+    "ensemble.h5.tmp.7, a temporary name" % EN) and linked(EN) == before,
+      "ensemble: the folder named through its own temporary name: exit %s: %r" % (rc, err))
+shutil.rmtree(EN)
+os.replace(EN + ".0", EN)
+rc, err = pdla("ensemble", "--resume", EN, "--clusters", "4", "-q")
+check(rc == 0, "ensemble: a plain resume: exit %s: %r" % (rc, err))
 
 print("ckpt_fallback: %d pdla runs, %d failures" % (runs, len(failures)))
 _ru = resource.getrusage(resource.RUSAGE_CHILDREN)

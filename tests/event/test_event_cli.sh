@@ -117,6 +117,21 @@ cmp -s "$t/past/cluster.h5" "$t/past.h5" || fail "resume --t-max passed: cluster
 "$pdla" --model event --resume "$t/past" --max-events 3001 --quiet 2>"$t/err" ||
     fail "resume after --t-max passed: $(cat "$t/err")"
 [ -s "$t/err" ] && fail "resume after --t-max passed: $(cat "$t/err")"
+# An event checkpoint given to info, render or analyze is refused with one
+# line, exit 2 (README, the event model: it is resumed, not read as a
+# cluster file); render writes no picture
+for tool in info "info --json" render analyze "analyze --json"; do
+    rm -f "$t/ck.png"
+    o=""
+    [ "$tool" = render ] && o="-o $t/ck.png"
+    # shellcheck disable=SC2086 # $tool and $o are split on purpose
+    "$pdla" $tool "$t/past/checkpoint.h5" $o >"$t/out" 2>"$t/err"
+    rc=$?
+    [ $rc -eq 2 ] && [ "$(wc -l <"$t/err")" -eq 1 ] && [ ! -s "$t/out" ] &&
+        grep -q "is not a pdla cluster file .*event checkpoint continues with pdla --model event --resume" "$t/err" ||
+        fail "$tool of an event checkpoint: exit $rc: $(cat "$t/err") $(head -c 200 "$t/out")"
+    [ -e "$t/ck.png" ] && fail "render of an event checkpoint wrote a picture"
+done
 # --seeds FILE: three seeds (box side 68.6 for 300 disks at packing 0.05),
 # all stick, /cluster holds the seeds; bad files refused with one line
 printf '# x y r\n20 20 1\n50 50 1.5\n\n20 50 0.5  # small\n' >"$t/seeds"

@@ -144,6 +144,18 @@ grep -Eq "^checkpoints +([2-9]|[1-9][0-9]+) written" sig/summary.txt || fail "pe
 for a in pause_seconds previous_write_seconds; do # README: each checkpoint's root attributes
     h5dump -a /$a sig/checkpoint.h5 2>/dev/null | grep -Eq '\(0\): [0-9.e+-]+$' || fail "checkpoint attribute $a missing"
 done
+# README: the first checkpoint a resumed run writes has previous_write_seconds
+# 0, the earlier write's time is not carried over. periodic2's last checkpoint
+# (not its first write) has a time above 0; a bare resume 500 particles on
+# (its schedule, every 1000, does not come again) writes only its final one.
+prevw() { h5dump -a /previous_write_seconds "$1" 2>/dev/null | sed -n 's/^ *(0): *\([0-9.e+-]*\)$/\1/p'; }
+p1=$(prevw periodic2/checkpoint.h5)
+awk -v v="$p1" 'BEGIN { exit !(v > 0) }' || fail "previous_write_seconds of a later write: '$p1', want > 0"
+run --resume periodic2 --target $((N + 500)) -q
+[ "$rc" -eq 0 ] || fail "resume periodic2: $(cat err)"
+[ "$(prevw periodic2/checkpoint.h5)" = 0 ] ||
+    fail "first checkpoint of a resumed run: previous_write_seconds '$(prevw periodic2/checkpoint.h5)', want 0"
+[ "$(prevw periodic2/checkpoint.1.h5)" = "$p1" ] || fail "generations after the resume: $(ls periodic2)"
 n2=$(sed -n 's/^particles *\([0-9]*\) .*/\1/p' sig/summary.txt)
 [ "$n2" -gt "$n1" ] || fail "no growth after resume ($n1 -> $n2)"
 run --resume sig -q --target $((n2 + 500)) --threads 2

@@ -146,6 +146,34 @@ good "analyze c2" analyze c2/cluster.h5 --csv m_tree
 good "analyze c2a" analyze c2a/cluster.h5 --csv m_arr
 checks=$((checks + 1))
 cmp -s m_tree/mass_radius.csv m_arr/mass_radius.csv || fail "--arrival changed the cluster"
+# README: M(r) at r = 10^(i/K) diameters (--per-decade K, default 20), fitted
+# over r in [--fit-min (default 5), --fit-max (default 0.3) x R_ext]: the CSV's
+# radii and in_fit rows, and the JSON's fit range, by default and when given.
+grid_ok() { # CSV JSON K LO FRAC
+    checks=$((checks + 1))
+    "$PY" - "$@" <<'EOF' || fail "analyze M(r) grid or fit range ($*)"
+import csv, json, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+j, k, lo, frac = json.load(open(sys.argv[2])), int(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5])
+hi = frac * j["r_ext_diam"]
+assert len(rows) > 2 * k, len(rows)
+for i, r in enumerate(rows):
+    x = float(r["r_diam"])
+    assert abs(x / 10 ** (i / k) - 1) < 1e-12, (i, x)
+    assert r["in_fit"] == ("1" if lo <= x <= hi else "0"), (i, x, r["in_fit"], lo, hi)
+fit = [r for r in rows if r["in_fit"] == "1"]
+assert len(fit) == j["mr_fit_points"] >= 3, (len(fit), j["mr_fit_points"])
+assert j["mr_fit_r_lo_diam"] == lo and abs(j["mr_fit_r_hi_diam"] / hi - 1) < 1e-12, j
+EOF
+}
+good "analyze c2 json" analyze --json c2/cluster.h5
+cp out c2.json
+grid_ok m_tree/mass_radius.csv c2.json 20 5 0.3
+good "analyze K=10" analyze --json c2/cluster.h5 --per-decade 10 --fit-min 8 --fit-max 0.5 --csv m_k10
+cp out c2k10.json
+grid_ok m_k10/mass_radius.csv c2k10.json 10 8 0.5
+bad "analyze per-decade 1" analyze c2/cluster.h5 --per-decade 1
+bad "analyze fit-min 0" analyze c2/cluster.h5 --fit-min 0
 for k in disc:1.99:2.01 line:0.995:1.005 ball:2.97:3.03; do
     shape=${k%%:*}
     rest=${k#*:}

@@ -196,6 +196,40 @@ for sz in 100abc 15 8193 -64 ""; do
     "$pdla" render "$t/r/cluster.h5" -o "$t/rs.png" --size "$sz" >/dev/null 2>"$t/err"
     [ $? -eq 2 ] && [ "$(wc -l <"$t/err")" -eq 1 ] && [ ! -e "$t/rs.png" ] || fail "render --size '$sz': $(cat "$t/err")"
 done
+# The picture's colours (README: stuck particles coloured by arrival, seeds
+# white, free ones grey): a 2D run stopped at 20 stuck, at the centre pixel
+# of the seed, of every free disk, of the first stuck disk (dark blue) and of
+# the last (yellow). Needs h5py and PIL (matplotlib's dependency).
+if /usr/bin/python3 -c "import h5py, PIL" 2>/dev/null; then
+    "$pdla" --model event --particles 300 --packing 0.05 --seed 5 --max-stuck 20 --out "$t/col" --quiet ||
+        fail "colour run"
+    "$pdla" render "$t/col/cluster.h5" -o "$t/col.png" --size 512 || fail "colour render"
+    /usr/bin/python3 - "$t/col/cluster.h5" "$t/col.png" <<'EOF' || fail "render colours (above)"
+import sys, h5py
+from PIL import Image
+f = h5py.File(sys.argv[1], "r")
+im = Image.open(sys.argv[2]).convert("RGB")
+n, L = im.size[0], float(f["results"].attrs["box_side"])
+def pix(x, y):
+    return im.getpixel((int(x * n / L), n - 1 - int(y * n / L)))
+bad = []
+c = f["cluster"]
+if pix(c.attrs["seed_x"], c.attrs["seed_y"]) != (255, 255, 255):
+    bad.append("seed %s" % (pix(c.attrs["seed_x"], c.attrs["seed_y"]),))
+free, stuck = f["free/positions"][:], c["positions"][:]
+assert len(free) > 200 and len(stuck) == 20, (len(free), len(stuck))
+bad += ["free %d %s" % (i, pix(*p)) for i, p in enumerate(free) if pix(*p) != (110, 110, 110)]
+if pix(*stuck[0]) != (20, 20, 120):
+    bad.append("first stuck %s" % (pix(*stuck[0]),))
+if pix(*stuck[-1]) != (250, 240, 80):
+    bad.append("last stuck %s" % (pix(*stuck[-1]),))
+if bad:
+    print("FAIL: render colours: " + "; ".join(bad[:5]))
+    sys.exit(1)
+EOF
+else
+    echo "skip: render colours (no h5py or PIL)"
+fi
 expect_usage "existing dir" --model event --particles 300 --packing 0.05 --out "$t/r"
 "$pdla" --model event --dim 3 --particles 200 --packing 0.05 --seed 4 --out "$t/r" --force >/dev/null ||
     fail "--force"

@@ -502,9 +502,22 @@ static int apply_entries(const cli_options *base, const scene *sc, int skip, cli
     return CLI_PARSE_OK;
 }
 
+/* Run options that exclude each other (not parameters, which the table
+ * checks): the one-line reason, or NULL. */
+static const char *run_option_clash(const cli_options *o)
+{
+    if (o->no_output && o->out_dir) return "--no-output and --out exclude each other";
+    if (o->no_output && o->force) return "--no-output and --force exclude each other";
+    if (o->no_output && o->checkpoint) return "checkpoints need a run directory: --no-output excludes them";
+    if (o->resume && (o->out_dir || o->force))
+        return "--resume continues in the checkpoint's run directory: --out and --force do not apply";
+    return NULL;
+}
+
 /* The line to blame for an invalid scene: the one that sets the parameter
- * the validation named, else one whose removal makes the scene valid, else 0. */
-static int blame_line(const cli_options *base, const scene *sc, const pdla_param_desc *bad)
+ * the validation named, else one whose removal makes the scene valid (its
+ * parameters, and with `clash` its run options too), else 0. */
+static int blame_line(const cli_options *base, const scene *sc, const pdla_param_desc *bad, int clash)
 {
     for (int i = 0; bad && i < sc->n; i++)
         if (!strcmp(sc->entries[i].key, bad->option)) return sc->entries[i].line;
@@ -513,7 +526,7 @@ static int blame_line(const cli_options *base, const scene *sc, const pdla_param
     char ignore[512];
     for (int i = sc->n - 1; t2 && i >= 0 && !blamed; i--)
         if (apply_entries(base, sc, i, t2, &unused, ignore, sizeof ignore) == CLI_PARSE_OK &&
-            pdla_params_validate(&t2->params, ignore, sizeof ignore) == PDLA_OK)
+            pdla_params_validate(&t2->params, ignore, sizeof ignore) == PDLA_OK && !(clash && run_option_clash(t2)))
             blamed = sc->entries[i].line;
     free(t2);
     return blamed;
@@ -550,8 +563,14 @@ static int apply_scene(const char *name, const scene *sc, cli_options *o, char *
         size_t np;
         const pdla_param_desc *t = pdla_param_table(&np);
         const pdla_param_desc *bad = NULL;
-        if (pdla_param_validate(t, np, &tmp->params, &bad, why, sizeof why) != PDLA_OK) {
-            const int line = blame_line(o, sc, bad);
+        const char *clash = NULL;
+        const int params_bad = pdla_param_validate(t, np, &tmp->params, &bad, why, sizeof why) != PDLA_OK;
+        if (!params_bad && (clash = run_option_clash(tmp)) != NULL) snprintf(why, sizeof why, "%s", clash);
+        if (params_bad || clash) {
+            /* A scene that is not a valid run on its own: its parameters, or
+             * run options it sets that exclude each other (no-output with
+             * out, force or a checkpoint; resume with out or force). */
+            const int line = blame_line(o, sc, bad, clash != NULL);
             rc = line ? pdla_errorf(CLI_PARSE_ERROR, err, errlen, "%s:%d: %s", name, line, why)
                       : pdla_errorf(CLI_PARSE_ERROR, err, errlen, "%s: %s", name, why);
         } else {
@@ -652,15 +671,8 @@ static int parse_all(int argc, char **argv, cli_options *out, int apart, char *e
     if (rc != CLI_PARSE_OK) return rc;
     if (out->action != CLI_RUN) return CLI_PARSE_EXIT;
 
-    if (out->no_output && out->out_dir)
-        return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "--no-output and --out exclude each other");
-    if (out->no_output && out->force)
-        return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "--no-output and --force exclude each other");
-    if (out->no_output && out->checkpoint)
-        return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "checkpoints need a run directory: --no-output excludes them");
-    if (out->resume && (out->out_dir || out->force))
-        return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "--resume continues in the checkpoint's run directory: "
-                                 "--out and --force do not apply");
+    const char *clash = run_option_clash(out);
+    if (clash) return pdla_errorf(CLI_PARSE_ERROR, err, errlen, "%s", clash);
     return cli_check_params(&out->params, err, errlen);
 }
 

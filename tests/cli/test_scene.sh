@@ -43,6 +43,16 @@ bad "missing =" "1: missing '='" 'target 1000\n'
 bad "bad value" "2: invalid value '1e6x' for --target" 'dim = 2\ntarget = 1e6x\n'
 bad "out of range" "1: eps must be in [2, resolution/2 = 16] units, got 1" 'eps = 1\n'
 bad "empty value" "1: missing value for 'dim'" 'dim =\n'
+# Run options the scene sets that exclude each other: not a valid run on its
+# own either, so the line is named too (they were one line without it)
+bad "no-output and out" "3: --no-output and --out exclude each other" 'dim = 2\nno-output = yes\nout = x\n'
+bad "checkpoint and no-output" "2: checkpoints need a run directory" 'checkpoint-every = 5\nno-output = yes\n'
+bad "resume and force" "2: --resume continues in the checkpoint's run directory" 'resume = d\nforce = yes\n'
+# with one of the two on the command line the scene is valid on its own
+printf 'target = 100\nout = x\n' >"$tmp/work/o.scene"
+run --scene o.scene --no-output
+[ "$rc" -eq 2 ] && [ "$(cat "$tmp/err")" = "pdla: --no-output and --out exclude each other" ] ||
+    fail "scene out, --no-output: $rc $(cat "$tmp/err")"
 run --scene "$tmp/work/none.scene"
 [ "$rc" -eq 2 ] && grep -q "^pdla: cannot open scene .*none.scene: No such file" "$tmp/err" ||
     fail "missing scene file: $rc $(cat "$tmp/err")"

@@ -207,6 +207,62 @@ good "render arrival" render c2a/cluster.h5 -o ra.png --size 128 --color arrival
 "$FIX" png ra.png 128 128 >/dev/null || fail "ra.png"
 good "render zoomed discs" render c2/cluster.h5 -o rz.png --size 400 --zoom 4
 "$FIX" png rz.png 400 400 >/dev/null || fail "rz.png"
+# Where render puts the particles (README: 2D as they are, x right and y up;
+# 3D projected along --axis, default z; --zoom F magnifies F times around
+# the seed): every particle's centre pixel is lit and every lit pixel lies
+# within its disc (D/2 in pixels, plus 1.5 for the anti-aliased rim) of a
+# particle's centre. The whole cluster spans the picture centred on its
+# bounding box (half width: half the longer side plus D); zoomed, the seed is
+# the centre and the half width is F times smaller.
+if $PY -c "import h5py, numpy, PIL" 2>/dev/null; then
+    good "render 3D default axis" render c3/cluster.h5 -o geo-c3-.png --size 256
+    for ax in x y z; do good "render 3D --axis $ax" render c3/cluster.h5 -o geo-c3-$ax.png --size 256 --axis $ax; done
+    good "render 2D" render c2/cluster.h5 -o geo-c2-.png --size 256
+    good "render 2D zoom 3" render c2/cluster.h5 -o geo-c2-3.png --size 256 --zoom 3
+    good "render 3D zoom 2" render c3/cluster.h5 -o geo-c3-z2.png --size 256 --axis y --zoom 2
+    checks=$((checks + 1))
+    $PY - <<'EOF' || fail "render geometry (above)"
+import sys, h5py, numpy as np
+from PIL import Image
+def check(h5, png, axis, zoom):
+    p = h5py.File(h5, "r")["cluster/positions"][:].astype(float)
+    D = 32.0
+    u, v = {"x": (1, 2), "y": (0, 2), "z": (0, 1)}[axis] if p.shape[1] == 3 else (0, 1)
+    im = np.asarray(Image.open(png).convert("RGB")).astype(int)
+    S = im.shape[0]
+    lit = np.any(im != im[0, 0], axis=2)
+    lo, hi = p.min(0), p.max(0)
+    half = 0.5 * max(hi[u] - lo[u], hi[v] - lo[v]) + D
+    cu, cv = (0.5 * (lo[u] + hi[u]), 0.5 * (lo[v] + hi[v])) if zoom == 1 else (0.0, 0.0)
+    half /= zoom
+    s = 0.5 * S / half
+    px = (p[:, u] - cu) * s + 0.5 * S
+    py = 0.5 * S - (p[:, v] - cv) * s
+    near = np.zeros_like(lit)
+    r = 0.5 * D * s + 1.5
+    yy, xx = np.mgrid[0:S, 0:S] + 0.5
+    inside = (px >= 0) & (px < S) & (py >= 0) & (py < S)
+    for x, y in zip(px, py):
+        a, b = int(max(0, x - r - 1)), int(min(S, x + r + 2))
+        c, d = int(max(0, y - r - 1)), int(min(S, y + r + 2))
+        if a < b and c < d:
+            near[c:d, a:b] |= (xx[c:d, a:b] - x) ** 2 + (yy[c:d, a:b] - y) ** 2 <= r * r
+    unlit = [(x, y) for x, y in zip(px[inside], py[inside]) if not lit[int(y), int(x)]]
+    stray = np.count_nonzero(lit & ~near)
+    if unlit or stray or not inside.any():
+        print("FAIL: %s (axis %s, zoom %g): %d particle centres unlit (first %s), %d lit pixels off every particle, %d in view"
+              % (png, axis, zoom, len(unlit), unlit[:1], stray, np.count_nonzero(inside)))
+        return 1
+    return 0
+bad = sum(check(*c) for c in (("c3/cluster.h5", "geo-c3-.png", "z", 1), ("c3/cluster.h5", "geo-c3-x.png", "x", 1),
+                              ("c3/cluster.h5", "geo-c3-y.png", "y", 1), ("c3/cluster.h5", "geo-c3-z.png", "z", 1),
+                              ("c2/cluster.h5", "geo-c2-.png", "z", 1), ("c2/cluster.h5", "geo-c2-3.png", "z", 3),
+                              ("c3/cluster.h5", "geo-c3-z2.png", "y", 2)))
+sys.exit(1 if bad else 0)
+EOF
+else
+    echo "skipping the render geometry check (no h5py, numpy or PIL)"
+fi
 good "render --force" render c2/cluster.h5 -o r1.png --size 64 --force
 "$FIX" png r1.png 64 64 >/dev/null || fail "--force did not replace r1.png"
 

@@ -207,6 +207,38 @@ good "render arrival" render c2a/cluster.h5 -o ra.png --size 128 --color arrival
 "$FIX" png ra.png 128 128 >/dev/null || fail "ra.png"
 good "render zoomed discs" render c2/cluster.h5 -o rz.png --size 400 --zoom 4
 "$FIX" png rz.png 400 400 >/dev/null || fail "rz.png"
+# The R_g sample grid (README, What it computes): N_0 = 1, then
+# N_k = round(10^(k/K)) or N_(k-1) + 1 where that is not larger, up to the
+# cluster's N (K = --rg-per-decade, default 100: every N up to 238, then 240,
+# 245, 251, ...); c2 (3000 particles, default) and a run with K = 7.
+"$PDLA" -q --dim 2 --target 500 --seed 2 --rg-per-decade 7 --out k7 || fail "grow k7"
+if $PY -c "import h5py" 2>/dev/null; then
+    checks=$((checks + 1))
+    $PY - <<'EOF' || fail "R_g sample grid (above)"
+import sys, h5py
+bad = 0
+for h5, k_per, n in (("c2/cluster.h5", 100, 3000), ("k7/cluster.h5", 7, 500)):
+    got = [int(x) for x in h5py.File(h5, "r")["gyration/N"][:]]
+    want, k = [1], 1
+    while True:
+        x = max(round(10 ** (k / k_per)), want[-1] + 1)
+        if x > n:
+            break
+        want.append(x)
+        k += 1
+    if got != want:
+        print("FAIL: %s /gyration/N %s ..., want %s ..." % (h5, got[:12], want[:12]))
+        bad += 1
+c2 = [int(x) for x in h5py.File("c2/cluster.h5", "r")["gyration/N"][:]]
+if c2[:238] != list(range(1, 239)) or c2[238:241] != [240, 245, 251]:
+    print("FAIL: c2 /gyration/N %s" % c2[230:245])
+    bad += 1
+sys.exit(1 if bad else 0)
+EOF
+else
+    echo "skipping the R_g grid check (no h5py)"
+fi
+
 # Where render puts the particles (README: 2D as they are, x right and y up;
 # 3D projected along --axis, default z; --zoom F magnifies F times around
 # the seed): every particle's centre pixel is lit and every lit pixel lies

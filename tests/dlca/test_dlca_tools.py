@@ -99,6 +99,24 @@ def main():
                             cols = {tuple(im[L[1] - 1 - y, x]) for x, y in p[:, :2]}
                             bad += len(cols) != 1
                         check(bad == 0, "%s: %d clusters drawn in more than one colour" % (box, bad))
+                    if d == 3:
+                        # README: the monomer with the highest third coordinate
+                        # wins a pixel, shaded by depth (brightest on top: the
+                        # colour's value 0.95 (0.4 + 0.6 z / (L_3 - 1))), one
+                        # colour per cluster and depth
+                        top = {}
+                        for p, c in zip(pos, cid):
+                            xy = (int(p[0]), L[1] - 1 - int(p[1]))
+                            if xy not in top or p[2] > top[xy][0]:
+                                top[xy] = (int(p[2]), int(c))
+                        seen, bad = {}, []
+                        for (x, y), (z, c) in top.items():
+                            col = tuple(im[y, x])
+                            v = 255 * 0.95 * (0.4 + 0.6 * z / (L[2] - 1))
+                            if abs(max(col) - v) > 0.5 + 1e-9 or seen.setdefault((c, z), col) != col:
+                                bad.append((x, y, z, c, col, v))
+                        check(not bad, "%s: %d pixels not the top monomer's colour and depth shade (first %s)" %
+                              (box, len(bad), bad[:1]))
             # analyze
             rc, so, se = run([pdla, "analyze", "--json", h5])
             if not check(rc == 0, "%s: analyze exit %d: %s" % (box, rc, se)):

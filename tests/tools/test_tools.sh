@@ -295,6 +295,12 @@ EOF
 else
     echo "skipping the render geometry check (no h5py, numpy or PIL)"
 fi
+# README: --size default 1024, --color default density, --axis default z
+good "render defaults" render c3/cluster.h5 -o def.png
+"$FIX" png def.png 1024 1024 >/dev/null || fail "render without --size: not 1024 x 1024"
+good "render defaults given" render c3/cluster.h5 -o defg.png --size 1024 --color density --axis z
+checks=$((checks + 1))
+cmp -s def.png defg.png || fail "render's defaults are not --size 1024 --color density --axis z"
 good "render --force" render c2/cluster.h5 -o r1.png --size 64 --force
 "$FIX" png r1.png 64 64 >/dev/null || fail "--force did not replace r1.png"
 

@@ -165,6 +165,28 @@ def run_checks(tmp):
             check(stats.get("binding") == want, "--bind core: --stats-json binding %r, want %r" %
                   (stats.get("binding"), want))
 
+    # ---- --threads 0: one worker per physical core (README, Threads) --------------------
+    r = grown(tmp, "zero", ["--threads", "0"])
+    if r and cores:
+        a, summary, stats = r
+        check(a["results"].get("threads") == str(cores), "--threads 0: /results threads %r, want %d (the cores of "
+              "/Code topology)" % (a["results"].get("threads"), cores))
+        check(re.search(r"^threads +%d after 300 serial particles" % cores, summary, re.M) is not None,
+              "--threads 0: summary.txt threads line, want %d:\n%s" % (cores, summary))
+        # the same count from Linux: distinct (package, core) of the CPUs this process may use
+        try:
+            seen = set()
+            for c in os.sched_getaffinity(0):
+                t = "/sys/devices/system/cpu/cpu%d/topology/" % c
+                with open(t + "physical_package_id") as fp, open(t + "core_id") as fc:
+                    seen.add((fp.read().strip(), fc.read().strip()))
+        except OSError:
+            seen = None
+            print("skipping the /sys core count: no CPU topology there")
+        if seen:
+            check(len(seen) == cores, "--threads 0: %d cores in /Code topology, %d (package, core) pairs in /sys" %
+                  (cores, len(seen)))
+
     # ---- the pinning, seen from outside ---------------------------------------------------
     if not os.path.isdir("/proc/self/task"):
         print("skipping the pinning check: no /proc")

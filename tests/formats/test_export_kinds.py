@@ -217,6 +217,20 @@ def main():
     try:
         if grow(["--dim", "3", "--target", "800", "--seed", "3", "--arrival", "--out", "dla", "-q"], "DLA"):
             export_all("dla/cluster.h5", "dla", "dla")
+        # README: a DLA CSV is fixed point "with as many decimals as make x/D
+        # exact (5 at D = 32)": 2 at D = 4, 7 at D = 128, x and y exactly
+        # the positions / D (compared as decimal text, not as floats)
+        for res, dec in ((4, 2), (128, 7)):
+            tag = "dla%d" % res
+            if grow(["--target", "300", "--resolution", str(res), "--seed", "2", "--out", tag, "-q"], tag):
+                rc, _, se = run([PDLA, "export", tag + "/cluster.h5", "-o", tag + ".csv"])
+                if check(rc == 0, "%s: export exit %d: %s" % (tag, rc, se.strip())):
+                    pos = h5py.File(tag + "/cluster.h5", "r")["cluster/positions"][:]
+                    rows = open(tag + ".csv").read().split("\n")[1:-1]
+                    off = [r for r, p in zip(rows, pos) for f, x in zip(r.split(",")[:2], p)
+                           if len(f.split(".")[1]) != dec or f != "%.*f" % (dec, x / res)]
+                    check(len(rows) == len(pos) and not off, "%s: %d rows for %d particles, want %d decimals, x/D "
+                          "exactly (first bad row %s)" % (tag, len(rows), len(pos), dec, off[:1]))
         if grow(["ensemble", "--clusters", "3", "--target", "400", "--seed", "4", "--keep-positions", "--arrival",
                  "--out", "e2", "-q"], "2D ensemble"):
             export_all("e2/ensemble.h5", "ensemble", "e2all")

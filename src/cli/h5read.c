@@ -269,15 +269,22 @@ static herr_t attr_cb(hid_t obj, const char *name, const H5A_info_t *info, void 
     (void)info;
     h5r_attrs *const out = data;
     pdla_h5_value v;
-    /* Only scalars are listed; a string cut to 4 KB is still one. */
-    if (pdla_h5_attr_value(obj, name, &v) < 0 || !v.read || v.n != 1) return 0;
+    /* Scalars are listed, and arrays of a few numbers (pdla's mutex
+     * counters); a string cut to 4 KB is still one. */
+    if (pdla_h5_attr_value(obj, name, &v) < 0 || !v.read || v.n < 1 || v.n > PDLA_H5_MAX_ELEMS ||
+        (v.n > 1 && v.kind == 's'))
+        return 0;
     h5r_attr at;
     memset(&at, 0, sizeof at);
     snprintf(at.name, sizeof at.name, "%s", name);
     at.kind = v.kind;
+    at.n = (int)v.n;
     at.i = v.i[0];
     at.u = v.u[0];
     at.f = v.f[0];
+    memcpy(at.iv, v.i, sizeof at.iv);
+    memcpy(at.uv, v.u, sizeof at.uv);
+    memcpy(at.fv, v.f, sizeof at.fv);
     if (v.kind == 's' && !(at.s = strdup(v.s))) return -1;
     if (out->n == out->cap) {
         const size_t cap = out->cap ? 2 * out->cap : 32;
@@ -318,7 +325,7 @@ void h5r_attrs_free(h5r_attrs *a)
 const h5r_attr *h5r_attr_find(const h5r_attrs *a, const char *name)
 {
     for (size_t i = 0; i < a->n; i++)
-        if (strcmp(a->a[i].name, name) == 0) return &a->a[i];
+        if (a->a[i].n == 1 && strcmp(a->a[i].name, name) == 0) return &a->a[i]; /* a scalar, as asked for */
     return NULL;
 }
 

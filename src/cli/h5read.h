@@ -31,15 +31,21 @@ typedef struct h5r_file {
     int damaged;        /* h5r_open failed on a file HDF5 calls its own but cannot open (truncated) */
 } h5r_file;
 
-/* One scalar attribute. kind: 'i' signed integer, 'u' unsigned, 'f' real,
- * 's' string (s is malloc'ed). */
+/* One attribute: a scalar, or a short array of numbers (n of 2 to
+ * PDLA_H5_MAX_ELEMS, as the /results mutex counters). kind: 'i' signed
+ * integer, 'u' unsigned, 'f' real, 's' string (s is malloc'ed, scalars
+ * only); i, u, f the first element, iv, uv, fv all n. */
 typedef struct h5r_attr {
     char name[64];
     char kind;
+    int n;
     int64_t i;
     uint64_t u;
     double f;
     char *s;
+    int64_t iv[PDLA_H5_MAX_ELEMS];
+    uint64_t uv[PDLA_H5_MAX_ELEMS];
+    double fv[PDLA_H5_MAX_ELEMS];
 } h5r_attr;
 
 typedef struct h5r_attrs {
@@ -75,8 +81,9 @@ int h5r_read_series(h5r_file *f, uint64_t **n, double **rg_diam, size_t *k, char
 int h5r_read_series_max(h5r_file *f, uint64_t max_rows, uint64_t **n, double **rg_diam, size_t *k, char *err,
                         size_t errlen);
 
-/* Scalar attributes of the object at `where` ("/", "/parameters", ...), in
- * name order. A missing object gives an empty list. 0 or -1 with err. */
+/* Attributes of the object at `where` ("/", "/parameters", ...), in name
+ * order: the scalars and the arrays of up to PDLA_H5_MAX_ELEMS numbers. A
+ * missing object gives an empty list. 0 or -1 with err. */
 int h5r_read_attrs(h5r_file *f, const char *where, h5r_attrs *out, char *err, size_t errlen);
 void h5r_attrs_free(h5r_attrs *a);
 const h5r_attr *h5r_attr_find(const h5r_attrs *a, const char *name);

@@ -34,6 +34,16 @@ static void json_num(FILE *o, double v)
 
 static void json_attr(FILE *o, const h5r_attr *a)
 {
+    if (a->n > 1) { /* an array of numbers */
+        for (int k = 0; k < a->n; k++) {
+            fputs(k ? ", " : "[", o);
+            if (a->kind == 'i') fprintf(o, "%lld", (long long)a->iv[k]);
+            else if (a->kind == 'u') fprintf(o, "%llu", (unsigned long long)a->uv[k]);
+            else json_num(o, a->fv[k]);
+        }
+        fputc(']', o);
+        return;
+    }
     switch (a->kind) {
     case 'i': fprintf(o, "%lld", (long long)a->i); break;
     case 'u': fprintf(o, "%llu", (unsigned long long)a->u); break;
@@ -58,6 +68,15 @@ static void json_group(FILE *o, const char *name, const h5r_attrs *g, int last)
 
 static void text_attr(FILE *o, const h5r_attr *a)
 {
+    if (a->n > 1) { /* an array of numbers, blank-separated */
+        for (int k = 0; k < a->n; k++) {
+            if (k) fputc(' ', o);
+            if (a->kind == 'i') fprintf(o, "%lld", (long long)a->iv[k]);
+            else if (a->kind == 'u') fprintf(o, "%llu", (unsigned long long)a->uv[k]);
+            else fprintf(o, "%.10g", a->fv[k]);
+        }
+        return;
+    }
     switch (a->kind) {
     case 'i': fprintf(o, "%lld", (long long)a->i); break;
     case 'u': fprintf(o, "%llu", (unsigned long long)a->u); break;

@@ -122,6 +122,45 @@ checks=$((checks + 1))
 good "info threaded arrival" info t2a/cluster.h5
 grep -q "^particles    5000 in 2D, positions in arrival order" out || fail "t2a: $(head -3 out)"
 good "render threaded arrival" render t2a/cluster.h5 -o t2a.png --size 64 --color arrival
+# README: info prints "every attribute of /parameters, /results and /Code as
+# stored": the JSON groups hold exactly h5py's attributes with their values
+# (the mutex counters, arrays of 3, as arrays: they were left out), and the
+# text lists each name with its value(s)
+if $PY -c "import h5py, numpy" 2>/dev/null; then
+    for c in c2 t2a; do
+        good "info json $c" info --json $c/cluster.h5
+        cp out info-$c.json
+        good "info text $c" info $c/cluster.h5
+        cp out info-$c.txt
+        checks=$((checks + 1))
+        $PY - $c/cluster.h5 info-$c.json info-$c.txt <<'EOF' || fail "info attributes of $c (above)"
+import json, sys, h5py, numpy as np
+f, j, text = h5py.File(sys.argv[1], "r"), json.load(open(sys.argv[2])), open(sys.argv[3]).read()
+bad = []
+def same(h, v):
+    if isinstance(h, bytes):
+        return v == h.decode()
+    h = np.asarray(h).ravel().tolist()
+    v = v if isinstance(v, list) else [v]
+    return len(h) == len(v) and all(a == b or (isinstance(a, float) and abs(a - b) <= 1e-15 * abs(a)) for a, b in zip(h, v))
+for g in ("parameters", "results", "Code"):
+    a = dict(f[g].attrs)
+    if set(a) != set(j[g]):
+        bad.append("%s: names only in the file %s, only in the JSON %s" % (g, sorted(set(a) - set(j[g])), sorted(set(j[g]) - set(a))))
+    bad += ["%s %s: file %r, JSON %r" % (g, k, a[k], j[g][k]) for k in a if k in j[g] and not same(a[k], j[g][k])]
+    section = text.split("[%s]\n" % g)[1].split("\n\n")[0]
+    names = [line.split()[0] for line in section.splitlines() if line.strip()]
+    if sorted(names) != sorted(a):
+        bad.append("text [%s]: %s, want %s" % (g, names, sorted(a)))
+m = np.asarray(f["results"].attrs["mutex_taken"]).tolist()
+if ("  %-20s %s\n" % ("mutex_taken", " ".join(map(str, m)))) not in text:
+    bad.append("text: no 'mutex_taken %s' line" % m)
+if bad:
+    print("FAIL: info: " + "; ".join(bad[:4]))
+    sys.exit(1)
+EOF
+    done
+fi
 good "info synthetic" info --json disc.h5
 cp out infod.json
 json_ok infod.json

@@ -331,6 +331,33 @@ bad = sum(check(*c) for c in (("c3/cluster.h5", "geo-c3-.png", "z", 1), ("c3/clu
                               ("c3/cluster.h5", "geo-c3-z2.png", "y", 2)))
 sys.exit(1 if bad else 0)
 EOF
+    # README: --color radius colours by the distance from the seed and
+    # --color arrival by arrival order, in the inferno map, whose brightness
+    # rises: at each particle's centre pixel (discs of about 5 pixels) the
+    # brightness never falls (beyond 1 of 255) along that order, from dark to
+    # bright
+    good "render radius colours" render c2a/cluster.h5 -o col-r.png --size 1024 --color radius
+    good "render arrival colours" render c2a/cluster.h5 -o col-a.png --size 1024 --color arrival
+    checks=$((checks + 1))
+    $PY - <<'EOF' || fail "render colour order (above)"
+import sys, h5py, numpy as np
+from PIL import Image
+p = h5py.File("c2a/cluster.h5", "r")["cluster/positions"][:].astype(float)
+S, D = 1024, 32.0
+lo, hi = p.min(0), p.max(0)
+s = 0.5 * S / (0.5 * max(hi - lo) + D)
+px = ((p[:, 0] - 0.5 * (lo[0] + hi[0])) * s + 0.5 * S).astype(int)
+py = (0.5 * S - (p[:, 1] - 0.5 * (lo[1] + hi[1])) * s).astype(int)
+bad = 0
+for png, key in (("col-r.png", np.hypot(p[:, 0], p[:, 1])), ("col-a.png", np.arange(len(p)))):
+    im = np.asarray(Image.open(png).convert("RGB")).astype(float)
+    lum = (im[py, px] @ [0.299, 0.587, 0.114])[np.argsort(key, kind="stable")]
+    drops = np.count_nonzero(np.diff(lum) < -1)
+    if drops or lum[0] > 40 or lum[-1] < 200:
+        print("FAIL: %s: brightness falls %d times along the order, first %.0f, last %.0f" % (png, drops, lum[0], lum[-1]))
+        bad += 1
+sys.exit(1 if bad else 0)
+EOF
 else
     echo "skipping the render geometry check (no h5py, numpy or PIL)"
 fi

@@ -130,6 +130,20 @@ def check_ply(path, e, name):
     check(np.array_equal(v["radius"], r.astype(np.float32)), "%s: radius differs" % name)
     if e["cluster"] is not None:
         check(np.array_equal(v["cluster"], e["cluster"]), "%s: cluster ids differ" % name)
+    # README: "PLY colours: arrival index, else the cluster id (DLCA), else
+    # the distance", in the inferno map, whose brightness rises: along that
+    # order it never falls (beyond 1 of 255), from dark to bright
+    if e["arrival"] is not None:
+        key, by = e["arrival"], "arrival"
+    elif e["unit"] == "lattice sites":
+        key, by = e["cluster"], "cluster id"
+    else:
+        key, by = np.sqrt((e["pos"].astype(float) ** 2).sum(1)), "distance"
+    lum = (np.stack([v["red"], v["green"], v["blue"]], 1).astype(float) @ [0.299, 0.587, 0.114])[
+        np.argsort(key, kind="stable")]
+    drops = np.count_nonzero(np.diff(lum) < -1)
+    check(drops == 0 and lum[0] < 40 and lum[-1] > 200, "%s: colours by %s: brightness falls %d times, first %.0f, "
+          "last %.0f" % (name, by, drops, lum[0], lum[-1]))
 
 
 def check_csv(path, e, name):

@@ -122,6 +122,20 @@ path = scene_file("event-large-args", "model = event\n" + ("#" * 100 + "\n") * 7
 refused("event scene too large, event options", ["--scene", path, "--particles", "10"],
         os.path.join(WORK, "event-large-args-out"), "pdla: " + path + ": too large")
 
+# README, Scenes: a value out of its range is named by line in every model;
+# run options or parameters that exclude each other are named by line in the
+# DLA command's scenes, while the DLCA and event commands refuse such a
+# combination in one line without it (exit 2 all the same).
+for model, body, want in (("dla", "eps = 1\n", ":2: eps must be in"), ("dlca", "fill = 2\n", ":2: invalid --fill '2'"),
+                          ("event", "stick_p = 2\n", ":2: stick-p must be in [0, 1]"),
+                          ("dla", "no-output = yes\ncheckpoint = yes\n", ":3: checkpoints need a run directory")):
+    path = scene_file("%s-range-%d" % (model, len(body)), MODELS[model][0] + body)
+    refused("%s scene %r" % (model, body), ["--scene", path], os.path.join(WORK, "%s-range-out" % model), "pdla: " + path + want)
+for model, body, want in (("dlca", "no-output = yes\ncheckpoint = yes\n", "pdla: checkpoints need a run directory"),
+                          ("event", "particles = 10\nseed_radius = 0\n", "pdla: nothing sticks")):
+    path = scene_file(model + "-combination", MODELS[model][0] + body)
+    refused("%s scene %r" % (model, body), ["--scene", path], os.path.join(WORK, model + "-combination-out"), want)
+
 # Good scenes run, `kT` (spelled as the option) in the event model's.
 for model, (first, _, body, quiet) in MODELS.items():
     extra = "kT = 2\n" if model == "event" else ""

@@ -883,7 +883,13 @@ static int open_json_step(run *R)
         R->json_force = force;
         return GO_ON;
     }
-    fprintf(stderr, "pdla: --stats-json: %s\n", why);
+    struct stat st;
+    if (R->o.resume && !force && lstat(R->o.stats_json, &st) == 0)
+        /* --force is refused with --resume: name the way out that remains */
+        fprintf(stderr, "pdla: --stats-json: %s exists and does not hold pdla's statistics; not overwriting it "
+                "(remove it or name another file)\n", R->o.stats_json);
+    else
+        fprintf(stderr, "pdla: --stats-json: %s\n", why);
     if (R->created) rmdir(R->dir); /* still empty: leave no trace */
     return EXIT_USAGE;
 }

@@ -164,7 +164,7 @@ char *ev_help_text(void)
                           "Event-driven hard disks (2D) or spheres (3D) in a box around an "
                           "immobile seed;\nparticles touching the seed or a stuck particle stick "
                           "with probability --stick-p.\nWrites DIR/cluster.h5 (default DIR: "
-                          "runs/event-<time>). Options (scene key: name with _):\n");
+                          "runs/event-YYYYmmdd-HHMMSS-<dim>d-<particles>). Options (scene key: name with _):\n");
     for (size_t k = 0; k < N_EV_ROWS; k++) {
         const pdla_param_desc *d = &ev_rows[k];
         char opt[64], dv[300];

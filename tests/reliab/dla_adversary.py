@@ -174,6 +174,9 @@ with open(other, "w") as f:
 rc, _, err = run(["--resume", "r", "--target", "3000", "--stats-json", "notes.json", "-q"])
 check(rc == 2 and len(err) == 1 and open(other).read() == '{"mine": "keep me"}\n',
       "--resume replaced another JSON file given as --stats-json: %s %s" % (rc, err))
+# --force is refused with --resume, so the line must not send the user there.
+check(len(err) == 1 and "--force" not in err[0] and "notes.json" in err[0],
+      "--resume refusing another file as --stats-json names a way out that --resume refuses: %s" % err)
 
 # ---- JSON whatever the names hold; one line whatever the names hold ------------------
 odd = os.path.join(WORK.encode(), b"o\xff")

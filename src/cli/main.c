@@ -859,10 +859,19 @@ static int json_file_is_stats(const char *path)
 {
     static const char head[] = "{\n  \"version\": \"";
     char got[sizeof head - 1];
-    FILE *f = fopen(path, "rb");
-    if (!f) return 0;
-    const size_t n = fread(got, 1, sizeof got, f);
-    fclose(f);
+    /* Never block on a FIFO or device (fopen waited for a writer for ever,
+     * SIGTERM included): a regular file only, opened without waiting. */
+    const int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) return 0;
+    struct stat st;
+    size_t n = 0;
+    if (fstat(fd, &st) == 0 && S_ISREG(st.st_mode))
+        while (n < sizeof got) {
+            const ssize_t r = read(fd, got + n, sizeof got - n);
+            if (r <= 0 && !(r < 0 && errno == EINTR)) break;
+            if (r > 0) n += (size_t)r;
+        }
+    close(fd);
     return n == sizeof got && memcmp(got, head, sizeof got) == 0;
 }
 
@@ -884,8 +893,9 @@ static int open_json_step(run *R)
         return GO_ON;
     }
     struct stat st;
-    if (R->o.resume && !force && lstat(R->o.stats_json, &st) == 0)
-        /* --force is refused with --resume: name the way out that remains */
+    if (R->o.resume && !force && lstat(R->o.stats_json, &st) == 0 && !S_ISDIR(st.st_mode))
+        /* --force is refused with --resume: name the way out that remains
+         * (a directory keeps tools_out_check's "is a directory") */
         fprintf(stderr, "pdla: --stats-json: %s exists and does not hold pdla's statistics; not overwriting it "
                 "(remove it or name another file)\n", R->o.stats_json);
     else

@@ -177,6 +177,20 @@ check(rc == 2 and len(err) == 1 and open(other).read() == '{"mine": "keep me"}\n
 # --force is refused with --resume, so the line must not send the user there.
 check(len(err) == 1 and "--force" not in err[0] and "notes.json" in err[0],
       "--resume refusing another file as --stats-json names a way out that --resume refuses: %s" % err)
+# (session 35 review) The --resume line is for a file that exists: a directory
+# keeps "is a directory"; and a FIFO is never opened to see whether it holds
+# the statistics (fopen waited for a writer for ever, SIGTERM included).
+os.mkdir(os.path.join(WORK, "jd"))
+rc, _, err = run(["--resume", "r", "--target", "3000", "--stats-json", "jd", "-q"])
+check(rc == 2 and len(err) == 1 and "jd is a directory" in err[0],
+      "--resume with a directory as --stats-json: %s %s" % (rc, err))
+os.mkfifo(os.path.join(WORK, "ff.json"))
+try:
+    rc, _, err = run(["--resume", "r", "--target", "3000", "--stats-json", "ff.json", "-q"], timeout=30)
+    check(rc == 2 and len(err) == 1 and "ff.json exists" in err[0],
+          "--resume with a FIFO as --stats-json: %s %s" % (rc, err))
+except subprocess.TimeoutExpired:
+    check(False, "--resume with a FIFO as --stats-json: still waiting after 30 s (killed)")
 
 # ---- JSON whatever the names hold; one line whatever the names hold ------------------
 odd = os.path.join(WORK.encode(), b"o\xff")

@@ -1032,7 +1032,9 @@ static int exit_status(const dlca_cli *c, int status, int asked, int final_ck, u
     return status;
 }
 
-int dlca_cmd_main(int argc, char **argv)
+/* The command after parsing; cmd, the command line as typed (taken before
+ * getopt permutes argv), for the files' provenance. */
+static int dlca_command(int argc, char **argv, const char *cmd)
 {
     dlca_cli c;
     scene sc = {0};
@@ -1051,12 +1053,10 @@ int dlca_cmd_main(int argc, char **argv)
         return orc;
     }
     const double t0 = pdla_clock_seconds();
-    char *cmd = cli_command_line(NULL, argc, argv);
     int asked = ASKED_NONE, ck_failed = 0, final_ck = 0, wrote = 0;
     const int stop = run_loop(s, &c, dir, cmd, &asked, &ck_failed);
     const double wall = pdla_clock_seconds() - t0;
     const int status = finish_files(s, &c, dir, cmd, wall, ck_failed ? EXIT_RUNTIME : 0, &final_ck, &wrote);
-    free(cmd);
     if (!c.quiet) print_summary(s, &c.p, dir, stop, asked, wall, wrote);
     dlca_stats st;
     dlca_get_stats(s, &st);
@@ -1066,4 +1066,16 @@ int dlca_cmd_main(int argc, char **argv)
     pdla_rundir_unlock(c.lock_out);
     pdla_rundir_unlock(c.lock);
     return exit_status(&c, status, asked, final_ck, st.attempts, dir);
+}
+
+int dlca_cmd_main(int argc, char **argv)
+{
+    char *const cmd = cli_command_line(NULL, argc, argv);
+    if (!cmd) {
+        fprintf(stderr, "pdla: out of memory\n");
+        return EXIT_RUNTIME;
+    }
+    const int rc = dlca_command(argc, argv, cmd);
+    free(cmd);
+    return rc;
 }

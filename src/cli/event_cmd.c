@@ -790,7 +790,9 @@ static void ticker_init(ev_ticker *tk, ev_cli *c, ev_series *ser, cli_fail *fail
     ev_set_tick(s, ticker, tk);
 }
 
-int event_cmd_main(int argc, char **argv)
+/* The command after parsing; cmd, the command line as typed (taken before
+ * getopt permutes argv), for the files' provenance. */
+static int event_run(int argc, char **argv, const char *cmd)
 {
     ev_cli c;
     memset(&c, 0, sizeof c);
@@ -816,7 +818,6 @@ int event_cmd_main(int argc, char **argv)
     ev_sim *s = start_sim(&c, &ser, dir, sizeof dir, &rc);
     if (!s) return rc;
     ev_set_checkpoint_every(s, c.checkpoint_every); /* recorded in each checkpoint, for a later bare --resume */
-    char *cmd = cli_command_line(NULL, argc, argv);
     ev_ticker tk;
     cli_fail fail = {"", ""};
     ticker_init(&tk, &c, &ser, &fail, s, dir, cmd);
@@ -837,7 +838,6 @@ int event_cmd_main(int argc, char **argv)
     else if (ev_stop_signal && why != EV_STOP_INTERRUPT) /* during the final writes: said, as the DLA command does */
         fprintf(stderr, "pdla: signal received after the run had finished; output complete\n");
     if (!rc && !c.quiet) print_summary(&c, s, dir, why, cpu, &at0);
-    free(cmd);
     ev_series_free(&ser);
     ev_free(s);
     pdla_rundir_unlock(c.lock);
@@ -852,5 +852,17 @@ int event_cmd_main(int argc, char **argv)
         raise(sig);
         return 128 + sig;
     }
+    return rc;
+}
+
+int event_cmd_main(int argc, char **argv)
+{
+    char *const cmd = cli_command_line(NULL, argc, argv);
+    if (!cmd) {
+        fprintf(stderr, "pdla: out of memory\n");
+        return 1;
+    }
+    const int rc = event_run(argc, argv, cmd);
+    free(cmd);
     return rc;
 }

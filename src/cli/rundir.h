@@ -39,21 +39,19 @@ void cli_remove_temp(const char *dir);
  * printed (the caller exits 2), else 0. Every model's command calls it. */
 int cli_refuse_temp_resume(const char *path);
 
-/* Before a resume's sweep of dir (hold its lock): a symbolic link in dir
- * (checkpoint.h5 -> .checkpoint.h5.tmp.1234, or through a chain) to a file
- * of dir under one of those names, or through one as a directory step
- * (checkpoint.h5 -> .checkpoint.h5.new/x, a link to a folder); also a link
+/* Before a resume's sweep of dir (hold its lock): 1 with one line printed
+ * (the caller exits 2, dir untouched) when the sweep would break a path the
+ * resume depends on, else 0. Refused: a symbolic link in dir that leads, as
+ * the kernel resolves it, to a file of dir under a temporary name
+ * (checkpoint.h5 -> .checkpoint.h5.tmp.1234, or through a chain) or through
+ * one as a directory step (checkpoint.h5 -> .checkpoint.h5.new/x); a link
  * that does not resolve within 40 links or whose path outgrows the check's
- * buffer (not proven safe); also dir itself named through such a name of
- * its own (--resume D/.checkpoint.h5.new, a link to "."): the sweep, which
- * unlinks dir/NAME by that path, broke the path and every later write
- * failed. The sweep removed the file and the link
- * dangled: the event command fell back to checkpoint.prev.h5, the DLA and
- * DLCA commands loaded through the link and then lost the file named, so a
- * kill before the first write lost the checkpoint. Refused, as a temporary
- * name named (cli_refuse_temp_resume): no loader takes such a file. 1 with
- * the line printed (the caller exits 2, dir untouched), else 0. Every
- * model's command calls it. */
+ * buffer (not proven safe); dir itself named through such a name
+ * (--resume D/.checkpoint.h5.new, a link to "."). Why: the sweep unlinks
+ * those names, so the link dangled after it (the event command fell back
+ * to checkpoint.prev.h5; DLA and DLCA loaded through the link, then lost
+ * the file) or every later write through dir failed. Every model's command
+ * calls it. */
 int cli_refuse_temp_links(const char *dir);
 
 /* The same for a sweep of the names swept() takes (`pdla ensemble

@@ -348,5 +348,16 @@ else
     fail "rate runs: $(cat "$t/rate1.txt" "$t/rate2.txt")"
 fi
 
+# Without --out the run goes where --help says: runs/event-YYYYmmdd-HHMMSS-<dim>d-<particles>
+"$pdla" --model event --help | grep -qF "runs/event-YYYYmmdd-HHMMSS-<dim>d-<particles>" ||
+    fail "--help does not name the default folder's pattern"
+mkdir "$t/dflt"
+pdla_abs=$(cd "$(dirname "$pdla")" && pwd)/$(basename "$pdla")
+if (cd "$t/dflt" && "$pdla_abs" --model event --dim 2 --particles 30 --packing 0.05 --no-progress >/dev/null 2>&1); then
+    ls "$t/dflt/runs" | grep -qE '^event-[0-9]{8}-[0-9]{6}-2d-30$' || fail "default folder: $(ls "$t/dflt/runs")"
+else
+    fail "a run without --out failed"
+fi
+
 [ $fails -eq 0 ] && echo "event cli: all passed"
 exit $((fails > 0))

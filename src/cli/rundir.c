@@ -140,16 +140,27 @@ int cli_refuse_temp_resume(const char *path)
 #define DIR_OPEN (O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC)
 #endif
 
-/* The kernel's limit on the links followed for one path (Linux
- * MAXSYMLINKS). */
-enum { LINK_HOPS = 40 };
+/* The links the check follows for one path before it gives up. The
+ * kernel stops at 40 (Linux MAXSYMLINKS, ELOOP), but a chain of 46 links
+ * to a temporary name is a path the user may shorten, and the sweep
+ * removed the file at its end: the check follows on past 40, to a
+ * temporary name (refused), the end, or a loop (safe: see walk_link). */
+enum { LINK_HOPS = 1000 };
 
 enum link_walk {
-    WALK_SAFE, /* resolved, or failed where the loader fails too: the sweep loses nothing through it */
+    WALK_SAFE, /* resolved, a loop, or failed where the loader fails too: the sweep loses nothing through it */
     WALK_TEMP, /* through a name that the sweep unlinks */
-    WALK_LOOP, /* more than LINK_HOPS links: a loop or too long a chain, not proven safe */
+    WALK_LOOP, /* more than LINK_HOPS links without a loop: too long a chain, not proven safe */
     WALK_LONG, /* the path left to follow outgrew rest: not proven safe */
     WALK_ERR   /* a call failed otherwise (err) */
+};
+
+/* A link being followed: its folder and itself, and the length of the
+ * names after it (the walk is inside its target while more is left). */
+struct active {
+    dev_t ddev, dev;
+    ino_t dino, ino;
+    size_t tail;
 };
 
 struct walk {
@@ -158,6 +169,7 @@ struct walk {
     int step;                /* WALK_TEMP: name is a directory step, not the end */
     int err;                 /* WALK_ERR: the errno */
     int (*swept)(const char *name); /* the names the sweep unlinks */
+    struct active act[LINK_HOPS];   /* the links whose targets the walk is in, outermost first */
 };
 
 /* A failure that the loader's open meets at the same component (followed
@@ -207,12 +219,38 @@ static enum link_walk splice_link(int fd, const char *name, const char *tail, st
     return WALK_SAFE;
 }
 
+/* Is the link c of the folder fd (st, its lstat) one whose target the
+ * walk is inside already (m: the length of the names after c)? Then the
+ * walk is in a loop: from here it repeats what it followed since it met
+ * the link first, for ever, and never reaches the names after it. Else
+ * it is recorded (0), or -1 when LINK_HOPS are inside one another. */
+static int in_loop(int fd, const struct stat *st, size_t m, struct walk *w, int *depth)
+{
+    /* the links whose targets were followed to their end (the walk is in
+     * the names after them) are done: the inner ones have the longer tails */
+    while (*depth > 0 && w->act[*depth - 1].tail > m) --*depth;
+    struct stat ds;
+    if (fstat(fd, &ds) != 0) return -1;
+    for (int i = 0; i < *depth; i++)
+        if (w->act[i].ino == st->st_ino && w->act[i].dev == st->st_dev && w->act[i].dino == ds.st_ino &&
+            w->act[i].ddev == ds.st_dev)
+            return 1;
+    if (*depth >= LINK_HOPS) return -1;
+    w->act[*depth] = (struct active){ds.st_dev, st->st_dev, ds.st_ino, st->st_ino, m};
+    ++*depth;
+    return 0;
+}
+
 /* Follow the name entry of the run directory dfd (dst, its stat) as the
  * kernel would: does it lead, through any component, to a name of that
  * directory that cli_remove_temp unlinks (a temporary name, not a
  * directory: unlink leaves those)? By name, not by inode: a hard link
  * under a temporary name loses nothing when the sweep unlinks it, a path
- * through the name dangles. */
+ * through the name dangles. A loop (junk -> junk, a -> b -> a, a -> a/x)
+ * that passes no such name is safe: the kernel follows a part of what the
+ * walk followed (at most 40 links) and fails (ELOOP) before and after the
+ * sweep alike, so an unrelated loop in the folder does not stop a
+ * resume. */
 static enum link_walk walk_link(int dfd, const struct stat *dst, const char *entry, struct walk *w)
 {
     if (strlen(entry) >= sizeof w->rest) return WALK_LONG; /* a d_name: NAME_MAX at most; a path may be longer */
@@ -220,7 +258,7 @@ static enum link_walk walk_link(int dfd, const struct stat *dst, const char *ent
     if (fd < 0) return walk_failed(errno, w);
     snprintf(w->rest, sizeof w->rest, "%s", entry);
     char *r = w->rest;
-    int hops = 0, e;
+    int hops = 0, depth = 0, e;
     enum link_walk res = WALK_SAFE;
     for (;;) {
         while (*r == '/') r++;
@@ -252,7 +290,9 @@ static enum link_walk walk_link(int dfd, const struct stat *dst, const char *ent
             break;
         }
         if (S_ISLNK(st.st_mode)) {
-            if (++hops > LINK_HOPS) {
+            const int loop = in_loop(fd, &st, strlen(r), w, &depth);
+            if (loop > 0) break; /* WALK_SAFE */
+            if (loop < 0 || ++hops > LINK_HOPS) {
                 res = WALK_LOOP;
                 break;
             }
@@ -307,8 +347,8 @@ static void refuse_link(const char *who, const char *dir_raw, const char *name_r
                 w->step ? "that link" : "that file");
         break;
     case WALK_LOOP:
-        fprintf(stderr, "%s: cannot resume: %s/%s is a symbolic link that does not resolve within %d links (a "
-                "loop or too long a chain), so it may lead to a temporary name that the resume removes; %s "
+        fprintf(stderr, "%s: cannot resume: %s/%s is a symbolic link that does not end within %d links (too "
+                "long a chain), so it may lead to a temporary name that the resume removes; %s "
                 "(shorten or remove the link)\n", who, dir, name, LINK_HOPS, keep);
         break;
     case WALK_LONG:

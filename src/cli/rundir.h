@@ -44,9 +44,11 @@ int cli_refuse_temp_resume(const char *path);
  * resume depends on, else 0. Refused: a symbolic link in dir that leads, as
  * the kernel resolves it, to a file of dir under a temporary name
  * (checkpoint.h5 -> .checkpoint.h5.tmp.1234, or through a chain) or through
- * one as a directory step (checkpoint.h5 -> .checkpoint.h5.new/x); a link
- * that does not resolve within 40 links or whose path outgrows the check's
- * buffer (not proven safe); dir itself named through such a name
+ * one as a directory step (checkpoint.h5 -> .checkpoint.h5.new/x), past
+ * the kernel's 40 links too; a chain that does not end within 1000 links or
+ * whose path outgrows the check's buffer (not proven safe); not a loop
+ * that meets no such name (junk -> junk: the kernel fails it before and
+ * after the sweep alike); dir itself named through such a name
  * (--resume D/.checkpoint.h5.new, a link to "."). Why: the sweep unlinks
  * those names, so the link dangled after it (the event command fell back
  * to checkpoint.prev.h5; DLA and DLCA loaded through the link, then lost

@@ -59,7 +59,8 @@ took the damaged one's generation number. Checked here:
     whose sweep is that directory's, not the folder's. Also refused: such a
     name as a directory step (checkpoint.h5 -> .checkpoint.h5.new/real.h5,
     .checkpoint.h5.new a link to a folder; through "..", a subfolder's link
-    or an absolute path), a chain of 46 links or a loop, a path that grows
+    or an absolute path), a chain of 46 links to a temporary name or a loop
+    through one, a chain of 1002 links, a path that grows
     past 8191 bytes as it is followed, and a 600-byte relative link under a
     3900-byte run directory (the check passed each; the sweep removed the
     name and the link dangled), the folder and its subfolders untouched;
@@ -68,7 +69,10 @@ took the damaged one's generation number. Checked here:
     link to a subfolder, also as a DLCA --out): the sweep removed the link
     and the writes after it failed (DLA, DLCA exit 1; event exit 2 with
     the link gone); a link to the run directory, or D/sub/.., resumes. A
-    link named with a newline is named in the one line as \012.
+    link named with a newline is named in the one line as \012. A link
+    loop that meets no temporary name (junk -> junk, a -> b -> a, deep ->
+    deep/x), the ensemble's too: resumes, the links kept (it was refused,
+    "does not resolve within 40 links").
   - `pdla ensemble --resume`: clusters.journal a link to
     clusters.journal.tmp.5, or the folder named through its own
     ensemble.h5.tmp.7 (a link to "."): refused in one line, exit 2, the
@@ -880,11 +884,24 @@ def chain_link(d):
 
 
 def loop_link(d):
+    """checkpoint.h5 -> loop/a -> b -> ../.checkpoint.h5.new/a, .checkpoint.h5.new -> loop: a loop (the
+    kernel fails, ELOOP) through a temporary name, refused where the walk meets the name (an unrelated
+    loop, one that meets none, resumes: below)."""
     moved(d, "mine.h5")
     os.mkdir(os.path.join(d, "loop"))
+    os.symlink("loop", os.path.join(d, ".checkpoint.h5.new"))
     os.symlink("b", os.path.join(d, "loop", "a"))
-    os.symlink("a", os.path.join(d, "loop", "b"))
+    os.symlink("../.checkpoint.h5.new/a", os.path.join(d, "loop", "b"))
     os.symlink("loop/a", os.path.join(d, "checkpoint.h5"))
+
+
+def long_chain_link(d):
+    """checkpoint.h5 -> chain/l0 -> ... -> chain/l1000 -> ../mine.h5: 1002 links, no loop."""
+    moved(d, "mine.h5")
+    os.mkdir(os.path.join(d, "chain"))
+    for i in range(1001):
+        os.symlink("l%d" % (i + 1) if i < 1000 else "../mine.h5", os.path.join(d, "chain", "l%d" % i))
+    os.symlink("chain/l0", os.path.join(d, "checkpoint.h5"))
 
 
 def long_target_link(d):
@@ -905,14 +922,15 @@ def grown_link(d):
 
 THROUGH = "pdla: cannot resume: %(d)s/checkpoint.h5 is a symbolic link through %(d)s/.checkpoint.h5.new, a temporary name"
 TO_TMP = "pdla: cannot resume: %(d)s/checkpoint.h5 is a symbolic link to %(d)s/.checkpoint.h5.tmp.1234, a temporary name"
-HOPS = "pdla: cannot resume: %(d)s/checkpoint.h5 is a symbolic link that does not resolve within 40 links"
+HOPS = "pdla: cannot resume: %(d)s/checkpoint.h5 is a symbolic link that does not end within 1000 links"
 GROWN = "pdla: cannot resume: %(d)s/checkpoint.h5 is a symbolic link whose path grows past 8191 bytes"
 LINK_CASES = (("a temporary name as a directory step", step_link, THROUGH),
               ("through ./.checkpoint.h5.new/..", dotdot_link, THROUGH),
               ("through a link of a subfolder to a temporary name", nested_link, THROUGH),
               ("an absolute path through a temporary name", absolute_link, THROUGH),
-              ("a chain of 46 links to a temporary name", chain_link, HOPS),
-              ("a loop", loop_link, HOPS),
+              ("a chain of 46 links to a temporary name", chain_link, TO_TMP),
+              ("a loop through a temporary name", loop_link, THROUGH),
+              ("a chain of 1002 links", long_chain_link, HOPS),
               ("a path outgrowing 8191 bytes", grown_link, GROWN))
 
 
@@ -1039,6 +1057,32 @@ os.symlink("mine.h5", os.path.join(Q, "checkpoint.h5"))
 rc, err = resume(Q, 5000)
 check(rc == 0, "DLA: checkpoint.h5 a link to mine.h5: exit %s: %r" % (rc, err))
 
+# --- a symbolic link loop in the run directory that meets no temporary
+# name (junk -> junk, a -> b -> a, deep -> deep/x, sub/l -> ../sub/l): the
+# sweep loses nothing through it (the kernel fails, ELOOP, before and after
+# it), yet every model's resume was refused "does not resolve within 40
+# links" (session 35). Each resumes now, the links left as they were.
+LOOPS = (("junk", "junk"), ("a", "b"), ("b", "a"), ("deep", "deep/x"), ("sub/l", "../sub/l"))
+
+
+def unrelated_loops(d, tag, args):
+    os.mkdir(os.path.join(d, "sub"))
+    for name, target in LOOPS:
+        os.symlink(target, os.path.join(d, name))
+    rc, err = pdla(*args)
+    check(rc == 0, "%s: unrelated link loops in the run directory: exit %s: %r" % (tag, rc, err[-600:]))
+    check(all(os.readlink(os.path.join(d, n)) == t for n, t in LOOPS),
+          "%s: unrelated link loops: the links changed: %r" % (tag, sorted(os.listdir(d))))
+    for name, _ in LOOPS:
+        os.unlink(os.path.join(d, name))
+    os.rmdir(os.path.join(d, "sub"))
+
+
+unrelated_loops(Q, "DLA", ("--resume", Q, "--target", "5500", "-q"))
+unrelated_loops(Q, "DLA, file named", ("--resume", os.path.join(Q, "checkpoint.h5"), "--target", "6000", "-q"))
+unrelated_loops(Qe, "event", ("--model", "event", "--resume", Qe, "--t-max", "10"))
+unrelated_loops(Qd, "DLCA", ("--model", "dlca", "--resume", Qd, "--max-attempts", "8000", "-q"))
+
 # --- `pdla ensemble --resume`: its sweep removes clusters.journal.tmp.*,
 # ensemble.h5.tmp.*, ensemble.xdmf2.tmp.*; with clusters.journal a link to
 # clusters.journal.tmp.5 the resume opened the journal, the sweep removed
@@ -1073,6 +1117,7 @@ shutil.rmtree(EN)
 os.replace(EN + ".0", EN)
 rc, err = pdla("ensemble", "--resume", EN, "--clusters", "4", "-q")
 check(rc == 0, "ensemble: a plain resume: exit %s: %r" % (rc, err))
+unrelated_loops(EN, "ensemble", ("ensemble", "--resume", EN, "--clusters", "5", "-q"))
 
 print("ckpt_fallback: %d pdla runs, %d failures" % (runs, len(failures)))
 _ru = resource.getrusage(resource.RUSAGE_CHILDREN)

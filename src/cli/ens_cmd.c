@@ -551,6 +551,9 @@ static int open_new(ens_cmd *c, int threads)
         fprintf(stderr, "pdla ensemble: %s\n", c->err);
         return EXIT_USAGE;
     }
+    /* --force --out E/ensemble.h5.tmp.7 with that a link to E: the sweep
+     * below removed the link, and the journal's creation failed */
+    if (cli_refuse_out_through(c->dir, ens_temp_name, "pdla ensemble")) return EXIT_USAGE;
     remove_named(c->dir, 1);
     if (pdla_ens_journal_create(c->dir, &c->asked, &c->j, c->err, sizeof c->err)) {
         fprintf(stderr, "pdla ensemble: %s\n", c->err);

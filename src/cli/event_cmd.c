@@ -712,6 +712,9 @@ static ev_sim *start_sim(ev_cli *c, ev_series *ser, char *dir, size_t len, int *
         fprintf(stderr, "pdla: %s\n", err);
         drc = 2;
     }
+    /* --force --out X/.checkpoint.h5.new, a link to X: the sweep below
+     * removed the link under the run (rundir.h) */
+    if (!drc && cli_refuse_temp_out(dir)) drc = 2;
     if (!drc) drc = dir_takes_files(dir);
     if (!drc) drc = remove_stale(dir, 1);
     if (drc) {

@@ -834,6 +834,9 @@ static int new_run_step(run *R)
         fprintf(stderr, "pdla: %s\n", err);
         return EXIT_USAGE;
     }
+    /* --force --out X/.checkpoint.h5.new with that a link to X: the sweep
+     * below removed the link, and every write after it failed (rundir.h) */
+    if (cli_refuse_temp_out(R->dir)) return EXIT_USAGE;
     pdla_checkpoint_remove_stale(R->dir);
     remove_stale_outputs(R->dir);
     return GO_ON;

@@ -362,6 +362,36 @@ static void refuse_link(const char *who, const char *dir_raw, const char *name_r
     }
 }
 
+/* dir itself named through a temporary name of its own (dst: its stat):
+ * 1 with the line printed, else 0. what: NULL for a resume, else what a
+ * new run cannot do ("start a new run"). */
+static int refuse_dir_path(const char *dir, const struct stat *dst, struct walk *w, const char *who,
+                           const char *what)
+{
+    /* The sweep unlinks dir/NAME by this path, and the run then writes
+     * there by it: a path that goes through a temporary name of the
+     * directory itself (--resume D/.checkpoint.h5.new, a link to ".", or
+     * D/.cluster.h5.new/.. with a link to a subfolder; a new run's --out
+     * so named) lost its link to the sweep, and every write after it
+     * failed (ENOENT). */
+    const enum link_walk res = walk_link(AT_FDCWD, dst, dir, w);
+    if (res == WALK_SAFE) return 0;
+    char dir_b[4 * PATH_MAX + 1], name_b[4 * NAME_MAX + 1];
+    one_line(dir, dir_b, sizeof dir_b);
+    const int resume = what == NULL;
+    const char *const verb = resume ? "resume" : what, *const kept = resume ? "loaded or changed" : "written or removed";
+    if (res == WALK_TEMP)
+        fprintf(stderr, "%s: cannot %s: the run directory %s is named through its own %s, a temporary "
+                "name (a killed run's) that the %s removes; nothing %s (name the run directory by a path "
+                "without it)\n", who, verb, dir_b, one_line(w->name, name_b, sizeof name_b), resume ? "resume" : "run",
+                kept);
+    else
+        fprintf(stderr, "%s: cannot %s: cannot follow the run directory's path %s: %s; nothing %s\n", who, verb,
+                dir_b, res == WALK_ERR ? strerror(w->err) : res == WALK_LOOP ? "too many links"
+                : "it grows past 8191 bytes as its links are followed", kept);
+    return 1;
+}
+
 int cli_refuse_links_through(const char *dir, int (*swept)(const char *name), const char *who)
 {
     struct stat dst;
@@ -369,26 +399,11 @@ int cli_refuse_links_through(const char *dir, int (*swept)(const char *name), co
     if (!d) return 0; /* the sweep cannot read it either; the load says why */
     struct walk w;
     w.swept = swept;
-    /* The sweep unlinks dir/NAME by this path, and the resume then writes
-     * there by it: a path that goes through a temporary name of the
-     * directory itself (--resume D/.checkpoint.h5.new, a link to ".", or
-     * D/.cluster.h5.new/.. with a link to a subfolder) lost its link to the
-     * sweep, and every write after it failed (ENOENT). */
-    enum link_walk res = walk_link(AT_FDCWD, &dst, dir, &w);
-    if (res != WALK_SAFE) {
-        char dir_b[4 * PATH_MAX + 1], name_b[4 * NAME_MAX + 1];
-        one_line(dir, dir_b, sizeof dir_b);
-        if (res == WALK_TEMP)
-            fprintf(stderr, "%s: cannot resume: the run directory %s is named through its own %s, a temporary "
-                    "name (a killed run's) that the resume removes; nothing loaded or changed (name the run "
-                    "directory by a path without it)\n", who, dir_b, one_line(w.name, name_b, sizeof name_b));
-        else
-            fprintf(stderr, "%s: cannot resume: cannot follow the run directory's path %s: %s; nothing loaded "
-                    "or changed\n", who, dir_b, res == WALK_ERR ? strerror(w.err) : res == WALK_LOOP ? "too many links"
-                    : "it grows past 8191 bytes as its links are followed");
+    if (refuse_dir_path(dir, &dst, &w, who, NULL)) {
         closedir(d);
         return 1;
     }
+    enum link_walk res = WALK_SAFE;
     const struct dirent *de;
     while (res == WALK_SAFE && (de = readdir(d))) {
         if (swept(de->d_name)) continue; /* swept itself: a killed run's, not the user's */
@@ -402,4 +417,18 @@ int cli_refuse_links_through(const char *dir, int (*swept)(const char *name), co
 int cli_refuse_temp_links(const char *dir)
 {
     return cli_refuse_links_through(dir, cli_is_temp_name, "pdla");
+}
+
+int cli_refuse_out_through(const char *dir, int (*swept)(const char *name), const char *who)
+{
+    struct stat dst;
+    if (stat(dir, &dst) != 0) return 0; /* the run's own checks say why */
+    struct walk w;
+    w.swept = swept;
+    return refuse_dir_path(dir, &dst, &w, who, "start a new run");
+}
+
+int cli_refuse_temp_out(const char *dir)
+{
+    return cli_refuse_out_through(dir, cli_is_temp_name, "pdla");
 }

@@ -73,6 +73,11 @@ took the damaged one's generation number. Checked here:
     loop that meets no temporary name (junk -> junk, a -> b -> a, deep ->
     deep/x), the ensemble's too: resumes, the links kept (it was refused,
     "does not resolve within 40 links").
+  - a new run's --out (--force) named through a temporary name of its
+    own folder (D/.checkpoint.h5.new a link to "." or to D; a DLCA resume
+    into --out elsewhere; the ensemble's ensemble.h5.tmp.7): refused in one
+    line, exit 2, the folder as it was (the sweep removed the link and the
+    run failed, exit 1); a real folder under the name is written into.
   - `pdla ensemble --resume`: clusters.journal a link to
     clusters.journal.tmp.5, or the folder named through its own
     ensemble.h5.tmp.7 (a link to "."): refused in one line, exit 2, the
@@ -1003,6 +1008,54 @@ for model, d, args in (("DLA", Q, lambda d, p: ("--resume", p, "--target", "5000
                       ".", "")
     self_link_refused(d, "%s: the run directory through its own link to a subfolder, then .." % model, args,
                       ".cluster.h5.new", "sub", "..")
+# --- a new run's --out named through a temporary name of the folder it
+# names (--force --out D/.checkpoint.h5.new with that a link to "." or to
+# D; a DLCA resume into --out elsewhere so named): the sweep of leftovers
+# removed the link, and the run failed with the link gone (DLA, DLCA: every
+# write after it, exit 1; event: "cannot read run directory", exit 1).
+# Refused in one line, exit 2, before anything is written or removed, the
+# folder as it was (its older run kept); the ensemble's --out through its
+# own ensemble.h5.tmp.7 too. A real folder under the name is a run
+# directory like any other.
+NEW = "%(w)s: cannot start a new run: the run directory %(p)s is named through its own %(n)s, a temporary name"
+
+
+def new_run_refused(d, tag, args, name, target, who="pdla", also=None):
+    shutil.rmtree(d + ".0", ignore_errors=True)
+    shutil.copytree(d, d + ".0", symlinks=True)
+    os.symlink(target, os.path.join(d, name))
+    p = os.path.join(d, name)
+    before = tree(d)
+    also_before = tree(also) if also else None
+    rc, err = pdla(*args(p))
+    lines = err.strip().split("\n")
+    check(rc == 2 and len(lines) == 1 and lines[0].startswith(NEW % {"w": who, "p": p, "n": name}),
+          "%s: exit %s: %r" % (tag, rc, err[-600:]))
+    check(tree(d) == before, "%s: the folder changed: %r" % (tag, sorted(tree(d))))
+    check(also is None or tree(also) == also_before, "%s: the folder resumed from changed" % tag)
+    shutil.rmtree(d)
+    os.replace(d + ".0", d)
+
+
+for model, d, args in (("DLA", Q, lambda p: ("--target", "500", "-q", "--force", "--out", p)),
+                       ("event", Qe, lambda p: tuple(EV) + ("--t-max", "1", "--force", "--out", p)),
+                       ("DLCA", Qd, lambda p: tuple(DLCA) + ("--max-attempts", "100", "-q", "--force", "--out", p))):
+    new_run_refused(d, "%s: a new run's --out through its own link to ." % model, args, ".checkpoint.h5.new", ".")
+    new_run_refused(d, "%s: a new run's --out through its own link to the folder" % model, args, ".cluster.h5.new",
+                    os.path.join("..", os.path.basename(d)))
+Qx = W("Qx")
+shutil.rmtree(Qx, ignore_errors=True)
+os.mkdir(Qx)
+new_run_refused(Qx, "DLCA: a resume into --out elsewhere through its own link to .",
+                lambda p: ("--model", "dlca", "--resume", os.path.join(Qd, "checkpoint.h5"), "--max-attempts", "6000",
+                           "-q", "--force", "--out", p), ".checkpoint.h5.new", ".", also=Qd)
+shutil.rmtree(Qx)
+os.mkdir(Qx)
+os.mkdir(os.path.join(Qx, ".checkpoint.h5.new"))
+rc, err = pdla("--target", "500", "-q", "--force", "--out", os.path.join(Qx, ".checkpoint.h5.new"))
+check(rc == 0 and os.path.isfile(os.path.join(Qx, ".checkpoint.h5.new", "cluster.h5")),
+      "DLA: a new run into a real folder named .checkpoint.h5.new: exit %s: %r" % (rc, err))
+shutil.rmtree(Qx)
 # A link named with a newline (and a tab) to a temporary name: the line
 # named it as it was, so the one line was two; now each control byte is
 # shown as \ooo, in one line.
@@ -1118,6 +1171,9 @@ os.replace(EN + ".0", EN)
 rc, err = pdla("ensemble", "--resume", EN, "--clusters", "4", "-q")
 check(rc == 0, "ensemble: a plain resume: exit %s: %r" % (rc, err))
 unrelated_loops(EN, "ensemble", ("ensemble", "--resume", EN, "--clusters", "5", "-q"))
+new_run_refused(EN, "ensemble: a new ensemble's --out through its own link to .",
+                lambda p: ("ensemble", "--clusters", "2", "--target", "100", "-q", "--force", "--out", p),
+                "ensemble.h5.tmp.7", ".", who="pdla ensemble")
 
 print("ckpt_fallback: %d pdla runs, %d failures" % (runs, len(failures)))
 _ru = resource.getrusage(resource.RUSAGE_CHILDREN)

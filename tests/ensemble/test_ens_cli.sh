@@ -4,6 +4,8 @@
 #
 #  - --threads 1, 2 and 3 give bit-identical per-cluster datasets and
 #    statistics (h5diff without tolerance; timings excepted);
+#  - --threads 0 (new and resumed) runs one worker per physical core: as
+#    many tasks as --threads C, C the cores in /sys;
 #  - kill -9 at a random moment, then --resume (with other threads): the
 #    finished file equals the uninterrupted one; likewise SIGTERM, which
 #    ends pdla by the signal with a line saying how to resume;
@@ -72,6 +74,54 @@ for t in 2 3; do
 done
 h5diff -q t1/ensemble.h5 t2/ensemble.h5 /clusters/cpu_seconds /clusters/cpu_seconds >/dev/null 2>&1 &&
     fail "cpu_seconds identical: the comparison cannot see differences"
+# ---- --threads 0: one worker per physical core (README, Ensembles) ------------
+# The workers counted from outside (the most tasks /proc/PID/task shows
+# while the ensemble grows: the main thread and one per cluster grown at
+# once), against --threads C with C the physical cores of the CPUs this
+# process may use ((package, core) pairs in /sys, as test_bind.py counts
+# them), for a new ensemble and a resume that extends it.
+tasks() { # tasks ARGS...: the ensemble run in the background; its most tasks in $max, exit status in $rc
+    checks=$((checks + 1))
+    "$PDLA" "$@" >"$tmp/out" 2>"$tmp/err" </dev/null &
+    local pid=$! n
+    max=0
+    while kill -0 "$pid" 2>/dev/null; do
+        n=$(ls "/proc/$pid/task" 2>/dev/null | wc -l)
+        [ "$n" -gt "$max" ] && max=$n
+        sleep 0.01
+    done
+    wait "$pid"
+    rc=$?
+}
+cores=$(/usr/bin/python3 -c '
+import os
+seen = set()
+for c in os.sched_getaffinity(0):
+    t = "/sys/devices/system/cpu/cpu%d/topology/" % c
+    with open(t + "physical_package_id") as fp, open(t + "core_id") as fc:
+        seen.add((fp.read().strip(), fc.read().strip()))
+print(len(seen))' 2>/dev/null)
+if [ -z "$cores" ] || [ ! -d /proc/self/task ]; then
+    echo "skipping the --threads 0 worker count: no CPU topology in /sys or no /proc"
+else
+    # each worker starts on a cluster of its own at once (2 per core and 2
+    # more), and each cluster grows for a tenth of a second or more
+    TZ_ARGS="--clusters $((2 * cores + 2)) --target 3000 --seed 4"
+    tasks ensemble $TZ_ARGS --threads 1 --out z1 -q
+    one=$max
+    [ "$rc" -eq 0 ] && [ "$one" -ge 2 ] || fail "--threads 1: exit $rc, $one tasks: $(cat err)"
+    tasks ensemble $TZ_ARGS --threads "$cores" --out zc -q
+    [ "$rc" -eq 0 ] && [ "$max" -eq $((one + cores - 1)) ] ||
+        fail "--threads $cores: exit $rc, $max tasks, want $((one + cores - 1)) (--threads 1: $one): $(cat err)"
+    tasks ensemble $TZ_ARGS --threads 0 --out z0 -q
+    [ "$rc" -eq 0 ] && [ "$max" -eq $((one + cores - 1)) ] ||
+        fail "--threads 0: exit $rc, $max tasks, want $((one + cores - 1)) ($cores physical cores): $(cat err)"
+    [ -z "$(h5diff -q -c z1/ensemble.h5 z0/ensemble.h5 /statistics /statistics 2>&1)" ] ||
+        fail "--threads 0: other statistics than --threads 1"
+    tasks ensemble --resume z0 --clusters $((4 * cores + 4)) --threads 0 -q
+    [ "$rc" -eq 0 ] && [ "$max" -eq $((one + cores - 1)) ] ||
+        fail "--resume --threads 0: exit $rc, $max tasks, want $((one + cores - 1)): $(cat err)"
+fi
 # A different seed must change the data (the comparison can fail).
 run ensemble --clusters 24 --target 4000 --seed 10 --keep-positions --threads 2 --out s10 -q
 h5diff -q t1/ensemble.h5 s10/ensemble.h5 /clusters/rg_diam /clusters/rg_diam >/dev/null 2>&1 &&

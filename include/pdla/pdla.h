@@ -493,6 +493,13 @@ PDLA_API int pdla_rundir_probe(const char *dir);
  * it cannot be synced: the commands stop before the run then, exit 1 (an
  * I/O failure, as a failed write). */
 PDLA_API int pdla_rundir_remove_old_run(const char *dir, int writes_summary, char *err, size_t errlen);
+
+/* Is name (a name in a directory, no '/') one that
+ * pdla_rundir_remove_old_run removes with writes_summary 0: a checkpoint
+ * name of any model, a set-aside checkpoint, summary.txt? 1 or 0. (A new
+ * run's --out named through such a link of its own folder lost the link
+ * to that removal.) */
+PDLA_API int pdla_rundir_old_run_name(const char *name);
 /* A damaged checkpoint src of run directory dir that a fallback resume
  * skipped goes aside, kept byte for byte, under the first free name of
  * PDLA_CHECKPOINT_ASIDE_PREFIX: checkpoint.damaged.h5, then

@@ -181,6 +181,14 @@ static int ens_temp_name(const char *name)
     return 0;
 }
 
+/* What remove_named sweeps for a new ensemble (--force): the leftovers
+ * and the older ensemble's journal, file and sidecar. */
+static int ens_new_swept(const char *name)
+{
+    return ens_temp_name(name) || !strcmp(name, PDLA_ENS_JOURNAL_NAME) || !strcmp(name, PDLA_ENS_FILE_NAME) ||
+           !strcmp(name, PDLA_ENS_SIDECAR_NAME);
+}
+
 static void remove_named(const char *dir, int old_outputs)
 {
     char p[4400];
@@ -551,9 +559,10 @@ static int open_new(ens_cmd *c, int threads)
         fprintf(stderr, "pdla ensemble: %s\n", c->err);
         return EXIT_USAGE;
     }
-    /* --force --out E/ensemble.h5.tmp.7 with that a link to E: the sweep
-     * below removed the link, and the journal's creation failed */
-    if (cli_refuse_out_through(c->dir, ens_temp_name, "pdla ensemble")) return EXIT_USAGE;
+    /* --force --out E/ensemble.h5.tmp.7 (or E/ensemble.h5) with that a
+     * link to E: the sweep below removed the link, and the journal's
+     * creation failed */
+    if (cli_refuse_out_through(c->dir, ens_new_swept, ens_temp_name, "pdla ensemble")) return EXIT_USAGE;
     remove_named(c->dir, 1);
     if (pdla_ens_journal_create(c->dir, &c->asked, &c->j, c->err, sizeof c->err)) {
         fprintf(stderr, "pdla ensemble: %s\n", c->err);

@@ -362,17 +362,19 @@ static void refuse_link(const char *who, const char *dir_raw, const char *name_r
     }
 }
 
-/* dir itself named through a temporary name of its own (dst: its stat):
- * 1 with the line printed, else 0. what: NULL for a resume, else what a
- * new run cannot do ("start a new run"). */
+/* dir itself named through a name of its own that the run removes (dst:
+ * its stat): 1 with the line printed, else 0. what: NULL for a resume,
+ * else what a new run cannot do ("start a new run"); temp: which of those
+ * names are temporary ones (the rest are an older run's). */
 static int refuse_dir_path(const char *dir, const struct stat *dst, struct walk *w, const char *who,
-                           const char *what)
+                           const char *what, int (*temp)(const char *name))
 {
     /* The sweep unlinks dir/NAME by this path, and the run then writes
      * there by it: a path that goes through a temporary name of the
      * directory itself (--resume D/.checkpoint.h5.new, a link to ".", or
      * D/.cluster.h5.new/.. with a link to a subfolder; a new run's --out
-     * so named) lost its link to the sweep, and every write after it
+     * so named, or through the older run's checkpoint.h5, which --force
+     * removes) lost its link to the sweep, and every write after it
      * failed (ENOENT). */
     const enum link_walk res = walk_link(AT_FDCWD, dst, dir, w);
     if (res == WALK_SAFE) return 0;
@@ -381,10 +383,11 @@ static int refuse_dir_path(const char *dir, const struct stat *dst, struct walk 
     const int resume = what == NULL;
     const char *const verb = resume ? "resume" : what, *const kept = resume ? "loaded or changed" : "written or removed";
     if (res == WALK_TEMP)
-        fprintf(stderr, "%s: cannot %s: the run directory %s is named through its own %s, a temporary "
-                "name (a killed run's) that the %s removes; nothing %s (name the run directory by a path "
-                "without it)\n", who, verb, dir_b, one_line(w->name, name_b, sizeof name_b), resume ? "resume" : "run",
-                kept);
+        fprintf(stderr, "%s: cannot %s: the run directory %s is named through its own %s, %s that the %s "
+                "removes; nothing %s (name the run directory by a path without it)\n", who, verb, dir_b,
+                one_line(w->name, name_b, sizeof name_b),
+                temp(w->name) ? "a temporary name (a killed run's)" : "a name of the older run's",
+                resume ? "resume" : "run", kept);
     else
         fprintf(stderr, "%s: cannot %s: cannot follow the run directory's path %s: %s; nothing %s\n", who, verb,
                 dir_b, res == WALK_ERR ? strerror(w->err) : res == WALK_LOOP ? "too many links"
@@ -399,7 +402,7 @@ int cli_refuse_links_through(const char *dir, int (*swept)(const char *name), co
     if (!d) return 0; /* the sweep cannot read it either; the load says why */
     struct walk w;
     w.swept = swept;
-    if (refuse_dir_path(dir, &dst, &w, who, NULL)) {
+    if (refuse_dir_path(dir, &dst, &w, who, NULL, swept)) {
         closedir(d);
         return 1;
     }
@@ -419,16 +422,24 @@ int cli_refuse_temp_links(const char *dir)
     return cli_refuse_links_through(dir, cli_is_temp_name, "pdla");
 }
 
-int cli_refuse_out_through(const char *dir, int (*swept)(const char *name), const char *who)
+int cli_refuse_out_through(const char *dir, int (*swept)(const char *name), int (*temp)(const char *name),
+                           const char *who)
 {
     struct stat dst;
     if (stat(dir, &dst) != 0) return 0; /* the run's own checks say why */
     struct walk w;
     w.swept = swept;
-    return refuse_dir_path(dir, &dst, &w, who, "start a new run");
+    return refuse_dir_path(dir, &dst, &w, who, "start a new run", temp);
+}
+
+/* What a new run removes in its run directory: the temporary names, and
+ * with --force the older run's (pdla_rundir_remove_old_run). */
+static int new_run_swept(const char *name)
+{
+    return cli_is_temp_name(name) || pdla_rundir_old_run_name(name);
 }
 
 int cli_refuse_temp_out(const char *dir)
 {
-    return cli_refuse_out_through(dir, cli_is_temp_name, "pdla");
+    return cli_refuse_out_through(dir, new_run_swept, cli_is_temp_name, "pdla");
 }

@@ -63,13 +63,16 @@ int cli_refuse_links_through(const char *dir, int (*swept)(const char *name), co
 /* A new run's run directory (--out, --force into an existing folder; a
  * DLCA resume into --out elsewhere), after it is made and locked, before
  * the sweep: 1 with one line printed (the caller exits 2, nothing written
- * or removed) when dir is named through a temporary name of its own
- * (--out X/.checkpoint.h5.new with that a link to "." or to X): the sweep
- * removed the link and the run's writes after it failed. Else 0. */
+ * or removed) when dir is named through a name of its own that the run
+ * removes, a temporary name or the older run's checkpoint or summary
+ * (--out X/.checkpoint.h5.new or X/checkpoint.h5 with that a link to "."
+ * or to X): the sweep or the older run's removal took the link, and the
+ * run's writes after it failed. Else 0. */
 int cli_refuse_temp_out(const char *dir);
 
-/* The same for the names swept() takes (`pdla ensemble --out`), the line
- * starting "who: ". */
-int cli_refuse_out_through(const char *dir, int (*swept)(const char *name), const char *who);
+/* The same for the names swept() takes (`pdla ensemble --out`), temp()
+ * saying which are temporary ones, the line starting "who: ". */
+int cli_refuse_out_through(const char *dir, int (*swept)(const char *name), int (*temp)(const char *name),
+                           const char *who);
 
 #endif

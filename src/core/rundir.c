@@ -216,6 +216,14 @@ static void free_list(char **list, size_t count)
     free(list);
 }
 
+int pdla_rundir_old_run_name(const char *name)
+{
+    if (is_aside_name(name)) return 1;
+    for (size_t i = 0; i < sizeof old_run_names / sizeof old_run_names[0]; i++)
+        if (!strcmp(name, old_run_names[i])) return 1;
+    return 0;
+}
+
 int pdla_rundir_remove_old_run(const char *dir, int writes_summary, char *err, size_t errlen)
 {
     char **list;

@@ -77,7 +77,10 @@ took the damaged one's generation number. Checked here:
     own folder (D/.checkpoint.h5.new a link to "." or to D; a DLCA resume
     into --out elsewhere; the ensemble's ensemble.h5.tmp.7): refused in one
     line, exit 2, the folder as it was (the sweep removed the link and the
-    run failed, exit 1); a real folder under the name is written into.
+    run failed, exit 1); the same through a name of the older run's that
+    --force removes (checkpoint.h5, checkpoint.prev.h5, summary.txt,
+    checkpoint.damaged.h5; the ensemble's clusters.journal, ensemble.h5,
+    ensemble.xdmf2); a real folder under the name is written into.
   - `pdla ensemble --resume`: clusters.journal a link to
     clusters.journal.tmp.5, or the folder named through its own
     ensemble.h5.tmp.7 (a link to "."): refused in one line, exit 2, the
@@ -1017,10 +1020,10 @@ for model, d, args in (("DLA", Q, lambda d, p: ("--resume", p, "--target", "5000
 # folder as it was (its older run kept); the ensemble's --out through its
 # own ensemble.h5.tmp.7 too. A real folder under the name is a run
 # directory like any other.
-NEW = "%(w)s: cannot start a new run: the run directory %(p)s is named through its own %(n)s, a temporary name"
+NEW = "%(w)s: cannot start a new run: the run directory %(p)s is named through its own %(n)s, %(k)s"
 
 
-def new_run_refused(d, tag, args, name, target, who="pdla", also=None):
+def new_run_refused(d, tag, args, name, target, who="pdla", also=None, kind="a temporary name"):
     shutil.rmtree(d + ".0", ignore_errors=True)
     shutil.copytree(d, d + ".0", symlinks=True)
     os.symlink(target, os.path.join(d, name))
@@ -1029,7 +1032,7 @@ def new_run_refused(d, tag, args, name, target, who="pdla", also=None):
     also_before = tree(also) if also else None
     rc, err = pdla(*args(p))
     lines = err.strip().split("\n")
-    check(rc == 2 and len(lines) == 1 and lines[0].startswith(NEW % {"w": who, "p": p, "n": name}),
+    check(rc == 2 and len(lines) == 1 and lines[0].startswith(NEW % {"w": who, "p": p, "n": name, "k": kind}),
           "%s: exit %s: %r" % (tag, rc, err[-600:]))
     check(tree(d) == before, "%s: the folder changed: %r" % (tag, sorted(tree(d))))
     check(also is None or tree(also) == also_before, "%s: the folder resumed from changed" % tag)
@@ -1049,6 +1052,16 @@ os.mkdir(Qx)
 new_run_refused(Qx, "DLCA: a resume into --out elsewhere through its own link to .",
                 lambda p: ("--model", "dlca", "--resume", os.path.join(Qd, "checkpoint.h5"), "--max-attempts", "6000",
                            "-q", "--force", "--out", p), ".checkpoint.h5.new", ".", also=Qd)
+# The same through a name of the older run's, which --force removes
+# (checkpoint.h5, checkpoint.prev.h5, summary.txt, a set-aside
+# checkpoint.damaged.h5): the removal took the link, and the run failed
+# "cannot sync run directory" (exit 1), the link gone.
+for model, args in (("DLA", lambda p: ("--target", "500", "-q", "--force", "--out", p)),
+                    ("event", lambda p: tuple(EV) + ("--t-max", "1", "--force", "--out", p)),
+                    ("DLCA", lambda p: tuple(DLCA) + ("--max-attempts", "100", "-q", "--force", "--out", p))):
+    for name in ("checkpoint.h5", "checkpoint.prev.h5", "summary.txt", "checkpoint.damaged.h5"):
+        new_run_refused(Qx, "%s: a new run's --out through its own link %s to ." % (model, name), args, name, ".",
+                        kind="a name of the older run's")
 shutil.rmtree(Qx)
 os.mkdir(Qx)
 os.mkdir(os.path.join(Qx, ".checkpoint.h5.new"))
@@ -1174,6 +1187,14 @@ unrelated_loops(EN, "ensemble", ("ensemble", "--resume", EN, "--clusters", "5", 
 new_run_refused(EN, "ensemble: a new ensemble's --out through its own link to .",
                 lambda p: ("ensemble", "--clusters", "2", "--target", "100", "-q", "--force", "--out", p),
                 "ensemble.h5.tmp.7", ".", who="pdla ensemble")
+ENx = W("ensx")
+shutil.rmtree(ENx, ignore_errors=True)
+os.mkdir(ENx)
+for name in ("clusters.journal", "ensemble.h5", "ensemble.xdmf2"):
+    new_run_refused(ENx, "ensemble: a new ensemble's --out through its own link %s to ." % name,
+                    lambda p: ("ensemble", "--clusters", "2", "--target", "100", "-q", "--force", "--out", p),
+                    name, ".", who="pdla ensemble", kind="a name of the older run's")
+shutil.rmtree(ENx)
 
 print("ckpt_fallback: %d pdla runs, %d failures" % (runs, len(failures)))
 _ru = resource.getrusage(resource.RUSAGE_CHILDREN)

@@ -899,10 +899,12 @@ static int open_sim(dlca_cli *c, char *dir, size_t dirlen, dlca_sim **s)
             fprintf(stderr, "pdla: %s\n", err);
             drc = EXIT_USAGE;
         }
-        /* --out X/.checkpoint.h5.new with that a link to X (a new run with
-         * --force, or a resume into --out elsewhere): the sweep below
-         * removed the link under the run (rundir.h) */
-        if (!drc && cli_refuse_temp_out(dir)) drc = EXIT_USAGE;
+        /* --out X/.checkpoint.h5.new (or X/checkpoint.h5) with that a link
+         * to X, a new run with --force or a resume into --out elsewhere:
+         * the sweep or the older run's removal below took the link under
+         * the run (rundir.h). A resume in its own folder removes no older
+         * run, and its temporary names were checked before the load. */
+        if (!drc && (!c->resume || !same_dir(c->lock, dir)) && cli_refuse_temp_out(dir)) drc = EXIT_USAGE;
         /* seen before the run (chattr +i, a read-only mount): before, the
          * whole run went by and then cluster.h5 and the checkpoint failed */
         const int pe = drc ? 0 : pdla_rundir_probe(dir);

@@ -1148,6 +1148,14 @@ unrelated_loops(Q, "DLA", ("--resume", Q, "--target", "5500", "-q"))
 unrelated_loops(Q, "DLA, file named", ("--resume", os.path.join(Q, "checkpoint.h5"), "--target", "6000", "-q"))
 unrelated_loops(Qe, "event", ("--model", "event", "--resume", Qe, "--t-max", "10"))
 unrelated_loops(Qd, "DLCA", ("--model", "dlca", "--resume", Qd, "--max-attempts", "8000", "-q"))
+# A DLCA resume in its own folder, named through a link of it under an
+# older run's name (D/summary.txt -> .): it removes no older run (only a
+# new run and a resume into --out elsewhere do), so it resumes, the link kept.
+os.symlink(".", os.path.join(Qd, "summary.txt"))
+rc, err = dlca_resume(os.path.join(Qd, "summary.txt"), 9000)
+check(rc == 0 and os.readlink(os.path.join(Qd, "summary.txt")) == ".",
+      "DLCA: a resume in its own folder through its link summary.txt -> .: exit %s: %r" % (rc, err))
+os.unlink(os.path.join(Qd, "summary.txt"))
 
 # --- `pdla ensemble --resume`: its sweep removes clusters.journal.tmp.*,
 # ensemble.h5.tmp.*, ensemble.xdmf2.tmp.*; with clusters.journal a link to
